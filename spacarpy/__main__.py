@@ -1,0 +1,4 @@
+"""``python -m spacarpy``: the same entry point as the ``spacarpy`` console script."""
+from spacarpy.cli import main
+
+raise SystemExit(main())

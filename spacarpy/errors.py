@@ -1,0 +1,82 @@
+"""User-facing error types of spacarpy and the CLI exit codes that go with them.
+
+Every error a user can cause or meet derives from :class:`SpacarError`. The command line maps
+the families onto distinct exit codes (see :data:`EXIT_CODES`) so that scripts can tell a bad
+deck from a solver failure.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Exit codes of the command line.
+EXIT_OK = 0
+EXIT_SOLVER = 1        # the model is valid but the analysis failed (no convergence, ...)
+EXIT_INPUT = 2         # the deck or the command line is wrong
+EXIT_MODEL = 3         # the deck parses but the model is not analysable (mechanism, ...)
+EXIT_INTERRUPTED = 130  # Ctrl-C
+
+
+@dataclass(frozen=True)
+class SourceLoc:
+    """A position in a deck file: 1-based line and column."""
+
+    file: str
+    line: int
+    column: int = 1
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}"
+
+
+class SpacarError(Exception):
+    """Base class of every error spacarpy reports to a user."""
+
+    exit_code = EXIT_SOLVER
+
+
+class DeckError(SpacarError):
+    """One or more errors in a deck, each with its location.
+
+    ``items`` is a list of ``(SourceLoc | None, message, source_line | None)``. ``str()`` gives
+    ``file:line:col: error: message`` lines, each followed by the source line and a caret.
+    """
+
+    exit_code = EXIT_INPUT
+
+    def __init__(self, items):
+        if isinstance(items, tuple) and len(items) in (2, 3) and isinstance(items[1], str):
+            items = [items]
+        self.items = [tuple(it) + (None,) * (3 - len(it)) for it in items]
+        super().__init__(self._format())
+
+    @property
+    def loc(self) -> SourceLoc | None:
+        return self.items[0][0] if self.items else None
+
+    def _format(self) -> str:
+        out = []
+        for loc, msg, src in self.items:
+            head = f"{loc}: error: {msg}" if loc is not None else f"error: {msg}"
+            out.append(head)
+            if src is not None and loc is not None:
+                out.append("    " + src.rstrip("\n").expandtabs(1))
+                out.append("    " + " " * max(loc.column - 1, 0) + "^")
+        if len(self.items) > 1:
+            out.append(f"{len(self.items)} errors")
+        return "\n".join(out)
+
+
+class ModelError(SpacarError):
+    """The deck is syntactically fine but the model cannot be analysed (names nodes/elements)."""
+
+    exit_code = EXIT_MODEL
+
+
+class SolverError(SpacarError):
+    """An analysis failed: non-convergence, singular system during the solve, ..."""
+
+    exit_code = EXIT_SOLVER
+
+
+class ConvergenceError(SolverError):
+    """Newton iterations did not converge even after the allowed step cuts."""

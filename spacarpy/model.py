@@ -1,0 +1,198 @@
+"""The typed, validated model: what a deck means, independent of how it was written.
+
+A :class:`Model` is produced from a parsed deck by :mod:`spacarpy.deck.build` (or built directly
+from Python). It holds deck numbers (the user's node and element numbers) and SI values only;
+turning it into coordinate and degree-of-freedom numbering is the job of
+:mod:`spacarpy.numbering`.
+
+Conventions (see docs/conventions.md)
+-------------------------------------
+- Position nodes have 3 coordinates (x, y, z); orientation nodes have 4 Euler parameters
+  (lambda0, lambda1, lambda2, lambda3), all orientation nodes start at the identity (1, 0, 0, 0).
+- Coordinate numbers inside a node are 1-based as in SPACAR (``FIX 7 2`` fixes y of node 7).
+- Deformation-mode numbers inside an element are 1-based as in SPACAR (``DYNE 3 1 2``).
+- Arrays have the entity index first: ``(n_elem, 6)``, ``(n_pos, 3)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from spacarpy.errors import SourceLoc
+
+#: Deformation classes of an element deformation mode.
+RIGID = 0      # not listed in DYNE/RLSE: kept at its initial value (a constraint)
+FLEXIBLE = 1   # listed in DYNE: carries stiffness (ESTIFF required)
+RELEASED = 2   # listed in RLSE: free; carries ESTIFF stiffness if given, else none
+
+DEFORMATION_VARIANTS = ("modified", "basic")
+
+#: Analysis names and the SPACAR mode numbers that map onto them.
+ANALYSES = ("static", "eigen", "buckling", "transient", "check")
+SPACAR_MODE_NUMBERS = {10: "static", 0: "check", 1: "transient", 8: "buckling", 4: "eigen", 7: "eigen"}
+
+
+@dataclass
+class BeamSet:
+    """All BEAM elements of a model, vectorized (element index first).
+
+    Attributes
+    ----------
+    ids : (n_elem,) int
+        Deck element numbers.
+    nodes : (n_elem, 4) int
+        Deck node numbers ``[p, r, q, s]``: position node p, orientation node r at p,
+        position node q, orientation node s at q.
+    orientation : (n_elem, 3) float
+        The deck's initial local y-axis direction (not yet orthogonalized). Rows of NaN mean
+        "not given": the default rule of :func:`spacarpy.elements.beam.reference_triads` applies.
+    def_class : (n_elem, 6) int8
+        RIGID, FLEXIBLE or RELEASED per deformation mode.
+    stiffness : (n_elem, 6) float
+        ``EA, GJ, EIy, EIz, cy, cz`` (N, N m^2, N m^2, N m^2, m^2, m^2); cy = EIy/(k GA),
+        cz = EIz/(k GA) are shear flexibilities (0 = no shear deformation). Zero rows where no
+        ESTIFF was given.
+    has_stiffness : (n_elem,) bool
+        Whether an ESTIFF line was given.
+    mass : (n_elem, 5) float
+        EM line: ``rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz`` per unit length (missing trailing
+        fields are zero; zero rows where no EM was given). Used by the linearized/transient
+        analyses.
+    locs : list of SourceLoc
+        Where each element was defined.
+    """
+
+    ids: np.ndarray
+    nodes: np.ndarray
+    orientation: np.ndarray
+    def_class: np.ndarray
+    stiffness: np.ndarray
+    has_stiffness: np.ndarray
+    mass: np.ndarray | None = None
+    locs: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self.ids = np.asarray(self.ids, dtype=np.int64).reshape(-1)
+        n = self.ids.size
+        self.nodes = np.asarray(self.nodes, dtype=np.int64).reshape(n, 4)
+        self.orientation = np.asarray(self.orientation, dtype=float).reshape(n, 3)
+        self.def_class = np.asarray(self.def_class, dtype=np.int8).reshape(n, 6)
+        self.stiffness = np.asarray(self.stiffness, dtype=float).reshape(n, 6)
+        self.has_stiffness = np.asarray(self.has_stiffness, dtype=bool).reshape(n)
+        self.mass = (np.zeros((n, 5)) if self.mass is None
+                     else np.asarray(self.mass, dtype=float).reshape(n, 5))
+        if not self.locs:
+            self.locs = [None] * n
+
+    @property
+    def n_elem(self) -> int:
+        return int(self.ids.size)
+
+    @classmethod
+    def empty(cls) -> "BeamSet":
+        return cls(ids=np.zeros(0, int), nodes=np.zeros((0, 4), int), orientation=np.zeros((0, 3)),
+                   def_class=np.zeros((0, 6), np.int8), stiffness=np.zeros((0, 6)),
+                   has_stiffness=np.zeros(0, bool))
+
+
+@dataclass(frozen=True)
+class Fix:
+    """``FIX node [c ...]``: coordinates (1-based) of a node held at their initial value."""
+
+    node: int
+    coords: tuple[int, ...]
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
+class Load:
+    """A dead nodal load: force (position node) or moment (orientation node), global axes.
+
+    ``kind`` is ``"XF"`` (present from the start) or ``"DELXF"`` (increment applied over the
+    load steps). Loads on the same node and kind add up.
+    """
+
+    node: int
+    kind: str
+    value: tuple[float, float, float]
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
+class IterStep:
+    """SPACAR's ``ITERSTEP`` line as spacarpy reads it (documented in docs/deck.md).
+
+    ``ITERSTEP max_iter n_steps tol [f4 f5 n_init]``
+
+    max_iter : int
+        Newton iterations allowed per load step before the step is cut (SPACAR's field 1).
+    n_steps : int
+        Number of equal load increments in which DELXF is applied; results are stored after
+        the initial state (XF only, step 0) and after every increment (steps 1..n_steps).
+    tol : float
+        Relative convergence tolerance of the Newton iterations.
+    n_init : int
+        Number of sub-steps used internally to reach the initial load XF (field 6; not stored).
+    extra : tuple
+        Fields 4 and 5, kept but not used (their meaning in SPACAR is not public).
+    """
+
+    max_iter: int = 10
+    n_steps: int = 1
+    tol: float = 5e-7
+    n_init: int = 1
+    extra: tuple = ()
+    loc: SourceLoc | None = None
+
+
+@dataclass
+class Model:
+    """A complete, validated spacarpy model.
+
+    Attributes
+    ----------
+    position_ids : (n_pos,) int
+        Deck numbers of the position nodes, in the order of ``position_x0``.
+    position_x0 : (n_pos, 3) float
+        Initial positions (m).
+    orientation_ids : (n_rot,) int
+        Deck numbers of the orientation nodes (all start at the identity).
+    beams : BeamSet
+    fixes : list of Fix
+    loads : list of Load
+    iterstep : IterStep
+    analysis : str
+        One of :data:`ANALYSES`.
+    deformations : str
+        ``"modified"`` (Eq. 48, default) or ``"basic"`` (Eq. 7).
+    source_path, source_text : str
+        Where the deck came from and its text verbatim (stored in the results file).
+    """
+
+    position_ids: np.ndarray
+    position_x0: np.ndarray
+    orientation_ids: np.ndarray
+    beams: BeamSet
+    fixes: list = field(default_factory=list)
+    loads: list = field(default_factory=list)
+    iterstep: IterStep = field(default_factory=IterStep)
+    analysis: str = "static"
+    deformations: str = "modified"
+    source_path: str = "<model>"
+    source_text: str = ""
+
+    def __post_init__(self):
+        self.position_ids = np.asarray(self.position_ids, dtype=np.int64).reshape(-1)
+        self.position_x0 = np.asarray(self.position_x0, dtype=float).reshape(-1, 3)
+        self.orientation_ids = np.asarray(self.orientation_ids, dtype=np.int64).reshape(-1)
+        if self.analysis not in ANALYSES:
+            raise ValueError(f"unknown analysis {self.analysis!r}; expected one of {ANALYSES}")
+        if self.deformations not in DEFORMATION_VARIANTS:
+            raise ValueError(f"unknown deformation variant {self.deformations!r}")
+
+    def __repr__(self) -> str:
+        return (f"Model({self.position_ids.size} position nodes, {self.orientation_ids.size} "
+                f"orientation nodes, {self.beams.n_elem} beams, {len(self.fixes)} fixes, "
+                f"{len(self.loads)} loads, analysis={self.analysis!r}, "
+                f"deformations={self.deformations!r})")
