@@ -1,0 +1,279 @@
+"""The discrete-deformation-mode (DDM) spatial beam of Jonker & Meijaard (2013), vectorized.
+
+Pure functions on arrays with the element index first. Nothing here knows about decks,
+nodes or global numbering.
+
+Symbols
+-------
+x : (n_elem, 14)
+    Element nodal coordinates ``[r^p (3), q^p (4), r^q (3), q^q (4)]`` (Eq. 6): positions
+    of the end nodes and Euler parameters of their orientation nodes.
+n_x, n_y, n_z : (n_elem, 3)
+    The element's reference triad in the initial configuration: n_x along the chord p->q,
+    n_y from the deck's orientation vector made orthogonal to n_x, n_z = n_x x n_y.
+    The nodal triads are ``n_y^p = R(q^p) n_y`` etc. (Eq. 1); all orientation nodes start at
+    the identity, so every element is undeformed in the initial configuration.
+l0 : (n_elem,)
+    Reference length |r^q - r^p| in the initial configuration.
+e_hat : (n_elem, 6)
+    Basic deformations, Eq. (7): elongation, torsion, four bending modes (unit: length).
+e : (n_elem, 6)
+    Modified deformations with the second-order coupling terms, Eq. (48b)
+    (``e = e_hat`` for the basic variant).
+D : (n_elem, 6, 14)
+    ``de/dx``, exact.
+H(w) : (n_elem, 14, 14)
+    ``sum_i w_i d^2 e_i / dx^2`` for per-element weights w (n_elem, 6), exact. With w the
+    stress resultants this is the element's geometric stiffness (Eq. 61, second term).
+S : (n_elem, 6, 6)
+    Stiffness matrix of Eq. (37)-(38) mapping deformations to stress resultants.
+
+How the derivatives are organised
+---------------------------------
+e_hat depends on x only through 15 intermediate quantities
+``y = [d, n_y^p, n_z^p, n_y^q, n_z^q]`` with ``d = r^q - r^p``. Each nodal vector
+``n = R(q) v`` is a quadratic form in q (see :mod:`spacarpy.rotation`), so ``dy/dx`` is
+linear in x and ``d^2y/dx^2`` constant. The chain rule then gives D and H exactly:
+``D_hat = G Y``, ``H_hat(w) = Y^T (sum_j w_j d^2 e_hat_j/dy^2) Y + sum_k c_k d^2 y_k/dx^2``
+with ``G = de_hat/dy``, ``Y = dy/dx`` and ``c = G^T w``. The modified deformations are a
+quadratic map ``e_i = e_hat_i + e_hat^T Q_i e_hat / (2 l0)`` of the basic ones (Eq. 48b),
+differentiated once more by the chain rule.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from spacarpy.rotation import quadratic_form
+
+N_LDOF = 14
+N_DEF = 6
+
+# Local coordinate slices.
+RP, QP, RQ, QQ = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 14)
+# Intermediate slices y = [d, nyp, nzp, nyq, nzq].
+YD, YNYP, YNZP, YNYQ, YNZQ = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12),
+                              slice(12, 15))
+
+
+def _modified_quadratic_forms() -> np.ndarray:
+    """Q[i] (6x6, symmetric) with ``e_i = e_hat_i + e_hat^T Q[i] e_hat / (2 l0)``, Eq. (48b)."""
+    q = np.zeros((6, 6, 6))
+
+    def sym(i, a, b, val):
+        q[i, a, b] += val
+        q[i, b, a] += val
+
+    # e1: (2 e3^2 + e3 e4 + 2 e4^2 + 2 e5^2 + e5 e6 + 2 e6^2) / (30 l0)
+    for a, b in ((2, 3), (4, 5)):
+        q[0, a, a] = q[0, b, b] = 4.0 / 30.0
+        sym(0, a, b, 1.0 / 30.0)
+    # e2: (-e3 e6 + e4 e5) / l0
+    sym(1, 2, 5, -1.0)
+    sym(1, 3, 4, 1.0)
+    # e3, e4: +- e2 (e5 + e6) / (6 l0)
+    for i, s in ((2, 1.0), (3, -1.0)):
+        sym(i, 1, 4, s / 6.0)
+        sym(i, 1, 5, s / 6.0)
+    # e5, e6: -+ e2 (e3 + e4) / (6 l0)
+    for i, s in ((4, -1.0), (5, 1.0)):
+        sym(i, 1, 2, s / 6.0)
+        sym(i, 1, 3, s / 6.0)
+    return q
+
+
+Q_MODIFIED = _modified_quadratic_forms()
+
+
+def reference_triads(xp: np.ndarray, xq: np.ndarray, orientation: np.ndarray):
+    """Initial element triads and lengths.
+
+    Parameters
+    ----------
+    xp, xq : (n_elem, 3)
+        Initial positions of nodes p and q.
+    orientation : (n_elem, 3)
+        Initial local y-axis as given in the deck; a row of NaN selects the default: the
+        global axis with the smallest component along n_x (SPACAR's rule).
+
+    Returns
+    -------
+    nx, ny, nz : (n_elem, 3)
+    l0 : (n_elem,)
+    """
+    d = xq - xp
+    l0 = np.linalg.norm(d, axis=1)
+    nx = d / l0[:, None]
+    o = np.array(orientation, dtype=float, copy=True)
+    missing = np.isnan(o).any(axis=1)
+    if missing.any():
+        axis = np.argmin(np.abs(nx[missing]), axis=1)
+        o[missing] = np.eye(3)[axis]
+    ny = o - np.sum(o * nx, axis=1)[:, None] * nx
+    ny /= np.linalg.norm(ny, axis=1)[:, None]
+    nz = np.cross(nx, ny)
+    return nx, ny, nz, l0
+
+
+def stiffness_matrix(stiffness: np.ndarray, l0: np.ndarray) -> np.ndarray:
+    """S of Eq. (37)-(38) from ``[EA, GJ, EIy, EIz, cy, cz]`` (n_elem, 6) -> (n_elem, 6, 6).
+
+    cy = EIy/(k GA) and cz = EIz/(k GA) are the shear flexibilities of SPACAR's ESTIFF line;
+    the shear factor of the bending block with EIy is ``Phi = 12 cy / l0^2``.
+    """
+    ea, gj, eiy, eiz, cy, cz = stiffness.T
+    n = l0.size
+    s = np.zeros((n, 6, 6))
+    s[:, 0, 0] = ea / l0
+    s[:, 1, 1] = gj / l0**3
+    for (a, b), ei, c in (((2, 3), eiy, cy), ((4, 5), eiz, cz)):
+        phi = 12.0 * c / l0**2
+        f = ei / ((1.0 + phi) * l0**3)
+        s[:, a, a] = s[:, b, b] = f * (4.0 + phi)
+        s[:, a, b] = s[:, b, a] = f * (-2.0 + phi)
+    return s
+
+
+class BeamState(NamedTuple):
+    """Deformations and first derivatives at one configuration, plus what H(w) reuses."""
+
+    e: np.ndarray          # (n, 6) deformations of the chosen variant
+    D: np.ndarray          # (n, 6, 14)
+    e_hat: np.ndarray      # (n, 6) basic deformations
+    D_hat: np.ndarray      # (n, 6, 14)
+    J: np.ndarray | None   # (n, 6, 6) de/de_hat (None for the basic variant)
+    # intermediates for the second derivatives
+    y: np.ndarray          # (n, 15)
+    G: np.ndarray          # (n, 6, 15)  de_hat/dy
+    Y: np.ndarray          # (n, 15, 14) dy/dx
+    n1: np.ndarray         # (n, 3) unit chord
+    length: np.ndarray     # (n,) current chord length
+    l0: np.ndarray         # (n,)
+    Hy: np.ndarray         # (n, 3, 4, 4) quadratic form of n_y
+    Hz: np.ndarray         # (n, 3, 4, 4) quadratic form of n_z
+
+
+def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
+               variant: str = "modified") -> BeamState:
+    """Deformations e (Eq. 7 or 48) and their exact Jacobian D at configurations x.
+
+    Parameters
+    ----------
+    x : (n_elem, 14)
+    ny, nz : (n_elem, 3)
+        Reference triad vectors (see :func:`reference_triads`).
+    l0 : (n_elem,)
+    variant : {"modified", "basic"}
+    """
+    n = x.shape[0]
+    qp, qq = x[:, QP], x[:, QQ]
+    d = x[:, RQ] - x[:, RP]
+    hy, hz = quadratic_form(ny), quadratic_form(nz)
+    # nodal vectors n = q^T H q and their derivatives 2 H q
+    dnyp = 2.0 * np.einsum("nkab,nb->nka", hy, qp)
+    dnzp = 2.0 * np.einsum("nkab,nb->nka", hz, qp)
+    dnyq = 2.0 * np.einsum("nkab,nb->nka", hy, qq)
+    dnzq = 2.0 * np.einsum("nkab,nb->nka", hz, qq)
+    nyp = 0.5 * np.einsum("nka,na->nk", dnyp, qp)
+    nzp = 0.5 * np.einsum("nka,na->nk", dnzp, qp)
+    nyq = 0.5 * np.einsum("nka,na->nk", dnyq, qq)
+    nzq = 0.5 * np.einsum("nka,na->nk", dnzq, qq)
+    y = np.concatenate([d, nyp, nzp, nyq, nzq], axis=1)
+
+    Y = np.zeros((n, 15, N_LDOF))
+    Y[:, YD, RP] = -np.eye(3)
+    Y[:, YD, RQ] = np.eye(3)
+    Y[:, YNYP, QP] = dnyp
+    Y[:, YNZP, QP] = dnzp
+    Y[:, YNYQ, QQ] = dnyq
+    Y[:, YNZQ, QQ] = dnzq
+
+    length = np.linalg.norm(d, axis=1)
+    n1 = d / length[:, None]
+    lc = l0[:, None]
+    e_hat = np.empty((n, 6))
+    e_hat[:, 0] = length - l0
+    e_hat[:, 1] = 0.5 * l0 * (np.sum(nzp * nyq, 1) - np.sum(nyp * nzq, 1))
+    G = np.zeros((n, 6, 15))
+    G[:, 0, YD] = n1
+    G[:, 1, YNZP] = 0.5 * lc * nyq
+    G[:, 1, YNYQ] = 0.5 * lc * nzp
+    G[:, 1, YNYP] = -0.5 * lc * nzq
+    G[:, 1, YNZQ] = -0.5 * lc * nyp
+    # bending modes: e_j = s_j l0 (n1 . a_j)
+    for j, s, sl, a in _BENDING:
+        av = y[:, sl]
+        proj = np.sum(n1 * av, axis=1)
+        e_hat[:, j] = s * l0 * proj
+        G[:, j, YD] = s * lc * (av - proj[:, None] * n1) / length[:, None]
+        G[:, j, sl] = s * lc * n1
+    D_hat = np.einsum("nik,nkl->nil", G, Y)
+
+    if variant == "basic":
+        e, D, J = e_hat, D_hat, None
+    elif variant == "modified":
+        qe = np.einsum("iab,nb->nia", Q_MODIFIED, e_hat) / lc[:, :, None]   # (n, 6, 6)
+        e = e_hat + 0.5 * np.einsum("nia,na->ni", qe, e_hat)
+        J = np.eye(6) + qe
+        D = np.einsum("nij,njl->nil", J, D_hat)
+    else:
+        raise ValueError(f"unknown deformation variant {variant!r}")
+    return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Y=Y, n1=n1,
+                     length=length, l0=l0, Hy=hy, Hz=hz)
+
+
+# (mode index, sign, slice of the nodal vector in y, name) for e3..e6 of Eq. (7).
+_BENDING = ((2, -1.0, YNZP, "nzp"), (3, 1.0, YNZQ, "nzq"), (4, 1.0, YNYP, "nyp"),
+            (5, -1.0, YNYQ, "nyq"))
+
+
+def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
+    """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 6) -> (n_elem, 14, 14)."""
+    n = w.shape[0]
+    lc = st.l0[:, None]
+    if st.J is not None:
+        # e = e_hat + e_hat^T Q e_hat / (2 l0): weights on e_hat and the quadratic part
+        w_hat = np.einsum("nij,ni->nj", st.J, w)
+        qw = np.einsum("iab,ni->nab", Q_MODIFIED, w) / lc[:, :, None]
+        extra = np.einsum("nal,nab,nbm->nlm", st.D_hat, qw, st.D_hat)
+    else:
+        w_hat, extra = w, None
+
+    # second derivatives of e_hat with respect to y, weighted
+    hy = np.zeros((n, 15, 15))
+    length, n1, y = st.length, st.n1, st.y
+    proj_op = np.eye(3) - np.einsum("ni,nj->nij", n1, n1)          # (n,3,3)
+    hy[:, YD, YD] += (w_hat[:, 0] / length)[:, None, None] * proj_op
+    c2 = (0.5 * st.l0 * w_hat[:, 1])[:, None, None] * np.eye(3)
+    hy[:, YNZP, YNYQ] += c2
+    hy[:, YNYQ, YNZP] += c2
+    hy[:, YNYP, YNZQ] -= c2
+    hy[:, YNZQ, YNYP] -= c2
+    for j, s, sl, _ in _BENDING:
+        coef = s * st.l0 * w_hat[:, j]
+        a = y[:, sl]
+        pa = np.sum(n1 * a, axis=1)
+        dd = (-(np.einsum("ni,nj->nij", a, n1) + np.einsum("ni,nj->nij", n1, a))
+              - pa[:, None, None] * np.eye(3)
+              + 3.0 * pa[:, None, None] * np.einsum("ni,nj->nij", n1, n1))
+        hy[:, YD, YD] += (coef / length**2)[:, None, None] * dd
+        da = (coef / length)[:, None, None] * proj_op
+        hy[:, YD, sl] += da
+        hy[:, sl, YD] += da
+
+    hx = np.einsum("nkl,nkm,nmp->nlp", st.Y, hy, st.Y)
+    # the nodal vectors are quadratic in q: d^2 n_k/dq^2 = 2 H_k
+    c = np.einsum("nj,njk->nk", w_hat, st.G)                          # (n, 15)
+    hx[:, QP, QP] += 2.0 * (np.einsum("nk,nkab->nab", c[:, YNYP], st.Hy)
+                            + np.einsum("nk,nkab->nab", c[:, YNZP], st.Hz))
+    hx[:, QQ, QQ] += 2.0 * (np.einsum("nk,nkab->nab", c[:, YNYQ], st.Hy)
+                            + np.einsum("nk,nkab->nab", c[:, YNZQ], st.Hz))
+    if extra is not None:
+        hx += extra
+    return hx
+
+
+def beam_deformations(x, ny, nz, l0, variant="modified") -> np.ndarray:
+    """Deformations only, (n_elem, 6): a convenience wrapper of :func:`beam_state`."""
+    return beam_state(x, ny, nz, l0, variant).e

@@ -1,0 +1,110 @@
+"""Euler parameters: rotation matrices and their exact derivatives, vectorized.
+
+Symbols (Jonker & Meijaard 2013, Eq. 2-4 and 10)
+-------------------------------------------------
+q = (lambda0, lambda1, lambda2, lambda3)
+    Euler parameters of an orientation node, shape (..., 4); q.q = 1 on the constraint
+    manifold.
+R(q) = (lambda0^2 - lambda.lambda) I + 2 lambda0 [lambda~] + 2 lambda lambda^T
+    The rotation matrix (Eq. 2). R is a *quadratic form* in q: for a fixed vector v,
+    ``(R(q) v)_k = q^T H_k(v) q`` with constant symmetric 4x4 matrices ``H_k(v)`` that are
+    linear in v. Hence ``d(R v)/dq = 2 H(v) q`` and ``d^2(R v)/dq^2 = 2 H(v)``, exactly.
+Lambda(q) = [-lambda, lambda0 I + [lambda~]]  (3x4)
+    Maps Euler-parameter variations to virtual rotations in global axes:
+    ``delta phi = 2 Lambda(q) delta q`` (Eq. 10), and ``Lambda(q) q = 0``.
+
+All functions take arrays with any leading batch shape and are pure.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# Levi-Civita symbol eps[i, j, k].
+_EPS = np.zeros((3, 3, 3))
+_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
+_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
+
+
+def _quadratic_form_tensor() -> np.ndarray:
+    """Constant tensor T[k, a, b, j] with ``H_k(v)[a, b] = T[k, a, b, j] v_j``.
+
+    From R(q) v = (l0^2 - l.l) v + 2 l0 (l x v) + 2 l (l.v), written symmetrically in q.
+    """
+    t = np.zeros((3, 4, 4, 3))
+    for k in range(3):
+        t[k, 0, 0, k] += 1.0                      # l0^2 v_k
+        for i in range(3):
+            t[k, i + 1, i + 1, k] -= 1.0          # -l_i^2 v_k
+            for j in range(3):                    # 2 l0 eps_kij l_i v_j
+                t[k, 0, i + 1, j] += _EPS[k, i, j]
+                t[k, i + 1, 0, j] += _EPS[k, i, j]
+            t[k, k + 1, i + 1, i] += 1.0          # 2 l_k l_i v_i, symmetrized
+            t[k, i + 1, k + 1, i] += 1.0
+    return t
+
+
+_T = _quadratic_form_tensor()
+
+
+def quadratic_form(v: np.ndarray) -> np.ndarray:
+    """Matrices H(v), shape (..., 3, 4, 4), with ``(R(q) v)_k = q^T H_k(v) q``."""
+    return np.einsum("kabj,...j->...kab", _T, v)
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``R(q) v`` for batches: q (..., 4), v (..., 3) -> (..., 3). Exact for unnormalized q."""
+    l0 = q[..., :1]
+    lam = q[..., 1:]
+    return ((l0 * l0 - np.sum(lam * lam, axis=-1, keepdims=True)) * v
+            + 2.0 * l0 * np.cross(lam, v)
+            + 2.0 * lam * np.sum(lam * v, axis=-1, keepdims=True))
+
+
+def rotation_matrix(q: np.ndarray) -> np.ndarray:
+    """R(q), shape (..., 3, 3), Eq. (2)."""
+    eye = np.broadcast_to(np.eye(3), q.shape[:-1] + (3, 3))
+    return np.stack([rotate(q, eye[..., :, j]) for j in range(3)], axis=-1)
+
+
+def lambda_matrix(q: np.ndarray) -> np.ndarray:
+    """Lambda(q) = [-lambda, lambda0 I + [lambda~]], shape (..., 3, 4), Eq. (10)."""
+    l0 = q[..., 0]
+    lam = q[..., 1:]
+    out = np.zeros(q.shape[:-1] + (3, 4))
+    out[..., :, 0] = -lam
+    out[..., :, 1:] = l0[..., None, None] * np.eye(3) + skew(lam)
+    return out
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """The tilde matrix [v~] with [v~] w = v x w, shape (..., 3, 3), Eq. (3)."""
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+def moment_matrix(t: np.ndarray) -> np.ndarray:
+    """B(T), shape (..., 4, 4), with ``Lambda(q)^T T = B(T) q`` for a moment T (..., 3).
+
+    The generalized force of a dead moment on the Euler parameters is ``2 B(T) q``; its
+    derivative ``2 B(T)`` is constant and skew-symmetric.
+    """
+    out = np.zeros(t.shape[:-1] + (4, 4))
+    out[..., 0, 1:] = -t
+    out[..., 1:, 0] = t
+    out[..., 1:, 1:] = skew(t)
+    return out
+
+
+def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Euler parameters of a rotation by ``angle`` (rad) about the unit vector ``axis``."""
+    axis = np.asarray(axis, dtype=float)
+    angle = np.asarray(angle, dtype=float)
+    axis = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+    half = 0.5 * angle[..., None]
+    return np.concatenate([np.cos(half), np.sin(half) * axis], axis=-1)

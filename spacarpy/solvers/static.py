@@ -1,0 +1,419 @@
+"""Non-linear static analysis: Newton-Raphson with load stepping and automatic step cutting.
+
+Formulation (documented in docs/solver.md)
+------------------------------------------
+Unknowns are all free nodal coordinates x (positions and the four Euler parameters of each
+orientation node) and one Lagrange multiplier per constraint. Constraints are
+
+- rigid deformation modes: ``e_i(x) = 0`` (the multiplier *is* the stress resultant sigma_i),
+- Euler-parameter normalization ``q.q - 1 = 0`` of every orientation node not fully fixed.
+
+Equilibrium (Eq. 16/55 without inertia) with the constraint forces:
+
+    r(x, mu) = sum_e D_e^T sigma_e + sum_n 2 q_n mu_n - f_ext(x) = 0,     c(x) = 0,
+
+where ``sigma = S e`` for flexible (DYNE) and stiff released (RLSE + ESTIFF) modes and
+``sigma = mu`` for rigid ones, and ``f_ext`` holds the dead forces and the generalized forces
+``2 Lambda(q)^T T`` of dead moments. Newton's matrix is the bordered tangent
+``[[K_T, C^T], [C, 0]]`` with ``K_T = D^T S D + sum sigma_i d2e_i + 2 mu I4 - df_ext/dx``,
+assembled on a fixed sparsity pattern and factorized with SuperLU.
+
+A step is converged when the scaled residual and the scaled last increment are both below
+the tolerance (forces relative to the load and internal-force level, moments divided by the
+model's length scale; positions relative to that length, Euler parameters absolute). A
+failing step (no convergence within ``max_iter``, divergence, a non-finite value) is cut in
+half and retried, down to ``1/2**max_cuts`` of the requested increment, then a
+:class:`~spacarpy.errors.ConvergenceError` names the step and the residual history.
+A singular Newton matrix is diagnosed (:mod:`spacarpy.solvers.diagnose`) and reported as a
+:class:`~spacarpy.errors.ModelError` naming the nodes/elements involved.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from spacarpy.assembly import BorderedPattern, scatter_add
+from spacarpy.elements.beam import beam_state, beam_weighted_hessian
+from spacarpy.errors import ConvergenceError, SolverError
+from spacarpy.model import RIGID, Model
+from spacarpy.numbering import Numbering, number_model
+from spacarpy.rotation import lambda_matrix, moment_matrix
+
+log = logging.getLogger(__name__)
+
+#: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
+_FLOOR_FACTOR = 10.0
+#: Largest |e_hat_k| / l0 (k = torsion, bending) accepted in a converged state. The basic
+#: deformations of Eq. (7) are sines of relative rotations; near 1 (90 degrees) they
+#: saturate, the Jacobian loses rank and Newton can land on a spurious equilibrium (the
+#: one-element, basic-deformation cantilever of Table 1 does exactly that).
+MAX_ELEMENT_ROTATION = 0.95
+
+
+@dataclass
+class StaticStep:
+    """One converged (stored) load step."""
+
+    load_factor: float
+    x: np.ndarray             # (n_coord,) all nodal coordinates
+    deformation: np.ndarray   # (n_elem, 6)
+    stress: np.ndarray        # (n_elem, 6) stress resultants, multipliers for rigid modes
+    reaction: np.ndarray      # (n_reac,)
+    iterations: int
+    residual: float
+
+
+@dataclass
+class Timings:
+    """Wall time spent per part of the Newton iterations (seconds) and iteration count."""
+
+    kernels: float = 0.0
+    assembly: float = 0.0
+    solve: float = 0.0
+    iterations: int = 0
+    total: float = 0.0
+
+
+@dataclass
+class StaticOptions:
+    """Solver settings; defaults come from the deck's ITERSTEP line."""
+
+    max_iter: int = 10
+    tol: float = 5e-7
+    n_steps: int = 1
+    n_init: int = 1
+    max_cuts: int = 12
+    deformations: str = "modified"
+
+
+class Loads:
+    """Dead loads of the model split into XF and DELXF parts, in global coordinates."""
+
+    def __init__(self, model: Model, num: Numbering):
+        pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
+        rot_row = {int(n): i for i, n in enumerate(model.orientation_ids)}
+        self.force = {k: np.zeros(num.n_coord) for k in ("XF", "DELXF")}
+        moment = {k: np.zeros((model.orientation_ids.size, 3)) for k in ("XF", "DELXF")}
+        for ld in model.loads:
+            n = int(ld.node)
+            if n in pos_row:
+                self.force[ld.kind][num.pos_idx[pos_row[n]]] += ld.value
+            else:
+                moment[ld.kind][rot_row[n]] += ld.value
+        loaded = np.flatnonzero(np.any(moment["XF"] != 0, axis=1)
+                                | np.any(moment["DELXF"] != 0, axis=1))
+        self.moment_rot = loaded                            # orientation-node indices
+        self.moment = {k: v[loaded] for k, v in moment.items()}
+        self.has_xf = bool(np.any(self.force["XF"]) or np.any(self.moment["XF"]))
+
+    def at(self, a: float, s: float):
+        """Force vector and moments (n_m, 3) for ``a * XF + s * DELXF``."""
+        return (a * self.force["XF"] + s * self.force["DELXF"],
+                a * self.moment["XF"] + s * self.moment["DELXF"])
+
+
+class StaticProblem:
+    """Residual, Newton matrix and solution state of one model's static problem."""
+
+    def __init__(self, model: Model, num: Numbering | None = None, deformations: str | None = None):
+        self.model = model
+        self.num = num if num is not None else number_model(model)
+        self.variant = deformations or model.deformations
+        self.loads = Loads(model, self.num)
+        self.pattern = BorderedPattern(self.num, self.loads.moment_rot)
+        num = self.num
+        self.free = ~num.fixed_mask
+        self.rot_mask = num.is_rotation_coord
+        self.rigid_mask = model.beams.def_class == RIGID
+        self.timings = Timings()
+        self._reaction_setup()
+
+    # ------------------------------------------------------------------ evaluation
+    def evaluate(self, x, mu, force, moment, want_matrix=True):
+        """Residuals and (optionally) the bordered Newton matrix at (x, mu).
+
+        Returns r (n_unknown,), c (n_constraint,), A (csc or None), sigma (n_elem, 6),
+        e (n_elem, 6), f_int (n_coord,) and f_ext (n_coord,).
+        """
+        num = self.num
+        t0 = time.perf_counter()
+        xe = x[num.beam_idx]
+        st = beam_state(xe, num.ny, num.nz, num.l0, self.variant)
+        self.last_e_hat = st.e_hat
+        sigma = np.einsum("nij,nj->ni", num.S, st.e)
+        mu_r = mu[: num.n_rigid]
+        mu_e = mu[num.n_rigid:]
+        sigma[num.rigid_elem, num.rigid_mode] = mu_r
+        f_el = np.einsum("nil,ni->nl", st.D, sigma)
+        if want_matrix:
+            k_el = np.einsum("nil,nij,njm->nlm", st.D, num.S, st.D)
+            k_el += beam_weighted_hessian(st, sigma)
+        t1 = time.perf_counter()
+
+        f_int = scatter_add(num.n_coord, num.beam_idx, f_el)
+        q_eu = x[num.rot_idx[num.euler_nodes]]
+        f_int[num.rot_idx[num.euler_nodes]] += 2.0 * q_eu * mu_e[:, None]
+        f_ext = force.copy()
+        if self.loads.moment_rot.size:
+            q_m = x[num.rot_idx[self.loads.moment_rot]]
+            bm = moment_matrix(moment)                                # (n_m, 4, 4)
+            f_ext[num.rot_idx[self.loads.moment_rot]] += 2.0 * np.einsum("nab,nb->na", bm, q_m)
+        r = (f_int - f_ext)[self.free]
+        c = np.concatenate([st.e[num.rigid_elem, num.rigid_mode],
+                            np.sum(q_eu * q_eu, axis=1) - 1.0])
+        A = None
+        if want_matrix:
+            self.scale = self._constraint_scale(k_el)
+            mom_blocks = (-2.0 * moment_matrix(moment) if self.loads.moment_rot.size
+                          else np.zeros((0, 4, 4)))
+            A = self.pattern.assemble(k_el, 2.0 * mu_e, mom_blocks,
+                                      st.D[num.rigid_elem, num.rigid_mode], 2.0 * q_eu,
+                                      scale=self.scale)
+        t2 = time.perf_counter()
+        self.timings.kernels += t1 - t0
+        self.timings.assembly += t2 - t1
+        return r, c, A, sigma, st.e, f_int, f_ext
+
+    def _constraint_scale(self, k_el):
+        diag = np.abs(np.einsum("nii->ni", k_el))
+        m = float(diag.max()) if diag.size else 1.0
+        return m if m > 0 else 1.0
+
+    # ------------------------------------------------------------------ norms
+    def residual_norm(self, r, c, f_int, f_ext) -> tuple[float, float]:
+        """Scaled residual and its round-off floor.
+
+        Forces are taken relative to the force level (max of external and internal forces,
+        moments divided by the length scale), constraint violations relative to 1 (rigid
+        modes divided by the length scale). The floor is what double precision can resolve:
+        the stiffest element stiffness times the round-off of the coordinates; a residual
+        below it cannot be reduced further by any iteration.
+        """
+        L = self.num.length_scale
+        w = np.where(self.rot_mask, 1.0 / L, 1.0)
+        level = max(np.abs(f_ext * w).max(initial=0.0), np.abs(f_int * w).max(initial=0.0))
+        rr = np.abs(r * w[self.free]).max(initial=0.0)
+        rel = rr / level if level > 0 else (0.0 if rr == 0 else np.inf)
+        cw = np.concatenate([np.full(self.num.n_rigid, 1.0 / L),
+                             np.ones(self.num.euler_nodes.size)])
+        floor = (_FLOOR_FACTOR * np.finfo(float).eps * getattr(self, "scale", 0.0) * L / level
+                 if level > 0 else 0.0)
+        return max(rel, np.abs(c * cw).max(initial=0.0)), floor
+
+    def increment_norm(self, dx) -> float:
+        w = np.where(self.rot_mask[self.free], 1.0, 1.0 / self.num.length_scale)
+        return float(np.abs(dx * w).max(initial=0.0))
+
+    # ------------------------------------------------------------------ reactions
+    def _reaction_setup(self):
+        """Which reaction components are reported: one per fixed position coordinate, and
+        for an orientation node with fixed Euler parameters the moment components whose
+        lambda_1..3 are fixed (all three when lambda_0 is fixed too)."""
+        num, model = self.num, self.model
+        comp_node, comp_name, self._reac_pos, self._reac_rot = [], [], [], []
+        for i, n in enumerate(model.position_ids):
+            for c in range(3):
+                if num.fixed_mask[num.pos_idx[i, c]]:
+                    comp_node.append(int(n))
+                    comp_name.append("F" + "xyz"[c])
+                    self._reac_pos.append(num.pos_idx[i, c])
+        for i, n in enumerate(model.orientation_ids):
+            fx = num.fixed_mask[num.rot_idx[i]]
+            comps = [0, 1, 2] if fx[0] and fx.any() else [c - 1 for c in (1, 2, 3) if fx[c]]
+            for c in comps:
+                comp_node.append(int(n))
+                comp_name.append("M" + "xyz"[c])
+                self._reac_rot.append((i, c))
+        self.reaction_node = np.array(comp_node, dtype=np.int64)
+        self.reaction_component = comp_name
+
+    def reactions(self, x, f_int, f_ext) -> np.ndarray:
+        """Reaction forces (N) and moments (N m) at the fixed coordinates, global axes."""
+        g = f_int - f_ext
+        out = [g[i] for i in self._reac_pos]
+        if self._reac_rot:
+            rows = sorted({i for i, _ in self._reac_rot})
+            idx = self.num.rot_idx[rows]
+            moments = 0.5 * np.einsum("nka,na->nk", lambda_matrix(x[idx]), g[idx])
+            where = {r: k for k, r in enumerate(rows)}
+            out += [moments[where[i], c] for i, c in self._reac_rot]
+        return np.array(out, dtype=float)
+
+    # ------------------------------------------------------------------ Newton
+    def newton(self, x, mu, force, moment, opts: StaticOptions):
+        """Newton iterations from (x, mu) at the given load. Returns (x, mu, its, res, hist)
+        on success, raises _StepFailed otherwise."""
+        history = []
+        dx_norm = np.inf
+        for it in range(opts.max_iter + 1):
+            r, c, A, sigma, e, f_int, f_ext = self.evaluate(x, mu, force, moment)
+            res, floor = self.residual_norm(r, c, f_int, f_ext)
+            history.append(res)
+            if not np.isfinite(res):
+                raise _StepFailed("non-finite residual", history)
+            if res <= max(opts.tol, floor) and (it == 0 or dx_norm <= opts.tol):
+                self._check_element_range()
+                return x, mu, it, res, history
+            if it == opts.max_iter:
+                break
+            if it >= 3 and res > 1e3 * history[1] and res > 1e3 * opts.tol:
+                raise _StepFailed("diverging", history)
+            t0 = time.perf_counter()
+            rhs = -np.concatenate([r, self.scale * c])
+            dz = self._solve(A, rhs, x)
+            self.timings.solve += time.perf_counter() - t0
+            self.timings.iterations += 1
+            dx = dz[: self.pattern.n_x]
+            dmu = dz[self.pattern.n_x:] * self.scale
+            if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
+                raise _StepFailed("non-finite increment", history)
+            dx_norm = self.increment_norm(dx)
+            if dx_norm > 0.5 and self.num.n_unknown:
+                # an Euler-parameter or position jump of order one per iteration: not a
+                # Newton step any more, cut the load step instead of wandering off
+                if np.abs(dx[self.rot_mask[self.free]]).max(initial=0.0) > 0.5:
+                    raise _StepFailed("increment too large", history)
+            x = x.copy()
+            x[self.free] += dx
+            mu = mu + dmu
+        raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
+
+    def _check_element_range(self):
+        rel = np.abs(self.last_e_hat[:, 1:]) / self.num.l0[:, None]
+        if rel.size and rel.max() > MAX_ELEMENT_ROTATION:
+            i, k = np.unravel_index(np.argmax(rel), rel.shape)
+            raise SolverError(
+                f"spurious equilibrium: element {int(self.model.beams.ids[i])} deformation "
+                f"mode {k + 2} reached |e/l0| = {rel[i, k]:.3f}, a relative rotation of about "
+                f"{np.degrees(np.arcsin(min(rel[i, k], 1.0))):.0f} degrees inside one element. "
+                f"The deformation measures of Eq. (7) saturate at 90 degrees, so this state is "
+                f"not a valid beam solution; use more elements.")
+
+    def _solve(self, A, rhs, x):
+        try:
+            lu = spla.splu(A, permc_spec="COLAMD")
+        except RuntimeError as exc:           # "Factor is exactly singular"
+            from spacarpy.solvers.diagnose import singular_matrix_error
+            raise singular_matrix_error(self, A, x) from exc
+        dz = lu.solve(rhs)
+        if not np.all(np.isfinite(dz)):
+            from spacarpy.solvers.diagnose import singular_matrix_error
+            raise singular_matrix_error(self, A, x)
+        return dz
+
+    def normalize(self, x):
+        """Project Euler parameters exactly onto q.q = 1 (after convergence)."""
+        x = x.copy()
+        idx = self.num.rot_idx[self.num.euler_nodes]
+        q = x[idx]
+        x[idx] = q / np.linalg.norm(q, axis=1)[:, None]
+        return x
+
+
+class _StepFailed(Exception):
+    def __init__(self, reason, history):
+        super().__init__(reason)
+        self.reason = reason
+        self.history = history
+
+
+@dataclass
+class StaticResult:
+    """All stored steps of a static run plus bookkeeping."""
+
+    steps: list = field(default_factory=list)
+    problem: StaticProblem | None = None
+
+
+def solve_static(model: Model, *, deformations: str | None = None, options: StaticOptions | None = None,
+                 on_step=None, problem: StaticProblem | None = None) -> StaticResult:
+    """Solve the static problem of ``model`` along its load path.
+
+    Step 0 is the equilibrium under XF (reached in ``n_init`` internal sub-steps); steps
+    1..n_steps add DELXF in equal increments. ``on_step(StaticStep)`` is called after each
+    stored step (the results writer appends it to the file at once).
+
+    Raises
+    ------
+    ConvergenceError
+        With the step, the load factor reached and the residual history; the steps already
+        passed to ``on_step`` stay valid.
+    ModelError
+        When the Newton matrix is singular (mechanism, over-constraint).
+    """
+    it = model.iterstep
+    opts = options or StaticOptions(max_iter=it.max_iter, tol=it.tol, n_steps=it.n_steps,
+                                    n_init=it.n_init,
+                                    deformations=deformations or model.deformations)
+    prob = problem or StaticProblem(model, deformations=opts.deformations)
+    t_start = time.perf_counter()
+    num = prob.num
+    x = num.x0.copy()
+    mu = np.zeros(num.n_constraint)
+    result = StaticResult(problem=prob)
+
+    def store(load_factor, x, mu, its, res):
+        _, _, _, sigma, e, f_int, f_ext = prob.evaluate(x, mu, *prob.loads.at(1.0, load_factor),
+                                                        want_matrix=False)
+        step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=e, stress=sigma,
+                          reaction=prob.reactions(x, f_int, f_ext), iterations=its, residual=res)
+        result.steps.append(step)
+        if on_step is not None:
+            on_step(step)
+
+    # phase A: reach XF (a: 0 -> 1) at s = 0
+    x, mu, its, res = _advance(prob, x, mu, (0.0, 0.0), (1.0, 0.0),
+                               opts.n_init if prob.loads.has_xf else 1, opts, stored_step=0)
+    x = prob.normalize(x)
+    store(0.0, x, mu, its, res)
+    # phase B: DELXF in n_steps stored increments
+    for k in range(1, opts.n_steps + 1):
+        s0, s1 = (k - 1) / opts.n_steps, k / opts.n_steps
+        x, mu, its, res = _advance(prob, x, mu, (1.0, s0), (1.0, s1), 1, opts, stored_step=k)
+        x = prob.normalize(x)
+        store(s1, x, mu, its, res)
+    prob.timings.total = time.perf_counter() - t_start
+    return result
+
+
+def _advance(prob, x, mu, p_from, p_to, n_sub, opts, stored_step):
+    """Move the load parameters (a, s) from p_from to p_to, cutting steps on failure."""
+    p_from, p_to = np.asarray(p_from, float), np.asarray(p_to, float)
+    t, t_end = 0.0, 1.0
+    dt_nominal = 1.0 / max(n_sub, 1)
+    dt = dt_nominal
+    min_dt = dt_nominal / 2 ** opts.max_cuts
+    total_its, last_res = 0, 0.0
+    while t < t_end - 1e-14:
+        dt = min(dt, t_end - t)
+        p = p_from + (t + dt) * (p_to - p_from)
+        force, moment = prob.loads.at(*p)
+        try:
+            x_new, mu_new, its, res, _ = prob.newton(x, mu, force, moment, opts)
+        except _StepFailed as fail:
+            if dt / 2 < min_dt:
+                lf = p_from[1] + t * (p_to[1] - p_from[1])
+                hist = ", ".join(f"{h:.3e}" for h in fail.history)
+                raise ConvergenceError(
+                    f"static step {stored_step} did not converge ({fail.reason}) after "
+                    f"{opts.max_cuts} step cuts; last converged load: XF factor "
+                    f"{p_from[0] + t * (p_to[0] - p_from[0]):.6g}, DELXF factor {lf:.6g}; "
+                    f"residual history of the last attempt: [{hist}]") from None
+            log.info("step %d: %s at increment %.3g, cutting the step", stored_step,
+                     fail.reason, dt)
+            dt /= 2
+            continue
+        x, mu = x_new, mu_new
+        total_its += its
+        last_res = res
+        t += dt
+        dt = min(dt * 2, dt_nominal)            # grow back after a successful cut step
+    return x, mu, total_its, last_res
+
+
+__all__ = ["solve_static", "StaticProblem", "StaticStep", "StaticOptions", "StaticResult",
+           "SolverError"]
