@@ -130,58 +130,53 @@ class StaticProblem:
         self.rot_mask = num.is_rotation_coord
         self.rigid_mask = model.beams.def_class == RIGID
         self.timings = Timings()
+        # balances the constraint rows of the saddle-point matrix and sets the residual's
+        # round-off floor: the largest element stiffness entry (N/m)
+        smax = float(np.abs(num.S).max(initial=0.0))
+        self.scale = smax if smax > 0 else 1.0
         self._reaction_setup()
 
     # ------------------------------------------------------------------ evaluation
-    def evaluate(self, x, mu, force, moment, want_matrix=True):
-        """Residuals and (optionally) the bordered Newton matrix at (x, mu).
-
-        Returns r (n_unknown,), c (n_constraint,), A (csc or None), sigma (n_elem, 6),
-        e (n_elem, 6), f_int (n_coord,) and f_ext (n_coord,).
-        """
+    def evaluate(self, x, mu, force, moment) -> "_Eval":
+        """Deformations, stress resultants and residuals at (x, mu) under the given load."""
         num = self.num
         t0 = time.perf_counter()
-        xe = x[num.beam_idx]
-        st = beam_state(xe, num.ny, num.nz, num.l0, self.variant)
-        self.last_e_hat = st.e_hat
+        st = beam_state(x[num.beam_idx], num.ny, num.nz, num.l0, self.variant)
         sigma = np.einsum("nij,nj->ni", num.S, st.e)
-        mu_r = mu[: num.n_rigid]
-        mu_e = mu[num.n_rigid:]
-        sigma[num.rigid_elem, num.rigid_mode] = mu_r
+        sigma[num.rigid_elem, num.rigid_mode] = mu[: num.n_rigid]
         f_el = np.einsum("nil,ni->nl", st.D, sigma)
-        if want_matrix:
-            k_el = np.einsum("nil,nij,njm->nlm", st.D, num.S, st.D)
-            k_el += beam_weighted_hessian(st, sigma)
         t1 = time.perf_counter()
-
         f_int = scatter_add(num.n_coord, num.beam_idx, f_el)
         q_eu = x[num.rot_idx[num.euler_nodes]]
-        f_int[num.rot_idx[num.euler_nodes]] += 2.0 * q_eu * mu_e[:, None]
+        f_int[num.rot_idx[num.euler_nodes]] += 2.0 * q_eu * mu[num.n_rigid:, None]
         f_ext = force.copy()
         if self.loads.moment_rot.size:
             q_m = x[num.rot_idx[self.loads.moment_rot]]
-            bm = moment_matrix(moment)                                # (n_m, 4, 4)
-            f_ext[num.rot_idx[self.loads.moment_rot]] += 2.0 * np.einsum("nab,nb->na", bm, q_m)
+            f_ext[num.rot_idx[self.loads.moment_rot]] += 2.0 * np.einsum(
+                "nab,nb->na", moment_matrix(moment), q_m)
         r = (f_int - f_ext)[self.free]
         c = np.concatenate([st.e[num.rigid_elem, num.rigid_mode],
                             np.sum(q_eu * q_eu, axis=1) - 1.0])
-        A = None
-        if want_matrix:
-            self.scale = self._constraint_scale(k_el)
-            mom_blocks = (-2.0 * moment_matrix(moment) if self.loads.moment_rot.size
-                          else np.zeros((0, 4, 4)))
-            A = self.pattern.assemble(k_el, 2.0 * mu_e, mom_blocks,
-                                      st.D[num.rigid_elem, num.rigid_mode], 2.0 * q_eu,
-                                      scale=self.scale)
-        t2 = time.perf_counter()
         self.timings.kernels += t1 - t0
-        self.timings.assembly += t2 - t1
-        return r, c, A, sigma, st.e, f_int, f_ext
+        self.timings.assembly += time.perf_counter() - t1
+        return _Eval(st=st, sigma=sigma, r=r, c=c, f_int=f_int, f_ext=f_ext, q_eu=q_eu)
 
-    def _constraint_scale(self, k_el):
-        diag = np.abs(np.einsum("nii->ni", k_el))
-        m = float(diag.max()) if diag.size else 1.0
-        return m if m > 0 else 1.0
+    def matrix(self, ev: "_Eval", mu, moment):
+        """The bordered Newton matrix at an evaluated state (CSC)."""
+        num = self.num
+        t0 = time.perf_counter()
+        st = ev.st
+        k_el = np.einsum("nil,nij,njm->nlm", st.D, num.S, st.D)
+        k_el += beam_weighted_hessian(st, ev.sigma)
+        t1 = time.perf_counter()
+        mom_blocks = (-2.0 * moment_matrix(moment) if self.loads.moment_rot.size
+                      else np.zeros((0, 4, 4)))
+        A = self.pattern.assemble(k_el, 2.0 * mu[num.n_rigid:], mom_blocks,
+                                  st.D[num.rigid_elem, num.rigid_mode], 2.0 * ev.q_eu,
+                                  scale=self.scale)
+        self.timings.kernels += t1 - t0
+        self.timings.assembly += time.perf_counter() - t1
+        return A
 
     # ------------------------------------------------------------------ norms
     def residual_norm(self, r, c, f_int, f_ext) -> tuple[float, float]:
@@ -250,18 +245,20 @@ class StaticProblem:
         history = []
         dx_norm = np.inf
         for it in range(opts.max_iter + 1):
-            r, c, A, sigma, e, f_int, f_ext = self.evaluate(x, mu, force, moment)
-            res, floor = self.residual_norm(r, c, f_int, f_ext)
+            ev = self.evaluate(x, mu, force, moment)
+            r, c = ev.r, ev.c
+            res, floor = self.residual_norm(r, c, ev.f_int, ev.f_ext)
             history.append(res)
             if not np.isfinite(res):
                 raise _StepFailed("non-finite residual", history)
             if res <= max(opts.tol, floor) and (it == 0 or dx_norm <= opts.tol):
-                self._check_element_range()
+                self._check_element_range(ev.st.e_hat)
                 return x, mu, it, res, history
             if it == opts.max_iter:
                 break
             if it >= 3 and res > 1e3 * history[1] and res > 1e3 * opts.tol:
                 raise _StepFailed("diverging", history)
+            A = self.matrix(ev, mu, moment)
             t0 = time.perf_counter()
             rhs = -np.concatenate([r, self.scale * c])
             dz = self._solve(A, rhs, x)
@@ -282,8 +279,8 @@ class StaticProblem:
             mu = mu + dmu
         raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
 
-    def _check_element_range(self):
-        rel = np.abs(self.last_e_hat[:, 1:]) / self.num.l0[:, None]
+    def _check_element_range(self, e_hat):
+        rel = np.abs(e_hat[:, 1:]) / self.num.l0[:, None]
         if rel.size and rel.max() > MAX_ELEMENT_ROTATION:
             i, k = np.unravel_index(np.argmax(rel), rel.shape)
             raise SolverError(
@@ -312,6 +309,17 @@ class StaticProblem:
         q = x[idx]
         x[idx] = q / np.linalg.norm(q, axis=1)[:, None]
         return x
+
+
+@dataclass
+class _Eval:
+    st: object
+    sigma: np.ndarray
+    r: np.ndarray
+    c: np.ndarray
+    f_int: np.ndarray
+    f_ext: np.ndarray
+    q_eu: np.ndarray
 
 
 class _StepFailed(Exception):
@@ -357,10 +365,10 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
     result = StaticResult(problem=prob)
 
     def store(load_factor, x, mu, its, res):
-        _, _, _, sigma, e, f_int, f_ext = prob.evaluate(x, mu, *prob.loads.at(1.0, load_factor),
-                                                        want_matrix=False)
-        step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=e, stress=sigma,
-                          reaction=prob.reactions(x, f_int, f_ext), iterations=its, residual=res)
+        ev = prob.evaluate(x, mu, *prob.loads.at(1.0, load_factor))
+        step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=ev.st.e,
+                          stress=ev.sigma, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
+                          iterations=its, residual=res)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)

@@ -1,0 +1,145 @@
+"""Command line: ``spacarpy run | bench``.
+
+Exit codes (see :mod:`spacarpy.errors`): 0 success, 1 solver failure, 2 input error (deck or
+command line), 3 model not analysable (mechanism, over-constraint), 130 interrupted.
+Progress goes to stderr, silenced by ``-q``; errors are printed without a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+from spacarpy import __version__
+from spacarpy.errors import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, SpacarError
+
+log = logging.getLogger("spacarpy")
+
+
+def _parse_mode(text: str) -> str:
+    from spacarpy.model import ANALYSES, SPACAR_MODE_NUMBERS
+    t = text.strip().lower()
+    if t in ANALYSES:
+        return t
+    try:
+        num = abs(int(t))
+    except ValueError:
+        num = None
+    if num in SPACAR_MODE_NUMBERS:
+        return SPACAR_MODE_NUMBERS[num]
+    raise argparse.ArgumentTypeError(
+        f"unknown mode {text!r}: expected one of {', '.join(ANALYSES)} or a SPACAR mode "
+        f"number ({', '.join(str(k) for k in sorted(SPACAR_MODE_NUMBERS))})")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="spacarpy",
+        description="Large-deflection analysis of flexible multibody systems and slender "
+                    "structures with the DDM beam (SPACAR-style decks).")
+    p.add_argument("--version", action="version", version=f"spacarpy {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    run = sub.add_parser("run", help="analyse a deck and write an HDF5 result file")
+    run.add_argument("deck", type=Path, help="SPACAR-style deck (.dat)")
+    run.add_argument("-o", "--output", type=Path, default=None,
+                     help="result file (default: the deck's name with .h5)")
+    run.add_argument("--mode", type=_parse_mode, default=None,
+                     help="analysis: static (SPACAR 10), ...; overrides the deck's MODE line")
+    run.add_argument("--deformations", choices=("modified", "basic"), default=None,
+                     help="deformation definitions: modified second-order (Eq. 48, default) "
+                          "or basic (Eq. 7); overrides the deck's DEFORMATIONS line")
+    _verbosity(run)
+
+    bench = sub.add_parser("bench", help="time the solver on straight cantilevers")
+    bench.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000, 10000],
+                       help="numbers of elements (default: 10 100 1000 10000)")
+    bench.add_argument("--steps", type=int, default=10, help="load steps (default 10)")
+    bench.add_argument("--repeat", type=int, default=3,
+                       help="repetitions per size; min and median are shown (default 3)")
+    _verbosity(bench)
+    return p
+
+
+def _verbosity(p):
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    p.add_argument("-v", "--verbose", action="store_true", help="solver details")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:           # argparse: 2 for usage errors, 0 for --help
+        return int(exc.code or 0)
+    level = logging.WARNING if args.quiet else (logging.DEBUG if args.verbose else logging.INFO)
+    logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr, force=True)
+    try:
+        if args.command == "run":
+            return cmd_run(args)
+        if args.command == "bench":
+            from spacarpy.bench import run_bench
+            run_bench(sizes=args.sizes, n_steps=args.steps, repeat=args.repeat)
+            return EXIT_OK
+    except SpacarError as exc:
+        print(str(exc), file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return EXIT_INPUT
+
+
+def cmd_run(args) -> int:
+    from spacarpy.deck import load_deck
+    from spacarpy.errors import SpacarError as _SE
+    from spacarpy.results import ResultsWriter
+    from spacarpy.solvers.static import StaticProblem, solve_static
+
+    t0 = time.perf_counter()
+    model = load_deck(args.deck, deformations=args.deformations, analysis=args.mode)
+    if model.analysis != "static":
+        raise _InputError(f"analysis '{model.analysis}' is not supported yet; this version "
+                          f"runs static analyses (MODE static / SPACAR mode 10)")
+    out = args.output if args.output is not None else args.deck.with_suffix(".h5")
+    log.info("%s: %d position nodes, %d orientation nodes, %d beams; %s deformations",
+             args.deck, model.position_ids.size, model.orientation_ids.size,
+             model.beams.n_elem, model.deformations)
+    problem = StaticProblem(model)
+    num = problem.num
+    n_steps = model.iterstep.n_steps
+    with ResultsWriter(out, model, program_version=__version__,
+                       deformations=model.deformations, analysis="static") as writer:
+        writer.begin_static(model.position_ids.size, model.orientation_ids.size,
+                            model.beams.n_elem, problem.reaction_node,
+                            problem.reaction_component)
+
+        def on_step(step):
+            writer.static_step(step.load_factor, step.x[num.pos_idx], step.x[num.rot_idx],
+                               step.deformation, step.stress, step.reaction,
+                               step.iterations, step.residual)
+            log.info("step %*d/%d  load factor %.4f  %2d iterations  residual %.2e",
+                     len(str(n_steps)), len(problem_steps), n_steps, step.load_factor,
+                     step.iterations, step.residual)
+            problem_steps.append(step)
+
+        problem_steps: list = []
+        try:
+            solve_static(model, problem=problem, on_step=on_step)
+        except _SE as exc:
+            log.error("%d converged step(s) kept in %s", len(problem_steps), writer.partial_path)
+            raise exc
+        writer.finish()
+    log.info("wrote %s (%d steps) in %.2f s", out, len(problem_steps),
+             time.perf_counter() - t0)
+    return EXIT_OK
+
+
+class _InputError(SpacarError):
+    exit_code = EXIT_INPUT
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
