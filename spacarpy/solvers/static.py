@@ -302,6 +302,21 @@ class StaticProblem:
             raise singular_matrix_error(self, A, x)
         return dz
 
+    def check_initial(self):
+        """Factorize the unloaded Newton matrix in the initial configuration.
+
+        This is the kinematic check: a mechanism or redundant constraints make it singular,
+        and they are reported (with the nodes/elements involved) before any load step, even
+        when the loads are zero and Newton would not need a matrix at all.
+        """
+        num = self.num
+        x, mu = num.x0.copy(), np.zeros(num.n_constraint)
+        zero_force = np.zeros(num.n_coord)
+        zero_moment = np.zeros((self.loads.moment_rot.size, 3))
+        ev = self.evaluate(x, mu, zero_force, zero_moment)
+        if self.pattern.n:
+            self._solve(self.matrix(ev, mu, zero_moment), np.zeros(self.pattern.n), x)
+
     def normalize(self, x):
         """Project Euler parameters exactly onto q.q = 1 (after convergence)."""
         x = x.copy()
@@ -363,6 +378,7 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
     x = num.x0.copy()
     mu = np.zeros(num.n_constraint)
     result = StaticResult(problem=prob)
+    prob.check_initial()
 
     def store(load_factor, x, mu, its, res):
         ev = prob.evaluate(x, mu, *prob.loads.at(1.0, load_factor))

@@ -1,0 +1,146 @@
+"""Static solver: the paper's Tables 1 and 2 from the shipped decks, objectivity of a whole
+model, equilibrium of reactions, mechanism / over-constraint diagnosis, failure reports."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spacarpy.deck import load_deck
+from spacarpy.errors import ConvergenceError, ModelError, SolverError
+from spacarpy.model import RIGID, BeamSet, Fix, IterStep, Load, Model
+from spacarpy.rotation import from_axis_angle, rotation_matrix
+from spacarpy.solvers.static import StaticOptions, solve_static
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
+
+# Table 1 of Jonker & Meijaard (2013): tip displacements (m), 6 printed digits.
+TABLE1_MODIFIED = {1: (0.901067, 1.521304), 2: (0.574104, 1.276622), 4: (0.523295, 1.223753),
+                   8: (0.512121, 1.211296), 16: (0.509427, 1.208249),
+                   32: (0.508759, 1.207492), 64: (0.508593, 1.207303),
+                   128: (0.508551, 1.207256)}
+TABLE1_BASIC = {2: (0.575338, 1.316823), 4: (0.521435, 1.230945), 8: (0.511573, 1.212951),
+                16: (0.509285, 1.208655), 32: (0.508724, 1.207593), 64: (0.508584, 1.207328),
+                128: (0.508549, 1.207262)}
+# Table 2: tip position (m), 2 printed decimals.
+TABLE2 = {("modified", 8): (46.94, 53.64, 15.64), ("basic", 8): (46.95, 53.75, 15.61),
+          ("modified", 48): (47.14, 53.48, 15.68)}
+
+
+def tip_position(res):
+    return res.steps[-1].x[res.problem.num.pos_idx[-1]]
+
+
+@pytest.mark.parametrize("variant,n,expected",
+                         [("modified", n, v) for n, v in TABLE1_MODIFIED.items()]
+                         + [("basic", n, v) for n, v in TABLE1_BASIC.items()])
+def test_table1_cantilever(variant, n, expected):
+    model = load_deck(DECKS / f"table1_cantilever_{n}el_{variant}.dat")
+    assert model.deformations == variant and model.beams.n_elem == n
+    tip = tip_position(solve_static(model))
+    ux, uy = 2.0 - tip[0], tip[1]          # Table 1 prints the shortening and the deflection
+    assert round(ux, 6) == pytest.approx(expected[0], abs=1e-12)
+    assert round(uy, 6) == pytest.approx(expected[1], abs=1e-12)
+
+
+def test_table1_one_basic_element_is_reported_not_printed():
+    model = load_deck(DECKS / "table1_cantilever_1el_basic.dat")
+    steps = []
+    with pytest.raises(SolverError, match="spurious equilibrium"):
+        solve_static(model, on_step=steps.append)
+    assert 1 <= len(steps) < 11                     # the valid steps before it were kept
+
+
+@pytest.mark.parametrize("variant,n", list(TABLE2))
+def test_table2_bend(variant, n):
+    model = load_deck(DECKS / f"table2_bend_{n}el_{variant}.dat")
+    tip = tip_position(solve_static(model))
+    assert tuple(np.round(tip, 2)) == pytest.approx(TABLE2[(variant, n)], abs=1e-9)
+
+
+def test_deck_cli_override_of_the_deformation_variant():
+    model = load_deck(DECKS / "table1_cantilever_4el_modified.dat", deformations="basic")
+    tip = tip_position(solve_static(model))
+    assert round(2.0 - tip[0], 6) == TABLE1_BASIC[4][0]
+
+
+def test_randomly_oriented_cantilever_gives_the_rotated_tip_displacement():
+    base = load_deck(DECKS / "table1_cantilever_8el_modified.dat")
+    tip0 = tip_position(solve_static(base))
+    rng = np.random.default_rng(3)
+    for _ in range(2):
+        rot = rotation_matrix(from_axis_angle(rng.normal(size=3), rng.uniform(0.5, 3.0)))
+        shift = rng.normal(size=3)
+        b = base.beams
+        beams = BeamSet(ids=b.ids, nodes=b.nodes, orientation=np.tile(rot @ [0, 1.0, 0], (8, 1)),
+                        def_class=b.def_class, stiffness=b.stiffness,
+                        has_stiffness=b.has_stiffness)
+        loads = [Load(ld.node, ld.kind, tuple(rot @ np.array(ld.value))) for ld in base.loads]
+        model = Model(position_ids=base.position_ids,
+                      position_x0=base.position_x0 @ rot.T + shift,
+                      orientation_ids=base.orientation_ids, beams=beams, fixes=base.fixes,
+                      loads=loads, iterstep=base.iterstep)
+        tip = tip_position(solve_static(model))
+        np.testing.assert_allclose(tip - shift, rot @ tip0, atol=1e-9)
+
+
+def test_reactions_balance_the_tip_load():
+    model = load_deck(DECKS / "table1_cantilever_8el_modified.dat")
+    res = solve_static(model)
+    prob = res.problem
+    reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component),
+                    res.steps[-1].reaction))
+    force = model.loads[0].value[1]
+    tip = tip_position(res)
+    assert reac[(1, "Fy")] == pytest.approx(-force, rel=1e-9)
+    assert abs(reac[(1, "Fx")]) < 1e-6 * force
+    # moment about the clamped node (at the origin) balances the tip force's moment
+    assert reac[(2, "Mz")] == pytest.approx(-force * tip[0], rel=1e-8)
+
+
+def two_beam_model(fixes, def_class=None, loads=()):
+    dc = np.ones((2, 6)) if def_class is None else def_class
+    return Model(position_ids=[1, 3, 5], position_x0=[[0, 0, 0], [1, 0, 0], [2, 0, 0]],
+                 orientation_ids=[2, 4, 6],
+                 beams=BeamSet(ids=[11, 12], nodes=[[1, 2, 3, 4], [3, 4, 5, 6]],
+                               orientation=np.tile([0, 1.0, 0], (2, 1)), def_class=dc,
+                               stiffness=np.tile([1e6, 1e3, 1e3, 1e3, 0, 0], (2, 1)),
+                               has_stiffness=[True, True]),
+                 fixes=fixes, loads=list(loads), iterstep=IterStep(n_steps=1))
+
+
+def test_free_floating_model_is_reported_as_a_mechanism_naming_nodes():
+    model = two_beam_model([], loads=[Load(5, "DELXF", (0, 1.0, 0))])
+    with pytest.raises(ModelError, match=r"mechanism: \d+ free motion.*nodes that move: 1, 2, 3"):
+        solve_static(model)
+
+
+def test_redundant_rigid_modes_are_named_with_the_rlse_that_removes_them():
+    dc = np.full((2, 6), RIGID)
+    model = two_beam_model([Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4)), Fix(5, (1, 2, 3)),
+                            Fix(6, (1, 2, 3, 4))], def_class=dc)
+    with pytest.raises(ModelError, match=r"over-constrained.*RLSE 1[12] \d"):
+        solve_static(model)
+
+
+def test_non_convergence_names_the_step_and_keeps_converged_steps():
+    model = load_deck(DECKS / "table1_cantilever_4el_modified.dat")
+    steps = []
+    opts = StaticOptions(max_iter=2, tol=1e-12, n_steps=4, max_cuts=2)
+    with pytest.raises(ConvergenceError, match=r"static step 1 .*residual history"):
+        solve_static(model, options=opts, on_step=steps.append)
+    assert len(steps) == 1 and steps[0].load_factor == 0.0
+
+
+def test_rigid_modes_are_enforced_exactly_and_carry_the_stress_resultant():
+    # cantilever of two beams, all modes flexible except the elongation made rigid
+    dc = np.ones((2, 6))
+    dc[:, 0] = RIGID
+    model = two_beam_model([Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))], def_class=dc,
+                           loads=[Load(5, "DELXF", (50.0, 20.0, 0.0))])
+    res = solve_static(model)
+    st = res.steps[-1]
+    assert np.abs(st.deformation[:, 0]).max() < 1e-12
+    # the axial multiplier equals the axial force: tip force projected on the last chord
+    tip, mid = st.x[res.problem.num.pos_idx[2]], st.x[res.problem.num.pos_idx[1]]
+    chord = (tip - mid) / np.linalg.norm(tip - mid)
+    assert st.stress[1, 0] == pytest.approx(np.dot([50.0, 20.0, 0.0], chord), rel=1e-8)
