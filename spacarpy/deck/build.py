@@ -1,0 +1,524 @@
+"""Checked deck statements -> a validated :class:`spacarpy.model.Model`.
+
+This module gives the records their meaning (nodes, BEAM elements, deformation classes, fixes,
+stiffness, mass, loads, load stepping, analysis choice) and checks everything that needs more
+than one record: undefined or doubly defined nodes and elements, position versus orientation
+nodes, zero-length elements, orientation vectors, flexible modes without stiffness. Every
+problem is collected and they are raised together in one :class:`spacarpy.errors.DeckError`,
+ordered by line. Keywords spacarpy recognises but does not implement yet are refused with
+"not supported yet: KEYWORD", one error per occurrence.
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, UNSUPPORTED_ELEMENTS
+from spacarpy.deck.parser import Statement
+from spacarpy.errors import DeckError, SourceLoc
+from spacarpy.model import (ANALYSES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
+                            SPACAR_MODE_NUMBERS, BeamSet, Fix, IterStep, Load, Model)
+
+__all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
+
+logger = logging.getLogger(__name__)
+
+#: Stiffness value (index into ESTIFF's EA GJ EIy EIz) that carries each BEAM deformation mode.
+_MODE_STIFFNESS = (0, 1, 2, 2, 3, 3)
+_STIFFNESS_NAMES = ("EA", "GJ", "EIy", "EIz", "cy", "cz")
+_MASS_NAMES = ("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz")
+
+#: Relative length below which an element counts as zero-length (times the model size).
+ZERO_LENGTH_RTOL = 1e-12
+#: Orientation vectors shorter than this, or with |n_x x o| < this * |o|, are rejected
+#: (SPACAR's getLocalframe rule).
+ORIENTATION_TOL = 1e-5
+
+
+def resolve_analysis(value) -> str | None:
+    """Map a MODE value (name, SPACAR number, or its text) to an analysis name.
+
+    Returns None if the value is not valid. Negative SPACAR numbers (silent runs) map like
+    their positive counterparts.
+    """
+    if isinstance(value, str):
+        text = value.strip().lower()
+        if text in ANALYSES:
+            return text
+        try:
+            number = float(text)
+        except ValueError:
+            return None
+        if not number.is_integer():
+            return None
+        value = int(number)
+    if isinstance(value, float):
+        if not value.is_integer():
+            return None
+        value = int(value)
+    if isinstance(value, int):
+        return SPACAR_MODE_NUMBERS.get(abs(value))
+    return None
+
+
+def resolve_deformations(value) -> str | None:
+    """Map a DEFORMATIONS value to ``"basic"``/``"modified"``, or None if not valid."""
+    if isinstance(value, str) and value.strip().lower() in DEFORMATION_VARIANTS:
+        return value.strip().lower()
+    return None
+
+
+def _valid_modes() -> str:
+    numbers = ", ".join(f"{k}={v}" for k, v in sorted(SPACAR_MODE_NUMBERS.items()))
+    return f"{', '.join(ANALYSES)} or a SPACAR mode number ({numbers}; negative = silent)"
+
+
+class _Beam:
+    """One BEAM record while the model is being built."""
+
+    def __init__(self, st: Statement):
+        self.st = st
+        self.id, self.p, self.r, self.q, self.s = st.fields[:5]
+        self.orientation = (tuple(st.fields[5:8]) if len(st.fields) >= 8
+                            else (np.nan, np.nan, np.nan))
+        self.def_class = [RIGID] * 6
+        self.class_line = [0] * 6          # line of the DYNE/RLSE that set each mode
+        self.flex_locs: dict[int, SourceLoc] = {}   # mode -> where it was made flexible
+        self.stiffness = (0.0,) * 6
+        self.estiff: Statement | None = None
+        self.mass = (0.0,) * 5
+        self.em: Statement | None = None
+
+
+class _ModelBuilder:
+    """Collects the meaning of the statements pass by pass, and every error on the way."""
+
+    def __init__(self, path: str, statements: list[Statement]):
+        self.path = path
+        self.by_line = {st.loc.line: st for st in statements}
+        self.errors: list = []
+        self.warnings: list[str] = []
+        self.positions: dict[int, tuple[tuple, Statement]] = {}
+        self.beams: dict[int, _Beam] = {}
+        self.orientation_use: dict[int, Statement] = {}   # node -> first BEAM using it as r/s
+        self.foreign_elements: set[int] = set()   # elements of unsupported keywords
+        self.foreign_nodes: set[int] = set()      # nodes of unsupported element keywords
+        self.fixes: dict[int, tuple[set, SourceLoc]] = {}
+        self.loads: list[Load] = []
+        self.iterstep: IterStep | None = None
+        self.analysis: str | None = None
+        self.deformations: str | None = None
+        self.singletons: dict[str, Statement] = {}
+
+    # ---------------------------------------------------------------- helpers
+    def error(self, loc: SourceLoc | None, message: str, st: Statement | None = None) -> None:
+        self.errors.append((loc, message, st.source_line if st is not None else None))
+
+    def node_kind(self, n: int) -> str | None:
+        if n in self.positions:
+            return "position"
+        if n in self.orientation_use:
+            return "orientation"
+        return None
+
+    def once(self, st: Statement) -> bool:
+        """Record a keyword that may appear only once; report a repeat."""
+        first = self.singletons.get(st.keyword)
+        if first is not None:
+            self.error(st.loc, f"{st.keyword} is given twice (lines {first.loc.line} and "
+                               f"{st.loc.line})", st)
+            return False
+        self.singletons[st.keyword] = st
+        return True
+
+    # ---------------------------------------------------------------- passes
+    def build(self, statements, deformations, analysis, text) -> Model:
+        statements = [st for st in statements if st.module >= 0]
+        by_kw: dict[str, list[Statement]] = {}
+        for st in statements:
+            by_kw.setdefault(st.keyword, []).append(st)
+            if st.keyword in UNSUPPORTED:
+                self.error(st.loc, f"not supported yet: {st.keyword}", st)
+                if st.keyword in UNSUPPORTED_ELEMENTS:
+                    self.note_foreign(st)
+
+        for st in by_kw.get("X", []):
+            self.node(st)
+        beam_sts = by_kw.get("BEAM", [])
+        for st in beam_sts:
+            for i in (2, 4):
+                self.orientation_use.setdefault(st.fields[i], st)
+        scale = self.model_size()
+        for st in beam_sts:
+            self.beam(st, scale)
+        for st in sorted(by_kw.get("DYNE", []) + by_kw.get("RLSE", []),
+                         key=lambda s: (s.loc.line, s.loc.column)):
+            self.deformation_class(st)
+        for st in by_kw.get("ESTIFF", []):
+            self.estiff(st)
+        for st in by_kw.get("EM", []):
+            self.em(st)
+        self.check_flexible_stiffness()
+        for st in by_kw.get("FIX", []):
+            self.fix(st)
+        for st in statements:          # loads in deck order
+            if st.keyword in ("XF", "DELXF"):
+                self.load(st)
+        for st in by_kw.get("ITERSTEP", []):
+            self.iterstep_line(st)
+        for st in by_kw.get("MODE", []):
+            self.mode_line(st)
+        for st in by_kw.get("DEFORMATIONS", []):
+            self.deformations_line(st)
+        self.overrides(deformations, analysis)
+
+        if self.errors:
+            raise DeckError(sorted(
+                self.errors, key=lambda it: (0, 0, 0) if it[0] is None
+                else (1, it[0].line, it[0].column)))
+        self.warn_unconnected()
+        for msg in self.warnings:
+            logger.warning(msg)
+        return self.model(text)
+
+    def note_foreign(self, st: Statement) -> None:
+        slots = KEYWORDS[st.keyword].node_slots
+        ints = [v for v in st.fields[:1 + slots] if isinstance(v, int)]
+        if ints:
+            self.foreign_elements.add(ints[0])
+            self.foreign_nodes.update(ints[1:])
+
+    def node(self, st: Statement) -> None:
+        n = st.fields[0]
+        if n in self.positions:
+            first = self.positions[n][1]
+            self.error(st.field_locs[0], f"node {n} has two X lines (lines {first.loc.line} and "
+                                         f"{st.loc.line})", st)
+            return
+        self.positions[n] = (tuple(st.fields[1:4]), st)
+
+    def model_size(self) -> float:
+        if not self.positions:
+            return 1.0
+        x = np.array([xyz for xyz, _ in self.positions.values()], dtype=float)
+        with np.errstate(over="ignore", invalid="ignore"):
+            size = max(float(np.ptp(x, axis=0).max()), float(np.abs(x).max()))
+        return size if 0 < size < np.inf else 1.0
+
+    def beam(self, st: Statement, scale: float) -> None:
+        b = _Beam(st)
+        ok = True
+        if b.id in self.beams:
+            first = self.beams[b.id].st
+            self.error(st.field_locs[0], f"element {b.id} is defined twice (lines "
+                                         f"{first.loc.line} and {st.loc.line})", st)
+            return
+        if b.id in self.foreign_elements:
+            self.error(st.field_locs[0], f"element number {b.id} is also used by an "
+                                         "unsupported element", st)
+        for i, slot in ((1, "p"), (3, "q")):
+            n = st.fields[i]
+            if n not in self.positions:
+                ok = False
+                msg = f"element {b.id}: position node {n} (at {slot}) has no X line"
+                use = self.orientation_use.get(n)
+                if use is not None:
+                    msg += (f"; node {n} is used as an orientation node (line {use.loc.line})")
+                self.error(st.field_locs[i], msg, st)
+        for i, slot in ((2, "p"), (4, "q")):
+            n = st.fields[i]
+            if n in self.positions:
+                ok = False
+                self.error(st.field_locs[i],
+                           f"element {b.id}: node {n} is a position node (X at line "
+                           f"{self.positions[n][1].loc.line}) and cannot be the orientation "
+                           f"node at {slot}", st)
+        self.beams[b.id] = b
+        if not ok:
+            return
+        xp = np.array(self.positions[b.p][0])
+        xq = np.array(self.positions[b.q][0])
+        axis = xq - xp
+        length = float(np.linalg.norm(axis))
+        if length <= ZERO_LENGTH_RTOL * scale:
+            self.error(st.loc, f"element {b.id} has zero length: nodes {b.p} and {b.q} are at "
+                               "the same position", st)
+            return
+        if len(st.fields) >= 8:
+            o = np.array(b.orientation, dtype=float)
+            norm = float(np.linalg.norm(o))
+            shown = "(" + ", ".join(f"{v:g}" for v in o) + ")"
+            if norm < ORIENTATION_TOL:
+                self.error(st.field_locs[5], f"element {b.id}: the orientation vector {shown} "
+                                             "is (nearly) zero", st)
+            elif np.linalg.norm(np.cross(axis / length, o)) < ORIENTATION_TOL * norm:
+                self.error(st.field_locs[5],
+                           f"element {b.id}: the orientation vector {shown} is parallel to the "
+                           f"element axis (node {b.p} to node {b.q}); give the local y-axis, "
+                           "perpendicular to the element", st)
+
+    def element_for(self, st: Statement) -> _Beam | None:
+        """The BEAM an element-data record refers to; reports unknown elements."""
+        e = st.fields[0]
+        beam = self.beams.get(e)
+        if beam is None and e not in self.foreign_elements:
+            self.error(st.field_locs[0], f"{st.keyword}: element {e} is not defined "
+                                         "(no BEAM line)", st)
+        return beam
+
+    def deformation_class(self, st: Statement) -> None:
+        beam = self.element_for(st)
+        if beam is None:
+            return
+        e = beam.id
+        if len(st.fields) == 1:
+            self.error(st.loc, f"{st.keyword} {e}: expected deformation mode numbers after the "
+                               "element number (1 to 6 for a BEAM)", st)
+            return
+        cls, other = (FLEXIBLE, "RLSE") if st.keyword == "DYNE" else (RELEASED, "DYNE")
+        for i, k in enumerate(st.fields[1:], start=1):
+            if not 1 <= k <= 6:
+                self.error(st.field_locs[i], f"{st.keyword}: element {e} is a BEAM with "
+                                             f"deformation modes 1 to 6, got {k}", st)
+                continue
+            current = beam.def_class[k - 1]
+            if current not in (RIGID, cls):
+                self.error(st.field_locs[i],
+                           f"element {e} mode {k} is listed in both {other} (line "
+                           f"{beam.class_line[k - 1]}) and {st.keyword} (line {st.loc.line})",
+                           st)
+                continue
+            beam.def_class[k - 1] = cls
+            beam.class_line[k - 1] = st.loc.line
+            if cls == FLEXIBLE:
+                beam.flex_locs.setdefault(k, st.field_locs[i])
+
+    def _repeated(self, st: Statement, first: Statement | None) -> bool:
+        if first is not None:
+            self.error(st.loc, f"{st.keyword} for element {st.fields[0]} is given twice "
+                               f"(lines {first.loc.line} and {st.loc.line})", st)
+            return True
+        return False
+
+    def estiff(self, st: Statement) -> None:
+        beam = self.element_for(st)
+        if beam is None or self._repeated(st, beam.estiff):
+            return
+        beam.estiff = st
+        values = st.fields[1:]
+        if len(values) < 4:
+            self.error(st.loc, f"ESTIFF {beam.id}: a BEAM needs EA GJ EIy EIz [cy cz] "
+                               f"(4 to 6 values), got {len(values)}", st)
+            return
+        if len(values) == 7:
+            self.warnings.append(f"{st.loc}: ESTIFF {beam.id}: the 7th value ({values[6]:g}) "
+                                 "is ignored for a BEAM (it is the warping stiffness of BEAMW)")
+        for i, v in enumerate(values[:6]):
+            if v < 0:
+                self.error(st.field_locs[i + 1], f"ESTIFF {beam.id}: {_STIFFNESS_NAMES[i]} must "
+                                                 f"not be negative, got {v:g}", st)
+        beam.stiffness = tuple(values[:6]) + (0.0,) * (6 - len(values[:6]))
+
+    def em(self, st: Statement) -> None:
+        beam = self.element_for(st)
+        if beam is None or self._repeated(st, beam.em):
+            return
+        beam.em = st
+        values = st.fields[1:]
+        if not values:
+            self.error(st.loc, f"EM {beam.id}: a BEAM needs at least the mass per unit length "
+                               "rhoA", st)
+            return
+        for i, v in enumerate(values[:4]):
+            if v < 0:
+                self.error(st.field_locs[i + 1], f"EM {beam.id}: {_MASS_NAMES[i]} must not be "
+                                                 f"negative, got {v:g}", st)
+        beam.mass = tuple(values[:5]) + (0.0,) * (5 - len(values[:5]))
+
+    def check_flexible_stiffness(self) -> None:
+        for beam in self.beams.values():
+            modes = sorted(beam.flex_locs)
+            if not modes:
+                continue
+            if beam.estiff is None:
+                loc = beam.flex_locs[modes[0]]
+                what = (f"mode {modes[0]} is" if len(modes) == 1
+                        else "modes " + " ".join(map(str, modes)) + " are")
+                self.error(loc, f"element {beam.id} {what} flexible (DYNE) but "
+                                f"{'has' if len(modes) == 1 else 'have'} no stiffness: add "
+                                f"ESTIFF {beam.id} EA GJ EIy EIz", self._line_at(loc))
+                continue
+            if len(beam.estiff.fields) < 5:
+                continue   # already reported: too few ESTIFF values
+            zero = [k for k in modes if beam.stiffness[_MODE_STIFFNESS[k - 1]] == 0]
+            if zero:
+                k = zero[0]
+                names = sorted({_STIFFNESS_NAMES[_MODE_STIFFNESS[m - 1]] for m in zero},
+                               key=_STIFFNESS_NAMES.index)
+                what = (f"mode {k} is" if len(zero) == 1
+                        else "modes " + " ".join(map(str, zero)) + " are")
+                self.error(beam.flex_locs[k],
+                           f"element {beam.id} {what} flexible (DYNE) but the stiffness "
+                           f"{' '.join(names)} is zero in ESTIFF (line "
+                           f"{beam.estiff.loc.line})", self._line_at(beam.flex_locs[k]))
+
+    def _line_at(self, loc: SourceLoc) -> Statement | None:
+        return self.by_line.get(loc.line)
+
+    def fix(self, st: Statement) -> None:
+        n = st.fields[0]
+        kind = self.node_kind(n)
+        if kind is None:
+            if n not in self.foreign_nodes:
+                self.error(st.field_locs[0], f"FIX: node {n} is not defined (no X line and not "
+                                             "used by any element)", st)
+            return
+        size = 3 if kind == "position" else 4
+        coords = set()
+        for i, c in enumerate(st.fields[1:], start=1):
+            if not 1 <= c <= size:
+                self.error(st.field_locs[i], f"FIX: node {n} is a {kind} node with coordinates "
+                                             f"1 to {size}, got {c}", st)
+            else:
+                coords.add(c)
+        if len(st.fields) == 1:
+            coords = set(range(1, size + 1))
+        if n in self.fixes:
+            self.fixes[n][0].update(coords)
+        else:
+            self.fixes[n] = (coords, st.loc)
+
+    def load(self, st: Statement) -> None:
+        n = st.fields[0]
+        if self.node_kind(n) is None:
+            if n not in self.foreign_nodes:
+                self.error(st.field_locs[0], f"{st.keyword}: node {n} is not defined (no X line "
+                                             "and not used by any element)", st)
+            return
+        self.loads.append(Load(node=n, kind=st.keyword, value=tuple(float(v) for v in
+                                                                   st.fields[1:4]), loc=st.loc))
+
+    def iterstep_line(self, st: Statement) -> None:
+        if not self.once(st):
+            return
+        f = st.fields
+        max_iter, n_steps = f[0], f[1]
+        ok = True
+        if max_iter < 1:
+            self.error(st.field_locs[0], f"ITERSTEP: the maximum number of iterations must be "
+                                         f"at least 1, got {max_iter}", st)
+            ok = False
+        if n_steps < 0:
+            self.error(st.field_locs[1], f"ITERSTEP: the number of load steps must not be "
+                                         f"negative, got {n_steps}", st)
+            ok = False
+        tol = f[2] if len(f) > 2 else IterStep.tol
+        if tol <= 0:
+            self.error(st.field_locs[2], f"ITERSTEP: the tolerance must be positive, got {tol:g}",
+                       st)
+            ok = False
+        n_init = f[5] if len(f) > 5 else 1
+        if n_init < 0:
+            self.error(st.field_locs[5], f"ITERSTEP: the number of initial-load steps must not "
+                                         f"be negative, got {n_init}", st)
+            ok = False
+        if ok:
+            self.iterstep = IterStep(max_iter=max_iter, n_steps=max(n_steps, 1), tol=float(tol),
+                                     n_init=max(n_init, 1), extra=tuple(f[3:5]), loc=st.loc)
+
+    def mode_line(self, st: Statement) -> None:
+        if not self.once(st):
+            return
+        value = resolve_analysis(st.fields[0])
+        if value is None:
+            self.error(st.field_locs[0], f"MODE: unknown analysis '{st.fields[0]}'; expected "
+                                         f"{_valid_modes()}", st)
+        self.analysis = value
+
+    def deformations_line(self, st: Statement) -> None:
+        if not self.once(st):
+            return
+        value = resolve_deformations(st.fields[0])
+        if value is None:
+            self.error(st.field_locs[0], f"DEFORMATIONS: unknown variant '{st.fields[0]}'; "
+                                         f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
+        self.deformations = value
+
+    def overrides(self, deformations, analysis) -> None:
+        if analysis is not None:
+            value = resolve_analysis(analysis)
+            if value is None:
+                self.error(None, f"unknown analysis '{analysis}'; expected {_valid_modes()}")
+            self.analysis = value
+        if deformations is not None:
+            value = resolve_deformations(deformations)
+            if value is None:
+                self.error(None, f"unknown deformation variant '{deformations}'; expected "
+                                 f"{' or '.join(DEFORMATION_VARIANTS)}")
+            self.deformations = value
+
+    def warn_unconnected(self) -> None:
+        used = {n for b in self.beams.values() for n in (b.p, b.q)}
+        for n, (_, st) in self.positions.items():
+            if n not in used:
+                self.warnings.append(f"{st.loc}: position node {n} is not connected to any "
+                                     "element")
+
+    def model(self, text: str) -> Model:
+        beams = list(self.beams.values())
+        n = len(beams)
+        beam_set = BeamSet(
+            ids=[b.id for b in beams],
+            nodes=[[b.p, b.r, b.q, b.s] for b in beams] if n else np.zeros((0, 4), int),
+            orientation=[b.orientation for b in beams] if n else np.zeros((0, 3)),
+            def_class=[b.def_class for b in beams] if n else np.zeros((0, 6), np.int8),
+            stiffness=[b.stiffness for b in beams] if n else np.zeros((0, 6)),
+            has_stiffness=[b.estiff is not None for b in beams],
+            mass=[b.mass for b in beams] if n else np.zeros((0, 5)),
+            locs=[b.st.loc for b in beams],
+        )
+        ids = list(self.positions)
+        x0 = [self.positions[k][0] for k in ids] if ids else np.zeros((0, 3))
+        return Model(
+            position_ids=ids,
+            position_x0=x0,
+            orientation_ids=sorted(self.orientation_use),
+            beams=beam_set,
+            fixes=[Fix(node=k, coords=tuple(sorted(c)), loc=loc)
+                   for k, (c, loc) in self.fixes.items()],
+            loads=self.loads,
+            iterstep=self.iterstep or IterStep(),
+            analysis=self.analysis or "static",
+            deformations=self.deformations or "modified",
+            source_path=self.path,
+            source_text=text,
+        )
+
+
+def build_model(statements, *, text: str, path: str, deformations: str | None = None,
+                analysis: str | None = None) -> Model:
+    """Build and validate a Model from parsed deck statements.
+
+    Parameters
+    ----------
+    statements : list of Statement
+        From :func:`spacarpy.deck.parse_deck`.
+    text, path : str
+        The deck text and where it came from (stored in the model).
+    deformations, analysis : str, optional
+        Command-line choices; they override the deck's DEFORMATIONS / MODE lines. ``analysis``
+        takes a name or a SPACAR mode number as text.
+
+    Returns
+    -------
+    Model
+
+    Raises
+    ------
+    DeckError
+        With every problem found, ordered by line (problems without a location first).
+    """
+    statements = list(statements)
+    builder = _ModelBuilder(path, statements)
+    return builder.build(statements, deformations, analysis, text)
