@@ -91,3 +91,38 @@ class BorderedPattern:
 def scatter_add(n: int, idx: np.ndarray, vals: np.ndarray) -> np.ndarray:
     """Sum per-element vectors into a global vector: ``out[idx] += vals`` with repeats."""
     return np.bincount(idx.ravel(), weights=vals.ravel(), minlength=n)
+
+
+class BlockPattern:
+    """CSC structure and scatter map of a square matrix built from batches of dense blocks.
+
+    Parameters
+    ----------
+    n : int
+        Matrix size.
+    index_blocks : list of (n_b, k_b) int arrays
+        For each batch, the global row/column index of every local entry of its (k_b, k_b)
+        blocks; -1 drops the row/column (a fixed coordinate).
+    """
+
+    def __init__(self, n: int, index_blocks):
+        self.n = n
+        rows = [np.repeat(ix, ix.shape[1], axis=1).ravel() for ix in index_blocks]
+        cols = [np.tile(ix, (1, ix.shape[1])).ravel() for ix in index_blocks]
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        self.valid = (rows >= 0) & (cols >= 0)
+        key = cols[self.valid] * n + rows[self.valid]
+        uniq, self.scatter = np.unique(key, return_inverse=True)
+        self.indices = (uniq % n).astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(uniq // n, minlength=n))]
+                                     ).astype(np.int32)
+        self.nnz = uniq.size
+        self.diag = np.flatnonzero(self.indices == np.repeat(np.arange(n), np.diff(self.indptr)))
+
+    def assemble(self, blocks, diag_shift: float = 0.0) -> sp.csc_matrix:
+        """Fill the pattern with ``blocks`` (one (n_b, k_b, k_b) array per batch)."""
+        vals = np.concatenate([b.ravel() for b in blocks])
+        data = np.bincount(self.scatter, weights=vals[self.valid], minlength=self.nnz)
+        if diag_shift:
+            data[self.diag] += diag_shift
+        return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))

@@ -35,7 +35,10 @@ e_hat depends on x only through 15 intermediate quantities
 ``n = R(q) v`` is a quadratic form in q (see :mod:`spacarpy.rotation`), so ``dy/dx`` is
 linear in x and ``d^2y/dx^2`` constant. The chain rule then gives D and H exactly:
 ``D_hat = G Y``, ``H_hat(w) = Y^T (sum_j w_j d^2 e_hat_j/dy^2) Y + sum_k c_k d^2 y_k/dx^2``
-with ``G = de_hat/dy``, ``Y = dy/dx`` and ``c = G^T w``. The modified deformations are a
+with ``G = de_hat/dy``, ``Y = dy/dx`` and ``c = G^T w``. Y is block sparse (d depends on the
+positions only, the nodal vectors of p on q^p only, those of q on q^q only) and the weighted
+second derivative in y has only the blocks d-d, d-p, d-q and p-q, so both products are
+evaluated block by block on 3x3 to 6x6 matrices instead of 15x14. The modified deformations are a
 quadratic map ``e_i = e_hat_i + e_hat^T Q_i e_hat / (2 l0)`` of the basic ones (Eq. 48b),
 differentiated once more by the chain rule.
 """
@@ -146,7 +149,8 @@ class BeamState(NamedTuple):
     # intermediates for the second derivatives
     y: np.ndarray          # (n, 15)
     G: np.ndarray          # (n, 6, 15)  de_hat/dy
-    Y: np.ndarray          # (n, 15, 14) dy/dx
+    Yp: np.ndarray         # (n, 6, 4) d[n_y^p, n_z^p]/dq^p
+    Yq: np.ndarray         # (n, 6, 4) d[n_y^q, n_z^q]/dq^q
     n1: np.ndarray         # (n, 3) unit chord
     length: np.ndarray     # (n,) current chord length
     l0: np.ndarray         # (n,)
@@ -171,23 +175,18 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     d = x[:, RQ] - x[:, RP]
     hy, hz = quadratic_form(ny), quadratic_form(nz)
     # nodal vectors n = q^T H q and their derivatives 2 H q
-    dnyp = 2.0 * np.einsum("nkab,nb->nka", hy, qp)
-    dnzp = 2.0 * np.einsum("nkab,nb->nka", hz, qp)
-    dnyq = 2.0 * np.einsum("nkab,nb->nka", hy, qq)
-    dnzq = 2.0 * np.einsum("nkab,nb->nka", hz, qq)
-    nyp = 0.5 * np.einsum("nka,na->nk", dnyp, qp)
-    nzp = 0.5 * np.einsum("nka,na->nk", dnzp, qp)
-    nyq = 0.5 * np.einsum("nka,na->nk", dnyq, qq)
-    nzq = 0.5 * np.einsum("nka,na->nk", dnzq, qq)
+    dnyp = 2.0 * _matvec(hy, qp[:, None, :])          # (n, 3, 4)
+    dnzp = 2.0 * _matvec(hz, qp[:, None, :])
+    dnyq = 2.0 * _matvec(hy, qq[:, None, :])
+    dnzq = 2.0 * _matvec(hz, qq[:, None, :])
+    nyp = 0.5 * _matvec(dnyp, qp)
+    nzp = 0.5 * _matvec(dnzp, qp)
+    nyq = 0.5 * _matvec(dnyq, qq)
+    nzq = 0.5 * _matvec(dnzq, qq)
     y = np.concatenate([d, nyp, nzp, nyq, nzq], axis=1)
 
-    Y = np.zeros((n, 15, N_LDOF))
-    Y[:, YD, RP] = -np.eye(3)
-    Y[:, YD, RQ] = np.eye(3)
-    Y[:, YNYP, QP] = dnyp
-    Y[:, YNZP, QP] = dnzp
-    Y[:, YNYQ, QQ] = dnyq
-    Y[:, YNZQ, QQ] = dnzq
+    Yp = np.concatenate([dnyp, dnzp], axis=1)
+    Yq = np.concatenate([dnyq, dnzq], axis=1)
 
     length = np.linalg.norm(d, axis=1)
     n1 = d / length[:, None]
@@ -208,18 +207,22 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
         e_hat[:, j] = s * l0 * proj
         G[:, j, YD] = s * lc * (av - proj[:, None] * n1) / length[:, None]
         G[:, j, sl] = s * lc * n1
-    D_hat = np.einsum("nik,nkl->nil", G, Y)
+    D_hat = np.empty((n, 6, N_LDOF))
+    D_hat[:, :, RP] = -G[:, :, YD]
+    D_hat[:, :, RQ] = G[:, :, YD]
+    D_hat[:, :, QP] = G[:, :, 3:9] @ Yp
+    D_hat[:, :, QQ] = G[:, :, 9:15] @ Yq
 
     if variant == "basic":
         e, D, J = e_hat, D_hat, None
     elif variant == "modified":
-        qe = np.einsum("iab,nb->nia", Q_MODIFIED, e_hat) / lc[:, :, None]   # (n, 6, 6)
-        e = e_hat + 0.5 * np.einsum("nia,na->ni", qe, e_hat)
+        qe = (e_hat @ Q_MODIFIED.reshape(36, 6).T).reshape(n, 6, 6) / lc[:, :, None]
+        e = e_hat + 0.5 * _matvec(qe, e_hat)
         J = np.eye(6) + qe
-        D = np.einsum("nij,njl->nil", J, D_hat)
+        D = J @ D_hat
     else:
         raise ValueError(f"unknown deformation variant {variant!r}")
-    return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Y=Y, n1=n1,
+    return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Yp=Yp, Yq=Yq, n1=n1,
                      length=length, l0=l0, Hy=hy, Hz=hz)
 
 
@@ -234,44 +237,64 @@ def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
     lc = st.l0[:, None]
     if st.J is not None:
         # e = e_hat + e_hat^T Q e_hat / (2 l0): weights on e_hat and the quadratic part
-        w_hat = np.einsum("nij,ni->nj", st.J, w)
-        qw = np.einsum("iab,ni->nab", Q_MODIFIED, w) / lc[:, :, None]
-        extra = np.einsum("nal,nab,nbm->nlm", st.D_hat, qw, st.D_hat)
+        w_hat = _matvec(st.J.transpose(0, 2, 1), w)
+        qw = (w @ Q_MODIFIED.reshape(6, 36)).reshape(n, 6, 6) / lc[:, :, None]
+        extra = st.D_hat.transpose(0, 2, 1) @ (qw @ st.D_hat)
     else:
         w_hat, extra = w, None
 
-    # second derivatives of e_hat with respect to y, weighted
-    hy = np.zeros((n, 15, 15))
+    # weighted second derivatives of e_hat with respect to y, by blocks:
+    # hdd (d, d), hdp (d, [n_y^p n_z^p]), hdq (d, [n_y^q n_z^q]), hpq (p vectors, q vectors)
     length, n1, y = st.length, st.n1, st.y
-    proj_op = np.eye(3) - np.einsum("ni,nj->nij", n1, n1)          # (n,3,3)
-    hy[:, YD, YD] += (w_hat[:, 0] / length)[:, None, None] * proj_op
-    c2 = (0.5 * st.l0 * w_hat[:, 1])[:, None, None] * np.eye(3)
-    hy[:, YNZP, YNYQ] += c2
-    hy[:, YNYQ, YNZP] += c2
-    hy[:, YNYP, YNZQ] -= c2
-    hy[:, YNZQ, YNYP] -= c2
+    outer = n1[:, :, None] * n1[:, None, :]
+    proj_op = np.eye(3) - outer                                       # (n,3,3)
+    hdd = (w_hat[:, 0] / length)[:, None, None] * proj_op
+    hdp = np.zeros((n, 3, 6))
+    hdq = np.zeros((n, 3, 6))
     for j, s, sl, _ in _BENDING:
         coef = s * st.l0 * w_hat[:, j]
         a = y[:, sl]
-        pa = np.sum(n1 * a, axis=1)
-        dd = (-(np.einsum("ni,nj->nij", a, n1) + np.einsum("ni,nj->nij", n1, a))
-              - pa[:, None, None] * np.eye(3)
-              + 3.0 * pa[:, None, None] * np.einsum("ni,nj->nij", n1, n1))
-        hy[:, YD, YD] += (coef / length**2)[:, None, None] * dd
-        da = (coef / length)[:, None, None] * proj_op
-        hy[:, YD, sl] += da
-        hy[:, sl, YD] += da
+        pa = np.sum(n1 * a, axis=1)[:, None, None]
+        an1 = a[:, :, None] * n1[:, None, :]
+        dd = -(an1 + an1.transpose(0, 2, 1)) - pa * np.eye(3) + 3.0 * pa * outer
+        hdd += (coef / length**2)[:, None, None] * dd
+        block = hdp if sl.start < 9 else hdq
+        col = (sl.start - 3) % 6                                      # 0: n_y, 3: n_z
+        block[:, :, col:col + 3] = (coef / length)[:, None, None] * proj_op
+    c2 = (0.5 * st.l0 * w_hat[:, 1])[:, None, None] * np.eye(3)
+    hpq = np.zeros((n, 6, 6))
+    hpq[:, 3:6, 0:3] = c2                                             # n_z^p . n_y^q
+    hpq[:, 0:3, 3:6] = -c2                                            # n_y^p . n_z^q
 
-    hx = np.einsum("nkl,nkm,nmp->nlp", st.Y, hy, st.Y)
+    hx = np.zeros((n, N_LDOF, N_LDOF))
+    hx[:, RP, RP] = hx[:, RQ, RQ] = hdd
+    hx[:, RP, RQ] = hx[:, RQ, RP] = -hdd
+    dp = hdp @ st.Yp                                                  # (n,3,4)
+    dq = hdq @ st.Yq
+    hx[:, RP, QP], hx[:, RQ, QP] = -dp, dp
+    hx[:, RP, QQ], hx[:, RQ, QQ] = -dq, dq
+    pq = st.Yp.transpose(0, 2, 1) @ (hpq @ st.Yq)                     # (n,4,4)
+    hx[:, QP, QQ] = pq
+    hx[:, QP, RP], hx[:, QP, RQ] = -dp.transpose(0, 2, 1), dp.transpose(0, 2, 1)
+    hx[:, QQ, RP], hx[:, QQ, RQ] = -dq.transpose(0, 2, 1), dq.transpose(0, 2, 1)
+    hx[:, QQ, QP] = pq.transpose(0, 2, 1)
     # the nodal vectors are quadratic in q: d^2 n_k/dq^2 = 2 H_k
-    c = np.einsum("nj,njk->nk", w_hat, st.G)                          # (n, 15)
-    hx[:, QP, QP] += 2.0 * (np.einsum("nk,nkab->nab", c[:, YNYP], st.Hy)
-                            + np.einsum("nk,nkab->nab", c[:, YNZP], st.Hz))
-    hx[:, QQ, QQ] += 2.0 * (np.einsum("nk,nkab->nab", c[:, YNYQ], st.Hy)
-                            + np.einsum("nk,nkab->nab", c[:, YNZQ], st.Hz))
+    c = _matvec(st.G.transpose(0, 2, 1), w_hat)                       # (n, 15)
+    hx[:, QP, QP] += 2.0 * (_combine(c[:, YNYP], st.Hy) + _combine(c[:, YNZP], st.Hz))
+    hx[:, QQ, QQ] += 2.0 * (_combine(c[:, YNYQ], st.Hy) + _combine(c[:, YNZQ], st.Hz))
     if extra is not None:
         hx += extra
     return hx
+
+
+def _matvec(a: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Batched matrix-vector product ``a[..., i, j] v[..., j]`` through matmul (BLAS)."""
+    return (a @ v[..., None])[..., 0]
+
+
+def _combine(c: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """``sum_k c[n, k] h[n, k, :, :]`` for c (n, 3), h (n, 3, 4, 4)."""
+    return (c[:, None, :] @ h.reshape(h.shape[0], 3, 16)).reshape(-1, 4, 4)
 
 
 def beam_deformations(x, ny, nz, l0, variant="modified") -> np.ndarray:

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from spacarpy.assembly import BorderedPattern, scatter_add
+from spacarpy.assembly import BlockPattern, BorderedPattern, scatter_add
 from spacarpy.elements.beam import beam_state, beam_weighted_hessian
 from spacarpy.errors import ConvergenceError, SolverError
 from spacarpy.model import RIGID, Model
@@ -126,6 +126,10 @@ class StaticProblem:
         self.loads = Loads(model, self.num)
         self.pattern = BorderedPattern(self.num, self.loads.moment_rot)
         num = self.num
+        self.kin_pattern = BlockPattern(num.n_unknown, [num.unknown_of[num.beam_idx],
+                                                        num.unknown_of[num.rot_idx[num.euler_nodes]]])
+        self.kinematic_correction = True
+        self._initial_check = False
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
         self.rigid_mask = model.beams.def_class == RIGID
@@ -142,9 +146,9 @@ class StaticProblem:
         num = self.num
         t0 = time.perf_counter()
         st = beam_state(x[num.beam_idx], num.ny, num.nz, num.l0, self.variant)
-        sigma = np.einsum("nij,nj->ni", num.S, st.e)
+        sigma = (num.S @ st.e[:, :, None])[:, :, 0]
         sigma[num.rigid_elem, num.rigid_mode] = mu[: num.n_rigid]
-        f_el = np.einsum("nil,ni->nl", st.D, sigma)
+        f_el = (sigma[:, None, :] @ st.D)[:, 0, :]
         t1 = time.perf_counter()
         f_int = scatter_add(num.n_coord, num.beam_idx, f_el)
         q_eu = x[num.rot_idx[num.euler_nodes]]
@@ -166,7 +170,7 @@ class StaticProblem:
         num = self.num
         t0 = time.perf_counter()
         st = ev.st
-        k_el = np.einsum("nil,nij,njm->nlm", st.D, num.S, st.D)
+        k_el = st.D.transpose(0, 2, 1) @ (num.S @ st.D)
         k_el += beam_weighted_hessian(st, ev.sigma)
         t1 = time.perf_counter()
         mom_blocks = (-2.0 * moment_matrix(moment) if self.loads.moment_rot.size
@@ -251,6 +255,9 @@ class StaticProblem:
             history.append(res)
             if not np.isfinite(res):
                 raise _StepFailed("non-finite residual", history)
+            # converged: the last increment below the tolerance and the residual below the
+            # tolerance or at its round-off floor (with very short, stiff elements the force
+            # residual cannot be resolved better, while positions still are)
             if res <= max(opts.tol, floor) and (it == 0 or dx_norm <= opts.tol):
                 self._check_element_range(ev.st.e_hat)
                 return x, mu, it, res, history
@@ -261,7 +268,7 @@ class StaticProblem:
             A = self.matrix(ev, mu, moment)
             t0 = time.perf_counter()
             rhs = -np.concatenate([r, self.scale * c])
-            dz = self._solve(A, rhs, x)
+            dz = self._solve(A, rhs, x, history)
             self.timings.solve += time.perf_counter() - t0
             self.timings.iterations += 1
             dx = dz[: self.pattern.n_x]
@@ -274,10 +281,61 @@ class StaticProblem:
                 # Newton step any more, cut the load step instead of wandering off
                 if np.abs(dx[self.rot_mask[self.free]]).max(initial=0.0) > 0.5:
                     raise _StepFailed("increment too large", history)
-            x = x.copy()
-            x[self.free] += dx
+            x_lin = x.copy()
+            x_lin[self.free] += dx
+            if self.kinematic_correction:
+                x_lin = self.correct_kinematics(x_lin, x, dx, ev.st)
+            x = x_lin
             mu = mu + dmu
         raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
+
+    def correct_kinematics(self, x_lin, x_old, dx, st_old, max_iter: int = 3):
+        """Move the linearly updated configuration onto the deformations Newton predicted.
+
+        Newton's increment predicts every deformation to first order,
+        ``e_target = e(x_old) + D(x_old) dx``, and the Euler normalization ``q.q = 1``. The
+        linear position update itself, however, stretches every element that rotates
+        (by ``l0 theta^2 / 2``); with stiff axial or bending modes that artificial strain
+        makes the next residual enormous and Newton wanders (hundreds of iterations for a
+        finely meshed cantilever). Like SPACAR's kinematic analysis, this step restores the
+        geometry: a few Gauss-Newton iterations on ``e(x) = e_target``, ``q.q = 1`` in the
+        least-squares sense (rows scaled by 1/l0). Near the
+        solution the correction is of second order, so quadratic convergence is kept.
+        """
+        num = self.num
+        eu = num.rot_idx[num.euler_nodes]
+        xd = np.zeros(num.n_coord)
+        xd[self.free] = dx
+        target = st_old.e + _matvec(st_old.D, xd[num.beam_idx])
+        inv_l0 = 1.0 / num.l0[:, None]
+        x = x_lin
+        for _ in range(max_iter):
+            t0 = time.perf_counter()
+            st = beam_state(x[num.beam_idx], num.ny, num.nz, num.l0, self.variant)
+            q = x[eu]
+            g_e = (target - st.e) * inv_l0
+            g_q = 1.0 - np.sum(q * q, axis=1)
+            if max(np.abs(g_e).max(initial=0.0), np.abs(g_q).max(initial=0.0)) < 1e-14:
+                break
+            w_e = st.D * inv_l0[:, :, None]                     # (n, 6, 14)
+            t1 = time.perf_counter()
+            wq = 2.0 * q
+            m = self.kin_pattern.assemble(
+                [w_e.transpose(0, 2, 1) @ w_e, wq[:, :, None] * wq[:, None, :]],
+                diag_shift=1e-12)
+            rhs = (scatter_add(num.n_coord, num.beam_idx, _matvec(w_e.transpose(0, 2, 1), g_e))
+                   + scatter_add(num.n_coord, eu, wq * g_q[:, None]))[self.free]
+            t2 = time.perf_counter()
+            try:
+                lu = spla.splu(m, permc_spec="COLAMD")
+            except RuntimeError:
+                return x_lin                       # no correction possible: plain Newton
+            x = x.copy()
+            x[self.free] += lu.solve(rhs)
+            self.timings.kernels += t1 - t0
+            self.timings.assembly += t2 - t1
+            self.timings.solve += time.perf_counter() - t2
+        return x
 
     def _check_element_range(self, e_hat):
         rel = np.abs(e_hat[:, 1:]) / self.num.l0[:, None]
@@ -290,16 +348,18 @@ class StaticProblem:
                 f"The deformation measures of Eq. (7) saturate at 90 degrees, so this state is "
                 f"not a valid beam solution; use more elements.")
 
-    def _solve(self, A, rhs, x):
+    def _solve(self, A, rhs, x, history=()):
         try:
             lu = spla.splu(A, permc_spec="COLAMD")
-        except RuntimeError as exc:           # "Factor is exactly singular"
-            from spacarpy.solvers.diagnose import singular_matrix_error
-            raise singular_matrix_error(self, A, x) from exc
-        dz = lu.solve(rhs)
-        if not np.all(np.isfinite(dz)):
-            from spacarpy.solvers.diagnose import singular_matrix_error
-            raise singular_matrix_error(self, A, x)
+            dz = lu.solve(rhs)
+        except RuntimeError:                  # "Factor is exactly singular"
+            dz = None
+        if dz is None or not np.all(np.isfinite(dz)):
+            if self._initial_check:
+                from spacarpy.solvers.diagnose import singular_matrix_error
+                raise singular_matrix_error(self, A, x)
+            # during the iterations: a limit point, a bifurcation or a bad iterate
+            raise _StepFailed("singular Newton matrix", list(history))
         return dz
 
     def check_initial(self):
@@ -315,7 +375,11 @@ class StaticProblem:
         zero_moment = np.zeros((self.loads.moment_rot.size, 3))
         ev = self.evaluate(x, mu, zero_force, zero_moment)
         if self.pattern.n:
-            self._solve(self.matrix(ev, mu, zero_moment), np.zeros(self.pattern.n), x)
+            self._initial_check = True
+            try:
+                self._solve(self.matrix(ev, mu, zero_moment), np.ones(self.pattern.n), x)
+            finally:
+                self._initial_check = False
 
     def normalize(self, x):
         """Project Euler parameters exactly onto q.q = 1 (after convergence)."""
@@ -324,6 +388,11 @@ class StaticProblem:
         q = x[idx]
         x[idx] = q / np.linalg.norm(q, axis=1)[:, None]
         return x
+
+
+def _matvec(a, v):
+    """Batched ``a[n] @ v[n]``."""
+    return (a @ v[..., None])[..., 0]
 
 
 @dataclass
