@@ -144,3 +144,66 @@ def test_rigid_modes_are_enforced_exactly_and_carry_the_stress_resultant():
     tip, mid = st.x[res.problem.num.pos_idx[2]], st.x[res.problem.num.pos_idx[1]]
     chord = (tip - mid) / np.linalg.norm(tip - mid)
     assert st.stress[1, 0] == pytest.approx(np.dot([50.0, 20.0, 0.0], chord), rel=1e-8)
+
+
+def moment_cantilever(n, variant, moment, EI=1.0, EA=1e7, L=1.0):
+    pos = np.arange(n + 1) * 2 + 1
+    rot = pos + 1
+    x0 = np.zeros((n + 1, 3))
+    x0[:, 0] = np.linspace(0, L, n + 1)
+    beams = BeamSet(ids=np.arange(1, n + 1), nodes=np.stack([pos[:-1], rot[:-1], pos[1:],
+                                                            rot[1:]], 1),
+                    orientation=np.tile([0, 1.0, 0], (n, 1)), def_class=np.ones((n, 6)),
+                    stiffness=np.tile([EA, EI, EI, EI, 0, 0], (n, 1)),
+                    has_stiffness=np.ones(n, bool))
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
+                 fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
+                 loads=[Load(int(rot[-1]), "DELXF", (0, 0, moment))],
+                 iterstep=IterStep(max_iter=20, n_steps=8, tol=1e-10), deformations=variant)
+
+
+@pytest.mark.parametrize("variant", ["modified", "basic"])
+def test_tip_moment_bends_the_cantilever_into_the_exact_circular_arc(variant):
+    """A dead tip moment M = EI theta / L bends a cantilever into an arc of angle theta:
+    tip at (sin theta, 1 - cos theta) L / theta, tip rotation theta. The DDM solution
+    converges to it with order 2."""
+    theta = np.pi / 2
+    exact = np.array([np.sin(theta), 1 - np.cos(theta), 0.0]) / theta
+    errors, rot_errors = [], []
+    for n in (8, 16, 32):
+        res = solve_static(moment_cantilever(n, variant, theta))
+        x = res.steps[-1].x
+        errors.append(np.linalg.norm(x[res.problem.num.pos_idx[-1]] - exact))
+        q = x[res.problem.num.rot_idx[-1]]
+        assert abs(q[1]) < 1e-12 and abs(q[2]) < 1e-12           # stays in the x-y plane
+        rot_errors.append(abs(2 * np.arctan2(q[3], q[0]) - theta))
+    for err, bound in ((errors, 3.5e-4), (rot_errors, 7e-4)):
+        order = np.log2(np.array(err[:-1]) / err[1:])
+        assert np.all((order > 1.95) & (order < 2.1)), order
+        assert err[-1] < bound
+
+
+def test_newton_matrix_equals_finite_differences_of_the_residual():
+    """The tangent K_T (material + geometric + Euler multipliers + moment-load part N0) and
+    the constraint gradients, at a deformed state with random multipliers and a moment."""
+    model = moment_cantilever(3, "modified", 0.7, EA=50.0)
+    model.loads.append(Load(5, "DELXF", (0.3, -0.2, 0.4)))
+    from spacarpy.solvers.static import StaticProblem
+    prob = StaticProblem(model)
+    num = prob.num
+    rng = np.random.default_rng(5)
+    x = num.x0.copy()
+    x[prob.free] += 0.05 * rng.normal(size=num.n_unknown)
+    mu = rng.normal(size=num.n_constraint)
+    force, moment = prob.loads.at(1.0, 1.0)
+    a = prob.matrix(prob.evaluate(x, mu, force, moment), mu, moment).toarray()
+    n_x = prob.pattern.n_x
+    h = 1e-6
+    fd = np.zeros((a.shape[0], n_x))
+    for k in range(n_x):
+        xp, xm = x.copy(), x.copy()
+        xp[np.flatnonzero(prob.free)[k]] += h
+        xm[np.flatnonzero(prob.free)[k]] -= h
+        ep, em = prob.evaluate(xp, mu, force, moment), prob.evaluate(xm, mu, force, moment)
+        fd[:, k] = np.concatenate([ep.r - em.r, prob.scale * (ep.c - em.c)]) / (2 * h)
+    np.testing.assert_allclose(a[:, :n_x], fd, atol=1e-6 * np.abs(a).max())
