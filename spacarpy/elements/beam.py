@@ -48,6 +48,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import quadratic_form
 
 N_LDOF = 14
@@ -175,14 +176,14 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     d = x[:, RQ] - x[:, RP]
     hy, hz = quadratic_form(ny), quadratic_form(nz)
     # nodal vectors n = q^T H q and their derivatives 2 H q
-    dnyp = 2.0 * _matvec(hy, qp[:, None, :])          # (n, 3, 4)
-    dnzp = 2.0 * _matvec(hz, qp[:, None, :])
-    dnyq = 2.0 * _matvec(hy, qq[:, None, :])
-    dnzq = 2.0 * _matvec(hz, qq[:, None, :])
-    nyp = 0.5 * _matvec(dnyp, qp)
-    nzp = 0.5 * _matvec(dnzp, qp)
-    nyq = 0.5 * _matvec(dnyq, qq)
-    nzq = 0.5 * _matvec(dnzq, qq)
+    dnyp = 2.0 * batch_matvec(hy, qp[:, None, :])          # (n, 3, 4)
+    dnzp = 2.0 * batch_matvec(hz, qp[:, None, :])
+    dnyq = 2.0 * batch_matvec(hy, qq[:, None, :])
+    dnzq = 2.0 * batch_matvec(hz, qq[:, None, :])
+    nyp = 0.5 * batch_matvec(dnyp, qp)
+    nzp = 0.5 * batch_matvec(dnzp, qp)
+    nyq = 0.5 * batch_matvec(dnyq, qq)
+    nzq = 0.5 * batch_matvec(dnzq, qq)
     y = np.concatenate([d, nyp, nzp, nyq, nzq], axis=1)
 
     Yp = np.concatenate([dnyp, dnzp], axis=1)
@@ -217,7 +218,7 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
         e, D, J = e_hat, D_hat, None
     elif variant == "modified":
         qe = (e_hat @ Q_MODIFIED.reshape(36, 6).T).reshape(n, 6, 6) / lc[:, :, None]
-        e = e_hat + 0.5 * _matvec(qe, e_hat)
+        e = e_hat + 0.5 * batch_matvec(qe, e_hat)
         J = np.eye(6) + qe
         D = J @ D_hat
     else:
@@ -237,7 +238,7 @@ def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
     lc = st.l0[:, None]
     if st.J is not None:
         # e = e_hat + e_hat^T Q e_hat / (2 l0): weights on e_hat and the quadratic part
-        w_hat = _matvec(st.J.transpose(0, 2, 1), w)
+        w_hat = batch_matvec(st.J.transpose(0, 2, 1), w)
         qw = (w @ Q_MODIFIED.reshape(6, 36)).reshape(n, 6, 6) / lc[:, :, None]
         extra = st.D_hat.transpose(0, 2, 1) @ (qw @ st.D_hat)
     else:
@@ -279,17 +280,12 @@ def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
     hx[:, QQ, RP], hx[:, QQ, RQ] = -dq.transpose(0, 2, 1), dq.transpose(0, 2, 1)
     hx[:, QQ, QP] = pq.transpose(0, 2, 1)
     # the nodal vectors are quadratic in q: d^2 n_k/dq^2 = 2 H_k
-    c = _matvec(st.G.transpose(0, 2, 1), w_hat)                       # (n, 15)
+    c = batch_matvec(st.G.transpose(0, 2, 1), w_hat)                       # (n, 15)
     hx[:, QP, QP] += 2.0 * (_combine(c[:, YNYP], st.Hy) + _combine(c[:, YNZP], st.Hz))
     hx[:, QQ, QQ] += 2.0 * (_combine(c[:, YNYQ], st.Hy) + _combine(c[:, YNZQ], st.Hz))
     if extra is not None:
         hx += extra
     return hx
-
-
-def _matvec(a: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Batched matrix-vector product ``a[..., i, j] v[..., j]`` through matmul (BLAS)."""
-    return (a @ v[..., None])[..., 0]
 
 
 def _combine(c: np.ndarray, h: np.ndarray) -> np.ndarray:

@@ -39,7 +39,8 @@ import scipy.sparse.linalg as spla
 from spacarpy.assembly import BlockPattern, BorderedPattern, scatter_add
 from spacarpy.elements.beam import beam_state, beam_weighted_hessian
 from spacarpy.errors import ConvergenceError, SolverError
-from spacarpy.model import RIGID, Model
+from spacarpy.linalg import batch_matvec
+from spacarpy.model import Model
 from spacarpy.numbering import Numbering, number_model
 from spacarpy.rotation import lambda_matrix, moment_matrix
 
@@ -132,7 +133,6 @@ class StaticProblem:
         self._initial_check = False
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
-        self.rigid_mask = model.beams.def_class == RIGID
         self.timings = Timings()
         # balances the constraint rows of the saddle-point matrix and sets the residual's
         # round-off floor: the largest element stiffness entry (N/m)
@@ -306,7 +306,7 @@ class StaticProblem:
         eu = num.rot_idx[num.euler_nodes]
         xd = np.zeros(num.n_coord)
         xd[self.free] = dx
-        target = st_old.e + _matvec(st_old.D, xd[num.beam_idx])
+        target = st_old.e + batch_matvec(st_old.D, xd[num.beam_idx])
         inv_l0 = 1.0 / num.l0[:, None]
         x = x_lin
         for _ in range(max_iter):
@@ -323,7 +323,7 @@ class StaticProblem:
             m = self.kin_pattern.assemble(
                 [w_e.transpose(0, 2, 1) @ w_e, wq[:, :, None] * wq[:, None, :]],
                 diag_shift=1e-12)
-            rhs = (scatter_add(num.n_coord, num.beam_idx, _matvec(w_e.transpose(0, 2, 1), g_e))
+            rhs = (scatter_add(num.n_coord, num.beam_idx, batch_matvec(w_e.transpose(0, 2, 1), g_e))
                    + scatter_add(num.n_coord, eu, wq * g_q[:, None]))[self.free]
             t2 = time.perf_counter()
             try:
@@ -388,11 +388,6 @@ class StaticProblem:
         q = x[idx]
         x[idx] = q / np.linalg.norm(q, axis=1)[:, None]
         return x
-
-
-def _matvec(a, v):
-    """Batched ``a[n] @ v[n]``."""
-    return (a @ v[..., None])[..., 0]
 
 
 @dataclass
@@ -508,5 +503,4 @@ def _advance(prob, x, mu, p_from, p_to, n_sub, opts, stored_step):
     return x, mu, total_its, last_res
 
 
-__all__ = ["solve_static", "StaticProblem", "StaticStep", "StaticOptions", "StaticResult",
-           "SolverError"]
+__all__ = ["solve_static", "StaticProblem", "StaticStep", "StaticOptions", "StaticResult"]
