@@ -146,6 +146,18 @@ class IterStep:
     loc: SourceLoc | None = None
 
 
+@dataclass(frozen=True)
+class NodalMass:
+    """``XM`` line: a point mass on a position node (``values = (m,)``, kg) or an inertia
+    tensor on an orientation node (``values = (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)``, kg m^2,
+    tensor components in the node's body frame, which coincides with the global axes in
+    the initial configuration)."""
+
+    node: int
+    values: tuple
+    loc: SourceLoc | None = None
+
+
 @dataclass
 class Model:
     """A complete, validated spacarpy model.
@@ -162,6 +174,7 @@ class Model:
     fixes : list of Fix
     loads : list of Load
     iterstep : IterStep
+    nodal_masses : list of NodalMass
     analysis : str
         One of :data:`ANALYSES`.
     deformations : str
@@ -177,6 +190,7 @@ class Model:
     fixes: list = field(default_factory=list)
     loads: list = field(default_factory=list)
     iterstep: IterStep = field(default_factory=IterStep)
+    nodal_masses: list = field(default_factory=list)
     analysis: str = "static"
     deformations: str = "modified"
     source_path: str = "<model>"

@@ -24,10 +24,12 @@ def singular_matrix_error(prob, A, x) -> ModelError:
     n = A.shape[0]
     n_x = prob.pattern.n_x
     if n > DENSE_LIMIT:
-        return ModelError(
+        err = ModelError(
             f"the Newton matrix ({n} unknowns) is singular: the model is a mechanism or has "
             f"redundant constraints. It is too large for the detailed diagnosis "
             f"(limit {DENSE_LIMIT}); check the FIX lines and the DYNE/RLSE classes.")
+        err.mechanism, err.over_constrained = True, True
+        return err
     dense = A.toarray()
     u, s, vt = np.linalg.svd(dense)
     smax = s[0] if s.size and s[0] > 0 else 1.0
@@ -65,7 +67,9 @@ def singular_matrix_error(prob, A, x) -> ModelError:
     if not lines:
         lines.append("the Newton matrix is singular (numerically); no clear mechanism or "
                      "redundant constraint was identified")
-    return ModelError("the model cannot be solved: " + "\n  ".join(lines))
+    err = ModelError("the model cannot be solved: " + "\n  ".join(lines))
+    err.mechanism, err.over_constrained = bool(motions), bool(redundant)
+    return err
 
 
 def _constraint_name(num, model, k: int) -> str:

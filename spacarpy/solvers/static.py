@@ -38,7 +38,7 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, BorderedPattern, scatter_add
 from spacarpy.elements.beam import beam_state, beam_weighted_hessian
-from spacarpy.errors import ConvergenceError, SolverError
+from spacarpy.errors import ConvergenceError, ModelError, SolverError
 from spacarpy.linalg import batch_matvec
 from spacarpy.model import Model
 from spacarpy.numbering import Numbering, number_model
@@ -66,6 +66,7 @@ class StaticStep:
     reaction: np.ndarray      # (n_reac,)
     iterations: int
     residual: float
+    mu: np.ndarray | None = None   # (n_constraint,) constraint multipliers
 
 
 @dataclass
@@ -110,6 +111,7 @@ class Loads:
         self.moment_rot = loaded                            # orientation-node indices
         self.moment = {k: v[loaded] for k, v in moment.items()}
         self.has_xf = bool(np.any(self.force["XF"]) or np.any(self.moment["XF"]))
+        self.any = self.has_xf or bool(np.any(self.force["DELXF"]) or np.any(self.moment["DELXF"]))
 
     def at(self, a: float, s: float):
         """Force vector and moments (n_m, 3) for ``a * XF + s * DELXF``."""
@@ -165,17 +167,27 @@ class StaticProblem:
         self.timings.assembly += time.perf_counter() - t1
         return _Eval(st=st, sigma=sigma, r=r, c=c, f_int=f_int, f_ext=f_ext, q_eu=q_eu)
 
-    def matrix(self, ev: "_Eval", mu, moment):
-        """The bordered Newton matrix at an evaluated state (CSC)."""
+    def matrix(self, ev: "_Eval", mu, moment, material_only: bool = False):
+        """The bordered Newton matrix at an evaluated state (CSC).
+
+        With ``material_only`` the K block holds only the material stiffness D^T S D (K0 of
+        Eq. 62); otherwise the full tangent K0 + G0 + N0 (geometric stiffness from the stress
+        resultants and all constraint multipliers, load-dependent part of the moments).
+        The constraint blocks are the same in both and scaled by ``self.scale``.
+        """
         num = self.num
         t0 = time.perf_counter()
         st = ev.st
         k_el = st.D.transpose(0, 2, 1) @ (num.S @ st.D)
-        k_el += beam_weighted_hessian(st, ev.sigma)
+        n_m = self.loads.moment_rot.size
+        if material_only:
+            euler_diag, mom_blocks = np.zeros(num.euler_nodes.size), np.zeros((n_m, 4, 4))
+        else:
+            k_el += beam_weighted_hessian(st, ev.sigma)
+            euler_diag = 2.0 * mu[num.n_rigid:]
+            mom_blocks = -2.0 * moment_matrix(moment) if n_m else np.zeros((0, 4, 4))
         t1 = time.perf_counter()
-        mom_blocks = (-2.0 * moment_matrix(moment) if self.loads.moment_rot.size
-                      else np.zeros((0, 4, 4)))
-        A = self.pattern.assemble(k_el, 2.0 * mu[num.n_rigid:], mom_blocks,
+        A = self.pattern.assemble(k_el, euler_diag, mom_blocks,
                                   st.D[num.rigid_elem, num.rigid_mode], 2.0 * ev.q_eu,
                                   scale=self.scale)
         self.timings.kernels += t1 - t0
@@ -442,13 +454,25 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
     x = num.x0.copy()
     mu = np.zeros(num.n_constraint)
     result = StaticResult(problem=prob)
-    prob.check_initial()
+    if prob.loads.any:
+        prob.check_initial()
+    else:
+        # no load at all: the initial configuration is the equilibrium, also for a
+        # free-floating structure or a mechanism (neutral equilibrium, e.g. before an
+        # eigenfrequency analysis): warn instead of refusing. Redundant constraints are
+        # an error with or without load.
+        try:
+            prob.check_initial()
+        except ModelError as exc:
+            if getattr(exc, "over_constrained", True):
+                raise
+            log.warning("unloaded model: %s", exc)
 
     def store(load_factor, x, mu, its, res):
         ev = prob.evaluate(x, mu, *prob.loads.at(1.0, load_factor))
         step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=ev.st.e,
                           stress=ev.sigma, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
-                          iterations=its, residual=res)
+                          iterations=its, residual=res, mu=mu.copy())
         result.steps.append(step)
         if on_step is not None:
             on_step(step)

@@ -1,0 +1,111 @@
+"""Inertia of the DDM beam: consistent mass matrix in nodal coordinates, vectorized.
+
+Translational inertia (Eq. 57-59): the centre line is the cubic Hermite interpolation of the
+nodal positions and the nodal tangents ``n_x^p = R(q^p) n_x``, ``n_x^q = R(q^q) n_x``:
+
+    r(xi) = h1 r^p + l0 h2 n_x^p + h3 r^q + l0 h4 n_x^q,
+    r_dot = N x_dot,   N = [h1 I, l0 h2 B^p, h3 I, l0 h4 B^q],   B = d n_x / d q,
+
+so ``M_c = rho A l0 int_0^1 N^T N dxi``, which is Eq. (59) with the familiar 156/22/54/13
+coefficients.
+
+Rotary inertia of the cross-section (not in the paper; SPACAR's EM line): per unit length the
+section has the inertia tensor, in the element axes (n_x, n_y, n_z),
+
+    J = [[rho Ip, 0, 0], [0, rho Iy, -rho Iyz], [0, -rho Iyz, rho Iz]],
+
+from ``EM e rhoA rho(Iy+Iz) rhoIy rhoIz rhoIyz`` (Ip = Iy + Iz, the product term enters the
+tensor with a minus sign). The angular velocity is interpolated linearly between the nodes,
+with the body-frame angular velocity ``omega = 2 G(q) q_dot`` (G = [-lambda, lambda0 I -
+lambda~]), which gives the 4x4 blocks ``4 l0 c_ab G_a^T E J E^T G_b`` with
+c = [[1/3, 1/6], [1/6, 1/3]] and E = [n_x n_y n_z].
+
+Local coordinates as in :mod:`spacarpy.elements.beam`: ``[r^p, q^p, r^q, q^q]`` (14).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from spacarpy.elements.beam import QP, QQ, RP, RQ
+from spacarpy.rotation import quadratic_form
+
+#: int_0^1 h_i h_j dxi for the Hermite functions h1..h4 (Eq. 59, times 420).
+HERMITE_MASS = np.array([[156.0, 22.0, 54.0, -13.0],
+                         [22.0, 4.0, 13.0, -3.0],
+                         [54.0, 13.0, 156.0, -22.0],
+                         [-13.0, -3.0, -22.0, 4.0]]) / 420.0
+#: int_0^1 N_a N_b dxi for linear interpolation.
+LINEAR_MASS = np.array([[1.0 / 3.0, 1.0 / 6.0], [1.0 / 6.0, 1.0 / 3.0]])
+
+
+def g_matrix(q: np.ndarray) -> np.ndarray:
+    """G(q) = [-lambda, lambda0 I - [lambda~]], shape (..., 3, 4): omega_body = 2 G q_dot."""
+    l0 = q[..., 0]
+    lam = q[..., 1:]
+    out = np.zeros(q.shape[:-1] + (3, 4))
+    out[..., :, 0] = -lam
+    out[..., :, 1:] = l0[..., None, None] * np.eye(3)
+    out[..., 0, 2] += lam[..., 2]
+    out[..., 0, 3] -= lam[..., 1]
+    out[..., 1, 1] -= lam[..., 2]
+    out[..., 1, 3] += lam[..., 0]
+    out[..., 2, 1] += lam[..., 1]
+    out[..., 2, 2] -= lam[..., 0]
+    return out
+
+
+def section_inertia(mass: np.ndarray) -> np.ndarray:
+    """Per-unit-length rotary inertia tensors J (n_elem, 3, 3) in element axes from EM data
+    ``[rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz]`` (n_elem, 5)."""
+    j = np.zeros((mass.shape[0], 3, 3))
+    j[:, 0, 0] = mass[:, 1]
+    j[:, 1, 1] = mass[:, 2]
+    j[:, 2, 2] = mass[:, 3]
+    j[:, 1, 2] = j[:, 2, 1] = -mass[:, 4]
+    return j
+
+
+def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
+                     l0: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """Consistent mass matrices (n_elem, 14, 14) at configurations x (n_elem, 14).
+
+    Parameters
+    ----------
+    nx, ny, nz : (n_elem, 3)
+        Reference triads.
+    l0 : (n_elem,)
+    mass : (n_elem, 5)
+        EM data ``rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz`` (kg/m, kg m).
+    """
+    n = x.shape[0]
+    qp, qq = x[:, QP], x[:, QQ]
+    hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
+    bp = 2.0 * (hx @ qp[:, None, :, None])[..., 0]              # (n, 3, 4) d n_x^p / d q^p
+    bq = 2.0 * (hx @ qq[:, None, :, None])[..., 0]
+    # N = sum_i h_i P_i with P_i (n, 3, 14)
+    p = np.zeros((n, 4, 3, 14))
+    p[:, 0, :, RP] = np.eye(3)
+    p[:, 1, :, QP] = l0[:, None, None] * bp
+    p[:, 2, :, RQ] = np.eye(3)
+    p[:, 3, :, QQ] = l0[:, None, None] * bq
+    flat = p.transpose(0, 2, 1, 3).reshape(n, 12, 14)           # rows (component, i)
+    cmat = np.kron(np.eye(3), HERMITE_MASS)                     # (12, 12)
+    m = flat.transpose(0, 2, 1) @ (cmat @ flat)
+    m *= (mass[:, 0] * l0)[:, None, None]
+
+    if np.any(mass[:, 1:]):
+        e = np.stack([nx, ny, nz], axis=2)                      # (n, 3, 3), columns n_x n_y n_z
+        jg = e @ section_inertia(mass) @ e.transpose(0, 2, 1)   # J in initial global axes
+        gp, gq = g_matrix(qp), g_matrix(qq)
+        for (sa, ga), (sb, gb), c in (((QP, gp), (QP, gp), LINEAR_MASS[0, 0]),
+                                      ((QP, gp), (QQ, gq), LINEAR_MASS[0, 1]),
+                                      ((QQ, gq), (QP, gp), LINEAR_MASS[1, 0]),
+                                      ((QQ, gq), (QQ, gq), LINEAR_MASS[1, 1])):
+            m[:, sa, sb] += (4.0 * c * l0)[:, None, None] * (ga.transpose(0, 2, 1) @ jg @ gb)
+    return m
+
+
+def nodal_rotary_mass(q: np.ndarray, inertia: np.ndarray) -> np.ndarray:
+    """4x4 mass blocks ``4 G^T J G`` of orientation nodes: q (n, 4), inertia (n, 3, 3)."""
+    g = g_matrix(q)
+    return 4.0 * g.transpose(0, 2, 1) @ inertia @ g

@@ -1,0 +1,163 @@
+"""Natural frequencies and mode shapes about an equilibrium: (K0 + N0 + G0) v = w^2 M0 v.
+
+Small models (up to :data:`DENSE_LIMIT` free coordinates) are reduced to an orthonormal basis
+T of the constraint null space and solved densely (all modes, exact classification). Larger
+models use ARPACK in shift-invert mode on the bordered pencil
+``[[K, C^T], [C, 0]] - lambda [[M, 0], [0, 0]]`` with one sparse LU, which returns the
+eigenvalues nearest to a small negative shift (the lowest modes, rigid-body modes included).
+
+Every mode is classified (:data:`KIND_NAMES`): elastic; rigid-body (no element deforms: the
+deformation rates ``D v`` vanish); unstable (real negative w^2: the state has buckled or is a
+maximum of the potential); complex (non-conservative loading, flutter-type); or infinite (a
+coordinate without inertia). Nothing is dropped: unusual modes are reported with a warning.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+log = logging.getLogger(__name__)
+
+DENSE_LIMIT = 2500
+
+ELASTIC, RIGID_BODY, UNSTABLE, COMPLEX, INFINITE = 0, 1, 2, 3, 4
+KIND_NAMES = {ELASTIC: "elastic", RIGID_BODY: "rigid-body", UNSTABLE: "unstable",
+              COMPLEX: "complex", INFINITE: "infinite"}
+
+
+@dataclass
+class Modes:
+    """Eigenvalues and shapes of a linearization.
+
+    Attributes
+    ----------
+    eigenvalue : (n_mode,) complex
+        w^2 (1/s^2).
+    frequency : (n_mode,) float
+        Natural frequency in Hz, ``sqrt(w^2) / (2 pi)``; for an unstable mode the negative
+        of ``sqrt(-w^2) / (2 pi)`` (its divergence rate); NaN for complex or infinite ones.
+    kind : (n_mode,) int
+        See :data:`KIND_NAMES`.
+    shape : (n_x, n_mode) float
+        Mode shapes over the free coordinates (real part), mass-normalized where the
+        modal mass is positive, else scaled to a largest component of 1.
+    """
+
+    eigenvalue: np.ndarray
+    frequency: np.ndarray
+    kind: np.ndarray
+    shape: np.ndarray
+
+
+def null_space_basis(C: sp.spmatrix, n_x: int) -> np.ndarray:
+    """Orthonormal basis (n_x, n_dof) of the null space of the constraint Jacobian."""
+    if C.shape[0] == 0:
+        return np.eye(n_x)
+    return sla.null_space(C.toarray(), rcond=1e-10)
+
+
+def _rigid_mask(lin, num, free, shapes: np.ndarray) -> np.ndarray:
+    """True for shapes that deform no element (relative to their size)."""
+    n = shapes.shape[1]
+    full = np.zeros((num.n_coord, n))
+    full[free] = shapes
+    local = full[num.beam_idx]                                  # (n_elem, 14, n)
+    rates = lin.D @ local                                       # (n_elem, 6, n)
+    rel = np.abs(rates / num.l0[:, None, None]).max(axis=(0, 1)) if rates.size else np.zeros(n)
+    rot = num.is_rotation_coord[free]
+    size = (np.abs(shapes[~rot]).max(axis=0, initial=0.0) / num.length_scale
+            + np.abs(shapes[rot]).max(axis=0, initial=0.0))
+    return rel <= 1e-7 * np.maximum(size, 1e-300)
+
+
+def classify(lam: np.ndarray, rigid: np.ndarray) -> np.ndarray:
+    kind = np.full(lam.shape, ELASTIC, dtype=np.int8)
+    scale = np.abs(lam[np.isfinite(lam)]).max(initial=1.0)
+    kind[~np.isfinite(lam)] = INFINITE
+    cplx = np.isfinite(lam) & (np.abs(lam.imag) > 1e-8 * np.maximum(np.abs(lam.real), 1e-12 * scale))
+    kind[cplx] = COMPLEX
+    kind[(kind == ELASTIC) & (lam.real < 0)] = UNSTABLE
+    kind[rigid & np.isfinite(lam) & ~cplx] = RIGID_BODY
+    return kind
+
+
+def frequencies(lam: np.ndarray, kind: np.ndarray) -> np.ndarray:
+    f = np.full(lam.shape, np.nan)
+    ok = (kind == ELASTIC) | (kind == RIGID_BODY) | (kind == UNSTABLE)
+    re = lam.real[ok]
+    f[ok] = np.sign(re) * np.sqrt(np.abs(re)) / (2.0 * np.pi)
+    f[kind == RIGID_BODY] = 0.0
+    return f
+
+
+def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int = DENSE_LIMIT) -> Modes:
+    """Lowest ``n_modes`` modes of the linearization ``lin`` (see module docstring)."""
+    if lin.M is None:
+        raise ValueError("no mass: an eigenfrequency analysis needs EM or XM data")
+    n_x = lin.K.shape[0]
+    if n_x <= dense_limit:
+        lam, vec = _dense(lin, n_x)
+    else:
+        lam, vec = _sparse(lin, n_x, n_modes)
+    order = np.lexsort((np.abs(lam.imag), np.where(np.isfinite(lam), np.abs(lam.real), np.inf)))
+    lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
+    vec = _normalize(vec.real, lin.M)
+    rigid = _rigid_mask(lin, num, free, vec)
+    kind = classify(lam, rigid)
+    for k, name in ((UNSTABLE, "negative w^2 (unstable or buckled state)"),
+                    (COMPLEX, "complex w^2 (non-conservative loading)"),
+                    (INFINITE, "infinite (coordinates without inertia)")):
+        if np.any(kind == k):
+            log.warning("%d mode(s) with %s", int(np.sum(kind == k)), name)
+    return Modes(eigenvalue=lam, frequency=frequencies(lam, kind), kind=kind, shape=vec)
+
+
+def _dense(lin, n_x):
+    T = null_space_basis(lin.C, n_x)
+    k = T.T @ (lin.K @ T)
+    m = T.T @ (lin.M @ T)
+    symmetric = np.allclose(k, k.T, rtol=0, atol=1e-12 * np.abs(k).max(initial=1.0))
+    if symmetric:
+        try:
+            lam, v = sla.eigh(0.5 * (k + k.T), 0.5 * (m + m.T))
+            return lam.astype(complex), T @ v
+        except np.linalg.LinAlgError:          # M not positive definite: general solver
+            pass
+    lam, v = sla.eig(k, m)
+    return lam, T @ v
+
+
+def _sparse(lin, n_x, n_modes):
+    n_c = lin.C.shape[0]
+    a = sp.bmat([[lin.K, lin.C.T], [lin.C, None]], format="csc")
+    b = sp.block_diag([lin.M, sp.csc_matrix((n_c, n_c))], format="csc")
+    # a small negative shift keeps (A - s B) regular with rigid-body modes present
+    diag_k = np.abs(lin.K.diagonal())
+    diag_m = np.abs(lin.M.diagonal())
+    ratio = np.median(diag_k[diag_m > 0] / diag_m[diag_m > 0]) if np.any(diag_m > 0) else 1.0
+    shift = -1e-6 * ratio
+    lu = spla.splu((a - shift * b).tocsc())
+    op = spla.LinearOperator(a.shape, matvec=lambda v: lu.solve(b @ v), dtype=float)
+    k = min(n_modes + 4, n_x - 1)
+    nu, vec = spla.eigs(op, k=k, which="LM")
+    with np.errstate(divide="ignore"):
+        lam = shift + 1.0 / nu
+    return lam, vec[:n_x]
+
+
+def _normalize(vec, M):
+    out = vec.copy()
+    for j in range(vec.shape[1]):
+        v = vec[:, j]
+        mm = float(v @ (M @ v))
+        if mm > 0:
+            out[:, j] = v / np.sqrt(mm)
+        else:
+            big = np.abs(v).max(initial=0.0)
+            out[:, j] = v / big if big > 0 else v
+    return out

@@ -1,0 +1,108 @@
+"""Linearized equations of motion about an equilibrium (Eq. 61-62).
+
+At a converged static state (x, mu) the small-motion equations over the free coordinates,
+subject to the linearized constraints ``C dx = 0``, are
+
+    (K0 + G0 + N0) dx + M0 ddx = 0,
+
+with K0 = D^T S D (material), G0 = sum sigma_i d2e_i/dx2 + the second derivatives of the
+other constraints times their multipliers (geometric), N0 = -d f_ext/dx (moments), M0 the
+consistent mass. spacarpy keeps them in full free coordinates with the constraint Jacobian
+C beside them; the degrees of freedom are the null space of C. The eigen solvers either
+reduce to an orthonormal null-space basis T (dense, small models: ``T^T K T`` etc.) or work
+on the bordered pencil ``[[K, C^T], [C, 0]] - lambda [[M, 0], [0, 0]]`` (sparse
+shift-invert, large models): both give the same eigenvalues.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from spacarpy.assembly import BlockPattern
+from spacarpy.elements.beam_mass import beam_mass_matrix, nodal_rotary_mass
+
+
+@dataclass
+class Linearization:
+    """Linearized equations at one equilibrium, over the free coordinates.
+
+    Attributes
+    ----------
+    K : (n_x, n_x) sparse
+        Tangent stiffness K0 + G0 + N0 (non-symmetric when dead moments act).
+    K_mat : (n_x, n_x) sparse
+        Material stiffness K0 = D^T S D.
+    C : (n_con, n_x) sparse
+        Constraint Jacobian (rigid modes, Euler normalizations).
+    M : (n_x, n_x) sparse or None
+    D : (n_elem, 6, 14)
+        Deformation Jacobians at the state (used to classify rigid-body modes).
+    x : (n_coord,)
+        The state.
+    """
+
+    K: sp.csc_matrix
+    K_mat: sp.csc_matrix
+    C: sp.csr_matrix
+    M: sp.csc_matrix | None
+    D: np.ndarray
+    x: np.ndarray
+
+    @property
+    def G(self):
+        """Load-proportional part G0 + N0 = K - K0."""
+        return self.K - self.K_mat
+
+
+class MassAssembler:
+    """Assembles the mass matrix over the free coordinates of a model on a fixed pattern."""
+
+    def __init__(self, model, num):
+        self.model, self.num = model, num
+        u = num.unknown_of
+        pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
+        rot_row = {int(n): i for i, n in enumerate(model.orientation_ids)}
+        self.point_idx, self.point_mass = [], []
+        self.rot_nodes, self.rot_inertia = [], []
+        for xm in model.nodal_masses:
+            n = int(xm.node)
+            if n in pos_row:
+                self.point_idx.append(num.pos_idx[pos_row[n]])
+                self.point_mass.append(float(xm.values[0]))
+            else:
+                ixx, ixy, ixz, iyy, iyz, izz = (tuple(xm.values) + (0.0,) * 6)[:6]
+                self.rot_nodes.append(rot_row[n])
+                self.rot_inertia.append([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        self.point_idx = np.array(self.point_idx, dtype=np.int64).reshape(-1, 3)
+        self.point_mass = np.array(self.point_mass)
+        self.rot_nodes = np.array(self.rot_nodes, dtype=np.int64)
+        self.rot_inertia = np.array(self.rot_inertia, dtype=float).reshape(-1, 3, 3)
+        self.pattern = BlockPattern(num.n_unknown, [u[num.beam_idx], u[self.point_idx],
+                                                    u[num.rot_idx[self.rot_nodes]]])
+
+    @property
+    def has_mass(self) -> bool:
+        return bool(np.any(self.model.beams.mass) or self.point_mass.size or self.rot_nodes.size)
+
+    def matrix(self, x: np.ndarray) -> sp.csc_matrix:
+        num, beams = self.num, self.model.beams
+        m_el = beam_mass_matrix(x[num.beam_idx], num.nx, num.ny, num.nz, num.l0, beams.mass)
+        m_pt = self.point_mass[:, None, None] * np.eye(3)
+        m_rot = nodal_rotary_mass(x[num.rot_idx[self.rot_nodes]], self.rot_inertia)
+        return self.pattern.assemble([m_el, m_pt, m_rot])
+
+
+def linearize(prob, x, mu, force, moment, mass: MassAssembler | None = None) -> Linearization:
+    """Linearized matrices of a :class:`~spacarpy.solvers.static.StaticProblem` at (x, mu)
+    under the given load (the state should be an equilibrium of that load)."""
+    ev = prob.evaluate(x, mu, force, moment)
+    n_x = prob.pattern.n_x
+    a = prob.matrix(ev, mu, moment)
+    a0 = prob.matrix(ev, mu, moment, material_only=True)
+    K = a[:n_x, :n_x].tocsc()
+    K_mat = a0[:n_x, :n_x].tocsc()
+    C = (a[n_x:, :n_x] / prob.scale).tocsr()
+    M = mass.matrix(x) if mass is not None else None
+    return Linearization(K=K, K_mat=K_mat, C=C, M=M, D=ev.st.D, x=x)

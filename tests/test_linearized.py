@@ -1,0 +1,202 @@
+"""Linearized analyses: mass matrix, Table 3 lateral buckling, frequencies against closed
+forms with observed convergence orders, rigid-body modes, stress stiffening, Euler loads."""
+import numpy as np
+import pytest
+
+from spacarpy.elements.beam import reference_triads
+from spacarpy.elements.beam_mass import beam_mass_matrix
+from spacarpy.model import BeamSet, Fix, IterStep, Load, Model, NodalMass
+from spacarpy.solvers.buckling import buckling_modes
+from spacarpy.solvers.eigen import ELASTIC, RIGID_BODY, UNSTABLE, eigenmodes
+from spacarpy.solvers.linearize import MassAssembler, linearize
+from spacarpy.solvers.static import StaticProblem, solve_static
+
+F_TH_CONSTANT = 4.012599344          # NOTES.md: the corrected lateral-buckling constant
+
+
+def straight(n, *, L=1.0, stiffness=(1e6, 1.0, 1.0, 1.0, 0, 0), mass=(1.0, 0, 0, 0, 0),
+             def_class=None, fixes="clamped", loads=(), variant="modified", nodal_masses=()):
+    """n equal beams along x; nodes 2i+1 (position) and 2i+2 (orientation)."""
+    pos = np.arange(n + 1) * 2 + 1
+    rot = pos + 1
+    x0 = np.zeros((n + 1, 3))
+    x0[:, 0] = np.linspace(0, L, n + 1)
+    dc = np.ones((n, 6)) if def_class is None else np.tile(def_class, (n, 1))
+    beams = BeamSet(ids=np.arange(1, n + 1),
+                    nodes=np.stack([pos[:-1], rot[:-1], pos[1:], rot[1:]], 1),
+                    orientation=np.tile([0, 1.0, 0], (n, 1)), def_class=dc,
+                    stiffness=np.tile(stiffness, (n, 1)), has_stiffness=np.ones(n, bool),
+                    mass=np.tile(mass, (n, 1)))
+    fix = {"clamped": [Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
+           "pinned": [Fix(1, (1, 2, 3)), Fix(2, (2,)), Fix(int(pos[-1]), (2, 3))],
+           "free": []}[fixes]
+    loads = [Load(int(pos[-1]) if node == "tip" else int(node), "DELXF", tuple(v))
+             for node, v in loads]
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams, fixes=fix,
+                 loads=loads, nodal_masses=list(nodal_masses),
+                 iterstep=IterStep(max_iter=20, n_steps=1, tol=1e-12), deformations=variant)
+
+
+def linearized_final_state(model, with_mass=True):
+    res = solve_static(model)
+    prob, st = res.problem, res.steps[-1]
+    mass = MassAssembler(model, prob.num) if with_mass else None
+    return prob, linearize(prob, st.x, st.mu, *prob.loads.at(1.0, 1.0), mass=mass)
+
+
+def modes_of(model, n_modes):
+    prob, lin = linearized_final_state(model)
+    return eigenmodes(lin, prob.num, prob.free, n_modes=n_modes)
+
+
+# ---------------------------------------------------------------------------- mass matrix
+def test_straight_beam_mass_matrix_equals_the_textbook_consistent_mass():
+    L, rho_a = 1.3, 2.5
+    nx, ny, nz, l0 = reference_triads(np.zeros((1, 3)), np.array([[L, 0, 0]]),
+                                      np.array([[0.0, 1.0, 0.0]]))
+    x = np.array([[0, 0, 0, 1, 0, 0, 0, L, 0, 0, 1, 0, 0, 0]], dtype=float)
+    m = beam_mass_matrix(x, nx, ny, nz, l0, np.array([[rho_a, 0, 0, 0, 0]]))[0]
+    # virtual rotations at the identity: phi = 2 lambda_1..3
+    cols = [0, 1, 2, 4, 5, 6, 7, 8, 9, 11, 12, 13]
+    t = np.diag([1, 1, 1, .5, .5, .5] * 2)
+    mu_ = t @ m[np.ix_(cols, cols)] @ t
+    c = rho_a * L / 420
+    v_tz = [1, 5, 7, 11]                              # v, theta_z at p and q
+    ref = c * np.array([[156, 22 * L, 54, -13 * L], [22 * L, 4 * L**2, 13 * L, -3 * L**2],
+                        [54, 13 * L, 156, -22 * L], [-13 * L, -3 * L**2, -22 * L, 4 * L**2]])
+    np.testing.assert_allclose(mu_[np.ix_(v_tz, v_tz)], ref, rtol=1e-13, atol=1e-15)
+    w_ty = [2, 4, 8, 10]                              # w, theta_y: theta_y = -dw/dx
+    sign = np.diag([1, -1, 1, -1])
+    np.testing.assert_allclose(mu_[np.ix_(w_ty, w_ty)], sign @ ref @ sign, rtol=1e-13,
+                               atol=1e-15)
+    # total translational mass in every direction
+    for d in range(3):
+        e = np.zeros(12)
+        e[[d, 6 + d]] = 1.0
+        assert e @ mu_ @ e == pytest.approx(rho_a * L, rel=1e-13)
+
+
+def test_kinetic_energy_of_a_rigidly_rotating_beam_is_exact():
+    L, rho_a, rho_iz = 2.0, 3.0, 0.05
+    nx, ny, nz, l0 = reference_triads(np.zeros((1, 3)), np.array([[L, 0, 0]]),
+                                      np.array([[0.0, 1.0, 0.0]]))
+    x = np.array([[0, 0, 0, 1, 0, 0, 0, L, 0, 0, 1, 0, 0, 0]], dtype=float)
+    emass = np.array([[rho_a, rho_iz + 0.02, 0.02, rho_iz, 0.0]])
+    m = beam_mass_matrix(x, nx, ny, nz, l0, emass)[0]
+    omega = 0.7                                       # about z through node p
+    xdot = np.zeros(14)
+    xdot[[8]] = omega * L                             # q moves along +y
+    xdot[6] = xdot[13] = omega / 2                    # lambda3 rate of both nodes
+    energy = 0.5 * xdot @ m @ xdot
+    assert energy == pytest.approx(0.5 * (rho_a * L**3 / 3 + rho_iz * L) * omega**2, rel=1e-13)
+
+
+# ---------------------------------------------------------------------------- Table 3
+TABLE3 = {("modified", 1): 1.495290, ("modified", 2): 1.069138, ("modified", 4): 1.015367,
+          ("basic", 2): 1.220899, ("basic", 4): 1.046009}
+
+
+def lateral_buckling_model(n, variant, EI=2.0, St=3.0, L=1.5, F=1.0):
+    """Narrow cantilever, tip force in the stiff (x-y) plane; elongation and strong-axis
+    bending (modes 5, 6) rigid, torsion and weak bending flexible."""
+    return straight(n, L=L, stiffness=(0, St, EI, 0, 0, 0), def_class=(0, 1, 1, 1, 0, 0),
+                    loads=[("tip", (0, F, 0))], variant=variant)
+
+
+@pytest.mark.parametrize("variant,n", list(TABLE3))
+def test_table3_lateral_buckling(variant, n):
+    EI, St, L = 2.0, 3.0, 1.5
+    prob, lin = linearized_final_state(lateral_buckling_model(n, variant), with_mass=False)
+    ratio = buckling_modes(lin).critical / (F_TH_CONSTANT * np.sqrt(EI * St) / L**2)
+    assert round(ratio, 6) == pytest.approx(TABLE3[(variant, n)], abs=1e-12)
+
+
+def test_table3_one_basic_element_has_no_finite_multiplier():
+    prob, lin = linearized_final_state(lateral_buckling_model(1, "basic"), with_mass=False)
+    b = buckling_modes(lin)
+    assert b.critical == np.inf and np.all(np.isnan(b.multiplier))
+
+
+def test_table3_ratio_does_not_depend_on_the_rigidities():
+    prob, lin = linearized_final_state(lateral_buckling_model(2, "modified", EI=7.0, St=0.3,
+                                                              L=0.4, F=5.0), with_mass=False)
+    f_cr = 5.0 * buckling_modes(lin).critical
+    assert f_cr / (F_TH_CONSTANT * np.sqrt(7.0 * 0.3) / 0.4**2) == pytest.approx(1.069138,
+                                                                                   abs=5e-7)
+
+
+# ---------------------------------------------------------------------------- frequencies
+BETA_L = np.array([1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349])
+
+
+def test_cantilever_bending_frequencies_converge_to_euler_bernoulli_with_order_4():
+    exact = BETA_L**2 / (2 * np.pi)                 # L = EI = rhoA = 1
+    errors = []
+    for n in (4, 8, 16):
+        md = modes_of(straight(n), 12)
+        f = md.frequency[md.kind == ELASTIC]
+        pairs = f.reshape(-1, 2)                     # y and z bending coincide
+        np.testing.assert_allclose(pairs[:, 0], pairs[:, 1], rtol=1e-9)
+        errors.append(np.abs(pairs[:4, 0] - exact) / exact)
+    errors = np.array(errors)
+    assert np.all(errors[-1] < [1e-6, 1e-4, 1e-3, 3e-3])
+    order = np.log2(errors[1] / errors[2])
+    assert np.all((order > 3.8) & (order < 4.2)), order
+
+
+def test_first_torsion_frequency_converges_to_its_closed_form():
+    GJ, rho_ip = 2.0, 0.5
+    exact = np.sqrt(GJ / rho_ip) / 4.0               # (pi / 2L) sqrt(GJ / rho Ip) / 2 pi
+    errors = []
+    for n in (8, 16, 32):
+        md = modes_of(straight(n, stiffness=(1e6, GJ, 1e3, 1e3, 0, 0),
+                               mass=(1.0, rho_ip, rho_ip / 2, rho_ip / 2, 0)), 1)
+        assert md.kind[0] == ELASTIC
+        errors.append(md.frequency[0] / exact - 1)
+    errors = np.array(errors)
+    assert np.all(errors > 0) and errors[-1] < 1e-3
+    order = np.log2(errors[:-1] / errors[1:])
+    assert np.all((order > 1.9) & (order < 2.1)), order
+
+
+def test_free_free_beam_has_six_rigid_body_modes_reported_as_such():
+    md = modes_of(straight(8, fixes="free", mass=(1.0, 0.01, 0.005, 0.005, 0)), 10)
+    assert list(md.kind[:6]) == [RIGID_BODY] * 6
+    assert np.all(md.frequency[:6] == 0.0)
+    assert np.all(md.kind[6:] == ELASTIC) and md.frequency[6] > 1.0
+
+
+def test_nodal_masses_add_up():
+    """A massless cantilever with a tip point mass: f = sqrt(3 EI / (m L^3)) / 2 pi."""
+    md = modes_of(straight(4, mass=(0, 0, 0, 0, 0),
+                           nodal_masses=[NodalMass(9, (2.0,)), NodalMass(10, (1e-3, 0, 0, 1e-3,
+                                                                                  0, 1e-3))]), 1)
+    # the tip inertia lowers it slightly; with a tiny inertia the closed form holds closely
+    assert md.frequency[0] == pytest.approx(np.sqrt(3 / 2.0) / (2 * np.pi), rel=2e-3)
+
+
+# ---------------------------------------------------------------------------- stress stiffening
+@pytest.mark.parametrize("ratio", [0.5, -0.5, -0.9])
+def test_axial_load_changes_the_lowest_frequency_as_the_closed_form(ratio):
+    """Pinned-pinned beam, axial force P (tension > 0): f(P)/f(0) = sqrt(1 + P / P_E)."""
+    p_e = np.pi**2
+    f0 = modes_of(straight(16, fixes="pinned"), 1).frequency[0]
+    f = modes_of(straight(16, fixes="pinned", loads=[("tip", (ratio * p_e, 0, 0))]),
+                 1).frequency[0]
+    assert f / f0 == pytest.approx(np.sqrt(1 + ratio), rel=1e-4)
+
+
+def test_frequency_goes_to_zero_at_the_euler_load_and_beyond_is_unstable():
+    p_e = np.pi**2
+    f0 = modes_of(straight(32, fixes="pinned"), 1).frequency[0]
+    at = modes_of(straight(32, fixes="pinned", loads=[("tip", (-p_e, 0, 0))]), 1)
+    assert abs(at.frequency[0]) < 5e-3 * f0
+    beyond = modes_of(straight(32, fixes="pinned", loads=[("tip", (-1.2 * p_e, 0, 0))]), 1)
+    assert beyond.kind[0] == UNSTABLE and beyond.frequency[0] < 0
+
+
+@pytest.mark.parametrize("support,exact", [("pinned", np.pi**2), ("clamped", np.pi**2 / 4)])
+def test_euler_loads_from_buckling_analysis(support, exact):
+    prob, lin = linearized_final_state(straight(16, fixes=support,
+                                                loads=[("tip", (-1.0, 0, 0))]), with_mass=False)
+    assert buckling_modes(lin).critical == pytest.approx(exact, rel=5e-6)
