@@ -34,6 +34,16 @@ def _parse_mode(text: str) -> str:
         f"number ({', '.join(str(k) for k in sorted(SPACAR_MODE_NUMBERS))})")
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="spacarpy",
@@ -47,10 +57,16 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("-o", "--output", type=Path, default=None,
                      help="result file (default: the deck's name with .h5)")
     run.add_argument("--mode", type=_parse_mode, default=None,
-                     help="analysis: static (SPACAR 10), ...; overrides the deck's MODE line")
+                     help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8); "
+                          "overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
                           "or basic (Eq. 7); overrides the deck's DEFORMATIONS line")
+    run.add_argument("--modes", type=_positive_int, default=10, metavar="N",
+                     help="number of eigenmodes / buckling modes per linearization (default 10)")
+    run.add_argument("--modes-per-step", action="store_true",
+                     help="linearize at every load step: frequencies (if the model has mass) "
+                          "and buckling multipliers (if it is loaded), as SPACAR's mode 10")
     _verbosity(run)
 
     bench = sub.add_parser("bench", help="time the solver on straight cantilevers")
@@ -94,51 +110,19 @@ def main(argv: list[str] | None = None) -> int:
 
 def cmd_run(args) -> int:
     from spacarpy.deck import load_deck
-    from spacarpy.errors import SpacarError as _SE
-    from spacarpy.results import ResultsWriter
-    from spacarpy.solvers.static import StaticProblem, solve_static
+    from spacarpy.run import RunOptions, run_model
 
     t0 = time.perf_counter()
     model = load_deck(args.deck, deformations=args.deformations, analysis=args.mode)
-    if model.analysis != "static":
-        raise _InputError(f"analysis '{model.analysis}' is not supported yet; this version "
-                          f"runs static analyses (MODE static / SPACAR mode 10)")
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
-    log.info("%s: %d position nodes, %d orientation nodes, %d beams; %s deformations",
-             args.deck, model.position_ids.size, model.orientation_ids.size,
-             model.beams.n_elem, model.deformations)
-    problem = StaticProblem(model)
-    num = problem.num
-    n_steps = model.iterstep.n_steps
-    with ResultsWriter(out, model, program_version=__version__,
-                       deformations=model.deformations, analysis="static") as writer:
-        writer.begin_static(model.position_ids.size, model.orientation_ids.size,
-                            model.beams.n_elem, problem.reaction_node,
-                            problem.reaction_component)
-
-        def on_step(step):
-            writer.static_step(step.load_factor, step.x[num.pos_idx], step.x[num.rot_idx],
-                               step.deformation, step.stress, step.reaction,
-                               step.iterations, step.residual)
-            log.info("step %*d/%d  load factor %.4f  %2d iterations  residual %.2e",
-                     len(str(n_steps)), len(problem_steps), n_steps, step.load_factor,
-                     step.iterations, step.residual)
-            problem_steps.append(step)
-
-        problem_steps: list = []
-        try:
-            solve_static(model, problem=problem, on_step=on_step)
-        except _SE as exc:
-            log.error("%d converged step(s) kept in %s", len(problem_steps), writer.partial_path)
-            raise exc
-        writer.finish()
-    log.info("wrote %s (%d steps) in %.2f s", out, len(problem_steps),
+    log.info("%s: %d position nodes, %d orientation nodes, %d beams; %s analysis, %s "
+             "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
+             model.beams.n_elem, model.analysis, model.deformations)
+    summary = run_model(model, out, RunOptions(n_modes=args.modes,
+                                               modes_per_step=args.modes_per_step))
+    log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
              time.perf_counter() - t0)
     return EXIT_OK
-
-
-class _InputError(SpacarError):
-    exit_code = EXIT_INPUT
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -9,7 +9,7 @@ from spacarpy.model import BeamSet, Fix, IterStep, Load, Model, NodalMass
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.eigen import ELASTIC, RIGID_BODY, UNSTABLE, eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import StaticProblem, solve_static
+from spacarpy.solvers.static import solve_static
 
 F_TH_CONSTANT = 4.012599344          # NOTES.md: the corrected lateral-buckling constant
 

@@ -1,0 +1,135 @@
+"""Analysis driver: one model, one analysis, one result file.
+
+Ties the pieces together for ``spacarpy run``: static load stepping, and at the requested
+load steps the linearized analyses (eigenfrequencies, buckling multipliers), each step
+appended to the results file as soon as it is computed.
+
+Analyses
+--------
+static (SPACAR 10)
+    Load steps of ITERSTEP; with ``modes_per_step`` also frequencies (if the model has mass)
+    and buckling multipliers (if it is loaded) at every step, as SPACAR's mode 10 does.
+eigen (SPACAR 4/7)
+    The static load path (if any), then natural frequencies and mode shapes about the final
+    state (about every step with ``modes_per_step``).
+buckling (SPACAR 8)
+    The static load path, then the load multipliers about the final state (every step with
+    ``modes_per_step``). The multiplier applies to the whole load acting in that state.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from spacarpy import __version__
+from spacarpy.errors import SpacarError, EXIT_INPUT
+from spacarpy.model import Model
+from spacarpy.solvers.buckling import buckling_modes
+from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes
+from spacarpy.solvers.linearize import MassAssembler, linearize
+from spacarpy.solvers.static import StaticProblem, solve_static
+
+log = logging.getLogger(__name__)
+
+SUPPORTED = ("static", "eigen", "buckling")
+
+
+class AnalysisInputError(SpacarError):
+    """The requested analysis cannot be run on this model (missing mass, not supported)."""
+
+    exit_code = EXIT_INPUT
+
+
+@dataclass
+class RunOptions:
+    n_modes: int = 10
+    modes_per_step: bool = False
+
+
+@dataclass
+class RunSummary:
+    n_steps: int = 0
+    frequencies: list = field(default_factory=list)     # per linearized step
+    critical: list = field(default_factory=list)
+
+
+def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummary:
+    """Run ``model.analysis`` and write ``out`` (crash-safe, see :mod:`spacarpy.results`)."""
+    from spacarpy.results import ResultsWriter
+
+    opts = options or RunOptions()
+    if model.analysis not in SUPPORTED:
+        raise AnalysisInputError(f"analysis '{model.analysis}' is not supported yet; this "
+                                 f"version runs {', '.join(SUPPORTED)}")
+    problem = StaticProblem(model)
+    num = problem.num
+    mass = MassAssembler(model, num)
+    want_eigen = model.analysis == "eigen" or (opts.modes_per_step and mass.has_mass)
+    want_buckling = model.analysis == "buckling" or (opts.modes_per_step and problem.loads.any)
+    if model.analysis == "eigen" and not mass.has_mass:
+        raise AnalysisInputError("MODE eigen needs mass: give EM lines for the beams (or XM "
+                                 "nodal masses)")
+    if model.analysis == "buckling" and not problem.loads.any:
+        raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
+                                 "scale the stresses that load causes")
+    n_steps = model.iterstep.n_steps
+    summary = RunSummary()
+
+    with ResultsWriter(out, model, program_version=__version__,
+                       deformations=model.deformations, analysis=model.analysis) as writer:
+        writer.begin_static(model.position_ids.size, model.orientation_ids.size,
+                            model.beams.n_elem, problem.reaction_node,
+                            problem.reaction_component,
+                            n_eigen_modes=opts.n_modes if want_eigen else 0,
+                            n_buckling_modes=opts.n_modes if want_buckling else 0)
+
+        def on_step(step):
+            k = summary.n_steps
+            writer.static_step(step.load_factor, step.x[num.pos_idx], step.x[num.rot_idx],
+                               step.deformation, step.stress, step.reaction,
+                               step.iterations, step.residual)
+            summary.n_steps += 1
+            msg = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
+                   f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "
+                   f"residual {step.residual:.2e}")
+            if (want_eigen or want_buckling) and (opts.modes_per_step or k == n_steps):
+                msg += _linearized_step(problem, mass, step, k, writer, opts,
+                                        want_eigen, want_buckling, summary)
+            log.info(msg)
+
+        solve_static(model, problem=problem, on_step=on_step)
+        writer.finish()
+    return summary
+
+
+def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buckling, summary):
+    num = problem.num
+    lin = linearize(problem, step.x, step.mu, *problem.loads.at(1.0, step.load_factor),
+                    mass=mass if want_eigen else None)
+    text = ""
+    if want_eigen:
+        md = eigenmodes(lin, num, problem.free, n_modes=opts.n_modes)
+        shape_pos, shape_rot = _node_shapes(num, problem.free, md.shape)
+        writer.eigen_step(k, md.eigenvalue, md.frequency, md.kind, shape_pos, shape_rot)
+        summary.frequencies.append(md.frequency)
+        shown = ", ".join(f"{f:.4g}" if kd in (0, 2) else KIND_NAMES[int(kd)]
+                          for f, kd in zip(md.frequency[:4], md.kind[:4]))
+        text += f"  f [Hz]: {shown}"
+    if want_buckling:
+        bk = buckling_modes(lin, n_modes=opts.n_modes)
+        shape_pos, shape_rot = _node_shapes(num, problem.free, np.nan_to_num(bk.shape))
+        writer.buckling_step(k, bk.multiplier, bk.critical, shape_pos, shape_rot)
+        summary.critical.append(bk.critical)
+        text += (f"  critical load multiplier {bk.critical:.6g}" if np.isfinite(bk.critical)
+                 else "  no finite buckling multiplier")
+    return text
+
+
+def _node_shapes(num, free, shapes):
+    """Free-coordinate shapes (n_x, n_mode) -> positions (n_mode, n_pos, 3) and Euler
+    parameters (n_mode, n_rot, 4), zero on fixed coordinates."""
+    full = np.zeros((shapes.shape[1], num.n_coord))
+    full[:, free] = shapes.T
+    return full[:, num.pos_idx], full[:, num.rot_idx]

@@ -1,0 +1,392 @@
+"""Tests of spacarpy.results: round trip, schema checks, and crash safety of the writer."""
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.model import BeamSet, Model
+from spacarpy.results import (
+    SCHEMA_VERSION,
+    ResultsFormatError,
+    ResultsWriter,
+    read_results,
+    validate_file,
+)
+
+REPO = Path(__file__).resolve().parents[1]
+DECK_TEXT = "# tiny test deck, ünïcödé\nBEAM 1 1 2 3 4\nBEAM 2 3 4 5 6\nEND\n"
+REACTION_COMPONENT = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
+
+
+def chain_model(n_elem: int = 2, source_path: str = "decks/tiny.dat") -> Model:
+    """A straight chain of ``n_elem`` beams along x; positions odd, orientations even numbers."""
+    pos = np.arange(n_elem + 1) * 2 + 1
+    rot = pos + 1
+    nodes = np.column_stack([pos[:-1], rot[:-1], pos[1:], rot[1:]])
+    beams = BeamSet(ids=np.arange(1, n_elem + 1), nodes=nodes,
+                    orientation=np.full((n_elem, 3), np.nan),
+                    def_class=np.ones((n_elem, 6)), stiffness=np.ones((n_elem, 6)),
+                    has_stiffness=np.ones(n_elem, bool))
+    x0 = np.column_stack([np.linspace(0.0, 1.0, n_elem + 1), np.zeros((n_elem + 1, 2))])
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
+                 source_path=source_path, source_text=DECK_TEXT)
+
+
+def step_data(model: Model, k: int) -> dict:
+    """Deterministic, distinguishable arrays for load step ``k``."""
+    n_pos, n_rot, n_elem = model.position_ids.size, model.orientation_ids.size, model.beams.n_elem
+    angle = 0.01 * k * np.arange(n_rot)
+    euler = np.column_stack([np.cos(angle / 2), np.zeros(n_rot), np.zeros(n_rot),
+                             np.sin(angle / 2)])
+    return dict(
+        load_factor=0.1 * k,
+        position=model.position_x0 + 1e-3 * k * np.arange(3 * n_pos).reshape(n_pos, 3),
+        euler=euler,
+        deformation=1e-4 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
+        stress_resultant=-10.0 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
+        reaction=np.arange(6, dtype=float) - 2.5 * k,
+        iterations=k + 2,
+        residual=10.0 ** -(k + 7),
+    )
+
+
+def begin(w: ResultsWriter, model: Model) -> None:
+    w.begin_static(model.position_ids.size, model.orientation_ids.size, model.beams.n_elem,
+                   reaction_node=[1, 1, 1, 2, 2, 2], reaction_component=REACTION_COMPONENT)
+
+
+def writer(path, model) -> ResultsWriter:
+    return ResultsWriter(path, model, program_version="0.1.0", deformations="modified",
+                         analysis="static")
+
+
+def write_run(path, model, n_steps: int = 3) -> None:
+    with writer(path, model) as w:
+        begin(w, model)
+        for k in range(n_steps):
+            w.static_step(**step_data(model, k))
+        w.finish()
+
+
+def assert_steps(static, model, n_steps: int) -> None:
+    """The file's committed steps are exactly ``step_data(model, 0 .. n_steps-1)``."""
+    assert static.n_step == n_steps
+    for name in ("load_factor", "position", "euler", "deformation", "stress_resultant",
+                 "reaction", "iterations", "residual"):
+        expected = np.array([step_data(model, k)[name] for k in range(n_steps)])
+        np.testing.assert_array_equal(getattr(static, name), expected, err_msg=name)
+
+
+def sha256(path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+# --- round trip and layout ----------------------------------------------------------------------
+
+def test_round_trip(tmp_path):
+    model = chain_model()
+    out = tmp_path / "cantilever.h5"
+    write_run(out, model)
+    assert out.exists() and not (tmp_path / "cantilever.partial.h5").exists()
+
+    res = read_results(out)
+    assert res.completed and res.error is None
+    assert res.schema_version == SCHEMA_VERSION
+    assert res.attrs["filetype"] == "spacarpy-results"
+    assert res.attrs["program"] == "spacarpy" and res.attrs["program_version"] == "0.1.0"
+    assert res.analysis == "static" and res.deformations == "modified"
+    assert dt.datetime.fromisoformat(res.attrs["created"]).tzinfo is not None
+    assert res.attrs["deck_path"] == os.path.abspath("decks/tiny.dat")
+    assert res.attrs["deck_sha256"] == hashlib.sha256(DECK_TEXT.encode()).hexdigest()
+    assert res.deck == DECK_TEXT
+    np.testing.assert_array_equal(res.position_nodes, [1, 3, 5])
+    np.testing.assert_array_equal(res.orientation_nodes, [2, 4, 6])
+    np.testing.assert_array_equal(res.position_x0, model.position_x0)
+    np.testing.assert_array_equal(res.elements, [1, 2])
+    np.testing.assert_array_equal(res.element_nodes, [[1, 2, 3, 4], [3, 4, 5, 6]])
+    assert res.element_type == ["BEAM", "BEAM"]
+    assert_steps(res.static, model, 3)
+    np.testing.assert_array_equal(res.static.reaction_node, [1, 1, 1, 2, 2, 2])
+    assert res.static.reaction_component == REACTION_COMPONENT
+    assert res.static.iterations.dtype == np.int32
+    assert res.position_nodes.dtype == np.int64
+
+    assert validate_file(out) == []
+    assert validate_file(out, require_complete=True) == []
+
+
+def test_layout_follows_schema(tmp_path):
+    out = tmp_path / "r.h5"
+    write_run(out, chain_model())
+    with h5py.File(out, "r") as f:
+        assert f.attrs["schema_version"].dtype == np.int32
+        assert list(f.attrs["schema_version"]) == [1, 0]
+        assert f["deck"].shape == ()
+        assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
+        info = h5py.check_string_dtype(f["model/element_type"].dtype)
+        assert info.encoding == "ascii" and info.length == 4
+        lf = f["static/load_factor"]
+        assert h5py.h5ds.is_scale(lf.id)
+        for name in ("position", "euler", "deformation", "stress_resultant", "reaction",
+                     "iterations", "residual"):
+            ds = f["static"][name]
+            assert ds.maxshape[0] is None and ds.chunks is not None
+            assert ds.dims[0].label == "step"
+            assert h5py.h5ds.is_attached(ds.id, lf.id, 0)
+        units = {}
+
+        def collect(name, obj):   # must return None, or visititems stops
+            if isinstance(obj, h5py.Dataset):
+                assert obj.attrs["long_name"]
+                units[name] = obj.attrs["units"]
+
+        f.visititems(collect)
+        assert units["static/position"] == "m" and units["static/stress_resultant"] == "N"
+        assert units["static/reaction"] == "N | N m (see reaction_component)"
+        assert units["model/position_nodes"] == "1"
+        assert len(units) == 17
+
+
+def test_overwrites_existing_output_only_when_finished(tmp_path):
+    model = chain_model()
+    out = tmp_path / "r.h5"
+    write_run(out, model, n_steps=2)
+    write_run(out, model, n_steps=4)
+    assert read_results(out).static.n_step == 4
+
+
+# --- schema version and file type ----------------------------------------------------------------
+
+def _set_attr(path, name, value):
+    with h5py.File(path, "r+") as f:
+        f.attrs[name] = value
+
+
+def test_newer_major_version_is_refused(tmp_path):
+    out = tmp_path / "r.h5"
+    write_run(out, chain_model())
+    _set_attr(out, "schema_version", np.array([99, 0], dtype=np.int32))
+    with pytest.raises(ResultsFormatError) as info:
+        read_results(out)
+    message = str(info.value)
+    assert "99.0" in message and "1.0" in message
+    assert isinstance(info.value, SpacarError) and info.value.exit_code == EXIT_INPUT
+    problems = validate_file(out)
+    assert len(problems) == 1 and "99" in problems[0]
+
+
+def test_newer_minor_version_is_read(tmp_path):
+    out = tmp_path / "r.h5"
+    write_run(out, chain_model())
+    _set_attr(out, "schema_version", np.array([1, 7], dtype=np.int32))
+    assert read_results(out).schema_version == (1, 7)
+    assert validate_file(out) == []
+
+
+def test_wrong_filetype_and_non_hdf5_are_refused(tmp_path):
+    out = tmp_path / "r.h5"
+    write_run(out, chain_model())
+    _set_attr(out, "filetype", "something-else")
+    with pytest.raises(ResultsFormatError, match="not a spacarpy results file"):
+        read_results(out)
+    junk = tmp_path / "junk.h5"
+    junk.write_text("not hdf5")
+    with pytest.raises(ResultsFormatError, match="cannot open"):
+        read_results(junk)
+    assert validate_file(tmp_path / "missing.h5") != []
+
+
+def test_validator_reports_layout_problems(tmp_path):
+    out = tmp_path / "r.h5"
+    write_run(out, chain_model())
+    with h5py.File(out, "r+") as f:
+        del f.attrs["created"]
+        del f["static/euler"].attrs["units"]
+        f["static/residual"].resize(2, axis=0)
+    problems = validate_file(out)
+    assert any("created missing" in p for p in problems)
+    assert any("/static/euler has no units" in p for p in problems)
+    assert any("/static/residual has 2 steps" in p for p in problems)
+    with pytest.raises(ResultsFormatError, match="not a valid"):
+        read_results(out)
+
+
+# --- failures inside the with block ---------------------------------------------------------------
+
+@pytest.mark.parametrize("previous_output", [False, True])
+@pytest.mark.parametrize("exc, message", [(RuntimeError("no convergence in step 3"),
+                                           "no convergence in step 3"),
+                                          (KeyboardInterrupt(), "interrupted by user")])
+def test_exception_keeps_partial_and_output(tmp_path, previous_output, exc, message):
+    model = chain_model()
+    out = tmp_path / "r.h5"
+    if previous_output:
+        write_run(out, model, n_steps=5)
+        good = sha256(out)
+    with pytest.raises(type(exc)):
+        with writer(out, model) as w:
+            begin(w, model)
+            for k in range(2):
+                w.static_step(**step_data(model, k))
+            raise exc
+    assert w.partial_path == tmp_path / "r.partial.h5" and w.final_path == out
+    if previous_output:
+        assert sha256(out) == good
+    else:
+        assert not out.exists()
+    assert w.partial_path.exists()
+    with h5py.File(w.partial_path, "r"):   # a plain open works: the file was closed cleanly
+        pass
+    assert validate_file(w.partial_path) == []
+    res = read_results(w.partial_path)
+    assert res.completed is False and res.error == message
+    assert_steps(res.static, model, 2)
+    problems = validate_file(w.partial_path, require_complete=True)
+    assert problems == [f"run incomplete: {message}"]
+
+
+def test_exception_before_begin_static(tmp_path):
+    model = chain_model()
+    with pytest.raises(ValueError, match="bad deck"):
+        with writer(tmp_path / "r.h5", model) as w:
+            raise ValueError("bad deck")
+    assert w._file is None
+    res = read_results(w.partial_path)
+    assert not res.completed and res.error == "bad deck" and res.static is None
+    assert validate_file(w.partial_path) == []
+
+
+def test_leaving_without_finish_is_incomplete(tmp_path):
+    model = chain_model()
+    with writer(tmp_path / "r.h5", model) as w:
+        begin(w, model)
+        w.static_step(**step_data(model, 0))
+    assert w._file is None and not w.final_path.exists()
+    res = read_results(w.partial_path)
+    assert not res.completed and "without finish" in res.error
+    assert res.static.n_step == 1
+
+
+def test_bad_step_is_rejected_before_touching_the_file(tmp_path):
+    model = chain_model()
+    with pytest.raises(ValueError, match="position has shape"):
+        with writer(tmp_path / "r.h5", model) as w:
+            begin(w, model)
+            w.static_step(**step_data(model, 0))
+            w.static_step(**{**step_data(model, 1), "position": np.zeros((2, 3))})
+    assert validate_file(w.partial_path) == []
+    assert_steps(read_results(w.partial_path).static, model, 1)
+
+
+def test_counts_must_match_model(tmp_path):
+    model = chain_model()
+    with pytest.raises(ValueError, match="n_elem"):
+        with writer(tmp_path / "r.h5", model) as w:
+            w.begin_static(3, 3, 5, [], [])
+    assert w._file is None
+
+
+def test_no_reactions_and_no_steps(tmp_path):
+    model = chain_model()
+    out = tmp_path / "r.h5"
+    with writer(out, model) as w:
+        w.begin_static(3, 3, 2, [], [])
+        w.finish()
+    assert validate_file(out) == []
+    res = read_results(out)
+    assert res.static.n_step == 0 and res.static.reaction.shape == (0, 0)
+
+
+# --- a real process killed with SIGKILL ---------------------------------------------------------
+
+CHILD = textwrap.dedent("""
+    import sys, time
+    sys.path[:0] = [{tests!r}, {repo!r}]
+    from test_results import chain_model, step_data, writer, begin
+    out, n_elem, pause = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+    model = chain_model(n_elem)
+    with writer(out, model) as w:
+        begin(w, model)
+        k = 0
+        while True:
+            w.static_step(**step_data(model, k))
+            k += 1
+            print(k, flush=True)
+            time.sleep(pause)
+""")
+
+
+def run_and_kill(tmp_path, n_elem: int, pause: float, kill_after: int = 3, on_running=None):
+    """Start a writer process, SIGKILL it once it reports ``kill_after`` written steps.
+
+    ``on_running(partial_path, reported)`` is called just before the kill.
+    """
+    script = tmp_path / "child.py"
+    script.write_text(CHILD.format(tests=str(Path(__file__).parent), repo=str(REPO)))
+    out = tmp_path / "killed.h5"
+    proc = subprocess.Popen([sys.executable, str(script), str(out), str(n_elem), str(pause)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        reported = 0
+        while reported < kill_after:
+            line = proc.stdout.readline()
+            assert line, f"writer process died: {proc.stderr.read()}"
+            reported = int(line)
+        if on_running is not None:
+            on_running(tmp_path / "killed.partial.h5", reported)
+        proc.send_signal(signal.SIGKILL)
+        assert proc.wait(timeout=10) == -signal.SIGKILL
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()
+        proc.stderr.close()
+    return out, reported
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs POSIX SIGKILL")
+def test_sigkill_between_steps_leaves_readable_partial(tmp_path):
+    model = chain_model()
+
+    def read_while_running(partial, reported):   # SWMR: the live file can be read
+        assert validate_file(partial) == []
+        assert read_results(partial).static.n_step >= reported
+
+    out, reported = run_and_kill(tmp_path, n_elem=2, pause=0.05, on_running=read_while_running)
+    partial = tmp_path / "killed.partial.h5"
+    assert not out.exists() and partial.exists()
+    # Structurally valid; the only thing "wrong" is that the run is incomplete.
+    assert validate_file(partial) == []
+    assert validate_file(partial, require_complete=True) == [
+        "run incomplete: the writer did not finish (killed, or still running)"]
+    res = read_results(partial)
+    assert res.completed is False and res.error is None
+    assert res.static.n_step >= reported >= 3
+    assert_steps(res.static, model, res.static.n_step)
+    # A new run replaces the stale partial file and finishes normally.
+    write_run(out, model)
+    assert not partial.exists() and validate_file(out, require_complete=True) == []
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs POSIX SIGKILL")
+def test_sigkill_while_writing_keeps_committed_steps(tmp_path):
+    # No pause and a bigger model: the kill almost always lands inside static_step.
+    model = chain_model(n_elem=3000)
+    out, reported = run_and_kill(tmp_path, n_elem=3000, pause=0.0, kill_after=5)
+    partial = tmp_path / "killed.partial.h5"
+    assert validate_file(partial) == []
+    res = read_results(partial)
+    assert res.static.n_step >= reported >= 5
+    assert_steps(res.static, model, res.static.n_step)
