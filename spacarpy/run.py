@@ -15,6 +15,9 @@ eigen (SPACAR 4/7)
 buckling (SPACAR 8)
     The static load path, then the load multipliers about the final state (every step with
     ``modes_per_step``). The multiplier applies to the whole load acting in that state.
+
+With ``compliance_node`` any of them also stores the 6x6 compliance of that node wherever it
+linearizes (for a static run: the final step, or every step with ``modes_per_step``).
 """
 from __future__ import annotations
 
@@ -27,6 +30,7 @@ from spacarpy import __version__
 from spacarpy.errors import SpacarError, EXIT_INPUT
 from spacarpy.model import Model
 from spacarpy.solvers.buckling import buckling_modes
+from spacarpy.solvers.compliance import nodal_compliance
 from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
 from spacarpy.solvers.static import StaticProblem, solve_static
@@ -44,8 +48,13 @@ class AnalysisInputError(SpacarError):
 
 @dataclass
 class RunOptions:
+    """``n_modes`` per linearization; ``modes_per_step``: linearize every load step (else the
+    final one); ``compliance_node``: (position node, orientation node) deck numbers whose 6x6
+    compliance is computed at every linearized step."""
+
     n_modes: int = 10
     modes_per_step: bool = False
+    compliance_node: tuple | None = None
 
 
 @dataclass
@@ -74,6 +83,16 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
     if model.analysis == "buckling" and not problem.loads.any:
         raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
                                  "scale the stresses that load causes")
+    want_compliance = opts.compliance_node is not None
+    if want_compliance:
+        p_node, r_node = (int(v) for v in opts.compliance_node)
+        pos_hit = np.flatnonzero(model.position_ids == p_node)
+        rot_hit = np.flatnonzero(model.orientation_ids == r_node)
+        if not pos_hit.size or not rot_hit.size:
+            raise AnalysisInputError(
+                f"--compliance {p_node} {r_node}: expected a position node and an orientation "
+                f"node of the model")
+        compliance_rows = (int(pos_hit[0]), int(rot_hit[0]))
     n_steps = model.iterstep.n_steps
     summary = RunSummary()
 
@@ -83,7 +102,8 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
                             model.beams.n_elem, problem.reaction_node,
                             problem.reaction_component,
                             n_eigen_modes=opts.n_modes if want_eigen else 0,
-                            n_buckling_modes=opts.n_modes if want_buckling else 0)
+                            n_buckling_modes=opts.n_modes if want_buckling else 0,
+                            compliance_node=opts.compliance_node)
 
         def on_step(step):
             k = summary.n_steps
@@ -94,9 +114,11 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
             msg = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
                    f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "
                    f"residual {step.residual:.2e}")
-            if (want_eigen or want_buckling) and (opts.modes_per_step or k == n_steps):
-                msg += _linearized_step(problem, mass, step, k, writer, opts,
-                                        want_eigen, want_buckling, summary)
+            if (want_eigen or want_buckling or want_compliance) and \
+                    (opts.modes_per_step or k == n_steps):
+                msg += _linearized_step(problem, mass, step, k, writer, opts, want_eigen,
+                                        want_buckling,
+                                        compliance_rows if want_compliance else None, summary)
             log.info(msg)
 
         solve_static(model, problem=problem, on_step=on_step)
@@ -104,11 +126,15 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
     return summary
 
 
-def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buckling, summary):
+def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buckling,
+                     compliance_rows, summary):
     num = problem.num
     lin = linearize(problem, step.x, step.mu, *problem.loads.at(1.0, step.load_factor),
                     mass=mass if want_eigen else None)
     text = ""
+    if compliance_rows is not None:
+        c_glob, c_loc = nodal_compliance(lin, num, problem.free, *compliance_rows)
+        writer.compliance_step(k, c_glob, c_loc)
     if want_eigen:
         md = eigenmodes(lin, num, problem.free, n_modes=opts.n_modes)
         shape_pos, shape_rot = _node_shapes(num, problem.free, md.shape)

@@ -200,3 +200,36 @@ def test_euler_loads_from_buckling_analysis(support, exact):
     prob, lin = linearized_final_state(straight(16, fixes=support,
                                                 loads=[("tip", (-1.0, 0, 0))]), with_mass=False)
     assert buckling_modes(lin).critical == pytest.approx(exact, rel=5e-6)
+
+
+def test_nodal_compliance_of_a_cantilever_tip_equals_the_closed_form():
+    from spacarpy.solvers.compliance import nodal_compliance
+    EA, GJ, EIy, EIz, L = 100.0, 3.0, 2.0, 5.0, 1.7
+    prob, lin = linearized_final_state(straight(4, L=L, stiffness=(EA, GJ, EIy, EIz, 0, 0)),
+                                       with_mass=False)
+    c_glob, c_loc = nodal_compliance(lin, prob.num, prob.free, 4, 4)
+    ref = np.zeros((6, 6))
+    ref[0, 0] = L / EA
+    ref[1, 1], ref[5, 5], ref[1, 5] = L**3 / (3 * EIz), L / EIz, L**2 / (2 * EIz)
+    ref[2, 2], ref[4, 4], ref[2, 4] = L**3 / (3 * EIy), L / EIy, -L**2 / (2 * EIy)
+    ref[3, 3] = L / GJ
+    ref = np.triu(ref) + np.triu(ref, 1).T
+    np.testing.assert_allclose(c_glob, ref, rtol=1e-10, atol=1e-14)
+    np.testing.assert_allclose(c_loc, ref, rtol=1e-10, atol=1e-14)   # undeformed: same axes
+
+
+def test_compliance_under_load_is_expressed_in_the_rotated_body_axes():
+    """Under a tip moment the tip rotates by theta about z: the local compliance equals the
+    global one rotated by R(theta)^T, and the axial compliance stays L/EA in local axes."""
+    from spacarpy.solvers.compliance import nodal_compliance
+    model = straight(16, stiffness=(1e4, 1.0, 1.0, 1.0, 0, 0), loads=[(34, (0, 0, 0.8))])
+    prob, lin = linearized_final_state(model, with_mass=False)
+    c_glob, c_loc = nodal_compliance(lin, prob.num, prob.free, 16, 16)
+    q = lin.x[prob.num.rot_idx[16]]
+    theta = 2 * np.arctan2(q[3], q[0])                 # close to M L / EI = 0.8
+    assert theta == pytest.approx(0.8, rel=1e-3)
+    c, s = np.cos(theta), np.sin(theta)
+    r = np.kron(np.eye(2), np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]))
+    np.testing.assert_allclose(c_loc, r.T @ c_glob @ r, atol=1e-10)
+    # rotation about z: L / EI for the inextensible elastica (discretization: 1e-3)
+    assert c_loc[5, 5] == pytest.approx(1.0, rel=2e-3)

@@ -115,6 +115,12 @@ DATASET_ATTRS = {
     "eigen/shape_euler": ("kg-1/2", "mass-normalized mode shape: Euler-parameter perturbation "
                                     "of each orientation node"),
     "buckling/step": ("1", "index of the static step (row of /static) that was linearized"),
+    "compliance/step": ("1", "index of the static step (row of /static) that was linearized"),
+    "compliance/global": ("m/N | rad/(N m) | m/(N m) = rad/N",
+                          "6x6 compliance [dr; dphi] = C [dF; dT] of the chosen node, global "
+                          "axes"),
+    "compliance/local": ("m/N | rad/(N m) | m/(N m) = rad/N",
+                         "6x6 compliance of the chosen node in its current body axes"),
     "buckling/load_multiplier": ("1", "buckling load multipliers of the load acting in the "
                                       "step, smallest magnitude first (NaN: none)"),
     "buckling/critical_load_multiplier": ("1", "smallest positive buckling load multiplier "
@@ -135,6 +141,10 @@ _LIN_DATASETS = {
         "kind": (np.int8, lambda m, p, r: (m,)),
         "shape_position": (np.float64, lambda m, p, r: (m, p, 3)),
         "shape_euler": (np.float64, lambda m, p, r: (m, r, 4)),
+    },
+    "compliance": {
+        "global": (np.float64, lambda m, p, r: (6, 6)),
+        "local": (np.float64, lambda m, p, r: (6, 6)),
     },
     "buckling": {
         "load_multiplier": (np.float64, lambda m, p, r: (m,)),
@@ -306,7 +316,7 @@ class ResultsWriter:
 
     def begin_static(self, n_position_node: int, n_orientation_node: int, n_elem: int,
                      reaction_node, reaction_component, *, n_eigen_modes: int = 0,
-                     n_buckling_modes: int = 0) -> None:
+                     n_buckling_modes: int = 0, compliance_node=None) -> None:
         """Create the ``/static`` group with empty, extendable step datasets.
 
         After this call the file is switched to SWMR mode: no new datasets or groups can be
@@ -324,6 +334,9 @@ class ResultsWriter:
         n_eigen_modes, n_buckling_modes : int
             When positive, also create the ``/eigen`` or ``/buckling`` group for that many
             modes per linearized step (:meth:`eigen_step`, :meth:`buckling_step`).
+        compliance_node : (int, int) or None
+            Deck numbers (position node, orientation node) whose 6x6 compliance is stored
+            per linearized step (:meth:`compliance_step`).
         """
         f = self._require_open("begin_static")
         if self._static is not None:
@@ -363,9 +376,13 @@ class ResultsWriter:
         _create(g, "reaction_node", reaction_node)
         names = _ascii_array(reaction_component)
         _create(g, "reaction_component", names, dtype=h5py.string_dtype("ascii", names.itemsize))
-        for group, n_mode in (("eigen", n_eigen_modes), ("buckling", n_buckling_modes)):
+        for group, n_mode in (("eigen", n_eigen_modes), ("buckling", n_buckling_modes),
+                              ("compliance", 1 if compliance_node is not None else 0)):
             if n_mode > 0:
                 self._lin[group] = self._create_linearized(f, group, int(n_mode), n_pos, n_rot)
+        if compliance_node is not None:
+            f["compliance"].attrs["position_node"] = np.int64(compliance_node[0])
+            f["compliance"].attrs["orientation_node"] = np.int64(compliance_node[1])
         f.flush()
         # From here on only appends: SWMR keeps the file consistent on disk at every instant.
         f.swmr_mode = True
@@ -445,6 +462,10 @@ class ResultsWriter:
         self._append_linearized("buckling", step, {
             "load_multiplier": load_multiplier, "critical_load_multiplier": critical,
             "shape_position": shape_position, "shape_euler": shape_euler})
+
+    def compliance_step(self, step: int, global_, local) -> None:
+        """Append the 6x6 nodal compliance (global and body axes) of one linearized step."""
+        self._append_linearized("compliance", step, {"global": global_, "local": local})
 
     def _create_linearized(self, f, group, n_mode, n_pos, n_rot) -> dict:
         g = f.create_group(group)
@@ -756,6 +777,7 @@ class Results:
     static: StaticResults | None = None
     eigen: LinearizedResults | None = None
     buckling: LinearizedResults | None = None
+    compliance: LinearizedResults | None = None
 
     @property
     def schema_version(self) -> tuple[int, int]:
