@@ -1,4 +1,4 @@
-"""Command line: ``spacarpy run | bench``.
+"""Command line: ``spacarpy run | check | bench``.
 
 Exit codes (see :mod:`spacarpy.errors`): 0 success, 1 solver failure, 2 input error (deck or
 command line), 3 model not analysable (mechanism, over-constraint), 130 interrupted.
@@ -44,6 +44,22 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _parse_set(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    name, value = name.strip(), value.strip()
+    if not sep or not name or not value:
+        raise argparse.ArgumentTypeError(
+            f"expected NAME=VALUE (for example R=100 or EI=1e7/12), got {text!r}")
+    return name, value
+
+
+def _set_option(p):
+    p.add_argument("--set", dest="overrides", metavar="NAME=VALUE", type=_parse_set,
+                   action="append", default=[],
+                   help="override the deck's 'SET NAME ...' line (a number or an expression; "
+                        "repeat for several parameters)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="spacarpy",
@@ -64,10 +80,21 @@ def build_parser() -> argparse.ArgumentParser:
                           "or basic (Eq. 7); overrides the deck's DEFORMATIONS line")
     run.add_argument("--modes", type=_positive_int, default=10, metavar="N",
                      help="number of eigenmodes / buckling modes per linearization (default 10)")
+    run.add_argument("--compliance", type=_positive_int, nargs=2, default=None,
+                     metavar=("POS", "ROT"),
+                     help="store the 6x6 compliance of position node POS with orientation "
+                          "node ROT at the linearized steps (global and body axes)")
     run.add_argument("--modes-per-step", action="store_true",
                      help="linearize at every load step: frequencies (if the model has mass) "
                           "and buckling multipliers (if it is loaded), as SPACAR's mode 10")
+    _set_option(run)
     _verbosity(run)
+
+    check = sub.add_parser("check", help="parse and validate a deck without solving it, and "
+                                         "print a summary")
+    check.add_argument("deck", type=Path, help="SPACAR-style deck (.dat)")
+    _set_option(check)
+    _verbosity(check)
 
     bench = sub.add_parser("bench", help="time the solver on straight cantilevers")
     bench.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000, 10000],
@@ -95,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             return cmd_run(args)
+        if args.command == "check":
+            return cmd_check(args)
         if args.command == "bench":
             from spacarpy.bench import run_bench
             run_bench(sizes=args.sizes, n_steps=args.steps, repeat=args.repeat)
@@ -108,18 +137,30 @@ def main(argv: list[str] | None = None) -> int:
     return EXIT_INPUT
 
 
+def cmd_check(args) -> int:
+    """``spacarpy check DECK``: the summary on stdout; exit 0 if the deck is valid and
+    supported, 2 otherwise (syntax errors, semantic errors, features not supported yet)."""
+    from spacarpy.deck import check_deck
+
+    summary = check_deck(args.deck, overrides=dict(args.overrides) or None)
+    print(summary.format())
+    return EXIT_OK if summary.ok else EXIT_INPUT
+
+
 def cmd_run(args) -> int:
     from spacarpy.deck import load_deck
     from spacarpy.run import RunOptions, run_model
 
     t0 = time.perf_counter()
-    model = load_deck(args.deck, deformations=args.deformations, analysis=args.mode)
+    model = load_deck(args.deck, deformations=args.deformations, analysis=args.mode,
+                      overrides=dict(args.overrides) or None)
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
     log.info("%s: %d position nodes, %d orientation nodes, %d beams; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
              model.beams.n_elem, model.analysis, model.deformations)
     summary = run_model(model, out, RunOptions(n_modes=args.modes,
-                                               modes_per_step=args.modes_per_step))
+                                               modes_per_step=args.modes_per_step,
+                                               compliance_node=args.compliance))
     log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
              time.perf_counter() - t0)
     return EXIT_OK

@@ -12,6 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from spacarpy.deck import build_model, load_deck, parse_deck
+from spacarpy.deck.check import summarize
 from spacarpy.errors import DeckError
 from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Fix, IterStep, Load
 
@@ -36,7 +37,7 @@ HALT
 ESTIFF 1 1e7 1e3 2e3 3e3
 ESTIFF 2 1e7 1e3 2e3 3e3 1e-4 2e-4
 EM 1 2.0 0.1
-XF 5 0 -1 0
+XF 5 -1 0 0
 DELXF 6 0 0 0.5
 ITERSTEP 10 5 1e-8 1 3 2
 END
@@ -91,7 +92,7 @@ def test_valid_deck_builds_expected_model():
                                                      (5, (2, 3))]
     assert all(isinstance(f, Fix) for f in m.fixes)
     assert [(ld.node, ld.kind, ld.value) for ld in m.loads] == [
-        (5, "XF", (0.0, -1.0, 0.0)), (6, "DELXF", (0.0, 0.0, 0.5))]
+        (5, "XF", (-1.0, 0.0, 0.0)), (6, "DELXF", (0.0, 0.0, 0.5))]
     assert all(isinstance(ld, Load) for ld in m.loads)
     it = m.iterstep
     assert (it.max_iter, it.n_steps, it.tol, it.n_init, it.extra) == (10, 5, 1e-8, 2, (1.0, 3.0))
@@ -193,9 +194,12 @@ def test_estiff_seventh_value_warns(caplog):
     assert any("7th value" in r.getMessage() for r in caplog.records)
 
 
-def test_unconnected_position_node_warns(caplog):
+def test_unconnected_position_node_is_an_error_unless_fixed(caplog):
+    line, col, msg = only_item(deck_error(BASE + "X 9 5 5 5\n"))
+    assert (line, col) == (4, 3)
+    assert msg.startswith("position node 9 is not connected to any element: it would float")
     with caplog.at_level(logging.WARNING, logger="spacarpy.deck.build"):
-        m = build(BASE + "X 9 5 5 5\n")
+        m = build(BASE + "X 9 5 5 5\nFIX 9\n")
     assert 9 in m.position_ids
     assert any("node 9 is not connected" in r.getMessage() for r in caplog.records)
 
@@ -268,6 +272,67 @@ def test_corpus_slidercrank_refuses_hinge():
     hinges = [(loc.line, loc.column) for loc, msg, _ in items if msg == "not supported yet: HINGE"]
     assert hinges == [(16, 1), (18, 1)]
     assert f"{path}:16:1: error: not supported yet: HINGE" in str(info.value)
+
+
+@pytest.mark.parametrize("path", corpus_decks(), ids=lambda p: getattr(p, "name", "none"))
+def test_corpus_deck_statements_are_typed_by_the_real_layouts(path):
+    """Every record, also of keywords that are not supported yet, has its fields converted
+    by the keyword table: whole numbers are ints, values floats, names str."""
+    from spacarpy.deck.keywords import KEYWORDS, VISUALIZATION_KEYWORDS
+    for statement in parse_deck(path.read_text(encoding="latin-1"), str(path)):
+        kw = statement.keyword
+        spec = KEYWORDS.get(kw) or VISUALIZATION_KEYWORDS.get(kw)
+        if spec is None or kw == "SET":      # SET, unknown VISUALIZATION lines
+            continue
+        if spec.data_form is not None and statement.module >= 1:
+            spec = spec.data_form
+        fields = statement.fields
+        assert len(fields) == len(statement.field_locs)
+        kinds = [f.kind for f in spec.required] + [f.kind for g in spec.optional for f in g]
+        kinds += [spec.variadic.kind] * (len(fields) - len(kinds)) if spec.variadic else []
+        for value, kind in zip(fields, kinds):
+            expected = {"int": int, "float": float, "word": str}.get(kind, (int, float, str))
+            assert isinstance(value, expected), (kw, statement.loc, value, kind)
+
+
+def test_unsupported_elements_are_read_with_their_real_layout():
+    text = ("HINGE 1 5 14 0 0 1\nRBEAM 2 1 2 5 0. 1. 0.\nBEAMW 3 1 2 3 4 5 6 0 1 0\n"
+            "TRUSS 4 1 5\nPLBEAM 5 1 2 3 4\nPLTRUSS 6 1 3\nPLHINGE 7 2 4\nDYNX 2 2 3 4\n"
+            "INPUTX 49 1\nEND\nHALT\nINPUTX 49 1 0.5\nXM 7 0.1\nDELINPX 8 4 0.25\n"
+            "GRAVITY 0 0 -9.81\nTIMESTEP 1.2 8000\nERROR 1e-4 1e-4\nESIG 1 1.0 2.0\n"
+            "USERSIG FFESFVA\nUSERINP \"FFESMVA\"\nOUTLEVEL 0 1\nEND\nHALT\nINPUTF 1 22 3\n"
+            "OUTX 2 31 1\nOUTXP 1 22 3\nEND\nEND\n")
+    fields = {(s.keyword, s.module): s.fields for s in parse_deck(text)}
+    assert fields[("HINGE", 0)] == (1, 5, 14, 0.0, 0.0, 1.0)
+    assert fields[("RBEAM", 0)] == (2, 1, 2, 5, 0.0, 1.0, 0.0)
+    assert fields[("BEAMW", 0)] == (3, 1, 2, 3, 4, 5, 6, 0.0, 1.0, 0.0)
+    assert fields[("INPUTX", 0)] == (49, 1) and fields[("INPUTX", 1)] == (49, 1, 0.5)
+    assert fields[("TIMESTEP", 1)] == (1.2, 8000) and isinstance(fields[("TIMESTEP", 1)][1], int)
+    assert fields[("USERINP", 1)] == ("FFESMVA",) and fields[("OUTX", 2)] == (2, 31, 1)
+    assert fields[("ESIG", 1)] == (1, 1.0, 2.0)
+
+
+@pytest.mark.parametrize("line, column, message", [
+    ("HINGE 1 2", 10, "HINGE takes 3 or 6 fields, got 2 (usage: HINGE e r s [ax ay az])"),
+    ("HINGE 1 2 3 0 1", 16, "HINGE takes 3 or 6 fields, got 5 (usage: HINGE e r s [ax ay az])"),
+    ("TRUSS 1 2 3 4", 13, "TRUSS takes exactly 3 fields, got 4 (usage: TRUSS e p q)"),
+    ("BEAMW 1 1 2 4 5 6", 18, "BEAMW takes 7 or 10 fields, got 6 (usage: BEAMW e p r wp q s wq "
+                              "[ox oy oz])"),
+    ("TIMESTEP 1.2", 13, "TIMESTEP takes exactly 2 fields, got 1 (usage: TIMESTEP t_end "
+                         "n_steps)"),
+    ("TIMESTEP 1.2 0.5", 14, "TIMESTEP: expected the number of time steps (a whole number), "
+                             "found '0.5'"),
+    ("XM 7 1 2", 9, "XM takes 2 or 7 fields, got 3 (usage: XM n m [Ixy Ixz Iyy Iyz Izz])"),
+    ("GRAVITY 0 -9.81", 16, "GRAVITY takes exactly 3 fields, got 2 (usage: GRAVITY gx gy gz)"),
+    ("USERSIG 3", 9, "USERSIG: expected the name of the user load routine (a word), found '3'"),
+    ("OUTX 1 2", 9, "OUTX takes exactly 3 fields, got 2 (usage: OUTX i n c)"),
+    ("INPUTX 8 4 0.5", 12, "INPUTX: expected the coordinate number (a whole number), found "
+                           "'0.5'"),
+])
+def test_unsupported_keywords_field_errors_are_meaningful(line, column, message):
+    with pytest.raises(DeckError) as info:
+        parse_deck(line + "\n")
+    assert only_item(info.value) == (1, column, message)
 
 
 # ------------------------------------------------------------------ syntax errors
@@ -360,10 +425,75 @@ def test_text_after_final_end():
     assert "text after the final END" in only_item(info.value)[2]
 
 
+def test_spacar_lines_in_the_visualization_section(caplog):
+    with pytest.raises(DeckError) as info:
+        parse_deck(BASE + "END\nEND\nVISUALIZATION\nX 9 0 0 0\n")
+    assert only_item(info.value) == (7, 1, "'X' is not a VISUALIZATION keyword: SPACAR lines "
+                                           "must come before the final END END (SPACAR stops "
+                                           "reading there)")
+    with caplog.at_level(logging.WARNING):
+        sts = parse_deck(BASE + "END\nEND\nVISUALIZATION\nCROSSTYPEE RECT\nLIGHTING 1\n")
+    assert [s.keyword for s in sts[-2:]] == ["CROSSTYPEE", "LIGHTING"]
+    messages = [r.getMessage() for r in caplog.records]
+    assert "<deck>:7:1: unknown VISUALIZATION keyword 'CROSSTYPEE' is ignored (did you mean " \
+           "CROSSTYPE?)" in messages
+
+
 def test_halt_must_follow_end():
     with pytest.raises(DeckError) as info:
         parse_deck(BASE + "HALT\n")
-    assert only_item(info.value)[:2] == (4, 1)
+    assert only_item(info.value) == (4, 1, "missing END before HALT: HALT must directly follow "
+                                           "the END that closes a module")
+
+
+def test_number_where_a_keyword_was_expected_after_a_short_record():
+    with pytest.raises(DeckError) as info:
+        parse_deck("X 1 0 0 0\nX 3 1 0 0\nBEAM 1 1 2 3\n  4 0 1 0\n")
+    (l1, c1, m1), (l2, c2, m2) = [(loc.line, loc.column, m) for loc, m, _ in info.value.items]
+    assert (l2, c2) == (4, 3)
+    assert m2 == ("expected a keyword at the start of the line, found the number '4' (is this "
+                  "the rest of the BEAM record on line 3? a record must be on one line)")
+    with pytest.raises(DeckError) as info:
+        parse_deck("X 1 0 0 0\n{2} 3\n")
+    assert only_item(info.value)[2] == ("expected a keyword at the start of the line, found the "
+                                        "expression '{2}' (every line starts with a keyword "
+                                        "such as X, BEAM or FIX)")
+
+
+def test_keyword_glued_to_its_first_field():
+    with pytest.raises(DeckError) as info:
+        parse_deck("X1 0 0 0\n")
+    assert only_item(info.value) == (1, 1, "unknown keyword 'X1': put a blank between the "
+                                           "keyword and the number ('X 1')")
+
+
+def test_missing_end_at_the_end_and_before_visualization():
+    with pytest.raises(DeckError) as info:
+        parse_deck(BASE + "END\nHALT\nITERSTEP 10 5\n")
+    assert only_item(info.value) == (6, 14, "missing END at the end of the deck: close the "
+                                            "last module with END, and the deck with END END "
+                                            "(the last module starts at line 5)")
+    with pytest.raises(DeckError) as info:
+        parse_deck(BASE + "END\nHALT\nITERSTEP 10 5\nVISUALIZATION\nBEAMPROPS 1\n")
+    assert only_item(info.value)[:2] == (7, 1)
+    assert only_item(info.value)[2].startswith("missing END before VISUALIZATION")
+    # one END at the end of the file closes the deck; no END at all is a single module
+    assert parse_deck(BASE + "END\nHALT\nITERSTEP 10 5\nEND\n")[-1].keyword == "END"
+    assert len(parse_deck(BASE)) == 3
+
+
+def test_arithmetic_without_braces_is_explained():
+    with pytest.raises(DeckError) as info:
+        parse_deck("X 1 0 1-2 0\n")
+    assert only_item(info.value) == (1, 7, "cannot read '1-2': not a number (numbers look like "
+                                           "3, -1.5, .5, 2.0e-3; separate fields with blanks; "
+                                           "for arithmetic use braces: {1-2})")
+
+
+def test_fields_must_be_separated():
+    with pytest.raises(DeckError) as info:
+        parse_deck('USERSIG "a"b\nX 1 0 0 0"x"\n')
+    assert [(loc.line, loc.column) for loc, _, _ in info.value.items] == [(1, 9), (2, 9)]
 
 
 # ------------------------------------------------------------------ semantic errors
@@ -465,10 +595,10 @@ def test_fix_and_load_on_unknown_node():
 
 
 def test_unsupported_keyword_one_error_each():
-    err = deck_error(BASE + "GRAVITY 0 0 -9.81\nXM 1 0.1\nXM 3 0.1\n")
+    err = deck_error(BASE + "GRAVITY 0 0 -9.81\nTIMESTEP 1 100\nTIMESTEP 2 100\n")
     assert [(loc.line, msg) for loc, msg, _ in err.items] == [
-        (4, "not supported yet: GRAVITY"), (5, "not supported yet: XM"),
-        (6, "not supported yet: XM")]
+        (4, "not supported yet: GRAVITY"), (5, "not supported yet: TIMESTEP"),
+        (6, "not supported yet: TIMESTEP")]
 
 
 def test_several_errors_reported_at_once_ordered_by_line():
@@ -487,17 +617,64 @@ def test_several_syntax_errors_reported_at_once():
     assert [loc.line for loc, _, _ in info.value.items] == [1, 2, 3]
 
 
+def test_load_on_a_fixed_coordinate():
+    text = BASE + "FIX 1\nFIX 2 2 3\nFIX 3 2\nXF 1 0 0 0\nXF 3 5 0 0\nDELXF 3 0 1 0\n" \
+                  "DELXF 2 0 0 7\nDELXF 2 4 0 0\n"
+    err = deck_error(text)
+    assert [(loc.line, loc.column, msg) for loc, msg, _ in err.items] == [
+        (9, 11, "DELXF 3: the force along y acts on the fixed coordinate y of node 3 (FIX at "
+                "line 6); it would go straight into the support: remove the load component or "
+                "the FIX"),
+        (11, 9, "DELXF 2: the moment about x acts on the fixed Euler parameter lambda1 of node "
+                "2, which cannot turn about x (FIX at line 5); it would go straight into the "
+                "support: remove the load component or the FIX")]
+    # zero components, free coordinates and moments about a free axis are fine
+    m = build(BASE + "FIX 1\nFIX 2 2 3\nXF 1 0 0 0\nDELXF 2 0 0 7\nDELXF 3 1 1 1\n")
+    assert len(m.loads) == 3
+
+
+def test_nodal_masses():
+    m = build(BASE + "FIX 1\nFIX 2\nXM 3 0.5\nXM 4 1 0.1 0 2 0 3\nXM 3 0.25\n")
+    assert [(x.node, x.values) for x in m.nodal_masses] == [
+        (3, (0.5,)), (4, (1.0, 0.1, 0.0, 2.0, 0.0, 3.0)), (3, (0.25,))]
+    err = deck_error(BASE + "XM 3 1 0 0 1 0 1\nXM 4 1\nXM 3 -1\nXM 4 1 5 0 1 0 1\nXM 9 1\n")
+    assert [(loc.line, msg) for loc, msg, _ in err.items] == [
+        (4, "XM: node 3 is a position node: give its mass only (XM 3 m)"),
+        (5, "XM: node 4 is an orientation node: give its inertia tensor (XM 4 Ixx Ixy Ixz Iyy "
+            "Iyz Izz)"),
+        (6, "XM: the mass must not be negative, got -1"),
+        (7, "XM: the inertia tensor of node 4 is not positive semi-definite (a negative "
+            "principal inertia -4)"),
+        (8, "XM: node 9 is not defined (no X line and not used by any element)")]
+
+
 # ------------------------------------------------------------------ robustness
 
 _TOKENS = ["BEAM", "END", "X", "HALT", "FIX", "DYNE", "RLSE", "ESTIFF", "XF", "ITERSTEP", "MODE",
-           "HINGE", "VISUALIZATION", "1", "2", "7", "0", "-3", "2.5", "1e400", "-1e-3", ".", "abc",
-           '"s"', "#", "%", "\n", "\t", "1abc"]
-_CHARS = list("0123456789 .-+eE#%\"\n\r\tXxBEAMENDé@,;") + ["\x00", "\x0c", "\u2028"]
+           "HINGE", "VISUALIZATION", "SET", "INCLUDE", "BEAMS", "BEAMARC", "XM", "CROSSTYPE",
+           "1", "2", "7", "0", "-3", "2.5", "1e400", "-1e-3", ".", "abc", '"s"', "#", "%", "\n",
+           "\t", "1abc", "{", "}", "{2*pi}", "{1/0}", "{n}", "1:3", "1:{n}", "3:1", ":", "1:0:2",
+           "2147483648", "{2147483647+1}"]
+_CHARS = list("0123456789 .-+eE#%\"\n\r\tXxBEAMENDé@,;{}:^*/()") + ["\x00", "\x0c",
+                                                                         "\u2028"]
+
+
+def _fuzz_seeds() -> list[tuple[str, str]]:
+    """Real decks (the corpus), the generator-based paper decks and VALID."""
+    seeds = [("t.dat", VALID)]
+    root = Path(__file__).resolve().parents[1]
+    seeds += [(str(p), p.read_text()) for p in sorted((root / "decks").glob("table2_*.dat"))]
+    if CORPUS.is_dir():
+        seeds += [(str(p), p.read_text(encoding="latin-1")) for p in sorted(CORPUS.glob("*.dat"))]
+    return seeds
+
+
+_SEEDS = _fuzz_seeds()
 
 
 @st.composite
 def mutated_decks(draw):
-    text = VALID
+    name, text = draw(st.sampled_from(_SEEDS))
     for _ in range(draw(st.integers(1, 4))):
         if draw(st.booleans()):                       # character level
             i = draw(st.integers(0, len(text)))
@@ -522,21 +699,29 @@ def mutated_decks(draw):
             else:
                 parts[k] = draw(st.sampled_from(_TOKENS))
             text = "".join(parts)
-    return text
+    return name, text
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated_decks())
-def test_mutated_decks_only_raise_deck_errors(text):
+def test_mutated_decks_only_raise_deck_errors(deck):
+    """Randomly mutated real decks either build or raise DeckError, every item with a valid
+    location in the deck (never another exception)."""
+    name, text = deck
     n_lines = text.count("\n") + 1
     try:
-        build(text)
+        statements = parse_deck(text, name)
+        try:
+            build_model(statements, text=text, path=name)
+        except DeckError as exc:
+            assert summarize(statements, None, path=name, problems=exc.items).format()
+            raise
     except DeckError as exc:
         assert exc.loc is not None
-        assert 1 <= exc.loc.line <= n_lines + 1
-        assert exc.loc.column >= 1
-        for loc, msg, _ in exc.items:
-            assert loc is not None and 1 <= loc.line <= n_lines + 1 and msg
+        for loc, msg, src in exc.items:
+            assert loc is not None and loc.file == name and msg
+            assert 1 <= loc.line <= n_lines and loc.column >= 1
+            assert src is None or src == text.split("\n")[loc.line - 1].rstrip("\r")
         assert str(exc)
     # warnings are allowed; anything but DeckError propagates and fails the test
 

@@ -1,53 +1,35 @@
-"""Reading SPACAR-style decks: text -> statements -> :class:`spacarpy.model.Model`.
+"""Reading and writing SPACAR-style decks: text <-> statements <-> :class:`spacarpy.model.Model`.
 
-- :func:`parse_deck` checks the syntax (Lark grammar + keyword table) and returns
-  :class:`Statement` records;
-- :func:`build_model` gives them their meaning and validates the model;
-- :func:`load_deck` does both for a file.
+- :func:`parse_deck` checks the syntax (Lark grammar + keyword table), evaluates SET parameters
+  and ``{expressions}``, expands ranges and INCLUDEs, and returns :class:`Statement` records;
+- :func:`build_model` expands the BEAMS/BEAMARC generators, gives the statements their meaning
+  and validates the model;
+- :func:`load_deck` does both for a file; :func:`check_deck` also summarises it
+  (``spacarpy check``);
+- :class:`ModelBuilder` builds the same models from Python; :func:`model_to_deck` writes a
+  model back as a deck; :func:`cross_sections` reads the VISUALIZATION cross-sections.
 
 Every problem is a :class:`spacarpy.errors.DeckError` with file:line:column. The keywords are
 documented in docs/deck.md.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
+from spacarpy.deck.api import ModelBuilder
 from spacarpy.deck.build import build_model
+from spacarpy.deck.check import DeckSummary, check_deck
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED
-from spacarpy.deck.parser import Statement, parse_deck
-from spacarpy.errors import DeckError
+from spacarpy.deck.parser import Statement, parse_deck, read_deck_text
+from spacarpy.deck.visualization import CrossSection, CrossSections, cross_sections
+from spacarpy.deck.writer import model_to_deck
 from spacarpy.model import Model
 
-__all__ = ["KEYWORDS", "UNSUPPORTED", "Statement", "build_model", "load_deck", "parse_deck",
-           "read_deck_text"]
+__all__ = ["KEYWORDS", "UNSUPPORTED", "CrossSection", "CrossSections", "DeckSummary",
+           "ModelBuilder", "Statement", "build_model", "check_deck", "cross_sections",
+           "load_deck", "model_to_deck", "parse_deck", "read_deck_text"]
 
 
-def read_deck_text(path) -> str:
-    """Read a deck file as text: UTF-8 (a byte-order mark is dropped), else latin-1.
-
-    Raises
-    ------
-    DeckError
-        If the file cannot be read.
-    """
-    p = Path(path)
-    try:
-        raw = p.read_bytes()
-    except FileNotFoundError:
-        raise DeckError((None, f"cannot read deck '{path}': no such file")) from None
-    except IsADirectoryError:
-        raise DeckError((None, f"cannot read deck '{path}': it is a directory")) from None
-    except OSError as exc:
-        reason = exc.strerror or str(exc)
-        raise DeckError((None, f"cannot read deck '{path}': {reason}")) from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")
-    return text.removeprefix("\ufeff")
-
-
-def load_deck(path, *, deformations: str | None = None, analysis: str | None = None) -> Model:
+def load_deck(path, *, deformations: str | None = None, analysis: str | None = None,
+              overrides: dict | None = None) -> Model:
     """Read, parse and build a deck file.
 
     Parameters
@@ -55,6 +37,9 @@ def load_deck(path, *, deformations: str | None = None, analysis: str | None = N
     path : str or path-like
     deformations, analysis : str, optional
         Override the deck's DEFORMATIONS / MODE lines (see :func:`build_model`).
+    overrides : dict, optional
+        ``--set name=value``: new values (numbers or expression text) for the deck's
+        ``SET name`` lines. Naming a parameter the deck does not SET is an error.
 
     Returns
     -------
@@ -66,6 +51,6 @@ def load_deck(path, *, deformations: str | None = None, analysis: str | None = N
         If the file cannot be read, or with every problem found in it.
     """
     text = read_deck_text(path)
-    statements = parse_deck(text, str(path))
+    statements = parse_deck(text, str(path), overrides=overrides)
     return build_model(statements, text=text, path=str(path), deformations=deformations,
                        analysis=analysis)

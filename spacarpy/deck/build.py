@@ -1,24 +1,30 @@
 """Checked deck statements -> a validated :class:`spacarpy.model.Model`.
 
 This module gives the records their meaning (nodes, BEAM elements, deformation classes, fixes,
-stiffness, mass, loads, load stepping, analysis choice) and checks everything that needs more
-than one record: undefined or doubly defined nodes and elements, position versus orientation
-nodes, zero-length elements, orientation vectors, flexible modes without stiffness. Every
-problem is collected and they are raised together in one :class:`spacarpy.errors.DeckError`,
-ordered by line. Keywords spacarpy recognises but does not implement yet are refused with
-"not supported yet: KEYWORD", one error per occurrence.
+stiffness, mass, nodal masses, loads, load stepping, analysis choice) and checks everything that
+needs more than one record: undefined or doubly defined nodes and elements, position versus
+orientation nodes, zero-length elements, orientation vectors, deformation modes an element does
+not have, modes both flexible and released, flexible modes without stiffness, coordinates that
+do not exist, loads on fixed coordinates, unconnected nodes. Generator lines (BEAMS, BEAMARC)
+are expanded first (:mod:`spacarpy.deck.generators`). Every problem is collected and they are
+raised together in one :class:`spacarpy.errors.DeckError`, in deck order. Keywords spacarpy
+recognises but does not implement yet are refused with "not supported yet: KEYWORD", one error
+per occurrence.
 """
 from __future__ import annotations
 
 import logging
+import re
 
 import numpy as np
 
+from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, UNSUPPORTED_ELEMENTS
 from spacarpy.deck.parser import Statement
+from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.model import (ANALYSES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
-                            SPACAR_MODE_NUMBERS, BeamSet, Fix, IterStep, Load, Model)
+                            SPACAR_MODE_NUMBERS, BeamSet, Fix, IterStep, Load, Model, NodalMass)
 
 __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
 
@@ -28,6 +34,10 @@ logger = logging.getLogger(__name__)
 _MODE_STIFFNESS = (0, 1, 2, 2, 3, 3)
 _STIFFNESS_NAMES = ("EA", "GJ", "EIy", "EIz", "cy", "cz")
 _MASS_NAMES = ("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz")
+_COORD_NAMES = {"position": ("x", "y", "z"),
+                "orientation": ("lambda0", "lambda1", "lambda2", "lambda3")}
+
+_DIGITS = re.compile(r"\d+")
 
 #: Relative length below which an element counts as zero-length (times the model size).
 ZERO_LENGTH_RTOL = 1e-12
@@ -74,6 +84,11 @@ def _valid_modes() -> str:
     return f"{', '.join(ANALYSES)} or a SPACAR mode number ({numbers}; negative = silent)"
 
 
+def _element_name(st: Statement, e: int) -> str:
+    """'element 7', or 'element 7 (made by the BEAMARC line)' for generated elements."""
+    return f"element {e}" + (f" (made by the {st.origin} line)" if st.origin else "")
+
+
 class _Beam:
     """One BEAM record while the model is being built."""
 
@@ -94,9 +109,10 @@ class _Beam:
 class _ModelBuilder:
     """Collects the meaning of the statements pass by pass, and every error on the way."""
 
-    def __init__(self, path: str, statements: list[Statement]):
+    def __init__(self, path: str):
         self.path = path
-        self.by_line = {st.loc.line: st for st in statements}
+        self.by_line: dict = {}            # (file, line) -> first statement on it
+        self.rank: dict = {}               # (file, line) -> position in deck order
         self.errors: list = []
         self.warnings: list[str] = []
         self.positions: dict[int, tuple[tuple, Statement]] = {}
@@ -104,8 +120,13 @@ class _ModelBuilder:
         self.orientation_use: dict[int, Statement] = {}   # node -> first BEAM using it as r/s
         self.foreign_elements: set[int] = set()   # elements of unsupported keywords
         self.foreign_nodes: set[int] = set()      # nodes of unsupported element keywords
+        self.quiet_elements: set[int] = set()     # elements of failed generator lines
+        self.quiet_nodes: set[int] = set()        # end nodes of failed generator lines
         self.fixes: dict[int, tuple[set, SourceLoc]] = {}
+        self.fix_lines: dict[tuple[int, int], Statement] = {}   # (node, coord) -> FIX line
         self.loads: list[Load] = []
+        self.load_sts: list[Statement] = []
+        self.nodal_masses: list[NodalMass] = []
         self.iterstep: IterStep | None = None
         self.analysis: str | None = None
         self.deformations: str | None = None
@@ -132,8 +153,47 @@ class _ModelBuilder:
         self.singletons[st.keyword] = st
         return True
 
+    def _line_at(self, loc: SourceLoc) -> Statement | None:
+        return self.by_line.get((loc.file, loc.line))
+
+    def sorted_errors(self) -> list:
+        """The errors in deck order. Errors that a range or generator line repeats for each of
+        its elements (same place, same message up to the numbers) are reported once."""
+        def key(item):
+            loc = item[0]
+            if loc is None:
+                return (0, 0, 0)
+            return (1, self.rank.get((loc.file, loc.line), len(self.rank)), loc.column)
+
+        out: list = []
+        repeats: dict = {}
+        for loc, msg, src in sorted(self.errors, key=key):
+            same = (loc, _DIGITS.sub("#", msg)) if loc is not None else None
+            if same is not None and same in repeats:
+                repeats[same][1] += 1
+                continue
+            if same is not None:
+                repeats[same] = [len(out), 0]
+            out.append((loc, msg, src))
+        for index, count in repeats.values():
+            if count:
+                loc, msg, src = out[index]
+                out[index] = (loc, f"{msg} (and {count} more like it from this line)", src)
+        return out
+
     # ---------------------------------------------------------------- passes
     def build(self, statements, deformations, analysis, text) -> Model:
+        for st in statements:
+            key = (st.loc.file, st.loc.line)
+            self.by_line.setdefault(key, st)
+            self.rank.setdefault(key, len(self.rank))
+        statements, gen_errors, self.quiet_elements, self.quiet_nodes = \
+            expand_generators(statements)
+        self.errors.extend(gen_errors)
+        sections, vis_errors, vis_warnings = collect_cross_sections(statements)
+        self.errors.extend(vis_errors)
+        self.warnings.extend(vis_warnings)
+
         statements = [st for st in statements if st.module >= 0]
         by_kw: dict[str, list[Statement]] = {}
         for st in statements:
@@ -153,7 +213,7 @@ class _ModelBuilder:
         for st in beam_sts:
             self.beam(st, scale)
         for st in sorted(by_kw.get("DYNE", []) + by_kw.get("RLSE", []),
-                         key=lambda s: (s.loc.line, s.loc.column)):
+                         key=lambda s: self.rank[(s.loc.file, s.loc.line)]):
             self.deformation_class(st)
         for st in by_kw.get("ESTIFF", []):
             self.estiff(st)
@@ -165,6 +225,9 @@ class _ModelBuilder:
         for st in statements:          # loads in deck order
             if st.keyword in ("XF", "DELXF"):
                 self.load(st)
+        self.check_loads_on_fixed_coordinates()
+        for st in by_kw.get("XM", []):
+            self.nodal_mass(st)
         for st in by_kw.get("ITERSTEP", []):
             self.iterstep_line(st)
         for st in by_kw.get("MODE", []):
@@ -172,22 +235,19 @@ class _ModelBuilder:
         for st in by_kw.get("DEFORMATIONS", []):
             self.deformations_line(st)
         self.overrides(deformations, analysis)
+        self.check_unconnected()
+        self.check_cross_section_elements(sections)
 
         if self.errors:
-            raise DeckError(sorted(
-                self.errors, key=lambda it: (0, 0, 0) if it[0] is None
-                else (1, it[0].line, it[0].column)))
-        self.warn_unconnected()
+            raise DeckError(self.sorted_errors())
         for msg in self.warnings:
             logger.warning(msg)
         return self.model(text)
 
     def note_foreign(self, st: Statement) -> None:
-        slots = KEYWORDS[st.keyword].node_slots
-        ints = [v for v in st.fields[:1 + slots] if isinstance(v, int)]
-        if ints:
-            self.foreign_elements.add(ints[0])
-            self.foreign_nodes.update(ints[1:])
+        roles = KEYWORDS[st.keyword].node_roles
+        self.foreign_elements.add(st.fields[0])
+        self.foreign_nodes.update(st.fields[1:1 + len(roles)])
 
     def node(self, st: Statement) -> None:
         n = st.fields[0]
@@ -217,21 +277,22 @@ class _ModelBuilder:
         if b.id in self.foreign_elements:
             self.error(st.field_locs[0], f"element number {b.id} is also used by an "
                                          "unsupported element", st)
+        name = _element_name(st, b.id)
         for i, slot in ((1, "p"), (3, "q")):
             n = st.fields[i]
             if n not in self.positions:
                 ok = False
-                msg = f"element {b.id}: position node {n} (at {slot}) has no X line"
+                msg = f"{name}: position node {n} (at {slot}) has no X line"
                 use = self.orientation_use.get(n)
                 if use is not None:
-                    msg += (f"; node {n} is used as an orientation node (line {use.loc.line})")
+                    msg += f"; node {n} is used as an orientation node (line {use.loc.line})"
                 self.error(st.field_locs[i], msg, st)
         for i, slot in ((2, "p"), (4, "q")):
             n = st.fields[i]
             if n in self.positions:
                 ok = False
                 self.error(st.field_locs[i],
-                           f"element {b.id}: node {n} is a position node (X at line "
+                           f"{name}: node {n} is a position node (X at line "
                            f"{self.positions[n][1].loc.line}) and cannot be the orientation "
                            f"node at {slot}", st)
         self.beams[b.id] = b
@@ -242,27 +303,27 @@ class _ModelBuilder:
         axis = xq - xp
         length = float(np.linalg.norm(axis))
         if length <= ZERO_LENGTH_RTOL * scale:
-            self.error(st.loc, f"element {b.id} has zero length: nodes {b.p} and {b.q} are at "
-                               "the same position", st)
+            self.error(st.loc, f"{name} has zero length: nodes {b.p} and {b.q} are at the same "
+                               "position", st)
             return
         if len(st.fields) >= 8:
             o = np.array(b.orientation, dtype=float)
             norm = float(np.linalg.norm(o))
             shown = "(" + ", ".join(f"{v:g}" for v in o) + ")"
             if norm < ORIENTATION_TOL:
-                self.error(st.field_locs[5], f"element {b.id}: the orientation vector {shown} "
-                                             "is (nearly) zero", st)
+                self.error(st.field_locs[5], f"{name}: the orientation vector {shown} is "
+                                             "(nearly) zero", st)
             elif np.linalg.norm(np.cross(axis / length, o)) < ORIENTATION_TOL * norm:
                 self.error(st.field_locs[5],
-                           f"element {b.id}: the orientation vector {shown} is parallel to the "
-                           f"element axis (node {b.p} to node {b.q}); give the local y-axis, "
+                           f"{name}: the orientation vector {shown} is parallel to the element "
+                           f"axis (node {b.p} to node {b.q}); give the local y-axis, "
                            "perpendicular to the element", st)
 
     def element_for(self, st: Statement) -> _Beam | None:
         """The BEAM an element-data record refers to; reports unknown elements."""
         e = st.fields[0]
         beam = self.beams.get(e)
-        if beam is None and e not in self.foreign_elements:
+        if beam is None and e not in self.foreign_elements and e not in self.quiet_elements:
             self.error(st.field_locs[0], f"{st.keyword}: element {e} is not defined "
                                          "(no BEAM line)", st)
         return beam
@@ -363,9 +424,6 @@ class _ModelBuilder:
                            f"{' '.join(names)} is zero in ESTIFF (line "
                            f"{beam.estiff.loc.line})", self._line_at(beam.flex_locs[k]))
 
-    def _line_at(self, loc: SourceLoc) -> Statement | None:
-        return self.by_line.get(loc.line)
-
     def fix(self, st: Statement) -> None:
         n = st.fields[0]
         kind = self.node_kind(n)
@@ -384,6 +442,8 @@ class _ModelBuilder:
                 coords.add(c)
         if len(st.fields) == 1:
             coords = set(range(1, size + 1))
+        for c in coords:
+            self.fix_lines.setdefault((n, c), st)
         if n in self.fixes:
             self.fixes[n][0].update(coords)
         else:
@@ -398,6 +458,69 @@ class _ModelBuilder:
             return
         self.loads.append(Load(node=n, kind=st.keyword, value=tuple(float(v) for v in
                                                                    st.fields[1:4]), loc=st.loc))
+        self.load_sts.append(st)
+
+    def check_loads_on_fixed_coordinates(self) -> None:
+        """A load component on a fixed coordinate goes straight into the support: an error.
+
+        Force component i acts on coordinate i of a position node; the moment about global
+        axis i acts (in the initial configuration) on the Euler parameter lambda_i, coordinate
+        i + 1 of an orientation node.
+        """
+        for st in self.load_sts:
+            n = st.fields[0]
+            kind = self.node_kind(n)
+            for i in range(3):
+                if st.fields[1 + i] == 0:
+                    continue
+                coord = i + 1 if kind == "position" else i + 2
+                fix = self.fix_lines.get((n, coord))
+                if fix is None:
+                    continue
+                axis = "xyz"[i]
+                if kind == "position":
+                    what = (f"the force along {axis} acts on the fixed coordinate {axis} of node "
+                            f"{n}")
+                else:
+                    what = (f"the moment about {axis} acts on the fixed Euler parameter "
+                            f"lambda{i + 1} of node {n}, which cannot turn about {axis}")
+                self.error(st.field_locs[1 + i], f"{st.keyword} {n}: {what} (FIX at line "
+                                                 f"{fix.loc.line}); it would go straight into "
+                                                 "the support: remove the load component or "
+                                                 "the FIX", st)
+
+    def nodal_mass(self, st: Statement) -> None:
+        n = st.fields[0]
+        kind = self.node_kind(n)
+        values = tuple(float(v) for v in st.fields[1:])
+        if kind is None:
+            if n not in self.foreign_nodes:
+                self.error(st.field_locs[0], f"XM: node {n} is not defined (no X line and not "
+                                             "used by any element)", st)
+            return
+        if kind == "position" and len(values) != 1:
+            self.error(st.field_locs[2], f"XM: node {n} is a position node: give its mass only "
+                                         f"(XM {n} m)", st)
+            return
+        if kind == "orientation" and len(values) != 6:
+            self.error(st.field_locs[1], f"XM: node {n} is an orientation node: give its "
+                                         f"inertia tensor (XM {n} Ixx Ixy Ixz Iyy Iyz Izz)", st)
+            return
+        if kind == "position":
+            if values[0] < 0:
+                self.error(st.field_locs[1], f"XM: the mass must not be negative, got "
+                                             f"{values[0]:g}", st)
+                return
+        else:
+            ixx, ixy, ixz, iyy, iyz, izz = values
+            tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+            eig = np.linalg.eigvalsh(tensor)
+            if eig[0] < -1e-12 * max(abs(eig[-1]), 1e-300):
+                self.error(st.field_locs[1], f"XM: the inertia tensor of node {n} is not "
+                                             "positive semi-definite (a negative principal "
+                                             f"inertia {eig[0]:g})", st)
+                return
+        self.nodal_masses.append(NodalMass(node=n, values=values, loc=st.loc))
 
     def iterstep_line(self, st: Statement) -> None:
         if not self.once(st):
@@ -458,12 +581,28 @@ class _ModelBuilder:
                                  f"{' or '.join(DEFORMATION_VARIANTS)}")
             self.deformations = value
 
-    def warn_unconnected(self) -> None:
-        used = {n for b in self.beams.values() for n in (b.p, b.q)}
+    def check_unconnected(self) -> None:
+        """A position node no element uses floats free (a mechanism): an error, unless all
+        its coordinates are fixed (then it is merely useless: a warning)."""
+        used = ({n for b in self.beams.values() for n in (b.p, b.q)} | self.foreign_nodes
+                | self.quiet_nodes)
         for n, (_, st) in self.positions.items():
-            if n not in used:
+            if n in used:
+                continue
+            if self.fixes.get(n, (set(),))[0] >= {1, 2, 3}:
                 self.warnings.append(f"{st.loc}: position node {n} is not connected to any "
-                                     "element")
+                                     "element (it is fixed, so it does nothing)")
+            else:
+                self.error(st.field_locs[0], f"position node {n} is not connected to any "
+                                             "element: it would float free (a mechanism); "
+                                             "connect it, FIX it, or remove its X line", st)
+
+    def check_cross_section_elements(self, sections) -> None:
+        for e, cs in sections.by_element.items():
+            if e not in self.beams and e not in self.foreign_elements \
+                    and e not in self.quiet_elements:
+                self.warnings.append(f"{cs.loc}: a cross-section is given for element {e}, "
+                                     "which is not defined")
 
     def model(self, text: str) -> Model:
         beams = list(self.beams.values())
@@ -489,6 +628,7 @@ class _ModelBuilder:
                    for k, (c, loc) in self.fixes.items()],
             loads=self.loads,
             iterstep=self.iterstep or IterStep(),
+            nodal_masses=self.nodal_masses,
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",
             source_path=self.path,
@@ -497,7 +637,7 @@ class _ModelBuilder:
 
 
 def build_model(statements, *, text: str, path: str, deformations: str | None = None,
-                analysis: str | None = None) -> Model:
+                analysis: str | None = None, overrides: dict | None = None) -> Model:
     """Build and validate a Model from parsed deck statements.
 
     Parameters
@@ -509,6 +649,10 @@ def build_model(statements, *, text: str, path: str, deformations: str | None = 
     deformations, analysis : str, optional
         Command-line choices; they override the deck's DEFORMATIONS / MODE lines. ``analysis``
         takes a name or a SPACAR mode number as text.
+    overrides : dict, optional
+        ``--set`` values for the deck's SET parameters. The values of the statements are
+        already evaluated, so with overrides ``text`` is parsed again with them (and
+        ``statements`` is not used).
 
     Returns
     -------
@@ -517,8 +661,10 @@ def build_model(statements, *, text: str, path: str, deformations: str | None = 
     Raises
     ------
     DeckError
-        With every problem found, ordered by line (problems without a location first).
+        With every problem found, in deck order (problems without a location first).
     """
-    statements = list(statements)
-    builder = _ModelBuilder(path, statements)
-    return builder.build(statements, deformations, analysis, text)
+    if overrides:
+        from spacarpy.deck.parser import parse_deck
+        statements = parse_deck(text, path, overrides=overrides)
+    builder = _ModelBuilder(path)
+    return builder.build(list(statements), deformations, analysis, text)

@@ -1,11 +1,13 @@
-"""The table of SPACAR deck keywords: which fields each record takes, in which order.
+"""The table of deck keywords: which fields each record takes, in which order, with which names.
 
 This module is data only. :mod:`spacarpy.deck.parser` checks every record of a deck against
 :data:`KEYWORDS` (field count and field types, with the user-facing field names used in error
-messages); :mod:`spacarpy.deck.build` gives the records their meaning. A keyword marked
-``supported=False`` is recognised and parsed leniently (any number of fields) so that every
-real SPACAR deck parses, but :func:`spacarpy.deck.build_model` refuses it with
-"not supported yet: KEYWORD".
+messages) and :data:`VISUALIZATION_KEYWORDS`; :mod:`spacarpy.deck.build` gives the records their
+meaning. Every SPACAR keyword has its real field layout here, also the ones spacarpy cannot
+analyse yet (``supported=False``): those are parsed and checked like the others, so that
+field-count errors are meaningful and the typed values are kept, and the model builder refuses
+them with "not supported yet: KEYWORD". The layouts come from ../shared/spacar/README.md and the
+decks of SPACAR's front ends; docs/deck.md documents them.
 """
 from __future__ import annotations
 
@@ -22,6 +24,9 @@ KIND_DESCRIPTIONS = {
     "word": "a word",
     "value": "a number or a word",
 }
+
+#: Keyword groups, in the order docs/deck.md presents them.
+SECTIONS = ("structure", "kinematics", "element", "data", "output", "extension", "visualization")
 
 
 @dataclass(frozen=True)
@@ -52,7 +57,8 @@ class KeywordSpec:
 
     A record is ``KEYWORD required... [group1...] [group2...] ... [variadic...]``: the required
     fields, then zero or more of the optional groups in order (a group is all-or-nothing), then,
-    only if every optional group is present, any number of variadic fields.
+    only if every optional group is present, any number of variadic fields. Variadic whole-number
+    fields accept ranges (``1:6``), which stand for all the numbers of the range.
 
     Attributes
     ----------
@@ -64,11 +70,20 @@ class KeywordSpec:
     optional : tuple of tuple of FieldSpec
     variadic : FieldSpec or None
     supported : bool
-        False: recognised, parsed leniently, refused by the model builder.
-    node_slots : int
-        For unsupported element keywords: how many fields after the element number are node
-        numbers (lets the builder recognise those nodes and elements without reporting them
-        as undefined).
+        False: recognised and checked, but refused by the model builder ("not supported yet").
+    section : str
+        One of :data:`SECTIONS`.
+    extension : bool
+        A spacarpy extension (not read by SPACAR).
+    node_roles : str
+        For element keywords: the role of each node field after the element number, one
+        letter per field: ``p`` position node, ``r`` orientation node, ``w`` warping node.
+    range_first : bool
+        The first field (an element number) may be a range such as ``1:48``; the record then
+        stands for one record per number.
+    data_form : KeywordSpec or None
+        A different layout used after the first END (``INPUTX n c`` declares a prescribed
+        coordinate in the kinematics module, ``INPUTX n c value`` gives its value later).
     """
 
     name: str
@@ -77,7 +92,11 @@ class KeywordSpec:
     optional: tuple = ()
     variadic: FieldSpec | None = None
     supported: bool = True
-    node_slots: int = 0
+    section: str = "kinematics"
+    extension: bool = False
+    node_roles: str = ""
+    range_first: bool = False
+    data_form: "KeywordSpec | None" = None
 
     @property
     def counts(self) -> tuple[int, ...]:
@@ -96,67 +115,110 @@ class KeywordSpec:
         parts += ["[" + " ".join(f.short for f in group) + "]" for group in self.optional]
         if self.variadic is not None:
             parts.append(f"[{self.variadic.short}...]")
-        return " ".join(parts)
+        usage = " ".join(parts)
+        if self.data_form is not None:
+            usage += f"  (after the first END: {self.data_form.usage})"
+        return usage
+
+    @property
+    def is_element(self) -> bool:
+        """Whether the keyword defines an element (its first field is an element number)."""
+        return bool(self.node_roles)
 
 
 def _f(name, short, kind="float", positive=False) -> FieldSpec:
     return FieldSpec(name=name, short=short, kind=kind, positive=positive)
 
 
-ELEMENT = _f("element number", "e", "int", positive=True)
-NODE = _f("node number", "n", "int", positive=True)
-_ANY = _f("value", "value", "value")
-
-
-def _lenient(name: str, summary: str, node_slots: int = 0) -> KeywordSpec:
-    return KeywordSpec(name=name, summary=summary, variadic=_ANY, supported=False,
-                       node_slots=node_slots)
-
-
 def _each_optional(*fields: FieldSpec) -> tuple:
     return tuple((f,) for f in fields)
 
 
+ELEMENT = _f("element number", "e", "int", positive=True)
+NODE = _f("node number", "n", "int", positive=True)
+_POS_P = _f("position node p", "p", "int", True)
+_POS_Q = _f("position node q", "q", "int", True)
+_ROT_P = _f("orientation node at p", "r", "int", True)
+_ROT_Q = _f("orientation node at q", "s", "int", True)
+_COORD = _f("coordinate number", "c", "int")
+_MODE = _f("deformation mode number", "k", "int")
+_ORIENTATION = (_f("x component of the initial local y-axis", "ox"),
+                _f("y component of the initial local y-axis", "oy"),
+                _f("z component of the initial local y-axis", "oz"))
 _LOAD_FIELDS = (NODE, _f("x component (N or N m)", "f1"), _f("y component (N or N m)", "f2"),
                 _f("z component (N or N m)", "f3"))
+_COUNT = _f("number of elements", "count", "int", positive=True)
+_IO_FIELDS = (_f("input/output index", "i", "int", True), NODE, _COORD)
 
-_SUPPORTED = (
-    KeywordSpec(
-        "X", "initial position of a position node",
-        required=(NODE, _f("x coordinate (m)", "x"), _f("y coordinate (m)", "y"),
-                  _f("z coordinate (m)", "z"))),
-    KeywordSpec(
-        "BEAM", "spatial beam element between two position nodes",
-        required=(ELEMENT, _f("position node p", "p", "int", True),
-                  _f("orientation node at p", "r", "int", True),
-                  _f("position node q", "q", "int", True),
-                  _f("orientation node at q", "s", "int", True)),
-        optional=((_f("x component of the initial local y-axis", "ox"),
-                   _f("y component of the initial local y-axis", "oy"),
-                   _f("z component of the initial local y-axis", "oz")),)),
-    KeywordSpec(
-        "FIX", "hold nodal coordinates at their initial value",
-        required=(NODE,), variadic=_f("coordinate number", "c", "int")),
-    KeywordSpec(
-        "DYNE", "deformation modes that are flexible (carry stiffness)",
-        required=(ELEMENT,), variadic=_f("deformation mode number", "k", "int")),
-    KeywordSpec(
-        "RLSE", "deformation modes that are released (free)",
-        required=(ELEMENT,), variadic=_f("deformation mode number", "k", "int")),
-    KeywordSpec("END", "closes a module"),
-    KeywordSpec("HALT", "separates modules (after END)"),
+
+def _unsupported(name, summary, section, **kw) -> KeywordSpec:
+    return KeywordSpec(name=name, summary=summary, supported=False, section=section, **kw)
+
+
+_KEYWORD_LIST = (
+    # ------------------------------------------------------------------ structure
+    KeywordSpec("END", "closes a module; END END closes the deck", section="structure"),
+    KeywordSpec("HALT", "starts the next module (directly after an END)", section="structure"),
+    KeywordSpec("VISUALIZATION", "starts the SPAVISUAL section after the final END",
+                section="structure"),
+    # ------------------------------------------------------------------ kinematics
+    KeywordSpec("X", "initial position of a position node",
+                required=(NODE, _f("x coordinate (m)", "x"), _f("y coordinate (m)", "y"),
+                          _f("z coordinate (m)", "z"))),
+    KeywordSpec("FIX", "hold nodal coordinates at their initial value",
+                required=(NODE,), variadic=_COORD),
+    KeywordSpec("DYNE", "deformation modes that are flexible (carry stiffness)",
+                required=(ELEMENT,), variadic=_MODE, range_first=True),
+    KeywordSpec("RLSE", "deformation modes that are released (free)",
+                required=(ELEMENT,), variadic=_MODE, range_first=True),
+    _unsupported("INPUTX", "prescribed (input) nodal coordinates", "kinematics",
+                 required=(NODE,), variadic=_COORD,
+                 data_form=KeywordSpec("INPUTX", "initial value of a prescribed coordinate",
+                                       required=(NODE, _COORD,
+                                                 _f("initial value of the coordinate",
+                                                    "value")))),
+    _unsupported("DYNX", "dynamic (free) nodal coordinates of a transient analysis",
+                 "kinematics", required=(NODE,), variadic=_COORD),
+    # ------------------------------------------------------------------ elements
+    KeywordSpec("BEAM", "spatial beam element between two position nodes", section="element",
+                required=(ELEMENT, _POS_P, _ROT_P, _POS_Q, _ROT_Q), optional=(_ORIENTATION,),
+                node_roles="prpr"),
+    _unsupported("BEAMW", "spatial beam with warping nodes", "element",
+                 required=(ELEMENT, _POS_P, _ROT_P, _f("warping node at p", "wp", "int", True),
+                           _POS_Q, _ROT_Q, _f("warping node at q", "wq", "int", True)),
+                 optional=(_ORIENTATION,), node_roles="prwprw"),
+    _unsupported("RBEAM", "rigid beam (one orientation node)", "element",
+                 required=(ELEMENT, _POS_P, _ROT_P, _POS_Q), optional=(_ORIENTATION,),
+                 node_roles="prp"),
+    _unsupported("TRUSS", "truss (rod) element between two position nodes", "element",
+                 required=(ELEMENT, _POS_P, _POS_Q), node_roles="pp"),
+    _unsupported("HINGE", "hinge between two orientation nodes", "element",
+                 required=(ELEMENT, _f("orientation node p", "r", "int", True),
+                           _f("orientation node q", "s", "int", True)),
+                 optional=((_f("x component of the hinge axis", "ax"),
+                            _f("y component of the hinge axis", "ay"),
+                            _f("z component of the hinge axis", "az")),),
+                 node_roles="rr"),
+    _unsupported("PLBEAM", "planar beam element", "element",
+                 required=(ELEMENT, _POS_P, _ROT_P, _POS_Q, _ROT_Q), node_roles="prpr"),
+    _unsupported("PLTRUSS", "planar truss element", "element",
+                 required=(ELEMENT, _POS_P, _POS_Q), node_roles="pp"),
+    _unsupported("PLHINGE", "planar hinge element", "element",
+                 required=(ELEMENT, _f("orientation node p", "r", "int", True),
+                           _f("orientation node q", "s", "int", True)), node_roles="rr"),
+    # ------------------------------------------------------------------ statics/dynamics data
     # ESTIFF/EM: values optional at the parse level because a HINGE takes 1 value or none;
     # the model builder requires at least EA GJ EIy EIz (ESTIFF) / rhoA (EM) for a BEAM.
     KeywordSpec(
-        "ESTIFF", "element stiffness",
+        "ESTIFF", "element stiffness", section="data", range_first=True,
         required=(ELEMENT,),
         optional=_each_optional(
             _f("axial stiffness EA (N)", "EA"), _f("torsional stiffness GJ (N m^2)", "GJ"),
             _f("bending stiffness EIy (N m^2)", "EIy"), _f("bending stiffness EIz (N m^2)", "EIz"),
             _f("shear flexibility cy (m^2)", "cy"), _f("shear flexibility cz (m^2)", "cz"),
-            _f("seventh stiffness value (ignored for BEAM)", "extra"))),
+            _f("seventh stiffness value (warping, BEAMW)", "extra"))),
     KeywordSpec(
-        "EM", "element mass per unit length",
+        "EM", "element mass per unit length", section="data", range_first=True,
         required=(ELEMENT,),
         optional=_each_optional(
             _f("mass per unit length rhoA (kg/m)", "rhoA"),
@@ -164,58 +226,117 @@ _SUPPORTED = (
             _f("inertia per unit length rhoIy (kg m)", "rhoIy"),
             _f("inertia per unit length rhoIz (kg m)", "rhoIz"),
             _f("product of inertia per unit length rhoIyz (kg m)", "rhoIyz"),
-            _f("sixth mass value (ignored for BEAM)", "extra"))),
-    KeywordSpec("XF", "dead nodal load present from the start", required=_LOAD_FIELDS),
-    KeywordSpec("DELXF", "dead nodal load increment applied over the load steps",
+            _f("sixth mass value (warping, BEAMW)", "extra"))),
+    KeywordSpec("XF", "dead nodal load present from the start", section="data",
                 required=_LOAD_FIELDS),
+    KeywordSpec("DELXF", "dead nodal load increment applied over the load steps",
+                section="data", required=_LOAD_FIELDS),
     KeywordSpec(
-        "ITERSTEP", "load stepping and Newton iteration settings",
+        "ITERSTEP", "load stepping and Newton iteration settings", section="data",
         required=(_f("maximum number of iterations", "max_iter", "int"),
                   _f("number of load steps", "n_steps", "int")),
         optional=_each_optional(
             _f("convergence tolerance", "tol"), _f("fourth ITERSTEP value", "f4"),
             _f("fifth ITERSTEP value", "f5"),
             _f("number of initial-load steps", "n_init", "int"))),
-    KeywordSpec("MODE", "analysis to run (spacarpy extension)",
+    KeywordSpec(
+        "XM", "nodal mass (position node) or inertia tensor (orientation node)", section="data",
+        required=(NODE, _f("mass m (kg) or inertia Ixx (kg m^2)", "m")),
+        optional=((_f("inertia Ixy (kg m^2)", "Ixy"), _f("inertia Ixz (kg m^2)", "Ixz"),
+                   _f("inertia Iyy (kg m^2)", "Iyy"), _f("inertia Iyz (kg m^2)", "Iyz"),
+                   _f("inertia Izz (kg m^2)", "Izz")),)),
+    _unsupported("DELINPX", "increment of a prescribed coordinate over the load steps", "data",
+                 required=(NODE, _COORD, _f("increment of the coordinate", "delta"))),
+    _unsupported("GRAVITY", "gravitational acceleration", "data",
+                 required=(_f("x component of gravity (m/s^2)", "gx"),
+                           _f("y component of gravity (m/s^2)", "gy"),
+                           _f("z component of gravity (m/s^2)", "gz"))),
+    _unsupported("TIMESTEP", "end time and number of time steps", "data",
+                 required=(_f("end time (s)", "t_end"),
+                           _f("number of time steps", "n_steps", "int"))),
+    _unsupported("ERROR", "error tolerances of the time integration", "data",
+                 required=(_f("absolute error tolerance", "abs"),
+                           _f("relative error tolerance", "rel"))),
+    _unsupported("ESIG", "prescribed stress resultants of an element", "data",
+                 required=(ELEMENT, _f("stress resultant", "sigma")),
+                 variadic=_f("stress resultant", "sigma")),
+    _unsupported("USERSIG", "user routine giving nodal loads", "data",
+                 required=(_f("name of the user load routine", "name", "word"),)),
+    _unsupported("USERINP", "user routine giving prescribed motion", "data",
+                 required=(_f("name of the user motion routine", "name", "word"),)),
+    # ------------------------------------------------------------------ output / linearization
+    _unsupported("OUTLEVEL", "SPACAR output level", "output",
+                 required=(_f("output level", "level", "int"),),
+                 optional=((_f("second output level", "level2", "int"),),)),
+    _unsupported("INPUTF", "input of the linearized system: a force on a coordinate", "output",
+                 required=_IO_FIELDS),
+    _unsupported("OUTX", "output of the linearized system: a position coordinate", "output",
+                 required=_IO_FIELDS),
+    _unsupported("OUTXP", "output of the linearized system: a velocity coordinate", "output",
+                 required=_IO_FIELDS),
+    # ------------------------------------------------------------------ spacarpy extensions
+    KeywordSpec("MODE", "analysis to run", section="extension", extension=True,
                 required=(_f("analysis name or SPACAR mode number", "analysis", "value"),)),
-    KeywordSpec("DEFORMATIONS", "beam deformation definitions (spacarpy extension)",
+    KeywordSpec("DEFORMATIONS", "beam deformation definitions", section="extension",
+                extension=True,
                 required=(_f("deformation variant (basic or modified)", "variant", "word"),)),
-    KeywordSpec("VISUALIZATION", "starts the SPAVISUAL section (ignored)"),
-)
-
-_UNSUPPORTED = (
-    _lenient("BEAMW", "beam with warping nodes", node_slots=6),
-    _lenient("RBEAM", "rigid beam", node_slots=3),
-    _lenient("TRUSS", "truss element", node_slots=2),
-    _lenient("HINGE", "hinge between two orientation nodes", node_slots=2),
-    _lenient("PLBEAM", "planar beam", node_slots=4),
-    _lenient("PLTRUSS", "planar truss", node_slots=2),
-    _lenient("PLHINGE", "planar hinge", node_slots=2),
-    _lenient("INPUTX", "prescribed nodal coordinates"),
-    _lenient("DYNX", "dynamic nodal coordinates"),
-    _lenient("XM", "nodal mass or inertia"),
-    _lenient("DELINPX", "increment of a prescribed coordinate"),
-    _lenient("GRAVITY", "gravity acceleration"),
-    _lenient("TIMESTEP", "time integration end time and steps"),
-    _lenient("ERROR", "time integration error tolerances"),
-    _lenient("ESIG", "element stress resultant input"),
-    _lenient("OUTLEVEL", "SPACAR output level"),
-    _lenient("USERSIG", "user load function"),
-    _lenient("USERINP", "user motion function"),
-    _lenient("INPUTF", "linearized-system input"),
-    _lenient("OUTX", "linearized-system position output"),
-    _lenient("OUTXP", "linearized-system velocity output"),
+    KeywordSpec("SET", "define a parameter for {expressions}", section="extension",
+                extension=True,
+                required=(_f("parameter name", "name", "word"),
+                          _f("parameter value (a number or an {expression})", "value"))),
+    KeywordSpec("INCLUDE", "read another deck file here", section="extension", extension=True,
+                required=(_f("file name (in double quotes)", '"file"', "word"),)),
+    KeywordSpec("BEAMS", "a straight beam subdivided into equal BEAM elements",
+                section="extension", extension=True, node_roles="prpr",
+                required=(_f("first element number", "e", "int", True), _POS_P, _ROT_P, _POS_Q,
+                          _ROT_Q, _COUNT),
+                optional=(_ORIENTATION,)),
+    KeywordSpec("BEAMARC", "a circular arc of equal BEAM elements", section="extension",
+                extension=True, node_roles="prpr",
+                required=(_f("first element number", "e", "int", True), _POS_P, _ROT_P, _POS_Q,
+                          _ROT_Q, _COUNT, _f("x coordinate of the arc centre (m)", "cx"),
+                          _f("y coordinate of the arc centre (m)", "cy"),
+                          _f("z coordinate of the arc centre (m)", "cz")),
+                optional=(_ORIENTATION,)),
 )
 
 #: Every keyword spacarpy recognises before the VISUALIZATION section, by upper-case name.
-KEYWORDS: dict[str, KeywordSpec] = {k.name: k for k in _SUPPORTED + _UNSUPPORTED}
+KEYWORDS: dict[str, KeywordSpec] = {k.name: k for k in _KEYWORD_LIST}
 
 #: Keywords that are recognised but refused by the model builder.
-UNSUPPORTED = tuple(k.name for k in _UNSUPPORTED)
+UNSUPPORTED = tuple(k.name for k in _KEYWORD_LIST if not k.supported)
 
 #: Unsupported keywords that define elements (their first field is an element number).
-UNSUPPORTED_ELEMENTS = tuple(k.name for k in _UNSUPPORTED if k.node_slots)
+UNSUPPORTED_ELEMENTS = tuple(k.name for k in _KEYWORD_LIST if not k.supported and k.is_element)
 
-#: Keywords of SPAVISUAL's VISUALIZATION section (only valid after VISUALIZATION).
-VISUALIZATION_KEYWORDS = ("INITIAL", "COLOR", "BEAMPROPS", "CROSSTYPE", "CROSSDIM", "GRAPHICS",
-                          "FACECOLOR", "OPACITY", "DONOTDRAW", "MODESHAPE", "MAXIMUM")
+#: Keywords that generate BEAM elements (spacarpy extensions).
+GENERATORS = ("BEAMS", "BEAMARC")
+
+_ELEMENT_LIST = _f("element number", "e", "int", positive=True)
+_RGB = (_f("red component", "r"), _f("green component", "g"), _f("blue component", "b"))
+
+#: Keywords of SPAVISUAL's VISUALIZATION section (after the final END), by upper-case name.
+#: spacarpy keeps the cross-section data (BEAMPROPS, CROSSTYPE, CROSSDIM) and checks the rest.
+VISUALIZATION_KEYWORDS: dict[str, KeywordSpec] = {k.name: k for k in (
+    KeywordSpec("INITIAL", "the following COLOR is that of the initial configuration",
+                section="visualization"),
+    KeywordSpec("COLOR", "line colour (RGB)", section="visualization", required=_RGB),
+    KeywordSpec("BEAMPROPS", "elements the following CROSSTYPE/CROSSDIM apply to",
+                section="visualization", required=(_ELEMENT_LIST,), variadic=_ELEMENT_LIST),
+    KeywordSpec("CROSSTYPE", "cross-section shape: RECT or CIRC", section="visualization",
+                required=(_f("cross-section type (RECT or CIRC)", "type", "word"),)),
+    KeywordSpec("CROSSDIM", "cross-section dimensions: RECT w t, CIRC d (m)",
+                section="visualization",
+                required=(_f("first cross-section dimension (m)", "w"),),
+                optional=((_f("second cross-section dimension (m)", "t"),),)),
+    KeywordSpec("GRAPHICS", "elements the following FACECOLOR/OPACITY apply to",
+                section="visualization", required=(_ELEMENT_LIST,), variadic=_ELEMENT_LIST),
+    KeywordSpec("FACECOLOR", "face colour (RGB)", section="visualization", required=_RGB),
+    KeywordSpec("OPACITY", "opacity, 0 to 1", section="visualization",
+                required=(_f("opacity", "alpha"),)),
+    KeywordSpec("DONOTDRAW", "elements not to draw", section="visualization",
+                required=(_ELEMENT_LIST,), variadic=_ELEMENT_LIST),
+    KeywordSpec("MODESHAPE", "draw mode shapes", section="visualization"),
+    KeywordSpec("MAXIMUM", "maximum number of mode shapes drawn", section="visualization",
+                required=(_f("maximum number", "n", "value"),)),
+)}

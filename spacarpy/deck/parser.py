@@ -1,35 +1,53 @@
 """Deck text -> checked :class:`Statement` records (syntax only, no model semantics).
 
-Lark (grammar.lark) reads the line structure: one keyword record per line, fields that are
-numbers, words or quoted strings, comments and blank lines. This module then checks every
-record against the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count,
-field types), converts the fields to ints/floats/strings, tracks the module structure
-(END / HALT / END END / VISUALIZATION), and reports every problem as a
-:class:`spacarpy.errors.DeckError` with file, line and column. Lark's own exceptions never
-escape.
+Lark (``grammar.lark``) splits the text into keyword records; the grammar accepts any line, so
+that every problem is found and reported at once. This module then checks every record against
+the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count, field types),
+converts the fields to ints/floats/strings, and tracks the module structure (END / HALT /
+END END / VISUALIZATION). It also implements the spacarpy extensions that act on the text:
+``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.deck.expressions`), ``1:48`` ranges
+and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with file,
+line and column; Lark's own exceptions never escape.
 """
 from __future__ import annotations
 
 import difflib
+import logging
 import math
+import os
 import re
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
 
-from lark import Lark, Token, Transformer
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark import Lark, Token
+from lark.exceptions import UnexpectedInput
 
-from spacarpy.deck.keywords import KEYWORDS, KIND_DESCRIPTIONS, VISUALIZATION_KEYWORDS, KeywordSpec
+from spacarpy.deck.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
+from spacarpy.deck.keywords import (KEYWORDS, KIND_DESCRIPTIONS, VISUALIZATION_KEYWORDS,
+                                    FieldSpec, KeywordSpec)
 from spacarpy.errors import DeckError, SourceLoc
 
-__all__ = ["Statement", "parse_deck"]
+__all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"]
 
-_PARSER = Lark.open("grammar.lark", rel_to=__file__, parser="lalr", lexer="contextual",
-                    propagate_positions=True, maybe_placeholders=False)
+logger = logging.getLogger(__name__)
+
+# The grammar accepts every sequence of tokens, so lexing is all the parsing a deck needs:
+# the records are the token runs between line ends (_NL). Lexing alone is twice as fast as
+# building the parse tree, which matters for decks of 10^4 elements.
+_LARK = Lark.open("grammar.lark", rel_to=__file__, parser="lalr", lexer="basic")
 
 #: Largest magnitude accepted for a whole-number field (node/element numbers, counts).
 _INT_LIMIT = 2**31 - 1
+#: Most numbers a single range (``1:48``) may stand for.
+MAX_RANGE = 1_000_000
+#: Deepest chain of INCLUDEs (cycles are reported before this is reached).
+_MAX_INCLUDE_DEPTH = 32
 
 _INT_TEXT = re.compile(r"[+-]?\d+")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_RANGE_PART = re.compile(r"\{[^}]*\}|\d+")
+_GLUED = re.compile(r"([A-Z]+)([+-]?\d[\d.eE+-]*)")
 
 
 @dataclass(frozen=True)
@@ -41,18 +59,20 @@ class Statement:
     keyword : str
         The keyword in upper case.
     fields : tuple
-        The fields converted as the keyword table says (int, float or str); for leniently
-        parsed keywords numbers written without '.' or exponent are ints, others floats, words
-        and quoted strings str.
+        The fields converted as the keyword table says (int, float or str). Expressions are
+        evaluated and ranges expanded: ``DYNE 1:3 1 2`` gives three statements, one per
+        element; ``FIX 7 1:3`` gives the fields ``(7, 1, 2, 3)``.
     loc : SourceLoc
         Where the keyword is.
     field_locs : tuple of SourceLoc
-        Where each field is.
+        Where each field is (all the numbers of a range share the range's location).
     source_line : str
         The deck line, without its line end.
     module : int
         0-based index of the END-closed module the record is in; -1 for the VISUALIZATION
         section.
+    origin : str or None
+        For statements made by a generator (BEAMS, BEAMARC): its keyword; None otherwise.
     """
 
     keyword: str
@@ -61,25 +81,49 @@ class Statement:
     field_locs: tuple
     source_line: str
     module: int
+    origin: str | None = None
 
 
-@dataclass(frozen=True)
-class _Record:
-    keyword: Token
-    fields: tuple
+def read_text(path) -> str:
+    """Read a deck file as text: UTF-8 (a byte-order mark is dropped), else latin-1.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read (the caller turns it into a DeckError).
+    """
+    raw = Path(path).read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    return text.removeprefix("\ufeff")
 
 
-class _ToRecords(Transformer):
-    """Parse tree -> list of raw records (tokens still unconverted)."""
-
-    def record(self, children):
-        return _Record(children[0], tuple(children[1:]))
-
-    def start(self, children):
-        return list(children)
+def _os_reason(exc: OSError) -> str:
+    if isinstance(exc, FileNotFoundError):
+        return "no such file"
+    if isinstance(exc, IsADirectoryError):
+        return "it is a directory"
+    return exc.strerror or str(exc)
 
 
-def parse_deck(text: str, filename: str = "<deck>") -> list[Statement]:
+def read_deck_text(path) -> str:
+    """Read a deck file as text (see :func:`read_text`).
+
+    Raises
+    ------
+    DeckError
+        If the file cannot be read.
+    """
+    try:
+        return read_text(path)
+    except OSError as exc:
+        raise DeckError((None, f"cannot read deck '{path}': {_os_reason(exc)}")) from None
+
+
+def parse_deck(text: str, filename: str = "<deck>", *,
+               overrides: Mapping[str, object] | None = None) -> list[Statement]:
     """Parse deck text into checked statements.
 
     Parameters
@@ -87,131 +131,124 @@ def parse_deck(text: str, filename: str = "<deck>") -> list[Statement]:
     text : str
         The deck.
     filename : str
-        Used in error locations.
+        Used in error locations, and to find the files of ``INCLUDE`` lines (relative to its
+        directory; the current directory if the name is not a path such as ``"<deck>"``).
+    overrides : mapping of str to number or str, optional
+        ``--set name=value``: replaces the value of the deck's ``SET name`` line. The value is a
+        number or an expression (with or without braces) that may use the parameters set
+        before that line. Naming a parameter the deck does not SET is an error.
 
     Returns
     -------
     list of Statement
-        In deck order, including END, HALT and the VISUALIZATION section (module -1).
+        In deck order (included files in place of their INCLUDE line), including END, HALT,
+        SET and the VISUALIZATION section (module -1). INCLUDE lines themselves are dropped.
 
     Raises
     ------
     DeckError
-        With every problem found, each with file:line:column. A lexical error (a character or
-        token that is not part of any field) stops the parse and is reported alone.
+        With every problem found, each with file:line:column, in deck order.
     """
-    lines = [ln.rstrip("\r") for ln in text.split("\n")]
+    reader = _Reader(overrides)
+    path = None if filename.startswith("<") else Path(filename)
+    reader.read(text, filename, path)
+    reader.finish()
+    if reader.errors:
+        reader.errors.sort(key=lambda it: it[0])
+        raise DeckError([it[1:] for it in reader.errors])
+    return reader.out
+
+
+# --------------------------------------------------------------------------- lexical level
+
+@dataclass
+class _Source:
+    """One file being read."""
+
+    name: str                 # as shown in messages
+    path: Path | None         # where it is (None for text without a file)
+    lines: list[str]
+
+    def line(self, n: int) -> str | None:
+        return self.lines[n - 1] if 1 <= n <= len(self.lines) else None
+
+
+@dataclass(frozen=True)
+class _Record:
+    head: Token
+    fields: tuple
+    source: _Source
+
+
+def _records(text: str, source: _Source):
+    """Split text into records; a lexer failure (not expected) becomes one error item."""
+    records: list[_Record] = []
+    current: list[Token] = []
     try:
-        tree = _PARSER.parse(text)
-    except UnexpectedInput as exc:
-        raise DeckError([_lark_error(exc, filename, lines)]) from None
-    records = _ToRecords().transform(tree)
-    return _StatementChecker(filename, lines).run(records)
+        for tok in _LARK.lex(text):
+            if tok.type == "_NL":
+                if current:
+                    records.append(_Record(current[0], tuple(current[1:]), source))
+                    current = []
+            else:
+                current.append(tok)
+    except UnexpectedInput as exc:      # pragma: no cover - every character is some token
+        line = exc.line if isinstance(getattr(exc, "line", None), int) and exc.line > 0 else 1
+        col = exc.column if isinstance(getattr(exc, "column", None), int) and exc.column > 0 \
+            else 1
+        return records, (SourceLoc(source.name, line, col), "cannot read this line",
+                         source.line(line))
+    if current:
+        records.append(_Record(current[0], tuple(current[1:]), source))
+    return records, None
 
 
-# --------------------------------------------------------------------------- lark errors
-
-def _line_of(lines: list[str], line: int) -> str | None:
-    return lines[line - 1] if 1 <= line <= len(lines) else None
-
-
-def _lark_error(exc: UnexpectedInput, filename: str, lines: list[str]):
-    """Turn a lark exception into one ``(SourceLoc, message, source_line)`` item."""
-    line = getattr(exc, "line", None)
-    column = getattr(exc, "column", None)
-    if not isinstance(line, int) or line < 1:
-        line, column = len(lines), len(lines[-1]) + 1 if lines else 1
-    if not isinstance(column, int) or column < 1:
-        column = 1
-    src = _line_of(lines, line)
-    loc = SourceLoc(filename, line, column)
-
-    if isinstance(exc, UnexpectedToken):
-        tok = exc.token
-        if tok.type in ("NUMBER", "STRING"):
-            msg = (f"expected a keyword at the start of the line, found '{tok}' "
-                   "(each record is one line: KEYWORD field field ...)")
-        elif tok.type == "$END":
-            msg = "unexpected end of file"
-        else:
-            msg = f"unexpected '{tok}'"
-    elif isinstance(exc, UnexpectedCharacters):
-        rest = src[column - 1:] if src is not None else ""
-        run = re.match(r"\S*", rest).group(0)
-        ch = rest[:1] or getattr(exc, "char", "")
-        if ch == '"':
-            msg = "unterminated string: a quoted string must end on the same line"
-        elif ch and (ch.isdigit() or ch in "+-."):
-            msg = (f"cannot read '{run}': not a number (numbers look like 3, -1.5, .5, "
-                   "2.0e-3; separate fields with blanks)")
-        elif ch and ch.isprintable() and not ch.isspace():
-            msg = f"unexpected character '{ch}' (fields are numbers, words or \"strings\")"
-        else:
-            msg = f"unexpected character U+{ord(ch):04X}" if ch else "unexpected character"
-    elif isinstance(exc, UnexpectedEOF):
-        msg = "unexpected end of file"
-    else:  # pragma: no cover - other UnexpectedInput subclasses
-        msg = "cannot read this line"
-    return (loc, msg, src)
+def _bad_token_message(tok: Token) -> str:
+    """Why a BAD token (a run of characters that is no field) cannot be read."""
+    text = str(tok)
+    first = text[0]
+    if first == '"':
+        if text.count('"') >= 2:
+            return f"cannot read '{text}': put a blank after the closing quote"
+        return "unterminated string: a quoted string must end on the same line"
+    if first == "{":
+        if "}" in text:
+            return (f"cannot read '{text}': an {{expression}} must be followed by a blank "
+                    "(ranges look like 1:{n})")
+        return ("unterminated expression: '{' needs a matching '}' on the same line (blanks "
+                "inside the braces are fine)")
+    if ":" in text and (first.isdigit() or first == "{"):
+        return f"cannot read the range '{text}': ranges look like 1:48 or 1:2:47 (first:step:last)"
+    if first.isdigit() or first in "+-.":
+        hint = ""
+        if re.fullmatch(r"[+-]?[\d.]+[-+*/^][\d.()+\-*/^]+", text):
+            hint = f"; for arithmetic use braces: {{{text}}}"
+        return (f"cannot read '{text}': not a number (numbers look like 3, -1.5, .5, "
+                f"2.0e-3; separate fields with blanks{hint})")
+    bad = next((c for c in text if not (c.isalnum() or c in "_.-")), text[0])
+    if bad.isprintable() and not bad.isspace():
+        return (f"unexpected character '{bad}' in '{text}' (fields are numbers, words, "
+                "\"strings\" or {expressions})")
+    return f"unexpected character U+{ord(bad):04X} in this field"
 
 
-# --------------------------------------------------------------------------- record checks
+# --------------------------------------------------------------------------- field checks
 
 class _FieldError(Exception):
     """A field did not match its spec (internal: collected, then raised as DeckError)."""
 
-    def __init__(self, index: int, message: str):
+    def __init__(self, index: int, message: str, offset: int = 0):
         super().__init__(message)
         self.index = index
         self.message = message
+        self.offset = offset           # columns after the start of the field
 
 
 def _number(text: str) -> float:
-    return float(text.replace("d", "e").replace("D", "e"))
-
-
-def _as_written(tok: Token):
-    """A field of a leniently parsed keyword: int, float or str as written."""
-    if tok.type == "NUMBER":
-        if _INT_TEXT.fullmatch(tok):
-            return int(tok)
-        return _number(tok)
-    if tok.type == "STRING":
-        return str(tok)[1:-1]
-    return str(tok)
-
-
-def _convert(tok: Token, spec, keyword: str, index: int):
-    """Convert one token to the value its field spec asks for, or raise _FieldError."""
-    what = f"{keyword}: expected the {spec.name} ({KIND_DESCRIPTIONS[spec.kind]}), found '{tok}'"
-    if spec.kind == "word":
-        if tok.type == "NUMBER":
-            raise _FieldError(index, what)
-        return _as_written(tok)
-    if spec.kind == "value":
-        value = _as_written(tok)
-        if isinstance(value, float) and value.is_integer() and math.isfinite(value):
-            value = int(value)
-        return value
-    if tok.type != "NUMBER":
-        raise _FieldError(index, what)
-    value = _number(tok)
-    if not math.isfinite(value):
-        raise _FieldError(index, f"{keyword}: the {spec.name} '{tok}' is out of range")
-    if spec.kind == "float":
-        if spec.positive and value <= 0:
-            raise _FieldError(index, f"{keyword}: the {spec.name} must be positive, found '{tok}'")
-        return value
-    # int: a float with zero fractional part is accepted (SPACAR writes 5.000000)
-    if not value.is_integer():
-        raise _FieldError(index, what)
-    if abs(value) > _INT_LIMIT:
-        raise _FieldError(index, f"{keyword}: the {spec.name} '{tok}' is out of range")
-    ivalue = int(value)
-    if spec.positive and ivalue < 1:
-        raise _FieldError(index, f"{keyword}: the {spec.name} must be a positive whole number, "
-                                 f"found '{tok}'")
-    return ivalue
+    try:
+        return float(text)
+    except ValueError:                  # a Fortran exponent: 1.0D-3
+        return float(text.replace("d", "e").replace("D", "e"))
 
 
 def _count_phrase(spec: KeywordSpec) -> str:
@@ -244,100 +281,457 @@ def _field_specs(spec: KeywordSpec, n: int):
     return fields + [spec.variadic] * (n - len(fields))
 
 
-class _StatementChecker:
-    """Raw records -> Statements, with the module structure and all errors collected."""
+class _Reader:
+    """Reads files record by record: module structure, parameters, includes, all errors."""
 
-    def __init__(self, filename: str, lines: list[str]):
-        self.filename = filename
-        self.lines = lines
-        self.errors: list = []
+    def __init__(self, overrides):
+        self.errors: list = []          # (sort key, loc, message, source line)
+        self.out: list[Statement] = []
+        self.params: dict[str, float] = {}
+        self.param_locs: dict[str, SourceLoc] = {}
+        self.overrides = {str(k): v for k, v in (overrides or {}).items()}
+        self.overrides_used: set[str] = set()
+        self.order = 0                  # records read so far (sort key of errors)
+        self.module = 0
+        self.prev_end = False           # the previous record was END
+        self.any_end = False            # an END or HALT was seen
+        self.closed = False             # END END seen: only VISUALIZATION may follow
+        self.visual = False             # inside the VISUALIZATION section
+        self.stopped = False            # text after the final END: stop reading
+        self.module_start: SourceLoc | None = None
+        self.structure_error = False    # a missing END was reported already
+        self.unknown_uses: list = []    # (error index, name) of unknown parameters
+        self.last: _Record | None = None
+        self.stack: list[Path] = []     # files being read (include cycle detection)
 
-    def loc(self, tok: Token, column: int | None = None) -> SourceLoc:
-        return SourceLoc(self.filename, tok.line, tok.column if column is None else column)
+    # ---------------------------------------------------------------- errors
+    def error(self, loc: SourceLoc | None, message: str, source: _Source | None = None) -> None:
+        """Record a problem; problems are reported in reading order (no location first)."""
+        src = source.line(loc.line) if (source is not None and loc is not None) else None
+        key = (1, self.order, loc.column) if loc is not None else (0, 0, 0)
+        self.errors.append((key, loc, message, src))
 
-    def error(self, loc: SourceLoc, message: str) -> None:
-        self.errors.append((loc, message, _line_of(self.lines, loc.line)))
+    def loc(self, rec: _Record, tok: Token, column: int | None = None) -> SourceLoc:
+        return SourceLoc(rec.source.name, tok.line, tok.column if column is None else column)
 
-    def run(self, records: list[_Record]) -> list[Statement]:
-        out: list[Statement] = []
-        module = 0
-        prev_end = False      # the previous record was END
-        closed = False        # END END seen: only VISUALIZATION may follow
-        visual = False        # inside the VISUALIZATION section
-        for rec in records:
-            keyword = str(rec.keyword).upper()
-            if visual or keyword == "VISUALIZATION":
-                visual = True
-                out.append(self.statement(rec, keyword, tuple(_as_written(t) for t in rec.fields),
-                                          -1))
-                continue
-            if closed:
-                self.error(self.loc(rec.keyword),
-                           f"text after the final END: '{rec.keyword}' (only a VISUALIZATION "
-                           "section may follow END END)")
-                break
-            spec = KEYWORDS.get(keyword)
-            if spec is None:
-                self.unknown_keyword(rec, keyword)
-                prev_end = False
-                continue
-            fields = self.check_fields(rec, keyword, spec)
-            if keyword == "END":
-                if prev_end:
-                    closed = True
-                    this_module = module - 1
-                else:
-                    this_module = module
-                    module += 1
-                prev_end = True
+    # ---------------------------------------------------------------- files
+    def read(self, text: str, name: str, path: Path | None) -> None:
+        source = _Source(name, path, [ln.rstrip("\r") for ln in text.split("\n")])
+        records, failure = _records(text, source)
+        if path is not None:
+            self.stack.append(path.resolve())
+        try:
+            for rec in records:
+                if self.stopped:
+                    break
+                self.order += 1
+                self.record(rec)
+            if failure is not None:      # pragma: no cover
+                self.order += 1
+                self.errors.append(((1, self.order, 0),) + failure)
+        finally:
+            if path is not None:
+                self.stack.pop()
+
+    def include(self, rec: _Record, st_fields: tuple) -> None:
+        name = st_fields[0]
+        src = rec.source
+        loc = self.loc(rec, rec.fields[0])
+        base = src.path.parent if src.path is not None else Path(os.path.dirname(src.name))
+        target = base / name
+        shown = os.path.normpath(os.path.join(os.path.dirname(src.name), name)) \
+            if src.path is not None else name
+        try:
+            resolved = target.resolve()
+        except (OSError, RuntimeError):       # pragma: no cover - resolution loops
+            resolved = target
+        if resolved in self.stack:
+            chain = " -> ".join(p.name for p in self.stack[self.stack.index(resolved):])
+            self.error(loc, f"INCLUDE cycle: {chain} -> {resolved.name} (a file may not "
+                            "include itself, directly or indirectly)", src)
+            return
+        if len(self.stack) >= _MAX_INCLUDE_DEPTH:
+            self.error(loc, f"INCLUDE: files nested more than {_MAX_INCLUDE_DEPTH} deep", src)
+            return
+        try:
+            text = read_text(target)
+        except OSError as exc:
+            self.error(loc, f"INCLUDE: cannot read '{name}' (looked for {target}): "
+                            f"{_os_reason(exc)}", src)
+            return
+        self.read(text, shown, target)
+
+    def finish(self) -> None:
+        """Checks at the end of the deck: a missing END, unused --set overrides."""
+        if self.any_end and not (self.prev_end or self.closed) and self.last is not None \
+                and not self.visual and not self.structure_error:
+            rec = self.last
+            end = (rec.fields or (rec.head,))[-1]
+            loc = SourceLoc(rec.source.name, end.line, end.end_column)
+            start = (f" (the last module starts at line {self.module_start.line})"
+                     if self.module_start is not None else "")
+            self.order += 1
+            self.error(loc, "missing END at the end of the deck: close the last module with "
+                            f"END, and the deck with END END{start}", rec.source)
+        for i, name in self.unknown_uses:
+            if name in self.param_locs and i < len(self.errors):
+                key, loc, msg, src = self.errors[i]
+                where = self.param_locs[name]
+                msg = msg.removesuffix("; define it first with SET name value")
+                msg += (f" (it is SET at line {where.line}" if where.file == loc.file
+                        else f" (it is SET at {where}") + ", after its use: move the SET up)"
+                self.errors[i] = (key, loc, msg, src)
+        unused = [k for k in self.overrides if k not in self.overrides_used]
+        for name in unused:
+            known = ", ".join(self.params) if self.params else "none: the deck has no SET lines"
+            self.error(None, f"--set {name}: the deck has no 'SET {name}' line to override "
+                             f"(its parameters: {known})")
+
+    # ---------------------------------------------------------------- records
+    def record(self, rec: _Record) -> None:
+        head = rec.head
+        if head.type != "WORD":
+            self.not_a_keyword(rec)
+            self.prev_end = False
+            return
+        keyword = str(head).upper()
+        if keyword in ("INCLUDE", "SET"):
+            if self.closed and not self.visual:
+                self.after_final_end(rec)
+                return
+            converted = self.check_fields(rec, keyword, KEYWORDS[keyword])
+            if converted is not None:
+                if keyword == "INCLUDE":
+                    self.include(rec, converted[0][0])
+                elif self.set_parameter(rec, converted[0]):
+                    name, value = converted[0][0][0], self.params[converted[0][0][0]]
+                    self.emit(rec, keyword, (name, value), converted[0][1],
+                              -1 if self.visual else self.module)
+            self.last = rec
+            return
+        if self.visual or keyword == "VISUALIZATION":
+            self.visualization(rec, keyword)
+            return
+        if self.closed:
+            self.after_final_end(rec)
+            return
+        spec = KEYWORDS.get(keyword)
+        if spec is None:
+            self.unknown_keyword(rec, keyword)
+            self.prev_end = False
+            self.last = rec
+            return
+        if spec.data_form is not None and self.module >= 1:
+            spec = spec.data_form
+        converted = self.check_fields(rec, keyword, spec)
+        if keyword == "END":
+            if self.prev_end:
+                self.closed = True
+                this_module = self.module - 1
             else:
-                if keyword == "HALT" and not prev_end:
-                    self.error(self.loc(rec.keyword), "HALT must directly follow an END")
-                this_module = module
-                prev_end = False
-            if fields is not None:
-                out.append(self.statement(rec, keyword, fields, this_module))
-        if self.errors:
-            raise DeckError(sorted(self.errors, key=lambda it: (it[0].line, it[0].column)))
-        return out
+                this_module = self.module
+                self.module += 1
+            self.prev_end = True
+            self.any_end = True
+        else:
+            if keyword == "HALT":
+                self.any_end = True
+                if not self.prev_end:
+                    self.structure_error = True
+                    self.error(self.loc(rec, head), "missing END before HALT: HALT must directly "
+                                                    "follow the END that closes a module",
+                               rec.source)
+                else:
+                    self.module_start = self.loc(rec, head)
+            this_module = self.module
+            self.prev_end = False
+        self.last = rec
+        for fields, locs in converted or ():
+            self.emit(rec, keyword, fields, locs, this_module)
 
-    def statement(self, rec: _Record, keyword: str, fields: tuple, module: int) -> Statement:
-        return Statement(keyword=keyword, fields=fields, loc=self.loc(rec.keyword),
-                         field_locs=tuple(self.loc(t) for t in rec.fields),
-                         source_line=_line_of(self.lines, rec.keyword.line) or "",
-                         module=module)
+    def emit(self, rec: _Record, keyword: str, fields: tuple, locs: tuple, module: int) -> None:
+        self.out.append(Statement(keyword=keyword, fields=fields, loc=self.loc(rec, rec.head),
+                                  field_locs=locs,
+                                  source_line=rec.source.line(rec.head.line) or "",
+                                  module=module))
+
+    def visualization(self, rec: _Record, keyword: str) -> None:
+        if not self.visual:
+            if not (self.prev_end or self.closed):
+                self.structure_error = True
+                self.error(self.loc(rec, rec.head),
+                           "missing END before VISUALIZATION: the VISUALIZATION section comes "
+                           "after the final END END", rec.source)
+            self.visual = True
+        spec = VISUALIZATION_KEYWORDS.get(keyword) if keyword != "VISUALIZATION" \
+            else KEYWORDS["VISUALIZATION"]
+        if spec is None:
+            if keyword in KEYWORDS:
+                self.error(self.loc(rec, rec.head),
+                           f"'{rec.head}' is not a VISUALIZATION keyword: SPACAR lines must come "
+                           "before the final END END (SPACAR stops reading there)", rec.source)
+                return
+            close = difflib.get_close_matches(keyword, list(VISUALIZATION_KEYWORDS), n=1,
+                                              cutoff=0.6)
+            logger.warning("%s: unknown VISUALIZATION keyword '%s' is ignored%s",
+                           self.loc(rec, rec.head), rec.head,
+                           f" (did you mean {close[0]}?)" if close else "")
+            fields = []
+            for tok in rec.fields:
+                try:
+                    fields.append(self.as_written(tok))
+                except _FieldError:
+                    fields.append(str(tok))
+            self.emit(rec, keyword, tuple(fields),
+                      tuple(self.loc(rec, t) for t in rec.fields), -1)
+            return
+        for fields, locs in self.check_fields(rec, keyword, spec) or ():
+            self.emit(rec, keyword, fields, locs, -1)
+
+    def after_final_end(self, rec: _Record) -> None:
+        self.error(self.loc(rec, rec.head),
+                   f"text after the final END: '{rec.head}' (SPACAR stops reading at END END; "
+                   "only a VISUALIZATION section may follow)", rec.source)
+        self.stopped = True
+
+    def not_a_keyword(self, rec: _Record) -> None:
+        head = rec.head
+        loc = self.loc(rec, head)
+        if head.type == "BAD":
+            self.error(loc, _bad_token_message(head), rec.source)
+            return
+        what = {"NUMBER": "the number", "EXPR": "the expression", "RANGE": "the range",
+                "STRING": "the string"}.get(head.type, "")
+        msg = f"expected a keyword at the start of the line, found {what} '{head}'"
+        prev = self.last
+        n_here = 1 + len(rec.fields)
+        if prev is not None and prev.source is rec.source and prev.head.type == "WORD":
+            spec = KEYWORDS.get(str(prev.head).upper())
+            if spec is not None and _field_specs(spec, len(prev.fields) + n_here) is not None \
+                    and _field_specs(spec, len(prev.fields)) is None:
+                msg += (f" (is this the rest of the {spec.name} record on line {prev.head.line}? "
+                        "a record must be on one line)")
+                self.error(loc, msg, rec.source)
+                return
+        msg += " (every line starts with a keyword such as X, BEAM or FIX)"
+        self.error(loc, msg, rec.source)
 
     def unknown_keyword(self, rec: _Record, keyword: str) -> None:
+        tok = rec.head
+        glued = _GLUED.fullmatch(keyword)
         if keyword in VISUALIZATION_KEYWORDS:
-            msg = (f"'{rec.keyword}' belongs to the VISUALIZATION section, which must come "
-                   "after the final END")
+            msg = (f"'{tok}' belongs to the VISUALIZATION section, which comes after the final "
+                   "END END")
+        elif glued and glued.group(1) in KEYWORDS:
+            msg = (f"unknown keyword '{tok}': put a blank between the keyword and the number "
+                   f"('{tok[:len(glued.group(1))]} {tok[len(glued.group(1)):]}')")
         else:
-            msg = f"unknown keyword '{rec.keyword}'"
+            msg = f"unknown keyword '{tok}'"
             close = difflib.get_close_matches(keyword, list(KEYWORDS), n=1, cutoff=0.6)
             if close:
                 msg += f" (did you mean {close[0]}?)"
-        self.error(self.loc(rec.keyword), msg)
+        self.error(self.loc(rec, tok), msg, rec.source)
 
-    def check_fields(self, rec: _Record, keyword: str, spec: KeywordSpec) -> tuple | None:
-        """Convert the fields of one record, or record an error and return None."""
+    # ---------------------------------------------------------------- parameters
+    def set_parameter(self, rec: _Record, converted: tuple) -> bool:
+        """Define a parameter (or apply its --set override); False after an error."""
+        (name, value), locs = converted
+        loc = locs[0]
+        if not _NAME.fullmatch(name):
+            self.error(loc, f"SET: '{name}' is not a valid parameter name (letters, digits and "
+                            "'_', starting with a letter)", rec.source)
+            return False
+        if name in RESERVED_NAMES:
+            self.error(loc, f"SET: '{name}' is a built-in name and cannot be set", rec.source)
+            return False
+        if name in self.params:
+            first = self.param_locs[name]
+            where = f"line {first.line}" if first.file == loc.file else f"{first}"
+            self.error(loc, f"SET: parameter '{name}' is already set ({where}); a parameter is "
+                            "set once", rec.source)
+            return False
+        if name in self.overrides:
+            self.overrides_used.add(name)
+            override = self.overrides[name]
+            try:
+                if isinstance(override, (int, float)) and not isinstance(override, bool):
+                    value = float(override)
+                    if not math.isfinite(value):
+                        raise ExpressionError(0, "not a finite number")
+                else:
+                    text = str(override).strip()
+                    if text.startswith("{") and text.endswith("}"):
+                        text = text[1:-1]
+                    value = evaluate(text, self.params)
+            except ExpressionError as exc:
+                # reported; the deck's own value is kept so that later lines are still checked
+                self.error(None, f"--set {name}={override}: {exc.message}")
+        self.params[name] = value
+        self.param_locs[name] = loc
+        return True
+
+    # ---------------------------------------------------------------- fields
+    def check_fields(self, rec: _Record, keyword: str, spec: KeywordSpec):
+        """Convert the fields of one record.
+
+        Returns a list of ``(fields, field_locs)``, one per statement (several when the first
+        field is a range), or None after recording an error.
+        """
+        bad = [t for t in rec.fields if t.type == "BAD"]
+        if bad:
+            for tok in bad:
+                self.error(self.loc(rec, tok), _bad_token_message(tok), rec.source)
+            return None
         n = len(rec.fields)
         specs = _field_specs(spec, n)
         if specs is None:
             counts = spec.counts
             if n > counts[-1] and spec.variadic is None:
-                loc = self.loc(rec.fields[counts[-1]])       # the first extra field
+                loc = self.loc(rec, rec.fields[counts[-1]])     # the first extra field
             else:
-                last = rec.fields[-1] if rec.fields else rec.keyword
-                loc = self.loc(last, last.end_column)         # where a field is missing
+                last = rec.fields[-1] if rec.fields else rec.head
+                loc = self.loc(rec, last, last.end_column)      # where a field is missing
             self.error(loc, f"{keyword} takes {_count_phrase(spec)}, got {n} "
-                            f"(usage: {spec.usage})")
+                            f"(usage: {spec.usage})", rec.source)
             return None
-        values = []
+        values: list = []
+        locs: list = []
+        first_range = None
         ok = True
         for i, (tok, fspec) in enumerate(zip(rec.fields, specs)):
+            tok_loc = self.loc(rec, tok)
             try:
-                values.append(_convert(tok, fspec, keyword, i))
+                if tok.type == "RANGE":
+                    numbers = self.range_values(tok, fspec, keyword, i)
+                    if i == 0 and spec.range_first:
+                        first_range = numbers
+                        values.append(None)
+                        locs.append(tok_loc)
+                    elif fspec is spec.variadic and fspec.kind == "int":
+                        values.extend(numbers)
+                        locs.extend([tok_loc] * len(numbers))
+                    else:
+                        where = ("the element number of DYNE, RLSE, ESTIFF and EM and in lists "
+                                 "of numbers (FIX, DYNE and RLSE modes, BEAMPROPS, ...)")
+                        raise _FieldError(i, f"{keyword}: the {fspec.name} cannot be a range "
+                                             f"('{tok}'); ranges are allowed for {where}")
+                else:
+                    values.append(self.convert(tok, fspec, keyword, i))
+                    locs.append(tok_loc)
             except _FieldError as exc:
-                self.error(self.loc(rec.fields[exc.index]), exc.message)
+                self.error(SourceLoc(rec.source.name, tok.line, tok.column + exc.offset),
+                           exc.message, rec.source)
                 ok = False
-        return tuple(values) if ok else None
+        if not ok:
+            return None
+        if first_range is None:
+            return [(tuple(values), tuple(locs))]
+        return [((k,) + tuple(values[1:]), tuple(locs)) for k in first_range]
+
+    def expression(self, tok: Token, index: int, text: str | None = None,
+                   offset: int = 0) -> float:
+        """Evaluate an {expression} field (or the part ``text`` of a range at ``offset``)."""
+        text = str(tok)[1:-1] if text is None else text
+        try:
+            return evaluate(text, self.params)
+        except ExpressionError as exc:
+            if exc.unknown_name is not None:
+                self.unknown_uses.append((len(self.errors), exc.unknown_name))
+            raise _FieldError(index, exc.message, offset + 1 + exc.offset) from None
+
+    def as_written(self, tok: Token, index: int = 0):
+        """A field of kind "value": int, float or str as written; expressions evaluated."""
+        if tok.type == "NUMBER":
+            if _INT_TEXT.fullmatch(tok):
+                return int(tok)
+            value = _number(tok)
+            if not math.isfinite(value):
+                raise _FieldError(index, f"the number '{tok}' is out of range")
+            return value
+        if tok.type == "EXPR":
+            value = self.expression(tok, index)
+            whole = whole_number(value, 0.0)
+            return whole if whole is not None and abs(whole) <= _INT_LIMIT else value
+        if tok.type == "STRING":
+            return str(tok)[1:-1]
+        return str(tok)
+
+    def convert(self, tok: Token, spec: FieldSpec, keyword: str, index: int):
+        """Convert one token to the value its field spec asks for, or raise _FieldError."""
+        what = (f"{keyword}: expected the {spec.name} ({KIND_DESCRIPTIONS[spec.kind]}), "
+                f"found '{tok}'")
+        if spec.kind == "word":
+            if tok.type not in ("WORD", "STRING"):
+                raise _FieldError(index, what)
+            return self.as_written(tok, index)
+        if spec.kind == "value":
+            value = self.as_written(tok, index)
+            if isinstance(value, float) and value.is_integer() and abs(value) <= _INT_LIMIT:
+                value = int(value)
+            return value
+        if tok.type == "NUMBER":
+            value = _number(tok)
+            if not math.isfinite(value):
+                raise _FieldError(index, f"{keyword}: the {spec.name} '{tok}' is out of range")
+        elif tok.type == "EXPR":
+            value = self.expression(tok, index)
+        else:
+            raise _FieldError(index, what)
+        if spec.kind == "float":
+            return value
+        return self.whole(value, tok, spec, keyword, index)
+
+    def whole(self, value: float, tok: Token, spec: FieldSpec, keyword: str, index: int) -> int:
+        # int: a float with zero fractional part is accepted (SPACAR writes 5.000000); an
+        # expression may be off by round-off ({0.1*30} is 3)
+        ivalue = whole_number(value, 0.0 if tok.type == "NUMBER" else 1e-9)
+        if ivalue is None:
+            if tok.type == "EXPR":
+                raise _FieldError(index, f"{keyword}: the {spec.name} must be a whole number, "
+                                         f"but {tok} = {value:.10g}")
+            raise _FieldError(index, f"{keyword}: expected the {spec.name} "
+                                     f"({KIND_DESCRIPTIONS[spec.kind]}), found '{tok}'")
+        if abs(ivalue) > _INT_LIMIT:
+            raise _FieldError(index, f"{keyword}: the {spec.name} '{tok}' is out of range")
+        if spec.positive and ivalue < 1:
+            shown = f"{tok} = {ivalue}" if tok.type == "EXPR" else f"'{tok}'"
+            raise _FieldError(index, f"{keyword}: the {spec.name} must be a positive whole "
+                                     f"number, found {shown}")
+        return ivalue
+
+    def range_values(self, tok: Token, spec: FieldSpec, keyword: str, index: int) -> range:
+        """The numbers of a range field ``first:last`` or ``first:step:last``."""
+        parts = _RANGE_PART.findall(str(tok))
+        numbers = []
+        offset = 0
+        for part in parts:
+            offset = str(tok).index(part, offset)
+            if part.startswith("{"):
+                value = self.expression(tok, index, part[1:-1], offset)
+                ivalue = whole_number(value)
+                if ivalue is None:
+                    raise _FieldError(index, f"{keyword}: the range '{tok}' needs whole "
+                                             f"numbers, but {part} = {value:.10g}", offset)
+            else:
+                ivalue = int(part)
+            numbers.append(ivalue)
+            offset += len(part)
+        if len(numbers) == 3:
+            first, step, last = numbers
+        else:
+            (first, last), step = numbers, 1
+        if step < 1:
+            raise _FieldError(index, f"{keyword}: the step of the range '{tok}' must be at least "
+                                     "1 (first:step:last)")
+        if last < first:
+            raise _FieldError(index, f"{keyword}: the range '{tok}' is empty: it must count "
+                                     f"upwards (first {first} > last {last})")
+        if spec.positive and first < 1:
+            raise _FieldError(index, f"{keyword}: the range '{tok}' must start at 1 or more")
+        if max(abs(first), abs(last)) > _INT_LIMIT:
+            raise _FieldError(index, f"{keyword}: the range '{tok}' is out of range")
+        values = range(first, last + 1, step)
+        if len(values) > MAX_RANGE:
+            raise _FieldError(index, f"{keyword}: the range '{tok}' has {len(values)} numbers; "
+                                     f"at most {MAX_RANGE} are allowed")
+        return values
