@@ -175,6 +175,9 @@ class Model:
     loads : list of Load
     iterstep : IterStep
     nodal_masses : list of NodalMass
+    cross_sections : spacarpy.deck.visualization.CrossSections or None
+        Cross-section shapes and dimensions per element from the deck's VISUALIZATION
+        section (BEAMPROPS/CROSSTYPE/CROSSDIM), for stresses and plots.
     analysis : str
         One of :data:`ANALYSES`.
     deformations : str
@@ -191,6 +194,7 @@ class Model:
     loads: list = field(default_factory=list)
     iterstep: IterStep = field(default_factory=IterStep)
     nodal_masses: list = field(default_factory=list)
+    cross_sections: object | None = None
     analysis: str = "static"
     deformations: str = "modified"
     source_path: str = "<model>"
@@ -204,6 +208,14 @@ class Model:
             raise ValueError(f"unknown analysis {self.analysis!r}; expected one of {ANALYSES}")
         if self.deformations not in DEFORMATION_VARIANTS:
             raise ValueError(f"unknown deformation variant {self.deformations!r}")
+
+    def to_deck(self, **kw) -> str:
+        """The model as SPACAR deck text (see :func:`spacarpy.deck.writer.model_to_deck`);
+        reading that text back gives an equal model."""
+        from spacarpy.deck.writer import model_to_deck
+        if self.cross_sections is not None:
+            kw.setdefault("cross_sections", self.cross_sections)
+        return model_to_deck(self, **kw)
 
     def __repr__(self) -> str:
         return (f"Model({self.position_ids.size} position nodes, {self.orientation_ids.size} "

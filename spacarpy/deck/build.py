@@ -666,5 +666,9 @@ def build_model(statements, *, text: str, path: str, deformations: str | None = 
     if overrides:
         from spacarpy.deck.parser import parse_deck
         statements = parse_deck(text, path, overrides=overrides)
-    builder = _ModelBuilder(path)
-    return builder.build(list(statements), deformations, analysis, text)
+    from spacarpy.deck.visualization import cross_sections
+    statements = list(statements)
+    model = _ModelBuilder(path).build(statements, deformations, analysis, text)
+    sections = cross_sections(statements)
+    model.cross_sections = sections if len(sections) else None
+    return model
