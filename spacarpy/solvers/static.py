@@ -296,12 +296,12 @@ class StaticProblem:
             x_lin = x.copy()
             x_lin[self.free] += dx
             if self.kinematic_correction:
-                x_lin = self.correct_kinematics(x_lin, x, dx, ev.st)
+                x_lin = self.correct_kinematics(x_lin, dx, ev.st)
             x = x_lin
             mu = mu + dmu
         raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
 
-    def correct_kinematics(self, x_lin, x_old, dx, st_old, max_iter: int = 3):
+    def correct_kinematics(self, x_lin, dx, st_old, max_iter: int = 3):
         """Move the linearly updated configuration onto the deformations Newton predicted.
 
         Newton's increment predicts every deformation to first order,
