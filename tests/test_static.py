@@ -207,3 +207,42 @@ def test_newton_matrix_equals_finite_differences_of_the_residual():
         ep, em = prob.evaluate(xp, mu, force, moment), prob.evaluate(xm, mu, force, moment)
         fd[:, k] = np.concatenate([ep.r - em.r, prob.scale * (ep.c - em.c)]) / (2 * h)
     np.testing.assert_allclose(a[:, :n_x], fd, atol=1e-6 * np.abs(a).max())
+
+
+def chain(n, def_class=None, fixes=(), loads=()):
+    pos = np.arange(n + 1) * 2 + 1
+    rot = pos + 1
+    x0 = np.zeros((n + 1, 3))
+    x0[:, 0] = np.linspace(0, 1, n + 1)
+    dc = np.ones((n, 6)) if def_class is None else np.full((n, 6), def_class)
+    beams = BeamSet(ids=np.arange(1, n + 1), nodes=np.stack([pos[:-1], rot[:-1], pos[1:],
+                                                            rot[1:]], 1),
+                    orientation=np.tile([0, 1.0, 0], (n, 1)), def_class=dc,
+                    stiffness=np.tile([1e6, 1.0, 1.0, 1.0, 0, 0], (n, 1)),
+                    has_stiffness=np.ones(n, bool))
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
+                 fixes=list(fixes), loads=list(loads), iterstep=IterStep(n_steps=1))
+
+
+def test_large_free_floating_model_is_reported_as_a_mechanism():
+    """700 beams (> 4000 unknowns: no dense SVD); SuperLU factorizes the singular matrix
+    without complaint, the deformation-free-motion check still finds the 6 rigid motions."""
+    model = chain(700, loads=[Load(1401, "DELXF", (0, 1.0, 0))])
+    with pytest.raises(ModelError, match=r"mechanism: 6 free motion.*1402 in all"):
+        solve_static(model)
+
+
+def test_large_over_constrained_model_names_rlse_lines():
+    model = chain(700, def_class=RIGID, fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4)),
+                                               Fix(1401, (1, 2, 3)), Fix(1402, (1, 2, 3, 4))])
+    with pytest.raises(ModelError, match=r"over-constrained: 6 redundant.*'RLSE 1 1'.*in all"):
+        solve_static(model)
+
+
+def test_stiff_fine_mesh_is_not_mistaken_for_a_mechanism():
+    """A 2000-element cantilever has a huge condition number but no free motion."""
+    model = chain(2000, fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
+                  loads=[Load(4001, "DELXF", (0, 1e-3, 0))])
+    res = solve_static(model)
+    tip = res.steps[-1].x[res.problem.num.pos_idx[-1]]
+    assert tip[1] == pytest.approx(1e-3 / 3, rel=1e-4)                 # F L^3 / 3 EI

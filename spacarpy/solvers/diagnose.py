@@ -7,10 +7,14 @@ mode, a fix or an Euler normalization that repeats what others already impose). 
 rank-revealing factorization (SVD) of the matrix gives both: right null vectors with a
 position/orientation part are free motions, left null vectors that live on the multipliers
 only are redundant constraints. The report names nodes, elements and deformation modes.
+Large models (more than :data:`DENSE_LIMIT` unknowns) get their null vectors from block
+inverse iteration with one sparse LU of the slightly shifted matrix instead of a dense SVD.
 """
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from spacarpy.errors import ModelError
 
@@ -20,26 +24,35 @@ DENSE_LIMIT = 4000
 
 def singular_matrix_error(prob, A, x) -> ModelError:
     """Build the :class:`ModelError` describing why the Newton matrix ``A`` is singular."""
-    num, model = prob.num, prob.model
     n = A.shape[0]
-    n_x = prob.pattern.n_x
     if n > DENSE_LIMIT:
-        err = ModelError(
-            f"the Newton matrix ({n} unknowns) is singular: the model is a mechanism or has "
-            f"redundant constraints. It is too large for the detailed diagnosis "
-            f"(limit {DENSE_LIMIT}); check the FIX lines and the DYNE/RLSE classes.")
-        err.mechanism, err.over_constrained = True, True
-        return err
-    dense = A.toarray()
-    u, s, vt = np.linalg.svd(dense)
-    smax = s[0] if s.size and s[0] > 0 else 1.0
-    null = s <= 1e-10 * smax
+        right = left = _sparse_null_vectors(A)
+        if right is None:
+            err = ModelError(
+                f"the Newton matrix ({n} unknowns) is singular: the model is a mechanism or "
+                f"has redundant constraints, which could not be isolated; check the FIX lines "
+                f"and the DYNE/RLSE classes.")
+            err.mechanism, err.over_constrained = True, True
+            return err
+    else:
+        u, s, vt = np.linalg.svd(A.toarray())
+        smax = s[0] if s.size and s[0] > 0 else 1.0
+        null = s <= 1e-10 * smax
+        right, left = vt[null], u[:, null].T
+    return _report(prob, right, left)
+
+
+def _report(prob, right, left) -> ModelError:
+    """The error message from right null vectors (free motions) and left null vectors
+    (redundant constraints), both over [unknown coordinates, multipliers]."""
+    num, model = prob.num, prob.model
+    n_x = prob.pattern.n_x
     lines = []
     coord_of_unknown = np.flatnonzero(~num.fixed_mask)
     node_of = num.node_of_coord(model)
 
     # free motions: right null vectors with a coordinate part
-    motions = [v for v in vt[null] if np.abs(v[:n_x]).max(initial=0) > 1e-6 * np.abs(v).max()]
+    motions = [v for v in right if np.abs(v[:n_x]).max(initial=0) > 1e-6 * np.abs(v).max()]
     if motions:
         moving = set()
         for v in motions:
@@ -53,7 +66,7 @@ def singular_matrix_error(prob, A, x) -> ModelError:
             + (f"; elements attached: {_fmt(elems)}" if elems else "")
             + ". Add FIX lines, or make deformation modes flexible (DYNE with ESTIFF) or rigid.")
     # redundant constraints: left null vectors living on the multipliers only
-    redundant = [w for w in u[:, null].T
+    redundant = [w for w in left
                  if np.abs(w[:n_x]).max(initial=0) <= 1e-6 * np.abs(w).max()]
     if redundant:
         names = set()
@@ -63,13 +76,81 @@ def singular_matrix_error(prob, A, x) -> ModelError:
                 names.add(_constraint_name(num, model, int(k)))
         lines.append(
             f"over-constrained: {len(redundant)} redundant constraint(s) among: "
-            f"{'; '.join(sorted(names))}")
+            f"{_fmt(sorted(names, key=_natural), limit=12, sep='; ')}")
     if not lines:
         lines.append("the Newton matrix is singular (numerically); no clear mechanism or "
                      "redundant constraint was identified")
     err = ModelError("the model cannot be solved: " + "\n  ".join(lines))
     err.mechanism, err.over_constrained = bool(motions), bool(redundant)
     return err
+
+
+def mechanism_error(prob, A, D, k: int = 8) -> ModelError | None:
+    """Detect free motions that SuperLU factorized without complaint (tiny pivots).
+
+    The smallest singular directions of ``A`` (block inverse iteration with its LU) are
+    candidates; a candidate is a free motion when it changes no deformation that carries
+    stiffness or is rigid (``D v`` ~ 0 relative to its size) and keeps every Euler
+    normalization. Those exist only in a mechanism; soft but genuine elastic modes deform
+    elements and are not reported. Returns the error to raise, or None.
+    """
+    num = prob.num
+    n_x = prob.pattern.n_x
+    if n_x == 0:
+        return None
+    try:
+        lu = spla.splu(A.tocsc())
+    except RuntimeError:
+        return None
+    rng = np.random.default_rng(1)
+    v = rng.standard_normal((A.shape[0], min(k, A.shape[0])))
+    for _ in range(3):
+        v, _ = np.linalg.qr(lu.solve(v))
+    _, _, wt = np.linalg.svd(A @ v, full_matrices=False)
+    cand = (v @ wt.T)[:n_x]                                     # columns, smallest last
+    full = np.zeros((num.n_coord, cand.shape[1]))
+    full[prob.free] = cand
+    rates = D @ full[num.beam_idx]                              # (n_elem, 6, k)
+    stiff = (num.has_stiffness_mode | (prob.model.beams.def_class == 0))[:, :, None]
+    deform = np.abs(np.where(stiff, rates, 0.0) / num.l0[:, None, None]).max(axis=(0, 1),
+                                                                          initial=0.0)
+    rot = num.is_rotation_coord[prob.free]
+    size = (np.abs(cand[~rot]).max(axis=0, initial=0.0) / num.length_scale
+            + np.abs(cand[rot]).max(axis=0, initial=0.0))
+    q = num.x0[num.rot_idx[num.euler_nodes]]
+    euler = np.abs(np.einsum("na,nak->nk", q, full[num.rot_idx[num.euler_nodes]])).max(
+        axis=0, initial=0.0)
+    free_motion = (deform <= 1e-8 * size) & (euler <= 1e-8 * size) & (size > 0)
+    if not np.any(free_motion):
+        return None
+    right = np.zeros((int(free_motion.sum()), A.shape[0]))
+    right[:, :n_x] = cand[:, free_motion].T
+    return _report(prob, right, np.zeros((0, A.shape[0])))
+
+
+def _sparse_null_vectors(A, k: int = 12, iterations: int = 4):
+    """Null vectors of a large, singular, symmetric sparse matrix by block inverse iteration.
+
+    ``A + delta I`` (delta tiny against the matrix scale) is regular; repeated solves with it
+    amplify the null-space components of a random block by ``1/delta``, so after a few
+    iterations a Rayleigh-Ritz step (an SVD of ``A V``) separates the null vectors (singular
+    values ~ 0) from the rest. Returns an array (n_null, n), or None when the shifted
+    factorization fails too.
+    """
+    n = A.shape[0]
+    scale = float(abs(A).max())
+    shift = 1e-9 * scale
+    try:
+        lu = spla.splu((A + shift * sp.eye(n, format="csc")).tocsc())
+    except RuntimeError:
+        return None
+    rng = np.random.default_rng(0)
+    v = rng.standard_normal((n, min(k, n)))
+    for _ in range(iterations):
+        v, _ = np.linalg.qr(lu.solve(v))
+    _, sing, wt = np.linalg.svd(A @ v, full_matrices=False)
+    null = sing <= 1e-7 * scale
+    return (v @ wt[null].T).T
 
 
 def _constraint_name(num, model, k: int) -> str:
@@ -88,7 +169,12 @@ def _elements_at(model, nodes) -> list:
     return [int(i) for i in model.beams.ids[hit]]
 
 
-def _fmt(items, limit=20) -> str:
+def _natural(name: str):
+    """Sort key that orders 'element 10 ...' after 'element 9 ...'."""
+    return [int(t) if t.isdigit() else t for t in name.replace("'", " ").split()]
+
+
+def _fmt(items, limit=20, sep=", ") -> str:
     items = list(items)
-    s = ", ".join(str(i) for i in items[:limit])
+    s = sep.join(str(i) for i in items[:limit])
     return s + (f", ... ({len(items)} in all)" if len(items) > limit else "")

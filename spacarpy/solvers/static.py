@@ -386,12 +386,21 @@ class StaticProblem:
         zero_force = np.zeros(num.n_coord)
         zero_moment = np.zeros((self.loads.moment_rot.size, 3))
         ev = self.evaluate(x, mu, zero_force, zero_moment)
-        if self.pattern.n:
-            self._initial_check = True
-            try:
-                self._solve(self.matrix(ev, mu, zero_moment), np.ones(self.pattern.n), x)
-            finally:
-                self._initial_check = False
+        if not self.pattern.n:
+            return
+        A = self.matrix(ev, mu, zero_moment)
+        self._initial_check = True
+        try:
+            self._solve(A, np.ones(self.pattern.n), x)
+        finally:
+            self._initial_check = False
+        # The LU exists, but round-off can hide an exact singularity behind tiny pivots:
+        # look for deformation-free motions among the smallest modes (robust against the
+        # huge but legitimate condition numbers of finely meshed stiff structures).
+        from spacarpy.solvers.diagnose import mechanism_error
+        err = mechanism_error(self, A, ev.st.D)
+        if err is not None:
+            raise err
 
     def normalize(self, x):
         """Project Euler parameters exactly onto q.q = 1 (after convergence)."""
