@@ -301,7 +301,7 @@ class StaticProblem:
             mu = mu + dmu
         raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
 
-    def correct_kinematics(self, x_lin, dx, st_old, max_iter: int = 3):
+    def correct_kinematics(self, x_lin, dx, st_old, max_iter: int = 2):
         """Move the linearly updated configuration onto the deformations Newton predicted.
 
         Newton's increment predicts every deformation to first order,

@@ -1,0 +1,242 @@
+"""The spatial HINGE element (SPACAR ``HINGE e Rp Rq ax ay az``), vectorized.
+
+A hinge connects two orientation nodes p and q. Its first deformation is the relative rotation
+about the hinge axis; the other two are the (small) relative rotations about two axes normal
+to it, which are zero (rigid) in an ideal revolute joint. Pure functions on arrays with the
+element index first, mirroring :mod:`spacarpy.elements.beam`.
+
+Local coordinates
+-----------------
+x : (n_elem, 8)
+    ``[q^p (4), q^q (4)]``: Euler parameters of the two orientation nodes.
+
+Reference triad
+---------------
+From the deck's axis vector ``(ax, ay, az)`` in global axes (initial configuration),
+:func:`hinge_reference` builds the orthonormal, right-handed triad ``(a, b, c)``:
+
+- ``a`` = the axis vector normalized;
+- ``b`` = the global unit axis ``e_k`` with the smallest ``|a_k|`` (the first such k on ties;
+  the same rule as the default y-axis of a BEAM), made orthogonal to ``a`` (Gram-Schmidt) and
+  normalized;
+- ``c = a x b``.
+
+For example axis x -> (b, c) = (y, z); axis y -> (x, -z); axis z -> (x, y).
+The nodal triads are ``a^p = R(q^p) a``, ``b^p = R(q^p) b``, ... and likewise for q; all
+orientation nodes start at the identity, so the hinge is undeformed initially.
+
+Deformations (1-based, as SPACAR's DYNE/RLSE number them)
+---------------------------------------------------------
+1. ``e1 = atan2(s, c) + 2 pi k`` with ``s = c^p.b^q - b^p.c^q`` and
+   ``c = b^p.b^q + c^p.c^q``: the rotation angle of node q relative to node p about the hinge
+   axis, right-handed about ``a`` (rad). If q^q is q^p followed by a rotation by theta about
+   the (current) axis, ``e1 = theta`` (mod 2 pi). The integer number of turns k is 0 by default
+   (``e1`` in (-pi, pi]); with ``e1_previous`` (typically the value of the previous converged
+   state) k is chosen so that e1 is the branch closest to ``e1_previous``, which makes e1
+   continuous through +-pi and over multiple turns provided it changes by less than pi between
+   the state of ``e1_previous`` and the current one. ``HingeState.turns`` returns the k used.
+   e1 is insensitive to the scale of the Euler parameters. The dual stress resultant is the
+   moment about the hinge axis (N m).
+2. ``e2 = (a^p.c^q - c^p.a^q) / 2``: a small relative rotation about ``b``; for a relative
+   rotation by phi about b, ``e2 = sin(phi)`` (dimensionless, ~ rad).
+3. ``e3 = (b^p.a^q - a^p.b^q) / 2``: a small relative rotation about ``c``; for a relative
+   rotation by psi about c, ``e3 = sin(psi)`` (dimensionless, ~ rad).
+
+Modes 2 and 3 are normally rigid (not listed in DYNE/RLSE): together they make the revolute
+joint constraint. e1 is singular only where ``s = c = 0``, i.e. when the axis of q is turned
+over by 180 degrees with respect to that of p, far away from a working hinge.
+
+Derivatives (exact)
+-------------------
+Each of ``f = [s, c, e2, e3]`` is bilinear in the nodal vectors: ``f = sum_ij C_f[i, j]
+u_i^p . u_j^q`` with ``u = (a, b, c)`` and constant 3x3 matrices C_f. Every nodal vector is a
+quadratic form in its Euler parameters, ``u^p = q^p^T H(u) q^p`` (:mod:`spacarpy.rotation`),
+so ``du^p/dq^p = 2 H(u) q^p`` and ``d^2u^p/dq^p^2 = 2 H(u)``. For ``e1 = atan2(s, c)``, with
+``rho^2 = s^2 + c^2``: ``de1 = (c ds - s dc) / rho^2`` and ``d^2 e1 = (c d^2s - s d^2c) / rho^2
++ [ds dc] A [ds dc]^T`` with ``A = [[-2 s c, s^2 - c^2], [s^2 - c^2, 2 s c]] / rho^4``.
+
+Properties
+----------
+ESTIFF: ``ESTIFF e k [k2 k3]``: k the rotational spring stiffness on e1 (N m/rad); the optional
+k2, k3 are stiffnesses on e2, e3 (N m). S = diag(k, k2, k3), shape (n_elem, 3, 3).
+A hinge has no mass (use XM on the orientation nodes).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from spacarpy.linalg import batch_matvec
+from spacarpy.rotation import quadratic_form
+
+N_LDOF = 8
+N_DEF = 3
+
+# Local coordinate slices.
+QP, QQ = slice(0, 4), slice(4, 8)
+
+
+def _bilinear_forms() -> np.ndarray:
+    """C[f] (4, 3, 3) with ``f = sum_ij C[f, i, j] u_i^p . u_j^q`` for f = s, c, e2, e3 and the
+    nodal vectors u = (a, b, c)."""
+    cf = np.zeros((4, 3, 3))
+    cf[0, 2, 1], cf[0, 1, 2] = 1.0, -1.0          # s  = c^p.b^q - b^p.c^q
+    cf[1, 1, 1], cf[1, 2, 2] = 1.0, 1.0           # c  = b^p.b^q + c^p.c^q
+    cf[2, 0, 2], cf[2, 2, 0] = 0.5, -0.5          # e2 = (a^p.c^q - c^p.a^q) / 2
+    cf[3, 1, 0], cf[3, 0, 1] = 0.5, -0.5          # e3 = (b^p.a^q - a^p.b^q) / 2
+    return cf
+
+
+C_FORMS = _bilinear_forms()
+
+# The quadratic forms of the rotated unit vectors, _TQ[j, k, a, b] = H_k(e_j)[a, b]; H is
+# linear in its vector, so all the forms this module needs are contractions of _TQ.
+_TQ = quadratic_form(np.eye(3))
+_TQ_Q = _TQ.transpose(3, 1, 2, 0).reshape(4, 36)     # [b, (k, a, j)]
+_TQ_H = _TQ.transpose(1, 0, 2, 3).reshape(9, 16)     # [(k, j), (a, b)]
+
+
+def _vector_jacobians(q: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``d(R(q) u_i)/dq = 2 H(u_i) q``, shape (n, m, 3, 4), for q (n, 4), vectors u (n, m, 3)."""
+    n, m = u.shape[:2]
+    p = (q @ _TQ_Q).reshape(n, 12, 3)                 # [(k, a), j] = H_k(e_j)[a, :] q
+    return 2.0 * (p @ u.transpose(0, 2, 1)).transpose(0, 2, 1).reshape(n, m, 3, 4)
+
+
+def _hessian_combination(mkj: np.ndarray) -> np.ndarray:
+    """``2 sum_kj mkj[k, j] H_k(e_j)`` (n, 4, 4) for mkj (n, 3, 3); ``sum_i c_i . H(u_i)`` is
+    this with ``mkj = sum_i c_i u_i^T``."""
+    return 2.0 * (mkj.reshape(-1, 9) @ _TQ_H).reshape(-1, 4, 4)
+
+
+def _columns(values, n_cols: int, name: str) -> np.ndarray:
+    """Property values (n_elem,) or (n_elem, k<=n_cols) -> (n_elem, n_cols); missing and NaN
+    trailing values are 0."""
+    v = np.asarray(values, dtype=float)
+    if v.ndim == 1:
+        v = v[:, None]
+    if v.ndim != 2 or v.shape[1] > n_cols:
+        raise ValueError(f"{name}: expected (n_elem,) or (n_elem, <= {n_cols}) values, "
+                         f"got shape {v.shape}")
+    out = np.zeros((v.shape[0], n_cols))
+    out[:, :v.shape[1]] = np.nan_to_num(v, nan=0.0)
+    return out
+
+
+def hinge_reference(axis: np.ndarray):
+    """Reference triads (a, b, c), each (n_elem, 3), from the deck's axis vectors (n_elem, 3).
+
+    See the module docstring for the rule. Raises ValueError for a zero or missing (NaN) axis.
+    """
+    ax = np.asarray(axis, dtype=float)
+    norm = np.linalg.norm(ax, axis=1)
+    if not np.all(norm > 0.0):                     # also catches NaN
+        raise ValueError("HINGE axis must be a nonzero vector")
+    a = ax / norm[:, None]
+    k = np.argmin(np.abs(a), axis=1)
+    g = np.eye(3)[k]
+    b = g - np.sum(g * a, axis=1)[:, None] * a
+    b /= np.linalg.norm(b, axis=1)[:, None]
+    c = np.cross(a, b)
+    return a, b, c
+
+
+class HingeState(NamedTuple):
+    """Deformations and Jacobian at one configuration, plus what the Hessian reuses."""
+
+    e: np.ndarray          # (n, 3)
+    D: np.ndarray          # (n, 3, 8)
+    turns: np.ndarray      # (n,) int: e1 = atan2(s, c) + 2 pi turns
+    f: np.ndarray          # (n, 4) the bilinear forms [s, c, e2, e3]
+    J: np.ndarray          # (n, 4, 8) df/dx
+    yp: np.ndarray         # (n, 3, 3) rows a^p, b^p, c^p
+    yq: np.ndarray         # (n, 3, 3) rows a^q, b^q, c^q
+    Yp: np.ndarray         # (n, 9, 4) d[a^p, b^p, c^p]/dq^p
+    Yq: np.ndarray         # (n, 9, 4) d[a^q, b^q, c^q]/dq^q
+    u: np.ndarray          # (n, 3, 3) rows a, b, c (reference triad)
+
+
+def hinge_state(x: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
+                e1_previous: np.ndarray | None = None) -> HingeState:
+    """Deformations e (n_elem, 3) and their exact Jacobian D (n_elem, 3, 8) at x (n_elem, 8).
+
+    Parameters
+    ----------
+    x : (n_elem, 8)
+    a, b, c : (n_elem, 3)
+        Reference triads (see :func:`hinge_reference`).
+    e1_previous : (n_elem,), optional
+        Previous (converged) values of e1; the returned e1 is the branch ``atan2(s, c) +
+        2 pi k`` closest to it. Without it, e1 lies in (-pi, pi].
+    """
+    n = x.shape[0]
+    qp, qq = x[:, QP], x[:, QQ]
+    u = np.stack([a, b, c], axis=1)
+    Yp = _vector_jacobians(qp, u).reshape(n, 9, 4)
+    Yq = _vector_jacobians(qq, u).reshape(n, 9, 4)
+    yp = 0.5 * batch_matvec(Yp, qp).reshape(n, 3, 3)
+    yq = 0.5 * batch_matvec(Yq, qq).reshape(n, 3, 3)
+    # gradients of the four bilinear forms with respect to y^p and y^q
+    gp = (C_FORMS.reshape(12, 3) @ yq).reshape(n, 4, 9)            # sum_j C[f,i,j] u_j^q
+    gq = (C_FORMS.transpose(0, 2, 1).reshape(12, 3) @ yp).reshape(n, 4, 9)
+    f = batch_matvec(gp, yp.reshape(n, 9))                         # (n, 4)
+    J = np.concatenate([gp @ Yp, gq @ Yq], axis=2)                 # (n, 4, 8)
+
+    s, co = f[:, 0], f[:, 1]
+    phi = np.arctan2(s, co)
+    if e1_previous is None:
+        turns = np.zeros(n, dtype=np.int64)
+    else:
+        prev = np.broadcast_to(np.asarray(e1_previous, dtype=float), (n,))
+        turns = np.floor((prev - phi) / (2.0 * np.pi) + 0.5).astype(np.int64)
+    rho2 = s * s + co * co
+    e = np.empty((n, N_DEF))
+    e[:, 0] = phi + 2.0 * np.pi * turns
+    e[:, 1:] = f[:, 2:]
+    D = np.empty((n, N_DEF, N_LDOF))
+    D[:, 0] = (co[:, None] * J[:, 0] - s[:, None] * J[:, 1]) / rho2[:, None]
+    D[:, 1:] = J[:, 2:]
+    return HingeState(e=e, D=D, turns=turns, f=f, J=J, yp=yp, yq=yq, Yp=Yp, Yq=Yq, u=u)
+
+
+def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
+    """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 3) -> (n_elem, 8, 8)."""
+    n = w.shape[0]
+    s, co = st.f[:, 0], st.f[:, 1]
+    rho2 = s * s + co * co
+    # weights on the bilinear forms f = [s, c, e2, e3]
+    wf = np.stack([w[:, 0] * co / rho2, -w[:, 0] * s / rho2, w[:, 1], w[:, 2]], axis=1)
+    cw = (wf @ C_FORMS.reshape(4, 9)).reshape(n, 3, 3)             # combined C(w_f)
+    # coefficients of the nodal-vector Hessians 2 H(u)
+    cp = cw @ st.yq                                                # (n, 3, 3) rows i
+    cq = cw.transpose(0, 2, 1) @ st.yp
+    hx = np.empty((n, N_LDOF, N_LDOF))
+    hx[:, QP, QP] = _hessian_combination(cp.transpose(0, 2, 1) @ st.u)
+    hx[:, QQ, QQ] = _hessian_combination(cq.transpose(0, 2, 1) @ st.u)
+    # mixed block Yp^T (C(w_f) kron I3) Yq
+    byq = (cw @ st.Yq.reshape(n, 3, 12)).reshape(n, 9, 4)
+    pq = st.Yp.transpose(0, 2, 1) @ byq
+    hx[:, QP, QQ] = pq
+    hx[:, QQ, QP] = pq.transpose(0, 2, 1)
+    # curvature of atan2 in (s, c)
+    r4 = rho2 * rho2
+    amat = np.empty((n, 2, 2))
+    amat[:, 0, 0] = -2.0 * s * co / r4
+    amat[:, 1, 1] = -amat[:, 0, 0]
+    amat[:, 0, 1] = amat[:, 1, 0] = (s * s - co * co) / r4
+    jsc = st.J[:, :2]
+    hx += w[:, 0, None, None] * (jsc.transpose(0, 2, 1) @ (amat @ jsc))
+    return hx
+
+
+def hinge_deformations(x, a, b, c, e1_previous=None) -> np.ndarray:
+    """Deformations only, (n_elem, 3): a convenience wrapper of :func:`hinge_state`."""
+    return hinge_state(x, a, b, c, e1_previous).e
+
+
+def hinge_stiffness(props: np.ndarray) -> np.ndarray:
+    """S = diag(k, k2, k3) (n_elem, 3, 3) from the ESTIFF values ``k [k2 k3]``, given as
+    (n_elem,) or (n_elem, 1..3); missing values are 0."""
+    k = _columns(props, N_DEF, "HINGE ESTIFF")
+    return k[:, :, None] * np.eye(N_DEF)

@@ -1,0 +1,208 @@
+"""The rigid beam RBEAM (SPACAR ``RBEAM e Xp Rp Xq [ox oy oz]``), vectorized.
+
+A rigid beam attaches the position node q to the body of node p: p's position node and
+orientation node carry a rigid body, and q is a point of that body. Pure functions on arrays
+with the element index first, mirroring :mod:`spacarpy.elements.beam`.
+
+Local coordinates
+-----------------
+x : (n_elem, 10)
+    ``[r^p (3), q^p (4), r^q (3)]``: position of p, Euler parameters of p's orientation node,
+    position of q.
+
+Reference triad
+---------------
+As for a BEAM (:func:`spacarpy.elements.beam.reference_triads`, reused): ``n_x`` along the
+chord p->q in the initial configuration, ``n_y`` the deck's orientation vector ``(ox, oy, oz)``
+made orthogonal to n_x (default when omitted: the global axis with the smallest component
+along n_x), ``n_z = n_x x n_y``; ``l0`` the initial length (must be > 0). The body triad is
+``n_x^p = R(q^p) n_x`` etc.
+
+Deformations (1-based, as SPACAR's DYNE/RLSE number them), all in m
+-------------------------------------------------------------------
+With ``d = r^q - r^p``:
+
+1. ``e1 = n_x^p . d - l0`` (elongation along the body's x-axis),
+2. ``e2 = n_y^p . d`` (displacement of q along the body's y-axis),
+3. ``e3 = n_z^p . d`` (displacement of q along the body's z-axis).
+
+All zero in the initial configuration and normally all rigid (not in DYNE/RLSE); their dual
+stress resultants are the forces (N) on node q along the body axes. For unnormalized Euler
+parameters the nodal vectors scale with ``|q^p|^2`` (as in the BEAM kernel).
+
+Derivatives (exact)
+-------------------
+``D = [-n_j^p, d^T (2 H(n_j) q^p), n_j^p]`` per mode j. For weights w, the weighted sum is
+``d . R(q^p) v`` with ``v = sum_j w_j n_j``, so the Hessian has the blocks
+``d^2/dq^p^2 = 2 sum_k d_k H_k(v)``, ``d^2/(dq^p dr^q) = -d^2/(dq^p dr^p) = (2 H(v) q^p)^T`` and
+zero position-position blocks.
+
+Properties
+----------
+ESTIFF: none needed (S = 0, the modes are rigid); ``ESTIFF e k1 [k2 k3]`` (N/m) gives
+S = diag(k1, k2, k3) if a mode is made flexible with DYNE.
+EM: ``EM e rhoA [rho(Iy+Iz) rhoIy rhoIz rhoIyz]`` (kg/m, kg m; the layout of the BEAM's EM
+line, trailing values optional): the rigid rod of mass ``m = rhoA l0`` with its centre at
+``r_c = r^p + R(q^p) n_x l0/2`` and the inertia tensor about the centre, in the element axes
+``(n_x, n_y, n_z)``,
+
+    J_c = l0 J_section + m l0^2 / 12 diag(0, 1, 1),
+
+with ``J_section`` the per-unit-length rotary inertia of the cross-section as in
+:func:`spacarpy.elements.beam_mass.section_inertia`. The kinetic energy
+``T = m/2 |r_c_dot|^2 + 1/2 omega^T J_c omega`` with the body angular velocity
+``omega = 2 G(q^p) q^p_dot`` gives the 10x10 mass matrix (configuration dependent)
+
+    M = m N^T N + 4 G^T J_c G (q^p block),   N = [I, (l0/2) dn_x^p/dq^p, 0],
+
+whose r^q rows and columns are zero (q is a dependent point). It equals the kinetic energy of
+a rigid BEAM with the same EM data, and is exact for unit Euler parameters.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from spacarpy.elements.beam import reference_triads
+from spacarpy.elements.beam_mass import g_matrix, section_inertia
+from spacarpy.linalg import batch_matvec
+from spacarpy.rotation import quadratic_form
+
+N_LDOF = 10
+N_DEF = 3
+
+# Local coordinate slices.
+RP, QP, RQ = slice(0, 3), slice(3, 7), slice(7, 10)
+
+# The quadratic forms of the rotated unit vectors, _TQ[j, k, a, b] = H_k(e_j)[a, b]; H is
+# linear in its vector, so all the forms this module needs are contractions of _TQ.
+_TQ = quadratic_form(np.eye(3))
+_TQ_Q = _TQ.transpose(3, 1, 2, 0).reshape(4, 36)     # [b, (k, a, j)]
+_TQ_H = _TQ.transpose(1, 0, 2, 3).reshape(9, 16)     # [(k, j), (a, b)]
+
+
+def _vector_jacobians(q: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``d(R(q) u_i)/dq = 2 H(u_i) q``, shape (n, m, 3, 4), for q (n, 4), vectors u (n, m, 3)."""
+    n, m = u.shape[:2]
+    p = (q @ _TQ_Q).reshape(n, 12, 3)                 # [(k, a), j] = H_k(e_j)[a, :] q
+    return 2.0 * (p @ u.transpose(0, 2, 1)).transpose(0, 2, 1).reshape(n, m, 3, 4)
+
+
+def _columns(values, n_cols: int, name: str) -> np.ndarray:
+    """Property values (n_elem,) or (n_elem, k<=n_cols) -> (n_elem, n_cols); missing and NaN
+    trailing values are 0."""
+    v = np.asarray(values, dtype=float)
+    if v.ndim == 1:
+        v = v[:, None]
+    if v.ndim != 2 or v.shape[1] > n_cols:
+        raise ValueError(f"{name}: expected (n_elem,) or (n_elem, <= {n_cols}) values, "
+                         f"got shape {v.shape}")
+    out = np.zeros((v.shape[0], n_cols))
+    out[:, :v.shape[1]] = np.nan_to_num(v, nan=0.0)
+    return out
+
+
+def rbeam_reference(xp: np.ndarray, xq: np.ndarray, orientation: np.ndarray):
+    """Reference triads and lengths ``(nx, ny, nz, l0)`` as
+    :func:`spacarpy.elements.beam.reference_triads` (a NaN row of ``orientation`` selects the
+    default y-axis). Raises ValueError for a rigid beam of zero length."""
+    xp = np.asarray(xp, dtype=float)
+    xq = np.asarray(xq, dtype=float)
+    if np.any(np.linalg.norm(xq - xp, axis=1) <= 0.0):
+        raise ValueError("RBEAM of zero length: nodes p and q coincide")
+    return reference_triads(xp, xq, orientation)
+
+
+class RBeamState(NamedTuple):
+    """Deformations and Jacobian at one configuration, plus what the Hessian reuses."""
+
+    e: np.ndarray          # (n, 3)
+    D: np.ndarray          # (n, 3, 10)
+    d: np.ndarray          # (n, 3) r^q - r^p
+    triad: np.ndarray      # (n, 3, 3) rows n_x^p, n_y^p, n_z^p (current)
+    dtriad: np.ndarray     # (n, 3, 3, 4) d n_j^p / d q^p
+    u: np.ndarray          # (n, 3, 3) rows n_x, n_y, n_z (reference triad)
+
+
+def rbeam_state(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
+                l0: np.ndarray) -> RBeamState:
+    """Deformations e (n_elem, 3) and their exact Jacobian D (n_elem, 3, 10) at x (n_elem, 10).
+
+    nx, ny, nz (n_elem, 3) and l0 (n_elem,) from :func:`rbeam_reference`.
+    """
+    n = x.shape[0]
+    qp = x[:, QP]
+    d = x[:, RQ] - x[:, RP]
+    u = np.stack([nx, ny, nz], axis=1)
+    dtr = _vector_jacobians(qp, u)                                 # (n, 3, 3, 4)
+    triad = 0.5 * batch_matvec(dtr, qp[:, None, :])               # (n, 3, 3)
+    e = batch_matvec(triad, d)
+    e[:, 0] -= l0
+    D = np.empty((n, N_DEF, N_LDOF))
+    D[:, :, RP] = -triad
+    D[:, :, RQ] = triad
+    D[:, :, QP] = (d[:, None, None, :] @ dtr)[:, :, 0, :]          # d^T dn_j/dq
+    return RBeamState(e=e, D=D, d=d, triad=triad, dtriad=dtr, u=u)
+
+
+def rbeam_weighted_hessian(st: RBeamState, w: np.ndarray) -> np.ndarray:
+    """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 3) -> (n_elem, 10, 10)."""
+    n = w.shape[0]
+    v = batch_matvec(st.u.transpose(0, 2, 1), w)                   # sum_j w_j n_j
+    mkj = (st.d[:, :, None] * v[:, None, :]).reshape(n, 9)         # d_k v_j
+    hx = np.zeros((n, N_LDOF, N_LDOF))
+    hx[:, QP, QP] = 2.0 * (mkj @ _TQ_H).reshape(n, 4, 4)           # 2 sum_k d_k H_k(v)
+    dm = (w[:, None, :] @ st.dtriad.reshape(n, 3, 12)).reshape(n, 3, 4)   # d(R v)/dq
+    dmt = dm.transpose(0, 2, 1)
+    hx[:, QP, RQ], hx[:, QP, RP] = dmt, -dmt
+    hx[:, RQ, QP], hx[:, RP, QP] = dm, -dm
+    return hx
+
+
+def rbeam_deformations(x, nx, ny, nz, l0) -> np.ndarray:
+    """Deformations only, (n_elem, 3): a convenience wrapper of :func:`rbeam_state`."""
+    return rbeam_state(x, nx, ny, nz, l0).e
+
+
+def rbeam_stiffness(props: np.ndarray) -> np.ndarray:
+    """S = diag(k1, k2, k3) (n_elem, 3, 3) from the optional ESTIFF values ``k1 [k2 k3]``
+    (N/m), given as (n_elem,) or (n_elem, 0..3); missing values (and no ESTIFF line: pass
+    ``np.zeros((n_elem, 0))``) are 0."""
+    k = _columns(props, N_DEF, "RBEAM ESTIFF")
+    return k[:, :, None] * np.eye(N_DEF)
+
+
+def rbeam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
+                      l0: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """Rigid-body mass matrices (n_elem, 10, 10) at configurations x (n_elem, 10).
+
+    Parameters
+    ----------
+    nx, ny, nz : (n_elem, 3)
+        Reference triads.
+    l0 : (n_elem,)
+    mass : (n_elem,) or (n_elem, 1..5)
+        EM data ``rhoA [rho(Iy+Iz) rhoIy rhoIz rhoIyz]`` (kg/m, kg m); missing values are 0.
+    """
+    n = x.shape[0]
+    em = _columns(mass, 5, "RBEAM EM")
+    qp = x[:, QP]
+    m = em[:, 0] * l0
+    half = 0.5 * l0
+    b = _vector_jacobians(qp, nx[:, None, :])[:, 0]               # (n, 3, 4) d n_x^p / d q^p
+    out = np.zeros((n, N_LDOF, N_LDOF))
+    out[:, RP, RP] = m[:, None, None] * np.eye(3)
+    mb = (m * half)[:, None, None] * b
+    out[:, RP, QP] = mb
+    out[:, QP, RP] = mb.transpose(0, 2, 1)
+    out[:, QP, QP] = (m * half * half)[:, None, None] * (b.transpose(0, 2, 1) @ b)
+    # inertia about the centre, element axes -> initial global axes
+    jc = l0[:, None, None] * section_inertia(em)
+    jc[:, 1, 1] += m * l0 * l0 / 12.0
+    jc[:, 2, 2] += m * l0 * l0 / 12.0
+    e = np.stack([nx, ny, nz], axis=2)                             # columns n_x n_y n_z
+    jg = e @ jc @ e.transpose(0, 2, 1)
+    g = g_matrix(qp)
+    out[:, QP, QP] += 4.0 * (g.transpose(0, 2, 1) @ jg @ g)
+    return out

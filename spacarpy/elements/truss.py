@@ -1,0 +1,116 @@
+"""The spatial TRUSS element (SPACAR ``TRUSS e p q``), vectorized.
+
+Pure functions on arrays with the element index first, mirroring
+:mod:`spacarpy.elements.beam`. Nothing here knows about decks, nodes or global numbering.
+
+Local coordinates
+-----------------
+x : (n_elem, 6)
+    ``[r^p (3), r^q (3)]``: the positions of the two end nodes (position nodes only; a truss
+    has no orientation nodes).
+
+Deformation (1-based, as SPACAR's DYNE/RLSE number it)
+------------------------------------------------------
+1. elongation ``e1 = l - l0`` with ``l = |r^q - r^p|`` and ``l0`` the length in the initial
+   configuration (m). It is zero in the initial configuration. The dual stress resultant is
+   the axial force (N, positive in tension).
+
+Derivatives (exact)
+-------------------
+With the unit chord ``n1 = (r^q - r^p) / l``: ``D = [-n1, n1]`` (n_elem, 1, 6) and
+``d^2 e1/dx^2 = (I - n1 n1^T) / l`` in the blocks ``[[P, -P], [-P, P]]``.
+
+Properties
+----------
+ESTIFF: ``ESTIFF e EA`` (N) -> ``S = EA / l0`` (N/m), shape (n_elem, 1, 1).
+EM: ``EM e rhoA`` (kg/m) -> consistent mass with linear interpolation of the positions,
+``rhoA l0 / 6 [[2 I, I], [I, 2 I]]`` (6x6, configuration independent). It is exact for the
+kinetic energy of any velocity field that is linear along the truss (rigid motions included).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+N_LDOF = 6
+N_DEF = 1
+
+# Local coordinate slices.
+RP, RQ = slice(0, 3), slice(3, 6)
+
+
+def _columns(values, n_cols: int, name: str) -> np.ndarray:
+    """Property values (n_elem,) or (n_elem, k<=n_cols) -> (n_elem, n_cols); missing and NaN
+    trailing values are 0."""
+    v = np.asarray(values, dtype=float)
+    if v.ndim == 1:
+        v = v[:, None]
+    if v.ndim != 2 or v.shape[1] > n_cols:
+        raise ValueError(f"{name}: expected (n_elem,) or (n_elem, <= {n_cols}) values, "
+                         f"got shape {v.shape}")
+    out = np.zeros((v.shape[0], n_cols))
+    out[:, :v.shape[1]] = np.nan_to_num(v, nan=0.0)
+    return out
+
+
+def truss_reference(xp: np.ndarray, xq: np.ndarray) -> np.ndarray:
+    """Reference lengths ``l0 = |x^q - x^p|`` (n_elem,) from the initial positions (n_elem, 3).
+
+    Raises ValueError for a truss of zero length.
+    """
+    l0 = np.linalg.norm(np.asarray(xq, float) - np.asarray(xp, float), axis=1)
+    if np.any(l0 <= 0.0):
+        raise ValueError("TRUSS of zero length: its end nodes coincide")
+    return l0
+
+
+class TrussState(NamedTuple):
+    """Deformation and Jacobian at one configuration, plus what the Hessian reuses."""
+
+    e: np.ndarray          # (n, 1) elongation
+    D: np.ndarray          # (n, 1, 6)
+    n1: np.ndarray         # (n, 3) current unit chord
+    length: np.ndarray     # (n,) current length
+    l0: np.ndarray         # (n,)
+
+
+def truss_state(x: np.ndarray, l0: np.ndarray) -> TrussState:
+    """Elongation e (n_elem, 1) and its exact Jacobian D (n_elem, 1, 6) at x (n_elem, 6)."""
+    d = x[:, RQ] - x[:, RP]
+    length = np.linalg.norm(d, axis=1)
+    n1 = d / length[:, None]
+    e = (length - l0)[:, None]
+    D = np.concatenate([-n1, n1], axis=1)[:, None, :]
+    return TrussState(e=e, D=D, n1=n1, length=length, l0=l0)
+
+
+def truss_weighted_hessian(st: TrussState, w: np.ndarray) -> np.ndarray:
+    """``w_1 d^2 e_1 / dx^2`` at the state ``st``; w (n_elem, 1) -> (n_elem, 6, 6)."""
+    w1 = np.asarray(w, dtype=float).reshape(st.length.shape[0], -1)[:, 0]
+    p = (w1 / st.length)[:, None, None] * (np.eye(3) - st.n1[:, :, None] * st.n1[:, None, :])
+    h = np.empty((p.shape[0], N_LDOF, N_LDOF))
+    h[:, RP, RP] = h[:, RQ, RQ] = p
+    h[:, RP, RQ] = h[:, RQ, RP] = -p
+    return h
+
+
+def truss_deformations(x: np.ndarray, l0: np.ndarray) -> np.ndarray:
+    """Deformations only, (n_elem, 1): a convenience wrapper of :func:`truss_state`."""
+    return truss_state(x, l0).e
+
+
+def truss_stiffness(props: np.ndarray, l0: np.ndarray) -> np.ndarray:
+    """S (n_elem, 1, 1) = EA / l0 from the ESTIFF values ``EA`` (n_elem,) or (n_elem, 1)."""
+    ea = _columns(props, 1, "TRUSS ESTIFF")[:, 0]
+    return (ea / l0)[:, None, None]
+
+
+def truss_mass_matrix(mass: np.ndarray, l0: np.ndarray) -> np.ndarray:
+    """Consistent mass (n_elem, 6, 6) from the EM values ``rhoA`` (n_elem,) or (n_elem, 1).
+
+    ``M = rhoA l0 / 6 [[2 I, I], [I, 2 I]]`` (linear interpolation of the positions).
+    """
+    rho_a = _columns(mass, 1, "TRUSS EM")[:, 0]
+    block = np.kron(np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0, np.eye(3))
+    return (rho_a * l0)[:, None, None] * block
