@@ -35,29 +35,26 @@ class BorderedPattern:
         n_x = num.n_unknown
         self.n_x = n_x
         self.n = n_x + num.n_constraint
-        bu = u[num.beam_idx]                                   # (n_elem, 14)
         eu = u[num.rot_idx[num.euler_nodes]]                   # (n_eu, 4)
         mu_ = u[num.rot_idx[moment_rot]]                       # (n_m, 4)
-        ru = bu[num.rigid_elem]                                # (n_rigid, 14)
-        rrow = n_x + np.arange(num.n_rigid)
         erow = n_x + num.n_rigid + np.arange(num.euler_nodes.size)
-        rows = [
-            np.repeat(bu, 14, axis=1).ravel(),                  # element blocks
-            eu.ravel(),                                         # Euler diagonal 2 mu
-            np.repeat(mu_, 4, axis=1).ravel(),                  # moment-load blocks
-            np.repeat(rrow, 14), ru.ravel(),                    # C_rigid and its transpose
-            np.repeat(erow, 4), eu.ravel(),                     # C_euler and its transpose
-        ]
-        cols = [
-            np.tile(bu, (1, 14)).ravel(),
-            eu.ravel(),
-            np.tile(mu_, (1, 4)).ravel(),
-            ru.ravel(), np.repeat(rrow, 14),
-            eu.ravel(), np.repeat(erow, 4),
-        ]
-        self._sizes = [r.size for r in rows]
-        rows = np.concatenate(rows)
-        cols = np.concatenate(cols)
+        rows, cols = [], []
+        for g in num.groups:                                   # element blocks
+            gu = u[g.idx]
+            k = gu.shape[1]
+            rows.append(np.repeat(gu, k, axis=1).ravel())
+            cols.append(np.tile(gu, (1, k)).ravel())
+        rows += [eu.ravel(), np.repeat(mu_, 4, axis=1).ravel()]
+        cols += [eu.ravel(), np.tile(mu_, (1, 4)).ravel()]
+        for g in num.groups:                                   # C_rigid and its transpose
+            ru = u[g.idx][g.rigid_elem]                        # (n_rigid_g, n_ldof)
+            rrow = n_x + g.rigid_offset + np.arange(g.rigid_elem.size)
+            rows += [np.repeat(rrow, ru.shape[1]), ru.ravel()]
+            cols += [ru.ravel(), np.repeat(rrow, ru.shape[1])]
+        rows += [np.repeat(erow, 4), eu.ravel()]                # C_euler and its transpose
+        cols += [eu.ravel(), np.repeat(erow, 4)]
+        rows = np.concatenate(rows).astype(np.int64)
+        cols = np.concatenate(cols).astype(np.int64)
         self.valid = (rows >= 0) & (cols >= 0)
         key = cols[self.valid] * self.n + rows[self.valid]      # column-major order = CSC
         uniq, self.scatter = np.unique(key, return_inverse=True)
@@ -72,18 +69,22 @@ class BorderedPattern:
 
         Parameters
         ----------
-        k_elem : (n_elem, 14, 14)
+        k_elem : list of (n_elem_g, n_ldof_g, n_ldof_g), one per element group
         euler_diag : (n_eu,)  value added to the 4 diagonal entries of each Euler node
         moment_blocks : (n_m, 4, 4)
-        c_rigid : (n_rigid, 14)
+        c_rigid : list of (n_rigid_g, n_ldof_g), one per element group
         c_euler : (n_eu, 4)
         scale : float
             Factor applied to the constraint rows and columns (balances the saddle point).
         """
-        cr = scale * c_rigid.ravel()
+        parts = [k.ravel() for k in k_elem]
+        parts += [np.repeat(euler_diag, 4), moment_blocks.ravel()]
+        for c in c_rigid:
+            cr = scale * c.ravel()
+            parts += [cr, cr]
         ce = scale * c_euler.ravel()
-        vals = np.concatenate([k_elem.ravel(), np.repeat(euler_diag, 4), moment_blocks.ravel(),
-                               cr, cr, ce, ce])
+        parts += [ce, ce]
+        vals = np.concatenate(parts)
         data = np.bincount(self.scatter, weights=vals[self.valid], minlength=self.nnz)
         return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 

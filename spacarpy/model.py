@@ -96,6 +96,59 @@ class BeamSet:
                    has_stiffness=np.zeros(0, bool))
 
 
+@dataclass
+class ElementSet:
+    """All elements of one non-BEAM kind (TRUSS, HINGE, RBEAM), element index first.
+
+    Attributes
+    ----------
+    kind : str
+        The deck keyword.
+    ids : (n_elem,) int
+    nodes : (n_elem, n_slots) int
+        Deck node numbers in the keyword's order: TRUSS ``[p, q]``, HINGE ``[Rp, Rq]``,
+        RBEAM ``[p, Rp, q]``.
+    vector : (n_elem, 3) float
+        HINGE: the axis; RBEAM: the initial local y-axis (NaN row: default rule); TRUSS: NaN.
+    def_class : (n_elem, n_def) int8
+        RIGID / FLEXIBLE / RELEASED per mode (TRUSS 1, HINGE 3, RBEAM 3 modes).
+    stiffness : (n_elem, 3) float
+        ESTIFF values, zero-padded (TRUSS: EA; HINGE: k [k2 k3] in N m/rad; RBEAM: N/m).
+    has_stiffness : (n_elem,) bool
+    mass : (n_elem, 5) float
+        EM values, zero-padded (TRUSS, RBEAM: rhoA first, as for BEAM).
+    locs : list of SourceLoc
+    """
+
+    kind: str
+    ids: np.ndarray
+    nodes: np.ndarray
+    vector: np.ndarray
+    def_class: np.ndarray
+    stiffness: np.ndarray
+    has_stiffness: np.ndarray
+    mass: np.ndarray | None = None
+    locs: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self.ids = np.asarray(self.ids, dtype=np.int64).reshape(-1)
+        n = self.ids.size
+        self.nodes = np.asarray(self.nodes, dtype=np.int64).reshape(n, -1)
+        self.vector = np.asarray(self.vector, dtype=float).reshape(n, 3)
+        self.def_class = np.asarray(self.def_class, dtype=np.int8).reshape(n, -1)
+        st = np.asarray(self.stiffness, dtype=float).reshape(n, -1)
+        self.stiffness = np.pad(st, ((0, 0), (0, max(0, 3 - st.shape[1]))))[:, :3]
+        self.has_stiffness = np.asarray(self.has_stiffness, dtype=bool).reshape(n)
+        m = np.zeros((n, 5)) if self.mass is None else np.asarray(self.mass, float).reshape(n, -1)
+        self.mass = np.pad(m, ((0, 0), (0, max(0, 5 - m.shape[1]))))[:, :5]
+        if not self.locs:
+            self.locs = [None] * n
+
+    @property
+    def n_elem(self) -> int:
+        return int(self.ids.size)
+
+
 @dataclass(frozen=True)
 class Fix:
     """``FIX node [c ...]``: coordinates (1-based) of a node held at their initial value."""
@@ -175,6 +228,8 @@ class Model:
     loads : list of Load
     iterstep : IterStep
     nodal_masses : list of NodalMass
+    element_sets : dict of str -> ElementSet
+        Elements of the other kinds (TRUSS, HINGE, RBEAM), by keyword.
     cross_sections : spacarpy.deck.visualization.CrossSections or None
         Cross-section shapes and dimensions per element from the deck's VISUALIZATION
         section (BEAMPROPS/CROSSTYPE/CROSSDIM), for stresses and plots.
@@ -194,6 +249,7 @@ class Model:
     loads: list = field(default_factory=list)
     iterstep: IterStep = field(default_factory=IterStep)
     nodal_masses: list = field(default_factory=list)
+    element_sets: dict = field(default_factory=dict)
     cross_sections: object | None = None
     analysis: str = "static"
     deformations: str = "modified"

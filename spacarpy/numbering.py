@@ -1,20 +1,82 @@
-"""Numbering: from deck node numbers to global coordinates, unknowns and constraints.
+"""Numbering: from deck node numbers to global coordinates, element groups and constraints.
 
 The global coordinate vector holds every nodal coordinate: 3 per position node, 4 Euler
 parameters per orientation node, nodes in ascending deck number (so that chains of elements
 give banded matrices). Fixed coordinates keep their initial value; every other coordinate is
-an unknown of the static problem. The constraints are the rigid deformation modes
-(``e_i(x) = 0``) and the normalization ``q.q = 1`` of each orientation node that is not
+an unknown of the static problem. Elements are held in *groups*, one per element kind
+(:mod:`spacarpy.elements.kinds`), each with its global coordinate indices, reference data and
+stiffness. The constraints are the rigid deformation modes of all groups (``e_i(x) = 0``, in
+group order) followed by the normalization ``q.q = 1`` of each orientation node that is not
 completely fixed. See docs/solver.md.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.elements.beam import reference_triads, stiffness_matrix
+from spacarpy.elements.kinds import KINDS, Kind
 from spacarpy.model import RIGID, Model
+
+
+@dataclass
+class ElementGroup:
+    """All elements of one kind, ready for vectorized evaluation (element index first).
+
+    Attributes
+    ----------
+    kind : Kind
+    ids : (n,) int
+        Deck element numbers.
+    nodes : (n, n_slots) int
+        Deck node numbers per slot.
+    idx : (n, n_ldof) int
+        Global coordinate indices of the local coordinates.
+    def_class : (n, n_def) int8
+    stiff_mask : (n, n_def) bool
+        Modes whose stress resultant is S e (flexible, or released with ESTIFF).
+    S : (n, n_def, n_def)
+        Stiffness with the rows/columns of modes without stiffness zeroed.
+    ref : dict
+        Kind-specific reference data (triads, lengths, axes).
+    scale : (n, n_def)
+        Length (or 1 for angles) that makes each deformation dimensionless.
+    mass : (n, 5)
+        EM data.
+    rigid_elem, rigid_mode : (n_rigid_g,) int
+        Rows and modes of this group's rigid deformations.
+    rigid_offset : int
+        Position of the first of them among all rigid constraints.
+    prev : dict
+        Persistent per-element state between converged steps (hinge turn counts).
+    """
+
+    kind: Kind
+    ids: np.ndarray
+    nodes: np.ndarray
+    idx: np.ndarray
+    def_class: np.ndarray
+    stiff_mask: np.ndarray
+    S: np.ndarray
+    ref: dict
+    scale: np.ndarray
+    mass: np.ndarray
+    rigid_elem: np.ndarray
+    rigid_mode: np.ndarray
+    rigid_offset: int = 0
+    prev: dict = field(default_factory=dict)
+
+    @property
+    def n_elem(self) -> int:
+        return int(self.ids.size)
+
+    @property
+    def keyword(self) -> str:
+        return self.kind.keyword
+
+    @property
+    def rigid_slice(self) -> slice:
+        return slice(self.rigid_offset, self.rigid_offset + self.rigid_elem.size)
 
 
 @dataclass
@@ -31,48 +93,36 @@ class Numbering:
         Global coordinate indices of each position node (order of ``model.position_ids``).
     rot_idx : (n_rot, 4) int
         Global coordinate indices of each orientation node (order of ``model.orientation_ids``).
-    beam_idx : (n_elem, 14) int
-        Global coordinate indices of each beam's local coordinates ``[r^p, q^p, r^q, q^q]``.
+    groups : list of ElementGroup
+        One per element kind present (BEAM first).
     fixed_mask : (n_coord,) bool
     unknown_of : (n_coord,) int
         Unknown number of each coordinate, -1 where fixed.
     n_unknown : int
-    rigid_elem, rigid_mode : (n_rigid,) int
-        Beam index and deformation index (0-based) of every rigid deformation mode.
     euler_nodes : (n_euler,) int
         Orientation-node indices (into ``rot_idx``) that carry a normalization constraint.
-    has_stiffness_mode : (n_elem, 6) bool
-        Modes whose stress resultant is S e (flexible, or released with ESTIFF).
-    nx, ny, nz : (n_elem, 3)
-        Reference triads; ``l0`` (n_elem,) reference lengths.
-    S : (n_elem, 6, 6)
-        Stiffness matrices with rows/columns of modes without stiffness zeroed.
     length_scale : float
         Characteristic length of the model (bounding-box diagonal) used to scale norms.
+
+    The BEAM group's arrays are also available under their historical names
+    (``beam_idx``, ``nx``, ``ny``, ``nz``, ``l0``, ``S``, ``has_stiffness_mode``), empty when the
+    model has no beams.
     """
 
     n_coord: int
     x0: np.ndarray
     pos_idx: np.ndarray
     rot_idx: np.ndarray
-    beam_idx: np.ndarray
+    groups: list
     fixed_mask: np.ndarray
     unknown_of: np.ndarray
     n_unknown: int
-    rigid_elem: np.ndarray
-    rigid_mode: np.ndarray
     euler_nodes: np.ndarray
-    has_stiffness_mode: np.ndarray
-    nx: np.ndarray
-    ny: np.ndarray
-    nz: np.ndarray
-    l0: np.ndarray
-    S: np.ndarray
     length_scale: float
 
     @property
     def n_rigid(self) -> int:
-        return int(self.rigid_elem.size)
+        return int(sum(g.rigid_elem.size for g in self.groups))
 
     @property
     def n_constraint(self) -> int:
@@ -84,6 +134,28 @@ class Numbering:
         mask = np.zeros(self.n_coord, dtype=bool)
         mask[self.rot_idx.ravel()] = True
         return mask
+
+    def group(self, keyword: str) -> ElementGroup | None:
+        for g in self.groups:
+            if g.keyword == keyword:
+                return g
+        return None
+
+    # -- the BEAM group under its historical names ------------------------------------------
+    def _beam(self, name: str, shape):
+        g = self.group("BEAM")
+        if g is None:
+            return np.zeros(shape)
+        return {"beam_idx": g.idx, "S": g.S, "has_stiffness_mode": g.stiff_mask}.get(
+            name, g.ref.get(name))
+
+    beam_idx = property(lambda self: self._beam("beam_idx", (0, 14)).astype(np.int64))
+    nx = property(lambda self: self._beam("nx", (0, 3)))
+    ny = property(lambda self: self._beam("ny", (0, 3)))
+    nz = property(lambda self: self._beam("nz", (0, 3)))
+    l0 = property(lambda self: self._beam("l0", (0,)))
+    S = property(lambda self: self._beam("S", (0, 6, 6)))
+    has_stiffness_mode = property(lambda self: self._beam("has_stiffness_mode", (0, 6)))
 
     def describe_coord(self, model: Model, k: int) -> str:
         """A readable name of global coordinate k, e.g. 'node 7 y' or 'node 8 lambda2'."""
@@ -100,6 +172,19 @@ class Numbering:
         out[self.pos_idx] = model.position_ids[:, None]
         out[self.rot_idx] = model.orientation_ids[:, None]
         return out
+
+
+def _element_sets(model: Model):
+    """(keyword, ids, nodes, vector, def_class, stiffness, has_stiffness, mass) per kind."""
+    b = model.beams
+    if b.n_elem:
+        yield ("BEAM", b.ids, b.nodes, b.orientation, b.def_class, b.stiffness,
+               b.has_stiffness, b.mass)
+    for keyword in KINDS:
+        s = model.element_sets.get(keyword)
+        if keyword != "BEAM" and s is not None and s.n_elem:
+            yield (keyword, s.ids, s.nodes, s.vector, s.def_class, s.stiffness,
+                   s.has_stiffness, s.mass)
 
 
 def number_model(model: Model) -> Numbering:
@@ -121,14 +206,33 @@ def number_model(model: Model) -> Numbering:
 
     pos_row = {int(n): i for i, n in enumerate(pos_ids)}
     rot_row = {int(n): i for i, n in enumerate(rot_ids)}
-    beams = model.beams
-    nodes = beams.nodes
-    p = np.array([pos_row[int(v)] for v in nodes[:, 0]], dtype=np.int64)
-    r = np.array([rot_row[int(v)] for v in nodes[:, 1]], dtype=np.int64)
-    q = np.array([pos_row[int(v)] for v in nodes[:, 2]], dtype=np.int64)
-    s = np.array([rot_row[int(v)] for v in nodes[:, 3]], dtype=np.int64)
-    beam_idx = (np.concatenate([pos_idx[p], rot_idx[r], pos_idx[q], rot_idx[s]], axis=1)
-                if beams.n_elem else np.zeros((0, 14), dtype=np.int64))
+
+    groups = []
+    offset = 0
+    for keyword, e_ids, nodes, vector, def_class, props, has_props, mass in _element_sets(model):
+        kind = KINDS[keyword]
+        idx_parts, x0_slots = [], []
+        for j, slot in enumerate(kind.slots):
+            if slot == "pos":
+                rows = np.array([pos_row[int(v)] for v in nodes[:, j]], dtype=np.int64)
+                idx_parts.append(pos_idx[rows])
+                x0_slots.append(model.position_x0[rows])
+            else:
+                rows = np.array([rot_row[int(v)] for v in nodes[:, j]], dtype=np.int64)
+                idx_parts.append(rot_idx[rows])
+                x0_slots.append(None)
+        ref, scale = kind.reference(x0_slots, np.asarray(vector, dtype=float))
+        stiff = (def_class != RIGID) & np.asarray(has_props, bool)[:, None]
+        S = kind.stiffness(np.asarray(props, dtype=float), ref) * \
+            (stiff[:, :, None] & stiff[:, None, :])
+        r_elem, r_mode = np.nonzero(def_class == RIGID)
+        groups.append(ElementGroup(
+            kind=kind, ids=np.asarray(e_ids, np.int64), nodes=np.asarray(nodes, np.int64),
+            idx=np.concatenate(idx_parts, axis=1), def_class=np.asarray(def_class, np.int8),
+            stiff_mask=stiff, S=S, ref=ref, scale=scale, mass=np.asarray(mass, float),
+            rigid_elem=r_elem.astype(np.int64), rigid_mode=r_mode.astype(np.int64),
+            rigid_offset=offset))
+        offset += r_elem.size
 
     fixed = np.zeros(n_coord, dtype=bool)
     for fix in model.fixes:
@@ -137,21 +241,12 @@ def number_model(model: Model) -> Numbering:
         fixed[base[np.asarray(fix.coords, dtype=np.int64) - 1]] = True
     unknown_of = np.full(n_coord, -1, dtype=np.int64)
     unknown_of[~fixed] = np.arange(int((~fixed).sum()))
-
-    rigid_elem, rigid_mode = np.nonzero(beams.def_class == RIGID)
-    euler_nodes = np.flatnonzero(~fixed[rot_idx].all(axis=1)) if rot_ids.size else \
-        np.zeros(0, dtype=np.int64)
-
-    nx, ny, nz, l0 = reference_triads(model.position_x0[p], model.position_x0[q],
-                                      beams.orientation)
-    has_k = (beams.def_class != RIGID) & beams.has_stiffness[:, None]
-    S = stiffness_matrix(beams.stiffness, l0) * (has_k[:, :, None] & has_k[:, None, :])
+    euler_nodes = (np.flatnonzero(~fixed[rot_idx].all(axis=1)) if rot_ids.size
+                   else np.zeros(0, dtype=np.int64))
 
     span = np.ptp(model.position_x0, axis=0) if pos_ids.size else np.zeros(3)
-    length_scale = float(np.linalg.norm(span)) or (float(l0.max()) if l0.size else 1.0)
-    return Numbering(n_coord=n_coord, x0=x0, pos_idx=pos_idx, rot_idx=rot_idx,
-                     beam_idx=beam_idx, fixed_mask=fixed, unknown_of=unknown_of,
-                     n_unknown=int((~fixed).sum()), rigid_elem=rigid_elem.astype(np.int64),
-                     rigid_mode=rigid_mode.astype(np.int64), euler_nodes=euler_nodes,
-                     has_stiffness_mode=has_k, nx=nx, ny=ny, nz=nz, l0=l0, S=S,
-                     length_scale=length_scale)
+    lengths = [g.ref["l0"].max() for g in groups if "l0" in g.ref and g.n_elem]
+    length_scale = float(np.linalg.norm(span)) or (max(lengths) if lengths else 1.0)
+    return Numbering(n_coord=n_coord, x0=x0, pos_idx=pos_idx, rot_idx=rot_idx, groups=groups,
+                     fixed_mask=fixed, unknown_of=unknown_of, n_unknown=int((~fixed).sum()),
+                     euler_nodes=euler_nodes, length_scale=length_scale)

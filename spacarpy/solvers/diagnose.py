@@ -59,7 +59,7 @@ def _report(prob, right, left) -> ModelError:
             vx = np.abs(v[:n_x])
             hit = coord_of_unknown[vx > 0.05 * vx.max()]
             moving.update(int(node_of[k]) for k in hit)
-        elems = _elements_at(model, moving)
+        elems = _elements_at(num, moving)
         lines.append(
             f"mechanism: {len(motions)} free motion(s) that no flexible element resists; "
             f"nodes that move: {_fmt(sorted(moving))}"
@@ -85,7 +85,7 @@ def _report(prob, right, left) -> ModelError:
     return err
 
 
-def mechanism_error(prob, A, D, k: int = 8) -> ModelError | None:
+def mechanism_error(prob, A, states, k: int = 8) -> ModelError | None:
     """Detect free motions that SuperLU factorized without complaint (tiny pivots).
 
     The smallest singular directions of ``A`` (block inverse iteration with its LU) are
@@ -110,10 +110,12 @@ def mechanism_error(prob, A, D, k: int = 8) -> ModelError | None:
     cand = (v @ wt.T)[:n_x]                                     # columns, smallest last
     full = np.zeros((num.n_coord, cand.shape[1]))
     full[prob.free] = cand
-    rates = D @ full[num.beam_idx]                              # (n_elem, 6, k)
-    stiff = (num.has_stiffness_mode | (prob.model.beams.def_class == 0))[:, :, None]
-    deform = np.abs(np.where(stiff, rates, 0.0) / num.l0[:, None, None]).max(axis=(0, 1),
-                                                                          initial=0.0)
+    deform = np.zeros(cand.shape[1])
+    for g, st in zip(num.groups, states):
+        rates = st.D @ full[g.idx]                              # (n_elem, n_def, k)
+        stiff = (g.stiff_mask | (g.def_class == 0))[:, :, None]
+        rel = np.abs(np.where(stiff, rates, 0.0) / g.scale[:, :, None])
+        deform = np.maximum(deform, rel.max(axis=(0, 1), initial=0.0))
     rot = num.is_rotation_coord[prob.free]
     size = (np.abs(cand[~rot]).max(axis=0, initial=0.0) / num.length_scale
             + np.abs(cand[rot]).max(axis=0, initial=0.0))
@@ -154,19 +156,24 @@ def _sparse_null_vectors(A, k: int = 12, iterations: int = 4):
 
 
 def _constraint_name(num, model, k: int) -> str:
-    if k < num.n_rigid:
-        e = int(model.beams.ids[num.rigid_elem[k]])
-        m = int(num.rigid_mode[k]) + 1
-        return f"element {e} mode {m} (rigid; 'RLSE {e} {m}' would release it)"
+    for g in num.groups:
+        if g.rigid_offset <= k < g.rigid_offset + g.rigid_elem.size:
+            j = k - g.rigid_offset
+            e = int(g.ids[g.rigid_elem[j]])
+            m = int(g.rigid_mode[j]) + 1
+            return f"{g.keyword} {e} mode {m} (rigid; 'RLSE {e} {m}' would release it)"
     node = int(model.orientation_ids[num.euler_nodes[k - num.n_rigid]])
     return f"Euler-parameter normalization of node {node}"
 
 
-def _elements_at(model, nodes) -> list:
-    if not nodes or model.beams.n_elem == 0:
+def _elements_at(num, nodes) -> list:
+    if not nodes:
         return []
-    hit = np.isin(model.beams.nodes, list(nodes)).any(axis=1)
-    return [int(i) for i in model.beams.ids[hit]]
+    out = []
+    for g in num.groups:
+        hit = np.isin(g.nodes, list(nodes)).any(axis=1)
+        out += [int(i) for i in g.ids[hit]]
+    return sorted(set(out))
 
 
 def _natural(name: str):

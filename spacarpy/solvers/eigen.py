@@ -66,9 +66,11 @@ def _rigid_mask(lin, num, free, shapes: np.ndarray) -> np.ndarray:
     n = shapes.shape[1]
     full = np.zeros((num.n_coord, n))
     full[free] = shapes
-    local = full[num.beam_idx]                                  # (n_elem, 14, n)
-    rates = lin.D @ local                                       # (n_elem, 6, n)
-    rel = np.abs(rates / num.l0[:, None, None]).max(axis=(0, 1)) if rates.size else np.zeros(n)
+    rel = np.zeros(n)
+    for g, st in zip(num.groups, lin.states):
+        rates = st.D @ full[g.idx]                              # (n_elem, n_def, n)
+        rel = np.maximum(rel, np.abs(rates / g.scale[:, :, None]).max(axis=(0, 1),
+                                                                      initial=0.0))
     rot = num.is_rotation_coord[free]
     size = (np.abs(shapes[~rot]).max(axis=0, initial=0.0) / num.length_scale
             + np.abs(shapes[rot]).max(axis=0, initial=0.0))

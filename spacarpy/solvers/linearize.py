@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from spacarpy.assembly import BlockPattern
-from spacarpy.elements.beam_mass import beam_mass_matrix, nodal_rotary_mass
+from spacarpy.elements.beam_mass import nodal_rotary_mass
 
 
 @dataclass
@@ -37,8 +37,8 @@ class Linearization:
     C : (n_con, n_x) sparse
         Constraint Jacobian (rigid modes, Euler normalizations).
     M : (n_x, n_x) sparse or None
-    D : (n_elem, 6, 14)
-        Deformation Jacobians at the state (used to classify rigid-body modes).
+    states : list
+        Per element group, the kernel state at x (its ``D`` classifies rigid-body modes).
     x : (n_coord,)
         The state.
     """
@@ -47,7 +47,7 @@ class Linearization:
     K_mat: sp.csc_matrix
     C: sp.csr_matrix
     M: sp.csc_matrix | None
-    D: np.ndarray
+    states: list
     x: np.ndarray
 
     @property
@@ -79,19 +79,22 @@ class MassAssembler:
         self.point_mass = np.array(self.point_mass)
         self.rot_nodes = np.array(self.rot_nodes, dtype=np.int64)
         self.rot_inertia = np.array(self.rot_inertia, dtype=float).reshape(-1, 3, 3)
-        self.pattern = BlockPattern(num.n_unknown, [u[num.beam_idx], u[self.point_idx],
-                                                    u[num.rot_idx[self.rot_nodes]]])
+        # element groups with inertia (a HINGE has none)
+        self.groups = [g for g in num.groups if g.kind.mass is not None]
+        self.pattern = BlockPattern(num.n_unknown, [u[g.idx] for g in self.groups]
+                                    + [u[self.point_idx], u[num.rot_idx[self.rot_nodes]]])
 
     @property
     def has_mass(self) -> bool:
-        return bool(np.any(self.model.beams.mass) or self.point_mass.size or self.rot_nodes.size)
+        return bool(any(np.any(g.mass) for g in self.groups) or self.point_mass.size
+                    or self.rot_nodes.size)
 
     def matrix(self, x: np.ndarray) -> sp.csc_matrix:
-        num, beams = self.num, self.model.beams
-        m_el = beam_mass_matrix(x[num.beam_idx], num.nx, num.ny, num.nz, num.l0, beams.mass)
+        num = self.num
+        blocks = [g.kind.mass(x[g.idx], g.ref, g.mass) for g in self.groups]
         m_pt = self.point_mass[:, None, None] * np.eye(3)
         m_rot = nodal_rotary_mass(x[num.rot_idx[self.rot_nodes]], self.rot_inertia)
-        return self.pattern.assemble([m_el, m_pt, m_rot])
+        return self.pattern.assemble(blocks + [m_pt, m_rot])
 
 
 def linearize(prob, x, mu, force, moment, mass: MassAssembler | None = None) -> Linearization:
@@ -105,4 +108,4 @@ def linearize(prob, x, mu, force, moment, mass: MassAssembler | None = None) -> 
     K_mat = a0[:n_x, :n_x].tocsc()
     C = (a[n_x:, :n_x] / prob.scale).tocsr()
     M = mass.matrix(x) if mass is not None else None
-    return Linearization(K=K, K_mat=K_mat, C=C, M=M, D=ev.st.D, x=x)
+    return Linearization(K=K, K_mat=K_mat, C=C, M=M, states=ev.states, x=x)

@@ -37,7 +37,6 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, BorderedPattern, scatter_add
-from spacarpy.elements.beam import beam_state, beam_weighted_hessian
 from spacarpy.errors import ConvergenceError, ModelError, SolverError
 from spacarpy.linalg import batch_matvec
 from spacarpy.model import Model
@@ -48,11 +47,6 @@ log = logging.getLogger(__name__)
 
 #: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
 _FLOOR_FACTOR = 10.0
-#: Largest |e_hat_k| / l0 (k = torsion, bending) accepted in a converged state. The basic
-#: deformations of Eq. (7) are sines of relative rotations; near 1 (90 degrees) they
-#: saturate, the Jacobian loses rank and Newton can land on a spurious equilibrium (the
-#: one-element, basic-deformation cantilever of Table 1 does exactly that).
-MAX_ELEMENT_ROTATION = 0.95
 
 
 @dataclass
@@ -67,6 +61,8 @@ class StaticStep:
     iterations: int
     residual: float
     mu: np.ndarray | None = None   # (n_constraint,) constraint multipliers
+    group_deformation: dict = field(default_factory=dict)   # keyword -> (n, n_def)
+    group_stress: dict = field(default_factory=dict)        # keyword -> (n, n_def)
 
 
 @dataclass
@@ -129,17 +125,24 @@ class StaticProblem:
         self.loads = Loads(model, self.num)
         self.pattern = BorderedPattern(self.num, self.loads.moment_rot)
         num = self.num
-        self.kin_pattern = BlockPattern(num.n_unknown, [num.unknown_of[num.beam_idx],
-                                                        num.unknown_of[num.rot_idx[num.euler_nodes]]])
+        self.kin_pattern = BlockPattern(
+            num.n_unknown, [num.unknown_of[g.idx] for g in num.groups]
+            + [num.unknown_of[num.rot_idx[num.euler_nodes]]])
         self.kinematic_correction = True
         self._initial_check = False
+        self.has_commit = any(g.kind.commit is not None for g in num.groups)
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
         self.timings = Timings()
         # balances the constraint rows of the saddle-point matrix and sets the residual's
         # round-off floor: the largest element stiffness entry (N/m)
-        smax = float(np.abs(num.S).max(initial=0.0))
+        smax = max([float(np.abs(g.S).max(initial=0.0)) for g in num.groups] + [0.0])
         self.scale = smax if smax > 0 else 1.0
+        # weights of the constraint violations in the residual norm: rigid length-like
+        # modes relative to the length scale, angles and Euler normalizations absolute
+        self.constraint_weight = np.concatenate(
+            [np.where(np.asarray(g.kind.length_modes)[g.rigid_mode], 1.0 / num.length_scale,
+                      1.0) for g in num.groups] + [np.ones(num.euler_nodes.size)])
         self._reaction_setup()
 
     # ------------------------------------------------------------------ evaluation
@@ -147,12 +150,18 @@ class StaticProblem:
         """Deformations, stress resultants and residuals at (x, mu) under the given load."""
         num = self.num
         t0 = time.perf_counter()
-        st = beam_state(x[num.beam_idx], num.ny, num.nz, num.l0, self.variant)
-        sigma = (num.S @ st.e[:, :, None])[:, :, 0]
-        sigma[num.rigid_elem, num.rigid_mode] = mu[: num.n_rigid]
-        f_el = (sigma[:, None, :] @ st.D)[:, 0, :]
+        states, sigmas, forces = [], [], []
+        for g in num.groups:
+            st = g.kind.state(x[g.idx], g.ref, self.variant, g.prev)
+            sigma = batch_matvec(g.S, st.e)
+            sigma[g.rigid_elem, g.rigid_mode] = mu[g.rigid_slice]
+            states.append(st)
+            sigmas.append(sigma)
+            forces.append((sigma[:, None, :] @ st.D)[:, 0, :])
         t1 = time.perf_counter()
-        f_int = scatter_add(num.n_coord, num.beam_idx, f_el)
+        f_int = np.zeros(num.n_coord)
+        for g, f_el in zip(num.groups, forces):
+            f_int += scatter_add(num.n_coord, g.idx, f_el)
         q_eu = x[num.rot_idx[num.euler_nodes]]
         f_int[num.rot_idx[num.euler_nodes]] += 2.0 * q_eu * mu[num.n_rigid:, None]
         f_ext = force.copy()
@@ -161,11 +170,13 @@ class StaticProblem:
             f_ext[num.rot_idx[self.loads.moment_rot]] += 2.0 * np.einsum(
                 "nab,nb->na", moment_matrix(moment), q_m)
         r = (f_int - f_ext)[self.free]
-        c = np.concatenate([st.e[num.rigid_elem, num.rigid_mode],
-                            np.sum(q_eu * q_eu, axis=1) - 1.0])
+        c = np.concatenate([st.e[g.rigid_elem, g.rigid_mode]
+                            for g, st in zip(num.groups, states)]
+                           + [np.sum(q_eu * q_eu, axis=1) - 1.0])
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
-        return _Eval(st=st, sigma=sigma, r=r, c=c, f_int=f_int, f_ext=f_ext, q_eu=q_eu)
+        return _Eval(states=states, sigmas=sigmas, r=r, c=c, f_int=f_int, f_ext=f_ext,
+                     q_eu=q_eu)
 
     def matrix(self, ev: "_Eval", mu, moment, material_only: bool = False):
         """The bordered Newton matrix at an evaluated state (CSC).
@@ -177,19 +188,23 @@ class StaticProblem:
         """
         num = self.num
         t0 = time.perf_counter()
-        st = ev.st
-        k_el = st.D.transpose(0, 2, 1) @ (num.S @ st.D)
+        k_el = []
+        for g, st, sigma in zip(num.groups, ev.states, ev.sigmas):
+            k = st.D.transpose(0, 2, 1) @ (g.S @ st.D)
+            if not material_only:
+                k += g.kind.hessian(st, sigma)
+            k_el.append(k)
         n_m = self.loads.moment_rot.size
         if material_only:
             euler_diag, mom_blocks = np.zeros(num.euler_nodes.size), np.zeros((n_m, 4, 4))
         else:
-            k_el += beam_weighted_hessian(st, ev.sigma)
             euler_diag = 2.0 * mu[num.n_rigid:]
             mom_blocks = -2.0 * moment_matrix(moment) if n_m else np.zeros((0, 4, 4))
         t1 = time.perf_counter()
         A = self.pattern.assemble(k_el, euler_diag, mom_blocks,
-                                  st.D[num.rigid_elem, num.rigid_mode], 2.0 * ev.q_eu,
-                                  scale=self.scale)
+                                  [st.D[g.rigid_elem, g.rigid_mode]
+                                   for g, st in zip(num.groups, ev.states)],
+                                  2.0 * ev.q_eu, scale=self.scale)
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
         return A
@@ -209,8 +224,7 @@ class StaticProblem:
         level = max(np.abs(f_ext * w).max(initial=0.0), np.abs(f_int * w).max(initial=0.0))
         rr = np.abs(r * w[self.free]).max(initial=0.0)
         rel = rr / level if level > 0 else (0.0 if rr == 0 else np.inf)
-        cw = np.concatenate([np.full(self.num.n_rigid, 1.0 / L),
-                             np.ones(self.num.euler_nodes.size)])
+        cw = self.constraint_weight
         floor = (_FLOOR_FACTOR * np.finfo(float).eps * getattr(self, "scale", 0.0) * L / level
                  if level > 0 else 0.0)
         return max(rel, np.abs(c * cw).max(initial=0.0)), floor
@@ -271,7 +285,7 @@ class StaticProblem:
             # tolerance or at its round-off floor (with very short, stiff elements the force
             # residual cannot be resolved better, while positions still are)
             if res <= max(opts.tol, floor) and (it == 0 or dx_norm <= opts.tol):
-                self._check_element_range(ev.st.e_hat)
+                self._check_element_range(ev.states)
                 return x, mu, it, res, history
             if it == opts.max_iter:
                 break
@@ -296,7 +310,7 @@ class StaticProblem:
             x_lin = x.copy()
             x_lin[self.free] += dx
             if self.kinematic_correction:
-                x_lin = self.correct_kinematics(x_lin, dx, ev.st)
+                x_lin = self.correct_kinematics(x_lin, dx, ev.states)
             x = x_lin
             mu = mu + dmu
         raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
@@ -318,25 +332,29 @@ class StaticProblem:
         eu = num.rot_idx[num.euler_nodes]
         xd = np.zeros(num.n_coord)
         xd[self.free] = dx
-        target = st_old.e + batch_matvec(st_old.D, xd[num.beam_idx])
-        inv_l0 = 1.0 / num.l0[:, None]
+        targets = [st.e + batch_matvec(st.D, xd[g.idx]) for g, st in zip(num.groups, st_old)]
+        inv_scale = [1.0 / g.scale for g in num.groups]
         x = x_lin
         for _ in range(max_iter):
             t0 = time.perf_counter()
-            st = beam_state(x[num.beam_idx], num.ny, num.nz, num.l0, self.variant)
+            states = [g.kind.state(x[g.idx], g.ref, self.variant, g.prev) for g in num.groups]
             q = x[eu]
-            g_e = (target - st.e) * inv_l0
+            g_e = [(t - st.e) * w for t, st, w in zip(targets, states, inv_scale)]
             g_q = 1.0 - np.sum(q * q, axis=1)
-            if max(np.abs(g_e).max(initial=0.0), np.abs(g_q).max(initial=0.0)) < 1e-14:
+            worst = max([np.abs(v).max(initial=0.0) for v in g_e]
+                        + [np.abs(g_q).max(initial=0.0)])
+            if worst < 1e-14:
                 break
-            w_e = st.D * inv_l0[:, :, None]                     # (n, 6, 14)
+            w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
             t1 = time.perf_counter()
             wq = 2.0 * q
             m = self.kin_pattern.assemble(
-                [w_e.transpose(0, 2, 1) @ w_e, wq[:, :, None] * wq[:, None, :]],
+                [w.transpose(0, 2, 1) @ w for w in w_e] + [wq[:, :, None] * wq[:, None, :]],
                 diag_shift=1e-12)
-            rhs = (scatter_add(num.n_coord, num.beam_idx, batch_matvec(w_e.transpose(0, 2, 1), g_e))
-                   + scatter_add(num.n_coord, eu, wq * g_q[:, None]))[self.free]
+            rhs = scatter_add(num.n_coord, eu, wq * g_q[:, None])
+            for g, w, ge in zip(num.groups, w_e, g_e):
+                rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), ge))
+            rhs = rhs[self.free]
             t2 = time.perf_counter()
             try:
                 lu = spla.splu(m, permc_spec="COLAMD")
@@ -349,16 +367,24 @@ class StaticProblem:
             self.timings.solve += time.perf_counter() - t2
         return x
 
-    def _check_element_range(self, e_hat):
-        rel = np.abs(e_hat[:, 1:]) / self.num.l0[:, None]
-        if rel.size and rel.max() > MAX_ELEMENT_ROTATION:
-            i, k = np.unravel_index(np.argmax(rel), rel.shape)
-            raise SolverError(
-                f"spurious equilibrium: element {int(self.model.beams.ids[i])} deformation "
-                f"mode {k + 2} reached |e/l0| = {rel[i, k]:.3f}, a relative rotation of about "
-                f"{np.degrees(np.arcsin(min(rel[i, k], 1.0))):.0f} degrees inside one element. "
-                f"The deformation measures of Eq. (7) saturate at 90 degrees, so this state is "
-                f"not a valid beam solution; use more elements.")
+    def _check_element_range(self, states):
+        """Kind-specific validity checks of a converged state (BEAM: Eq. 7 saturation)."""
+        for g, st in zip(self.num.groups, states):
+            if g.kind.check is None:
+                continue
+            hit = g.kind.check(st, g.ref)
+            if hit is not None:
+                i, message = hit
+                raise SolverError(f"spurious equilibrium: {g.keyword} {int(g.ids[i])} "
+                                  f"{message}")
+
+    def commit(self, x, mu, force, moment):
+        """Let the element kinds update their persistent state after a converged step."""
+        ev = self.evaluate(x, mu, force, moment)
+        for g, st in zip(self.num.groups, ev.states):
+            if g.kind.commit is not None:
+                g.kind.commit(st, g.prev)
+        return ev
 
     def _solve(self, A, rhs, x, history=()):
         try:
@@ -398,7 +424,7 @@ class StaticProblem:
         # look for deformation-free motions among the smallest modes (robust against the
         # huge but legitimate condition numbers of finely meshed stiff structures).
         from spacarpy.solvers.diagnose import mechanism_error
-        err = mechanism_error(self, A, ev.st.D)
+        err = mechanism_error(self, A, ev.states)
         if err is not None:
             raise err
 
@@ -413,8 +439,8 @@ class StaticProblem:
 
 @dataclass
 class _Eval:
-    st: object
-    sigma: np.ndarray
+    states: list               # per element group: the kernel state (.e, .D, ...)
+    sigmas: list               # per element group: stress resultants (n, n_def)
     r: np.ndarray
     c: np.ndarray
     f_int: np.ndarray
@@ -479,9 +505,14 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
 
     def store(load_factor, x, mu, its, res):
         ev = prob.evaluate(x, mu, *prob.loads.at(1.0, load_factor))
-        step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=ev.st.e,
-                          stress=ev.sigma, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
-                          iterations=its, residual=res, mu=mu.copy())
+        by_kind = {g.keyword: (st.e, sig) for g, st, sig in
+                   zip(num.groups, ev.states, ev.sigmas)}
+        beam_e, beam_s = by_kind.get("BEAM", (np.zeros((0, 6)), np.zeros((0, 6))))
+        step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=beam_e,
+                          stress=beam_s, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
+                          iterations=its, residual=res, mu=mu.copy(),
+                          group_deformation={k: v[0] for k, v in by_kind.items()},
+                          group_stress={k: v[1] for k, v in by_kind.items()})
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -529,6 +560,8 @@ def _advance(prob, x, mu, p_from, p_to, n_sub, opts, stored_step):
             dt /= 2
             continue
         x, mu = x_new, mu_new
+        if prob.has_commit:
+            prob.commit(x, mu, force, moment)
         total_its += its
         last_res = res
         t += dt

@@ -1,0 +1,139 @@
+"""Registry of element kinds: one uniform interface over the vectorized kernels.
+
+The solvers never call a kernel module directly; they loop over the (few) element *groups*
+of a model and call the group's :class:`Kind`. Each kind says which node slots it has
+(position or orientation nodes), how many deformation modes, and wraps its kernel's pure
+functions:
+
+reference(x0_slots, vector) -> (ref, scale)
+    Reference data from the initial configuration (triads, lengths) and the per-mode scale
+    (n, n_def) that makes deformations dimensionless (a length for length-like modes, 1 for
+    angles); used to weigh residuals and the kinematic correction.
+state(x_local, ref, variant, prev) -> state with ``.e`` (n, n_def) and ``.D`` (n, n_def, n_ldof)
+hessian(state, w) -> (n, n_ldof, n_ldof)
+stiffness(props, ref) -> (n, n_def, n_def)
+mass(x_local, ref, mass) -> (n, n_ldof, n_ldof) or None
+commit(state, prev) -> None
+    Update the kind's persistent state after a converged step (the hinge's turn count).
+check(state, ref) -> (element row, message) or None
+    A validity check of a converged state (the BEAM's saturation of Eq. 7).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from spacarpy.elements import beam, beam_mass, hinge, rbeam, truss
+
+#: Largest |e_hat_k| / l0 (torsion, bending) accepted in a converged BEAM state: the basic
+#: deformations of Eq. (7) are sines of relative rotations, near 1 (90 degrees) they
+#: saturate, the Jacobian loses rank and Newton can land on a spurious equilibrium.
+MAX_BEAM_ROTATION = 0.95
+
+
+@dataclass(frozen=True)
+class Kind:
+    keyword: str
+    slots: tuple
+    n_def: int
+    length_modes: tuple          # per mode: True when the deformation is a length (m)
+    reference: Callable
+    state: Callable
+    hessian: Callable
+    stiffness: Callable
+    mass: Callable | None = None
+    commit: Callable | None = None
+    check: Callable | None = None
+
+    @property
+    def n_ldof(self) -> int:
+        return sum(3 if s == "pos" else 4 for s in self.slots)
+
+
+# ------------------------------------------------------------------------------ BEAM
+def _beam_reference(x0, vector):
+    nx, ny, nz, l0 = beam.reference_triads(x0[0], x0[2], vector)
+    return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 6, axis=1)
+
+
+def _beam_check(st, ref):
+    rel = np.abs(st.e_hat[:, 1:]) / ref["l0"][:, None]
+    if rel.size and rel.max() > MAX_BEAM_ROTATION:
+        i, k = np.unravel_index(np.argmax(rel), rel.shape)
+        return int(i), (
+            f"deformation mode {k + 2} reached |e/l0| = {rel[i, k]:.3f}, a relative rotation "
+            f"of about {np.degrees(np.arcsin(min(rel[i, k], 1.0))):.0f} degrees inside one "
+            f"element. The deformation measures of Eq. (7) saturate at 90 degrees, so this "
+            f"state is not a valid beam solution; use more elements.")
+    return None
+
+
+BEAM = Kind(
+    keyword="BEAM", slots=("pos", "rot", "pos", "rot"), n_def=6, length_modes=(True,) * 6,
+    reference=_beam_reference,
+    state=lambda x, ref, variant, prev: beam.beam_state(x, ref["ny"], ref["nz"], ref["l0"],
+                                                        variant),
+    hessian=lambda st, w: beam.beam_weighted_hessian(st, w),
+    stiffness=lambda props, ref: beam.stiffness_matrix(props, ref["l0"]),
+    mass=lambda x, ref, m: beam_mass.beam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"],
+                                                      ref["l0"], m),
+    check=_beam_check)
+
+
+# ------------------------------------------------------------------------------ TRUSS
+def _truss_reference(x0, vector):
+    l0 = truss.truss_reference(x0[0], x0[1])
+    return dict(l0=l0), l0[:, None].copy()
+
+
+TRUSS = Kind(
+    keyword="TRUSS", slots=("pos", "pos"), n_def=1, length_modes=(True,),
+    reference=_truss_reference,
+    state=lambda x, ref, variant, prev: truss.truss_state(x, ref["l0"]),
+    hessian=lambda st, w: truss.truss_weighted_hessian(st, w),
+    stiffness=lambda props, ref: truss.truss_stiffness(props[:, :1], ref["l0"]),
+    mass=lambda x, ref, m: truss.truss_mass_matrix(m[:, :1], ref["l0"]))
+
+
+# ------------------------------------------------------------------------------ HINGE
+def _hinge_reference(x0, vector):
+    a, b, c = hinge.hinge_reference(vector)
+    return dict(a=a, b=b, c=c), np.ones((a.shape[0], 3))
+
+
+def _hinge_state(x, ref, variant, prev):
+    return hinge.hinge_state(x, ref["a"], ref["b"], ref["c"], e1_previous=prev.get("e1"))
+
+
+def _hinge_commit(st, prev):
+    prev["e1"] = st.e[:, 0].copy()
+
+
+HINGE = Kind(
+    keyword="HINGE", slots=("rot", "rot"), n_def=3, length_modes=(False,) * 3,
+    reference=_hinge_reference, state=_hinge_state,
+    hessian=lambda st, w: hinge.hinge_weighted_hessian(st, w),
+    stiffness=lambda props, ref: hinge.hinge_stiffness(props[:, :3]),
+    commit=_hinge_commit)
+
+
+# ------------------------------------------------------------------------------ RBEAM
+def _rbeam_reference(x0, vector):
+    nx, ny, nz, l0 = rbeam.rbeam_reference(x0[0], x0[2], vector)
+    return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 3, axis=1)
+
+
+RBEAM = Kind(
+    keyword="RBEAM", slots=("pos", "rot", "pos"), n_def=3, length_modes=(True,) * 3,
+    reference=_rbeam_reference,
+    state=lambda x, ref, variant, prev: rbeam.rbeam_state(x, ref["nx"], ref["ny"], ref["nz"],
+                                                          ref["l0"]),
+    hessian=lambda st, w: rbeam.rbeam_weighted_hessian(st, w),
+    stiffness=lambda props, ref: rbeam.rbeam_stiffness(props[:, :3]),
+    mass=lambda x, ref, m: rbeam.rbeam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"],
+                                                   ref["l0"], m))
+
+#: Keyword -> kind, in the order the solver assembles them.
+KINDS = {k.keyword: k for k in (BEAM, TRUSS, HINGE, RBEAM)}
