@@ -91,7 +91,8 @@ class BorderedPattern:
 
 def scatter_add(n: int, idx: np.ndarray, vals: np.ndarray) -> np.ndarray:
     """Sum per-element vectors into a global vector: ``out[idx] += vals`` with repeats."""
-    return np.bincount(idx.ravel(), weights=vals.ravel(), minlength=n)
+    return np.bincount(idx.ravel(), weights=vals.ravel(), minlength=n).astype(float,
+                                                                           copy=False)
 
 
 class BlockPattern:

@@ -1,0 +1,103 @@
+"""TRUSS, HINGE and RBEAM elements in the static and linearized solvers (models built in
+Python; deck support for these keywords comes with the multibody issue)."""
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from spacarpy.model import (FLEXIBLE, RIGID, BeamSet, ElementSet, Fix, IterStep, Load, Model,
+                            NodalMass)
+from spacarpy.solvers.eigen import eigenmodes
+from spacarpy.solvers.linearize import MassAssembler, linearize
+from spacarpy.solvers.static import solve_static
+
+NAN3 = (np.nan, np.nan, np.nan)
+
+
+def two_bar_truss(P, EA=1e4, h=0.3, half=1.0):
+    """Symmetric two-bar truss in the x-y plane, apex node 3 loaded by P downwards."""
+    trusses = ElementSet(kind="TRUSS", ids=[1, 2], nodes=[[1, 3], [5, 3]], vector=[NAN3, NAN3],
+                         def_class=[[FLEXIBLE], [FLEXIBLE]], stiffness=[[EA], [EA]],
+                         has_stiffness=[True, True])
+    return Model(position_ids=[1, 3, 5], position_x0=[[-half, 0, 0], [0, h, 0], [half, 0, 0]],
+                 orientation_ids=[], beams=BeamSet.empty(), element_sets={"TRUSS": trusses},
+                 fixes=[Fix(1, (1, 2, 3)), Fix(5, (1, 2, 3)), Fix(3, (3,))],
+                 loads=[Load(3, "DELXF", (0, -P, 0))], iterstep=IterStep(n_steps=4, tol=1e-12))
+
+
+def test_two_bar_truss_matches_the_exact_nonlinear_equilibrium():
+    EA, h, half, P = 1e4, 0.3, 1.0, 50.0                    # below the snap-through load
+    res = solve_static(two_bar_truss(P, EA, h, half))
+    apex = res.steps[-1].x[res.problem.num.pos_idx[1]]
+    l0 = np.hypot(half, h)
+
+    def residual(v):                         # vertical equilibrium of the apex at drop v
+        y = h - v
+        length = np.hypot(half, y)
+        return 2 * EA * (length - l0) / l0 * y / length + P
+
+    v = brentq(residual, 0.0, 0.1)
+    assert apex[1] == pytest.approx(h - v, rel=1e-9)
+    assert abs(apex[0]) < 1e-12
+    force = res.steps[-1].group_stress["TRUSS"][:, 0]
+    assert force == pytest.approx(np.full(2, -P / 2 * np.hypot(half, h - v) / (h - v)),
+                                  rel=1e-9)
+
+
+def hinged_rod(F, k=3.0, L=2.0, rod="BEAM", tip_mass=0.0):
+    """A rigid rod on a revolute joint (axis z) with a torsion spring k at the fixed end."""
+    sets = {"HINGE": ElementSet(kind="HINGE", ids=[10], nodes=[[2, 4]], vector=[(0, 0, 1.0)],
+                                def_class=[[FLEXIBLE, RIGID, RIGID]], stiffness=[[k]],
+                                has_stiffness=[True])}
+    if rod == "BEAM":
+        beams = BeamSet(ids=[1], nodes=[[1, 4, 3, 6]], orientation=[(0, 1.0, 0)],
+                        def_class=np.full((1, 6), RIGID), stiffness=np.zeros((1, 6)),
+                        has_stiffness=[False])
+        rot = [2, 4, 6]
+    else:
+        beams = BeamSet.empty()
+        sets["RBEAM"] = ElementSet(kind="RBEAM", ids=[1], nodes=[[1, 4, 3]],
+                                   vector=[(0, 1.0, 0)], def_class=np.full((1, 3), RIGID),
+                                   stiffness=np.zeros((1, 3)), has_stiffness=[False])
+        rot = [2, 4]
+    masses = [NodalMass(3, (tip_mass,))] if tip_mass else []
+    return Model(position_ids=[1, 3], position_x0=[[0, 0, 0], [L, 0, 0]], orientation_ids=rot,
+                 beams=beams, element_sets=sets, fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
+                 loads=[Load(3, "DELXF", (0, F, 0))] if F else [], nodal_masses=masses,
+                 iterstep=IterStep(n_steps=5, tol=1e-12))
+
+
+@pytest.mark.parametrize("rod", ["BEAM", "RBEAM"])
+def test_hinge_spring_balances_a_dead_tip_force_at_large_rotation(rod):
+    """k theta = F L cos(theta) for a rigid rod on a torsion-spring hinge."""
+    F, k, L = 2.5, 3.0, 2.0
+    res = solve_static(hinged_rod(F, k, L, rod))
+    theta = brentq(lambda t: k * t - F * L * np.cos(t), 0, np.pi / 2)
+    assert theta > 0.8                                         # a large rotation
+    tip = res.steps[-1].x[res.problem.num.pos_idx[1]]
+    np.testing.assert_allclose(tip, [L * np.cos(theta), L * np.sin(theta), 0], atol=1e-10)
+    e_hinge = res.steps[-1].group_deformation["HINGE"][0]
+    assert e_hinge[0] == pytest.approx(theta, abs=1e-10)
+    assert np.abs(e_hinge[1:]).max() < 1e-12                   # the joint stays a revolute one
+    assert res.steps[-1].group_stress["HINGE"][0, 0] == pytest.approx(k * theta, rel=1e-10)
+
+
+def test_hinge_angle_is_continuous_beyond_half_a_turn():
+    """A spring so soft that the rod turns past 180 degrees: the hinge angle keeps counting."""
+    F, k, L = 2.5, 3.0, 2.0
+    model = hinged_rod(0.0, k, L)
+    model.loads = [Load(6, "DELXF", (0, 0, 4.0 * np.pi * k))]  # tip moment: theta = 4 pi
+    model.iterstep = IterStep(n_steps=16, tol=1e-12)
+    res = solve_static(model)
+    angles = [s.group_deformation["HINGE"][0, 0] for s in res.steps]
+    np.testing.assert_allclose(angles, np.linspace(0, 4 * np.pi, 17), atol=1e-9)
+
+
+def test_hinged_rod_with_tip_mass_oscillates_at_sqrt_k_over_m_l2():
+    k, L, m = 3.0, 2.0, 0.7
+    model = hinged_rod(0.0, k, L, tip_mass=m)
+    res = solve_static(model)
+    prob, st = res.problem, res.steps[-1]
+    lin = linearize(prob, st.x, st.mu, *prob.loads.at(1.0, 1.0),
+                    mass=MassAssembler(model, prob.num))
+    md = eigenmodes(lin, prob.num, prob.free, n_modes=1)
+    assert md.frequency[0] == pytest.approx(np.sqrt(k / (m * L**2)) / (2 * np.pi), rel=1e-10)
