@@ -2,7 +2,17 @@
 
 Reads SPACAR-style decks, solves with the discrete-deformation-mode beam element of
 Jonker & Meijaard (2013), writes HDF5 results. Entry points: the ``spacarpy`` command
-(:mod:`spacarpy.cli`), :func:`spacarpy.deck.load_deck` and
-:func:`spacarpy.solvers.static.solve_static`.
+(:mod:`spacarpy.cli`), :func:`spacarpy.deck.load_deck`,
+:func:`spacarpy.solvers.static.solve_static` and :func:`spacarpy.open_results` (reading a
+result file; imported on first use, so ``import spacarpy`` stays light).
 """
 __version__ = "0.1.0"
+
+__all__ = ["__version__", "open_results"]
+
+
+def __getattr__(name):
+    if name == "open_results":
+        from spacarpy.results.reader import open_results
+        return open_results
+    raise AttributeError(f"module 'spacarpy' has no attribute {name!r}")

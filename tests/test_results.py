@@ -131,7 +131,7 @@ def test_layout_follows_schema(tmp_path):
     write_run(out, chain_model())
     with h5py.File(out, "r") as f:
         assert f.attrs["schema_version"].dtype == np.int32
-        assert list(f.attrs["schema_version"]) == [1, 0]
+        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [1, 1]
         assert f["deck"].shape == ()
         assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
         info = h5py.check_string_dtype(f["model/element_type"].dtype)
@@ -155,7 +155,7 @@ def test_layout_follows_schema(tmp_path):
         assert units["static/position"] == "m" and units["static/stress_resultant"] == "N"
         assert units["static/reaction"] == "N | N m (see reaction_component)"
         assert units["model/position_nodes"] == "1"
-        assert len(units) == 17
+        assert len(units) == 17 + 14      # 1.0 datasets + the 1.1 model datasets
 
 
 def test_overwrites_existing_output_only_when_finished(tmp_path):
@@ -180,7 +180,7 @@ def test_newer_major_version_is_refused(tmp_path):
     with pytest.raises(ResultsFormatError) as info:
         read_results(out)
     message = str(info.value)
-    assert "99.0" in message and "1.0" in message
+    assert "99.0" in message and "1.1" in message
     assert isinstance(info.value, SpacarError) and info.value.exit_code == EXIT_INPUT
     problems = validate_file(out)
     assert len(problems) == 1 and "99" in problems[0]
@@ -306,6 +306,31 @@ def test_no_reactions_and_no_steps(tmp_path):
     assert validate_file(out) == []
     res = read_results(out)
     assert res.static.n_step == 0 and res.static.reaction.shape == (0, 0)
+
+
+def test_linearized_groups_round_trip(tmp_path):
+    # /eigen, /buckling and /compliance are written next to /static by the linearized analyses.
+    model = chain_model()
+    out = tmp_path / "r.h5"
+    rng = np.random.default_rng(1)
+    shapes = [(rng.standard_normal((2, 3, 3)), rng.standard_normal((2, 3, 4))) for _ in range(2)]
+    with ResultsWriter(out, model, program_version="0.1.0", deformations="basic",
+                       analysis="eigen") as w:
+        w.begin_static(3, 3, 2, [1], ["Fx"], n_eigen_modes=2, n_buckling_modes=2,
+                       compliance_node=(5, 6))
+        for k in range(2):
+            w.static_step(**{**step_data(model, k), "reaction": [1.0]})
+            w.eigen_step(k, [4.0 + 0j, 9.0 + 0j], [1.0, 2.0], [0, 0], *shapes[k])
+            w.buckling_step(k, [3.0, -5.0], 3.0, *shapes[k])
+            w.compliance_step(k, np.eye(6) * (k + 1), np.eye(6))
+        w.finish()
+    assert validate_file(out, require_complete=True) == []
+    res = read_results(out)
+    np.testing.assert_array_equal(res.eigen.step, [0, 1])
+    np.testing.assert_array_equal(res.eigen.frequency, [[1.0, 2.0], [1.0, 2.0]])
+    np.testing.assert_array_equal(res.eigen.shape_position[1], shapes[1][0])
+    np.testing.assert_array_equal(res.buckling.critical_load_multiplier, [3.0, 3.0])
+    np.testing.assert_array_equal(getattr(res.compliance, "global")[1], 2 * np.eye(6))
 
 
 # --- a real process killed with SIGKILL ---------------------------------------------------------

@@ -1,7 +1,11 @@
-"""Results files of spacarpy analyses: the crash-safe HDF5 writer, the reader and the validator.
+"""Results files of spacarpy analyses: writing, reading, checking and post-processing them.
 
-The schema is documented in ``docs/results.md``; the implementation is
-:mod:`spacarpy.results.hdf5`.
+The schema is documented in ``docs/results.md``. Modules: :mod:`~spacarpy.results.hdf5` (the
+crash-safe writer, the eager reader and the validator), :mod:`~spacarpy.results.reader` (the
+lazy reader :func:`open_results`), :mod:`~spacarpy.results.stress` (section forces and surface
+stresses), :mod:`~spacarpy.results.tables` (``show`` and ``extract``),
+:mod:`~spacarpy.results.plot` (matplotlib figures) and :mod:`~spacarpy.results.export` (XDMF
+and VTK files for ParaView).
 """
 from spacarpy.results.hdf5 import (
     FILETYPE,
@@ -15,6 +19,7 @@ from spacarpy.results.hdf5 import (
     read_results,
     validate_file,
 )
+from spacarpy.results.reader import ResultsFile, ResultsQueryError, open_results
 
 __all__ = [
     "FILETYPE",
@@ -27,4 +32,7 @@ __all__ = [
     "partial_path_for",
     "read_results",
     "validate_file",
+    "open_results",
+    "ResultsFile",
+    "ResultsQueryError",
 ]

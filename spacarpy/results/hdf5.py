@@ -1,10 +1,14 @@
-"""Write, read and validate spacarpy results files (HDF5, schema version 1.0), crash-safely.
+"""Write, read and validate spacarpy results files (HDF5, schema version 1.1), crash-safely.
 
 This module's one job is the results file: :class:`ResultsWriter` streams an analysis into it
 step by step, :func:`read_results` loads it back into numpy arrays, and :func:`validate_file`
 checks a file against the schema. The schema itself (every path with dtype, shape, units and
 meaning) is documented in ``docs/results.md``; :data:`SCHEMA_VERSION` and that document are
-bumped together.
+bumped together. Besides the solver's arrays the writer stores what makes the file
+self-describing: the model's element properties, cross-sections, loads and coordinate map
+(from :func:`spacarpy.numbering.number_model`, schema 1.1), and, for elements with a known
+cross-section, the largest surface stresses of every step
+(:func:`spacarpy.results.stress.surface_stress`).
 
 Crash safety
 ------------
@@ -26,7 +30,8 @@ is never replaced by a broken one.
   with ``completed = False`` and the error message; the partial file is kept.
 
 Symbols: ``n_pos`` position nodes, ``n_rot`` orientation nodes, ``n_elem`` beam elements,
-``n_reac`` reaction components, ``n_step`` committed load steps.
+``n_coord`` global coordinates, ``n_load`` load lines, ``n_reac`` reaction components,
+``n_step`` committed load steps.
 """
 from __future__ import annotations
 
@@ -63,7 +68,7 @@ __all__ = [
 
 #: (major, minor) version of the results-file schema written and read by this module.
 #: MAJOR changes are incompatible; MINOR ones only add optional content.
-SCHEMA_VERSION = (1, 0)
+SCHEMA_VERSION = (1, 1)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -91,6 +96,37 @@ DATASET_ATTRS = {
     "model/elements": ("1", "deck number of each element"),
     "model/element_nodes": ("1", "deck node numbers [p r q s] of each element"),
     "model/element_type": ("1", "element type keyword of each element"),
+    # schema 1.1: element properties, cross-sections, loads and the coordinate map
+    "model/element_position_rows": ("1", "rows of /model/position_nodes holding the element's "
+                                         "nodes p and q (0-based; a line-cell connectivity)"),
+    "model/element_length": ("m", "reference length l0 of each element"),
+    "model/element_axes": ("1", "initial element axes: rows x (p to q), y, z as unit vectors "
+                                "in global axes"),
+    "model/element_deformation_class": ("1", "class of each deformation mode: 0 rigid, "
+                                             "1 flexible (DYNE), 2 released (RLSE)"),
+    "model/element_stiffness": ("N | N m2 | N m2 | N m2 | m2 | m2",
+                                "ESTIFF: EA, GJ, EIy, EIz, cy = EIy/kGA, cz = EIz/kGA "
+                                "(0 where not given)"),
+    "model/element_mass": ("kg/m | kg m | kg m | kg m | kg m",
+                           "EM per unit length: rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz "
+                           "(0 where not given)"),
+    "model/cross_section_type": ("1", "cross-section shape of each element: RECT, CIRC, or "
+                                      "empty when not known"),
+    "model/cross_section_dims": ("m", "cross-section dimensions: RECT (w along y, t along z), "
+                                      "CIRC (d, NaN); NaN when not known"),
+    "model/load_node": ("1", "deck node number of each nodal load line"),
+    "model/load_type": ("1", "XF (acting from the start) or DELXF (scaled by the load "
+                             "factor)"),
+    "model/load_value": ("N | N m", "force (position node, N) or moment (orientation node, "
+                                    "N m) of each load line, global axes"),
+    "model/coordinate_node": ("1", "deck node number owning each global coordinate"),
+    "model/coordinate_index": ("1", "index of the coordinate in its node: 1..3 = x y z, "
+                                    "1..4 = lambda0..lambda3"),
+    "model/coordinate_fixed": ("1", "whether the coordinate is fixed (FIX)"),
+    "static/max_normal_stress": ("Pa", "largest magnitude of the normal stress at the surface "
+                                       "of each element (NaN: cross-section not known)"),
+    "static/max_von_mises_stress": ("Pa", "largest von Mises stress at the surface of each "
+                                          "element (NaN: cross-section not known)"),
     "static/load_factor": ("1", "load factor on DELXF (load = XF + load_factor * DELXF)"),
     "static/position": ("m", "position of each position node"),
     "static/euler": ("1", "Euler parameters (lambda0, lambda1, lambda2, lambda3) of each "
@@ -169,6 +205,31 @@ _STEP_DATASETS = {
     "reaction": (np.float64, ("reaction",)),
     "iterations": (np.int32, ()),
     "residual": (np.float64, ()),
+}
+# Optional static step datasets (schema 1.1): present when any element has a cross-section.
+_STRESS_DATASETS = {
+    "max_normal_stress": (np.float64, ("element",)),
+    "max_von_mises_stress": (np.float64, ("element",)),
+}
+#: Names of the deformation classes in ``/model/element_deformation_class``.
+DEFORMATION_CLASS_NAMES = ("rigid", "flexible", "released")
+# /model datasets added by schema 1.1: name -> (kind, trailing shape after the entity axis,
+# entity count: n_elem, n_coord or n_load).
+_MODEL_11 = {
+    "element_position_rows": ("int", (2,), "n_elem"),
+    "element_length": ("float", (), "n_elem"),
+    "element_axes": ("float", (3, 3), "n_elem"),
+    "element_deformation_class": ("int", (6,), "n_elem"),
+    "element_stiffness": ("float", (6,), "n_elem"),
+    "element_mass": ("float", (5,), "n_elem"),
+    "cross_section_type": ("ascii", (), "n_elem"),
+    "cross_section_dims": ("float", (2,), "n_elem"),
+    "load_node": ("int", (), "n_load"),
+    "load_type": ("ascii", (), "n_load"),
+    "load_value": ("float", (3,), "n_load"),
+    "coordinate_node": ("int", (), "n_coord"),
+    "coordinate_index": ("int", (), "n_coord"),
+    "coordinate_fixed": ("bool", (), "n_coord"),
 }
 
 
@@ -258,6 +319,8 @@ class ResultsWriter:
         self._lin: dict[str, dict] = {}
         self._shapes: dict[str, tuple] = {}
         self._n_step = 0
+        self._l0: np.ndarray | None = None           # element lengths, for surface stresses
+        self._sections = None                        # SectionProperties, set by open()
 
     # -- context manager ----------------------------------------------------------------------
 
@@ -367,7 +430,11 @@ class ResultsWriter:
         load_factor.make_scale("load_factor")
         load_factor.dims[0].label = "step"
         datasets = {}
-        for name, (dtype, labels) in _STEP_DATASETS.items():
+        step_datasets = dict(_STEP_DATASETS)
+        if self._sections is not None and self._sections.known.any():
+            step_datasets.update(_STRESS_DATASETS)
+            trailing.update({name: (n_elem,) for name in _STRESS_DATASETS})
+        for name, (dtype, labels) in step_datasets.items():
             ds = _create_extendable(g, name, trailing[name], dtype)
             ds.dims[0].attach_scale(load_factor)
             for axis, label in enumerate(("step",) + labels):
@@ -396,7 +463,9 @@ class ResultsWriter:
         """Append one converged static load step and make it durable.
 
         The step's arrays are appended and flushed first; the step is then committed by
-        appending ``load_factor`` to ``/static/load_factor`` and flushing again.
+        appending ``load_factor`` to ``/static/load_factor`` and flushing again. When the
+        model has cross-sections, the largest surface stresses computed from
+        ``stress_resultant`` are appended with the step.
 
         Parameters
         ----------
@@ -430,6 +499,10 @@ class ResultsWriter:
                 raise ValueError(f"static_step: {name} has shape {row.shape}, "
                                  f"expected {self._shapes[name]}")
             rows[name] = row
+        if "max_normal_stress" in self._static:
+            from spacarpy.results.stress import surface_stress
+            rows["max_normal_stress"], rows["max_von_mises_stress"] = surface_stress(
+                rows["stress_resultant"], self._l0, self._sections)
         k = self._n_step
         for name, row in rows.items():
             ds = self._static[name]
@@ -608,6 +681,51 @@ class ResultsWriter:
         _create(g, "element_nodes", np.asarray(beams.nodes, dtype=np.int64).reshape(-1, 4))
         _create(g, "element_type", np.full(beams.n_elem, b"BEAM", dtype="S4"),
                 dtype=h5py.string_dtype("ascii", 4))
+        self._write_model_11(g)
+
+    def _write_model_11(self, g: h5py.Group) -> None:
+        """Write the schema-1.1 part of ``/model``: element properties, cross-sections, loads
+        and the map of global coordinates (see docs/results.md)."""
+        from spacarpy.numbering import number_model
+        from spacarpy.results.stress import section_properties
+
+        model, beams = self.model, self.model.beams
+        num = number_model(model)
+        row_of = np.full(num.n_coord, -1, dtype=np.int64)
+        row_of[num.pos_idx[:, 0]] = np.arange(num.pos_idx.shape[0])
+        _create(g, "element_position_rows",
+                row_of[num.beam_idx[:, [0, 7]]].reshape(beams.n_elem, 2))
+        _create(g, "element_length", np.asarray(num.l0, dtype=np.float64))
+        _create(g, "element_axes", np.stack([num.nx, num.ny, num.nz], axis=1)
+                .reshape(beams.n_elem, 3, 3))
+        ds = _create(g, "element_deformation_class", beams.def_class.astype(np.int8))
+        ds.attrs["class_names"] = ", ".join(DEFORMATION_CLASS_NAMES)
+        ds = _create(g, "element_stiffness", beams.stiffness.astype(np.float64))
+        ds.attrs["columns"] = "EA GJ EIy EIz cy cz"
+        ds = _create(g, "element_mass", beams.mass.astype(np.float64))
+        ds.attrs["columns"] = "rhoA rho(Iy+Iz) rhoIy rhoIz rhoIyz"
+        if model.cross_sections is not None:
+            shape, dims = model.cross_sections.arrays(beams.ids)
+        else:
+            shape, dims = np.full(beams.n_elem, "", dtype="<U4"), np.full((beams.n_elem, 2),
+                                                                          np.nan)
+        _create(g, "cross_section_type", np.char.encode(shape, "ascii").astype("S4"),
+                dtype=h5py.string_dtype("ascii", 4))
+        _create(g, "cross_section_dims", dims.astype(np.float64))
+        loads = list(model.loads)
+        _create(g, "load_node", np.array([ld.node for ld in loads], dtype=np.int64))
+        _create(g, "load_type", np.array([ld.kind.encode("ascii") for ld in loads], dtype="S5"),
+                dtype=h5py.string_dtype("ascii", 5))
+        _create(g, "load_value", np.array([ld.value for ld in loads], dtype=np.float64)
+                .reshape(len(loads), 3))
+        index = np.zeros(num.n_coord, dtype=np.int8)
+        index[num.pos_idx] = np.arange(1, 4, dtype=np.int8)
+        index[num.rot_idx] = np.arange(1, 5, dtype=np.int8)
+        _create(g, "coordinate_node", num.node_of_coord(model))
+        _create(g, "coordinate_index", index)
+        _create(g, "coordinate_fixed", num.fixed_mask.astype(bool))
+        self._l0 = np.asarray(num.l0, dtype=np.float64)
+        self._sections = section_properties(shape, dims)
 
 
 def _absolute_deck_path(source_path: str) -> str:
@@ -699,6 +817,8 @@ class StaticResults:
         Newton iterations per step.
     residual : (n_step,) float64
         Final relative residual per step.
+    max_normal_stress, max_von_mises_stress : (n_step, n_elem) float64 or None
+        Largest surface stresses (Pa); ``None`` when no cross-section is known.
     """
 
     load_factor: np.ndarray
@@ -711,6 +831,8 @@ class StaticResults:
     reaction_component: list
     iterations: np.ndarray
     residual: np.ndarray
+    max_normal_stress: np.ndarray | None = None
+    max_von_mises_stress: np.ndarray | None = None
 
     @property
     def n_step(self) -> int:
@@ -848,19 +970,7 @@ def read_results(path) -> Results:
     """
     path = os.fspath(path)
     with _open_for_reading(path) as f:
-        identity = _identity_problems(f)
-        if identity:
-            raise ResultsFormatError(f"{path}: {identity[0]}")
-        problems = _layout_problems(f)
-        if problems:
-            raise ResultsFormatError(f"{path}: not a valid spacarpy results file:\n  "
-                                     + "\n  ".join(problems))
-        attrs = {k: _python_value(v) for k, v in f.attrs.items()}
-        attrs["schema_version"] = tuple(int(x) for x in attrs["schema_version"])
-        if attrs["schema_version"][1] > SCHEMA_VERSION[1]:
-            log.info("%s has schema version %d.%d (newer minor version than %d.%d); content "
-                     "this version does not know is ignored", path, *attrs["schema_version"],
-                     *SCHEMA_VERSION)
+        attrs = check_readable(f, path)
         m = f["model"]
         results = Results(
             path=path, attrs=attrs, deck=f["deck"].asstr()[()],
@@ -871,6 +981,7 @@ def read_results(path) -> Results:
             g = f["static"]
             n = g["load_factor"].shape[0]
             step = {name: g[name][:n] for name in _STEP_DATASETS}
+            step.update({name: g[name][:n] for name in _STRESS_DATASETS if name in g})
             results.static = StaticResults(
                 load_factor=g["load_factor"][()], reaction_node=g["reaction_node"][()],
                 reaction_component=_str_list(g["reaction_component"]), **step)
@@ -885,6 +996,48 @@ def read_results(path) -> Results:
         log.warning("%s is an incomplete run: %s", path,
                     results.error or "the writer did not finish (killed, or still running)")
     return results
+
+
+def check_readable(f: h5py.File, path) -> dict:
+    """Refuse a file this version cannot read; return its root attributes as Python values.
+
+    Shared by :func:`read_results` and :func:`spacarpy.results.reader.open_results`.
+
+    Parameters
+    ----------
+    f : h5py.File
+        Opened with :func:`open_for_reading`.
+    path : str
+        For the messages.
+
+    Returns
+    -------
+    dict
+        Root attributes; ``schema_version`` as a tuple of two ints.
+
+    Raises
+    ------
+    ResultsFormatError
+        Not a spacarpy results file, a newer major schema version, or schema violations.
+    """
+    identity = _identity_problems(f)
+    if identity:
+        raise ResultsFormatError(f"{path}: {identity[0]}")
+    problems = _layout_problems(f)
+    if problems:
+        raise ResultsFormatError(f"{path}: not a valid spacarpy results file:\n  "
+                                 + "\n  ".join(problems))
+    attrs = {k: _python_value(v) for k, v in f.attrs.items()}
+    attrs["schema_version"] = tuple(int(x) for x in attrs["schema_version"])
+    if attrs["schema_version"][1] > SCHEMA_VERSION[1]:
+        log.info("%s has schema version %d.%d (newer minor version than %d.%d); content "
+                 "this version does not know is ignored", path, *attrs["schema_version"],
+                 *SCHEMA_VERSION)
+    return attrs
+
+
+#: Open a results file read-only (SWMR-read for a file whose writer was killed or still runs).
+open_for_reading = _open_for_reading
 
 
 # --------------------------------------------------------------------------------------------
@@ -1042,7 +1195,57 @@ def _check_model(f: h5py.File, problems: list[str]) -> dict:
             if unknown.size:
                 problems.append(f"/model/element_nodes refers to unknown {kind} nodes "
                                 f"{unknown.tolist()}")
+    _check_model_11(f, ds, counts, problems)
     return counts
+
+
+def _check_model_11(f: h5py.File, ds: dict, counts: dict, problems: list[str]) -> None:
+    """Check the schema-1.1 part of ``/model``: required from minor version 1 on, checked
+    whenever present; sets ``counts["sections"]`` (any cross-section known)."""
+    version = np.asarray(f.attrs.get("schema_version", [1, 0])).reshape(-1)
+    required = version.size == 2 and int(version[1]) >= 1
+    counts["sections"] = False
+    n_coord_expected = (3 * counts["n_pos"] + 4 * counts["n_rot"]
+                        if counts["n_pos"] is not None and counts["n_rot"] is not None else None)
+    sizes = {"n_elem": counts["n_elem"], "n_coord": n_coord_expected,
+             "n_load": f["model/load_node"].shape[0] if "model/load_node" in f else None}
+    new = {}
+    for name, (kind, trailing, count) in _MODEL_11.items():
+        if f"model/{name}" not in f and not required:
+            continue
+        shape = (sizes[count],) + trailing
+        new[name] = _dataset(f, f"model/{name}", problems, kind=kind, shape=shape)
+
+    def values(name):
+        return new[name][()] if new.get(name) is not None and new[name].size else None
+
+    rows = values("element_position_rows")
+    if rows is not None and ds["position_nodes"] is not None and ds["element_nodes"] is not None:
+        ids = ds["position_nodes"][()]
+        if rows.min() < 0 or rows.max() >= ids.size or rows.shape[0] != ds["element_nodes"].shape[
+                0] or not np.array_equal(ids[rows], ds["element_nodes"][()][:, [0, 2]]):
+            problems.append("/model/element_position_rows does not match /model/element_nodes")
+    for name, allowed in (("cross_section_type", {"", "RECT", "CIRC"}),
+                          ("load_type", {"XF", "DELXF"})):
+        if new.get(name) is not None:
+            unknown = sorted(set(_str_list(new[name])) - allowed)
+            if unknown:
+                problems.append(f"/model/{name} has unknown values {unknown}")
+            elif name == "cross_section_type":
+                counts["sections"] = any(_str_list(new[name]))
+    cls = values("element_deformation_class")
+    if cls is not None and (cls.min() < 0 or cls.max() > 2):
+        problems.append("/model/element_deformation_class has values outside 0..2")
+    index = values("coordinate_index")
+    if index is not None and (index.min() < 1 or index.max() > 4):
+        problems.append("/model/coordinate_index has values outside 1..4")
+    if ds["position_nodes"] is not None and ds["orientation_nodes"] is not None:
+        nodes = np.concatenate([ds["position_nodes"][()], ds["orientation_nodes"][()]])
+        for name in ("coordinate_node", "load_node"):
+            v = values(name)
+            if v is not None and np.setdiff1d(v, nodes).size:
+                problems.append(f"/model/{name} refers to unknown nodes "
+                                f"{np.setdiff1d(v, nodes).tolist()}")
 
 
 def _check_static(f: h5py.File, counts: dict, completed: bool, problems: list[str]) -> None:
@@ -1065,7 +1268,12 @@ def _check_static(f: h5py.File, counts: dict, completed: bool, problems: list[st
     n_step = lf.shape[0] if lf is not None else None
     if lf is not None and not h5py.h5ds.is_scale(lf.id):
         problems.append("/static/load_factor is not a dimension scale")
-    for name, (dtype, _) in _STEP_DATASETS.items():
+    step_datasets = dict(_STEP_DATASETS)
+    for name in _STRESS_DATASETS:      # schema 1.1: required when a cross-section is known
+        if counts.get("sections") or f"static/{name}" in f:
+            step_datasets[name] = _STRESS_DATASETS[name]
+            trailing[name] = (counts["n_elem"],)
+    for name, (dtype, _) in step_datasets.items():
         kind = "int" if np.issubdtype(dtype, np.integer) else "float"
         ds = _dataset(f, f"static/{name}", problems, kind=kind, shape=(None,) + trailing[name])
         if ds is None or n_step is None:
@@ -1114,6 +1322,7 @@ def _dataset(f: h5py.File, path: str, problems: list[str], *, kind: str,
     ok = {"int": np.issubdtype(dt, np.integer),
           "float": np.issubdtype(dt, np.floating),
           "ascii": dt.kind == "S",
+          "bool": dt.kind == "b",
           "str": h5py.check_string_dtype(dt) is not None}[kind]
     if not ok:
         problems.append(f"/{path} has dtype {dt}, expected {kind}")

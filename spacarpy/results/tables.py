@@ -1,0 +1,525 @@
+"""Tables from a results file: the summary of ``spacarpy show``, the data of ``spacarpy extract``.
+
+This module's one job is turning a :class:`~spacarpy.results.reader.ResultsFile` into text a
+person reads (:func:`summary`) or a table a script or spreadsheet reads (:func:`extract`, as
+aligned text, CSV or JSON). It returns strings; printing them is the command line's business.
+
+Extracted tables are *long*: one row per (step, entity), with the index columns first
+(``step``, ``load_factor``, then ``node``, ``element`` or ``mode``) and the components after
+them, so that ``--node`` and ``--step`` only filter rows and the columns never change.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from spacarpy.results.reader import ResultsFile, ResultsQueryError
+from spacarpy.results.stress import SECTION_FORCE_NAMES, SECTION_FORCE_UNITS
+
+__all__ = ["Table", "QUANTITIES", "extract", "summary"]
+
+#: What ``extract`` can give: name -> one-line description.
+QUANTITIES = {
+    "load_factor": "load factor, Newton iterations, residual and strain energy of each step",
+    "position": "node positions x y z (m); --node, --step",
+    "displacement": "node displacements ux uy uz from the initial positions (m); --node, --step",
+    "euler": "Euler parameters of the orientation nodes; --node, --step",
+    "deformation": "generalized deformations e1..e6 of the elements (m); --element, --step",
+    "stress_resultant": "generalized stress resultants s1..s6 (N); --element, --step",
+    "section_forces": "normal force, torque and end bending moments (N, N m); --element, --step",
+    "stress": "largest normal and von Mises stress at the surface (Pa); --element, --step",
+    "strain_energy": "elastic energy of the elements (J); --element, --step",
+    "reaction": "support reactions (N, N m); --node, --step",
+    "frequency": "natural frequencies (Hz) per linearized step; --mode, --step",
+    "buckling": "buckling load multipliers per linearized step; --mode, --step",
+    "mode_shape": "eigenmode shape at the position nodes; --mode (default 1), --step, --node",
+    "buckling_shape": "buckling mode shape at the position nodes; --mode, --step, --node",
+    "compliance": "6x6 nodal compliance (global axes) per linearized step; --step",
+    "nodes": "position nodes with their initial coordinates (m)",
+    "elements": "elements: nodes, length, cross-section, stiffness",
+    "coordinates": "global coordinates: node, index in the node, fixed",
+    "deck": "the deck text, verbatim",
+}
+
+
+@dataclass
+class Table:
+    """A table of named columns with units; ``columns`` hold 1-d arrays of equal length."""
+
+    title: str
+    names: list
+    units: list
+    columns: list
+
+    @property
+    def n_row(self) -> int:
+        return len(self.columns[0]) if self.columns else 0
+
+    def rows(self) -> list:
+        """Rows as lists of Python values (int, float, str; NaN stays float NaN)."""
+        cols = [np.asarray(c).tolist() for c in self.columns]
+        return [list(r) for r in zip(*cols)]
+
+    def to_csv(self) -> str:
+        """CSV with a header line ``name [unit]``; floats in full precision (round trip)."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow([_header(n, u) for n, u in zip(self.names, self.units)])
+        w.writerows([[repr(v) if isinstance(v, float) else v for v in r] for r in self.rows()])
+        return buf.getvalue()
+
+    def to_json(self) -> str:
+        """JSON object with ``title``, ``columns``, ``units`` and ``data`` (list of rows);
+        NaN and infinities become ``null``."""
+        data = [[None if isinstance(v, float) and not math.isfinite(v) else v for v in r]
+                for r in self.rows()]
+        return json.dumps({"title": self.title, "columns": self.names, "units": self.units,
+                           "data": data}, indent=None) + "\n"
+
+    def to_text(self) -> str:
+        """Aligned columns for reading, floats with 7 significant digits."""
+        head = [_header(n, u) for n, u in zip(self.names, self.units)]
+        body = [[_fmt(v) for v in r] for r in self.rows()]
+        return self.title + "\n" + _align([head] + body)
+
+
+def _header(name, unit):
+    return f"{name} [{unit}]" if unit and unit != "1" else name
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.7g}"
+    return str(v)
+
+
+def _align(rows: list) -> str:
+    """Right-aligned columns, two spaces apart."""
+    if not rows:
+        return ""
+    widths = [max(len(r[j]) for r in rows) for j in range(len(rows[0]))]
+    return "\n".join("  ".join(c.rjust(w) for c, w in zip(r, widths)).rstrip()
+                     for r in rows) + "\n"
+
+
+# --------------------------------------------------------------------------------------------
+# extract
+# --------------------------------------------------------------------------------------------
+
+def extract(res: ResultsFile, what: str, *, node=None, element=None, step=None,
+            mode=None) -> Table:
+    """Extract one quantity as a long table.
+
+    Parameters
+    ----------
+    res : ResultsFile
+    what : str
+        A key of :data:`QUANTITIES`.
+    node, element : int, optional
+        Deck number filter (nodal or element quantities).
+    step : int, optional
+        Static step filter (0 = initial state; negative counts from the end).
+    mode : int, optional
+        Mode number (1-based) for frequencies, buckling multipliers and mode shapes.
+
+    Returns
+    -------
+    Table
+
+    Raises
+    ------
+    ResultsQueryError
+        Unknown quantity, a quantity the file does not hold, unknown node/element/step/mode.
+    """
+    if what not in QUANTITIES:
+        raise ResultsQueryError(f"unknown quantity {what!r}; choose one of "
+                                f"{', '.join(QUANTITIES)}")
+    return _EXTRACTORS[what](res, node=node, element=element, step=step, mode=mode)
+
+
+def _static(res):
+    if res.static is None:
+        raise ResultsQueryError(f"{res.path} has no static load steps (/static)")
+    return res.static
+
+
+def _steps(static, step):
+    """Selected step numbers (1-d) and their load factors."""
+    idx = static.step_index(step)
+    steps = np.arange(static.n_step)[idx]
+    steps = np.atleast_1d(steps)
+    return steps, static.load_factor[steps]
+
+
+def _long(title, steps, load_factor, entity_name, entity_ids, values, comp_names, units):
+    """Long table from values (n_sel_step, n_sel_entity, n_comp)."""
+    n_s, n_e = values.shape[:2]
+    cols = [np.repeat(steps, n_e), np.repeat(load_factor, n_e), np.tile(entity_ids, n_s)]
+    flat = values.reshape(n_s * n_e, -1)
+    cols += [flat[:, j] for j in range(flat.shape[1])]
+    return Table(title, ["step", "load_factor", entity_name] + list(comp_names),
+                 ["1", "1", "1"] + list(units), cols)
+
+
+def _nodal(res, name, *, node, step, comps, units, title, **_):
+    static = _static(res)
+    steps, lf = _steps(static, step)
+    m = res.model
+    if name == "euler":
+        ids = m.orientation_nodes if node is None else np.atleast_1d(node)
+        rows = m.orientation_row(ids)
+    else:
+        ids = m.position_nodes if node is None else np.atleast_1d(node)
+        rows = m.position_row(ids)
+    values = getattr(static, name)(step=steps)[:, rows]
+    return _long(title, steps, lf, "node", ids, values, comps, units)
+
+
+def _elemental(res, *, element, step, getter, comps, units, title):
+    static = _static(res)
+    steps, lf = _steps(static, step)
+    m = res.model
+    ids = m.elements if element is None else np.atleast_1d(element)
+    rows = m.element_row(ids)
+    values = getter(static, steps)[:, rows]
+    if values.ndim == 2:
+        values = values[..., None]
+    return _long(title, steps, lf, "element", ids, values, comps, units)
+
+
+def _x_load_factor(res, step, **_):
+    static = _static(res)
+    steps, lf = _steps(static, step)
+    energy = static.total_strain_energy(step=steps)
+    return Table("static load steps", ["step", "load_factor", "iterations", "residual",
+                                       "strain_energy"], ["1", "1", "1", "1", "J"],
+                 [steps, lf, static.iterations[steps], static.residual[steps], energy])
+
+
+def _x_stress(res, element, step, **_):
+    def get(static, steps):
+        return np.stack([static.max_normal_stress(step=steps),
+                         static.max_von_mises_stress(step=steps)], axis=-1)
+    return _elemental(res, element=element, step=step, getter=get,
+                      comps=["max_normal_stress", "max_von_mises_stress"], units=["Pa", "Pa"],
+                      title="largest stresses at the surface of the cross-section")
+
+
+def _x_reaction(res, node, step, **_):
+    static = _static(res)
+    steps, lf = _steps(static, step)
+    nodes = static.reaction_node
+    comps = np.array(static.reaction_component)
+    keep = np.ones(nodes.size, bool) if node is None else nodes == node
+    if node is not None and not keep.any():
+        res.model.node_kind(int(node))          # unknown node: clear error
+        raise ResultsQueryError(f"node {node} has no support reactions (no fixed coordinate)")
+    values = static.reaction(step=steps)[:, keep]
+    n_r = int(keep.sum())
+    units = np.where(np.char.startswith(comps[keep], "F"), "N", "N m")
+    return Table("support reactions, global axes",
+                 ["step", "load_factor", "node", "component", "value", "unit"],
+                 ["1", "1", "1", "1", "N | N m", "1"],
+                 [np.repeat(steps, n_r), np.repeat(lf, n_r), np.tile(nodes[keep], steps.size),
+                  np.tile(comps[keep], steps.size), values.reshape(-1),
+                  np.tile(units, steps.size)])
+
+
+def _lin(res, group):
+    view = getattr(res, group)
+    if view is None or view.n_lin == 0:
+        raise ResultsQueryError(f"{res.path} has no /{group} results (run with "
+                                f"--mode {group} or --modes-per-step)")
+    return view
+
+
+def _lin_rows(res, view, step):
+    if step is None:
+        return np.arange(view.n_lin)
+    return np.array([view.row(step)])
+
+
+def _modes(view, mode):
+    return np.arange(view.n_mode) if mode is None else np.array([view._mode_index(mode)])
+
+
+def _x_frequency(res, step, mode, **_):
+    view = _lin(res, "eigen")
+    rows, modes = _lin_rows(res, view, step), _modes(view, mode)
+    freq, kind = view.frequency[np.ix_(rows, modes)], view.kind[np.ix_(rows, modes)]
+    names = np.array(view.kind_names)[kind]
+    n_m = modes.size
+    return Table("natural frequencies", ["step", "load_factor", "mode", "frequency", "kind"],
+                 ["1", "1", "1", "Hz", "1"],
+                 [np.repeat(view.step[rows], n_m), np.repeat(view.load_factor[rows], n_m),
+                  np.tile(modes + 1, rows.size), freq.reshape(-1), names.reshape(-1)])
+
+
+def _x_buckling(res, step, mode, **_):
+    view = _lin(res, "buckling")
+    rows, modes = _lin_rows(res, view, step), _modes(view, mode)
+    mult = view.load_multiplier[np.ix_(rows, modes)]
+    n_m = modes.size
+    crit = view.critical_load_multiplier[rows]
+    return Table("buckling load multipliers",
+                 ["step", "load_factor", "mode", "load_multiplier", "critical_load_multiplier"],
+                 ["1"] * 5,
+                 [np.repeat(view.step[rows], n_m), np.repeat(view.load_factor[rows], n_m),
+                  np.tile(modes + 1, rows.size), mult.reshape(-1), np.repeat(crit, n_m)])
+
+
+def _x_shape(group):
+    def get(res, node, step, mode, **_):
+        view = _lin(res, group)
+        mode = 1 if mode is None else mode
+        r = view.row(step)
+        shape = view.shape(mode=mode, step=None if step is None else step).position
+        m = res.model
+        ids = m.position_nodes if node is None else np.atleast_1d(node)
+        rows = m.position_row(ids)
+        units = "m kg-1/2" if group == "eigen" else "1"
+        label = "eigenmode" if group == "eigen" else "buckling mode"
+        t = _long(f"{label} {mode} at static step {int(view.step[r])}",
+                  np.array([view.step[r]]), np.array([view.load_factor[r]]), "node", ids,
+                  shape[rows][None], ["dx", "dy", "dz"], [units] * 3)
+        return t
+    return get
+
+
+def _x_compliance(res, step, **_):
+    view = _lin(res, "compliance")
+    rows = _lin_rows(res, view, step)
+    c = view.global_[rows]                                   # (n, 6, 6)
+    labels = np.array(["ux", "uy", "uz", "phix", "phiy", "phiz"])
+    return Table(f"compliance of nodes {view.node[0]}/{view.node[1]}, global axes "
+                 "(row = response, columns = load Fx Fy Fz Tx Ty Tz)",
+                 ["step", "load_factor", "response", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz"],
+                 ["1", "1", "1"] + ["m/N | rad/N"] * 3 + ["m/(N m) | rad/(N m)"] * 3,
+                 [np.repeat(view.step[rows], 6), np.repeat(view.load_factor[rows], 6),
+                  np.tile(labels, rows.size)] + [c[:, :, j].reshape(-1) for j in range(6)])
+
+
+def _x_nodes(res, node, **_):
+    m = res.model
+    ids = m.position_nodes if node is None else np.atleast_1d(node)
+    x0 = m.position_x0[m.position_row(ids)]
+    return Table("position nodes", ["node", "x0", "y0", "z0"], ["1", "m", "m", "m"],
+                 [ids, x0[:, 0], x0[:, 1], x0[:, 2]])
+
+
+def _x_elements(res, element, **_):
+    m = res.model
+    ids = m.elements if element is None else np.atleast_1d(element)
+    r = m.element_row(ids)
+    nodes = m.element_nodes[r]
+    cols = [ids, m.element_type[r], nodes[:, 0], nodes[:, 1], nodes[:, 2], nodes[:, 3],
+            m.element_length[r]]
+    names = ["element", "type", "p", "r", "q", "s", "length"]
+    units = ["1"] * 6 + ["m"]
+    if m.cross_section_type is not None:
+        cols += [m.cross_section_type[r], m.cross_section_dims[r, 0], m.cross_section_dims[r, 1]]
+        names += ["section", "dim1", "dim2"]
+        units += ["1", "m", "m"]
+    if m.stiffness is not None:
+        names += ["EA", "GJ", "EIy", "EIz", "cy", "cz"]
+        units += ["N", "N m2", "N m2", "N m2", "m2", "m2"]
+        cols += [m.stiffness[r, j] for j in range(6)]
+    return Table("elements", names, units, cols)
+
+
+def _x_coordinates(res, node, **_):
+    m = res.model
+    if m.coordinate_node is None:
+        raise ResultsQueryError("this file has no coordinate map (schema 1.0)")
+    keep = np.ones(m.coordinate_node.size, bool) if node is None else m.coordinate_node == node
+    idx = np.flatnonzero(keep)
+    return Table("global coordinates (0-based index)", ["coordinate", "node", "index", "fixed"],
+                 ["1"] * 4, [idx, m.coordinate_node[idx], m.coordinate_index[idx],
+                             m.coordinate_fixed[idx].astype(int)])
+
+
+def _x_deck(res, **_):
+    return Table("deck", ["line"], ["1"], [np.array(res.deck.splitlines(), dtype=object)])
+
+
+_EXTRACTORS = {
+    "load_factor": _x_load_factor,
+    "position": lambda res, **kw: _nodal(res, "position", comps=["x", "y", "z"],
+                                         units=["m"] * 3, title="node positions", **kw),
+    "displacement": lambda res, **kw: _nodal(res, "displacement", comps=["ux", "uy", "uz"],
+                                             units=["m"] * 3, title="node displacements", **kw),
+    "euler": lambda res, **kw: _nodal(res, "euler", comps=["lambda0", "lambda1", "lambda2",
+                                                           "lambda3"], units=["1"] * 4,
+                                      title="Euler parameters", **kw),
+    "deformation": lambda res, element, step, **_: _elemental(
+        res, element=element, step=step, getter=lambda s, st: s.deformation(step=st),
+        comps=[f"e{i}" for i in range(1, 7)], units=["m"] * 6,
+        title="generalized deformations"),
+    "stress_resultant": lambda res, element, step, **_: _elemental(
+        res, element=element, step=step, getter=lambda s, st: s.stress_resultant(step=st),
+        comps=[f"s{i}" for i in range(1, 7)], units=["N"] * 6,
+        title="generalized stress resultants"),
+    "section_forces": lambda res, element, step, **_: _elemental(
+        res, element=element, step=step, getter=lambda s, st: s.section_forces(step=st),
+        comps=list(SECTION_FORCE_NAMES), units=list(SECTION_FORCE_UNITS),
+        title="section forces, element axes (N normal force, T torque, M bending moments at "
+              "the ends p and q)"),
+    "stress": _x_stress,
+    "strain_energy": lambda res, element, step, **_: _elemental(
+        res, element=element, step=step, getter=lambda s, st: s.strain_energy(step=st),
+        comps=["strain_energy"], units=["J"], title="elastic energy of the elements"),
+    "reaction": _x_reaction,
+    "frequency": _x_frequency,
+    "buckling": _x_buckling,
+    "mode_shape": _x_shape("eigen"),
+    "buckling_shape": _x_shape("buckling"),
+    "compliance": _x_compliance,
+    "nodes": _x_nodes,
+    "elements": _x_elements,
+    "coordinates": _x_coordinates,
+    "deck": _x_deck,
+}
+
+
+# --------------------------------------------------------------------------------------------
+# summary
+# --------------------------------------------------------------------------------------------
+
+_MAX_ROWS = 24        # step tables longer than this show their first and last rows
+
+
+def summary(res: ResultsFile) -> str:
+    """A readable summary of a results file (the output of ``spacarpy show``).
+
+    Run state and provenance, the model's size, every load step (iterations, residual,
+    largest displacement), the extreme displacements, section forces, reactions and stresses
+    over all steps, and the frequencies and buckling multipliers of the linearized steps.
+    """
+    a, m = res.attrs, res.model
+    state = "completed" if res.completed else (
+        "INCOMPLETE: " + (res.error or "the writer did not finish (killed, or still running)"))
+    n_fixed = (f", {int(m.coordinate_fixed.sum())} fixed" if m.coordinate_fixed is not None
+               else "")
+    n_coord = (f", {m.coordinate_node.size} coordinates{n_fixed}"
+               if m.coordinate_node is not None else "")
+    lines = [f"{res.path}",
+             f"  analysis   {res.analysis}, {res.deformations} deformations; {state}",
+             f"  written    by spacarpy {a.get('program_version')} at {a.get('created')}, "
+             f"schema {res.schema_version[0]}.{res.schema_version[1]}",
+             f"  deck       {a.get('deck_path')} (sha256 {str(a.get('deck_sha256'))[:12]}...)",
+             f"  model      {m.n_pos} position nodes, {m.n_rot} orientation nodes, "
+             f"{m.n_elem} elements{n_coord}"]
+    if res.static is not None:
+        lines += [""] + _static_summary(res)
+    if res.eigen is not None and res.eigen.n_lin:
+        lines += [""] + _eigen_summary(res)
+    if res.buckling is not None and res.buckling.n_lin:
+        lines += [""] + _buckling_summary(res)
+    if res.compliance is not None and res.compliance.n_lin:
+        c = res.compliance
+        diag = np.diagonal(c.global_[-1])
+        lines += ["", f"Compliance of nodes {c.node[0]}/{c.node[1]} at step {int(c.step[-1])} "
+                      "(diagonal, global axes; m/N and rad/(N m)):",
+                  "  " + "  ".join(f"{v:.4g}" for v in diag)]
+    return "\n".join(lines) + "\n"
+
+
+def _elided(rows: list) -> list:
+    if len(rows) <= _MAX_ROWS + 1:
+        return rows
+    head, tail = rows[1:1 + _MAX_ROWS // 2], rows[-(_MAX_ROWS // 2):]
+    return [rows[0]] + head + [["..."] + [""] * (len(rows[0]) - 1)] + tail
+
+
+def _indent(text: str) -> list:
+    return ["  " + line for line in text.rstrip("\n").split("\n")]
+
+
+def _static_summary(res) -> list:
+    s, m = res.static, res.model
+    n = s.n_step
+    out = [f"Static load steps: {n} committed"]
+    if n == 0:
+        return out
+    u = s.displacement()                                    # (n_step, n_pos, 3)
+    umag = np.linalg.norm(u, axis=-1)
+    at = np.argmax(umag, axis=1)
+    lf, it, resid = s.load_factor, s.iterations, s.residual
+    rows = [["step", "load factor", "iterations", "residual", "max |u| [m]", "at node"]]
+    rows += [[str(k), f"{lf[k]:.6g}", str(it[k]), f"{resid[k]:.2e}",
+              f"{umag[k, at[k]]:.6g}", str(m.position_nodes[at[k]]) if umag[k, at[k]] > 0
+              else "-"] for k in range(n)]
+    out += _indent(_align(_elided(rows)))
+
+    ext = [["quantity", "value", "unit", "where"]]
+
+    def add(label, values, unit, ids, what, sign=False):
+        """values (n_step, n_entity[, k]): the entry of largest magnitude."""
+        flat = np.abs(np.nan_to_num(values, nan=-np.inf))
+        if flat.size == 0 or not np.isfinite(flat).any() or flat.max() <= 0:
+            return
+        k, j = np.unravel_index(np.argmax(flat), flat.shape)[:2]
+        v = values[(k, j)] if values.ndim == 2 else values[k, j][np.argmax(flat[k, j])]
+        ext.append([label, f"{v:.6g}" if sign else f"{abs(v):.6g}", unit,
+                    f"{what} {ids[j]}, step {k}"])
+
+    add("displacement |u|", umag, "m", m.position_nodes, "node")
+    for c, name in enumerate("xyz"):
+        add(f"displacement u{name}", u[..., c], "m", m.position_nodes, "node", sign=True)
+    if m.n_elem:
+        f = s.section_forces()
+        add("normal force N", f[..., 0], "N", m.elements, "element", sign=True)
+        add("torque |T|", f[..., 1], "N m", m.elements, "element")
+        add("bending moment |My|", f[..., 2:4], "N m", m.elements, "element")
+        add("bending moment |Mz|", f[..., 4:6], "N m", m.elements, "element")
+        if s.has_stress:
+            add("max normal stress", s.max_normal_stress(), "Pa", m.elements, "element")
+            add("max von Mises stress", s.max_von_mises_stress(), "Pa", m.elements, "element")
+    reac = s.reaction()
+    comps = np.array(s.reaction_component)
+    if reac.size:
+        for prefix, label, unit in (("F", "reaction force", "N"), ("M", "reaction moment",
+                                                                   "N m")):
+            sel = np.char.startswith(comps, prefix)
+            if sel.any():
+                vals = reac[:, sel]
+                k, j = np.unravel_index(np.argmax(np.abs(vals)), vals.shape)
+                if vals[k, j] == 0:
+                    continue
+                ext.append([f"{label} {comps[sel][j]}", f"{vals[k, j]:.6g}", unit,
+                            f"node {s.reaction_node[sel][j]}, step {k}"])
+    out += ["", "Extremes over all steps (element axes for the section forces):"]
+    out += _indent(_align(ext))
+    return out
+
+
+def _eigen_summary(res) -> list:
+    e = res.eigen
+    n_show = min(e.n_mode, 6)
+    f, kind = e.frequency[:, :n_show], e.kind[:, :n_show]
+    rows = [["step", "load factor"] + [f"f{j + 1} [Hz]" for j in range(n_show)]]
+    for r in range(e.n_lin):
+        cells = [f"{v:.6g}" if kd in (0, 1, 2) else e.kind_names[kd]
+                 for v, kd in zip(f[r], kind[r])]
+        rows.append([str(e.step[r]), f"{e.load_factor[r]:.6g}"] + cells)
+    more = f" (first {n_show} of {e.n_mode} modes)" if e.n_mode > n_show else ""
+    return [f"Natural frequencies at {e.n_lin} linearized step(s){more}:"] + \
+        _indent(_align(_elided(rows)))
+
+
+def _buckling_summary(res) -> list:
+    b = res.buckling
+    n_show = min(b.n_mode, 4)
+    mult = b.load_multiplier[:, :n_show]
+    crit = b.critical_load_multiplier
+    rows = [["step", "load factor", "critical"] + [f"mu{j + 1}" for j in range(n_show)]]
+    for r in range(b.n_lin):
+        rows.append([str(b.step[r]), f"{b.load_factor[r]:.6g}", f"{crit[r]:.6g}"]
+                    + [f"{v:.6g}" for v in mult[r]])
+    return [f"Buckling load multipliers at {b.n_lin} linearized step(s) (critical = smallest "
+            "positive):"] + _indent(_align(_elided(rows)))
