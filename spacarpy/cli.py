@@ -1,7 +1,9 @@
-"""Command line: ``spacarpy run | check | bench``.
+"""Command line: ``spacarpy run | check | bench | validate | show | extract | plot | export |
+batch | sweep``.
 
 Exit codes (see :mod:`spacarpy.errors`): 0 success, 1 solver failure, 2 input error (deck or
-command line), 3 model not analysable (mechanism, over-constraint), 130 interrupted.
+command line), 3 model not analysable (mechanism, over-constraint), 4 (``run``) an EXPECT line
+of the deck failed, 130 interrupted; ``batch``/``sweep``: 1 when a deck changed or failed.
 Progress goes to stderr, silenced by ``-q``; errors are printed without a traceback.
 """
 from __future__ import annotations
@@ -103,7 +105,169 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--repeat", type=int, default=3,
                        help="repetitions per size; min and median are shown (default 3)")
     _verbosity(bench)
+    _results_commands(sub)
+    _batch_commands(sub)
     return p
+
+
+def _nonnegative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
+    return value
+
+
+def _sweep_set(text: str):
+    """``NAME=START:STOP:COUNT`` or ``NAME=V1,V2,...`` (an axis), or ``NAME=VALUE`` (fixed)."""
+    from spacarpy.batch.sweep import parse_sweep_axis
+    name, _, value = text.partition("=")
+    if ":" in value or "," in value:
+        try:
+            return parse_sweep_axis(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return _parse_set(text)
+
+
+def _execution_options(p) -> None:
+    p.add_argument("-j", "--jobs", type=_positive_int, default=None, metavar="N",
+                   help="runs at the same time (default: the number of CPUs); with --dask "
+                        "local, the number of workers")
+    p.add_argument("--timeout", type=_nonnegative_float, default=600.0, metavar="S",
+                   help="seconds per run before its process is killed (default 600)")
+    p.add_argument("--dask", default=None, metavar="ADDRESS",
+                   help="run on a Dask cluster: a scheduler address (tcp://host:8786) or "
+                        "'local' for a LocalCluster on this machine (needs dask[distributed])")
+    p.add_argument("--run-args", default="", metavar="'OPTIONS'",
+                   help="more 'spacarpy run' options for every run, in one quoted string "
+                        "(e.g. '--modes-per-step --modes 4')")
+
+
+def _batch_commands(sub) -> None:
+    """Subcommands that run many decks (batch, sweep): docs/batch.md."""
+    bat = sub.add_parser("batch", help="run many decks in parallel and compare the results "
+                                       "with baselines (regression test)")
+    bat.add_argument("paths", nargs="+", metavar="PATH",
+                     help="deck files, directories (searched recursively for .dat) or globs")
+    bat.add_argument("--baseline", type=Path, default=None, metavar="DIR",
+                     help="baseline result files: DIR/<relative deck path>.h5")
+    bat.add_argument("--update-baseline", action="store_true",
+                     help="write every finished result as its baseline in --baseline DIR")
+    bat.add_argument("--rtol", type=_nonnegative_float, default=1e-6,
+                     help="relative tolerance of the comparison (default 1e-6)")
+    bat.add_argument("--atol", type=_nonnegative_float, default=1e-9,
+                     help="absolute tolerance of the comparison (default 1e-9)")
+    bat.add_argument("--report", type=Path, action="append", default=[], metavar="FILE",
+                     help="also write a report: .xml JUnit, .json JSON, other: the table "
+                          "(repeatable)")
+    bat.add_argument("--output-dir", type=Path, default=None, metavar="DIR",
+                     help="keep the result files there (default: not kept)")
+    _execution_options(bat)
+    _verbosity(bat)
+
+    swp = sub.add_parser("sweep", help="run a deck for every combination of SET parameter "
+                                       "values and collect one HDF5 file and a table")
+    swp.add_argument("deck", type=Path, help="SPACAR-style deck (.dat) with SET parameters")
+    swp.add_argument("--set", dest="sweep_sets", metavar="NAME=START:STOP:COUNT",
+                     type=_sweep_set, action="append", default=[], required=True,
+                     help="a swept parameter (COUNT equally spaced values, or V1,V2,...), or "
+                          "NAME=VALUE for a fixed override; repeat for a grid")
+    swp.add_argument("-o", "--output", type=Path, default=None,
+                     help="sweep file (default: <deck>_sweep.h5)")
+    swp.add_argument("--collect", action="append", default=[], metavar="PATH",
+                     help="dataset to collect, e.g. /eigen/frequency (repeatable; default: "
+                          "load factor, frequencies, buckling multipliers, compliances)")
+    swp.add_argument("--csv", type=Path, default=None, metavar="FILE",
+                     help="also write the table as CSV")
+    swp.add_argument("--columns", type=_positive_int, default=3, metavar="N",
+                     help="values of each vector shown in the table (default 3)")
+    _execution_options(swp)
+    _verbosity(swp)
+
+
+def _results_commands(sub) -> None:
+    """Subcommands that read a result file (validate, show, extract, plot, export)."""
+    from spacarpy.results.plot import PLOTS
+    from spacarpy.results.tables import QUANTITIES
+
+    val = sub.add_parser("validate", help="check a result file against the schema "
+                                          "(docs/results.md)")
+    val.add_argument("file", type=Path, help="result file (.h5)")
+    val.add_argument("--require-complete", action="store_true",
+                     help="also fail for a run that did not finish (a partial file)")
+    _verbosity(val)
+
+    show = sub.add_parser("show", help="summary of a result file: steps, convergence, "
+                                       "extremes, frequencies, buckling multipliers")
+    show.add_argument("file", type=Path, help="result file (.h5)")
+    _verbosity(show)
+
+    ext = sub.add_parser("extract", help="one quantity as a table (text, CSV or JSON) for "
+                                         "scripts and spreadsheets",
+                         formatter_class=argparse.RawDescriptionHelpFormatter,
+                         epilog="quantities:\n" + "\n".join(
+                             f"  {k:<17} {v}" for k, v in QUANTITIES.items()))
+    ext.add_argument("file", type=Path, help="result file (.h5)")
+    ext.add_argument("what", choices=list(QUANTITIES), metavar="WHAT",
+                     help="quantity to extract (listed below)")
+    _selection(ext)
+    fmt = ext.add_mutually_exclusive_group()
+    fmt.add_argument("--csv", dest="format", action="store_const", const="csv",
+                     help="comma-separated values with a header line")
+    fmt.add_argument("--json", dest="format", action="store_const", const="json",
+                     help="a JSON object with columns, units and data")
+    ext.add_argument("-o", "--output", type=Path, default=None,
+                     help="write to this file instead of standard output")
+    _verbosity(ext)
+
+    plot = sub.add_parser("plot", help="draw a figure (PNG, PDF or SVG; needs matplotlib)",
+                          formatter_class=argparse.RawDescriptionHelpFormatter,
+                          epilog="plots:\n" + "\n".join(f"  {k:<18} {v}"
+                                                       for k, v in PLOTS.items()))
+    plot.add_argument("file", type=Path, help="result file (.h5)")
+    plot.add_argument("kind", choices=list(PLOTS), metavar="KIND", nargs="?", default="shape",
+                      help="what to draw (default: shape; listed below)")
+    _selection(plot)
+    plot.add_argument("--all-steps", action="store_true",
+                      help="shape: draw every step, not only --step (default: the last)")
+    plot.add_argument("--quantity", default="displacement",
+                      help="history: the quantity (default: displacement)")
+    plot.add_argument("--scale", type=float, default=None,
+                      help="shape: displacement magnification (default 1); mode: amplitude "
+                           "of the mode shape (default: 15%% of the model size)")
+    plot.add_argument("--view", type=float, nargs=2, default=None, metavar=("ELEV", "AZIM"),
+                      help="shape, mode: camera elevation and azimuth in degrees (default "
+                           "30 -60)")
+    plot.add_argument("-o", "--output", type=Path, default=None,
+                      help="image file; the suffix picks the format (default: "
+                           "<file>_<kind>.png)")
+    _verbosity(plot)
+
+    exp = sub.add_parser("export", help="files for ParaView: an XDMF sidecar (reads the "
+                                        "HDF5 directly) or VTK .vtu/.pvd (needs meshio)")
+    exp.add_argument("file", type=Path, help="result file (.h5)")
+    exp.add_argument("--xdmf", action="store_true", help="write <file>.xdmf (the default)")
+    exp.add_argument("--vtk", action="store_true",
+                     help="write <file>.pvd and one .vtu per step")
+    exp.add_argument("-o", "--output", type=Path, default=None,
+                     help="name of the .xdmf or .pvd file (with only one of --xdmf, --vtk)")
+    _verbosity(exp)
+
+
+def _int_or_all(text: str):
+    return text if text == "all" else int(text)
+
+
+def _selection(p) -> None:
+    p.add_argument("--node", type=int, default=None, help="deck node number")
+    p.add_argument("--element", type=int, default=None, help="deck element number")
+    p.add_argument("--step", type=int, default=None,
+                   help="static step (0 = initial state; -1 = the last)")
+    p.add_argument("--mode", type=_positive_int, default=None,
+                   help="mode number (1 = the first)")
 
 
 def _verbosity(p):
@@ -128,6 +292,10 @@ def main(argv: list[str] | None = None) -> int:
             from spacarpy.bench import run_bench
             run_bench(sizes=args.sizes, n_steps=args.steps, repeat=args.repeat)
             return EXIT_OK
+        if args.command in _RESULT_COMMANDS:
+            return _RESULT_COMMANDS[args.command](args)
+        if args.command in ("batch", "sweep"):
+            return cmd_batch(args) if args.command == "batch" else cmd_sweep(args)
     except SpacarError as exc:
         print(str(exc), file=sys.stderr)
         return exc.exit_code
@@ -148,12 +316,13 @@ def cmd_check(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from spacarpy.deck import load_deck
+    from spacarpy.deck.expect import load_deck_with_expectations
     from spacarpy.run import RunOptions, run_model
 
     t0 = time.perf_counter()
-    model = load_deck(args.deck, deformations=args.deformations, analysis=args.mode,
-                      overrides=dict(args.overrides) or None)
+    model, expects = load_deck_with_expectations(
+        args.deck, deformations=args.deformations, analysis=args.mode,
+        overrides=dict(args.overrides) or None)
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
     log.info("%s: %d position nodes, %d orientation nodes, %d beams; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
@@ -163,7 +332,189 @@ def cmd_run(args) -> int:
                                                compliance_node=args.compliance))
     log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
              time.perf_counter() - t0)
+    if expects:
+        changed = bool(args.overrides) or args.mode is not None or \
+            args.deformations is not None
+        return _check_expectations(expects, out, fatal=not changed)
     return EXIT_OK
+
+
+def _check_expectations(expects, out, fatal: bool = True) -> int:
+    """The deck's EXPECT lines against the result file: a PASS/FAIL table on stdout; exit 4
+    (:data:`spacarpy.deck.expect.EXIT_EXPECTATION`) when any fails, unless not ``fatal``
+    (the command line changed the deck: --set, --mode, --deformations), then a warning."""
+    from spacarpy.deck.expect import EXIT_EXPECTATION, check_expectations, format_results
+
+    expects = [e for e in expects if e.quantity != "run.exit_code"]      # for batch only
+    if not expects:
+        return EXIT_OK
+    results = check_expectations(expects, out)
+    sys.stdout.write(format_results(results))
+    if all(r.passed for r in results):
+        return EXIT_OK
+    if not fatal:
+        log.warning("expectations failed, but --set/--mode/--deformations changed the deck, "
+                    "and the EXPECT lines belong to the deck as written: not an error")
+        return EXIT_OK
+    return EXIT_EXPECTATION
+
+
+def cmd_validate(args) -> int:
+    """``spacarpy validate FILE``: 0 if the file follows the schema (a consistent partial file
+    does, unless ``--require-complete``), 2 with one line per problem otherwise."""
+    from spacarpy.results import validate_file
+
+    problems = validate_file(args.file, require_complete=args.require_complete)
+    if problems:
+        print(f"{args.file}: INVALID ({len(problems)} problem{'s' * (len(problems) > 1)})")
+        for p in problems:
+            print(f"  {p}")
+        return EXIT_INPUT
+    from spacarpy.results import open_results
+    res = open_results(args.file)
+    version = ".".join(map(str, res.schema_version))
+    state = "completed run" if res.completed else (
+        "incomplete run: " + (res.error or "the writer did not finish (killed, or still "
+                                           "running)"))
+    print(f"{args.file}: valid spacarpy results file, schema {version}, {state}")
+    return EXIT_OK
+
+
+def cmd_show(args) -> int:
+    """``spacarpy show FILE``: the summary of :func:`spacarpy.results.tables.summary`."""
+    from spacarpy.results import open_results
+    from spacarpy.results.tables import summary
+
+    with open_results(args.file) as res:
+        sys.stdout.write(summary(res))
+    return EXIT_OK
+
+
+def cmd_extract(args) -> int:
+    """``spacarpy extract FILE WHAT``: a table as text, CSV or JSON."""
+    from spacarpy.results import open_results
+    from spacarpy.results.tables import extract
+
+    with open_results(args.file) as res:
+        table = extract(res, args.what, node=args.node, element=args.element, step=args.step,
+                        mode=args.mode)
+    text = {"csv": table.to_csv, "json": table.to_json}.get(args.format, table.to_text)()
+    if args.output is not None:
+        args.output.write_text(text, encoding="utf-8")
+        log.info("%s written", args.output)
+    else:
+        sys.stdout.write(text)
+    return EXIT_OK
+
+
+def cmd_plot(args) -> int:
+    """``spacarpy plot FILE [KIND]``: an image file."""
+    from spacarpy.results import open_results
+    from spacarpy.results.plot import make_figure, save
+
+    out = args.output or args.file.with_name(f"{args.file.stem}_{args.kind}.png")
+    step = "all" if args.all_steps else args.step
+    with open_results(args.file) as res:
+        fig = make_figure(res, args.kind, node=args.node, element=args.element, step=step,
+                          mode=args.mode, quantity=args.quantity, scale=args.scale,
+                          view=args.view)
+        save(fig, out)
+    print(out)
+    return EXIT_OK
+
+
+def cmd_export(args) -> int:
+    """``spacarpy export FILE --xdmf | --vtk``: files for ParaView."""
+    from spacarpy.results.export import write_vtk, write_xdmf
+
+    want_xdmf = args.xdmf or not args.vtk
+    if args.output is not None and want_xdmf and args.vtk:
+        print("export: -o names one file; give only one of --xdmf and --vtk", file=sys.stderr)
+        return EXIT_INPUT
+    if want_xdmf:
+        print(write_xdmf(args.file, args.output))
+    if args.vtk:
+        print(write_vtk(args.file, args.output))
+    return EXIT_OK
+
+
+class _Progress:
+    """A live ``[done/total]`` line on stderr when it is a terminal (and not -q)."""
+
+    def __init__(self, quiet: bool):
+        self.live = not quiet and sys.stderr.isatty()
+        self.failed = 0
+
+    def __call__(self, done, total, item):
+        status = getattr(item, "status", "")
+        self.failed += status in ("failed", "changed", "error", "timeout", "expect")
+        if self.live:
+            name = getattr(item, "name", None) or getattr(item, "key", "")
+            sys.stderr.write(f"\r\x1b[K[{done}/{total}] {self.failed} not passing; last: "
+                             f"{name} {status}")
+            if done == total:
+                sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def _jobs(args) -> int:
+    import os
+    return args.jobs or os.cpu_count() or 1
+
+
+def cmd_batch(args) -> int:
+    """``spacarpy batch PATH...``: the table on stdout, reports; exit 1 when a deck changed or
+    failed, 0 otherwise (new decks without a baseline do not fail the batch)."""
+    import shlex
+
+    from spacarpy.batch.report import format_table, write_report
+    from spacarpy.batch.runner import run_batch
+
+    if args.update_baseline and args.baseline is None:
+        print("batch: --update-baseline needs --baseline DIR", file=sys.stderr)
+        return EXIT_INPUT
+    outcomes = run_batch(args.paths, baseline=args.baseline, jobs=_jobs(args), rtol=args.rtol,
+                         atol=args.atol, timeout=args.timeout or None,
+                         update_baseline=args.update_baseline, output_dir=args.output_dir,
+                         run_args=shlex.split(args.run_args), dask=args.dask,
+                         progress=_Progress(args.quiet))
+    sys.stdout.write(format_table(outcomes))
+    for path in args.report:
+        log.info("%s written", write_report(outcomes, path))
+    bad = any(o.status in ("changed", "failed") for o in outcomes)
+    return 1 if bad else EXIT_OK
+
+
+def cmd_sweep(args) -> int:
+    """``spacarpy sweep DECK --set NAME=START:STOP:COUNT ...``: one HDF5 file and a table on
+    stdout; exit 1 when any run failed."""
+    import shlex
+
+    from spacarpy.batch.sweep import SweepAxis, format_sweep_table, run_sweep, write_sweep
+
+    axes = [s for s in args.sweep_sets if isinstance(s, SweepAxis)]
+    fixed = [s for s in args.sweep_sets if not isinstance(s, SweepAxis)]
+    if not axes:
+        print("sweep: give at least one swept parameter, --set NAME=START:STOP:COUNT",
+              file=sys.stderr)
+        return EXIT_INPUT
+    result = run_sweep(args.deck, axes, fixed=fixed, collect=args.collect or None,
+                       jobs=_jobs(args), timeout=args.timeout or None,
+                       run_args=shlex.split(args.run_args), dask=args.dask,
+                       progress=_Progress(args.quiet))
+    out = args.output or args.deck.with_name(args.deck.stem + "_sweep.h5")
+    write_sweep(result, out)
+    sys.stdout.write(format_sweep_table(result, args.columns))
+    if args.csv is not None:
+        args.csv.write_text(format_sweep_table(result, args.columns, csv=True),
+                            encoding="utf-8")
+    n_bad = int((result.status != 0).sum())
+    log.info("%s written: %d runs, %d failed", out, result.status.size, n_bad)
+    return 1 if n_bad else EXIT_OK
+
+
+_RESULT_COMMANDS = {"validate": cmd_validate, "show": cmd_show, "extract": cmd_extract,
+                    "plot": cmd_plot, "export": cmd_export}
 
 
 if __name__ == "__main__":  # pragma: no cover

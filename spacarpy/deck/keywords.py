@@ -284,6 +284,11 @@ _KEYWORD_LIST = (
                 extension=True,
                 required=(_f("parameter name", "name", "word"),
                           _f("parameter value (a number or an {expression})", "value"))),
+    KeywordSpec("EXPECT", "an expected result value, checked after the run (not part of the "
+                "model)", section="extension", extension=True,
+                required=(_f("result quantity (e.g. static.position)", "quantity", "word"),
+                          _f("selector or expected value", "sel", "value")),
+                variadic=_f("selector, expected value or tolerance", "...", "value")),
     KeywordSpec("INCLUDE", "read another deck file here", section="extension", extension=True,
                 required=(_f("file name (in double quotes)", '"file"', "word"),)),
     KeywordSpec("BEAMS", "a straight beam subdivided into equal BEAM elements",

@@ -1,0 +1,123 @@
+"""Compare a result file with its baseline: every numeric dataset both contain, with tolerances.
+
+A dataset differs when some element fails ``|a - b| <= atol + rtol * |b|`` (b the baseline;
+NaN equals NaN, inf equals inf of the same sign), or when the shapes differ. For each differing
+dataset the worst element is reported: its index and its relative difference ``|a - b| / |b|``.
+Datasets whose values legitimately vary between machines or runs (:data:`IGNORED`) are skipped.
+"""
+from __future__ import annotations
+
+import fnmatch
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["IGNORED", "DatasetDiff", "compare_files"]
+
+#: Dataset paths (fnmatch patterns) not compared: the Newton residual and iteration counts
+#: (they depend on round-off), and mode shapes (their sign, and the basis of repeated
+#: eigenvalues, are arbitrary).
+IGNORED = ("/static/residual", "/static/iterations", "/*/shape_position", "/*/shape_euler")
+
+
+@dataclass(frozen=True)
+class DatasetDiff:
+    """One dataset that differs from its baseline.
+
+    Attributes
+    ----------
+    path : str
+        HDF5 path of the dataset.
+    index : tuple or None
+        Index of the worst element (None when the shapes differ).
+    value, baseline : float
+        The worst element in the result and in the baseline.
+    rel_diff : float
+        ``|value - baseline| / |baseline|`` at that element (inf when the baseline is 0).
+    n_bad : int
+        Number of elements out of tolerance.
+    message : str
+        A one-line description.
+    """
+
+    path: str
+    index: tuple | None
+    value: float
+    baseline: float
+    rel_diff: float
+    n_bad: int
+    message: str
+
+
+def _numeric_datasets(f) -> dict:
+    import h5py
+
+    out = {}
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "biuf":
+            out["/" + name] = obj
+    f.visititems(visit)
+    return out
+
+
+def _compare(path, a, b, rtol, atol) -> DatasetDiff | None:
+    if a.shape != b.shape:
+        return DatasetDiff(path, None, np.nan, np.nan, np.inf, -1,
+                           f"{path}: shape {a.shape} differs from the baseline's {b.shape}")
+    if a.size == 0:
+        return None
+    a = a.astype(float)
+    b = b.astype(float)
+    same_special = (np.isnan(a) & np.isnan(b)) | (np.isinf(a) & (a == b))
+    with np.errstate(invalid="ignore", over="ignore"):
+        err = np.abs(a - b)
+        allowed = atol + rtol * np.abs(b)
+        bad = ~same_special & ~(err <= allowed)
+    if not bad.any():
+        return None
+    with np.errstate(invalid="ignore", divide="ignore"):
+        score = np.where(bad, np.nan_to_num(err / np.where(allowed > 0, allowed, np.nan),
+                                            nan=np.inf, posinf=np.inf), -1.0)
+    flat = int(np.argmax(score))
+    index = tuple(int(i) for i in np.unravel_index(flat, a.shape))
+    va, vb = float(a[index]), float(b[index])
+    rel = abs(va - vb) / abs(vb) if vb != 0 and np.isfinite(vb) else (
+        0.0 if va == vb else np.inf)
+    n_bad = int(bad.sum())
+    return DatasetDiff(path, index, va, vb, rel, n_bad,
+                       f"{path}: {n_bad} of {a.size} values differ; worst at "
+                       f"{list(index)}: {va:.10g} vs baseline {vb:.10g} (relative "
+                       f"difference {rel:.3g})")
+
+
+def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
+                  ignore=IGNORED) -> list[DatasetDiff]:
+    """Compare every numeric dataset that both files contain.
+
+    Parameters
+    ----------
+    result, baseline : path-like or file-like
+        HDF5 result files.
+    rtol, atol : float
+        Relative and absolute tolerance.
+    ignore : sequence of str
+        fnmatch patterns of dataset paths not compared (default :data:`IGNORED`).
+
+    Returns
+    -------
+    list of DatasetDiff
+        The differing datasets, in path order; empty when the files agree.
+    """
+    import h5py
+
+    diffs = []
+    with h5py.File(result, "r") as fa, h5py.File(baseline, "r") as fb:
+        da, db = _numeric_datasets(fa), _numeric_datasets(fb)
+        for path in sorted(set(da) & set(db)):
+            if any(fnmatch.fnmatchcase(path, pat) for pat in ignore):
+                continue
+            d = _compare(path, da[path][()], db[path][()], rtol, atol)
+            if d is not None:
+                diffs.append(d)
+    return diffs

@@ -1,0 +1,249 @@
+"""Parameter sweeps: run one deck for every combination of SET parameter values, collect one file.
+
+``spacarpy sweep DECK --set R=50:150:21 --set F=1,2`` runs the deck for every point of the
+grid (the Cartesian product of the axes), each run a :class:`spacarpy.batch.runner.Task` with
+``--set`` overrides, in parallel (local processes or Dask). The client collects the **last
+row** of chosen datasets of every result (the final load step, or the last linearized step)
+into one HDF5 file whose leading axes are the parameters (see docs/batch.md for the layout).
+"""
+from __future__ import annotations
+
+import io
+import itertools
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from spacarpy.batch.runner import BatchInputError, Task, run_task
+
+__all__ = ["DEFAULT_COLLECT", "SweepAxis", "SweepResult", "format_sweep_table",
+           "parse_sweep_axis", "run_sweep", "write_sweep"]
+
+#: Datasets collected when none are named: every linearized result, the final load factor.
+DEFAULT_COLLECT = ("/static/load_factor", "/eigen/frequency", "/buckling/load_multiplier",
+                   "/buckling/critical_load_multiplier", "/compliance/global",
+                   "/compliance/local")
+
+
+@dataclass(frozen=True)
+class SweepAxis:
+    """One swept SET parameter: its name and its values, in order."""
+
+    name: str
+    values: tuple
+
+
+def parse_sweep_axis(text: str) -> SweepAxis:
+    """``name=start:stop:count`` (count equally spaced values, both ends included) or
+    ``name=v1,v2,...``.
+
+    Raises
+    ------
+    ValueError
+        With a message naming the expected forms.
+    """
+    name, sep, spec = text.partition("=")
+    name, spec = name.strip(), spec.strip()
+    usage = (f"expected NAME=START:STOP:COUNT (e.g. ratio=-0.9:-0.1:21) or NAME=V1,V2,..., "
+             f"got {text!r}")
+    if not sep or not name or not spec:
+        raise ValueError(usage)
+    try:
+        if ":" in spec:
+            parts = spec.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
+            if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
+                raise ValueError
+            values = tuple(float(v) for v in np.linspace(start, stop, count))
+        else:
+            values = tuple(float(v) for v in spec.split(","))
+    except ValueError:
+        raise ValueError(usage) from None
+    return SweepAxis(name, values)
+
+
+@dataclass
+class SweepResult:
+    """Everything a sweep collected.
+
+    Attributes
+    ----------
+    deck : str
+    axes : list of SweepAxis
+    data : dict
+        Dataset path -> array of shape ``grid + row shape`` (NaN where a run failed or lacked
+        the dataset).
+    status : ndarray of int, shape ``grid``
+        Exit code of each run (0 ok, -1 timeout).
+    errors : ndarray of str, shape ``grid``
+        The error message of each failed run ("" when it succeeded).
+    """
+
+    deck: str
+    axes: list
+    data: dict = field(default_factory=dict)
+    status: np.ndarray | None = None
+    errors: np.ndarray | None = None
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(len(a.values) for a in self.axes)
+
+
+def _last_rows(data: bytes, collect) -> dict:
+    import h5py
+
+    out = {}
+    with h5py.File(io.BytesIO(data), "r") as f:
+        for path in collect:
+            if path in f and isinstance(f[path], h5py.Dataset) and f[path].shape \
+                    and f[path].shape[0] > 0 and f[path].dtype.kind in "biuf":
+                out[path] = np.asarray(f[path][-1], dtype=float)
+    return out
+
+
+def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
+              timeout: float | None = 600.0, run_args=(), dask: str | None = None,
+              progress=None) -> SweepResult:
+    """Run ``deck`` at every grid point of ``axes`` and collect the last rows of datasets.
+
+    Parameters
+    ----------
+    deck : path-like
+    axes : sequence of SweepAxis
+        The swept parameters (each must be SET in the deck).
+    fixed : sequence of (str, str)
+        Further ``--set`` overrides, the same for every run.
+    collect : sequence of str, optional
+        HDF5 dataset paths to collect (default :data:`DEFAULT_COLLECT`, those present).
+    jobs, timeout, run_args, dask
+        As for :func:`spacarpy.batch.runner.run_batch`.
+    progress : callable, optional
+        ``progress(done, total, task_result)``.
+
+    Returns
+    -------
+    SweepResult
+    """
+    from spacarpy.batch.backends import execute
+
+    deck = Path(deck)
+    if not deck.is_file():
+        raise BatchInputError(f"sweep: no deck '{deck}'")
+    axes = list(axes)
+    names = [a.name for a in axes]
+    if len(set(names)) != len(names):
+        raise BatchInputError(f"sweep: a parameter is swept twice ({', '.join(names)})")
+    shape = tuple(len(a.values) for a in axes)
+    collect = tuple(collect) if collect else DEFAULT_COLLECT
+    tasks = []
+    for idx in itertools.product(*(range(n) for n in shape)):
+        over = tuple(fixed) + tuple((a.name, f"{a.values[i]:.17g}") for a, i in zip(axes, idx))
+        tasks.append(Task(",".join(map(str, idx)), str(deck.resolve()), over, tuple(run_args),
+                          timeout))
+    rows: dict = {}
+    status = np.zeros(shape, dtype=np.int32)
+    errors = np.full(shape, "", dtype=object)
+    done = 0
+    for res in execute(run_task, tasks, jobs=jobs, dask=dask):
+        idx = tuple(int(i) for i in res.key.split(",")) if res.key else ()
+        status[idx] = -1 if res.returncode is None else res.returncode
+        if res.status not in ("ok", "expect"):
+            errors[idx] = res.message
+        elif res.status == "expect":
+            errors[idx] = res.message
+        if res.data is not None:
+            rows[idx] = _last_rows(res.data, collect)
+        done += 1
+        if progress is not None:
+            progress(done, len(tasks), res)
+    result = SweepResult(str(deck), axes, status=status, errors=errors)
+    for path in collect:
+        tails = [r[path].shape for r in rows.values() if path in r]
+        if not tails:
+            continue
+        arr = np.full(shape + tails[0], np.nan)
+        for idx, r in rows.items():
+            if path in r and r[path].shape == tails[0]:
+                arr[idx] = r[path]
+        result.data[path] = arr
+    return result
+
+
+def write_sweep(result: SweepResult, out) -> Path:
+    """Write a sweep to one HDF5 file.
+
+    Layout: root attributes ``filetype = "spacarpy-sweep"``, ``deck_path``, ``parameters``
+    (the swept names, in axis order); ``/deck`` the deck text; ``/parameters/<name>`` the
+    values of each axis (dimension scales); for every collected dataset, the same path
+    (``/eigen/frequency``...) with shape ``grid + row shape``, its leading axes attached to
+    the parameter scales; ``/sweep/status`` (exit code per point, -1 timeout) and
+    ``/sweep/error`` (message per point, "" when it ran).
+    """
+    import h5py
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with h5py.File(out, "w") as f:
+        f.attrs["filetype"] = "spacarpy-sweep"
+        f.attrs["deck_path"] = str(Path(result.deck).resolve())
+        f.attrs["parameters"] = [a.name for a in result.axes]
+        try:
+            f["deck"] = Path(result.deck).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            pass
+        scales = []
+        for a in result.axes:
+            ds = f.create_dataset(f"parameters/{a.name}", data=np.asarray(a.values, float))
+            ds.attrs["long_name"] = f"value of the SET parameter {a.name}"
+            ds.attrs["units"] = "1"
+            ds.make_scale(a.name)
+            scales.append(ds)
+        for path, arr in result.data.items():
+            ds = f.create_dataset(path, data=arr)
+            ds.attrs["long_name"] = f"last row of {path} of each run"
+            for k, sc in enumerate(scales):
+                ds.dims[k].attach_scale(sc)
+                ds.dims[k].label = result.axes[k].name
+        f.create_dataset("sweep/status", data=result.status)
+        f.create_dataset("sweep/error", data=result.errors.astype(object),
+                         dtype=h5py.string_dtype())
+    return out
+
+
+def _columns(result: SweepResult, n_values: int = 3):
+    """(header, array over grid) pairs for the table: scalars, and the first values of
+    vector datasets."""
+    cols = []
+    for path, arr in result.data.items():
+        tail = arr.shape[len(result.shape):]
+        short = path.rsplit("/", 1)[-1]
+        if not tail:
+            cols.append((short, arr))
+        elif len(tail) == 1:
+            for k in range(min(n_values, tail[0])):
+                cols.append((f"{short}[{k + 1}]", arr[..., k]))
+    return cols
+
+
+def format_sweep_table(result: SweepResult, n_values: int = 3, csv: bool = False) -> str:
+    """One row per grid point: the parameter values, then each collected scalar and the first
+    ``n_values`` values of each collected vector (e.g. frequency[1..3]); ``csv`` for CSV."""
+    cols = _columns(result, n_values)
+    head = [a.name for a in result.axes] + [c for c, _ in cols] + ["status"]
+    rows = []
+    for idx in itertools.product(*(range(n) for n in result.shape)):
+        row = [f"{a.values[i]:.10g}" for a, i in zip(result.axes, idx)]
+        row += [f"{arr[idx]:.10g}" for _, arr in cols]
+        row.append("ok" if result.status[idx] == 0 else
+                   "timeout" if result.status[idx] == -1 else f"exit {result.status[idx]}")
+        rows.append(row)
+    if csv:
+        return "\n".join(",".join(r) for r in [head] + rows) + "\n"
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(head)]
+    fmt = "  ".join(f"{{:>{w}}}" for w in widths)
+    return "\n".join(fmt.format(*r) for r in [head] + rows) + "\n"

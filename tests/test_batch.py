@@ -1,0 +1,106 @@
+"""``spacarpy batch``: the shipped decks against their committed baselines, a perturbed deck
+reported as changed, failing and hanging decks reported as failed, reports, docs/batch.md."""
+import json
+import re
+import shlex
+import shutil
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from spacarpy.batch.compare import compare_files
+from spacarpy.batch.runner import find_decks
+from spacarpy.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+DECKS = ROOT / "decks"
+BASELINE = DECKS / "baseline"
+
+
+def test_every_shipped_deck_has_a_baseline_and_they_are_small():
+    decks = find_decks([DECKS])
+    assert len(decks) >= 32
+    for _, rel in decks:
+        assert (BASELINE / Path(rel).with_suffix(".h5")).exists() or \
+            "run.exit_code" in (DECKS / rel).read_text(), rel
+    assert sum(p.stat().st_size for p in BASELINE.glob("*.h5")) < 5e6
+
+
+def test_batch_over_shipped_decks_passes_against_committed_baselines(tmp_path, capsys):
+    report = tmp_path / "r.json"
+    assert main(["batch", str(DECKS), "--baseline", str(BASELINE), "-j", "2", "-q",
+                 "--report", str(report)]) == 0
+    out = capsys.readouterr().out
+    doc = json.loads(report.read_text())
+    assert doc["summary"]["pass"] == doc["summary"]["total"] >= 32, out
+    assert re.search(r"\d+ decks: \d+ pass, 0 changed, 0 failed, 0 new", out)
+
+
+def test_changed_failed_and_timeout_are_reported_while_the_others_complete(tmp_path, capsys):
+    d = tmp_path / "decks"
+    d.mkdir()
+    shutil.copy(DECKS / "table2_bend_8el_modified.dat", d)
+    text = (DECKS / "column_clamped_buckling_16el.dat").read_text()
+    assert "ESTIFF 1:16 1000000 1 1 1" in text
+    (d / "column_clamped_buckling_16el.dat").write_text(
+        text.replace("ESTIFF 1:16 1000000 1 1 1", "ESTIFF 1:16 1000000 1 1.01 1.01"))
+    (d / "broken.dat").write_text("X 1 0 0 0\nBEEM 1 1 2 3 4\nEND\nEND\n")
+    (d / "hang.dat").write_text("X 1 0 0 0\nBEAMS 1  1 2 3 4  200000\nX 3 1 0 0\n"
+                                "DYNE 1:200000 1 2 3 4 5 6\nFIX 1\nFIX 2\nEND\nHALT\n"
+                                "ESTIFF 1:200000 1 1 1 1\nDELXF 3 0 1 0\nITERSTEP 20 100 1e-9\n"
+                                "END\nEND\n")
+    xml_report, json_report = tmp_path / "r.xml", tmp_path / "r.json"
+    rc = main(["batch", str(d), "--baseline", str(BASELINE), "-j", "2", "--timeout", "8",
+               "-q", "--report", str(xml_report), "--report", str(json_report)])
+    assert rc == 1
+    out = capsys.readouterr().out
+    doc = {x["name"]: x for x in json.loads(json_report.read_text())["decks"]}
+    assert doc["table2_bend_8el_modified.dat"]["status"] == "pass"
+    changed = doc["column_clamped_buckling_16el.dat"]
+    assert changed["status"] == "changed"
+    paths = {x["path"] for x in changed["datasets"]}
+    assert "/buckling/critical_load_multiplier" in paths and "/model/element_stiffness" in paths
+    crit = [x for x in changed["datasets"] if x["path"] == "/buckling/critical_load_multiplier"]
+    assert crit[0]["rel_diff"] == pytest.approx(0.01, rel=1e-3)
+    assert doc["broken.dat"]["status"] == "failed"
+    assert "unknown keyword 'BEEM'" in doc["broken.dat"]["message"]
+    assert doc["hang.dat"]["status"] == "failed"
+    assert "timed out after 8 s" in doc["hang.dat"]["message"]
+    assert "CHANGED  column_clamped_buckling_16el.dat" in out
+    suite = ET.parse(xml_report).getroot().find("testsuite")
+    assert suite.get("tests") == "4" and suite.get("failures") == "1" \
+        and suite.get("errors") == "2"
+    failure = [tc for tc in suite if tc.get("name") == "column_clamped_buckling_16el.dat"][0]
+    assert "/buckling/critical_load_multiplier" in failure.find("failure").text
+
+
+def test_update_baseline_then_new_and_pass(tmp_path, capsys):
+    deck = tmp_path / "t.dat"
+    shutil.copy(DECKS / "table3_lateral_buckling_1el_modified.dat", deck)
+    base = tmp_path / "base"
+    assert main(["batch", str(deck), "--baseline", str(base), "--update-baseline", "-q"]) == 0
+    assert "NEW" in capsys.readouterr().out and (base / "t.h5").exists()
+    assert main(["batch", str(deck), "--baseline", str(base), "-q"]) == 0
+    assert "1 decks: 1 pass" in capsys.readouterr().out.replace("1 deck:", "1 decks:")
+    assert compare_files(base / "t.h5", base / "t.h5") == []
+
+
+def test_no_deck_is_an_input_error(tmp_path, capsys):
+    assert main(["batch", str(tmp_path / "nothing*.dat")]) == 2
+    assert "names no deck" in capsys.readouterr().err
+
+
+def test_docs_batch_example_runs(tmp_path, monkeypatch, capsys):
+    """The ``spacarpy batch`` example of docs/batch.md runs from the repository root and
+    passes (the sweep example is run by tests/test_sweep.py)."""
+    text = (ROOT / "docs" / "batch.md").read_text()
+    commands = re.findall(r"```console\n\$ spacarpy (batch .*?)\n", text)
+    assert len(commands) == 1
+    monkeypatch.chdir(ROOT)
+    args = shlex.split(commands[0])
+    k = args.index("--report") + 1
+    args[k] = str(tmp_path / args[k])
+    assert main(args + ["-q"]) == 0
+    assert "2 decks: 2 pass" in capsys.readouterr().out
+    assert ET.parse(tmp_path / "batch.xml").getroot().find("testsuite").get("tests") == "2"

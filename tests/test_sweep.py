@@ -1,0 +1,91 @@
+"""``spacarpy sweep``: the docs/batch.md example (21 load ratios of a column: frequencies and
+buckling multiplier in one file), locally and on a two-worker Dask LocalCluster, identical."""
+import re
+import shlex
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from spacarpy.batch.sweep import parse_sweep_axis
+from spacarpy.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _docs_sweep_args(out):
+    text = (ROOT / "docs" / "batch.md").read_text()
+    cmd = re.search(r"```console\n\$ spacarpy (sweep .*?)\n", text).group(1)
+    args = shlex.split(cmd)
+    args[args.index("-o") + 1] = str(out)
+    return args + ["-q", "-j", "2"]
+
+
+@pytest.fixture(scope="module")
+def local_sweep(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep") / "column_sweep.h5"
+    import os
+    cwd = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        assert main(_docs_sweep_args(out)) == 0
+    finally:
+        os.chdir(cwd)
+    return out
+
+
+def test_parse_axis():
+    ax = parse_sweep_axis("ratio=-0.95:-0.05:21")
+    assert ax.name == "ratio" and len(ax.values) == 21 and ax.values[-1] == pytest.approx(-0.05)
+    assert parse_sweep_axis("n=4,8").values == (4.0, 8.0)
+    for bad in ("ratio", "ratio=1:2", "ratio=1:2:0", "ratio=a,b"):
+        with pytest.raises(ValueError, match="NAME=START:STOP:COUNT"):
+            parse_sweep_axis(bad)
+
+
+def test_docs_sweep_gives_the_frequency_table_in_one_file(local_sweep):
+    with h5py.File(local_sweep) as f:
+        assert f.attrs["filetype"] == "spacarpy-sweep"
+        assert list(f.attrs["parameters"]) == ["ratio"]
+        ratio = f["parameters/ratio"][()]
+        freq = f["eigen/frequency"][()]
+        crit = f["buckling/critical_load_multiplier"][()]
+        assert ratio.shape == (21,) and freq.shape[0] == 21 and crit.shape == (21,)
+        assert f["eigen/frequency"].dims[0].label == "ratio"
+        assert (f["sweep/status"][()] == 0).all()
+    np.testing.assert_allclose(freq[:, 0], np.pi / 2 * np.sqrt(1 + ratio), rtol=2e-3)
+    np.testing.assert_allclose(crit, 1 / np.abs(ratio), rtol=1e-4)
+
+
+def test_sweep_on_a_two_worker_dask_local_cluster_gives_identical_numbers(local_sweep,
+                                                                          tmp_path):
+    pytest.importorskip("distributed", reason="dask.distributed is not installed "
+                                              "(pip install 'spacarpy[dask]')")
+    out = tmp_path / "dask_sweep.h5"
+    args = _docs_sweep_args(out) + ["--dask", "local"]
+    import os
+    cwd = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        assert main(args) == 0
+    finally:
+        os.chdir(cwd)
+    with h5py.File(local_sweep) as a, h5py.File(out) as b:
+        for path in ("parameters/ratio", "eigen/frequency", "buckling/critical_load_multiplier",
+                     "sweep/status"):
+            np.testing.assert_array_equal(a[path][()], b[path][()])
+
+
+def test_failed_points_are_nan_with_status(tmp_path, capsys):
+    deck = tmp_path / "d.dat"
+    deck.write_text((ROOT / "decks" / "sweep_column_load_ratio.dat").read_text())
+    out = tmp_path / "s.h5"
+    # n = 0 elements is a deck error: every point fails, the file is still written
+    assert main(["sweep", str(deck), "--set", "n=0,8", "-q", "-o", str(out)]) == 1
+    with h5py.File(out) as f:
+        status = f["sweep/status"][()]
+        assert list(status) == [2, 0]
+        assert np.isnan(f["eigen/frequency"][0]).all() and not np.isnan(
+            f["eigen/frequency"][1]).any()
+        assert "n" in f["sweep/error"][0].decode()
