@@ -101,3 +101,43 @@ def test_hinged_rod_with_tip_mass_oscillates_at_sqrt_k_over_m_l2():
                     mass=MassAssembler(model, prob.num))
     md = eigenmodes(lin, prob.num, prob.free, n_modes=1)
     assert md.frequency[0] == pytest.approx(np.sqrt(k / (m * L**2)) / (2 * np.pi), rel=1e-10)
+
+
+# ------------------------------------------------------------------------ from decks
+from pathlib import Path  # noqa: E402
+
+from spacarpy.cli import main  # noqa: E402
+from spacarpy.deck import build_model, parse_deck  # noqa: E402
+from spacarpy.errors import DeckError  # noqa: E402
+from spacarpy.results import read_results  # noqa: E402
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
+
+
+@pytest.mark.parametrize("deck,node,expected", [
+    ("hinged_rod_spring", 3, (1.149902278161588, 1.63637549195739, 0.0)),
+    ("two_bar_truss", 3, (0.0, 0.261907172128137, 0.0))])
+def test_multibody_decks_run_from_the_command_line(tmp_path, deck, node, expected):
+    out = tmp_path / f"{deck}.h5"
+    assert main(["run", str(DECKS / f"{deck}.dat"), "-o", str(out), "-q"]) == 0
+    res = read_results(out)
+    row = list(res.position_nodes).index(node)
+    np.testing.assert_allclose(res.static.position[-1, row], expected, atol=1e-9)
+
+
+def deck_errors(text):
+    with pytest.raises(DeckError) as info:
+        build_model(parse_deck(text, "m.dat"), text=text, path="m.dat")
+    return [(loc.line, msg) for loc, msg, _ in info.value.items]
+
+
+def test_deck_errors_of_the_new_element_kinds():
+    text = ("X 1 0 0 0\nX 3 1 0 0\nTRUSS 1 1 3\nHINGE 2 2 4\nRBEAM 3 1 2 1\nDYNE 1 2\n"
+            "EM 2 1.5\nESTIFF 1 1 2\nFIX 1\nEND\nEND\n")
+    errors = deck_errors(text)
+    assert (4, "element 2: a HINGE needs its axis: HINGE 2 2 4 ax ay az") in errors
+    assert (5, "element 3 has zero length: nodes 1 and 1 are at the same position") in errors
+    assert (6, "DYNE: element 1 is a TRUSS with deformation mode 1 only, got 2") in errors
+    assert (7, "EM 2: a HINGE has no mass of its own; put masses and inertias on its nodes "
+               "with XM") in errors
+    assert (8, "ESTIFF 1: a TRUSS takes EA (1 value), got 2") in errors

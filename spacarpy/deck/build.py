@@ -24,7 +24,8 @@ from spacarpy.deck.parser import Statement
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.model import (ANALYSES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
-                            SPACAR_MODE_NUMBERS, BeamSet, Fix, IterStep, Load, Model, NodalMass)
+                            SPACAR_MODE_NUMBERS, BeamSet, ElementSet, Fix, IterStep, Load, Model,
+                            NodalMass)
 
 __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
 
@@ -89,21 +90,57 @@ def _element_name(st: Statement, e: int) -> str:
     return f"element {e}" + (f" (made by the {st.origin} line)" if st.origin else "")
 
 
-class _Beam:
-    """One BEAM record while the model is being built."""
+#: Per element keyword: number of deformation modes, index of the first vector field
+#: (orientation / hinge axis) or None, allowed ESTIFF value counts, the stiffness names,
+#: which ESTIFF value carries each mode's stiffness, and whether EM applies.
+_KIND_INFO = {
+    "BEAM": dict(n_def=6, vector_at=5, n_estiff=(4, 7), stiff_names=_STIFFNESS_NAMES,
+                 mode_stiffness=_MODE_STIFFNESS, has_mass=True,
+                 estiff_usage="EA GJ EIy EIz"),
+    "TRUSS": dict(n_def=1, vector_at=None, n_estiff=(1, 1), stiff_names=("EA",),
+                  mode_stiffness=(0,), has_mass=True, estiff_usage="EA"),
+    "HINGE": dict(n_def=3, vector_at=3, n_estiff=(0, 3), stiff_names=("k", "k2", "k3"),
+                  mode_stiffness=(0, 1, 2), has_mass=False, estiff_usage="k [k2 k3]"),
+    "RBEAM": dict(n_def=3, vector_at=4, n_estiff=(0, 3), stiff_names=("k1", "k2", "k3"),
+                  mode_stiffness=(0, 1, 2), has_mass=True, estiff_usage="[k1 k2 k3]"),
+}
+#: The element keywords the model builder supports, in the order the model keeps them.
+ELEMENT_KEYWORDS = tuple(_KIND_INFO)
+
+
+class _Element:
+    """One element record (BEAM, TRUSS, HINGE or RBEAM) while the model is being built."""
 
     def __init__(self, st: Statement):
         self.st = st
-        self.id, self.p, self.r, self.q, self.s = st.fields[:5]
-        self.orientation = (tuple(st.fields[5:8]) if len(st.fields) >= 8
+        self.keyword = st.keyword
+        info = _KIND_INFO[st.keyword]
+        self.info = info
+        self.roles = KEYWORDS[st.keyword].node_roles
+        self.id = st.fields[0]
+        self.nodes = list(st.fields[1:1 + len(self.roles)])
+        at = info["vector_at"]
+        self.vector_given = at is not None and len(st.fields) >= at + 3
+        self.orientation = (tuple(st.fields[at:at + 3]) if self.vector_given
                             else (np.nan, np.nan, np.nan))
-        self.def_class = [RIGID] * 6
-        self.class_line = [0] * 6          # line of the DYNE/RLSE that set each mode
+        n_def = info["n_def"]
+        self.def_class = [RIGID] * n_def
+        self.class_line = [0] * n_def      # line of the DYNE/RLSE that set each mode
         self.flex_locs: dict[int, SourceLoc] = {}   # mode -> where it was made flexible
-        self.stiffness = (0.0,) * 6
+        self.stiffness = (0.0,) * (6 if st.keyword == "BEAM" else 3)
         self.estiff: Statement | None = None
         self.mass = (0.0,) * 5
         self.em: Statement | None = None
+
+    @property
+    def position_nodes(self) -> list:
+        return [n for n, r in zip(self.nodes, self.roles) if r == "p"]
+
+    # BEAM field names used by the BEAM-specific code paths
+    p = property(lambda self: self.nodes[0])
+    r = property(lambda self: self.nodes[1])
+    q = property(lambda self: self.nodes[2])
+    s = property(lambda self: self.nodes[3])
 
 
 class _ModelBuilder:
@@ -116,7 +153,7 @@ class _ModelBuilder:
         self.errors: list = []
         self.warnings: list[str] = []
         self.positions: dict[int, tuple[tuple, Statement]] = {}
-        self.beams: dict[int, _Beam] = {}
+        self.beams: dict[int, _Element] = {}   # all elements, by number
         self.orientation_use: dict[int, Statement] = {}   # node -> first BEAM using it as r/s
         self.foreign_elements: set[int] = set()   # elements of unsupported keywords
         self.foreign_nodes: set[int] = set()      # nodes of unsupported element keywords
@@ -205,12 +242,14 @@ class _ModelBuilder:
 
         for st in by_kw.get("X", []):
             self.node(st)
-        beam_sts = by_kw.get("BEAM", [])
-        for st in beam_sts:
-            for i in (2, 4):
-                self.orientation_use.setdefault(st.fields[i], st)
+        element_sts = [st for kw in ELEMENT_KEYWORDS for st in by_kw.get(kw, [])]
+        element_sts.sort(key=lambda st: self.rank[(st.loc.file, st.loc.line)])
+        for st in element_sts:
+            for i, role in enumerate(KEYWORDS[st.keyword].node_roles, start=1):
+                if role == "r":
+                    self.orientation_use.setdefault(st.fields[i], st)
         scale = self.model_size()
-        for st in beam_sts:
+        for st in element_sts:
             self.beam(st, scale)
         for st in sorted(by_kw.get("DYNE", []) + by_kw.get("RLSE", []),
                          key=lambda s: self.rank[(s.loc.file, s.loc.line)]):
@@ -267,7 +306,8 @@ class _ModelBuilder:
         return size if 0 < size < np.inf else 1.0
 
     def beam(self, st: Statement, scale: float) -> None:
-        b = _Beam(st)
+        """An element record of any supported kind (the name is historical)."""
+        b = _Element(st)
         ok = True
         if b.id in self.beams:
             first = self.beams[b.id].st
@@ -278,54 +318,69 @@ class _ModelBuilder:
             self.error(st.field_locs[0], f"element number {b.id} is also used by an "
                                          "unsupported element", st)
         name = _element_name(st, b.id)
-        for i, slot in ((1, "p"), (3, "q")):
+        slots = {0: "p", 1: "q"}
+        pos_k = rot_k = 0
+        for i, role in enumerate(b.roles, start=1):
             n = st.fields[i]
-            if n not in self.positions:
-                ok = False
-                msg = f"{name}: position node {n} (at {slot}) has no X line"
-                use = self.orientation_use.get(n)
-                if use is not None:
-                    msg += f"; node {n} is used as an orientation node (line {use.loc.line})"
-                self.error(st.field_locs[i], msg, st)
-        for i, slot in ((2, "p"), (4, "q")):
-            n = st.fields[i]
-            if n in self.positions:
-                ok = False
-                self.error(st.field_locs[i],
-                           f"{name}: node {n} is a position node (X at line "
-                           f"{self.positions[n][1].loc.line}) and cannot be the orientation "
-                           f"node at {slot}", st)
+            if role == "p":
+                slot = slots.get(pos_k, "?")
+                pos_k += 1
+                if n not in self.positions:
+                    ok = False
+                    msg = f"{name}: position node {n} (at {slot}) has no X line"
+                    use = self.orientation_use.get(n)
+                    if use is not None:
+                        msg += f"; node {n} is used as an orientation node (line {use.loc.line})"
+                    self.error(st.field_locs[i], msg, st)
+            else:
+                slot = slots.get(rot_k, "?")
+                rot_k += 1
+                if n in self.positions:
+                    ok = False
+                    self.error(st.field_locs[i],
+                               f"{name}: node {n} is a position node (X at line "
+                               f"{self.positions[n][1].loc.line}) and cannot be the "
+                               f"orientation node at {slot}", st)
         self.beams[b.id] = b
         if not ok:
             return
-        xp = np.array(self.positions[b.p][0])
-        xq = np.array(self.positions[b.q][0])
-        axis = xq - xp
-        length = float(np.linalg.norm(axis))
-        if length <= ZERO_LENGTH_RTOL * scale:
-            self.error(st.loc, f"{name} has zero length: nodes {b.p} and {b.q} are at the same "
-                               "position", st)
+        at = b.info["vector_at"]
+        axis = None
+        if len(b.position_nodes) == 2:
+            xp = np.array(self.positions[b.position_nodes[0]][0])
+            xq = np.array(self.positions[b.position_nodes[1]][0])
+            axis = xq - xp
+            length = float(np.linalg.norm(axis))
+            if length <= ZERO_LENGTH_RTOL * scale:
+                self.error(st.loc, f"{name} has zero length: nodes {b.position_nodes[0]} and "
+                                   f"{b.position_nodes[1]} are at the same position", st)
+                return
+            axis = axis / length
+        if b.keyword == "HINGE" and not b.vector_given:
+            self.error(st.loc, f"{name}: a HINGE needs its axis: HINGE {b.id} {b.nodes[0]} "
+                               f"{b.nodes[1]} ax ay az", st)
             return
-        if len(st.fields) >= 8:
+        if b.vector_given:
             o = np.array(b.orientation, dtype=float)
             norm = float(np.linalg.norm(o))
             shown = "(" + ", ".join(f"{v:g}" for v in o) + ")"
+            what = "hinge axis" if b.keyword == "HINGE" else "orientation vector"
             if norm < ORIENTATION_TOL:
-                self.error(st.field_locs[5], f"{name}: the orientation vector {shown} is "
-                                             "(nearly) zero", st)
-            elif np.linalg.norm(np.cross(axis / length, o)) < ORIENTATION_TOL * norm:
-                self.error(st.field_locs[5],
+                self.error(st.field_locs[at], f"{name}: the {what} {shown} is (nearly) zero",
+                           st)
+            elif axis is not None and np.linalg.norm(np.cross(axis, o)) < ORIENTATION_TOL * norm:
+                self.error(st.field_locs[at],
                            f"{name}: the orientation vector {shown} is parallel to the element "
-                           f"axis (node {b.p} to node {b.q}); give the local y-axis, "
-                           "perpendicular to the element", st)
+                           f"axis (node {b.position_nodes[0]} to node {b.position_nodes[1]}); "
+                           "give the local y-axis, perpendicular to the element", st)
 
-    def element_for(self, st: Statement) -> _Beam | None:
+    def element_for(self, st: Statement) -> _Element | None:
         """The BEAM an element-data record refers to; reports unknown elements."""
         e = st.fields[0]
         beam = self.beams.get(e)
         if beam is None and e not in self.foreign_elements and e not in self.quiet_elements:
             self.error(st.field_locs[0], f"{st.keyword}: element {e} is not defined "
-                                         "(no BEAM line)", st)
+                                         "(no element line)", st)
         return beam
 
     def deformation_class(self, st: Statement) -> None:
@@ -333,15 +388,17 @@ class _ModelBuilder:
         if beam is None:
             return
         e = beam.id
+        n_def = beam.info["n_def"]
         if len(st.fields) == 1:
             self.error(st.loc, f"{st.keyword} {e}: expected deformation mode numbers after the "
-                               "element number (1 to 6 for a BEAM)", st)
+                               f"element number (1 to {n_def} for a {beam.keyword})", st)
             return
         cls, other = (FLEXIBLE, "RLSE") if st.keyword == "DYNE" else (RELEASED, "DYNE")
         for i, k in enumerate(st.fields[1:], start=1):
-            if not 1 <= k <= 6:
-                self.error(st.field_locs[i], f"{st.keyword}: element {e} is a BEAM with "
-                                             f"deformation modes 1 to 6, got {k}", st)
+            if not 1 <= k <= n_def:
+                modes = f"modes 1 to {n_def}" if n_def > 1 else "mode 1 only"
+                self.error(st.field_locs[i], f"{st.keyword}: element {e} is a {beam.keyword} "
+                                             f"with deformation {modes}, got {k}", st)
                 continue
             current = beam.def_class[k - 1]
             if current not in (RIGID, cls):
@@ -368,6 +425,9 @@ class _ModelBuilder:
             return
         beam.estiff = st
         values = st.fields[1:]
+        if beam.keyword != "BEAM":
+            self._estiff_other(beam, st, values)
+            return
         if len(values) < 4:
             self.error(st.loc, f"ESTIFF {beam.id}: a BEAM needs EA GJ EIy EIz [cy cz] "
                                f"(4 to 6 values), got {len(values)}", st)
@@ -381,15 +441,35 @@ class _ModelBuilder:
                                                  f"not be negative, got {v:g}", st)
         beam.stiffness = tuple(values[:6]) + (0.0,) * (6 - len(values[:6]))
 
+    def _estiff_other(self, el: _Element, st: Statement, values) -> None:
+        info = el.info
+        lo, hi = info["n_estiff"]
+        if not lo <= len(values) <= hi:
+            count = f"{lo} value" if lo == hi == 1 else (f"{lo} values" if lo == hi
+                                                          else f"{lo} to {hi} values")
+            self.error(st.loc, f"ESTIFF {el.id}: a {el.keyword} takes {info['estiff_usage']} "
+                               f"({count}), got {len(values)}", st)
+            return
+        for i, v in enumerate(values):
+            if v < 0:
+                self.error(st.field_locs[i + 1], f"ESTIFF {el.id}: {info['stiff_names'][i]} "
+                                                 f"must not be negative, got {v:g}", st)
+        el.stiffness = tuple(float(v) for v in values) + (0.0,) * (3 - len(values))
+
     def em(self, st: Statement) -> None:
         beam = self.element_for(st)
         if beam is None or self._repeated(st, beam.em):
             return
         beam.em = st
         values = st.fields[1:]
+        if not beam.info["has_mass"]:
+            if any(v != 0 for v in values):       # 'EM e' without values is harmless
+                self.error(st.loc, f"EM {beam.id}: a {beam.keyword} has no mass of its own; "
+                                   "put masses and inertias on its nodes with XM", st)
+            return
         if not values:
-            self.error(st.loc, f"EM {beam.id}: a BEAM needs at least the mass per unit length "
-                               "rhoA", st)
+            self.error(st.loc, f"EM {beam.id}: a {beam.keyword} needs at least the mass per "
+                               "unit length rhoA", st)
             return
         for i, v in enumerate(values[:4]):
             if v < 0:
@@ -400,23 +480,27 @@ class _ModelBuilder:
     def check_flexible_stiffness(self) -> None:
         for beam in self.beams.values():
             modes = sorted(beam.flex_locs)
-            if not modes:
+            if not modes or beam.keyword == "HINGE":
+                # a HINGE mode listed in DYNE is a degree of freedom of the joint; without
+                # ESTIFF (or with k = 0) it simply turns freely, as in SPACAR
                 continue
+            info = beam.info
             if beam.estiff is None:
                 loc = beam.flex_locs[modes[0]]
                 what = (f"mode {modes[0]} is" if len(modes) == 1
                         else "modes " + " ".join(map(str, modes)) + " are")
                 self.error(loc, f"element {beam.id} {what} flexible (DYNE) but "
                                 f"{'has' if len(modes) == 1 else 'have'} no stiffness: add "
-                                f"ESTIFF {beam.id} EA GJ EIy EIz", self._line_at(loc))
+                                f"ESTIFF {beam.id} {info['estiff_usage']}", self._line_at(loc))
                 continue
-            if len(beam.estiff.fields) < 5:
-                continue   # already reported: too few ESTIFF values
-            zero = [k for k in modes if beam.stiffness[_MODE_STIFFNESS[k - 1]] == 0]
+            lo, hi = info["n_estiff"]
+            if not lo <= len(beam.estiff.fields) - 1 <= hi:
+                continue   # already reported: wrong number of ESTIFF values
+            names_all, mode_k = info["stiff_names"], info["mode_stiffness"]
+            zero = [k for k in modes if beam.stiffness[mode_k[k - 1]] == 0]
             if zero:
                 k = zero[0]
-                names = sorted({_STIFFNESS_NAMES[_MODE_STIFFNESS[m - 1]] for m in zero},
-                               key=_STIFFNESS_NAMES.index)
+                names = sorted({names_all[mode_k[m - 1]] for m in zero}, key=names_all.index)
                 what = (f"mode {k} is" if len(zero) == 1
                         else "modes " + " ".join(map(str, zero)) + " are")
                 self.error(beam.flex_locs[k],
@@ -584,8 +668,8 @@ class _ModelBuilder:
     def check_unconnected(self) -> None:
         """A position node no element uses floats free (a mechanism): an error, unless all
         its coordinates are fixed (then it is merely useless: a warning)."""
-        used = ({n for b in self.beams.values() for n in (b.p, b.q)} | self.foreign_nodes
-                | self.quiet_nodes)
+        used = ({n for b in self.beams.values() for n in b.position_nodes}
+                | self.foreign_nodes | self.quiet_nodes)
         for n, (_, st) in self.positions.items():
             if n in used:
                 continue
@@ -605,8 +689,18 @@ class _ModelBuilder:
                                      "which is not defined")
 
     def model(self, text: str) -> Model:
-        beams = list(self.beams.values())
+        beams = [b for b in self.beams.values() if b.keyword == "BEAM"]
         n = len(beams)
+        sets = {}
+        for kw in ELEMENT_KEYWORDS[1:]:
+            els = [b for b in self.beams.values() if b.keyword == kw]
+            if els:
+                sets[kw] = ElementSet(
+                    kind=kw, ids=[b.id for b in els], nodes=[b.nodes for b in els],
+                    vector=[b.orientation for b in els], def_class=[b.def_class for b in els],
+                    stiffness=[b.stiffness for b in els],
+                    has_stiffness=[b.estiff is not None for b in els],
+                    mass=[b.mass for b in els], locs=[b.st.loc for b in els])
         beam_set = BeamSet(
             ids=[b.id for b in beams],
             nodes=[[b.p, b.r, b.q, b.s] for b in beams] if n else np.zeros((0, 4), int),
@@ -629,6 +723,7 @@ class _ModelBuilder:
             loads=self.loads,
             iterstep=self.iterstep or IterStep(),
             nodal_masses=self.nodal_masses,
+            element_sets=sets,
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",
             source_path=self.path,
