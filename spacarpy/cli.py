@@ -324,12 +324,16 @@ def cmd_run(args) -> int:
         args.deck, deformations=args.deformations, analysis=args.mode,
         overrides=dict(args.overrides) or None)
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
-    log.info("%s: %d position nodes, %d orientation nodes, %d beams; %s analysis, %s "
+    n_elem = model.beams.n_elem + sum(es.n_elem for es in model.element_sets.values())
+    log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
-             model.beams.n_elem, model.analysis, model.deformations)
+             n_elem, model.analysis, model.deformations)
     summary = run_model(model, out, RunOptions(n_modes=args.modes,
                                                modes_per_step=args.modes_per_step,
                                                compliance_node=args.compliance))
+    if model.analysis == "check":
+        print(summary.report)
+        return EXIT_OK
     log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
              time.perf_counter() - t0)
     if expects:

@@ -37,7 +37,7 @@ from spacarpy.solvers.static import StaticProblem, solve_static
 
 log = logging.getLogger(__name__)
 
-SUPPORTED = ("static", "eigen", "buckling")
+SUPPORTED = ("static", "eigen", "buckling", "check")
 
 
 class AnalysisInputError(SpacarError):
@@ -60,6 +60,7 @@ class RunOptions:
 @dataclass
 class RunSummary:
     n_steps: int = 0
+    report: str = ""                                    # MODE check: the readable report
     frequencies: list = field(default_factory=list)     # per linearized step
     critical: list = field(default_factory=list)
 
@@ -74,6 +75,8 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
                                  f"version runs {', '.join(SUPPORTED)}")
     problem = StaticProblem(model)
     num = problem.num
+    if model.analysis == "check":
+        return RunSummary(report=kinematic_check(problem))
     mass = MassAssembler(model, num)
     want_eigen = model.analysis == "eigen" or (opts.modes_per_step and mass.has_mass)
     want_buckling = model.analysis == "buckling" or (opts.modes_per_step and problem.loads.any)
@@ -159,3 +162,25 @@ def _node_shapes(num, free, shapes):
     full = np.zeros((shapes.shape[1], num.n_coord))
     full[:, free] = shapes.T
     return full[:, num.pos_idx], full[:, num.rot_idx]
+
+
+def kinematic_check(problem: StaticProblem) -> str:
+    """SPACAR's mode 0: count coordinates, constraints and degrees of freedom, and verify in
+    the initial configuration that the model is neither a mechanism nor over-constrained.
+
+    Returns the report; raises :class:`~spacarpy.errors.ModelError` (naming the free
+    motions or the redundant deformation modes) when the check fails. Nothing is written.
+    """
+    num, model = problem.num, problem.model
+    kinds = ", ".join(f"{g.n_elem} {g.keyword}" for g in num.groups) or "none"
+    n_fixed = int(num.fixed_mask.sum())
+    problem.check_initial()          # raises ModelError for mechanisms / over-constraints
+    dof = num.n_unknown - num.n_constraint
+    return "\n".join([
+        f"{model.source_path}: kinematic check passed",
+        f"  elements            {kinds}",
+        f"  coordinates         {num.n_coord} ({model.position_ids.size} position nodes x 3 + "
+        f"{model.orientation_ids.size} orientation nodes x 4), {n_fixed} fixed",
+        f"  constraints         {num.n_constraint} ({num.n_rigid} rigid deformation modes + "
+        f"{num.euler_nodes.size} Euler normalizations), all independent",
+        f"  degrees of freedom  {dof}, no free motion"])

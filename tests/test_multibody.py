@@ -141,3 +141,28 @@ def test_deck_errors_of_the_new_element_kinds():
     assert (7, "EM 2: a HINGE has no mass of its own; put masses and inertias on its nodes "
                "with XM") in errors
     assert (8, "ESTIFF 1: a TRUSS takes EA (1 value), got 2") in errors
+
+
+def test_mode_check_counts_degrees_of_freedom(capsys):
+    assert main(["run", str(DECKS / "table1_cantilever_4el_modified.dat"), "--mode", "0",
+                 "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "kinematic check passed" in out
+    assert "coordinates         35 (5 position nodes x 3 + 5 orientation nodes x 4), 7 fixed" \
+        in out
+    assert "degrees of freedom  24, no free motion" in out
+    assert main(["run", str(DECKS / "hinged_rod_spring.dat"), "--mode", "check", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "elements            1 HINGE, 1 RBEAM" in out
+    assert "constraints         6 (5 rigid deformation modes + 1 Euler normalizations)" in out
+    assert "degrees of freedom  1, no free motion" in out                 # the joint angle
+
+
+def test_mode_check_names_a_mechanism(tmp_path, capsys):
+    deck = tmp_path / "mech.dat"
+    deck.write_text("X 1 0 0 0\nX 3 1 0 0\nTRUSS 1 1 3\nDYNE 1 1\nFIX 1\nFIX 3 1\nEND\nHALT\n"
+                    "ESTIFF 1 100\nEND\nEND\n")
+    assert main(["run", str(deck), "--mode", "check", "-q"]) == 3
+    assert "mechanism: 2 free motion(s) that no flexible element resists; nodes that move: 3" \
+        in capsys.readouterr().err
+    assert not (tmp_path / "mech.h5").exists()
