@@ -159,6 +159,24 @@ class Fix:
 
 
 @dataclass(frozen=True)
+class Prescribed:
+    """A prescribed (input) nodal coordinate: ``INPUTX node coord`` in the kinematics module.
+
+    Its value follows the load path like the loads do: ``initial`` (the data module's
+    ``INPUTX node coord value``; None = the initial configuration's value) is reached at
+    step 0, then ``delta`` (``DELINPX node coord delta``) is added in the load steps, so the
+    value at load factor s is ``initial + s * delta``. Euler parameters are prescribed like
+    any coordinate; the normalization of their node still holds.
+    """
+
+    node: int
+    coord: int
+    initial: float | None = None
+    delta: float = 0.0
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
 class Load:
     """A dead nodal load: force (position node) or moment (orientation node), global axes.
 
@@ -228,6 +246,8 @@ class Model:
     loads : list of Load
     iterstep : IterStep
     nodal_masses : list of NodalMass
+    prescribed : list of Prescribed
+        Prescribed (input) coordinates with their initial values and increments.
     element_sets : dict of str -> ElementSet
         Elements of the other kinds (TRUSS, HINGE, RBEAM), by keyword.
     cross_sections : spacarpy.deck.visualization.CrossSections or None
@@ -249,6 +269,7 @@ class Model:
     loads: list = field(default_factory=list)
     iterstep: IterStep = field(default_factory=IterStep)
     nodal_masses: list = field(default_factory=list)
+    prescribed: list = field(default_factory=list)
     element_sets: dict = field(default_factory=dict)
     cross_sections: object | None = None
     analysis: str = "static"

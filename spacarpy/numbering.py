@@ -96,6 +96,7 @@ class Numbering:
     groups : list of ElementGroup
         One per element kind present (BEAM first).
     fixed_mask : (n_coord,) bool
+        Fixed and prescribed coordinates (neither is an unknown).
     unknown_of : (n_coord,) int
         Unknown number of each coordinate, -1 where fixed.
     n_unknown : int
@@ -103,6 +104,9 @@ class Numbering:
         Orientation-node indices (into ``rot_idx``) that carry a normalization constraint.
     length_scale : float
         Characteristic length of the model (bounding-box diagonal) used to scale norms.
+    prescribed_idx, prescribed_initial, prescribed_delta : (n_presc,)
+        Global indices of the prescribed coordinates, their values at step 0 and their
+        increments over the load steps.
 
     The BEAM group's arrays are also available under their historical names
     (``beam_idx``, ``nx``, ``ny``, ``nz``, ``l0``, ``S``, ``has_stiffness_mode``), empty when the
@@ -119,6 +123,15 @@ class Numbering:
     n_unknown: int
     euler_nodes: np.ndarray
     length_scale: float
+    prescribed_idx: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    prescribed_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    prescribed_delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def prescribed_values(self, a: float, s: float) -> np.ndarray:
+        """Values of the prescribed coordinates at load parameters (a on the initial values,
+        s on the increments): ``x0 + a (initial - x0) + s delta``."""
+        start = self.x0[self.prescribed_idx]
+        return start + a * (self.prescribed_initial - start) + s * self.prescribed_delta
 
     @property
     def n_rigid(self) -> int:
@@ -239,6 +252,14 @@ def number_model(model: Model) -> Numbering:
         n = int(fix.node)
         base = pos_idx[pos_row[n]] if n in pos_row else rot_idx[rot_row[n]]
         fixed[base[np.asarray(fix.coords, dtype=np.int64) - 1]] = True
+    # prescribed (input) coordinates: not unknowns either; their values follow the load path
+    presc_idx = np.array([(pos_idx[pos_row[int(p.node)]] if int(p.node) in pos_row
+                           else rot_idx[rot_row[int(p.node)]])[int(p.coord) - 1]
+                          for p in model.prescribed], dtype=np.int64)
+    presc_initial = np.array([x0[k] if p.initial is None else float(p.initial)
+                              for k, p in zip(presc_idx, model.prescribed)], dtype=float)
+    presc_delta = np.array([float(p.delta) for p in model.prescribed], dtype=float)
+    fixed[presc_idx] = True
     unknown_of = np.full(n_coord, -1, dtype=np.int64)
     unknown_of[~fixed] = np.arange(int((~fixed).sum()))
     euler_nodes = (np.flatnonzero(~fixed[rot_idx].all(axis=1)) if rot_ids.size
@@ -249,4 +270,6 @@ def number_model(model: Model) -> Numbering:
     length_scale = float(np.linalg.norm(span)) or (max(lengths) if lengths else 1.0)
     return Numbering(n_coord=n_coord, x0=x0, pos_idx=pos_idx, rot_idx=rot_idx, groups=groups,
                      fixed_mask=fixed, unknown_of=unknown_of, n_unknown=int((~fixed).sum()),
-                     euler_nodes=euler_nodes, length_scale=length_scale)
+                     euler_nodes=euler_nodes, length_scale=length_scale,
+                     prescribed_idx=presc_idx, prescribed_initial=presc_initial,
+                     prescribed_delta=presc_delta)

@@ -166,3 +166,54 @@ def test_mode_check_names_a_mechanism(tmp_path, capsys):
     assert "mechanism: 2 free motion(s) that no flexible element resists; nodes that move: 3" \
         in capsys.readouterr().err
     assert not (tmp_path / "mech.h5").exists()
+
+
+# ------------------------------------------------------------------------ prescribed motion
+def cantilever_text(extra_kin="", extra_data="", n=8):
+    """A unit cantilever from node 1/2 to the tip node 3/4, generated with BEAMS."""
+    lines = ["X 1 0 0 0", "X 3 1 0 0", f"BEAMS 1 1 2 3 4 {n} 0 1 0", f"DYNE 1:{n} 1 2 3 4 5 6",
+             "FIX 1", "FIX 2", extra_kin, "END", "HALT", f"ESTIFF 1:{n} 1e5 1 1 1",
+             extra_data, "ITERSTEP 20 8 1e-12", "END", "END", ""]
+    return "\n".join(lines)
+
+
+def solve_text(text):
+    model = build_model(parse_deck(text, "p.dat"), text=text, path="p.dat")
+    res = solve_static(model)
+    return model, res, res.steps[-1]
+
+
+def test_prescribed_rotation_and_load_control_reach_the_same_equilibrium():
+    """Bend a cantilever with a dead tip moment; then prescribe the tip rotation it reached
+    (INPUTX/DELINPX on lambda3): same shape, and the reaction moment equals the load."""
+    _, res_m, st_m = solve_text(cantilever_text(extra_data="DELXF 4 0 0 1.2"))
+    q_tip = st_m.x[res_m.problem.num.rot_idx[1]]           # orientation node 4
+    _, res_p, st_p = solve_text(cantilever_text(extra_kin="INPUTX 4 4",
+                                                extra_data=f"DELINPX 4 4 {float(q_tip[3])!r}"))
+    np.testing.assert_allclose(st_p.x, st_m.x, atol=1e-10)
+    prob = res_p.problem
+    reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component), st_p.reaction))
+    assert reac[(4, "Mz")] == pytest.approx(1.2, rel=1e-9)    # the input supplies the moment
+    assert reac[(2, "Mz")] == pytest.approx(-1.2, rel=1e-9)   # and the clamp balances it
+
+
+def test_prescribed_displacement_gives_the_force_that_causes_it():
+    _, res_f, st_f = solve_text(cantilever_text(extra_data="DELXF 3 0 0.9 0"))
+    tip = st_f.x[res_f.problem.num.pos_idx[1]]
+    _, res_p, st_p = solve_text(cantilever_text(extra_kin="INPUTX 3 2",
+                                                extra_data=f"DELINPX 3 2 {float(tip[1])!r}"))
+    np.testing.assert_allclose(st_p.x, st_f.x, atol=1e-10)
+    prob = res_p.problem
+    reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component), st_p.reaction))
+    assert reac[(3, "Fy")] == pytest.approx(0.9, rel=1e-9)     # the force that the load was
+
+
+def test_prescribed_coordinate_errors():
+    errors = deck_errors(cantilever_text(extra_kin="INPUTX 1 2\nINPUTX 3 5",
+                                         extra_data="DELINPX 3 1 0.1"))
+    messages = [m for _, m in errors]
+    assert any("coordinate 2 of node 1 is also fixed" in m for m in messages)
+    assert any("node 3 is a position node with coordinates 1 to 3, got 5" in m
+               for m in messages)
+    assert any("DELINPX: coordinate 1 of node 3 is not prescribed: declare it with "
+               "'INPUTX 3 1'" in m for m in messages)

@@ -25,7 +25,7 @@ from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.model import (ANALYSES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
                             SPACAR_MODE_NUMBERS, BeamSet, ElementSet, Fix, IterStep, Load, Model,
-                            NodalMass)
+                            NodalMass, Prescribed)
 
 __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
 
@@ -164,6 +164,7 @@ class _ModelBuilder:
         self.loads: list[Load] = []
         self.load_sts: list[Statement] = []
         self.nodal_masses: list[NodalMass] = []
+        self.prescribed: dict = {}          # (node, coord) -> initial, delta, loc
         self.iterstep: IterStep | None = None
         self.analysis: str | None = None
         self.deformations: str | None = None
@@ -261,6 +262,12 @@ class _ModelBuilder:
         self.check_flexible_stiffness()
         for st in by_kw.get("FIX", []):
             self.fix(st)
+        for st in by_kw.get("INPUTX", []):
+            if st.module == 0:
+                self.inputx_declare(st)
+        for st in by_kw.get("INPUTX", []) + by_kw.get("DELINPX", []):
+            if st.keyword == "DELINPX" or st.module > 0:
+                self.inputx_value(st)
         for st in statements:          # loads in deck order
             if st.keyword in ("XF", "DELXF"):
                 self.load(st)
@@ -533,6 +540,52 @@ class _ModelBuilder:
         else:
             self.fixes[n] = (coords, st.loc)
 
+    def inputx_declare(self, st: Statement) -> None:
+        """``INPUTX n c ...`` (kinematics module): coordinates c of node n are prescribed."""
+        n = st.fields[0]
+        kind = self.node_kind(n)
+        if kind is None:
+            if n not in self.foreign_nodes:
+                self.error(st.field_locs[0], f"INPUTX: node {n} is not defined (no X line and "
+                                             "not used by any element)", st)
+            return
+        size = 3 if kind == "position" else 4
+        coords = st.fields[1:] or tuple(range(1, size + 1))
+        for i, c in enumerate(coords, start=1):
+            loc = st.field_locs[i] if i < len(st.field_locs) else st.loc
+            if not 1 <= c <= size:
+                self.error(loc, f"INPUTX: node {n} is a {kind} node with coordinates 1 to "
+                                f"{size}, got {c}", st)
+                continue
+            fix = self.fix_lines.get((n, c))
+            if fix is not None:
+                self.error(loc, f"INPUTX: coordinate {c} of node {n} is also fixed (FIX at "
+                                f"line {fix.loc.line}); a coordinate is either fixed or "
+                                "prescribed", st)
+                continue
+            if (n, c) in self.prescribed:
+                self.error(loc, f"INPUTX: coordinate {c} of node {n} is prescribed twice", st)
+                continue
+            self.prescribed[(n, c)] = {"initial": None, "delta": 0.0, "loc": st.loc,
+                                       "set": set()}
+
+    def inputx_value(self, st: Statement) -> None:
+        """``INPUTX n c value`` (data module) or ``DELINPX n c delta``."""
+        n, c, value = st.fields[0], st.fields[1], float(st.fields[2])
+        entry = self.prescribed.get((n, c))
+        if entry is None:
+            if n not in self.foreign_nodes:
+                self.error(st.field_locs[1], f"{st.keyword}: coordinate {c} of node {n} is not "
+                                             f"prescribed: declare it with 'INPUTX {n} {c}' in "
+                                             "the kinematics module", st)
+            return
+        key = "delta" if st.keyword == "DELINPX" else "initial"
+        if key in entry["set"]:
+            self.error(st.loc, f"{st.keyword}: coordinate {c} of node {n} is given twice", st)
+            return
+        entry["set"].add(key)
+        entry[key] = value
+
     def load(self, st: Statement) -> None:
         n = st.fields[0]
         if self.node_kind(n) is None:
@@ -723,6 +776,8 @@ class _ModelBuilder:
             loads=self.loads,
             iterstep=self.iterstep or IterStep(),
             nodal_masses=self.nodal_masses,
+            prescribed=[Prescribed(node=n, coord=c, initial=v["initial"], delta=v["delta"],
+                                   loc=v["loc"]) for (n, c), v in self.prescribed.items()],
             element_sets=sets,
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",

@@ -378,6 +378,22 @@ class StaticProblem:
                 raise SolverError(f"spurious equilibrium: {g.keyword} {int(g.ids[i])} "
                                   f"{message}")
 
+    def move_prescribed(self, x, mu, params):
+        """Set the prescribed coordinates to their values at load parameters ``params`` and
+        carry the rest of the model along kinematically (every deformation kept at its
+        current value, Euler normalizations restored): a predictor for the Newton step."""
+        num = self.num
+        if not num.prescribed_idx.size:
+            return x
+        target = num.prescribed_values(*params)
+        if np.array_equal(target, x[num.prescribed_idx]):
+            return x
+        zero = np.zeros((self.loads.moment_rot.size, 3))
+        states = self.evaluate(x, mu, np.zeros(num.n_coord), zero).states
+        moved = x.copy()
+        moved[num.prescribed_idx] = target
+        return self.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=4)
+
     def commit(self, x, mu, force, moment):
         """Let the element kinds update their persistent state after a converged step."""
         ev = self.evaluate(x, mu, force, moment)
@@ -545,7 +561,8 @@ def _advance(prob, x, mu, p_from, p_to, n_sub, opts, stored_step):
         p = p_from + (t + dt) * (p_to - p_from)
         force, moment = prob.loads.at(*p)
         try:
-            x_new, mu_new, its, res, _ = prob.newton(x, mu, force, moment, opts)
+            x_start = prob.move_prescribed(x, mu, p)
+            x_new, mu_new, its, res, _ = prob.newton(x_start, mu, force, moment, opts)
         except _StepFailed as fail:
             if dt / 2 < min_dt:
                 lf = p_from[1] + t * (p_to[1] - p_from[1])
