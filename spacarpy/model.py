@@ -248,6 +248,9 @@ class Model:
     nodal_masses : list of NodalMass
     prescribed : list of Prescribed
         Prescribed (input) coordinates with their initial values and increments.
+    gravity : (3,) float
+        Gravitational acceleration (m/s^2) acting on element and nodal masses; applied with
+        the initial load (XF) and constant over the load steps.
     element_sets : dict of str -> ElementSet
         Elements of the other kinds (TRUSS, HINGE, RBEAM), by keyword.
     cross_sections : spacarpy.deck.visualization.CrossSections or None
@@ -270,6 +273,7 @@ class Model:
     iterstep: IterStep = field(default_factory=IterStep)
     nodal_masses: list = field(default_factory=list)
     prescribed: list = field(default_factory=list)
+    gravity: tuple = (0.0, 0.0, 0.0)
     element_sets: dict = field(default_factory=dict)
     cross_sections: object | None = None
     analysis: str = "static"

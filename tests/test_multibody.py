@@ -217,3 +217,54 @@ def test_prescribed_coordinate_errors():
                for m in messages)
     assert any("DELINPX: coordinate 1 of node 3 is not prescribed: declare it with "
                "'INPUTX 3 1'" in m for m in messages)
+
+
+# ------------------------------------------------------------------------ gravity
+def test_cantilever_under_self_weight_and_a_tip_mass_matches_beam_theory():
+    """Uniform weight w = rhoA g: tip deflection w L^4 / 8 EI (exact at the nodes for the
+    consistent Hermite load); a tip point mass m adds m g L^3 / 3 EI (small loads)."""
+    text = cantilever_text(extra_data="EM 1:8 2.0\nXM 3 0.5\nGRAVITY 0 -1e-3 0")
+    _, res, st = solve_text(text)
+    tip = st.x[res.problem.num.pos_idx[1]]
+    w, m, g = 2.0 * 1e-3, 0.5, 1e-3
+    expected = w / 8 + m * g / 3                      # L = EI = 1
+    assert -tip[1] == pytest.approx(expected, rel=2e-5)
+    prob = res.problem
+    reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component), st.reaction))
+    assert reac[(1, "Fy")] == pytest.approx(w + m * g, rel=1e-9)       # total weight
+
+
+def test_gravity_on_a_rigid_rod_balances_the_hinge_spring():
+    """RBEAM rod of mass m (EM rhoA), hinge spring k, gravity g along +y:
+    k theta = m g (L/2) cos(theta)."""
+    model = hinged_rod(0.0, k=3.0, L=2.0, rod="RBEAM")
+    model.element_sets["RBEAM"].mass[:, 0] = 1.5            # rhoA: m = 3 kg
+    model.gravity = (0.0, 2.0, 0.0)
+    res = solve_static(model)
+    theta = brentq(lambda t: 3.0 * t - 3.0 * 2.0 * 1.0 * np.cos(t), 0, np.pi / 2)
+    tip = res.steps[-1].x[res.problem.num.pos_idx[1]]
+    np.testing.assert_allclose(tip, [2 * np.cos(theta), 2 * np.sin(theta), 0], atol=1e-10)
+
+
+CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "spacar-decks"
+
+
+@pytest.mark.skipif(not (CORPUS / "oopspa_crosshinge.dat").exists(),
+                    reason="the SPACAR corpus (../shared/spacar-decks) is not beside the repo")
+def test_corpus_cross_hinge_runs_and_has_the_cross_spring_pivot_stiffness(tmp_path):
+    """oopspa_crosshinge.dat (SPACAR Light): two crossed leaf springs, the top body rotated
+    by a prescribed Euler parameter (INPUTX/DELINPX), gravity. Small-angle rotational
+    stiffness of a symmetric cross-spring pivot: 2 EI / L (each leaf, clamped at the base and
+    turning about its midpoint, gives M = EI theta / L); it decreases with the rotation."""
+    out = tmp_path / "cross.h5"
+    assert main(["run", str(CORPUS / "oopspa_crosshinge.dat"), "-o", str(out), "-q"]) == 0
+    res = read_results(out)
+    s = res.static
+    k = list(zip(s.reaction_node.tolist(), s.reaction_component)).index((8, "Mz"))
+    q = s.euler[:, list(res.orientation_nodes).index(8)]
+    theta = 2 * np.arctan2(q[:, 3], q[:, 0])
+    stiffness = s.reaction[1:, k] / theta[1:]
+    ei, length = 0.007, 0.1 * np.sqrt(2)
+    assert theta[-1] == pytest.approx(2 * np.arcsin(0.247404), rel=1e-9)
+    assert stiffness[0] == pytest.approx(2 * ei / length, rel=2e-4)
+    assert np.all(np.diff(stiffness[1:]) < 0) and stiffness[-1] < 0.996 * stiffness[0]

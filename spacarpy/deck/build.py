@@ -165,6 +165,7 @@ class _ModelBuilder:
         self.load_sts: list[Statement] = []
         self.nodal_masses: list[NodalMass] = []
         self.prescribed: dict = {}          # (node, coord) -> initial, delta, loc
+        self.gravity = (0.0, 0.0, 0.0)
         self.iterstep: IterStep | None = None
         self.analysis: str | None = None
         self.deformations: str | None = None
@@ -274,6 +275,9 @@ class _ModelBuilder:
         self.check_loads_on_fixed_coordinates()
         for st in by_kw.get("XM", []):
             self.nodal_mass(st)
+        for st in by_kw.get("GRAVITY", []):
+            if self.once(st):
+                self.gravity = tuple(float(v) for v in st.fields[:3])
         for st in by_kw.get("ITERSTEP", []):
             self.iterstep_line(st)
         for st in by_kw.get("MODE", []):
@@ -778,6 +782,7 @@ class _ModelBuilder:
             nodal_masses=self.nodal_masses,
             prescribed=[Prescribed(node=n, coord=c, initial=v["initial"], delta=v["delta"],
                                    loc=v["loc"]) for (n, c), v in self.prescribed.items()],
+            gravity=self.gravity,
             element_sets=sets,
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",

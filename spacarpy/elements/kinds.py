@@ -17,6 +17,9 @@ commit(state, prev) -> None
     Update the kind's persistent state after a converged step (the hinge's turn count).
 check(state, ref) -> (element row, message) or None
     A validity check of a converged state (the BEAM's saturation of Eq. 7).
+gravity(x_local, ref, mass, g) -> (f (n, n_ldof), df/dx (n, n_ldof, n_ldof))
+    Generalized gravity forces of the element's own mass (consistent with its mass
+    interpolation) and their derivative.
 """
 from __future__ import annotations
 
@@ -26,6 +29,7 @@ from typing import Callable
 import numpy as np
 
 from spacarpy.elements import beam, beam_mass, hinge, rbeam, truss
+from spacarpy.rotation import quadratic_form
 
 #: Largest |e_hat_k| / l0 (torsion, bending) accepted in a converged BEAM state: the basic
 #: deformations of Eq. (7) are sines of relative rotations, near 1 (90 degrees) they
@@ -46,6 +50,7 @@ class Kind:
     mass: Callable | None = None
     commit: Callable | None = None
     check: Callable | None = None
+    gravity: Callable | None = None
 
     @property
     def n_ldof(self) -> int:
@@ -70,6 +75,47 @@ def _beam_check(st, ref):
     return None
 
 
+def _tangent_gravity(q, nx, g, coef):
+    """Force ``coef * B^T g`` on the Euler parameters of a node whose tangent ``n_x = R(q) n_x``
+    carries mass, with ``B = d n_x / d q = 2 H(n_x) q``, and its derivative ``2 coef H.g``."""
+    hg = np.einsum("nkab,k->nab", quadratic_form(nx), g)       # (n, 4, 4): sum_k g_k H_k
+    return 2.0 * coef[:, None] * (hg @ q[..., None])[..., 0], 2.0 * coef[:, None, None] * hg
+
+
+def _beam_gravity(x, ref, mass, g):
+    """Hermite centre line (Eq. 57): int r = l0 [r^p/2 + l0 n_x^p/12 + r^q/2 - l0 n_x^q/12]."""
+    n = x.shape[0]
+    m = mass[:, 0] * ref["l0"]
+    f = np.zeros((n, 14))
+    k = np.zeros((n, 14, 14))
+    f[:, 0:3] = f[:, 7:10] = 0.5 * m[:, None] * g
+    for qs, sign in ((slice(3, 7), 1.0), (slice(10, 14), -1.0)):
+        fq, kq = _tangent_gravity(x[:, qs], ref["nx"], g, sign * m * ref["l0"] / 12.0)
+        f[:, qs] = fq
+        k[:, qs, qs] = kq
+    return f, k
+
+
+def _truss_gravity(x, ref, mass, g):
+    n = x.shape[0]
+    f = np.zeros((n, 6))
+    f[:, 0:3] = f[:, 3:6] = 0.5 * (mass[:, 0] * ref["l0"])[:, None] * g
+    return f, np.zeros((n, 6, 6))
+
+
+def _rbeam_gravity(x, ref, mass, g):
+    """Rigid rod: its mass at the centre r^p + R(q^p) n_x l0 / 2."""
+    n = x.shape[0]
+    m = mass[:, 0] * ref["l0"]
+    f = np.zeros((n, 10))
+    k = np.zeros((n, 10, 10))
+    f[:, 0:3] = m[:, None] * g
+    fq, kq = _tangent_gravity(x[:, 3:7], ref["nx"], g, m * ref["l0"] / 2.0)
+    f[:, 3:7] = fq
+    k[:, 3:7, 3:7] = kq
+    return f, k
+
+
 BEAM = Kind(
     keyword="BEAM", slots=("pos", "rot", "pos", "rot"), n_def=6, length_modes=(True,) * 6,
     reference=_beam_reference,
@@ -79,7 +125,7 @@ BEAM = Kind(
     stiffness=lambda props, ref: beam.stiffness_matrix(props, ref["l0"]),
     mass=lambda x, ref, m: beam_mass.beam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"],
                                                       ref["l0"], m),
-    check=_beam_check)
+    check=_beam_check, gravity=_beam_gravity)
 
 
 # ------------------------------------------------------------------------------ TRUSS
@@ -94,7 +140,8 @@ TRUSS = Kind(
     state=lambda x, ref, variant, prev: truss.truss_state(x, ref["l0"]),
     hessian=lambda st, w: truss.truss_weighted_hessian(st, w),
     stiffness=lambda props, ref: truss.truss_stiffness(props[:, :1], ref["l0"]),
-    mass=lambda x, ref, m: truss.truss_mass_matrix(m[:, :1], ref["l0"]))
+    mass=lambda x, ref, m: truss.truss_mass_matrix(m[:, :1], ref["l0"]),
+    gravity=_truss_gravity)
 
 
 # ------------------------------------------------------------------------------ HINGE
@@ -133,7 +180,8 @@ RBEAM = Kind(
     hessian=lambda st, w: rbeam.rbeam_weighted_hessian(st, w),
     stiffness=lambda props, ref: rbeam.rbeam_stiffness(props[:, :3]),
     mass=lambda x, ref, m: rbeam.rbeam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"],
-                                                   ref["l0"], m))
+                                                   ref["l0"], m),
+    gravity=_rbeam_gravity)
 
 #: Keyword -> kind, in the order the solver assembles them.
 KINDS = {k.keyword: k for k in (BEAM, TRUSS, HINGE, RBEAM)}

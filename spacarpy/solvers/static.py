@@ -131,6 +131,18 @@ class StaticProblem:
         self.kinematic_correction = True
         self._initial_check = False
         self.has_commit = any(g.kind.commit is not None for g in num.groups)
+        # gravity: applied with the initial load (factor a of the load path), then constant
+        self.gravity = np.asarray(model.gravity, dtype=float)
+        self.gravity_factor = 1.0
+        self.has_gravity = bool(np.any(self.gravity))
+        g_nodes = [(int(m.node), float(m.values[0])) for m in model.nodal_masses
+                   if len(m.values) == 1]
+        pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
+        self.point_weight = np.zeros(num.n_coord)
+        for n, m in g_nodes:
+            self.point_weight[num.pos_idx[pos_row[n]]] += m * self.gravity
+        if self.has_gravity:          # gravity belongs to the initial load (phase A)
+            self.loads.has_xf = self.loads.any = True
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
         self.timings = Timings()
@@ -169,6 +181,17 @@ class StaticProblem:
             q_m = x[num.rot_idx[self.loads.moment_rot]]
             f_ext[num.rot_idx[self.loads.moment_rot]] += 2.0 * np.einsum(
                 "nab,nb->na", moment_matrix(moment), q_m)
+        gk = []
+        if self.has_gravity and self.gravity_factor:
+            gv = self.gravity_factor * self.gravity
+            f_ext += self.gravity_factor * self.point_weight
+            for g_, st in zip(num.groups, states):
+                if g_.kind.gravity is None:
+                    gk.append(None)
+                    continue
+                fg, kg = g_.kind.gravity(x[g_.idx], g_.ref, g_.mass, gv)
+                f_ext += scatter_add(num.n_coord, g_.idx, fg)
+                gk.append(kg)
         r = (f_int - f_ext)[self.free]
         c = np.concatenate([st.e[g.rigid_elem, g.rigid_mode]
                             for g, st in zip(num.groups, states)]
@@ -176,7 +199,7 @@ class StaticProblem:
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
         return _Eval(states=states, sigmas=sigmas, r=r, c=c, f_int=f_int, f_ext=f_ext,
-                     q_eu=q_eu)
+                     q_eu=q_eu, gravity_stiffness=gk)
 
     def matrix(self, ev: "_Eval", mu, moment, material_only: bool = False):
         """The bordered Newton matrix at an evaluated state (CSC).
@@ -189,10 +212,12 @@ class StaticProblem:
         num = self.num
         t0 = time.perf_counter()
         k_el = []
-        for g, st, sigma in zip(num.groups, ev.states, ev.sigmas):
+        for i, (g, st, sigma) in enumerate(zip(num.groups, ev.states, ev.sigmas)):
             k = st.D.transpose(0, 2, 1) @ (g.S @ st.D)
             if not material_only:
                 k += g.kind.hessian(st, sigma)
+                if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
+                    k -= ev.gravity_stiffness[i]          # -d f_gravity / dx
             k_el.append(k)
         n_m = self.loads.moment_rot.size
         if material_only:
@@ -427,7 +452,11 @@ class StaticProblem:
         x, mu = num.x0.copy(), np.zeros(num.n_constraint)
         zero_force = np.zeros(num.n_coord)
         zero_moment = np.zeros((self.loads.moment_rot.size, 3))
-        ev = self.evaluate(x, mu, zero_force, zero_moment)
+        factor, self.gravity_factor = self.gravity_factor, 0.0
+        try:
+            ev = self.evaluate(x, mu, zero_force, zero_moment)
+        finally:
+            self.gravity_factor = factor
         if not self.pattern.n:
             return
         A = self.matrix(ev, mu, zero_moment)
@@ -462,6 +491,7 @@ class _Eval:
     f_int: np.ndarray
     f_ext: np.ndarray
     q_eu: np.ndarray
+    gravity_stiffness: list = field(default_factory=list)   # per group, or empty
 
 
 class _StepFailed(Exception):
@@ -560,6 +590,7 @@ def _advance(prob, x, mu, p_from, p_to, n_sub, opts, stored_step):
         dt = min(dt, t_end - t)
         p = p_from + (t + dt) * (p_to - p_from)
         force, moment = prob.loads.at(*p)
+        prob.gravity_factor = float(p[0])
         try:
             x_start = prob.move_prescribed(x, mu, p)
             x_new, mu_new, its, res, _ = prob.newton(x_start, mu, force, moment, opts)
