@@ -275,6 +275,9 @@ class _ModelBuilder:
         self.check_loads_on_fixed_coordinates()
         for st in by_kw.get("XM", []):
             self.nodal_mass(st)
+        for st in by_kw.get("OUTLEVEL", []):
+            self.warnings.append(f"{st.loc}: OUTLEVEL has no effect in spacarpy: the result "
+                                 "file always holds every quantity")
         for st in by_kw.get("GRAVITY", []):
             if self.once(st):
                 self.gravity = tuple(float(v) for v in st.fields[:3])

@@ -267,9 +267,9 @@ _KEYWORD_LIST = (
     _unsupported("USERINP", "user routine giving prescribed motion", "data",
                  required=(_f("name of the user motion routine", "name", "word"),)),
     # ------------------------------------------------------------------ output / linearization
-    _unsupported("OUTLEVEL", "SPACAR output level", "output",
-                 required=(_f("output level", "level", "int"),),
-                 optional=((_f("second output level", "level2", "int"),),)),
+    KeywordSpec("OUTLEVEL", "SPACAR output level (accepted; no effect in spacarpy)",
+                section="output", required=(_f("output level", "level", "int"),),
+                optional=((_f("second output level", "level2", "int"),),)),
     _unsupported("INPUTF", "input of the linearized system: a force on a coordinate", "output",
                  required=_IO_FIELDS),
     _unsupported("OUTX", "output of the linearized system: a position coordinate", "output",

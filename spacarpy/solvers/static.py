@@ -549,8 +549,12 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
                 raise
             log.warning("unloaded model: %s", exc)
 
+    warned = []
+
     def store(load_factor, x, mu, its, res):
         ev = prob.evaluate(x, mu, *prob.loads.at(1.0, load_factor))
+        if not warned:
+            warned.extend(_strain_warnings(num, ev.states, len(result.steps)))
         by_kind = {g.keyword: (st.e, sig) for g, st, sig in
                    zip(num.groups, ev.states, ev.sigmas)}
         beam_e, beam_s = by_kind.get("BEAM", (np.zeros((0, 6)), np.zeros((0, 6))))
@@ -576,6 +580,27 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
         store(s1, x, mu, its, res)
     prob.timings.total = time.perf_counter() - t_start
     return result
+
+
+#: Axial strain beyond which a warning says the linear material law is being stretched.
+MAX_AXIAL_STRAIN = 0.05
+
+
+def _strain_warnings(num, states, step) -> list:
+    """Warn once when an element's axial strain leaves the small-strain range."""
+    out = []
+    for g, st in zip(num.groups, states):
+        if g.keyword not in ("BEAM", "TRUSS") or not g.n_elem:
+            continue
+        strain = np.abs(st.e[:, 0]) / g.ref["l0"]
+        i = int(np.argmax(strain))
+        if strain[i] > MAX_AXIAL_STRAIN:
+            msg = (f"step {step}: {g.keyword} {int(g.ids[i])} has an axial strain of "
+                   f"{100 * strain[i]:.3g}%, far beyond the small strains the linear "
+                   f"stiffness (ESTIFF) describes; check the loads and the model")
+            log.warning(msg)
+            out.append(msg)
+    return out
 
 
 def _advance(prob, x, mu, p_from, p_to, n_sub, opts, stored_step):
