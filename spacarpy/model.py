@@ -177,6 +177,18 @@ class Prescribed:
 
 
 @dataclass(frozen=True)
+class PrescribedRotation:
+    """spacarpy extension ``INPUTR node ax ay az`` / ``DELINPR node angle``: the orientation
+    node turns about the fixed axis by ``s * angle`` (rad) at load factor s; all four Euler
+    parameters follow, so nobody has to type quaternion components."""
+
+    node: int
+    axis: tuple
+    angle: float = 0.0
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
 class Load:
     """A dead nodal load: force (position node) or moment (orientation node), global axes.
 
@@ -248,6 +260,8 @@ class Model:
     nodal_masses : list of NodalMass
     prescribed : list of Prescribed
         Prescribed (input) coordinates with their initial values and increments.
+    prescribed_rotations : list of PrescribedRotation
+        Orientation nodes turned about a fixed axis (spacarpy extension).
     gravity : (3,) float
         Gravitational acceleration (m/s^2) acting on element and nodal masses; applied with
         the initial load (XF) and constant over the load steps.
@@ -273,6 +287,7 @@ class Model:
     iterstep: IterStep = field(default_factory=IterStep)
     nodal_masses: list = field(default_factory=list)
     prescribed: list = field(default_factory=list)
+    prescribed_rotations: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
     element_sets: dict = field(default_factory=dict)
     cross_sections: object | None = None

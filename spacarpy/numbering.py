@@ -127,11 +127,25 @@ class Numbering:
     prescribed_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
     prescribed_delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
+    rotation_idx: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int64))
+    rotation_axis: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    rotation_angle: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
     def prescribed_values(self, a: float, s: float) -> np.ndarray:
         """Values of the prescribed coordinates at load parameters (a on the initial values,
         s on the increments): ``x0 + a (initial - x0) + s delta``."""
         start = self.x0[self.prescribed_idx]
         return start + a * (self.prescribed_initial - start) + s * self.prescribed_delta
+
+    def prescribed_state(self, a: float, s: float):
+        """(indices, values) of every prescribed coordinate at load parameters (a, s):
+        INPUTX coordinates, then the Euler parameters of the nodes turned by INPUTR
+        (identity turned by ``s * angle`` about the axis)."""
+        from spacarpy.rotation import from_axis_angle
+        idx = np.concatenate([self.prescribed_idx, self.rotation_idx.ravel()])
+        q = (from_axis_angle(self.rotation_axis, s * self.rotation_angle).ravel()
+             if self.rotation_angle.size else np.zeros(0))
+        return idx, np.concatenate([self.prescribed_values(a, s), q])
 
     @property
     def n_rigid(self) -> int:
@@ -260,6 +274,9 @@ def number_model(model: Model) -> Numbering:
                               for k, p in zip(presc_idx, model.prescribed)], dtype=float)
     presc_delta = np.array([float(p.delta) for p in model.prescribed], dtype=float)
     fixed[presc_idx] = True
+    rot_presc_idx = np.array([rot_idx[rot_row[int(r.node)]] for r in model.prescribed_rotations],
+                             dtype=np.int64).reshape(-1, 4)
+    fixed[rot_presc_idx.ravel()] = True
     unknown_of = np.full(n_coord, -1, dtype=np.int64)
     unknown_of[~fixed] = np.arange(int((~fixed).sum()))
     euler_nodes = (np.flatnonzero(~fixed[rot_idx].all(axis=1)) if rot_ids.size
@@ -272,4 +289,8 @@ def number_model(model: Model) -> Numbering:
                      fixed_mask=fixed, unknown_of=unknown_of, n_unknown=int((~fixed).sum()),
                      euler_nodes=euler_nodes, length_scale=length_scale,
                      prescribed_idx=presc_idx, prescribed_initial=presc_initial,
-                     prescribed_delta=presc_delta)
+                     prescribed_delta=presc_delta, rotation_idx=rot_presc_idx,
+                     rotation_axis=np.array([r.axis for r in model.prescribed_rotations],
+                                            dtype=float).reshape(-1, 3),
+                     rotation_angle=np.array([r.angle for r in model.prescribed_rotations],
+                                             dtype=float))

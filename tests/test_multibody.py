@@ -286,3 +286,22 @@ def test_every_corpus_deck_with_only_supported_features_runs_from_the_cli(tmp_pa
         assert code == 0, deck.name
     assert {"oopspa_crosshinge.dat", "oopspa_testfile.dat", "dynastatflex_simple_beam.dat",
             "oopspa_crosshinge_mode3.dat"} <= set(ran)
+
+
+def test_prescribed_rotation_by_axis_and_angle():
+    """INPUTR/DELINPR turn the tip node about z by the angle that a dead tip moment causes:
+    the same equilibrium, and the reaction moment equals that load."""
+    _, res_m, st_m = solve_text(cantilever_text(extra_data="DELXF 4 0 0 1.2"))
+    q = st_m.x[res_m.problem.num.rot_idx[1]]
+    theta = float(2 * np.arctan2(q[3], q[0]))
+    _, res_r, st_r = solve_text(cantilever_text(extra_kin="INPUTR 4 0 0 1",
+                                                extra_data=f"DELINPR 4 {theta!r}"))
+    np.testing.assert_allclose(st_r.x, st_m.x, atol=1e-10)
+    prob = res_r.problem
+    reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component), st_r.reaction))
+    assert reac[(4, "Mz")] == pytest.approx(1.2, rel=1e-9)
+    assert abs(reac[(4, "Mx")]) < 1e-9 and abs(reac[(4, "My")]) < 1e-9
+    messages = [m for _, m in deck_errors(cantilever_text(extra_kin="INPUTR 3 0 0 1\n"
+                                                                    "INPUTR 2 0 0 1"))]
+    assert any("INPUTR: node 3 is a position node" in m for m in messages)
+    assert any("INPUTR: node 2 is already fixed or prescribed" in m for m in messages)

@@ -25,7 +25,7 @@ from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.model import (ANALYSES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
                             SPACAR_MODE_NUMBERS, BeamSet, ElementSet, Fix, IterStep, Load, Model,
-                            NodalMass, Prescribed)
+                            NodalMass, Prescribed, PrescribedRotation)
 
 __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
 
@@ -165,6 +165,7 @@ class _ModelBuilder:
         self.load_sts: list[Statement] = []
         self.nodal_masses: list[NodalMass] = []
         self.prescribed: dict = {}          # (node, coord) -> initial, delta, loc
+        self.rotations: dict = {}           # node -> axis, angle, loc (INPUTR/DELINPR)
         self.gravity = (0.0, 0.0, 0.0)
         self.iterstep: IterStep | None = None
         self.analysis: str | None = None
@@ -269,6 +270,10 @@ class _ModelBuilder:
         for st in by_kw.get("INPUTX", []) + by_kw.get("DELINPX", []):
             if st.keyword == "DELINPX" or st.module > 0:
                 self.inputx_value(st)
+        for st in by_kw.get("INPUTR", []):
+            self.inputr_declare(st)
+        for st in by_kw.get("DELINPR", []):
+            self.inputr_value(st)
         for st in statements:          # loads in deck order
             if st.keyword in ("XF", "DELXF"):
                 self.load(st)
@@ -576,6 +581,44 @@ class _ModelBuilder:
             self.prescribed[(n, c)] = {"initial": None, "delta": 0.0, "loc": st.loc,
                                        "set": set()}
 
+    def inputr_declare(self, st: Statement) -> None:
+        """``INPUTR n ax ay az``: orientation node n turns about the axis (all of its Euler
+        parameters are prescribed)."""
+        n = st.fields[0]
+        if self.node_kind(n) != "orientation":
+            what = "a position node" if n in self.positions else "not defined"
+            self.error(st.field_locs[0], f"INPUTR: node {n} is {what}; INPUTR turns an "
+                                         "orientation node", st)
+            return
+        axis = np.array(st.fields[1:4], dtype=float)
+        if np.linalg.norm(axis) < ORIENTATION_TOL:
+            self.error(st.field_locs[1], "INPUTR: the rotation axis is (nearly) zero", st)
+            return
+        for c in range(1, 5):
+            fix = self.fix_lines.get((n, c))
+            if fix is not None or (n, c) in self.prescribed:
+                self.error(st.loc, f"INPUTR: node {n} is already fixed or prescribed (coordinate "
+                                   f"{c}); a turned node cannot be fixed too", st)
+                return
+        if n in self.rotations:
+            self.error(st.loc, f"INPUTR: node {n} is given twice", st)
+            return
+        self.rotations[n] = {"axis": tuple(axis / np.linalg.norm(axis)), "angle": 0.0,
+                             "loc": st.loc, "set": False}
+
+    def inputr_value(self, st: Statement) -> None:
+        n, angle = st.fields[0], float(st.fields[1])
+        entry = self.rotations.get(n)
+        if entry is None:
+            self.error(st.field_locs[0], f"DELINPR: node {n} has no INPUTR line (declare its "
+                                         f"axis with 'INPUTR {n} ax ay az')", st)
+            return
+        if entry["set"]:
+            self.error(st.loc, f"DELINPR: node {n} is given twice", st)
+            return
+        entry["set"] = True
+        entry["angle"] = angle
+
     def inputx_value(self, st: Statement) -> None:
         """``INPUTX n c value`` (data module) or ``DELINPX n c delta``."""
         n, c, value = st.fields[0], st.fields[1], float(st.fields[2])
@@ -785,6 +828,9 @@ class _ModelBuilder:
             nodal_masses=self.nodal_masses,
             prescribed=[Prescribed(node=n, coord=c, initial=v["initial"], delta=v["delta"],
                                    loc=v["loc"]) for (n, c), v in self.prescribed.items()],
+            prescribed_rotations=[PrescribedRotation(node=n, axis=v["axis"], angle=v["angle"],
+                                                     loc=v["loc"])
+                                  for n, v in self.rotations.items()],
             gravity=self.gravity,
             element_sets=sets,
             analysis=self.analysis or "static",

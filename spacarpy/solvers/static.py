@@ -408,15 +408,13 @@ class StaticProblem:
         carry the rest of the model along kinematically (every deformation kept at its
         current value, Euler normalizations restored): a predictor for the Newton step."""
         num = self.num
-        if not num.prescribed_idx.size:
-            return x
-        target = num.prescribed_values(*params)
-        if np.array_equal(target, x[num.prescribed_idx]):
+        idx, target = num.prescribed_state(*params)
+        if not idx.size or np.array_equal(target, x[idx]):
             return x
         zero = np.zeros((self.loads.moment_rot.size, 3))
         states = self.evaluate(x, mu, np.zeros(num.n_coord), zero).states
         moved = x.copy()
-        moved[num.prescribed_idx] = target
+        moved[idx] = target
         return self.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=4)
 
     def commit(self, x, mu, force, moment):
