@@ -305,3 +305,47 @@ def test_prescribed_rotation_by_axis_and_angle():
                                                                     "INPUTR 2 0 0 1"))]
     assert any("INPUTR: node 3 is a position node" in m for m in messages)
     assert any("INPUTR: node 2 is already fixed or prescribed" in m for m in messages)
+
+
+def planar_four_bar_equilibrium(k=2.0, P=1.5):
+    """Independent planar solution: loop closure by circle intersection, virtual work
+    k phi = P dx_C/dphi (derivative of the closed-form C(phi) by a central difference)."""
+    A, D = np.array([0, 0.0]), np.array([1, 0.0])
+    L1, L2, L3 = 0.3, np.hypot(1.0, 0.5), 0.8
+
+    def c_of(phi):
+        B = A + L1 * np.array([-np.sin(phi), np.cos(phi)])
+        d = np.linalg.norm(D - B)
+        a = (L2**2 - L3**2 + d**2) / (2 * d)
+        h = np.sqrt(L2**2 - a**2)
+        mid = B + a * (D - B) / d
+        perp = np.array([-(D - B)[1], (D - B)[0]]) / d
+        return max(mid + h * perp, mid - h * perp, key=lambda c: c[1])   # the upper branch
+
+    phi = brentq(lambda p: k * p - P * (c_of(p + 1e-6)[0] - c_of(p - 1e-6)[0]) / 2e-6,
+                 -1.0, 1.0)
+    return phi, c_of(phi)
+
+
+def test_four_bar_linkage_matches_the_planar_solution(tmp_path):
+    out = tmp_path / "fb.h5"
+    assert main(["run", str(DECKS / "four_bar_linkage.dat"), "-o", str(out), "-q"]) == 0
+    res = read_results(out)
+    phi, c = planar_four_bar_equilibrium()
+    pos = res.static.position[-1, list(res.position_nodes).index(5)]
+    np.testing.assert_allclose(pos, [c[0], c[1], 0.0], atol=1e-9)
+    q = res.static.euler[-1, list(res.orientation_nodes).index(4)]
+    assert 2 * np.arctan2(q[3], q[0]) == pytest.approx(phi, abs=1e-9)
+
+
+def test_four_bar_without_releases_is_reported_three_times_over_constrained(tmp_path, capsys):
+    text = (DECKS / "four_bar_linkage.dat").read_text()
+    text = text.replace("RLSE 13 2 3", "").replace("RLSE 12 2", "")
+    deck = tmp_path / "fb_over.dat"
+    deck.write_text(text)
+    assert main(["run", str(deck), "--mode", "check", "-q"]) == 3
+    err = capsys.readouterr().err
+    assert "over-constrained: 3 redundant constraint(s) among: HINGE 11 mode 2" in err
+    assert "'RLSE 13 2' would release it" in err
+    assert main(["run", str(DECKS / "four_bar_linkage.dat"), "--mode", "check", "-q"]) == 0
+    assert "degrees of freedom  1, no free motion" in capsys.readouterr().out
