@@ -30,6 +30,8 @@ def test_run_writes_the_documented_static_contract(tmp_path, capsys):
         assert f.attrs["analysis"] == "static" and f.attrs["deformations"] == "modified"
         assert f.attrs["deck_path"].endswith("table1_cantilever_8el_modified.dat")
         assert f["deck"][()].decode() == deck.read_text()
+        assert f.attrs["deck_text"] == deck.read_text()
+        assert f.attrs["program_version"] and f.attrs["deck_path"]
         assert list(f["model/position_nodes"][:]) == list(range(1, 18, 2))
         assert list(f["model/orientation_nodes"][:]) == list(range(2, 19, 2))
         assert list(f["model/elements"][:]) == list(range(1, 9))

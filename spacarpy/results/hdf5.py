@@ -669,6 +669,7 @@ class ResultsWriter:
         a["created"] = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
         a["deck_path"] = _absolute_deck_path(model.source_path)
         a["deck_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()
+        a["deck_text"] = text    # also here, so the run is identified from the root alone
         a["analysis"] = self.analysis
         a["deformations"] = self.deformations
         _create(f, "deck", text, dtype=h5py.string_dtype("utf-8"))
