@@ -51,6 +51,27 @@ def quadratic_form(v: np.ndarray) -> np.ndarray:
     return np.einsum("kabj,...j->...kab", _T, v)
 
 
+# The quadratic forms of the rotated unit vectors, _TQ_UNIT[j, k, a, b] = H_k(e_j)[a, b]. H is
+# linear in its vector, so the forms of any vectors are contractions of this tensor.
+_TQ_UNIT = np.einsum("kabj->jkab", _T)
+_TQ_Q = _TQ_UNIT.transpose(3, 1, 2, 0).reshape(4, 36)     # [b, (k, a, j)]
+_TQ_H = _TQ_UNIT.transpose(1, 0, 2, 3).reshape(9, 16)     # [(k, j), (a, b)]
+
+
+def vector_jacobians(q: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``d(R(q) u_i)/dq = 2 H(u_i) q``, shape (n, m, 3, 4), for q (n, 4) and m vectors
+    u (n, m, 3) per element."""
+    n, m = u.shape[:2]
+    p = (q @ _TQ_Q).reshape(n, 12, 3)                 # [(k, a), j] = H_k(e_j)[a, :] q
+    return 2.0 * (p @ u.transpose(0, 2, 1)).transpose(0, 2, 1).reshape(n, m, 3, 4)
+
+
+def hessian_combination(mkj: np.ndarray) -> np.ndarray:
+    """``2 sum_kj mkj[k, j] H_k(e_j)``, shape (n, 4, 4), for mkj (n, 3, 3). The second
+    derivative ``sum_i c_i . d^2(R u_i)/dq^2`` is this with ``mkj = sum_i c_i u_i^T``."""
+    return 2.0 * (mkj.reshape(-1, 9) @ _TQ_H).reshape(-1, 4, 4)
+
+
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``R(q) v`` for batches: q (..., 4), v (..., 3) -> (..., 3). Exact for unnormalized q."""
     l0 = q[..., :1]

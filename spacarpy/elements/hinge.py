@@ -67,8 +67,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from spacarpy.linalg import batch_matvec
-from spacarpy.rotation import quadratic_form
+from spacarpy.linalg import batch_matvec, property_columns
+from spacarpy.rotation import hessian_combination, vector_jacobians
 
 N_LDOF = 8
 N_DEF = 3
@@ -90,38 +90,12 @@ def _bilinear_forms() -> np.ndarray:
 
 C_FORMS = _bilinear_forms()
 
-# The quadratic forms of the rotated unit vectors, _TQ[j, k, a, b] = H_k(e_j)[a, b]; H is
-# linear in its vector, so all the forms this module needs are contractions of _TQ.
-_TQ = quadratic_form(np.eye(3))
-_TQ_Q = _TQ.transpose(3, 1, 2, 0).reshape(4, 36)     # [b, (k, a, j)]
-_TQ_H = _TQ.transpose(1, 0, 2, 3).reshape(9, 16)     # [(k, j), (a, b)]
 
 
-def _vector_jacobians(q: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``d(R(q) u_i)/dq = 2 H(u_i) q``, shape (n, m, 3, 4), for q (n, 4), vectors u (n, m, 3)."""
-    n, m = u.shape[:2]
-    p = (q @ _TQ_Q).reshape(n, 12, 3)                 # [(k, a), j] = H_k(e_j)[a, :] q
-    return 2.0 * (p @ u.transpose(0, 2, 1)).transpose(0, 2, 1).reshape(n, m, 3, 4)
 
 
-def _hessian_combination(mkj: np.ndarray) -> np.ndarray:
-    """``2 sum_kj mkj[k, j] H_k(e_j)`` (n, 4, 4) for mkj (n, 3, 3); ``sum_i c_i . H(u_i)`` is
-    this with ``mkj = sum_i c_i u_i^T``."""
-    return 2.0 * (mkj.reshape(-1, 9) @ _TQ_H).reshape(-1, 4, 4)
 
 
-def _columns(values, n_cols: int, name: str) -> np.ndarray:
-    """Property values (n_elem,) or (n_elem, k<=n_cols) -> (n_elem, n_cols); missing and NaN
-    trailing values are 0."""
-    v = np.asarray(values, dtype=float)
-    if v.ndim == 1:
-        v = v[:, None]
-    if v.ndim != 2 or v.shape[1] > n_cols:
-        raise ValueError(f"{name}: expected (n_elem,) or (n_elem, <= {n_cols}) values, "
-                         f"got shape {v.shape}")
-    out = np.zeros((v.shape[0], n_cols))
-    out[:, :v.shape[1]] = np.nan_to_num(v, nan=0.0)
-    return out
 
 
 def hinge_reference(axis: np.ndarray):
@@ -173,8 +147,8 @@ def hinge_state(x: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
     n = x.shape[0]
     qp, qq = x[:, QP], x[:, QQ]
     u = np.stack([a, b, c], axis=1)
-    Yp = _vector_jacobians(qp, u).reshape(n, 9, 4)
-    Yq = _vector_jacobians(qq, u).reshape(n, 9, 4)
+    Yp = vector_jacobians(qp, u).reshape(n, 9, 4)
+    Yq = vector_jacobians(qq, u).reshape(n, 9, 4)
     yp = 0.5 * batch_matvec(Yp, qp).reshape(n, 3, 3)
     yq = 0.5 * batch_matvec(Yq, qq).reshape(n, 3, 3)
     # gradients of the four bilinear forms with respect to y^p and y^q
@@ -212,8 +186,8 @@ def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
     cp = cw @ st.yq                                                # (n, 3, 3) rows i
     cq = cw.transpose(0, 2, 1) @ st.yp
     hx = np.empty((n, N_LDOF, N_LDOF))
-    hx[:, QP, QP] = _hessian_combination(cp.transpose(0, 2, 1) @ st.u)
-    hx[:, QQ, QQ] = _hessian_combination(cq.transpose(0, 2, 1) @ st.u)
+    hx[:, QP, QP] = hessian_combination(cp.transpose(0, 2, 1) @ st.u)
+    hx[:, QQ, QQ] = hessian_combination(cq.transpose(0, 2, 1) @ st.u)
     # mixed block Yp^T (C(w_f) kron I3) Yq
     byq = (cw @ st.Yq.reshape(n, 3, 12)).reshape(n, 9, 4)
     pq = st.Yp.transpose(0, 2, 1) @ byq
@@ -238,5 +212,5 @@ def hinge_deformations(x, a, b, c, e1_previous=None) -> np.ndarray:
 def hinge_stiffness(props: np.ndarray) -> np.ndarray:
     """S = diag(k, k2, k3) (n_elem, 3, 3) from the ESTIFF values ``k [k2 k3]``, given as
     (n_elem,) or (n_elem, 1..3); missing values are 0."""
-    k = _columns(props, N_DEF, "HINGE ESTIFF")
+    k = property_columns(props, N_DEF, "HINGE ESTIFF")
     return k[:, :, None] * np.eye(N_DEF)

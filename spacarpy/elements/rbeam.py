@@ -66,8 +66,8 @@ import numpy as np
 
 from spacarpy.elements.beam import reference_triads
 from spacarpy.elements.beam_mass import g_matrix, section_inertia
-from spacarpy.linalg import batch_matvec
-from spacarpy.rotation import quadratic_form
+from spacarpy.linalg import batch_matvec, property_columns
+from spacarpy.rotation import hessian_combination, vector_jacobians
 
 N_LDOF = 10
 N_DEF = 3
@@ -75,32 +75,10 @@ N_DEF = 3
 # Local coordinate slices.
 RP, QP, RQ = slice(0, 3), slice(3, 7), slice(7, 10)
 
-# The quadratic forms of the rotated unit vectors, _TQ[j, k, a, b] = H_k(e_j)[a, b]; H is
-# linear in its vector, so all the forms this module needs are contractions of _TQ.
-_TQ = quadratic_form(np.eye(3))
-_TQ_Q = _TQ.transpose(3, 1, 2, 0).reshape(4, 36)     # [b, (k, a, j)]
-_TQ_H = _TQ.transpose(1, 0, 2, 3).reshape(9, 16)     # [(k, j), (a, b)]
 
 
-def _vector_jacobians(q: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``d(R(q) u_i)/dq = 2 H(u_i) q``, shape (n, m, 3, 4), for q (n, 4), vectors u (n, m, 3)."""
-    n, m = u.shape[:2]
-    p = (q @ _TQ_Q).reshape(n, 12, 3)                 # [(k, a), j] = H_k(e_j)[a, :] q
-    return 2.0 * (p @ u.transpose(0, 2, 1)).transpose(0, 2, 1).reshape(n, m, 3, 4)
 
 
-def _columns(values, n_cols: int, name: str) -> np.ndarray:
-    """Property values (n_elem,) or (n_elem, k<=n_cols) -> (n_elem, n_cols); missing and NaN
-    trailing values are 0."""
-    v = np.asarray(values, dtype=float)
-    if v.ndim == 1:
-        v = v[:, None]
-    if v.ndim != 2 or v.shape[1] > n_cols:
-        raise ValueError(f"{name}: expected (n_elem,) or (n_elem, <= {n_cols}) values, "
-                         f"got shape {v.shape}")
-    out = np.zeros((v.shape[0], n_cols))
-    out[:, :v.shape[1]] = np.nan_to_num(v, nan=0.0)
-    return out
 
 
 def rbeam_reference(xp: np.ndarray, xq: np.ndarray, orientation: np.ndarray):
@@ -135,7 +113,7 @@ def rbeam_state(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
     qp = x[:, QP]
     d = x[:, RQ] - x[:, RP]
     u = np.stack([nx, ny, nz], axis=1)
-    dtr = _vector_jacobians(qp, u)                                 # (n, 3, 3, 4)
+    dtr = vector_jacobians(qp, u)                                 # (n, 3, 3, 4)
     triad = 0.5 * batch_matvec(dtr, qp[:, None, :])               # (n, 3, 3)
     e = batch_matvec(triad, d)
     e[:, 0] -= l0
@@ -150,9 +128,9 @@ def rbeam_weighted_hessian(st: RBeamState, w: np.ndarray) -> np.ndarray:
     """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 3) -> (n_elem, 10, 10)."""
     n = w.shape[0]
     v = batch_matvec(st.u.transpose(0, 2, 1), w)                   # sum_j w_j n_j
-    mkj = (st.d[:, :, None] * v[:, None, :]).reshape(n, 9)         # d_k v_j
+    mkj = st.d[:, :, None] * v[:, None, :]                         # d_k v_j
     hx = np.zeros((n, N_LDOF, N_LDOF))
-    hx[:, QP, QP] = 2.0 * (mkj @ _TQ_H).reshape(n, 4, 4)           # 2 sum_k d_k H_k(v)
+    hx[:, QP, QP] = hessian_combination(mkj)                       # 2 sum_k d_k H_k(v)
     dm = (w[:, None, :] @ st.dtriad.reshape(n, 3, 12)).reshape(n, 3, 4)   # d(R v)/dq
     dmt = dm.transpose(0, 2, 1)
     hx[:, QP, RQ], hx[:, QP, RP] = dmt, -dmt
@@ -169,7 +147,7 @@ def rbeam_stiffness(props: np.ndarray) -> np.ndarray:
     """S = diag(k1, k2, k3) (n_elem, 3, 3) from the optional ESTIFF values ``k1 [k2 k3]``
     (N/m), given as (n_elem,) or (n_elem, 0..3); missing values (and no ESTIFF line: pass
     ``np.zeros((n_elem, 0))``) are 0."""
-    k = _columns(props, N_DEF, "RBEAM ESTIFF")
+    k = property_columns(props, N_DEF, "RBEAM ESTIFF")
     return k[:, :, None] * np.eye(N_DEF)
 
 
@@ -186,11 +164,11 @@ def rbeam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndar
         EM data ``rhoA [rho(Iy+Iz) rhoIy rhoIz rhoIyz]`` (kg/m, kg m); missing values are 0.
     """
     n = x.shape[0]
-    em = _columns(mass, 5, "RBEAM EM")
+    em = property_columns(mass, 5, "RBEAM EM")
     qp = x[:, QP]
     m = em[:, 0] * l0
     half = 0.5 * l0
-    b = _vector_jacobians(qp, nx[:, None, :])[:, 0]               # (n, 3, 4) d n_x^p / d q^p
+    b = vector_jacobians(qp, nx[:, None, :])[:, 0]               # (n, 3, 4) d n_x^p / d q^p
     out = np.zeros((n, N_LDOF, N_LDOF))
     out[:, RP, RP] = m[:, None, None] * np.eye(3)
     mb = (m * half)[:, None, None] * b

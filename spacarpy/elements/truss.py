@@ -33,6 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from spacarpy.linalg import property_columns
+
 N_LDOF = 6
 N_DEF = 1
 
@@ -40,18 +42,6 @@ N_DEF = 1
 RP, RQ = slice(0, 3), slice(3, 6)
 
 
-def _columns(values, n_cols: int, name: str) -> np.ndarray:
-    """Property values (n_elem,) or (n_elem, k<=n_cols) -> (n_elem, n_cols); missing and NaN
-    trailing values are 0."""
-    v = np.asarray(values, dtype=float)
-    if v.ndim == 1:
-        v = v[:, None]
-    if v.ndim != 2 or v.shape[1] > n_cols:
-        raise ValueError(f"{name}: expected (n_elem,) or (n_elem, <= {n_cols}) values, "
-                         f"got shape {v.shape}")
-    out = np.zeros((v.shape[0], n_cols))
-    out[:, :v.shape[1]] = np.nan_to_num(v, nan=0.0)
-    return out
 
 
 def truss_reference(xp: np.ndarray, xq: np.ndarray) -> np.ndarray:
@@ -102,7 +92,7 @@ def truss_deformations(x: np.ndarray, l0: np.ndarray) -> np.ndarray:
 
 def truss_stiffness(props: np.ndarray, l0: np.ndarray) -> np.ndarray:
     """S (n_elem, 1, 1) = EA / l0 from the ESTIFF values ``EA`` (n_elem,) or (n_elem, 1)."""
-    ea = _columns(props, 1, "TRUSS ESTIFF")[:, 0]
+    ea = property_columns(props, 1, "TRUSS ESTIFF")[:, 0]
     return (ea / l0)[:, None, None]
 
 
@@ -111,6 +101,6 @@ def truss_mass_matrix(mass: np.ndarray, l0: np.ndarray) -> np.ndarray:
 
     ``M = rhoA l0 / 6 [[2 I, I], [I, 2 I]]`` (linear interpolation of the positions).
     """
-    rho_a = _columns(mass, 1, "TRUSS EM")[:, 0]
+    rho_a = property_columns(mass, 1, "TRUSS EM")[:, 0]
     block = np.kron(np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0, np.eye(3))
     return (rho_a * l0)[:, None, None] * block
