@@ -112,7 +112,9 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
             k = summary.n_steps
             writer.static_step(step.load_factor, step.x[num.pos_idx], step.x[num.rot_idx],
                                step.deformation, step.stress, step.reaction,
-                               step.iterations, step.residual)
+                               step.iterations, step.residual,
+                               group_deformation=step.group_deformation,
+                               group_stress=step.group_stress)
             summary.n_steps += 1
             msg = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
                    f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "

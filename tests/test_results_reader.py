@@ -63,6 +63,8 @@ def result_files() -> dict:
         "bend": ("table2_bend_8el_modified", []),
         "frame": ("example_portal_frame", ["--set", "n=2"]),
         "column": ("column", ["--modes-per-step", "--modes", "3", "--compliance", "3", "4"]),
+        "fourbar": ("four_bar_linkage", []),          # HINGE and RBEAM (schema 1.2)
+        "truss": ("two_bar_truss", []),               # TRUSS (schema 1.2)
     }
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}
@@ -92,7 +94,7 @@ def test_every_written_file_is_valid(files):
 def test_open_results_is_exported_at_the_top(files):
     assert spacarpy.open_results is open_results
     res = spacarpy.open_results(files["bend"])
-    assert res.completed and res.analysis == "static" and res.schema_version == (1, 1)
+    assert res.completed and res.analysis == "static" and res.schema_version == (1, 2)
     assert "static analysis, completed" in repr(res)
 
 
@@ -199,7 +201,7 @@ def test_newer_major_version_is_refused_with_both_versions(files, tmp_path):
     with h5py.File(path, "r+") as f:
         f.attrs["schema_version"] = np.array([2, 0], dtype=np.int32)
     with pytest.raises(ResultsFormatError, match=r"schema version 2\.0 is newer than schema "
-                                                 r"version 1\.1"):
+                                                 r"version 1\.2"):
         open_results(path)
 
 

@@ -1,4 +1,4 @@
-"""Write, read and validate spacarpy results files (HDF5, schema version 1.1), crash-safely.
+"""Write, read and validate spacarpy results files (HDF5, schema version 1.2), crash-safely.
 
 This module's one job is the results file: :class:`ResultsWriter` streams an analysis into it
 step by step, :func:`read_results` loads it back into numpy arrays, and :func:`validate_file`
@@ -68,7 +68,7 @@ __all__ = [
 
 #: (major, minor) version of the results-file schema written and read by this module.
 #: MAJOR changes are incompatible; MINOR ones only add optional content.
-SCHEMA_VERSION = (1, 1)
+SCHEMA_VERSION = (1, 2)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -139,6 +139,20 @@ DATASET_ATTRS = {
     "static/reaction_component": ("1", "name (Fx Fy Fz Mx My Mz) of each reaction component"),
     "static/iterations": ("1", "Newton iterations used in the load step"),
     "static/residual": ("1", "final relative residual of the load step"),
+    # schema 1.2: elements of the other kinds (present when the model has them)
+    **{f"model/{k.lower()}_elements": ("1", f"deck number of each {k} element")
+       for k in ("TRUSS", "HINGE", "RBEAM")},
+    **{f"model/{k.lower()}_element_nodes": ("1", f"deck node numbers {slots} of each {k} "
+                                                  "element")
+       for k, slots in (("TRUSS", "[p q]"), ("HINGE", "[r s]"), ("RBEAM", "[p r q]"))},
+    "static/truss_deformation": ("m", "elongation of each TRUSS element"),
+    "static/truss_stress_resultant": ("N", "axial force of each TRUSS element"),
+    "static/hinge_deformation": ("rad | 1", "HINGE deformations: 1 the joint angle (rad), "
+                                            "2-3 the small relative rotations (1)"),
+    "static/hinge_stress_resultant": ("N m", "HINGE stress resultants: the joint moment and "
+                                             "the constraint moments"),
+    "static/rbeam_deformation": ("m", "RBEAM deformations (position of q in the body of p)"),
+    "static/rbeam_stress_resultant": ("N", "RBEAM constraint forces"),
     "eigen/step": ("1", "index of the static step (row of /static) that was linearized"),
     "eigen/frequency": ("Hz", "natural frequency; negative: unstable mode (divergence rate), "
                               "NaN: complex or infinite eigenvalue, 0: rigid-body mode"),
@@ -189,6 +203,8 @@ _LIN_DATASETS = {
         "shape_euler": (np.float64, lambda m, p, r: (m, r, 4)),
     },
 }
+#: Element kinds besides BEAM with their own datasets (schema 1.2): keyword -> modes.
+OTHER_KINDS = {"TRUSS": 1, "HINGE": 3, "RBEAM": 3}
 #: Names of the ``/eigen/kind`` codes.
 MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite")
 
@@ -434,6 +450,12 @@ class ResultsWriter:
         if self._sections is not None and self._sections.known.any():
             step_datasets.update(_STRESS_DATASETS)
             trailing.update({name: (n_elem,) for name in _STRESS_DATASETS})
+        for kind, es in sorted(self.model.element_sets.items()):   # schema 1.2
+            if es.n_elem and kind in OTHER_KINDS:
+                for what in ("deformation", "stress_resultant"):
+                    name = f"{kind.lower()}_{what}"
+                    step_datasets[name] = (np.float64, ("element", "deformation_mode"))
+                    trailing[name] = (es.n_elem, OTHER_KINDS[kind])
         for name, (dtype, labels) in step_datasets.items():
             ds = _create_extendable(g, name, trailing[name], dtype)
             ds.dims[0].attach_scale(load_factor)
@@ -459,7 +481,8 @@ class ResultsWriter:
         self._shapes = trailing
 
     def static_step(self, load_factor: float, position, euler, deformation, stress_resultant,
-                    reaction, iterations: int, residual: float) -> None:
+                    reaction, iterations: int, residual: float, group_deformation=None,
+                    group_stress=None) -> None:
         """Append one converged static load step and make it durable.
 
         The step's arrays are appended and flushed first; the step is then committed by
@@ -503,6 +526,20 @@ class ResultsWriter:
             from spacarpy.results.stress import surface_stress
             rows["max_normal_stress"], rows["max_von_mises_stress"] = surface_stress(
                 rows["stress_resultant"], self._l0, self._sections)
+        for what, values in (("deformation", group_deformation), ("stress_resultant",
+                                                                  group_stress)):
+            for kind in OTHER_KINDS:
+                name = f"{kind.lower()}_{what}"
+                if name not in self._static:
+                    continue
+                if values is None or kind not in values:
+                    raise ValueError(f"static_step: {name} is missing (the model has {kind} "
+                                     "elements)")
+                row = np.asarray(values[kind], dtype=np.float64)
+                if row.shape != self._shapes[name]:
+                    raise ValueError(f"static_step: {name} has shape {row.shape}, "
+                                     f"expected {self._shapes[name]}")
+                rows[name] = row
         k = self._n_step
         for name, row in rows.items():
             ds = self._static[name]
@@ -683,6 +720,10 @@ class ResultsWriter:
         _create(g, "element_type", np.full(beams.n_elem, b"BEAM", dtype="S4"),
                 dtype=h5py.string_dtype("ascii", 4))
         self._write_model_11(g)
+        for kind, es in sorted(model.element_sets.items()):     # schema 1.2
+            if es.n_elem and kind in OTHER_KINDS:
+                _create(g, f"{kind.lower()}_elements", np.asarray(es.ids, dtype=np.int64))
+                _create(g, f"{kind.lower()}_element_nodes", np.asarray(es.nodes, dtype=np.int64))
 
     def _write_model_11(self, g: h5py.Group) -> None:
         """Write the schema-1.1 part of ``/model``: element properties, cross-sections, loads
