@@ -905,8 +905,35 @@ class LinearizedResults:
         return int(first.shape[1]) if first.ndim > 1 else 0
 
 
+class RootAttributes:
+    """Properties over the root attributes ``attrs`` (a dict of Python values), shared by the
+    eager :class:`Results` and the lazy :class:`spacarpy.results.reader.ResultsFile`."""
+
+    @property
+    def schema_version(self) -> tuple[int, int]:
+        return tuple(self.attrs["schema_version"])
+
+    @property
+    def completed(self) -> bool:
+        """Whether the run finished; ``False`` for a partial file."""
+        return bool(self.attrs.get("completed", False))
+
+    @property
+    def error(self) -> str | None:
+        """Why the run stopped, or ``None`` (finished, or killed without a chance to say)."""
+        return self.attrs.get("error")
+
+    @property
+    def analysis(self) -> str:
+        return self.attrs["analysis"]
+
+    @property
+    def deformations(self) -> str:
+        return self.attrs["deformations"]
+
+
 @dataclass
-class Results:
+class Results(RootAttributes):
     """Contents of a results file, as numpy arrays.
 
     Attributes
@@ -943,27 +970,6 @@ class Results:
     buckling: LinearizedResults | None = None
     compliance: LinearizedResults | None = None
 
-    @property
-    def schema_version(self) -> tuple[int, int]:
-        return tuple(self.attrs["schema_version"])
-
-    @property
-    def completed(self) -> bool:
-        """Whether the run finished; ``False`` for a partial file."""
-        return bool(self.attrs.get("completed", False))
-
-    @property
-    def error(self) -> str | None:
-        """Why the run stopped, or ``None`` (finished, or killed without a chance to say)."""
-        return self.attrs.get("error")
-
-    @property
-    def analysis(self) -> str:
-        return self.attrs["analysis"]
-
-    @property
-    def deformations(self) -> str:
-        return self.attrs["deformations"]
 
 
 @contextmanager

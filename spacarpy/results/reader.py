@@ -30,6 +30,7 @@ import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.results.hdf5 import (
+    RootAttributes,
     MODE_KIND_NAMES,
     check_readable,
     open_for_reading,
@@ -82,7 +83,7 @@ def open_results(path) -> "ResultsFile":
     return ResultsFile(path)
 
 
-class ResultsFile:
+class ResultsFile(RootAttributes):
     """A results file opened by :func:`open_results`.
 
     Attributes
@@ -149,28 +150,6 @@ class ResultsFile:
             return int(f[path].shape[0])
 
     # -- root attributes ----------------------------------------------------------------------
-
-    @property
-    def schema_version(self) -> tuple[int, int]:
-        return tuple(self.attrs["schema_version"])
-
-    @property
-    def completed(self) -> bool:
-        """Whether the run finished; ``False`` for a partial file."""
-        return bool(self.attrs.get("completed", False))
-
-    @property
-    def error(self) -> str | None:
-        """Why the run stopped, or ``None``."""
-        return self.attrs.get("error")
-
-    @property
-    def analysis(self) -> str:
-        return self.attrs["analysis"]
-
-    @property
-    def deformations(self) -> str:
-        return self.attrs["deformations"]
 
     @property
     def deck(self) -> str:

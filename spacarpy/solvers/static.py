@@ -107,6 +107,8 @@ class Loads:
         self.moment_rot = loaded                            # orientation-node indices
         self.moment = {k: v[loaded] for k, v in moment.items()}
         self.has_xf = bool(np.any(self.force["XF"]) or np.any(self.moment["XF"]))
+        # gravity (applied by StaticProblem) belongs to the initial load, reached in phase A
+        self.has_xf = self.has_xf or bool(np.any(model.gravity))
         self.any = self.has_xf or bool(np.any(self.force["DELXF"]) or np.any(self.moment["DELXF"]))
 
     def at(self, a: float, s: float):
@@ -141,8 +143,6 @@ class StaticProblem:
         self.point_weight = np.zeros(num.n_coord)
         for n, m in g_nodes:
             self.point_weight[num.pos_idx[pos_row[n]]] += m * self.gravity
-        if self.has_gravity:          # gravity belongs to the initial load (phase A)
-            self.loads.has_xf = self.loads.any = True
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
         self.timings = Timings()
