@@ -80,8 +80,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
                           "or basic (Eq. 7); overrides the deck's DEFORMATIONS line")
-    run.add_argument("--modes", type=_positive_int, default=10, metavar="N",
-                     help="number of eigenmodes / buckling modes per linearization (default 10)")
+    run.add_argument("--modes", type=_positive_int, default=None, metavar="N",
+                     help="number of eigenmodes / buckling modes per linearization (default: "
+                          "the deck's MODES line, else 10)")
     run.add_argument("--compliance", type=_positive_int, nargs=2, default=None,
                      metavar=("POS", "ROT"),
                      help="store the 6x6 compliance of position node POS with orientation "
@@ -328,8 +329,9 @@ def cmd_run(args) -> int:
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
              n_elem, model.analysis, model.deformations)
-    summary = run_model(model, out, RunOptions(n_modes=args.modes,
-                                               modes_per_step=args.modes_per_step,
+    summary = run_model(model, out, RunOptions(n_modes=args.modes or model.n_modes or 10,
+                                               modes_per_step=(args.modes_per_step
+                                                               or model.modes_each_step),
                                                compliance_node=args.compliance))
     if model.analysis == "check":
         print(summary.report)

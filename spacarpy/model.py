@@ -27,6 +27,7 @@ FLEXIBLE = 1   # listed in DYNE: carries stiffness (ESTIFF required)
 RELEASED = 2   # listed in RLSE: free; carries ESTIFF stiffness if given, else none
 
 DEFORMATION_VARIANTS = ("modified", "basic")
+BIFURCATION_CHOICES = ("off", "warn", "switch")
 
 #: Analysis names and the SPACAR mode numbers that map onto them.
 ANALYSES = ("static", "eigen", "buckling", "transient", "check")
@@ -177,6 +178,25 @@ class Prescribed:
 
 
 @dataclass(frozen=True)
+class PrescribedDeformation:
+    """A prescribed (input) element deformation: ``INPUTE element mode`` in the kinematics
+    module, e.g. the angle of a HINGE that drives a mechanism or sets a misalignment.
+
+    Like :class:`Prescribed`: ``initial`` (the data module's ``INPUTE element mode value``;
+    None = 0, the reference configuration's deformation) is reached at step 0 and ``delta``
+    (``DELINPE element mode delta``) is added over the load steps. The mode is a constraint
+    ``e_k(x) = initial + s * delta`` whose multiplier is the stress resultant that holds it
+    (the driving torque of a hinge).
+    """
+
+    element: int
+    mode: int
+    initial: float | None = None
+    delta: float = 0.0
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
 class PrescribedRotation:
     """spacarpy extension ``INPUTR node ax ay az`` / ``DELINPR node angle``: the orientation
     node turns about the fixed axis by ``s * angle`` (rad) at load factor s; all four Euler
@@ -262,6 +282,8 @@ class Model:
         Prescribed (input) coordinates with their initial values and increments.
     prescribed_rotations : list of PrescribedRotation
         Orientation nodes turned about a fixed axis (spacarpy extension).
+    prescribed_deformations : list of PrescribedDeformation
+        Element deformation modes driven along the load path (INPUTE/DELINPE).
     gravity : (3,) float
         Gravitational acceleration (m/s^2) acting on element and nodal masses; applied with
         the initial load (XF) and constant over the load steps.
@@ -274,6 +296,13 @@ class Model:
         One of :data:`ANALYSES`.
     deformations : str
         ``"modified"`` (Eq. 48, default) or ``"basic"`` (Eq. 7).
+    bifurcation : str
+        Stability check of the static path: ``"off"``, ``"warn"`` (say when the path turns
+        unstable) or ``"switch"`` (also switch to a stable branch), see
+        :mod:`spacarpy.solvers.stability`.
+    n_modes, modes_each_step : int or None, bool
+        The deck's ``MODES count [each|last]`` (spacarpy extension): modes per linearization
+        and whether every load step is linearized; the command line overrides them.
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
     """
@@ -288,11 +317,15 @@ class Model:
     nodal_masses: list = field(default_factory=list)
     prescribed: list = field(default_factory=list)
     prescribed_rotations: list = field(default_factory=list)
+    prescribed_deformations: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
     element_sets: dict = field(default_factory=dict)
     cross_sections: object | None = None
     analysis: str = "static"
     deformations: str = "modified"
+    bifurcation: str = "off"
+    n_modes: int | None = None
+    modes_each_step: bool = False
     source_path: str = "<model>"
     source_text: str = ""
 

@@ -107,6 +107,10 @@ class Numbering:
     prescribed_idx, prescribed_initial, prescribed_delta : (n_presc,)
         Global indices of the prescribed coordinates, their values at step 0 and their
         increments over the load steps.
+    rigid_initial, rigid_delta, rigid_prescribed : (n_rigid,)
+        Prescribed deformations (INPUTE/DELINPE) among the rigid-mode constraints: their
+        values at step 0, their increments, and which constraints they are (empty arrays
+        when the model has none).
 
     The BEAM group's arrays are also available under their historical names
     (``beam_idx``, ``nx``, ``ny``, ``nz``, ``l0``, ``S``, ``has_stiffness_mode``), empty when the
@@ -127,6 +131,10 @@ class Numbering:
     prescribed_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
     prescribed_delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
+    rigid_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rigid_delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rigid_prescribed: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+
     rotation_idx: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int64))
     rotation_axis: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     rotation_angle: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -146,6 +154,14 @@ class Numbering:
         q = (from_axis_angle(self.rotation_axis, s * self.rotation_angle).ravel()
              if self.rotation_angle.size else np.zeros(0))
         return idx, np.concatenate([self.prescribed_values(a, s), q])
+
+    def rigid_targets(self, a: float, s: float) -> np.ndarray:
+        """(n_rigid,) values the rigid-mode constraints hold at load parameters (a, s): zero
+        for ordinary rigid modes, ``a * initial + s * delta`` for prescribed deformations
+        (INPUTE/DELINPE)."""
+        if not self.rigid_initial.size:
+            return np.zeros(self.n_rigid)
+        return a * self.rigid_initial + s * self.rigid_delta
 
     @property
     def n_rigid(self) -> int:
@@ -261,6 +277,19 @@ def number_model(model: Model) -> Numbering:
             rigid_offset=offset))
         offset += r_elem.size
 
+    n_rigid = offset
+    rigid_initial = np.zeros(n_rigid if model.prescribed_deformations else 0)
+    rigid_delta, rigid_presc = np.zeros_like(rigid_initial), np.zeros(rigid_initial.size, bool)
+    for pd in model.prescribed_deformations:
+        for g in groups:
+            hit = np.flatnonzero(g.ids[g.rigid_elem] == int(pd.element))
+            hit = hit[g.rigid_mode[hit] == int(pd.mode) - 1]
+            if hit.size:
+                k = g.rigid_offset + int(hit[0])
+                rigid_initial[k] = 0.0 if pd.initial is None else float(pd.initial)
+                rigid_delta[k] = float(pd.delta)
+                rigid_presc[k] = True
+
     fixed = np.zeros(n_coord, dtype=bool)
     for fix in model.fixes:
         n = int(fix.node)
@@ -289,7 +318,9 @@ def number_model(model: Model) -> Numbering:
                      fixed_mask=fixed, unknown_of=unknown_of, n_unknown=int((~fixed).sum()),
                      euler_nodes=euler_nodes, length_scale=length_scale,
                      prescribed_idx=presc_idx, prescribed_initial=presc_initial,
-                     prescribed_delta=presc_delta, rotation_idx=rot_presc_idx,
+                     prescribed_delta=presc_delta, rigid_initial=rigid_initial,
+                     rigid_delta=rigid_delta, rigid_prescribed=rigid_presc,
+                     rotation_idx=rot_presc_idx,
                      rotation_axis=np.array([r.axis for r in model.prescribed_rotations],
                                             dtype=float).reshape(-1, 3),
                      rotation_angle=np.array([r.angle for r in model.prescribed_rotations],

@@ -69,7 +69,8 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
     """Run ``model.analysis`` and write ``out`` (crash-safe, see :mod:`spacarpy.results`)."""
     from spacarpy.results import ResultsWriter
 
-    opts = options or RunOptions()
+    opts = options or RunOptions(n_modes=model.n_modes or 10,
+                                 modes_per_step=model.modes_each_step)
     if model.analysis not in SUPPORTED:
         raise AnalysisInputError(f"analysis '{model.analysis}' is not supported yet; this "
                                  f"version runs {', '.join(SUPPORTED)}")

@@ -65,7 +65,12 @@ def result_files() -> dict:
         "column": ("column", ["--modes-per-step", "--modes", "3", "--compliance", "3", "4"]),
         "fourbar": ("four_bar_linkage", []),          # HINGE and RBEAM (schema 1.2)
         "truss": ("two_bar_truss", []),               # TRUSS (schema 1.2)
+        "driven": ("driven", []),                     # a prescribed hinge angle (INPUTE)
     }
+    (tmp / "driven.dat").write_text(
+        (DECKS / "hinged_rod_spring.dat").read_text()
+        .replace("DYNE 10 1 ", "INPUTE 10 1").replace("ESTIFF 10 {k}", "DELINPE 10 1 0.5")
+        .replace("DELXF 3 0 {F} 0", "").replace("EXPECT", "# EXPECT"))
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}
     for key, (deck, extra) in runs.items():

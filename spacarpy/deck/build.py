@@ -23,9 +23,10 @@ from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, UNSUPPORTED_ELEMENTS
 from spacarpy.deck.parser import Statement
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError, SourceLoc
-from spacarpy.model import (ANALYSES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
+from spacarpy.model import (ANALYSES, BIFURCATION_CHOICES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
                             SPACAR_MODE_NUMBERS, BeamSet, ElementSet, Fix, IterStep, Load, Model,
-                            NodalMass, Prescribed, PrescribedRotation)
+                            NodalMass, Prescribed, PrescribedDeformation,
+                            PrescribedRotation)
 
 __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
 
@@ -165,6 +166,10 @@ class _ModelBuilder:
         self.load_sts: list[Statement] = []
         self.nodal_masses: list[NodalMass] = []
         self.prescribed: dict = {}          # (node, coord) -> initial, delta, loc
+        self.bifurcation = "off"
+        self.n_modes: int | None = None
+        self.modes_each_step = False
+        self.input_deformations: dict = {}  # (element, mode) -> initial, delta, loc (INPUTE)
         self.rotations: dict = {}           # node -> axis, angle, loc (INPUTR/DELINPR)
         self.gravity = (0.0, 0.0, 0.0)
         self.iterstep: IterStep | None = None
@@ -270,6 +275,12 @@ class _ModelBuilder:
         for st in by_kw.get("INPUTX", []) + by_kw.get("DELINPX", []):
             if st.keyword == "DELINPX" or st.module > 0:
                 self.inputx_value(st)
+        for st in by_kw.get("INPUTE", []):
+            if st.module == 0:
+                self.inpute_declare(st)
+        for st in by_kw.get("INPUTE", []) + by_kw.get("DELINPE", []):
+            if st.keyword == "DELINPE" or st.module > 0:
+                self.inpute_value(st)
         for st in by_kw.get("INPUTR", []):
             self.inputr_declare(st)
         for st in by_kw.get("DELINPR", []):
@@ -292,6 +303,10 @@ class _ModelBuilder:
             self.mode_line(st)
         for st in by_kw.get("DEFORMATIONS", []):
             self.deformations_line(st)
+        for st in by_kw.get("BIFURCATION", []):
+            self.bifurcation_line(st)
+        for st in by_kw.get("MODES", []):
+            self.modes_line(st)
         self.overrides(deformations, analysis)
         self.check_unconnected()
         self.check_cross_section_elements(sections)
@@ -581,6 +596,55 @@ class _ModelBuilder:
             self.prescribed[(n, c)] = {"initial": None, "delta": 0.0, "loc": st.loc,
                                        "set": set()}
 
+    def inpute_declare(self, st: Statement) -> None:
+        """``INPUTE e k ...`` (kinematics module): deformation modes k of element e are
+        prescribed (driven) instead of being rigid."""
+        el = self.element_for(st)
+        if el is None:
+            return
+        n_def = el.info["n_def"]
+        if len(st.fields) == 1:
+            self.error(st.loc, f"INPUTE {el.id}: expected deformation mode numbers after the "
+                               f"element number (1 to {n_def} for a {el.keyword})", st)
+            return
+        for i, k in enumerate(st.fields[1:], start=1):
+            loc = st.field_locs[i]
+            if not 1 <= k <= n_def:
+                modes = f"modes 1 to {n_def}" if n_def > 1 else "mode 1 only"
+                self.error(loc, f"INPUTE: element {el.id} is a {el.keyword} with deformation "
+                                f"{modes}, got {k}", st)
+                continue
+            if el.def_class[k - 1] != RIGID:
+                what = "DYNE" if el.def_class[k - 1] == FLEXIBLE else "RLSE"
+                self.error(loc, f"INPUTE: deformation {k} of element {el.id} is also listed in "
+                                f"{what} (line {el.class_line[k - 1]}); a prescribed "
+                                "deformation is neither flexible nor released", st)
+                continue
+            if (el.id, k) in self.input_deformations:
+                self.error(loc, f"INPUTE: deformation {k} of element {el.id} is prescribed "
+                                "twice", st)
+                continue
+            self.input_deformations[(el.id, k)] = {"initial": None, "delta": 0.0,
+                                                   "loc": st.loc, "set": set()}
+
+    def inpute_value(self, st: Statement) -> None:
+        """``INPUTE e k value`` (data module) or ``DELINPE e k delta``."""
+        e, k, value = st.fields[0], st.fields[1], float(st.fields[2])
+        entry = self.input_deformations.get((e, k))
+        if entry is None:
+            if e not in self.foreign_elements:
+                self.error(st.field_locs[1], f"{st.keyword}: deformation {k} of element {e} is "
+                                             f"not prescribed: declare it with 'INPUTE {e} {k}' "
+                                             "in the kinematics module", st)
+            return
+        key = "delta" if st.keyword == "DELINPE" else "initial"
+        if key in entry["set"]:
+            self.error(st.loc, f"{st.keyword}: deformation {k} of element {e} is given twice",
+                       st)
+            return
+        entry["set"].add(key)
+        entry[key] = value
+
     def inputr_declare(self, st: Statement) -> None:
         """``INPUTR n ax ay az``: orientation node n turns about the axis (all of its Euler
         parameters are prescribed)."""
@@ -755,6 +819,28 @@ class _ModelBuilder:
                                          f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
         self.deformations = value
 
+    def modes_line(self, st: Statement) -> None:
+        if not self.once(st):
+            return
+        self.n_modes = int(st.fields[0])
+        if len(st.fields) > 1:
+            where = str(st.fields[1]).lower()
+            if where not in ("each", "last"):
+                self.error(st.field_locs[1], f"MODES: expected 'each' (linearize at every load "
+                                             f"step) or 'last', got '{st.fields[1]}'", st)
+                return
+            self.modes_each_step = where == "each"
+
+    def bifurcation_line(self, st: Statement) -> None:
+        if not self.once(st):
+            return
+        value = str(st.fields[0]).lower()
+        if value not in BIFURCATION_CHOICES:
+            self.error(st.field_locs[0], f"BIFURCATION: unknown setting '{st.fields[0]}'; "
+                                         f"expected {', '.join(BIFURCATION_CHOICES)}", st)
+            return
+        self.bifurcation = value
+
     def overrides(self, deformations, analysis) -> None:
         if analysis is not None:
             value = resolve_analysis(analysis)
@@ -828,6 +914,10 @@ class _ModelBuilder:
             nodal_masses=self.nodal_masses,
             prescribed=[Prescribed(node=n, coord=c, initial=v["initial"], delta=v["delta"],
                                    loc=v["loc"]) for (n, c), v in self.prescribed.items()],
+            prescribed_deformations=[
+                PrescribedDeformation(element=e, mode=k, initial=v["initial"], delta=v["delta"],
+                                      loc=v["loc"])
+                for (e, k), v in self.input_deformations.items()],
             prescribed_rotations=[PrescribedRotation(node=n, axis=v["axis"], angle=v["angle"],
                                                      loc=v["loc"])
                                   for n, v in self.rotations.items()],
@@ -835,6 +925,9 @@ class _ModelBuilder:
             element_sets=sets,
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",
+            bifurcation=self.bifurcation,
+            n_modes=self.n_modes,
+            modes_each_step=self.modes_each_step,
             source_path=self.path,
             source_text=text,
         )

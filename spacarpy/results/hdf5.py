@@ -145,6 +145,8 @@ DATASET_ATTRS = {
     **{f"model/{k.lower()}_element_nodes": ("1", f"deck node numbers {slots} of each {k} "
                                                   "element")
        for k, slots in (("TRUSS", "[p q]"), ("HINGE", "[r s]"), ("RBEAM", "[p r q]"))},
+    "model/input_deformation": ("1", "[element, mode] of each prescribed deformation "
+                                     "(INPUTE), present when the model has them"),
     "static/truss_deformation": ("m", "elongation of each TRUSS element"),
     "static/truss_stress_resultant": ("N", "axial force of each TRUSS element"),
     "static/hinge_deformation": ("rad | 1", "HINGE deformations: 1 the joint angle (rad), "
@@ -724,6 +726,9 @@ class ResultsWriter:
             if es.n_elem and kind in OTHER_KINDS:
                 _create(g, f"{kind.lower()}_elements", np.asarray(es.ids, dtype=np.int64))
                 _create(g, f"{kind.lower()}_element_nodes", np.asarray(es.nodes, dtype=np.int64))
+        if model.prescribed_deformations:
+            _create(g, "input_deformation", np.array(
+                [[pd.element, pd.mode] for pd in model.prescribed_deformations], dtype=np.int64))
 
     def _write_model_11(self, g: h5py.Group) -> None:
         """Write the schema-1.1 part of ``/model``: element properties, cross-sections, loads

@@ -36,6 +36,8 @@ QUANTITIES = {
     "strain_energy": "elastic energy of the elements (J); --element, --step",
     "reaction": "support reactions (N, N m); --node, --step",
     "frequency": "natural frequencies (Hz) per linearized step; --mode, --step",
+    "frequency_table": "one row per linearized step: load factor, prescribed deformations "
+                       "(INPUTE), f1..fn (Hz; negative: unstable); plot-ready",
     "buckling": "buckling load multipliers per linearized step; --mode, --step",
     "mode_shape": "eigenmode shape at the position nodes; --mode (default 1), --step, --node",
     "buckling_shape": "buckling mode shape at the position nodes; --mode, --step, --node",
@@ -248,6 +250,35 @@ def _modes(view, mode):
     return np.arange(view.n_mode) if mode is None else np.array([view._mode_index(mode)])
 
 
+def _x_frequency_table(res, step, mode, **_):
+    """Wide: step, load_factor, one column per prescribed deformation (its value at the
+    step, from ``/static/<kind>_deformation``), then one column per mode."""
+    view = _lin(res, "eigen")
+    rows, modes = _lin_rows(res, view, step), _modes(view, mode)
+    steps = view.step[rows]
+    names, units = ["step", "load_factor"], ["1", "1"]
+    columns = [steps, view.load_factor[rows]]
+    inputs = res.model._get("input_deformation")
+    for element, k in (inputs if inputs is not None else np.zeros((0, 2), int)):
+        for kind, unit in (("hinge", "rad"), ("truss", "m"), ("rbeam", "m"), ("beam", "m")):
+            ids = res.model._get(f"{kind}_elements" if kind != "beam" else "elements")
+            if ids is None or int(element) not in ids.tolist():
+                continue
+            path = f"static/{kind}_deformation" if kind != "beam" else "static/deformation"
+            i = ids.tolist().index(int(element))
+            values = res._read(path)[:, i, int(k) - 1]
+            names.append(f"e{int(element)}.{int(k)}")
+            units.append(unit if not (kind == "hinge" and k > 1) else "rad")
+            columns.append(values[steps])
+            break
+    freq = view.frequency[np.ix_(rows, modes)]
+    for j, m in enumerate(modes):
+        names.append(f"f{m + 1}")
+        units.append("Hz")
+        columns.append(freq[:, j])
+    return Table("natural frequencies per linearized step", names, units, columns)
+
+
 def _x_frequency(res, step, mode, **_):
     view = _lin(res, "eigen")
     rows, modes = _lin_rows(res, view, step), _modes(view, mode)
@@ -375,6 +406,7 @@ _EXTRACTORS = {
         comps=["strain_energy"], units=["J"], title="elastic energy of the elements"),
     "reaction": _x_reaction,
     "frequency": _x_frequency,
+    "frequency_table": _x_frequency_table,
     "buckling": _x_buckling,
     "mode_shape": _x_shape("eigen"),
     "buckling_shape": _x_shape("buckling"),

@@ -58,7 +58,15 @@ def null_space_basis(C: sp.spmatrix, n_x: int) -> np.ndarray:
     """Orthonormal basis (n_x, n_dof) of the null space of the constraint Jacobian."""
     if C.shape[0] == 0:
         return np.eye(n_x)
-    return sla.null_space(C.toarray(), rcond=1e-10)
+    a = C.toarray()
+    try:
+        return sla.null_space(a, rcond=1e-10)
+    except np.linalg.LinAlgError:
+        # LAPACK's divide-and-conquer SVD (gesdd) occasionally fails to converge on these
+        # sparse, badly scaled Jacobians; the QR-iteration driver (gesvd) does not
+        _, sv, vh = sla.svd(a, full_matrices=True, lapack_driver="gesvd")
+        rank = int(np.sum(sv > 1e-10 * sv.max(initial=0.0)))
+        return vh[rank:].conj().T
 
 
 def _rigid_mask(lin, num, free, shapes: np.ndarray) -> np.ndarray:

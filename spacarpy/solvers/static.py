@@ -86,6 +86,7 @@ class StaticOptions:
     n_init: int = 1
     max_cuts: int = 12
     deformations: str = "modified"
+    bifurcation: str = "off"        # stability check of the path: off, warn, switch
 
 
 class Loads:
@@ -137,6 +138,9 @@ class StaticProblem:
         self.gravity = np.asarray(model.gravity, dtype=float)
         self.gravity_factor = 1.0
         self.has_gravity = bool(np.any(self.gravity))
+        # values the rigid-mode constraints hold at the current load parameters (nonzero
+        # only for prescribed deformations, INPUTE/DELINPE); set by move_prescribed
+        self.rigid_target = np.zeros(num.n_rigid)
         g_nodes = [(int(m.node), float(m.values[0])) for m in model.nodal_masses
                    if len(m.values) == 1]
         pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
@@ -193,7 +197,7 @@ class StaticProblem:
                 f_ext += scatter_add(num.n_coord, g_.idx, fg)
                 gk.append(kg)
         r = (f_int - f_ext)[self.free]
-        c = np.concatenate([st.e[g.rigid_elem, g.rigid_mode]
+        c = np.concatenate([st.e[g.rigid_elem, g.rigid_mode] - self.rigid_target[g.rigid_slice]
                             for g, st in zip(num.groups, states)]
                            + [np.sum(q_eu * q_eu, axis=1) - 1.0])
         self.timings.kernels += t1 - t0
@@ -340,7 +344,7 @@ class StaticProblem:
             mu = mu + dmu
         raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
 
-    def correct_kinematics(self, x_lin, dx, st_old, max_iter: int = 2):
+    def correct_kinematics(self, x_lin, dx, st_old, max_iter: int = 2, rigid_target=None):
         """Move the linearly updated configuration onto the deformations Newton predicted.
 
         Newton's increment predicts every deformation to first order,
@@ -358,6 +362,9 @@ class StaticProblem:
         xd = np.zeros(num.n_coord)
         xd[self.free] = dx
         targets = [st.e + batch_matvec(st.D, xd[g.idx]) for g, st in zip(num.groups, st_old)]
+        if rigid_target is not None:          # move prescribed deformations to new values
+            for g, t in zip(num.groups, targets):
+                t[g.rigid_elem, g.rigid_mode] = rigid_target[g.rigid_slice]
         inv_scale = [1.0 / g.scale for g in num.groups]
         x = x_lin
         for _ in range(max_iter):
@@ -409,13 +416,17 @@ class StaticProblem:
         current value, Euler normalizations restored): a predictor for the Newton step."""
         num = self.num
         idx, target = num.prescribed_state(*params)
-        if not idx.size or np.array_equal(target, x[idx]):
+        rigid_target = num.rigid_targets(*params)
+        same_e = np.array_equal(rigid_target, self.rigid_target)
+        if (not idx.size or np.array_equal(target, x[idx])) and same_e:
             return x
         zero = np.zeros((self.loads.moment_rot.size, 3))
         states = self.evaluate(x, mu, np.zeros(num.n_coord), zero).states
+        self.rigid_target = rigid_target
         moved = x.copy()
         moved[idx] = target
-        return self.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=4)
+        return self.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=4,
+                                       rigid_target=None if same_e else rigid_target)
 
     def commit(self, x, mu, force, moment):
         """Let the element kinds update their persistent state after a converged step."""
@@ -526,7 +537,8 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
     it = model.iterstep
     opts = options or StaticOptions(max_iter=it.max_iter, tol=it.tol, n_steps=it.n_steps,
                                     n_init=it.n_init,
-                                    deformations=deformations or model.deformations)
+                                    deformations=deformations or model.deformations,
+                                    bifurcation=model.bifurcation)
     prob = problem or StaticProblem(model, deformations=opts.deformations)
     t_start = time.perf_counter()
     num = prob.num
@@ -565,19 +577,145 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
         if on_step is not None:
             on_step(step)
 
+    path = _PathStability(prob, opts)
     # phase A: reach XF (a: 0 -> 1) at s = 0
     x, mu, its, res = _advance(prob, x, mu, (0.0, 0.0), (1.0, 0.0),
                                opts.n_init if prob.loads.has_xf else 1, opts, stored_step=0)
-    x = prob.normalize(x)
+    x, mu = path.check(prob.normalize(x), mu, (1.0, 0.0), 0)
     store(0.0, x, mu, its, res)
     # phase B: DELXF in n_steps stored increments
     for k in range(1, opts.n_steps + 1):
         s0, s1 = (k - 1) / opts.n_steps, k / opts.n_steps
         x, mu, its, res = _advance(prob, x, mu, (1.0, s0), (1.0, s1), 1, opts, stored_step=k)
-        x = prob.normalize(x)
+        x, mu = path.check(prob.normalize(x), mu, (1.0, s1), k)
         store(s1, x, mu, its, res)
     prob.timings.total = time.perf_counter() - t_start
     return result
+
+
+class _PathStability:
+    """``BIFURCATION warn|switch``: the index of the tangent after every stored step, with a
+    warning when it rises and (switch) branch switching, see
+    :mod:`spacarpy.solvers.stability`.
+
+    Switching happens close to the critical point, where the new branch is still near the
+    old one: the load interval of the step is bisected (``BISECTIONS`` times) down to a
+    state just beyond the point where the index rose, the state there is perturbed along
+    the unstable eigenvector, and from the equilibrium found the step is completed along
+    the new branch in sub-steps.
+    """
+
+    BISECTIONS = 8
+
+    def __init__(self, prob, opts):
+        self.prob, self.opts = prob, opts
+        self.on = opts.bifurcation in ("warn", "switch")
+        self.index = 0
+        self.told_size = False
+        self.last = None                       # (x, mu, params) of the last stored step
+
+    def _stability(self, x, mu, params):
+        from spacarpy.solvers.stability import stability
+        return stability(self.prob, x, mu, *self.prob.loads.at(*params))
+
+    def _solve_at(self, x, mu, params):
+        prob = self.prob
+        prob.gravity_factor = float(params[0])
+        x0 = prob.move_prescribed(x, mu, params)
+        x1, mu1, *_ = prob.newton(x0, mu, *prob.loads.at(*params), self.opts)
+        return prob.normalize(x1), mu1
+
+    def _bisect(self, lo, hi):
+        """Narrow the load interval between ``lo`` (index not above the path's) and ``hi``
+        (index above it); both are (x, mu, params, stability). Returns the new ``hi``."""
+        x_lo, mu_lo, p_lo, _ = lo
+        p_lo = np.asarray(p_lo, float)
+        for _ in range(self.BISECTIONS):
+            p_mid = 0.5 * (p_lo + np.asarray(hi[2], float))
+            try:
+                x_mid, mu_mid = self._solve_at(x_lo, mu_lo, p_mid)
+            except _StepFailed:
+                break
+            s_mid = self._stability(x_mid, mu_mid, p_mid)
+            if s_mid.index > self.index:
+                hi = (x_mid, mu_mid, p_mid, s_mid)
+            else:
+                p_lo, x_lo, mu_lo = p_mid, x_mid, mu_mid
+        return hi
+
+    def _switch_at(self, state, step):
+        """Perturb-and-solve at one state's load; returns the new state or None."""
+        from spacarpy.solvers.stability import switch_branch
+        x, mu, p, stab = state
+        prob = self.prob
+        force, moment = prob.loads.at(*p)
+        prob.gravity_factor = float(p[0])
+        prob.move_prescribed(x, mu, p)
+        xs, mus, ss = switch_branch(prob, x, mu, force, moment, self.opts, stab, step)
+        if ss.index >= stab.index:
+            return None
+        if prob.has_commit:
+            prob.commit(xs, mus, force, moment)
+        return xs, mus, p, ss
+
+    def _switch(self, x, mu, params, stab, step):
+        """Bisect back towards the critical point, switch there and come back to ``params``
+        along the new branch (repeatedly, when several eigenvalues cross within the step);
+        as a last resort switch at ``params`` itself."""
+        target = np.asarray(params, float)
+        cur = (x, mu, target, stab)
+        lo = self.last
+        for _ in range(4):
+            if lo is None or cur[3].index <= self.index:
+                break
+            hi = self._bisect(lo, cur)
+            switched = self._switch_at(hi, step)
+            if switched is None:
+                break
+            if np.array_equal(np.asarray(hi[2], float), target):
+                cur = switched
+                break
+            if switched[3].index <= self.index:
+                lo = switched
+            try:
+                xa, mua, *_ = _advance(self.prob, switched[0], switched[1],
+                                       np.asarray(hi[2], float), target, 8, self.opts,
+                                       stored_step=step)
+            except ConvergenceError:
+                break
+            xa = self.prob.normalize(xa)
+            cur = (xa, mua, target, self._stability(xa, mua, target))
+        if cur[3].index < stab.index:
+            return cur[0], cur[1], cur[3]
+        direct = self._switch_at((x, mu, target, stab), step)
+        if direct is not None:
+            return direct[0], direct[1], direct[3]
+        return x, mu, stab
+
+    def check(self, x, mu, params, step):
+        if not self.on:
+            return x, mu
+        from spacarpy.solvers.eigen import DENSE_LIMIT
+        prob = self.prob
+        stab = self._stability(x, mu, params)
+        if stab is None:
+            if not self.told_size:
+                log.warning("BIFURCATION: the stability check needs the dense reduction "
+                            "(at most %d free coordinates); this model has %d, not checked",
+                            DENSE_LIMIT, prob.pattern.n_x)
+                self.told_size = True
+            return x, mu
+        if stab.index > self.index and self.opts.bifurcation == "switch":
+            x, mu, stab = self._switch(x, mu, params, stab, step)
+        if stab.index > self.index:
+            log.warning("step %d: the equilibrium is unstable: %d negative stiffness "
+                        "eigenvalue(s) (a limit or bifurcation point was passed)%s", step,
+                        stab.index, "; no stable branch found nearby"
+                        if self.opts.bifurcation == "switch" else
+                        "; 'BIFURCATION switch' follows the stable branch")
+        self.index = stab.index
+        self.last = (x.copy(), mu.copy(), np.asarray(params, float), stab)
+        return x, mu
 
 
 #: Axial strain beyond which a warning says the linear material law is being stretched.
