@@ -14,9 +14,9 @@ from spacarpy.cli import main
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _docs_sweep_args(out):
+def _docs_sweep_args(out, deck="sweep_column_load_ratio"):
     text = (ROOT / "docs" / "batch.md").read_text()
-    cmd = re.search(r"```console\n\$ spacarpy (sweep .*?)\n", text).group(1)
+    cmd = re.search(r"```console\n\$ spacarpy (sweep decks/" + deck + r".*?)\n", text).group(1)
     args = shlex.split(cmd)
     args[args.index("-o") + 1] = str(out)
     return args + ["-q", "-j", "2"]
@@ -89,3 +89,40 @@ def test_failed_points_are_nan_with_status(tmp_path, capsys):
         assert np.isnan(f["eigen/frequency"][0]).all() and not np.isnan(
             f["eigen/frequency"][1]).any()
         assert "n" in f["sweep/error"][0].decode()
+
+
+def _run_in_root(args):
+    import os
+    cwd = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        return main(args)
+    finally:
+        os.chdir(cwd)
+
+
+def test_leafspring_misalignment_sweep_locally_and_on_dask(tmp_path):
+    """docs/batch.md's leaf-spring sweep: 21 misalignments in one file, the frequencies of the
+    single 40-step run at the same angles, and identical numbers from a two-worker Dask
+    LocalCluster."""
+    local = tmp_path / "local.h5"
+    assert _run_in_root(_docs_sweep_args(local, "leafspring_guidance_sweep")) == 0
+    single = tmp_path / "single.h5"
+    assert main(["run", str(ROOT / "decks" / "leafspring_guidance_misalignment.dat"), "-o",
+                 str(single), "-q"]) == 0
+    with h5py.File(local) as f, h5py.File(single) as g:
+        phi = f["parameters/phi"][()]
+        freq = f["eigen/frequency"][()]
+        assert phi.shape == (21,) and freq.shape == (21, 3)
+        assert (f["sweep/status"][()] == 0).all()
+        ref = g["eigen/frequency"][::2]                     # 0.05 mrad steps -> 0.1 mrad
+    np.testing.assert_allclose(phi, np.linspace(0, 0.002, 21))
+    np.testing.assert_allclose(freq, ref, rtol=1e-3)
+    pytest.importorskip("distributed", reason="dask.distributed is not installed "
+                                              "(pip install 'spacarpy[dask]')")
+    dask_out = tmp_path / "dask.h5"
+    assert _run_in_root(_docs_sweep_args(dask_out, "leafspring_guidance_sweep")
+                        + ["--dask", "local"]) == 0
+    with h5py.File(local) as a, h5py.File(dask_out) as b:
+        for path in ("parameters/phi", "eigen/frequency", "sweep/status"):
+            np.testing.assert_array_equal(a[path][()], b[path][()])
