@@ -206,6 +206,7 @@ class PrescribedRotation:
     axis: tuple
     angle: float = 0.0
     loc: SourceLoc | None = None
+    initial: float = 0.0          # angle reached at step 0 (a planar deck's INPUTX n 1 value)
 
 
 @dataclass(frozen=True)
@@ -300,6 +301,9 @@ class Model:
         Stability check of the static path: ``"off"``, ``"warn"`` (say when the path turns
         unstable) or ``"switch"`` (also switch to a stable branch), see
         :mod:`spacarpy.solvers.stability`.
+    planar : bool
+        A planar model (PLBEAM, PLTRUSS, PLHINGE): every node stays in the x-y plane (z and
+        the Euler parameters lambda1, lambda2 are held at 0; only rotations about z).
     n_modes, modes_each_step : int or None, bool
         The deck's ``MODES count [each|last]`` (spacarpy extension): modes per linearization
         and whether every load step is linearized; the command line overrides them.
@@ -324,6 +328,7 @@ class Model:
     analysis: str = "static"
     deformations: str = "modified"
     bifurcation: str = "off"
+    planar: bool = False
     n_modes: int | None = None
     modes_each_step: bool = False
     source_path: str = "<model>"

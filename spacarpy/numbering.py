@@ -96,7 +96,8 @@ class Numbering:
     groups : list of ElementGroup
         One per element kind present (BEAM first).
     fixed_mask : (n_coord,) bool
-        Fixed and prescribed coordinates (neither is an unknown).
+        Fixed and prescribed coordinates (neither is an unknown), including the
+        out-of-plane coordinates of a planar model (``planar_mask``).
     unknown_of : (n_coord,) int
         Unknown number of each coordinate, -1 where fixed.
     n_unknown : int
@@ -138,6 +139,8 @@ class Numbering:
     rotation_idx: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int64))
     rotation_axis: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     rotation_angle: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rotation_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    planar_mask: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
 
     def prescribed_values(self, a: float, s: float) -> np.ndarray:
         """Values of the prescribed coordinates at load parameters (a on the initial values,
@@ -151,7 +154,8 @@ class Numbering:
         (identity turned by ``s * angle`` about the axis)."""
         from spacarpy.rotation import from_axis_angle
         idx = np.concatenate([self.prescribed_idx, self.rotation_idx.ravel()])
-        q = (from_axis_angle(self.rotation_axis, s * self.rotation_angle).ravel()
+        q = (from_axis_angle(self.rotation_axis,
+                             a * self.rotation_initial + s * self.rotation_angle).ravel()
              if self.rotation_angle.size else np.zeros(0))
         return idx, np.concatenate([self.prescribed_values(a, s), q])
 
@@ -306,6 +310,14 @@ def number_model(model: Model) -> Numbering:
     rot_presc_idx = np.array([rot_idx[rot_row[int(r.node)]] for r in model.prescribed_rotations],
                              dtype=np.int64).reshape(-1, 4)
     fixed[rot_presc_idx.ravel()] = True
+    # a planar model: z of every position node and lambda1, lambda2 of every orientation
+    # node stay 0 (held like fixed coordinates, but no reactions are reported for them)
+    planar = np.zeros(n_coord, dtype=bool)
+    if model.planar:
+        planar[pos_idx[:, 2]] = True
+        planar[rot_idx[:, 1:3].ravel()] = True
+        planar &= ~fixed
+        fixed |= planar
     unknown_of = np.full(n_coord, -1, dtype=np.int64)
     unknown_of[~fixed] = np.arange(int((~fixed).sum()))
     euler_nodes = (np.flatnonzero(~fixed[rot_idx].all(axis=1)) if rot_ids.size
@@ -324,4 +336,7 @@ def number_model(model: Model) -> Numbering:
                      rotation_axis=np.array([r.axis for r in model.prescribed_rotations],
                                             dtype=float).reshape(-1, 3),
                      rotation_angle=np.array([r.angle for r in model.prescribed_rotations],
-                                             dtype=float))
+                                             dtype=float),
+                     rotation_initial=np.array([r.initial for r in model.prescribed_rotations],
+                                               dtype=float),
+                     planar_mask=planar)

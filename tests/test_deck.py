@@ -367,7 +367,7 @@ def test_wrong_field_count_too_few_and_too_many():
     with pytest.raises(DeckError) as info:
         parse_deck("X 1 0 0 0 7\n")
     assert only_item(info.value)[:2] == (1, 11)
-    assert "X takes exactly 4 fields, got 5" in only_item(info.value)[2]
+    assert "X takes 3 to 4 fields, got 5 (usage: X n x y [z])" in only_item(info.value)[2]
     with pytest.raises(DeckError) as info:
         parse_deck("END 1\n")
     assert "END takes no fields, got 1" in only_item(info.value)[2]

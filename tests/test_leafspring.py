@@ -12,7 +12,6 @@ from spacarpy.cli import main
 from spacarpy.deck import parse_deck
 from spacarpy.deck.build import build_model
 from spacarpy.errors import DeckError
-from spacarpy.results import read_results
 from spacarpy.results.reader import open_results
 from spacarpy.results.tables import extract
 from spacarpy.solvers.static import solve_static

@@ -66,7 +66,12 @@ def result_files() -> dict:
         "fourbar": ("four_bar_linkage", []),          # HINGE and RBEAM (schema 1.2)
         "truss": ("two_bar_truss", []),               # TRUSS (schema 1.2)
         "driven": ("driven", []),                     # a prescribed hinge angle (INPUTE)
+        "planar": ("planar_four_bar", []),            # PLBEAM, PLHINGE (schema 1.3)
+        "pltruss": ("pltruss", []),                   # PLTRUSS (schema 1.3)
     }
+    (tmp / "pltruss.dat").write_text(
+        "X 1 -1 0\nX 3 0 0.3\nX 5 1 0\nPLTRUSS 1 1 3\nPLTRUSS 2 5 3\nDYNE 1:2 1\nFIX 1\n"
+        "FIX 5\nEND\nHALT\nESTIFF 1:2 1e4\nDELXF 3 0 -50\nITERSTEP 20 4 1e-12\nEND\nEND\n")
     (tmp / "driven.dat").write_text(
         (DECKS / "hinged_rod_spring.dat").read_text()
         .replace("DYNE 10 1 ", "INPUTE 10 1").replace("ESTIFF 10 {k}", "DELINPE 10 1 0.5")
@@ -99,7 +104,7 @@ def test_every_written_file_is_valid(files):
 def test_open_results_is_exported_at_the_top(files):
     assert spacarpy.open_results is open_results
     res = spacarpy.open_results(files["bend"])
-    assert res.completed and res.analysis == "static" and res.schema_version == (1, 2)
+    assert res.completed and res.analysis == "static" and res.schema_version == (1, 3)
     assert "static analysis, completed" in repr(res)
 
 
@@ -206,7 +211,7 @@ def test_newer_major_version_is_refused_with_both_versions(files, tmp_path):
     with h5py.File(path, "r+") as f:
         f.attrs["schema_version"] = np.array([2, 0], dtype=np.int32)
     with pytest.raises(ResultsFormatError, match=r"schema version 2\.0 is newer than schema "
-                                                 r"version 1\.2"):
+                                                 r"version 1\.3"):
         open_results(path)
 
 

@@ -22,10 +22,11 @@ from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, UNSUPPORTED_ELEMENTS
 from spacarpy.deck.parser import Statement
 from spacarpy.deck.visualization import collect_cross_sections
+from spacarpy.elements.kinds import PLANAR_KINDS
 from spacarpy.errors import DeckError, SourceLoc
-from spacarpy.model import (ANALYSES, BIFURCATION_CHOICES, DEFORMATION_VARIANTS, FLEXIBLE, RELEASED, RIGID,
-                            SPACAR_MODE_NUMBERS, BeamSet, ElementSet, Fix, IterStep, Load, Model,
-                            NodalMass, Prescribed, PrescribedDeformation,
+from spacarpy.model import (ANALYSES, BIFURCATION_CHOICES, DEFORMATION_VARIANTS, FLEXIBLE,
+                            RELEASED, RIGID, SPACAR_MODE_NUMBERS, BeamSet, ElementSet, Fix,
+                            IterStep, Load, Model, NodalMass, Prescribed, PrescribedDeformation,
                             PrescribedRotation)
 
 __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
@@ -104,6 +105,14 @@ _KIND_INFO = {
                   mode_stiffness=(0, 1, 2), has_mass=False, estiff_usage="k [k2 k3]"),
     "RBEAM": dict(n_def=3, vector_at=4, n_estiff=(0, 3), stiff_names=("k1", "k2", "k3"),
                   mode_stiffness=(0, 1, 2), has_mass=True, estiff_usage="[k1 k2 k3]"),
+    "PLBEAM": dict(n_def=3, vector_at=None, n_estiff=(2, 3), stiff_names=("EA", "EI", "c"),
+                   mode_stiffness=(0, 1, 1), has_mass=True, estiff_usage="EA EI [c]",
+                   n_em=2, em_usage="rhoA [rhoIz]"),
+    "PLTRUSS": dict(n_def=1, vector_at=None, n_estiff=(1, 1), stiff_names=("EA",),
+                    mode_stiffness=(0,), has_mass=True, estiff_usage="EA",
+                    n_em=1, em_usage="rhoA"),
+    "PLHINGE": dict(n_def=1, vector_at=None, n_estiff=(0, 1), stiff_names=("k",),
+                    mode_stiffness=(0,), has_mass=False, estiff_usage="k"),
 }
 #: The element keywords the model builder supports, in the order the model keeps them.
 ELEMENT_KEYWORDS = tuple(_KIND_INFO)
@@ -167,6 +176,7 @@ class _ModelBuilder:
         self.nodal_masses: list[NodalMass] = []
         self.prescribed: dict = {}          # (node, coord) -> initial, delta, loc
         self.bifurcation = "off"
+        self.planar = False
         self.n_modes: int | None = None
         self.modes_each_step = False
         self.input_deformations: dict = {}  # (element, mode) -> initial, delta, loc (INPUTE)
@@ -248,6 +258,8 @@ class _ModelBuilder:
                 if st.keyword in UNSUPPORTED_ELEMENTS:
                     self.note_foreign(st)
 
+        # a planar model: PLBEAM/PLTRUSS/PLHINGE only, nodes in the x-y plane
+        self.planar = any(kw in by_kw for kw in PLANAR_KINDS)
         for st in by_kw.get("X", []):
             self.node(st)
         element_sts = [st for kw in ELEMENT_KEYWORDS for st in by_kw.get(kw, [])]
@@ -259,6 +271,8 @@ class _ModelBuilder:
         scale = self.model_size()
         for st in element_sts:
             self.beam(st, scale)
+        if self.planar:
+            self.check_planar(element_sts)
         for st in sorted(by_kw.get("DYNE", []) + by_kw.get("RLSE", []),
                          key=lambda s: self.rank[(s.loc.file, s.loc.line)]):
             self.deformation_class(st)
@@ -322,14 +336,33 @@ class _ModelBuilder:
         self.foreign_elements.add(st.fields[0])
         self.foreign_nodes.update(st.fields[1:1 + len(roles)])
 
+    def check_planar(self, element_sts) -> None:
+        """A planar model has only planar elements (their nodes have planar coordinates)."""
+        first = next(st for st in element_sts if st.keyword in PLANAR_KINDS)
+        for st in element_sts:
+            if st.keyword not in PLANAR_KINDS:
+                what = f"the {st.origin} line" if st.origin else st.keyword
+                self.error(st.loc, f"{what}: a planar model ({first.keyword} at line "
+                                   f"{first.loc.line}) has planar elements only (PLBEAM, "
+                                   "PLTRUSS, PLHINGE); model it in space instead", st)
+
     def node(self, st: Statement) -> None:
         n = st.fields[0]
+        if len(st.fields) == 3:
+            if not self.planar:
+                self.error(st.loc, f"X {n}: expected x y z (3 coordinates), got 2; only a planar "
+                                   "model (PLBEAM, PLTRUSS, PLHINGE) may leave out z", st)
+                return
+        elif self.planar and st.fields[3] != 0:
+            self.error(st.field_locs[3], f"X {n}: a planar model lies in the x-y plane, but "
+                                         f"z = {st.fields[3]:g}", st)
+            return
         if n in self.positions:
             first = self.positions[n][1]
             self.error(st.field_locs[0], f"node {n} has two X lines (lines {first.loc.line} and "
                                          f"{st.loc.line})", st)
             return
-        self.positions[n] = (tuple(st.fields[1:4]), st)
+        self.positions[n] = ((tuple(st.fields[1:4]) + (0.0,))[:3], st)
 
     def model_size(self) -> float:
         if not self.positions:
@@ -505,6 +538,10 @@ class _ModelBuilder:
             self.error(st.loc, f"EM {beam.id}: a {beam.keyword} needs at least the mass per "
                                "unit length rhoA", st)
             return
+        if "n_em" in beam.info and len(values) > beam.info["n_em"]:
+            self.error(st.loc, f"EM {beam.id}: a {beam.keyword} takes {beam.info['em_usage']}, "
+                               f"got {len(values)} values", st)
+            return
         for i, v in enumerate(values[:4]):
             if v < 0:
                 self.error(st.field_locs[i + 1], f"EM {beam.id}: {_MASS_NAMES[i]} must not be "
@@ -551,15 +588,21 @@ class _ModelBuilder:
                                              "used by any element)", st)
             return
         size = 3 if kind == "position" else 4
+        if self.planar:                 # planar: x y, or the angle (held: the whole node)
+            size = 2 if kind == "position" else 1
         coords = set()
         for i, c in enumerate(st.fields[1:], start=1):
             if not 1 <= c <= size:
-                self.error(st.field_locs[i], f"FIX: node {n} is a {kind} node with coordinates "
-                                             f"1 to {size}, got {c}", st)
+                what = (f"coordinates 1 to {size}" if size > 1 else "coordinate 1 (its angle)")
+                plane = "planar " if self.planar else ""
+                self.error(st.field_locs[i], f"FIX: node {n} is a {plane}{kind} node with "
+                                             f"{what}, got {c}", st)
             else:
                 coords.add(c)
         if len(st.fields) == 1:
             coords = set(range(1, size + 1))
+        if self.planar and kind == "orientation" and coords:
+            coords = {1, 2, 3, 4}
         for c in coords:
             self.fix_lines.setdefault((n, c), st)
         if n in self.fixes:
@@ -577,12 +620,26 @@ class _ModelBuilder:
                                              "not used by any element)", st)
             return
         size = 3 if kind == "position" else 4
+        if self.planar:
+            size = 2 if kind == "position" else 1
         coords = st.fields[1:] or tuple(range(1, size + 1))
         for i, c in enumerate(coords, start=1):
             loc = st.field_locs[i] if i < len(st.field_locs) else st.loc
             if not 1 <= c <= size:
-                self.error(loc, f"INPUTX: node {n} is a {kind} node with coordinates 1 to "
-                                f"{size}, got {c}", st)
+                plane = "planar " if self.planar else ""
+                self.error(loc, f"INPUTX: node {n} is a {plane}{kind} node with coordinates 1 "
+                                f"to {size}, got {c}", st)
+                continue
+            if self.planar and kind == "orientation":
+                # the angle of a planar orientation node: a rotation about z (as INPUTR)
+                if (n, 1) in self.fix_lines:
+                    self.error(loc, f"INPUTX: node {n} is also fixed (FIX at line "
+                                    f"{self.fix_lines[(n, 1)].loc.line})", st)
+                elif n in self.rotations:
+                    self.error(loc, f"INPUTX: coordinate 1 of node {n} is prescribed twice", st)
+                else:
+                    self.rotations[n] = {"axis": (0.0, 0.0, 1.0), "angle": 0.0, "initial": 0.0,
+                                         "loc": st.loc, "set": False, "planar": set()}
                 continue
             fix = self.fix_lines.get((n, c))
             if fix is not None:
@@ -686,6 +743,16 @@ class _ModelBuilder:
     def inputx_value(self, st: Statement) -> None:
         """``INPUTX n c value`` (data module) or ``DELINPX n c delta``."""
         n, c, value = st.fields[0], st.fields[1], float(st.fields[2])
+        rotation = self.rotations.get(n)
+        if self.planar and rotation is not None and "planar" in rotation and c == 1:
+            key = "angle" if st.keyword == "DELINPX" else "initial"
+            if key in rotation["planar"]:
+                self.error(st.loc, f"{st.keyword}: coordinate {c} of node {n} is given twice",
+                           st)
+                return
+            rotation["planar"].add(key)
+            rotation[key] = value
+            return
         entry = self.prescribed.get((n, c))
         if entry is None:
             if n not in self.foreign_nodes:
@@ -707,8 +774,20 @@ class _ModelBuilder:
                 self.error(st.field_locs[0], f"{st.keyword}: node {n} is not defined (no X line "
                                              "and not used by any element)", st)
             return
-        self.loads.append(Load(node=n, kind=st.keyword, value=tuple(float(v) for v in
-                                                                   st.fields[1:4]), loc=st.loc))
+        values = tuple(float(v) for v in st.fields[1:4])
+        if self.planar:
+            want, usage = ((2, f"{st.keyword} {n} fx fy") if self.node_kind(n) == "position"
+                           else (1, f"{st.keyword} {n} m (the moment about z)"))
+            if len(values) != want:
+                self.error(st.loc, f"{st.keyword}: node {n} is a planar {self.node_kind(n)} node: "
+                                   f"expected {usage}, got {len(values)} value(s)", st)
+                return
+            values = (values + (0.0,)) if want == 2 else (0.0, 0.0, values[0])
+        elif len(values) != 3:
+            self.error(st.loc, f"{st.keyword}: expected three components ({st.keyword} {n} f1 "
+                               f"f2 f3), got {len(values)}", st)
+            return
+        self.loads.append(Load(node=n, kind=st.keyword, value=values, loc=st.loc))
         self.load_sts.append(st)
 
     def check_loads_on_fixed_coordinates(self) -> None:
@@ -718,11 +797,11 @@ class _ModelBuilder:
         axis i acts (in the initial configuration) on the Euler parameter lambda_i, coordinate
         i + 1 of an orientation node.
         """
-        for st in self.load_sts:
+        for st, load in zip(self.load_sts, self.loads):
             n = st.fields[0]
             kind = self.node_kind(n)
             for i in range(3):
-                if st.fields[1 + i] == 0:
+                if load.value[i] == 0:
                     continue
                 coord = i + 1 if kind == "position" else i + 2
                 fix = self.fix_lines.get((n, coord))
@@ -749,6 +828,8 @@ class _ModelBuilder:
                 self.error(st.field_locs[0], f"XM: node {n} is not defined (no X line and not "
                                              "used by any element)", st)
             return
+        if self.planar and kind == "orientation" and len(values) == 1:
+            values = (0.0, 0.0, 0.0, 0.0, 0.0, values[0])     # planar: J about z
         if kind == "position" and len(values) != 1:
             self.error(st.field_locs[2], f"XM: node {n} is a position node: give its mass only "
                                          f"(XM {n} m)", st)
@@ -919,13 +1000,15 @@ class _ModelBuilder:
                                       loc=v["loc"])
                 for (e, k), v in self.input_deformations.items()],
             prescribed_rotations=[PrescribedRotation(node=n, axis=v["axis"], angle=v["angle"],
-                                                     loc=v["loc"])
+                                                     loc=v["loc"],
+                                                     initial=v.get("initial", 0.0))
                                   for n, v in self.rotations.items()],
             gravity=self.gravity,
             element_sets=sets,
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",
             bifurcation=self.bifurcation,
+            planar=self.planar,
             n_modes=self.n_modes,
             modes_each_step=self.modes_each_step,
             source_path=self.path,

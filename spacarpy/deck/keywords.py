@@ -145,8 +145,11 @@ _MODE = _f("deformation mode number", "k", "int")
 _ORIENTATION = (_f("x component of the initial local y-axis", "ox"),
                 _f("y component of the initial local y-axis", "oy"),
                 _f("z component of the initial local y-axis", "oz"))
-_LOAD_FIELDS = (NODE, _f("x component (N or N m)", "f1"), _f("y component (N or N m)", "f2"),
-                _f("z component (N or N m)", "f3"))
+# three components; a planar model gives fx fy (position node) or the moment m (orientation
+# node): the builder checks the count
+_LOAD_FIELDS = (NODE, _f("x component (N or N m)", "f1"))
+_LOAD_OPTIONAL = _each_optional(_f("y component (N or N m)", "f2"),
+                                _f("z component (N or N m)", "f3"))
 _COUNT = _f("number of elements", "count", "int", positive=True)
 _IO_FIELDS = (_f("input/output index", "i", "int", True), NODE, _COORD)
 
@@ -162,9 +165,10 @@ _KEYWORD_LIST = (
     KeywordSpec("VISUALIZATION", "starts the SPAVISUAL section after the final END",
                 section="structure"),
     # ------------------------------------------------------------------ kinematics
+    # z may be left out in a planar model (PLBEAM/PLTRUSS/PLHINGE); the builder checks it
     KeywordSpec("X", "initial position of a position node",
-                required=(NODE, _f("x coordinate (m)", "x"), _f("y coordinate (m)", "y"),
-                          _f("z coordinate (m)", "z"))),
+                required=(NODE, _f("x coordinate (m)", "x"), _f("y coordinate (m)", "y")),
+                optional=((_f("z coordinate (m)", "z"),),)),
     KeywordSpec("FIX", "hold nodal coordinates at their initial value",
                 required=(NODE,), variadic=_COORD),
     KeywordSpec("DYNE", "deformation modes that are flexible (carry stiffness)",
@@ -206,13 +210,13 @@ _KEYWORD_LIST = (
                            _f("y component of the hinge axis", "ay"),
                            _f("z component of the hinge axis", "az")),),
                 node_roles="rr"),
-    _unsupported("PLBEAM", "planar beam element", "element",
-                 required=(ELEMENT, _POS_P, _ROT_P, _POS_Q, _ROT_Q), node_roles="prpr"),
-    _unsupported("PLTRUSS", "planar truss element", "element",
-                 required=(ELEMENT, _POS_P, _POS_Q), node_roles="pp"),
-    _unsupported("PLHINGE", "planar hinge element", "element",
-                 required=(ELEMENT, _f("orientation node p", "r", "int", True),
-                           _f("orientation node q", "s", "int", True)), node_roles="rr"),
+    KeywordSpec("PLBEAM", "planar beam element (x-y plane)", section="element",
+                required=(ELEMENT, _POS_P, _ROT_P, _POS_Q, _ROT_Q), node_roles="prpr"),
+    KeywordSpec("PLTRUSS", "planar truss element (x-y plane)", section="element",
+                required=(ELEMENT, _POS_P, _POS_Q), node_roles="pp"),
+    KeywordSpec("PLHINGE", "planar hinge element (axis z)", section="element",
+                required=(ELEMENT, _f("orientation node p", "r", "int", True),
+                          _f("orientation node q", "s", "int", True)), node_roles="rr"),
     # ------------------------------------------------------------------ statics/dynamics data
     # ESTIFF/EM: values optional at the parse level because a HINGE takes 1 value or none;
     # the model builder requires at least EA GJ EIy EIz (ESTIFF) / rhoA (EM) for a BEAM.
@@ -235,9 +239,9 @@ _KEYWORD_LIST = (
             _f("product of inertia per unit length rhoIyz (kg m)", "rhoIyz"),
             _f("sixth mass value (warping, BEAMW)", "extra"))),
     KeywordSpec("XF", "dead nodal load present from the start", section="data",
-                required=_LOAD_FIELDS),
+                required=_LOAD_FIELDS, optional=_LOAD_OPTIONAL),
     KeywordSpec("DELXF", "dead nodal load increment applied over the load steps",
-                section="data", required=_LOAD_FIELDS),
+                section="data", required=_LOAD_FIELDS, optional=_LOAD_OPTIONAL),
     KeywordSpec(
         "ITERSTEP", "load stepping and Newton iteration settings", section="data",
         required=(_f("maximum number of iterations", "max_iter", "int"),

@@ -23,7 +23,7 @@ gravity(x_local, ref, mass, g) -> (f (n, n_ldof), df/dx (n, n_ldof, n_ldof))
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -183,5 +183,91 @@ RBEAM = Kind(
                                                    ref["l0"], m),
     gravity=_rbeam_gravity)
 
+# ------------------------------------------------------------------------------ planar kinds
+# PLBEAM, PLTRUSS and PLHINGE are the spatial kernels restricted to the x-y plane: a planar
+# model holds z and the Euler parameters lambda1, lambda2 of every node at 0 (numbering.py),
+# so the out-of-plane deformations vanish identically and only the in-plane modes are kept.
+
+#: BEAM modes a PLBEAM keeps: 1 elongation, 2 and 3 bending in the x-y plane at p and q
+#: (BEAM modes 1, 5 and 6; rigidity EIz, shear flexibility cz).
+PLBEAM_MODES = np.array([0, 4, 5])
+
+
+@dataclass
+class _Selected:
+    """A kernel state restricted to some of its modes (``full`` is the kernel's own)."""
+
+    full: object
+    modes: np.ndarray
+
+    @property
+    def e(self):
+        return self.full.e[:, self.modes]
+
+    @property
+    def D(self):
+        return self.full.D[:, self.modes]
+
+
+def _expand(w, modes, n_full):
+    out = np.zeros((w.shape[0], n_full))
+    out[:, modes] = w
+    return out
+
+
+def _plbeam_reference(x0, vector):
+    # the local y-axis lies in the plane: z x (element axis)
+    axis = x0[2] - x0[0]
+    ref, scale = _beam_reference(x0, np.stack([-axis[:, 1], axis[:, 0],
+                                               np.zeros(len(axis))], axis=1))
+    return ref, scale[:, PLBEAM_MODES]
+
+
+def _plbeam_props(props):
+    """(EA, EI, c) -> BEAM's (EA, GJ, EIy, EIz, cy, cz) with only the in-plane values."""
+    out = np.zeros((props.shape[0], 6))
+    out[:, 0], out[:, 3], out[:, 5] = props[:, 0], props[:, 1], props[:, 2]
+    return out
+
+
+def _plbeam_mass(m):
+    """(rhoA, rhoIz) -> BEAM's (rhoA, rhoIp, rhoIy, rhoIz, rhoIyz)."""
+    out = np.zeros((m.shape[0], 5))
+    out[:, 0], out[:, 3] = m[:, 0], m[:, 1]
+    return out
+
+
+PLBEAM = Kind(
+    keyword="PLBEAM", slots=BEAM.slots, n_def=3, length_modes=(True,) * 3,
+    reference=_plbeam_reference,
+    state=lambda x, ref, variant, prev: _Selected(BEAM.state(x, ref, variant, prev),
+                                                  PLBEAM_MODES),
+    hessian=lambda st, w: BEAM.hessian(st.full, _expand(w, PLBEAM_MODES, 6)),
+    stiffness=lambda props, ref: BEAM.stiffness(_plbeam_props(props), ref)[
+        :, PLBEAM_MODES[:, None], PLBEAM_MODES],
+    mass=lambda x, ref, m: BEAM.mass(x, ref, _plbeam_mass(m)),
+    check=lambda st, ref: _beam_check(st.full, ref),
+    gravity=lambda x, ref, m, g: _beam_gravity(x, ref, _plbeam_mass(m), g))
+
+PLTRUSS = replace(TRUSS, keyword="PLTRUSS")
+
+
+def _plhinge_reference(x0, vector):
+    n = len(vector)
+    ref, scale = _hinge_reference(x0, np.tile([0.0, 0.0, 1.0], (n, 1)))
+    return ref, scale[:, :1]
+
+
+PLHINGE = Kind(
+    keyword="PLHINGE", slots=HINGE.slots, n_def=1, length_modes=(False,),
+    reference=_plhinge_reference,
+    state=lambda x, ref, variant, prev: _Selected(_hinge_state(x, ref, variant, prev),
+                                                  np.array([0])),
+    hessian=lambda st, w: HINGE.hessian(st.full, _expand(w, np.array([0]), 3)),
+    stiffness=lambda props, ref: hinge.hinge_stiffness(props[:, :3])[:, :1, :1],
+    commit=lambda st, prev: _hinge_commit(st.full, prev))
+
 #: Keyword -> kind, in the order the solver assembles them.
-KINDS = {k.keyword: k for k in (BEAM, TRUSS, HINGE, RBEAM)}
+KINDS = {k.keyword: k for k in (BEAM, TRUSS, HINGE, RBEAM, PLBEAM, PLTRUSS, PLHINGE)}
+#: The planar kinds (a model with them is planar and may not have the others).
+PLANAR_KINDS = ("PLBEAM", "PLTRUSS", "PLHINGE")

@@ -1,4 +1,4 @@
-"""Write, read and validate spacarpy results files (HDF5, schema version 1.2), crash-safely.
+"""Write, read and validate spacarpy results files (HDF5, schema version 1.3), crash-safely.
 
 This module's one job is the results file: :class:`ResultsWriter` streams an analysis into it
 step by step, :func:`read_results` loads it back into numpy arrays, and :func:`validate_file`
@@ -68,7 +68,7 @@ __all__ = [
 
 #: (major, minor) version of the results-file schema written and read by this module.
 #: MAJOR changes are incompatible; MINOR ones only add optional content.
-SCHEMA_VERSION = (1, 2)
+SCHEMA_VERSION = (1, 3)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -141,10 +141,11 @@ DATASET_ATTRS = {
     "static/residual": ("1", "final relative residual of the load step"),
     # schema 1.2: elements of the other kinds (present when the model has them)
     **{f"model/{k.lower()}_elements": ("1", f"deck number of each {k} element")
-       for k in ("TRUSS", "HINGE", "RBEAM")},
+       for k in ("TRUSS", "HINGE", "RBEAM", "PLBEAM", "PLTRUSS", "PLHINGE")},
     **{f"model/{k.lower()}_element_nodes": ("1", f"deck node numbers {slots} of each {k} "
                                                   "element")
-       for k, slots in (("TRUSS", "[p q]"), ("HINGE", "[r s]"), ("RBEAM", "[p r q]"))},
+       for k, slots in (("TRUSS", "[p q]"), ("HINGE", "[r s]"), ("RBEAM", "[p r q]"),
+                        ("PLBEAM", "[p r q s]"), ("PLTRUSS", "[p q]"), ("PLHINGE", "[r s]"))},
     "model/input_deformation": ("1", "[element, mode] of each prescribed deformation "
                                      "(INPUTE), present when the model has them"),
     "static/truss_deformation": ("m", "elongation of each TRUSS element"),
@@ -155,6 +156,15 @@ DATASET_ATTRS = {
                                              "the constraint moments"),
     "static/rbeam_deformation": ("m", "RBEAM deformations (position of q in the body of p)"),
     "static/rbeam_stress_resultant": ("N", "RBEAM constraint forces"),
+    # schema 1.3: planar elements
+    "static/plbeam_deformation": ("m", "PLBEAM deformations: 1 elongation, 2-3 bending in the "
+                                       "x-y plane at p and q (l0 times a sine)"),
+    "static/plbeam_stress_resultant": ("N", "PLBEAM stress resultants: normal force, bending "
+                                            "moments divided by l0"),
+    "static/pltruss_deformation": ("m", "elongation of each PLTRUSS element"),
+    "static/pltruss_stress_resultant": ("N", "axial force of each PLTRUSS element"),
+    "static/plhinge_deformation": ("rad", "PLHINGE joint angle"),
+    "static/plhinge_stress_resultant": ("N m", "PLHINGE joint moment"),
     "eigen/step": ("1", "index of the static step (row of /static) that was linearized"),
     "eigen/frequency": ("Hz", "natural frequency; negative: unstable mode (divergence rate), "
                               "NaN: complex or infinite eigenvalue, 0: rigid-body mode"),
@@ -206,7 +216,7 @@ _LIN_DATASETS = {
     },
 }
 #: Element kinds besides BEAM with their own datasets (schema 1.2): keyword -> modes.
-OTHER_KINDS = {"TRUSS": 1, "HINGE": 3, "RBEAM": 3}
+OTHER_KINDS = {"TRUSS": 1, "HINGE": 3, "RBEAM": 3, "PLBEAM": 3, "PLTRUSS": 1, "PLHINGE": 1}
 #: Names of the ``/eigen/kind`` codes.
 MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite")
 

@@ -266,18 +266,23 @@ class StaticProblem:
     def _reaction_setup(self):
         """Which reaction components are reported: one per fixed position coordinate, and
         for an orientation node with fixed Euler parameters the moment components whose
-        lambda_1..3 are fixed (all three when lambda_0 is fixed too)."""
+        lambda_1..3 are fixed (all three when lambda_0 is fixed too). A planar model reports
+        Fx, Fy and Mz only (its out-of-plane coordinates are held by the plane, not by FIX)."""
         num, model = self.num, self.model
         comp_node, comp_name, self._reac_pos, self._reac_rot = [], [], [], []
+        held = num.fixed_mask & ~num.planar_mask if num.planar_mask.size else num.fixed_mask
         for i, n in enumerate(model.position_ids):
             for c in range(3):
-                if num.fixed_mask[num.pos_idx[i, c]]:
+                if held[num.pos_idx[i, c]]:
                     comp_node.append(int(n))
                     comp_name.append("F" + "xyz"[c])
                     self._reac_pos.append(num.pos_idx[i, c])
         for i, n in enumerate(model.orientation_ids):
-            fx = num.fixed_mask[num.rot_idx[i]]
-            comps = [0, 1, 2] if fx[0] and fx.any() else [c - 1 for c in (1, 2, 3) if fx[c]]
+            fx = held[num.rot_idx[i]]
+            if model.planar:                   # only the moment about z
+                comps = [2] if fx.any() else []
+            else:
+                comps = [0, 1, 2] if fx[0] and fx.any() else [c - 1 for c in (1, 2, 3) if fx[c]]
             for c in comps:
                 comp_node.append(int(n))
                 comp_name.append("M" + "xyz"[c])
