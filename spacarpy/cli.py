@@ -329,20 +329,59 @@ def cmd_run(args) -> int:
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
              n_elem, model.analysis, model.deformations)
+    progress = (_ProgressBar(sys.stderr) if model.analysis == "transient" and not args.quiet
+                and sys.stderr.isatty() else None)
     summary = run_model(model, out, RunOptions(n_modes=args.modes or model.n_modes or 10,
                                                modes_per_step=(args.modes_per_step
                                                                or model.modes_each_step),
-                                               compliance_node=args.compliance))
+                                               compliance_node=args.compliance,
+                                               progress=progress))
+    if progress is not None:
+        progress.close()
     if model.analysis == "check":
         print(summary.report)
         return EXIT_OK
-    log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
-             time.perf_counter() - t0)
+    if model.analysis == "transient":
+        log.info("finished transient analysis: %d time steps (%d Newton iterations) in %.2f s",
+                 summary.n_time, summary.newton_iterations, time.perf_counter() - t0)
+    else:
+        log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
+                 time.perf_counter() - t0)
     if expects:
         changed = bool(args.overrides) or args.mode is not None or \
             args.deformations is not None
         return _check_expectations(expects, out, fatal=not changed)
     return EXIT_OK
+
+
+class _ProgressBar:
+    """A one-line progress display of a transient run on a terminal: time reached, a bar and
+    the estimated remaining time (redrawn at most 5 times a second)."""
+
+    def __init__(self, stream, width: int = 30):
+        self.stream, self.width = stream, width
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+        self.shown = False
+
+    def __call__(self, t: float, t_end: float) -> None:
+        now = time.perf_counter()
+        if now - self.last < 0.2 and t < t_end:
+            return
+        self.last = now
+        frac = min(max(t / t_end, 0.0), 1.0) if t_end > 0 else 1.0
+        elapsed = now - self.t0
+        eta = elapsed * (1 - frac) / frac if frac > 0 else float("nan")
+        bar = "#" * int(round(frac * self.width))
+        self.stream.write(f"\r  t = {t:.4g} / {t_end:.4g} s [{bar:<{self.width}}] "
+                          f"{100 * frac:5.1f}%  remaining {eta:6.1f} s ")
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
 
 
 def _check_expectations(expects, out, fatal: bool = True) -> int:

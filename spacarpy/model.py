@@ -304,6 +304,10 @@ class Model:
     planar : bool
         A planar model (PLBEAM, PLTRUSS, PLHINGE): every node stays in the x-y plane (z and
         the Euler parameters lambda1, lambda2 are held at 0; only rotations about z).
+    timestep, rho_inf, substeps, start, time_function
+        Transient analysis: ``(t_end, n_steps)`` of TIMESTEP (None: not given), the spectral
+        radius of RHOINF, integration steps per stored step (SUBSTEPS), START (``"deck"`` or ``"static"``) and TIMEFUNCTION ``(kind,
+        params)`` (see :mod:`spacarpy.solvers.transient`).
     n_modes, modes_each_step : int or None, bool
         The deck's ``MODES count [each|last]`` (spacarpy extension): modes per linearization
         and whether every load step is linearized; the command line overrides them.
@@ -329,6 +333,11 @@ class Model:
     deformations: str = "modified"
     bifurcation: str = "off"
     planar: bool = False
+    timestep: tuple | None = None          # (t_end, n_steps) of TIMESTEP
+    rho_inf: float = 0.9
+    substeps: int = 1
+    start: str = "deck"
+    time_function: tuple = ("constant", ())
     n_modes: int | None = None
     modes_each_step: bool = False
     source_path: str = "<model>"

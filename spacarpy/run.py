@@ -18,6 +18,11 @@ buckling (SPACAR 8)
 
 With ``compliance_node`` any of them also stores the 6x6 compliance of that node wherever it
 linearizes (for a static run: the final step, or every step with ``modes_per_step``).
+
+transient (SPACAR 1)
+    With START static the static load path first (stored in /static), then the time
+    integration of TIMESTEP (:mod:`spacarpy.solvers.transient`), every time step appended to
+    /transient as it is computed.
 """
 from __future__ import annotations
 
@@ -37,7 +42,7 @@ from spacarpy.solvers.static import StaticProblem, solve_static
 
 log = logging.getLogger(__name__)
 
-SUPPORTED = ("static", "eigen", "buckling", "check")
+SUPPORTED = ("static", "eigen", "buckling", "transient", "check")
 
 
 class AnalysisInputError(SpacarError):
@@ -55,6 +60,7 @@ class RunOptions:
     n_modes: int = 10
     modes_per_step: bool = False
     compliance_node: tuple | None = None
+    progress: object = None          # transient: progress(t, t_end), e.g. a terminal bar
 
 
 @dataclass
@@ -63,6 +69,9 @@ class RunSummary:
     report: str = ""                                    # MODE check: the readable report
     frequencies: list = field(default_factory=list)     # per linearized step
     critical: list = field(default_factory=list)
+    n_time: int = 0                                     # transient: stored time steps
+    transient_wall_time: float = 0.0
+    newton_iterations: int = 0
 
 
 def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummary:
@@ -79,6 +88,13 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
     if model.analysis == "check":
         return RunSummary(report=kinematic_check(problem))
     mass = MassAssembler(model, num)
+    transient = model.analysis == "transient"
+    if transient and model.timestep is None:
+        raise AnalysisInputError("MODE transient needs the time span: TIMESTEP t_end n_steps "
+                                 "in the data module")
+    if transient and not mass.has_mass:
+        raise AnalysisInputError("MODE transient needs mass: give EM lines for the elements "
+                                 "(or XM nodal masses)")
     want_eigen = model.analysis == "eigen" or (opts.modes_per_step and mass.has_mass)
     want_buckling = model.analysis == "buckling" or (opts.modes_per_step and problem.loads.any)
     if model.analysis == "eigen" and not mass.has_mass:
@@ -107,7 +123,7 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
                             problem.reaction_component,
                             n_eigen_modes=opts.n_modes if want_eigen else 0,
                             n_buckling_modes=opts.n_modes if want_buckling else 0,
-                            compliance_node=opts.compliance_node)
+                            compliance_node=opts.compliance_node, transient=transient)
 
         def on_step(step):
             k = summary.n_steps
@@ -127,9 +143,44 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
                                         compliance_rows if want_compliance else None, summary)
             log.info(msg)
 
-        solve_static(model, problem=problem, on_step=on_step)
+        if transient:
+            _run_transient(model, problem, writer, on_step, opts, summary)
+        else:
+            solve_static(model, problem=problem, on_step=on_step)
         writer.finish()
     return summary
+
+
+def _run_transient(model, problem, writer, on_static_step, opts, summary):
+    from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
+    num = problem.num
+    t_end, n_steps = model.timestep
+    topts = TransientOptions(t_end=t_end, n_steps=n_steps, substeps=model.substeps,
+                             rho_inf=model.rho_inf,
+                             tol=min(model.iterstep.tol, 1e-10),
+                             max_iter=max(model.iterstep.max_iter, 20), start=model.start,
+                             phi=TimeFunction(*model.time_function),
+                             deformations=model.deformations)
+    width = len(str(n_steps))
+
+    def on_step(step):
+        writer.transient_step(step.time, step.x[num.pos_idx], step.x[num.rot_idx],
+                              step.v[num.pos_idx], step.v[num.rot_idx], step.deformation,
+                              step.stress, step.kinetic_energy, step.elastic_energy,
+                              step.external_work, step.iterations, step.residual,
+                              group_deformation=step.group_deformation,
+                              group_stress=step.group_stress)
+        k = summary.n_time
+        summary.n_time += 1
+        if k % max(n_steps // 20, 1) == 0 or k == n_steps:
+            log.info(f"time step {k:>{width}}/{n_steps}  t = {step.time:.6g} s  "
+                     f"{step.iterations:2d} iterations  energy T + U - W = "
+                     f"{step.energy_balance:.6g} J")
+
+    result = solve_transient(model, topts, on_step=on_step, on_static_step=on_static_step,
+                             progress=opts.progress, problem=problem)
+    summary.transient_wall_time = result.wall_time
+    summary.newton_iterations = result.n_newton
 
 
 def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buckling,

@@ -63,7 +63,8 @@ def test_missing_deck_and_bad_mode_are_input_errors(tmp_path, capsys):
     assert main(["run", str(tmp_path / "nothere.dat")]) == 2
     deck = copy_deck(tmp_path, "table1_cantilever_2el_modified.dat")
     assert main(["run", str(deck), "--mode", "transient"]) == 2
-    assert "not supported yet" in capsys.readouterr().err
+    assert "MODE transient needs the time span: TIMESTEP t_end n_steps" in \
+        capsys.readouterr().err
     assert main(["run", str(deck), "--mode", "eigen"]) == 2          # the deck has no EM
     assert "needs mass" in capsys.readouterr().err
     assert main(["run", str(deck), "--mode", "banana"]) == 2

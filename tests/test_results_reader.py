@@ -68,7 +68,10 @@ def result_files() -> dict:
         "driven": ("driven", []),                     # a prescribed hinge angle (INPUTE)
         "planar": ("planar_four_bar", []),            # PLBEAM, PLHINGE (schema 1.3)
         "pltruss": ("pltruss", []),                   # PLTRUSS (schema 1.3)
+        "transient": ("pendulum", []),                # /transient (schema 1.4)
     }
+    (tmp / "pendulum.dat").write_text((DECKS / "pendulum_rigid_90deg.dat").read_text()
+                                      .replace("TIMESTEP 2.2 440", "TIMESTEP 0.1 10"))
     (tmp / "pltruss.dat").write_text(
         "X 1 -1 0\nX 3 0 0.3\nX 5 1 0\nPLTRUSS 1 1 3\nPLTRUSS 2 5 3\nDYNE 1:2 1\nFIX 1\n"
         "FIX 5\nEND\nHALT\nESTIFF 1:2 1e4\nDELXF 3 0 -50\nITERSTEP 20 4 1e-12\nEND\nEND\n")
@@ -76,6 +79,18 @@ def result_files() -> dict:
         (DECKS / "hinged_rod_spring.dat").read_text()
         .replace("DYNE 10 1 ", "INPUTE 10 1").replace("ESTIFF 10 {k}", "DELINPE 10 1 0.5")
         .replace("DELXF 3 0 {F} 0", "").replace("EXPECT", "# EXPECT"))
+    # short transient runs of the other element kinds (their /transient datasets)
+    short = "MODE transient\n"
+    (tmp / "truss_dyn.dat").write_text(short + (DECKS / "two_bar_truss.dat").read_text()
+                                       .replace("ITERSTEP 20 4 1e-12", "EM 1:2 1\nTIMESTEP 0.01 2")
+                                       .replace("EXPECT", "# EXPECT"))
+    (tmp / "planar_dyn.dat").write_text(short + (DECKS / "planar_four_bar.dat").read_text()
+                                        .replace("ITERSTEP 20 5 1e-12", "EM 1:3 1\nTIMESTEP 0.01 2")
+                                        .replace("EXPECT", "# EXPECT"))
+    (tmp / "pltruss_dyn.dat").write_text(short + (tmp / "pltruss.dat").read_text()
+                                         .replace("ITERSTEP 20 4 1e-12", "EM 1:2 1\nTIMESTEP 0.01 2"))
+    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn"):
+        runs[key] = (key, [])
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}
     for key, (deck, extra) in runs.items():
@@ -104,7 +119,7 @@ def test_every_written_file_is_valid(files):
 def test_open_results_is_exported_at_the_top(files):
     assert spacarpy.open_results is open_results
     res = spacarpy.open_results(files["bend"])
-    assert res.completed and res.analysis == "static" and res.schema_version == (1, 3)
+    assert res.completed and res.analysis == "static" and res.schema_version == (1, 4)
     assert "static analysis, completed" in repr(res)
 
 
@@ -211,7 +226,7 @@ def test_newer_major_version_is_refused_with_both_versions(files, tmp_path):
     with h5py.File(path, "r+") as f:
         f.attrs["schema_version"] = np.array([2, 0], dtype=np.int32)
     with pytest.raises(ResultsFormatError, match=r"schema version 2\.0 is newer than schema "
-                                                 r"version 1\.3"):
+                                                 r"version 1\.4"):
         open_results(path)
 
 

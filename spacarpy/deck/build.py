@@ -177,6 +177,11 @@ class _ModelBuilder:
         self.prescribed: dict = {}          # (node, coord) -> initial, delta, loc
         self.bifurcation = "off"
         self.planar = False
+        self.timestep = None
+        self.rho_inf = 0.9
+        self.substeps = 1
+        self.start = "deck"
+        self.time_function = ("constant", ())
         self.n_modes: int | None = None
         self.modes_each_step = False
         self.input_deformations: dict = {}  # (element, mode) -> initial, delta, loc (INPUTE)
@@ -321,6 +326,35 @@ class _ModelBuilder:
             self.bifurcation_line(st)
         for st in by_kw.get("MODES", []):
             self.modes_line(st)
+        for st in by_kw.get("TIMESTEP", []):
+            if self.once(st):
+                if not (st.fields[0] > 0 and st.fields[1] >= 1):
+                    self.error(st.loc, "TIMESTEP: expected a positive end time and at least "
+                                       f"one step, got {st.fields[0]:g} {st.fields[1]}", st)
+                else:
+                    self.timestep = (float(st.fields[0]), int(st.fields[1]))
+        for st in by_kw.get("SUBSTEPS", []):
+            if self.once(st):
+                self.substeps = int(st.fields[0])
+        for st in by_kw.get("RHOINF", []):
+            if self.once(st):
+                if not 0.0 <= st.fields[0] <= 1.0:
+                    self.error(st.field_locs[0], "RHOINF: the spectral radius lies in [0, 1], "
+                                                 f"got {st.fields[0]:g}", st)
+                else:
+                    self.rho_inf = float(st.fields[0])
+        for st in by_kw.get("START", []):
+            if self.once(st):
+                value = str(st.fields[0]).lower()
+                if value not in ("deck", "static"):
+                    self.error(st.field_locs[0], "START: expected 'deck' (at rest in the deck's "
+                                                 "configuration) or 'static' (the static "
+                                                 f"equilibrium), got '{st.fields[0]}'", st)
+                else:
+                    self.start = value
+        for st in by_kw.get("TIMEFUNCTION", []):
+            if self.once(st):
+                self.time_function_line(st)
         self.overrides(deformations, analysis)
         self.check_unconnected()
         self.check_cross_section_elements(sections)
@@ -900,6 +934,32 @@ class _ModelBuilder:
                                          f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
         self.deformations = value
 
+    def time_function_line(self, st: Statement) -> None:
+        from spacarpy.solvers.transient import TIME_FUNCTIONS
+        kind = str(st.fields[0]).lower()
+        params = tuple(float(v) for v in st.fields[1:])
+        need = {"constant": 0, "zero": 0, "linear": 0, "ramp": 1, "smoothstep": 1,
+                "spinup": 1, "sine": 1}
+        if kind not in TIME_FUNCTIONS:
+            self.error(st.field_locs[0], f"TIMEFUNCTION: unknown kind '{st.fields[0]}'; "
+                                         f"expected {', '.join(TIME_FUNCTIONS)}", st)
+            return
+        if kind == "table":
+            ok = len(params) >= 4 and len(params) % 2 == 0 and np.all(np.diff(params[0::2]) > 0)
+            if not ok:
+                self.error(st.loc, "TIMEFUNCTION table: expected pairs t1 phi1 t2 phi2 ... (at "
+                                   "least two, times increasing)", st)
+                return
+        elif len(params) != need[kind]:
+            self.error(st.loc, f"TIMEFUNCTION {kind} takes {need[kind]} parameter(s) "
+                               f"({TIME_FUNCTIONS[kind]}), got {len(params)}", st)
+            return
+        elif kind in ("ramp", "smoothstep", "spinup", "sine") and params[0] <= 0:
+            self.error(st.field_locs[1], f"TIMEFUNCTION {kind}: the parameter must be "
+                                         f"positive, got {params[0]:g}", st)
+            return
+        self.time_function = (kind, params)
+
     def modes_line(self, st: Statement) -> None:
         if not self.once(st):
             return
@@ -1009,6 +1069,11 @@ class _ModelBuilder:
             deformations=self.deformations or "modified",
             bifurcation=self.bifurcation,
             planar=self.planar,
+            timestep=self.timestep,
+            rho_inf=self.rho_inf,
+            substeps=self.substeps,
+            start=self.start,
+            time_function=self.time_function,
             n_modes=self.n_modes,
             modes_each_step=self.modes_each_step,
             source_path=self.path,

@@ -116,7 +116,9 @@ def _positions(statements) -> dict:
     out = {}
     for st in statements:
         if st.keyword == "X" and st.module >= 0:
-            out.setdefault(st.fields[0], np.array(st.fields[1:4], dtype=float))
+            # (a planar X line has no z; the model builder checks where that is allowed)
+            out.setdefault(st.fields[0], np.array((tuple(st.fields[1:4]) + (0.0,))[:3],
+                                                  dtype=float))
     return out
 
 

@@ -1,4 +1,4 @@
-"""Write, read and validate spacarpy results files (HDF5, schema version 1.3), crash-safely.
+"""Write, read and validate spacarpy results files (HDF5, schema version 1.4), crash-safely.
 
 This module's one job is the results file: :class:`ResultsWriter` streams an analysis into it
 step by step, :func:`read_results` loads it back into numpy arrays, and :func:`validate_file`
@@ -68,7 +68,7 @@ __all__ = [
 
 #: (major, minor) version of the results-file schema written and read by this module.
 #: MAJOR changes are incompatible; MINOR ones only add optional content.
-SCHEMA_VERSION = (1, 3)
+SCHEMA_VERSION = (1, 4)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -156,6 +156,28 @@ DATASET_ATTRS = {
                                              "the constraint moments"),
     "static/rbeam_deformation": ("m", "RBEAM deformations (position of q in the body of p)"),
     "static/rbeam_stress_resultant": ("N", "RBEAM constraint forces"),
+    # schema 1.4: transient analysis
+    "transient/time": ("s", "time of each stored time step (the step is committed when its "
+                            "time is written)"),
+    "transient/position": ("m", "position of each position node"),
+    "transient/euler": ("1", "Euler parameters of each orientation node"),
+    "transient/velocity": ("m/s", "velocity of each position node"),
+    "transient/euler_rate": ("1/s", "time derivative of the Euler parameters (angular "
+                                    "velocity in body axes: 2 G(q) dq/dt)"),
+    "transient/deformation": ("m", "generalized deformations of each BEAM element"),
+    "transient/stress_resultant": ("N", "generalized stress resultants of each BEAM element"),
+    "transient/kinetic_energy": ("J", "kinetic energy T of the model"),
+    "transient/elastic_energy": ("J", "elastic energy U of the flexible deformation modes"),
+    "transient/external_work": ("J", "work W done on the model since t = 0 by the loads, "
+                                     "gravity and the prescribed motions; T + U - W is "
+                                     "constant for an exact integration"),
+    "transient/iterations": ("1", "Newton iterations of the last time step"),
+    "transient/residual": ("1", "final relative residual of the last time step"),
+    **{f"transient/{k.lower()}_{w}": (u, f"{k} {w.replace('_', ' ')}s, as in /static")
+       for k, units in (("TRUSS", ("m", "N")), ("HINGE", ("rad | 1", "N m")),
+                        ("RBEAM", ("m", "N")), ("PLBEAM", ("m", "N")),
+                        ("PLTRUSS", ("m", "N")), ("PLHINGE", ("rad", "N m")))
+       for w, u in zip(("deformation", "stress_resultant"), units)},
     # schema 1.3: planar elements
     "static/plbeam_deformation": ("m", "PLBEAM deformations: 1 elongation, 2-3 bending in the "
                                        "x-y plane at p and q (l0 times a sine)"),
@@ -231,6 +253,20 @@ _STEP_DATASETS = {
     "deformation": (np.float64, ("element", "deformation_mode")),
     "stress_resultant": (np.float64, ("element", "deformation_mode")),
     "reaction": (np.float64, ("reaction",)),
+    "iterations": (np.int32, ()),
+    "residual": (np.float64, ()),
+}
+# Time step datasets of /transient (schema 1.4): name -> (dtype, labels of the trailing axes).
+_TRANSIENT_DATASETS = {
+    "position": (np.float64, ("position_node", "coordinate")),
+    "euler": (np.float64, ("orientation_node", "euler_parameter")),
+    "velocity": (np.float64, ("position_node", "coordinate")),
+    "euler_rate": (np.float64, ("orientation_node", "euler_parameter")),
+    "deformation": (np.float64, ("element", "deformation_mode")),
+    "stress_resultant": (np.float64, ("element", "deformation_mode")),
+    "kinetic_energy": (np.float64, ()),
+    "elastic_energy": (np.float64, ()),
+    "external_work": (np.float64, ()),
     "iterations": (np.int32, ()),
     "residual": (np.float64, ()),
 }
@@ -347,6 +383,9 @@ class ResultsWriter:
         self._lin: dict[str, dict] = {}
         self._shapes: dict[str, tuple] = {}
         self._n_step = 0
+        self._transient: dict[str, h5py.Dataset] | None = None
+        self._tshapes: dict[str, tuple] = {}
+        self._n_time = 0
         self._l0: np.ndarray | None = None           # element lengths, for surface stresses
         self._sections = None                        # SectionProperties, set by open()
 
@@ -407,7 +446,8 @@ class ResultsWriter:
 
     def begin_static(self, n_position_node: int, n_orientation_node: int, n_elem: int,
                      reaction_node, reaction_component, *, n_eigen_modes: int = 0,
-                     n_buckling_modes: int = 0, compliance_node=None) -> None:
+                     n_buckling_modes: int = 0, compliance_node=None,
+                     transient: bool = False) -> None:
         """Create the ``/static`` group with empty, extendable step datasets.
 
         After this call the file is switched to SWMR mode: no new datasets or groups can be
@@ -428,6 +468,8 @@ class ResultsWriter:
         compliance_node : (int, int) or None
             Deck numbers (position node, orientation node) whose 6x6 compliance is stored
             per linearized step (:meth:`compliance_step`).
+        transient : bool
+            Also create the ``/transient`` group (schema 1.4) for :meth:`transient_step`.
         """
         f = self._require_open("begin_static")
         if self._static is not None:
@@ -484,6 +526,8 @@ class ResultsWriter:
         if compliance_node is not None:
             f["compliance"].attrs["position_node"] = np.int64(compliance_node[0])
             f["compliance"].attrs["orientation_node"] = np.int64(compliance_node[1])
+        if transient:
+            self._create_transient(f, n_pos, n_rot, n_elem)
         f.flush()
         # From here on only appends: SWMR keeps the file consistent on disk at every instant.
         f.swmr_mode = True
@@ -565,6 +609,73 @@ class ResultsWriter:
         self._n_step = k + 1
         log.debug("static step %d written (load factor %g)", k, load_factor)
 
+    def _create_transient(self, f, n_pos, n_rot, n_elem) -> None:
+        g = f.create_group("transient")
+        time_ds = _create_extendable(g, "time", (), np.float64)
+        time_ds.make_scale("time")
+        time_ds.dims[0].label = "time_step"
+        trailing = {"position": (n_pos, 3), "euler": (n_rot, 4), "velocity": (n_pos, 3),
+                    "euler_rate": (n_rot, 4), "deformation": (n_elem, 6),
+                    "stress_resultant": (n_elem, 6), "kinetic_energy": (),
+                    "elastic_energy": (), "external_work": (), "iterations": (),
+                    "residual": ()}
+        dtypes = dict(_TRANSIENT_DATASETS)
+        for kind, es in sorted(self.model.element_sets.items()):
+            if es.n_elem and kind in OTHER_KINDS:
+                for what in ("deformation", "stress_resultant"):
+                    name = f"{kind.lower()}_{what}"
+                    dtypes[name] = (np.float64, ("element", "deformation_mode"))
+                    trailing[name] = (es.n_elem, OTHER_KINDS[kind])
+        datasets = {}
+        for name, (dtype, labels) in dtypes.items():
+            ds = _create_extendable(g, name, trailing[name], dtype)
+            ds.dims[0].attach_scale(time_ds)
+            for axis, label in enumerate(("time_step",) + labels):
+                ds.dims[axis].label = label
+            datasets[name] = ds
+        datasets["time"] = time_ds
+        self._transient = datasets
+        self._tshapes = trailing
+
+    def transient_step(self, time: float, position, euler, velocity, euler_rate, deformation,
+                       stress_resultant, kinetic_energy: float, elastic_energy: float,
+                       external_work: float, iterations: int, residual: float,
+                       group_deformation=None, group_stress=None) -> None:
+        """Append one time step (arrays as in :meth:`static_step`, plus the velocities
+        and the energies) and make it durable: the arrays first, then ``/transient/time``
+        commits the step."""
+        self._require_open("transient_step")
+        if self._transient is None:
+            raise RuntimeError("transient_step called without begin_static(transient=True)")
+        given = {"position": position, "euler": euler, "velocity": velocity,
+                 "euler_rate": euler_rate, "deformation": deformation,
+                 "stress_resultant": stress_resultant, "kinetic_energy": kinetic_energy,
+                 "elastic_energy": elastic_energy, "external_work": external_work,
+                 "iterations": operator.index(iterations), "residual": float(residual)}
+        for what, values in (("deformation", group_deformation), ("stress_resultant",
+                                                                  group_stress)):
+            for kind in OTHER_KINDS:
+                name = f"{kind.lower()}_{what}"
+                if name in self._transient:
+                    given[name] = (values or {}).get(kind)
+        k = self._n_time
+        for name, value in given.items():
+            if value is None:
+                raise ValueError(f"transient_step: {name} is missing")
+            row = np.asarray(value, dtype=self._transient[name].dtype)
+            if row.shape != self._tshapes[name]:
+                raise ValueError(f"transient_step: {name} has shape {row.shape}, "
+                                 f"expected {self._tshapes[name]}")
+            ds = self._transient[name]
+            ds.resize(k + 1, axis=0)
+            ds[k] = row
+        self._file.flush()
+        ts = self._transient["time"]              # commit the step
+        ts.resize(k + 1, axis=0)
+        ts[k] = float(time)
+        self._file.flush()
+        self._n_time = k + 1
+
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
                    shape_euler) -> None:
         """Append the modes of one linearized static step (``step`` = its row in /static).
@@ -642,7 +753,10 @@ class ResultsWriter:
         os.replace(self.partial_path, self.final_path)
         _fsync(self.final_path.parent)
         self._state = "finished"
-        log.info("results written to %s (%d static steps)", self.final_path, self._n_step)
+        what = f"{self._n_step} static steps"
+        if self._transient is not None:
+            what += f", {self._n_time} time steps"
+        log.info("results written to %s (%s)", self.final_path, what)
 
     def abort(self, error: str) -> None:
         """Close the file as an unfinished run: ``completed = False``, ``error = error``.
@@ -1185,8 +1299,36 @@ def _layout_problems(f: h5py.File) -> list[str]:
             _check_linearized(f, group, counts, completed, problems)
         elif completed and _python_value(f.attrs.get("analysis")) == group:
             problems.append(f"completed {group} analysis without a /{group} group")
+    if "transient" in f:
+        _check_transient(f, counts, completed, problems)
+    elif completed and _python_value(f.attrs.get("analysis")) == "transient":
+        problems.append("completed transient analysis without a /transient group")
     _check_cf_attrs(f, problems)
     return problems
+
+
+def _check_transient(f: h5py.File, counts: dict, completed: bool, problems: list[str]) -> None:
+    """Check ``/transient`` (schema 1.4): datasets, shapes, step counts, the time scale."""
+    ts = _dataset(f, "transient/time", problems, kind="float", shape=(None,))
+    if ts is None:
+        return
+    if not h5py.h5ds.is_scale(ts.id):
+        problems.append("/transient/time is not a dimension scale")
+    trailing = {"position": (counts["n_pos"], 3), "euler": (counts["n_rot"], 4),
+                "velocity": (counts["n_pos"], 3), "euler_rate": (counts["n_rot"], 4),
+                "deformation": (counts["n_elem"], 6), "stress_resultant": (counts["n_elem"], 6)}
+    n_t = ts.shape[0]
+    for name, (dtype, _) in _TRANSIENT_DATASETS.items():
+        kind = "int" if np.issubdtype(dtype, np.integer) else "float"
+        ds = _dataset(f, f"transient/{name}", problems, kind=kind,
+                      shape=(None,) + trailing.get(name, ()))
+        if ds is None:
+            continue
+        m = ds.shape[0]
+        if m != n_t and (completed or m < n_t):
+            problems.append(f"/transient/{name} has {m} steps but /transient/time has {n_t}")
+        if not h5py.h5ds.is_attached(ds.id, ts.id, 0):
+            problems.append(f"/transient/time is not attached to axis 0 of /transient/{name}")
 
 
 def _check_root_attrs(f: h5py.File, problems: list[str]) -> bool:

@@ -205,13 +205,16 @@ class StaticProblem:
         return _Eval(states=states, sigmas=sigmas, r=r, c=c, f_int=f_int, f_ext=f_ext,
                      q_eu=q_eu, gravity_stiffness=gk)
 
-    def matrix(self, ev: "_Eval", mu, moment, material_only: bool = False):
+    def matrix(self, ev: "_Eval", mu, moment, material_only: bool = False, extra=None,
+               scale: float | None = None):
         """The bordered Newton matrix at an evaluated state (CSC).
 
         With ``material_only`` the K block holds only the material stiffness D^T S D (K0 of
         Eq. 62); otherwise the full tangent K0 + G0 + N0 (geometric stiffness from the stress
         resultants and all constraint multipliers, load-dependent part of the moments).
-        The constraint blocks are the same in both and scaled by ``self.scale``.
+        The constraint blocks are the same in both and scaled by ``self.scale`` (or
+        ``scale``). ``extra`` adds blocks to the element blocks of some groups (``{group
+        position: (n_elem, n_ldof, n_ldof)}``; the transient solver's ``beta' M``).
         """
         num = self.num
         t0 = time.perf_counter()
@@ -222,6 +225,8 @@ class StaticProblem:
                 k += g.kind.hessian(st, sigma)
                 if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
                     k -= ev.gravity_stiffness[i]          # -d f_gravity / dx
+            if extra is not None and i in extra:
+                k = k + extra[i]
             k_el.append(k)
         n_m = self.loads.moment_rot.size
         if material_only:
@@ -233,7 +238,8 @@ class StaticProblem:
         A = self.pattern.assemble(k_el, euler_diag, mom_blocks,
                                   [st.D[g.rigid_elem, g.rigid_mode]
                                    for g, st in zip(num.groups, ev.states)],
-                                  2.0 * ev.q_eu, scale=self.scale)
+                                  2.0 * ev.q_eu,
+                                  scale=self.scale if scale is None else scale)
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
         return A

@@ -1,0 +1,160 @@
+"""Inertia forces of the whole model over all nodal coordinates: ``M(x) a + h(x, v)``.
+
+The kinetic energy is ``T = 1/2 v^T M(x) v`` with the consistent element mass matrices of the
+kernels (beam: Hermite centre line and rotary inertia, Eq. 57-59; truss; rigid rod) and the
+nodal masses (XM). Lagrange's equations give the generalized inertia force
+
+    d/dt (dT/dv) - dT/dx = M a + h,   h = (dM/dt) v - 1/2 d(v^T M v)/dx        (Eq. 60)
+
+(the convective terms). Every mass matrix here is a polynomial of degree at most two in the
+nodal coordinates: positions enter linearly, the tangents ``n = R(q) n0`` and the angular
+velocity matrices ``G(q)`` are linear or quadratic in the Euler parameters. A central
+difference of a quadratic function is *exact* for any step, so the derivatives of M in h are
+taken as central differences with unit step on each element's local coordinates: exact (to
+round-off), vectorized over the elements, and valid for every kernel without writing its
+convective terms by hand.
+
+Unlike :class:`spacarpy.solvers.linearize.MassAssembler` (free coordinates only), the matrix
+here spans all coordinates, so prescribed motions (INPUTX, INPUTR with their velocities and
+accelerations) load the free coordinates through the coupling terms.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from spacarpy.assembly import BlockPattern, scatter_add
+from spacarpy.elements.beam_mass import nodal_rotary_mass
+
+
+class Inertia:
+    """Mass matrix and inertia forces of a model over all ``n_coord`` coordinates."""
+
+    def __init__(self, model, num):
+        self.num = num
+        pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
+        rot_row = {int(n): i for i, n in enumerate(model.orientation_ids)}
+        point_idx, point_mass, rot_nodes, rot_inertia = [], [], [], []
+        for xm in model.nodal_masses:
+            n = int(xm.node)
+            if n in pos_row:
+                point_idx.append(num.pos_idx[pos_row[n]])
+                point_mass.append(float(xm.values[0]))
+            else:
+                ixx, ixy, ixz, iyy, iyz, izz = (tuple(xm.values) + (0.0,) * 6)[:6]
+                rot_nodes.append(rot_row[n])
+                rot_inertia.append([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        self.point_idx = np.array(point_idx, dtype=np.int64).reshape(-1, 3)
+        self.point_mass = np.array(point_mass, dtype=float)
+        self.rot_idx = num.rot_idx[np.array(rot_nodes, dtype=np.int64)].reshape(-1, 4)
+        self.rot_inertia = np.array(rot_inertia, dtype=float).reshape(-1, 3, 3)
+        self.groups = [g for g in num.groups if g.kind.mass is not None and np.any(g.mass)]
+        #: position of each of self.groups in num.groups
+        self.group_pos = [next(i for i, h in enumerate(num.groups) if h is g)
+                          for g in self.groups]
+        self.pattern = BlockPattern(num.n_coord, [g.idx for g in self.groups]
+                                    + [self.point_idx, self.rot_idx])
+        # the nodal masses over the unknown coordinates (their blocks are not element
+        # blocks of the Newton matrix's pattern)
+        u = num.unknown_of
+        self.nodal_pattern = BlockPattern(num.n_unknown, [u[self.point_idx], u[self.rot_idx]])
+        self.has_nodal = bool(self.point_idx.size or self.rot_idx.size)
+
+    @property
+    def has_mass(self) -> bool:
+        return bool(self.groups or self.point_mass.size or self.rot_idx.size)
+
+    def physical(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Velocities with the Euler parameters' radial parts removed (``q.dq = 0``).
+
+        An index-3 integrator keeps ``q.q = 1`` at position level only, so its velocities
+        may carry a small spurious component along q. The rotary mass ``4 G^T J G`` ignores
+        it, but the beam's tangents ``n = R(q) n0`` are quadratic in q and would read it as a
+        stretching of the tangent; the convective terms and the kinetic energy use the
+        physical velocities instead.
+        """
+        ri = self.num.rot_idx
+        if not ri.size:
+            return v
+        q, qd = x[ri], v[ri]
+        qq = np.sum(q * q, axis=1, keepdims=True)
+        v = v.copy()
+        v[ri] = qd - np.sum(q * qd, axis=1, keepdims=True) / qq * q
+        return v
+
+    def _batches(self):
+        """Per batch (element groups, point masses, rotary nodes): its coordinate indices and
+        a mass function ``f(x_local, reps)`` for ``reps`` stacked copies of the batch
+        (reference data and properties tiled, so that many configurations are evaluated in
+        one vectorized kernel call)."""
+        out = []
+        for g in self.groups:
+            def mass_of(xl, reps, g=g):
+                ref = {k: np.concatenate([v] * reps) if isinstance(v, np.ndarray) else v
+                       for k, v in g.ref.items()}
+                return g.kind.mass(xl, ref, np.concatenate([g.mass] * reps))
+            out.append((mass_of, g.idx))
+        pm, jr = self.point_mass, self.rot_inertia
+        out.append(((lambda xl, reps: np.tile(pm, reps)[:, None, None] * np.eye(3)),
+                    self.point_idx))
+        out.append(((lambda xl, reps: nodal_rotary_mass(xl, np.concatenate([jr] * reps))),
+                    self.rot_idx))
+        return out
+
+    def matrix(self, x: np.ndarray) -> sp.csc_matrix:
+        """The mass matrix (n_coord, n_coord) at x."""
+        return self.pattern.assemble([f(x[idx], 1) for f, idx in self._batches()])
+
+    def forces(self, x: np.ndarray, v: np.ndarray, a: np.ndarray):
+        """``(blocks, M a + h)`` at (x, v, a): the mass blocks of every batch (element
+        groups, point masses, rotary nodes; :meth:`assemble` makes M of them) and the inertia
+        force (n_coord,), with the physical Euler-parameter velocities (:meth:`physical`)."""
+        v = self.physical(x, v)
+        n = self.num.n_coord
+        blocks, force = [], np.zeros(n)
+        for mass_of, idx in self._batches():
+            xl, vl, al = x[idx], v[idx], a[idx]
+            n_b, k = xl.shape
+            if not n_b:
+                blocks.append(np.zeros((0, k, k)))
+                continue
+            if not np.any(vl):
+                m = mass_of(xl, 1)
+                blocks.append(m)
+                force += scatter_add(n, idx, np.einsum("nij,nj->ni", m, al))
+                continue
+            # M at x, at x +- v and at x +- e_j (j = 1..k) in one call: the central
+            # differences give dM/dt v and d(v^T M v)/dx exactly (M is quadratic in x)
+            steps = np.concatenate([np.zeros((1, k)), np.eye(k), -np.eye(k)])
+            shifted = np.concatenate([xl[None] + steps[:, None, :],
+                                      (xl + vl)[None], (xl - vl)[None]])
+            ms = mass_of(shifted.reshape(-1, k), 2 * k + 3).reshape(2 * k + 3, n_b, k, k)
+            m = ms[0]
+            blocks.append(m)
+            dm_v = 0.5 * (ms[-2] - ms[-1])
+            vmv = np.einsum("ni,jnik,nk->jn", vl, ms[1:2 * k + 1], vl)
+            grad = 0.5 * (vmv[:k] - vmv[k:]).T                        # (n_b, k)
+            f = np.einsum("nij,nj->ni", m, al) + np.einsum("nij,nj->ni", dm_v, vl) - 0.5 * grad
+            force += scatter_add(n, idx, f)
+        return blocks, force
+
+    def assemble(self, blocks) -> sp.csc_matrix:
+        """M (n_coord, n_coord) from the blocks of :meth:`forces`."""
+        return self.pattern.assemble(blocks)
+
+    def iteration_parts(self, blocks, factor: float):
+        """``factor * M`` for the Newton matrix: a dict of element-group blocks (keyed by
+        the group's position in ``num.groups``) and the nodal masses over the unknowns
+        (sparse, or None)."""
+        n_g = len(self.groups)
+        extra = {p: factor * b for p, b in zip(self.group_pos, blocks[:n_g])}
+        nodal = (factor * self.nodal_pattern.assemble(blocks[n_g:]) if self.has_nodal
+                 else None)
+        return extra, nodal
+
+    def kinetic_energy(self, x: np.ndarray, v: np.ndarray) -> float:
+        v = self.physical(x, v)
+        return 0.5 * float(v @ (self.matrix(x) @ v))
+
+
+__all__ = ["Inertia"]

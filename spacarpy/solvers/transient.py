@@ -1,0 +1,513 @@
+"""Transient dynamics (SPACAR's mode 1): generalized-alpha time integration of the index-3
+equations of motion.
+
+Unknowns are the free nodal coordinates x (positions and Euler parameters) and the
+multipliers mu of the constraints (rigid and prescribed deformation modes, Euler
+normalizations), as in the static solver (docs/solver.md):
+
+    M(x) a + h(x, v) + D^T sigma + C^T mu - f(t, x) = 0     (free coordinates)
+    c(x, t) = 0
+
+with the inertia forces of :mod:`spacarpy.solvers.inertia` (Eq. 60), the elastic and
+constraint forces and the tangent of :class:`~spacarpy.solvers.static.StaticProblem`, and the
+loads ``XF + phi(t) DELXF`` (prescribed coordinates and deformations likewise follow
+``phi(t)`` times their increments, :class:`TimeFunction`). The constraints are kept at
+position level (index 3), which the generalized-alpha method of Arnold & Brüls (2007) integrates
+with second-order accuracy. Its numerical dissipation is set by the spectral radius at
+infinite frequency ``rho_inf`` in [0, 1]: 1 is the undamped trapezoidal rule (energy
+conserving for linear systems), smaller values damp the highest frequencies (the stiff axial
+and shear modes of beams) while keeping the low ones.
+
+Each step is solved by Newton's method on (x, mu) with the iteration matrix
+``[K_t + beta' M, C^T; C, 0]`` (K_t the static tangent including geometric terms); the
+derivatives of M and of the convective terms are left out of it, which only slows Newton
+down when the velocities are large. A step whose Newton iterations fail is halved (up to
+``max_cuts`` times) and retried; it is never skipped.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from spacarpy.errors import ConvergenceError, ModelError, SpacarError
+from spacarpy.model import Model
+from spacarpy.solvers.inertia import Inertia
+from spacarpy.solvers.static import StaticProblem, solve_static
+
+log = logging.getLogger(__name__)
+
+#: Time functions phi(t) for the DELXF loads and the prescribed-motion increments.
+TIME_FUNCTIONS = {
+    "constant": "phi = 1 (the loads of the end of the static path, unchanged)",
+    "zero": "phi = 0 (DELXF removed at t = 0: release from a static deflection)",
+    "linear": "phi = t (DELINPR angle = angular velocity, DELXF = force rate)",
+    "ramp": "phi = min(t / T, 1)",
+    "smoothstep": "phi = 3 s^2 - 2 s^3, s = min(t / T, 1)",
+    "spinup": "phi = (t^2/2 + (T/2pi)^2 (cos(2 pi t/T) - 1)) / T for t < T, t - T/2 after "
+              "(Simo & Vu-Quoc's spin-up: the rate rises smoothly from 0 to 1 at t = T)",
+    "sine": "phi = sin(2 pi f t)",
+    "table": "phi piecewise linear through (t1, phi1), (t2, phi2), ...; constant outside",
+}
+
+
+@dataclass(frozen=True)
+class TimeFunction:
+    """phi(t) with its first and second derivatives (see :data:`TIME_FUNCTIONS`)."""
+
+    kind: str = "constant"
+    params: tuple = ()
+
+    def __call__(self, t: float) -> tuple[float, float, float]:
+        k, p = self.kind, self.params
+        if k == "constant":
+            return 1.0, 0.0, 0.0
+        if k == "zero":
+            return 0.0, 0.0, 0.0
+        if k == "linear":
+            return t, 1.0, 0.0
+        if k == "ramp":
+            T = p[0]
+            return (t / T, 1.0 / T, 0.0) if t < T else (1.0, 0.0, 0.0)
+        if k == "smoothstep":
+            T = p[0]
+            if t >= T:
+                return 1.0, 0.0, 0.0
+            s = t / T
+            return 3 * s * s - 2 * s**3, (6 * s - 6 * s * s) / T, (6 - 12 * s) / T**2
+        if k == "spinup":
+            T = p[0]
+            if t >= T:
+                return t - T / 2, 1.0, 0.0
+            w = 2 * math.pi / T
+            return ((t * t / 2 + (math.cos(w * t) - 1) / w**2) / T,
+                    (t - math.sin(w * t) / w) / T, (1 - math.cos(w * t)) / T)
+        if k == "sine":
+            w = 2 * math.pi * p[0]
+            return math.sin(w * t), w * math.cos(w * t), -w * w * math.sin(w * t)
+        if k == "table":
+            ts, vs = np.asarray(p[0::2], float), np.asarray(p[1::2], float)
+            if t <= ts[0] or t >= ts[-1]:
+                return float(vs[0] if t <= ts[0] else vs[-1]), 0.0, 0.0
+            i = int(np.searchsorted(ts, t, side="right")) - 1
+            rate = (vs[i + 1] - vs[i]) / (ts[i + 1] - ts[i])
+            return float(vs[i] + rate * (t - ts[i])), float(rate), 0.0
+        raise ValueError(f"unknown time function {k!r}")
+
+
+@dataclass
+class TransientOptions:
+    """Settings of a transient run (deck: TIMESTEP, RHOINF, START, TIMEFUNCTION, ITERSTEP)."""
+
+    t_end: float = 1.0
+    n_steps: int = 100                       # stored steps
+    substeps: int = 1                        # integration steps per stored step
+    rho_inf: float = 0.9
+    tol: float = 1e-8
+    max_iter: int = 20
+    max_cuts: int = 10
+    start: str = "deck"                      # "deck" (at rest) or "static" (equilibrium)
+    phi: TimeFunction = field(default_factory=TimeFunction)
+    deformations: str = "modified"
+
+
+@dataclass
+class TransientStep:
+    """One stored time step (arrays over all coordinates / elements of each kind)."""
+
+    time: float
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    mu: np.ndarray
+    iterations: int
+    residual: float
+    kinetic_energy: float
+    elastic_energy: float
+    external_work: float
+    deformation: np.ndarray                  # BEAM (n_beam, 6)
+    stress: np.ndarray
+    group_deformation: dict
+    group_stress: dict
+
+    @property
+    def energy_balance(self) -> float:
+        """T + U - W: constant for a conservative model (the integration error)."""
+        return self.kinetic_energy + self.elastic_energy - self.external_work
+
+
+@dataclass
+class TransientResult:
+    steps: list = field(default_factory=list)
+    static: object = None                    # the StaticResult of START static
+    problem: StaticProblem | None = None
+    wall_time: float = 0.0
+    n_newton: int = 0
+
+
+class _StepFailed(Exception):
+    pass
+
+
+def alpha_parameters(rho_inf: float) -> tuple[float, float, float, float]:
+    """(alpha_m, alpha_f, gamma, beta) of the generalized-alpha method for a spectral radius
+    rho_inf at infinite frequency (Chung & Hulbert 1993)."""
+    if not 0.0 <= rho_inf <= 1.0:
+        raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf}")
+    am = (2 * rho_inf - 1) / (rho_inf + 1)
+    af = rho_inf / (rho_inf + 1)
+    gamma = 0.5 + af - am
+    beta = 0.25 * (gamma + 0.5) ** 2
+    return am, af, gamma, beta
+
+
+class TransientProblem:
+    """The model's static problem plus inertia, prescribed motion in time and energies."""
+
+    def __init__(self, model: Model, opts: TransientOptions, prob: StaticProblem | None = None):
+        self.model, self.opts = model, opts
+        self.prob = prob or StaticProblem(model, deformations=opts.deformations)
+        self.num = self.prob.num
+        self.inertia = Inertia(model, self.num)
+        self.free = self.prob.free
+        self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
+        self.weight = np.where(self.prob.rot_mask, 1.0 / self.num.length_scale, 1.0)
+        self.level = 0.0                 # largest force level of the accepted states
+        self.trial_level = None
+        self.last_level = 0.0
+
+    # ---------------------------------------------------------------- time-dependent data
+    def prescribed(self, t: float):
+        """(indices, x, v, a) of the prescribed coordinates at time t."""
+        phi, dphi, ddphi = self.opts.phi(t)
+        idx, x = self.num.prescribed_state(1.0, phi)
+        if not idx.size:
+            return idx, x, x, x
+        eps = 1e-4
+        _, xp = self.num.prescribed_state(1.0, phi + eps)
+        _, xm = self.num.prescribed_state(1.0, phi - eps)
+        d1 = (xp - xm) / (2 * eps)
+        d2 = (xp - 2 * x + xm) / eps**2
+        return idx, x, d1 * dphi, d2 * dphi**2 + d1 * ddphi
+
+    def loads(self, t: float):
+        phi = self.opts.phi(t)[0]
+        self.prob.rigid_target = self.num.rigid_targets(1.0, phi)
+        self.prob.gravity_factor = 1.0
+        return self.prob.loads.at(1.0, phi)
+
+    # ---------------------------------------------------------------- residual
+    def residual(self, t, x, v, a, mu):
+        """Evaluate the equations at (t, x, v, a, mu). The force residual is measured
+        against the largest force level met so far in the run (``self.level``: external,
+        internal and inertia forces, moments divided by the length scale), not the current
+        one, which vanishes whenever a vibrating structure passes its rest position."""
+        force, moment = self.loads(t)
+        ev = self.prob.evaluate(x, mu, force, moment)
+        blocks, f_in = self.inertia.forces(x, v, a)
+        r = ev.r + f_in[self.free]
+        w = self.weight
+        level = max(float(np.abs(ev.f_ext * w).max(initial=0.0)),
+                    float(np.abs(ev.f_int * w).max(initial=0.0)),
+                    float(np.abs(f_in * w).max(initial=0.0)))
+        # the reference grows only with accepted states (accept_level) and the predictor:
+        # a wild Newton iterate must not inflate it and so pass as converged
+        if self.trial_level is None:
+            self.trial_level = level
+        ref = max(self.level, self.trial_level)
+        ref = ref if ref > 0 else 1.0
+        self.last_level = level
+        res = max(float(np.abs(r * w[self.free]).max(initial=0.0)) / ref,
+                  float(np.abs(ev.c * self.prob.constraint_weight).max(initial=0.0)))
+        floor = 10 * np.finfo(float).eps * self.prob.scale * self.num.length_scale / ref
+        return ev, blocks, f_in, r, res, floor, moment
+
+    def start_step(self) -> None:
+        """A new step (or attempt): its first evaluation sets the trial reference level."""
+        self.trial_level = None
+
+    def accept_level(self) -> None:
+        """The last evaluated state was accepted: its force level joins the reference."""
+        self.level = max(self.level, self.last_level)
+
+    def elastic_energy(self, states) -> float:
+        return float(sum(0.5 * np.einsum("ni,nij,nj->", st.e, g.S, st.e)
+                         for g, st in zip(self.num.groups, states)))
+
+    def driving_force(self, ev, f_in):
+        """Generalized force the loads, gravity and prescribed motions exert (n_coord,):
+        f_ext on the free coordinates, the reaction (f_int + inertia - f_ext) on the
+        prescribed ones; its work over a step is the work done on the model."""
+        out = ev.f_ext.copy()
+        idx = self.presc_idx
+        if idx.size:
+            out[idx] = (ev.f_int + f_in)[idx]
+        return out
+
+
+def solve_transient(model: Model, options: TransientOptions | None = None, *, on_step=None,
+                    on_static_step=None, progress=None,
+                    problem: StaticProblem | None = None) -> TransientResult:
+    """Integrate the equations of motion from t = 0 to ``t_end`` in ``n_steps`` stored steps.
+
+    ``on_step(TransientStep)`` is called after each stored step (the results writer appends
+    it at once), ``on_static_step`` for the steps of the initial static analysis
+    (START static), ``progress(t, t_end)`` after each step.
+
+    Raises
+    ------
+    ConvergenceError
+        When a step does not converge after ``max_cuts`` halvings; the steps passed to
+        ``on_step`` stay valid.
+    """
+    opts = options or TransientOptions()
+    t_wall = time.perf_counter()
+    tp = TransientProblem(model, opts, problem)
+    prob, num = tp.prob, tp.num
+    if not tp.inertia.has_mass:
+        raise SpacarError("MODE transient needs mass: give EM lines for the elements (or XM "
+                          "nodal masses)")
+    result = TransientResult(problem=prob)
+    # ---- initial state
+    if opts.start == "static":
+        st = solve_static(model, deformations=opts.deformations, problem=prob,
+                          on_step=on_static_step)
+        result.static = st
+        x, mu = st.steps[-1].x.copy(), st.steps[-1].mu.copy()
+    else:
+        # a mechanism is what dynamics is about; redundant constraints are still an error
+        try:
+            prob.check_initial()
+        except ModelError as exc:
+            if getattr(exc, "over_constrained", True):
+                raise
+        x, mu = num.x0.copy(), np.zeros(num.n_constraint)
+    if prob.has_commit:                          # hinge turn counts of the start state
+        prob.commit(x, mu, *tp.loads(0.0))
+    idx, xp0, vp0, ap0 = tp.prescribed(0.0)
+    x[idx] = xp0
+    v = np.zeros(num.n_coord)
+    v[idx] = vp0
+    a, mu = _initial_acceleration(tp, x, v, mu, ap0)
+    am, af, gamma, beta = alpha_parameters(opts.rho_inf)
+    a_tilde = a.copy()
+    tp.start_step()
+    ev, _, f_in, r, res, _, _ = tp.residual(0.0, x, v, a, mu)
+    tp.accept_level()
+    energy0 = dict(T=tp.inertia.kinetic_energy(x, v), U=tp.elastic_energy(ev.states))
+    work = 0.0
+    q_prev = tp.driving_force(ev, f_in)
+
+    def store(t, x, v, a, mu, its, res, ev):
+        by_kind = {g.keyword: (st.e, sig) for g, st, sig in
+                   zip(num.groups, ev.states, ev.sigmas)}
+        beam_e, beam_s = by_kind.get("BEAM", (np.zeros((0, 6)), np.zeros((0, 6))))
+        step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
+                             iterations=its, residual=res,
+                             kinetic_energy=tp.inertia.kinetic_energy(x, v),
+                             elastic_energy=tp.elastic_energy(ev.states), external_work=work,
+                             deformation=beam_e, stress=beam_s,
+                             group_deformation={k: e for k, (e, _) in by_kind.items()},
+                             group_stress={k: s for k, (_, s) in by_kind.items()})
+        result.steps.append(step)
+        if on_step is not None:
+            on_step(step)
+
+    store(0.0, x, v, a, mu, 0, res, ev)
+    h_out = opts.t_end / opts.n_steps
+    h_int = h_out / max(int(opts.substeps), 1)
+    t = 0.0
+    for k in range(1, opts.n_steps + 1):
+        t_target = k * h_out
+        h = h_int
+        while t_target - t > 1e-9 * h_int:
+            # the last step of an interval ends exactly on it (no sliver step from round-off)
+            h = t_target - t if t_target - t - h < 1e-6 * h_int else h
+            try:
+                out = _step(tp, t, h, x, v, a, a_tilde, mu, (am, af, gamma, beta), opts)
+            except _StepFailed as fail:
+                if h / 2 < h_int / 2 ** opts.max_cuts:
+                    raise ConvergenceError(
+                        f"transient step at t = {t:.6g} s (step {k}) did not converge after "
+                        f"{opts.max_cuts} halvings of the time step: {fail}") from None
+                log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
+                h /= 2
+                continue
+            x_new, v, a, a_tilde, mu_new, its, res, ev, f_in = out
+            q_new = tp.driving_force(ev, f_in)
+            work += 0.5 * float((q_prev + q_new) @ (x_new - x))
+            # prescribed deformations (INPUTE) do work sigma * d(target) through their
+            # multipliers (the stress resultants that impose them)
+            presc = num.rigid_prescribed
+            if presc.size and presc.any():
+                dt_target = (num.rigid_targets(1.0, opts.phi(t + h)[0])
+                             - num.rigid_targets(1.0, opts.phi(t)[0]))
+                work += 0.5 * float(((mu + mu_new)[:num.n_rigid] * dt_target)[presc].sum())
+            q_prev, x, mu = q_new, x_new, mu_new
+            result.n_newton += its
+            if prob.has_commit:
+                prob.commit(x, mu, *tp.loads(t + h))
+            t += h
+            h = min(2 * h, h_int)
+        t = t_target
+        store(t_target, x, v, a, mu, its, res, ev)
+        if progress is not None:
+            progress(t_target, opts.t_end)
+    result.wall_time = time.perf_counter() - t_wall
+    result.energy0 = energy0
+    return result
+
+
+def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc):
+    """Consistent accelerations and multipliers at t = 0 from
+    ``[M C^T; C 0] [a; mu] = [f - f_el - h - M_fp a_p; -(C_p a_p + (dC/dt) v - c_tt)]``;
+    zero accelerations (and the given multipliers) when the mass matrix is singular on the
+    constraint null space (massless coordinates)."""
+    num, free, prob = tp.num, tp.free, tp.prob
+    a = np.zeros(num.n_coord)
+    a[tp.presc_idx] = a_presc
+    force, moment = tp.loads(0.0)
+    ev = prob.evaluate(x, np.zeros_like(mu), force, moment)     # no constraint forces
+    blocks, f_in = tp.inertia.forces(x, v, a)                     # h + M_fp a_p
+    M = tp.inertia.assemble(blocks)
+    rhs_f = -(ev.f_int - ev.f_ext + f_in)[free]
+    A = prob.matrix(ev, np.zeros_like(mu), moment, material_only=True)
+    n_x = prob.pattern.n_x
+    C = (A[n_x:, :n_x] / prob.scale).tocsc()
+    c_acc = _constraint_rates(prob, x, a)                         # C_p a_p
+    if np.any(v):                                                 # (dC/dt) v
+        eps = 1e-6 / float(np.abs(v).max())
+        c_acc += (_constraint_rates(prob, x + eps * v, v)
+                  - _constraint_rates(prob, x - eps * v, v)) / (2 * eps)
+    if num.rigid_prescribed.size:                                 # driven deformations
+        c_acc[:num.n_rigid] -= num.rigid_delta * tp.opts.phi(0.0)[2]
+    big = sp.bmat([[M[free][:, free], C.T], [C, None]], format="csc")
+    try:
+        sol = spla.splu(big).solve(np.concatenate([rhs_f, -c_acc]))
+    except RuntimeError:
+        sol = None
+    if sol is None or not np.all(np.isfinite(sol)):
+        log.info("massless coordinates: the initial accelerations start at zero")
+        return a, mu
+    a[free] = sol[:n_x]
+    return a, sol[n_x:]
+
+
+def _constraint_rates(prob, x, v):
+    """``C(x) v`` for all constraints (rigid modes and Euler normalizations)."""
+    num = prob.num
+    rates = []
+    for g in num.groups:
+        st = g.kind.state(x[g.idx], g.ref, prob.variant, g.prev)
+        d = np.einsum("nkj,nj->nk", st.D, v[g.idx])
+        rates.append(d[g.rigid_elem, g.rigid_mode])
+    q = x[num.rot_idx[num.euler_nodes]]
+    qd = v[num.rot_idx[num.euler_nodes]]
+    rates.append(2.0 * np.sum(q * qd, axis=1))
+    return np.concatenate(rates)
+
+
+def _gauge(num, x, v, a, a_tilde):
+    """Give the Euler parameters' radial rates their exact values, in place.
+
+    The length of q is a gauge freedom (the orientation is that of q/|q|); its constraint
+    ``q.q = 1`` is kept at position level, but the integrator's recurrences for the radial
+    velocity and acceleration are only marginally stable (a two-step oscillation that small
+    time steps amplify). Their exact values follow from the constraint: ``q.dq = 0`` and
+    ``q.ddq = -|dq|^2``; setting them after every step removes the drift without touching
+    the orientation or the angular velocity.
+    """
+    ri = num.rot_idx[num.euler_nodes]
+    if not ri.size:
+        return
+    q = x[ri]
+    qq = np.sum(q * q, axis=1, keepdims=True)
+    qd = v[ri] - np.sum(q * v[ri], axis=1, keepdims=True) / qq * q
+    v[ri] = qd
+    centripetal = -np.sum(qd * qd, axis=1, keepdims=True) / qq
+    for acc in (a, a_tilde):
+        acc[ri] += (centripetal - np.sum(q * acc[ri], axis=1, keepdims=True) / qq) * q
+
+
+def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
+    """One generalized-alpha step from t to t + h (Arnold & Brüls 2007)."""
+    am, af, gamma, beta = params
+    num, free, prob = tp.num, tp.free, tp.prob
+    t1 = t + h
+    at_new = (af * a - am * a_tilde) / (1 - am)          # a_tilde with a_{n+1} = 0
+    x1 = x + h * v + h * h * (0.5 - beta) * a_tilde + h * h * beta * at_new
+    v1 = v + h * (1 - gamma) * a_tilde + h * gamma * at_new
+    a1 = np.zeros_like(a)
+    idx, xp, vp, ap = tp.prescribed(t1)
+    x1[idx], v1[idx], a1[idx] = xp, vp, ap
+    # (no normalization of the predicted Euler parameters: Newton's correction of q.q = 1
+    # must pass through the velocity and acceleration updates, which gives them their
+    # centripetal radial parts)
+    mu1 = mu.copy()
+    beta_p = (1 - am) / (h * h * beta * (1 - af))
+    gamma_p = gamma / (h * beta)
+    n_x = prob.pattern.n_x
+    dx_norm = np.inf
+    history = []
+    tp.start_step()
+    for it in range(opts.max_iter + 1):
+        ev, blocks, f_in, r, res, floor, moment = tp.residual(t1, x1, v1, a1, mu1)
+        history.append(res)
+        if not np.isfinite(res):
+            raise _StepFailed("non-finite residual")
+        if it == 0:
+            # round-off floor of the force residual: the inertia term beta' M of the
+            # iteration matrix times the round-off of the coordinates (as the static
+            # solver's floor with its stiffness)
+            m_max = max([float(np.abs(b).max(initial=0.0)) for b in blocks] + [0.0])
+            floor_dyn = (100 * np.finfo(float).eps * beta_p * m_max * num.length_scale
+                         / max(tp.level, 1e-300))
+        floor = max(floor, floor_dyn)
+        # converged: residual and last increment below the tolerance, or a residual so far
+        # below it that the equations hold to round-off (the increments of directions the
+        # residual hardly sees, such as Euler parameters of nearly massless nodes, may then
+        # stall above the tolerance without meaning anything)
+        if it > 0 and res <= max(opts.tol, floor) and (dx_norm <= max(opts.tol, 1e-13)
+                                                       or res <= 1e-3 * opts.tol):
+            a_tilde_new = at_new + (1 - af) / (1 - am) * a1
+            _gauge(num, x1, v1, a1, a_tilde_new)
+            tp.accept_level()
+            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in
+        if it == opts.max_iter:
+            break
+        # iteration matrix [K_t + beta' M, C^T; C, 0] on the Newton matrix's fixed pattern;
+        # the constraint rows scaled like its largest entry (the inertia term grows as
+        # 1/h^2), which keeps the saddle-point system well conditioned
+        extra, nodal = tp.inertia.iteration_parts(blocks, beta_p)
+        scale = max(prob.scale, beta_p * m_max)
+        S = prob.matrix(ev, mu1, moment, extra=extra, scale=scale)
+        if nodal is not None:
+            S = S + sp.block_diag([nodal, sp.csc_matrix((S.shape[0] - n_x,) * 2)],
+                                  format="csc")
+        rhs = -np.concatenate([r, scale * ev.c])
+        try:
+            dz = spla.splu(S, permc_spec="COLAMD").solve(rhs)
+        except RuntimeError:
+            raise _StepFailed("singular iteration matrix") from None
+        if not np.all(np.isfinite(dz)):
+            raise _StepFailed("non-finite Newton increment")
+        dz[n_x:] *= scale / prob.scale
+        dx = dz[:n_x]
+        dx_norm = prob.increment_norm(dx)
+        if np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) > 0.5:
+            raise _StepFailed("Newton increment too large")
+        x1[free] += dx
+        v1[free] += gamma_p * dx
+        a1[free] += beta_p * dx
+        mu1 = mu1 + dz[n_x:] * prob.scale
+    hist = ", ".join(f"{v:.2e}" for v in history)
+    raise _StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})")
+
+
+__all__ = ["TimeFunction", "TIME_FUNCTIONS", "TransientOptions", "TransientStep",
+           "TransientResult", "TransientProblem", "alpha_parameters", "solve_transient"]
