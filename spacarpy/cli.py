@@ -103,6 +103,11 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000, 10000],
                        help="numbers of elements (default: 10 100 1000 10000)")
     bench.add_argument("--steps", type=int, default=10, help="load steps (default 10)")
+    bench.add_argument("--transient-sizes", type=int, nargs="*", default=[100, 1000],
+                       metavar="N", help="elements of the transient cases (default 100 1000; "
+                                         "none: skip them)")
+    bench.add_argument("--transient-steps", type=int, default=100,
+                       help="time steps of the transient cases (default 100)")
     bench.add_argument("--repeat", type=int, default=3,
                        help="repetitions per size; min and median are shown (default 3)")
     _verbosity(bench)
@@ -292,6 +297,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "bench":
             from spacarpy.bench import run_bench
             run_bench(sizes=args.sizes, n_steps=args.steps, repeat=args.repeat)
+            if args.transient_sizes:
+                from spacarpy.bench import run_transient_bench
+                run_transient_bench(sizes=args.transient_sizes, n_steps=args.transient_steps)
             return EXIT_OK
         if args.command in _RESULT_COMMANDS:
             return _RESULT_COMMANDS[args.command](args)
@@ -342,8 +350,10 @@ def cmd_run(args) -> int:
         print(summary.report)
         return EXIT_OK
     if model.analysis == "transient":
-        log.info("finished transient analysis: %d time steps (%d Newton iterations) in %.2f s",
-                 summary.n_time, summary.newton_iterations, time.perf_counter() - t0)
+        log.info("finished transient analysis: %d stored time steps, %d integration steps "
+                 "(%d rejected by the error control), %d Newton iterations in %.2f s",
+                 summary.n_time, summary.integration_steps, summary.rejected_steps,
+                 summary.newton_iterations, time.perf_counter() - t0)
     else:
         log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
                  time.perf_counter() - t0)

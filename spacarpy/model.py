@@ -304,6 +304,9 @@ class Model:
     planar : bool
         A planar model (PLBEAM, PLTRUSS, PLHINGE): every node stays in the x-y plane (z and
         the Euler parameters lambda1, lambda2 are held at 0; only rotations about z).
+    damping, element_damping
+        Rayleigh damping ``(alpha, beta)`` (DAMPING: ``alpha M + beta K0``) and the viscous
+        damping of deformation modes per element (EDAMP), for the transient analysis.
     timestep, rho_inf, substeps, start, time_function
         Transient analysis: ``(t_end, n_steps)`` of TIMESTEP (None: not given), the spectral
         radius of RHOINF, integration steps per stored step (SUBSTEPS), START (``"deck"`` or ``"static"``) and TIMEFUNCTION ``(kind,
@@ -336,6 +339,10 @@ class Model:
     timestep: tuple | None = None          # (t_end, n_steps) of TIMESTEP
     rho_inf: float = 0.9
     substeps: int = 1
+    error_tol: tuple | None = None          # ERROR (abs, rel): adaptive time steps
+    initial_velocities: dict = field(default_factory=dict)  # node -> (3,) VELOCITY
+    damping: tuple = (0.0, 0.0)             # Rayleigh (alpha, beta) of DAMPING
+    element_damping: dict = field(default_factory=dict)   # element -> EDAMP values per mode
     start: str = "deck"
     time_function: tuple = ("constant", ())
     n_modes: int | None = None

@@ -65,6 +65,7 @@ class ElementGroup:
     rigid_mode: np.ndarray
     rigid_offset: int = 0
     prev: dict = field(default_factory=dict)
+    damp: np.ndarray | None = None       # (n, n_def) EDAMP coefficients (None: none)
 
     @property
     def n_elem(self) -> int:
@@ -279,6 +280,11 @@ def number_model(model: Model) -> Numbering:
             stiff_mask=stiff, S=S, ref=ref, scale=scale, mass=np.asarray(mass, float),
             rigid_elem=r_elem.astype(np.int64), rigid_mode=r_mode.astype(np.int64),
             rigid_offset=offset))
+        if model.element_damping:
+            damp = np.array([model.element_damping.get(int(e), (0.0,) * kind.n_def)
+                             for e in e_ids], dtype=float).reshape(-1, kind.n_def)
+            # only flexible or released modes move; a rigid mode's rate is zero anyway
+            groups[-1].damp = damp if np.any(damp) else None
         offset += r_elem.size
 
     n_rigid = offset

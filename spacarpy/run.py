@@ -70,6 +70,8 @@ class RunSummary:
     frequencies: list = field(default_factory=list)     # per linearized step
     critical: list = field(default_factory=list)
     n_time: int = 0                                     # transient: stored time steps
+    integration_steps: int = 0
+    rejected_steps: int = 0
     transient_wall_time: float = 0.0
     newton_iterations: int = 0
 
@@ -156,6 +158,7 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
     num = problem.num
     t_end, n_steps = model.timestep
     topts = TransientOptions(t_end=t_end, n_steps=n_steps, substeps=model.substeps,
+                             error=model.error_tol,
                              rho_inf=model.rho_inf,
                              tol=min(model.iterstep.tol, 1e-10),
                              max_iter=max(model.iterstep.max_iter, 20), start=model.start,
@@ -169,7 +172,8 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
                               step.stress, step.kinetic_energy, step.elastic_energy,
                               step.external_work, step.iterations, step.residual,
                               group_deformation=step.group_deformation,
-                              group_stress=step.group_stress)
+                              group_stress=step.group_stress,
+                              dissipated_energy=step.dissipated_energy)
         k = summary.n_time
         summary.n_time += 1
         if k % max(n_steps // 20, 1) == 0 or k == n_steps:
@@ -181,6 +185,8 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
                              progress=opts.progress, problem=problem)
     summary.transient_wall_time = result.wall_time
     summary.newton_iterations = result.n_newton
+    summary.integration_steps = result.n_steps_taken
+    summary.rejected_steps = result.n_rejected
 
 
 def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buckling,

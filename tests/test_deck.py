@@ -595,15 +595,15 @@ def test_fix_and_load_on_unknown_node():
 
 
 def test_unsupported_keyword_one_error_each():
-    err = deck_error(BASE + "USERSIG f\nERROR 1 1\nERROR 2 1\n")
+    err = deck_error(BASE + "USERSIG f\nUSERINP g\nUSERINP h\n")
     assert [(loc.line, msg) for loc, msg, _ in err.items] == [
-        (4, "not supported yet: USERSIG"), (5, "not supported yet: ERROR"),
-        (6, "not supported yet: ERROR")]
+        (4, "not supported yet: USERSIG"), (5, "not supported yet: USERINP"),
+        (6, "not supported yet: USERINP")]
 
 
 def test_several_errors_reported_at_once_ordered_by_line():
     text = ("X 1 0 0 0\nX 3 0 0 0\nBEAM 1 1 2 3 4\nBEAM 2 1 2 9 4\n"
-            "DYNE 1 7\nFIX 3 5\nERROR 1 10\n")
+            "DYNE 1 7\nFIX 3 5\nDYNX 3 1\n")
     err = deck_error(text)
     lines = [loc.line for loc, _, _ in err.items]
     assert lines == sorted(lines) and lines == [3, 4, 5, 6, 7]

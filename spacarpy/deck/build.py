@@ -180,6 +180,10 @@ class _ModelBuilder:
         self.timestep = None
         self.rho_inf = 0.9
         self.substeps = 1
+        self.error_tol = None
+        self.initial_velocities: dict = {}
+        self.damping = (0.0, 0.0)
+        self.element_damping: dict = {}
         self.start = "deck"
         self.time_function = ("constant", ())
         self.n_modes: int | None = None
@@ -333,6 +337,31 @@ class _ModelBuilder:
                                        f"one step, got {st.fields[0]:g} {st.fields[1]}", st)
                 else:
                     self.timestep = (float(st.fields[0]), int(st.fields[1]))
+        for st in by_kw.get("EDAMP", []):
+            self.edamp(st)
+        for st in by_kw.get("DAMPING", []):
+            if self.once(st):
+                if st.fields[0] < 0 or st.fields[1] < 0:
+                    self.error(st.loc, "DAMPING: alpha and beta must not be negative, got "
+                                       f"{st.fields[0]:g} {st.fields[1]:g}", st)
+                else:
+                    self.damping = (float(st.fields[0]), float(st.fields[1]))
+        for st in by_kw.get("VELOCITY", []):
+            n = st.fields[0]
+            if self.node_kind(n) is None:
+                self.error(st.field_locs[0], f"VELOCITY: node {n} is not defined (no X line and "
+                                             "not used by any element)", st)
+            elif n in self.initial_velocities:
+                self.error(st.loc, f"VELOCITY: node {n} is given twice", st)
+            else:
+                self.initial_velocities[n] = tuple(float(v) for v in st.fields[1:4])
+        for st in by_kw.get("ERROR", []):
+            if self.once(st):
+                if st.fields[0] < 0 or st.fields[1] < 0 or st.fields[0] + st.fields[1] <= 0:
+                    self.error(st.loc, "ERROR: expected non-negative tolerances abs rel, not both "
+                                       f"zero, got {st.fields[0]:g} {st.fields[1]:g}", st)
+                else:
+                    self.error_tol = (float(st.fields[0]), float(st.fields[1]))
         for st in by_kw.get("SUBSTEPS", []):
             if self.once(st):
                 self.substeps = int(st.fields[0])
@@ -934,6 +963,26 @@ class _ModelBuilder:
                                          f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
         self.deformations = value
 
+    def edamp(self, st: Statement) -> None:
+        """``EDAMP e d1 [d2 ...]``: viscous damping coefficients of the deformation modes
+        1, 2, ... of element e (stress resultant ``d_k de_k/dt`` added in transient runs)."""
+        el = self.element_for(st)
+        if el is None:
+            return
+        values = tuple(float(v) for v in st.fields[1:])
+        n_def = el.info["n_def"]
+        if not 1 <= len(values) <= n_def:
+            self.error(st.loc, f"EDAMP {el.id}: a {el.keyword} has {n_def} deformation mode(s), "
+                               f"so 1 to {n_def} damping values, got {len(values)}", st)
+            return
+        if any(v < 0 for v in values):
+            self.error(st.loc, f"EDAMP {el.id}: damping coefficients must not be negative", st)
+            return
+        if el.id in self.element_damping:
+            self.error(st.loc, f"EDAMP for element {el.id} is given twice", st)
+            return
+        self.element_damping[el.id] = values + (0.0,) * (n_def - len(values))
+
     def time_function_line(self, st: Statement) -> None:
         from spacarpy.solvers.transient import TIME_FUNCTIONS
         kind = str(st.fields[0]).lower()
@@ -1072,6 +1121,10 @@ class _ModelBuilder:
             timestep=self.timestep,
             rho_inf=self.rho_inf,
             substeps=self.substeps,
+            error_tol=self.error_tol,
+            initial_velocities=self.initial_velocities,
+            damping=self.damping,
+            element_damping=self.element_damping,
             start=self.start,
             time_function=self.time_function,
             n_modes=self.n_modes,

@@ -169,8 +169,10 @@ DATASET_ATTRS = {
     "transient/kinetic_energy": ("J", "kinetic energy T of the model"),
     "transient/elastic_energy": ("J", "elastic energy U of the flexible deformation modes"),
     "transient/external_work": ("J", "work W done on the model since t = 0 by the loads, "
-                                     "gravity and the prescribed motions; T + U - W is "
-                                     "constant for an exact integration"),
+                                     "gravity and the prescribed motions; T + U + D - W "
+                                     "is constant for an exact integration"),
+    "transient/dissipated_energy": ("J", "energy dissipated by the damping (DAMPING, EDAMP) "
+                                         "since t = 0"),
     "transient/iterations": ("1", "Newton iterations of the last time step"),
     "transient/residual": ("1", "final relative residual of the last time step"),
     **{f"transient/{k.lower()}_{w}": (u, f"{k} {w.replace('_', ' ')}s, as in /static")
@@ -267,6 +269,7 @@ _TRANSIENT_DATASETS = {
     "kinetic_energy": (np.float64, ()),
     "elastic_energy": (np.float64, ()),
     "external_work": (np.float64, ()),
+    "dissipated_energy": (np.float64, ()),
     "iterations": (np.int32, ()),
     "residual": (np.float64, ()),
 }
@@ -617,7 +620,8 @@ class ResultsWriter:
         trailing = {"position": (n_pos, 3), "euler": (n_rot, 4), "velocity": (n_pos, 3),
                     "euler_rate": (n_rot, 4), "deformation": (n_elem, 6),
                     "stress_resultant": (n_elem, 6), "kinetic_energy": (),
-                    "elastic_energy": (), "external_work": (), "iterations": (),
+                    "elastic_energy": (), "external_work": (), "dissipated_energy": (),
+                    "iterations": (),
                     "residual": ()}
         dtypes = dict(_TRANSIENT_DATASETS)
         for kind, es in sorted(self.model.element_sets.items()):
@@ -640,7 +644,8 @@ class ResultsWriter:
     def transient_step(self, time: float, position, euler, velocity, euler_rate, deformation,
                        stress_resultant, kinetic_energy: float, elastic_energy: float,
                        external_work: float, iterations: int, residual: float,
-                       group_deformation=None, group_stress=None) -> None:
+                       group_deformation=None, group_stress=None,
+                       dissipated_energy: float = 0.0) -> None:
         """Append one time step (arrays as in :meth:`static_step`, plus the velocities
         and the energies) and make it durable: the arrays first, then ``/transient/time``
         commits the step."""
@@ -651,6 +656,7 @@ class ResultsWriter:
                  "euler_rate": euler_rate, "deformation": deformation,
                  "stress_resultant": stress_resultant, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
+                 "dissipated_energy": float(dissipated_energy),
                  "iterations": operator.index(iterations), "residual": float(residual)}
         for what, values in (("deformation", group_deformation), ("stress_resultant",
                                                                   group_stress)):

@@ -93,17 +93,22 @@ class Inertia:
                 ref = {k: np.concatenate([v] * reps) if isinstance(v, np.ndarray) else v
                        for k, v in g.ref.items()}
                 return g.kind.mass(xl, ref, np.concatenate([g.mass] * reps))
-            out.append((mass_of, g.idx))
+            # local Euler-parameter coordinates: the only ones the mass matrix depends on
+            rot = np.concatenate([np.arange(4) + sum(3 if t == "pos" else 4
+                                                     for t in g.kind.slots[:j])
+                                  for j, s in enumerate(g.kind.slots) if s == "rot"]
+                                 + [np.zeros(0, np.int64)]).astype(np.int64)
+            out.append((mass_of, g.idx, rot))
         pm, jr = self.point_mass, self.rot_inertia
         out.append(((lambda xl, reps: np.tile(pm, reps)[:, None, None] * np.eye(3)),
-                    self.point_idx))
+                    self.point_idx, np.zeros(0, np.int64)))
         out.append(((lambda xl, reps: nodal_rotary_mass(xl, np.concatenate([jr] * reps))),
-                    self.rot_idx))
+                    self.rot_idx, np.arange(4)))
         return out
 
     def matrix(self, x: np.ndarray) -> sp.csc_matrix:
         """The mass matrix (n_coord, n_coord) at x."""
-        return self.pattern.assemble([f(x[idx], 1) for f, idx in self._batches()])
+        return self.pattern.assemble([f(x[idx], 1) for f, idx, _ in self._batches()])
 
     def forces(self, x: np.ndarray, v: np.ndarray, a: np.ndarray):
         """``(blocks, M a + h)`` at (x, v, a): the mass blocks of every batch (element
@@ -112,28 +117,33 @@ class Inertia:
         v = self.physical(x, v)
         n = self.num.n_coord
         blocks, force = [], np.zeros(n)
-        for mass_of, idx in self._batches():
+        for mass_of, idx, rot in self._batches():
             xl, vl, al = x[idx], v[idx], a[idx]
             n_b, k = xl.shape
             if not n_b:
                 blocks.append(np.zeros((0, k, k)))
                 continue
-            if not np.any(vl):
+            if not np.any(vl) or not rot.size:
                 m = mass_of(xl, 1)
                 blocks.append(m)
                 force += scatter_add(n, idx, np.einsum("nij,nj->ni", m, al))
                 continue
-            # M at x, at x +- v and at x +- e_j (j = 1..k) in one call: the central
-            # differences give dM/dt v and d(v^T M v)/dx exactly (M is quadratic in x)
-            steps = np.concatenate([np.zeros((1, k)), np.eye(k), -np.eye(k)])
+            # M at x, at x +- v and at x +- e_j for the r local Euler parameters (positions
+            # do not enter M) in one call: the central differences give dM/dt v and
+            # d(v^T M v)/dx exactly (M is quadratic in the Euler parameters)
+            r = rot.size
+            unit = np.zeros((r, k))
+            unit[np.arange(r), rot] = 1.0
+            steps = np.concatenate([np.zeros((1, k)), unit, -unit])
             shifted = np.concatenate([xl[None] + steps[:, None, :],
                                       (xl + vl)[None], (xl - vl)[None]])
-            ms = mass_of(shifted.reshape(-1, k), 2 * k + 3).reshape(2 * k + 3, n_b, k, k)
+            ms = mass_of(shifted.reshape(-1, k), 2 * r + 3).reshape(2 * r + 3, n_b, k, k)
             m = ms[0]
             blocks.append(m)
             dm_v = 0.5 * (ms[-2] - ms[-1])
-            vmv = np.einsum("ni,jnik,nk->jn", vl, ms[1:2 * k + 1], vl)
-            grad = 0.5 * (vmv[:k] - vmv[k:]).T                        # (n_b, k)
+            vmv = np.einsum("ni,jnik,nk->jn", vl, ms[1:2 * r + 1], vl)
+            grad = np.zeros((n_b, k))
+            grad[:, rot] = 0.5 * (vmv[:r] - vmv[r:]).T
             f = np.einsum("nij,nj->ni", m, al) + np.einsum("nij,nj->ni", dm_v, vl) - 0.5 * grad
             force += scatter_add(n, idx, f)
         return blocks, force

@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from spacarpy.assembly import scatter_add
 from spacarpy.errors import ConvergenceError, ModelError, SpacarError
 from spacarpy.model import Model
 from spacarpy.solvers.inertia import Inertia
@@ -113,6 +114,7 @@ class TransientOptions:
     max_cuts: int = 10
     start: str = "deck"                      # "deck" (at rest) or "static" (equilibrium)
     phi: TimeFunction = field(default_factory=TimeFunction)
+    error: tuple | None = None               # ERROR (abs, rel): adaptive step size
     deformations: str = "modified"
 
 
@@ -130,6 +132,7 @@ class TransientStep:
     kinetic_energy: float
     elastic_energy: float
     external_work: float
+    dissipated_energy: float
     deformation: np.ndarray                  # BEAM (n_beam, 6)
     stress: np.ndarray
     group_deformation: dict
@@ -137,14 +140,18 @@ class TransientStep:
 
     @property
     def energy_balance(self) -> float:
-        """T + U - W: constant for a conservative model (the integration error)."""
-        return self.kinetic_energy + self.elastic_energy - self.external_work
+        """T + U + D - W (D the energy the damping dissipated): constant up to the
+        integration error."""
+        return (self.kinetic_energy + self.elastic_energy + self.dissipated_energy
+                - self.external_work)
 
 
 @dataclass
 class TransientResult:
     steps: list = field(default_factory=list)
     static: object = None                    # the StaticResult of START static
+    n_steps_taken: int = 0                   # integration steps (adaptive: accepted ones)
+    n_rejected: int = 0                      # steps rejected by the error control
     problem: StaticProblem | None = None
     wall_time: float = 0.0
     n_newton: int = 0
@@ -177,6 +184,8 @@ class TransientProblem:
         self.free = self.prob.free
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
         self.weight = np.where(self.prob.rot_mask, 1.0 / self.num.length_scale, 1.0)
+        self.f_damp, self.damp_blocks = None, {}
+        self.mass_diagonal = self.inertia.matrix(self.num.x0).diagonal()
         self.level = 0.0                 # largest force level of the accepted states
         self.trial_level = None
         self.last_level = 0.0
@@ -210,6 +219,9 @@ class TransientProblem:
         force, moment = self.loads(t)
         ev = self.prob.evaluate(x, mu, force, moment)
         blocks, f_in = self.inertia.forces(x, v, a)
+        self.f_damp, self.damp_blocks = self.damping_forces(x, v, ev.states, blocks)
+        if self.f_damp is not None:
+            f_in = f_in + self.f_damp              # (damping counted with the inertia)
         r = ev.r + f_in[self.free]
         w = self.weight
         level = max(float(np.abs(ev.f_ext * w).max(initial=0.0)),
@@ -226,6 +238,40 @@ class TransientProblem:
                   float(np.abs(ev.c * self.prob.constraint_weight).max(initial=0.0)))
         floor = 10 * np.finfo(float).eps * self.prob.scale * self.num.length_scale / ref
         return ev, blocks, f_in, r, res, floor, moment
+
+    def damping_forces(self, x, v, states, mass_blocks):
+        """Viscous damping forces (n_coord,) and their velocity derivative per element group:
+        Rayleigh ``alpha M v + beta K0 v`` (DAMPING, K0 the material stiffness D^T S D) and
+        the deformation-rate damping ``D^T diag(d) D v`` (EDAMP). (None, {}) without damping."""
+        alpha, beta = self.model.damping
+        groups = [(i, g) for i, g in enumerate(self.num.groups)
+                  if beta > 0 or g.damp is not None]
+        if not alpha and not groups:
+            return None, {}
+        vp = self.inertia.physical(x, v)
+        n = self.num.n_coord
+        f = np.zeros(n)
+        if alpha:
+            for (_, idx, _), m in zip(self.inertia._batches(), mass_blocks):
+                if len(m):
+                    f += scatter_add(n, idx, alpha * np.einsum("nij,nj->ni", m, vp[idx]))
+        out = {}
+        for i, g in groups:
+            D = states[i].D
+            c = beta * g.S
+            if g.damp is not None:
+                c = c + g.damp[:, :, None] * np.eye(g.kind.n_def)
+            cd = c @ D
+            f += scatter_add(n, g.idx, np.einsum("nkj,nk->nj", D,
+                                                 np.einsum("nkj,nj->nk", cd, vp[g.idx])))
+            out[i] = D.transpose(0, 2, 1) @ cd
+        return f, out
+
+    def damping_power(self, x, v) -> float:
+        """Power dissipated by the damping forces of the last evaluation, v . f_damp."""
+        if self.f_damp is None:
+            return 0.0
+        return float(self.inertia.physical(x, v) @ self.f_damp)
 
     def start_step(self) -> None:
         """A new step (or attempt): its first evaluation sets the trial reference level."""
@@ -293,6 +339,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     x[idx] = xp0
     v = np.zeros(num.n_coord)
     v[idx] = vp0
+    if model.initial_velocities:
+        v = _initial_velocities(tp, x, v, model.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)
     a_tilde = a.copy()
@@ -300,7 +348,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     ev, _, f_in, r, res, _, _ = tp.residual(0.0, x, v, a, mu)
     tp.accept_level()
     energy0 = dict(T=tp.inertia.kinetic_energy(x, v), U=tp.elastic_energy(ev.states))
-    work = 0.0
+    work = dissipated = 0.0
+    p_damp = tp.damping_power(x, v)
     q_prev = tp.driving_force(ev, f_in)
 
     def store(t, x, v, a, mu, its, res, ev):
@@ -311,6 +360,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                              iterations=its, residual=res,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
+                             dissipated_energy=dissipated,
                              deformation=beam_e, stress=beam_s,
                              group_deformation={k: e for k, (e, _) in by_kind.items()},
                              group_stress={k: s for k, (_, s) in by_kind.items()})
@@ -338,7 +388,21 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
                 h /= 2
                 continue
-            x_new, v, a, a_tilde, mu_new, its, res, ev, f_in = out
+            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in = out
+            grow = 2.0
+            if opts.error is not None:
+                # local error estimate of the position update (Zienkiewicz & Xie's
+                # h^2 |beta - 1/6| times the change of acceleration), against ERROR abs rel
+                err = _error_norm(tp, h, beta, a_tilde, at_new, x_new, opts.error)
+                factor = min(2.0, max(0.2, 0.9 * err ** (-1.0 / 3.0))) if err > 0 else 2.0
+                if err > 1.0 and h * factor >= h_int / 2 ** opts.max_cuts:
+                    log.debug("t = %.6g: local error %.3g > 1, step %.3g -> %.3g", t, err, h,
+                              h * factor)
+                    result.n_rejected += 1
+                    h *= factor
+                    continue
+                grow = factor
+            v, a, a_tilde = v_new, a_new, at_new
             q_new = tp.driving_force(ev, f_in)
             work += 0.5 * float((q_prev + q_new) @ (x_new - x))
             # prescribed deformations (INPUTE) do work sigma * d(target) through their
@@ -348,12 +412,15 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 dt_target = (num.rigid_targets(1.0, opts.phi(t + h)[0])
                              - num.rigid_targets(1.0, opts.phi(t)[0]))
                 work += 0.5 * float(((mu + mu_new)[:num.n_rigid] * dt_target)[presc].sum())
-            q_prev, x, mu = q_new, x_new, mu_new
+            p_new = tp.damping_power(x_new, v)
+            dissipated += 0.5 * (p_damp + p_new) * h
+            q_prev, x, mu, p_damp = q_new, x_new, mu_new, p_new
             result.n_newton += its
             if prob.has_commit:
                 prob.commit(x, mu, *tp.loads(t + h))
             t += h
-            h = min(2 * h, h_int)
+            result.n_steps_taken += 1
+            h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
         store(t_target, x, v, a, mu, its, res, ev)
         if progress is not None:
@@ -361,6 +428,61 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     result.wall_time = time.perf_counter() - t_wall
     result.energy0 = energy0
     return result
+
+
+def _initial_velocities(tp, x, v, given: dict):
+    """The deck's VELOCITY lines (a position node's velocity, an orientation node's angular
+    velocity in global axes: dq/dt = 1/2 (0, w) q), made consistent with the constraints:
+    the velocities closest to the given ones (Euler-parameter rates weighted by the length
+    scale squared) with ``C v = 0``; the coordinates without a VELOCITY line follow the
+    constraints (a weight 1e-6 only keeps the system regular); prescribed velocities are
+    kept."""
+    num, prob, free = tp.num, tp.prob, tp.free
+    model = tp.model
+    pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
+    rot_row = {int(n): i for i, n in enumerate(model.orientation_ids)}
+    v0 = v.copy()
+    target = np.zeros(num.n_coord, dtype=bool)
+    for n, value in given.items():
+        w = np.asarray(value, dtype=float)
+        if int(n) in pos_row:
+            v0[num.pos_idx[pos_row[int(n)]]] = w
+            target[num.pos_idx[pos_row[int(n)]]] = True
+        else:
+            ri = num.rot_idx[rot_row[int(n)]]
+            target[ri] = True
+            q = x[ri]
+            v0[ri] = 0.5 * np.concatenate([[-w @ q[1:]], q[0] * w + np.cross(w, q[1:])])
+    ev = prob.evaluate(x, np.zeros(num.n_constraint), *tp.loads(0.0))
+    n_x = prob.pattern.n_x
+    A = prob.matrix(ev, np.zeros(num.n_constraint), np.zeros((tp.prob.loads.moment_rot.size, 3)),
+                    material_only=True)
+    C = (A[n_x:, :n_x] / prob.scale).tocsc()
+    fixed_part = np.where(free, 0.0, v0)
+    rhs_c = -_constraint_rates(prob, x, fixed_part)               # prescribed velocities
+    weight = (np.where(prob.rot_mask[free], num.length_scale ** 2, 1.0)
+              * np.where(target[free], 1.0, 1e-6))
+    big = sp.bmat([[sp.diags(weight), C.T], [C, None]], format="csc")
+    sol = spla.splu(big).solve(np.concatenate([weight * v0[free], rhs_c]))
+    out = v0.copy()
+    out[free] = sol[:n_x]
+    return out
+
+
+def _error_norm(tp, h, beta, a_tilde_old, a_tilde_new, x, tol) -> float:
+    """Largest local error of a step relative to the tolerance ``abs + rel |x|`` over the
+    free coordinates that carry mass (positions in m, Euler parameters as they are).
+
+    Coordinates without mass (a rod's massless end node, the length of an Euler-parameter
+    vector) are algebraic: their accelerations follow the constraints, not the dynamics,
+    and the integrator's recurrences let them oscillate from step to step whatever the step
+    size, so they say nothing about the local error and are left out."""
+    free = tp.free
+    d = tp.inertia.physical(x, a_tilde_new - a_tilde_old)        # no radial Euler part
+    e = h * h * abs(beta - 1.0 / 6.0) * d[free]
+    massive = tp.mass_diagonal[free] > 1e-12 * max(float(tp.mass_diagonal.max()), 1e-300)
+    scale = tol[0] + tol[1] * np.abs(x[free])
+    return float(np.abs(e / scale)[massive].max(initial=0.0))
 
 
 def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc):
@@ -483,7 +605,11 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         # iteration matrix [K_t + beta' M, C^T; C, 0] on the Newton matrix's fixed pattern;
         # the constraint rows scaled like its largest entry (the inertia term grows as
         # 1/h^2), which keeps the saddle-point system well conditioned
-        extra, nodal = tp.inertia.iteration_parts(blocks, beta_p)
+        # beta' M + gamma' C: the Rayleigh alpha M rides on the mass blocks, the stiffness-
+        # proportional and deformation-rate damping are element blocks
+        extra, nodal = tp.inertia.iteration_parts(blocks, beta_p + gamma_p * tp.model.damping[0])
+        for i, cb in tp.damp_blocks.items():
+            extra[i] = extra.get(i, 0.0) + gamma_p * cb
         scale = max(prob.scale, beta_p * m_max)
         S = prob.matrix(ev, mu1, moment, extra=extra, scale=scale)
         if nodal is not None:
