@@ -757,13 +757,8 @@ class _ModelBuilder:
                                              f"not prescribed: declare it with 'INPUTE {e} {k}' "
                                              "in the kinematics module", st)
             return
-        key = "delta" if st.keyword == "DELINPE" else "initial"
-        if key in entry["set"]:
-            self.error(st.loc, f"{st.keyword}: deformation {k} of element {e} is given twice",
-                       st)
-            return
-        entry["set"].add(key)
-        entry[key] = value
+        self._input_value(entry, "delta" if st.keyword == "DELINPE" else "initial", value, st,
+                          f"deformation {k} of element {e}")
 
     def inputr_declare(self, st: Statement) -> None:
         """``INPUTR n ax ay az``: orientation node n turns about the axis (all of its Euler
@@ -823,9 +818,14 @@ class _ModelBuilder:
                                              f"prescribed: declare it with 'INPUTX {n} {c}' in "
                                              "the kinematics module", st)
             return
-        key = "delta" if st.keyword == "DELINPX" else "initial"
+        self._input_value(entry, "delta" if st.keyword == "DELINPX" else "initial", value, st,
+                          f"coordinate {c} of node {n}")
+
+    def _input_value(self, entry: dict, key: str, value: float, st: Statement,
+                     what: str) -> None:
+        """Set the initial value or the increment of a prescribed input once."""
         if key in entry["set"]:
-            self.error(st.loc, f"{st.keyword}: coordinate {c} of node {n} is given twice", st)
+            self.error(st.loc, f"{st.keyword}: {what} is given twice", st)
             return
         entry["set"].add(key)
         entry[key] = value

@@ -600,17 +600,23 @@ class ResultsWriter:
                                      f"expected {self._shapes[name]}")
                 rows[name] = row
         k = self._n_step
+        self._append(self._static, rows, "load_factor", float(load_factor), k)
+        self._n_step = k + 1
+        log.debug("static step %d written (load factor %g)", k, load_factor)
+
+    def _append(self, datasets: dict, rows: dict, scale: str, value: float, k: int) -> None:
+        """Append row k of every dataset and make it durable, then commit the step by
+        appending its scale value (load factor, time) and flushing again: a reader never
+        sees a scale entry whose rows are not on disk."""
         for name, row in rows.items():
-            ds = self._static[name]
+            ds = datasets[name]
             ds.resize(k + 1, axis=0)
             ds[k] = row
         self._file.flush()
-        lf = self._static["load_factor"]          # commit the step
-        lf.resize(k + 1, axis=0)
-        lf[k] = float(load_factor)
+        ds = datasets[scale]
+        ds.resize(k + 1, axis=0)
+        ds[k] = value
         self._file.flush()
-        self._n_step = k + 1
-        log.debug("static step %d written (load factor %g)", k, load_factor)
 
     def _create_transient(self, f, n_pos, n_rot, n_elem) -> None:
         g = f.create_group("transient")
@@ -664,7 +670,7 @@ class ResultsWriter:
                 name = f"{kind.lower()}_{what}"
                 if name in self._transient:
                     given[name] = (values or {}).get(kind)
-        k = self._n_time
+        rows = {}
         for name, value in given.items():
             if value is None:
                 raise ValueError(f"transient_step: {name} is missing")
@@ -672,15 +678,9 @@ class ResultsWriter:
             if row.shape != self._tshapes[name]:
                 raise ValueError(f"transient_step: {name} has shape {row.shape}, "
                                  f"expected {self._tshapes[name]}")
-            ds = self._transient[name]
-            ds.resize(k + 1, axis=0)
-            ds[k] = row
-        self._file.flush()
-        ts = self._transient["time"]              # commit the step
-        ts.resize(k + 1, axis=0)
-        ts[k] = float(time)
-        self._file.flush()
-        self._n_time = k + 1
+            rows[name] = row
+        self._append(self._transient, rows, "time", float(time), self._n_time)
+        self._n_time += 1
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
                    shape_euler) -> None:

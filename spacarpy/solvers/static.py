@@ -461,13 +461,23 @@ class StaticProblem:
             raise _StepFailed("singular Newton matrix", list(history))
         return dz
 
-    def check_initial(self):
+    def check_initial(self, allow_mechanism: bool = False):
         """Factorize the unloaded Newton matrix in the initial configuration.
 
         This is the kinematic check: a mechanism or redundant constraints make it singular,
         and they are reported (with the nodes/elements involved) before any load step, even
-        when the loads are zero and Newton would not need a matrix at all.
+        when the loads are zero and Newton would not need a matrix at all. With
+        ``allow_mechanism`` (an unloaded model, a transient run) a mechanism's ModelError is
+        returned instead of raised; redundant constraints always raise.
         """
+        if allow_mechanism:
+            try:
+                self.check_initial()
+            except ModelError as exc:
+                if getattr(exc, "over_constrained", True):
+                    raise
+                return exc
+            return None
         num = self.num
         x, mu = num.x0.copy(), np.zeros(num.n_constraint)
         zero_force = np.zeros(num.n_coord)
@@ -563,11 +573,8 @@ def solve_static(model: Model, *, deformations: str | None = None, options: Stat
         # free-floating structure or a mechanism (neutral equilibrium, e.g. before an
         # eigenfrequency analysis): warn instead of refusing. Redundant constraints are
         # an error with or without load.
-        try:
-            prob.check_initial()
-        except ModelError as exc:
-            if getattr(exc, "over_constrained", True):
-                raise
+        exc = prob.check_initial(allow_mechanism=True)
+        if exc is not None:
             log.warning("unloaded model: %s", exc)
 
     warned = []

@@ -36,7 +36,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import scatter_add
-from spacarpy.errors import ConvergenceError, ModelError, SpacarError
+from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import Model
 from spacarpy.solvers.inertia import Inertia
 from spacarpy.solvers.static import StaticProblem, solve_static
@@ -327,11 +327,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
         x, mu = st.steps[-1].x.copy(), st.steps[-1].mu.copy()
     else:
         # a mechanism is what dynamics is about; redundant constraints are still an error
-        try:
-            prob.check_initial()
-        except ModelError as exc:
-            if getattr(exc, "over_constrained", True):
-                raise
+        prob.check_initial(allow_mechanism=True)
         x, mu = num.x0.copy(), np.zeros(num.n_constraint)
     if prob.has_commit:                          # hinge turn counts of the start state
         prob.commit(x, mu, *tp.loads(0.0))
