@@ -29,7 +29,8 @@ def build(text):
 @pytest.mark.parametrize("kind,params", [("constant", ()), ("zero", ()), ("linear", ()),
                                          ("ramp", (0.7,)), ("smoothstep", (0.7,)),
                                          ("spinup", (0.7,)), ("sine", (1.3,)),
-                                         ("table", (0.0, 0.0, 0.5, 2.0, 1.0, 1.0))])
+                                         ("table", (0.0, 0.0, 0.5, 2.0, 1.0, 1.0)),
+                                         ("expr", ("sin(3*t) + t^2",))])
 def test_time_functions_and_their_derivatives(kind, params):
     """phi' and phi'' equal central differences of phi (away from kinks), and every kind is
     documented."""
@@ -250,6 +251,9 @@ def test_transient_deck_errors(tmp_path):
     deck.write_text(base.replace("TIMESTEP 2.2 440", ""))
     assert main(["run", str(deck), "-q"]) == 2
     bad = base.replace("RHOINF 1", "RHOINF 1.5\nTIMEFUNCTION ramp\nSTART later")
+    with pytest.raises(DeckError) as info:
+        build(base.replace("RHOINF 1", 'TIMEFUNCTION expr "sin(2*pi*f*t)"'))
+    assert "TIMEFUNCTION expr: " in info.value.items[0][1] and "f" in info.value.items[0][1]
     with pytest.raises(DeckError) as info:
         build(bad)
     messages = [m for _, m, _ in info.value.items]

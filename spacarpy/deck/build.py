@@ -986,13 +986,30 @@ class _ModelBuilder:
     def time_function_line(self, st: Statement) -> None:
         from spacarpy.solvers.transient import TIME_FUNCTIONS
         kind = str(st.fields[0]).lower()
-        params = tuple(float(v) for v in st.fields[1:])
         need = {"constant": 0, "zero": 0, "linear": 0, "ramp": 1, "smoothstep": 1,
                 "spinup": 1, "sine": 1}
         if kind not in TIME_FUNCTIONS:
             self.error(st.field_locs[0], f"TIMEFUNCTION: unknown kind '{st.fields[0]}'; "
                                          f"expected {', '.join(TIME_FUNCTIONS)}", st)
             return
+        if kind == "expr":
+            from spacarpy.deck.expressions import ExpressionError, evaluate
+            if len(st.fields) != 2 or not isinstance(st.fields[1], str):
+                self.error(st.loc, 'TIMEFUNCTION expr takes one expression in t, in double '
+                                   'quotes: TIMEFUNCTION expr "1 - exp(-t/0.1)"', st)
+                return
+            try:
+                evaluate(st.fields[1], {"t": 0.0})
+            except (ExpressionError, ValueError, ZeroDivisionError) as exc:
+                self.error(st.field_locs[1], f"TIMEFUNCTION expr: {exc} (the expression may use "
+                                             "t, pi and the functions of {expressions})", st)
+                return
+            self.time_function = ("expr", (st.fields[1],))
+            return
+        if any(isinstance(v, str) for v in st.fields[1:]):
+            self.error(st.loc, f"TIMEFUNCTION {kind}: expected numbers after the kind", st)
+            return
+        params = tuple(float(v) for v in st.fields[1:])
         if kind == "table":
             ok = len(params) >= 4 and len(params) % 2 == 0 and np.all(np.diff(params[0::2]) > 0)
             if not ok:

@@ -327,9 +327,10 @@ _KEYWORD_LIST = (
                              "start", "word"),)),
     KeywordSpec("TIMEFUNCTION", "time function phi(t) of DELXF and the prescribed motions",
                 section="extension", extension=True,
-                required=(_f("constant, zero, linear, ramp, smoothstep, spinup, sine or table",
-                             "kind", "word"),),
-                variadic=_f("parameter of the time function", "p")),
+                required=(_f("constant, zero, linear, ramp, smoothstep, spinup, sine, table or "
+                             "expr", "kind", "word"),),
+                variadic=_f("parameter of the time function (expr: \"expression in t\")", "p",
+                            "value")),
     KeywordSpec("MODES", "number of eigen/buckling modes and where to linearize",
                 section="extension", extension=True,
                 required=(_f("number of modes per linearization", "count", "int", True),),

@@ -54,6 +54,8 @@ TIME_FUNCTIONS = {
               "(Simo & Vu-Quoc's spin-up: the rate rises smoothly from 0 to 1 at t = T)",
     "sine": "phi = sin(2 pi f t)",
     "table": "phi piecewise linear through (t1, phi1), (t2, phi2), ...; constant outside",
+    "expr": 'phi = the expression in t given as a string, e.g. "1 - exp(-t/0.1)" (the '
+            "functions and operators of {expressions}; derivatives by central differences)",
 }
 
 
@@ -91,6 +93,12 @@ class TimeFunction:
         if k == "sine":
             w = 2 * math.pi * p[0]
             return math.sin(w * t), w * math.cos(w * t), -w * w * math.sin(w * t)
+        if k == "expr":
+            from spacarpy.deck.expressions import evaluate
+            text = str(p[0])
+            h = 1e-4 * max(1.0, abs(t))
+            f0, fp, fm = (evaluate(text, {"t": t + d}) for d in (0.0, h, -h))
+            return f0, (fp - fm) / (2 * h), (fp - 2 * f0 + fm) / (h * h)
         if k == "table":
             ts, vs = np.asarray(p[0::2], float), np.asarray(p[1::2], float)
             if t <= ts[0] or t >= ts[-1]:
