@@ -175,11 +175,6 @@ DATASET_ATTRS = {
                                          "since t = 0"),
     "transient/iterations": ("1", "Newton iterations of the last time step"),
     "transient/residual": ("1", "final relative residual of the last time step"),
-    **{f"transient/{k.lower()}_{w}": (u, f"{k} {w.replace('_', ' ')}s, as in /static")
-       for k, units in (("TRUSS", ("m", "N")), ("HINGE", ("rad | 1", "N m")),
-                        ("RBEAM", ("m", "N")), ("PLBEAM", ("m", "N")),
-                        ("PLTRUSS", ("m", "N")), ("PLHINGE", ("rad", "N m")))
-       for w, u in zip(("deformation", "stress_resultant"), units)},
     # schema 1.3: planar elements
     "static/plbeam_deformation": ("m", "PLBEAM deformations: 1 elongation, 2-3 bending in the "
                                        "x-y plane at p and q (l0 times a sine)"),
@@ -241,6 +236,11 @@ _LIN_DATASETS = {
 }
 #: Element kinds besides BEAM with their own datasets (schema 1.2): keyword -> modes.
 OTHER_KINDS = {"TRUSS": 1, "HINGE": 3, "RBEAM": 3, "PLBEAM": 3, "PLTRUSS": 1, "PLHINGE": 1}
+# schema 1.4: the element datasets of /transient have the units of their /static twins
+DATASET_ATTRS.update({
+    f"transient/{k.lower()}_{w}": (DATASET_ATTRS[f"static/{k.lower()}_{w}"][0],
+                                   f"{k} {w.replace('_', ' ')}s, as in /static")
+    for k in OTHER_KINDS for w in ("deformation", "stress_resultant")})
 #: Names of the ``/eigen/kind`` codes.
 MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite")
 
