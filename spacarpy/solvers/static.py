@@ -245,18 +245,26 @@ class StaticProblem:
         return A
 
     # ------------------------------------------------------------------ norms
-    def residual_norm(self, r, c, f_int, f_ext) -> tuple[float, float]:
+    def force_level(self, *forces) -> float:
+        """Largest entry of the given force vectors (n_coord,), the generalized forces on
+        Euler parameters (moments) divided by the length scale."""
+        w = np.where(self.rot_mask, 1.0 / self.num.length_scale, 1.0)
+        return max([float(np.abs(f * w).max(initial=0.0)) for f in forces] + [0.0])
+
+    def residual_norm(self, r, c, f_int, f_ext, level: float | None = None
+                      ) -> tuple[float, float]:
         """Scaled residual and its round-off floor.
 
         Forces are taken relative to the force level (max of external and internal forces,
-        moments divided by the length scale), constraint violations relative to 1 (rigid
-        modes divided by the length scale). The floor is what double precision can resolve:
-        the stiffest element stiffness times the round-off of the coordinates; a residual
-        below it cannot be reduced further by any iteration.
+        :meth:`force_level`, or the given ``level``), constraint violations relative to 1
+        (rigid modes divided by the length scale). The floor is what double precision can
+        resolve: the stiffest element stiffness times the round-off of the coordinates; a
+        residual below it cannot be reduced further by any iteration.
         """
         L = self.num.length_scale
         w = np.where(self.rot_mask, 1.0 / L, 1.0)
-        level = max(np.abs(f_ext * w).max(initial=0.0), np.abs(f_int * w).max(initial=0.0))
+        if level is None:
+            level = self.force_level(f_ext, f_int)
         rr = np.abs(r * w[self.free]).max(initial=0.0)
         rel = rr / level if level > 0 else (0.0 if rr == 0 else np.inf)
         cw = self.constraint_weight
@@ -420,6 +428,14 @@ class StaticProblem:
                 i, message = hit
                 raise SolverError(f"spurious equilibrium: {g.keyword} {int(g.ids[i])} "
                                   f"{message}")
+
+    def at_load(self, x, mu, params):
+        """Set the load parameters ``params = (a, s)`` (gravity factor, prescribed values)
+        and return ``(x_start, force, moment)``: the predictor of :meth:`move_prescribed`
+        and the loads for Newton at that point of the load path."""
+        self.gravity_factor = float(params[0])
+        force, moment = self.loads.at(*params)
+        return self.move_prescribed(x, mu, params), force, moment
 
     def move_prescribed(self, x, mu, params):
         """Set the prescribed coordinates to their values at load parameters ``params`` and
@@ -630,7 +646,7 @@ class _PathStability:
         self.on = opts.bifurcation in ("warn", "switch")
         self.index = 0
         self.told_size = False
-        self.last = None                       # (x, mu, params) of the last stored step
+        self.last = None               # (x, mu, params, stability) of the last stored step
 
     def _stability(self, x, mu, params):
         from spacarpy.solvers.stability import stability
@@ -638,9 +654,8 @@ class _PathStability:
 
     def _solve_at(self, x, mu, params):
         prob = self.prob
-        prob.gravity_factor = float(params[0])
-        x0 = prob.move_prescribed(x, mu, params)
-        x1, mu1, *_ = prob.newton(x0, mu, *prob.loads.at(*params), self.opts)
+        x0, force, moment = prob.at_load(x, mu, params)
+        x1, mu1, *_ = prob.newton(x0, mu, force, moment, self.opts)
         return prob.normalize(x1), mu1
 
     def _bisect(self, lo, hi):
@@ -666,9 +681,7 @@ class _PathStability:
         from spacarpy.solvers.stability import switch_branch
         x, mu, p, stab = state
         prob = self.prob
-        force, moment = prob.loads.at(*p)
-        prob.gravity_factor = float(p[0])
-        prob.move_prescribed(x, mu, p)
+        _, force, moment = prob.at_load(x, mu, p)           # (the targets at that load)
         xs, mus, ss = switch_branch(prob, x, mu, force, moment, self.opts, stab, step)
         if ss.index >= stab.index:
             return None
@@ -768,10 +781,8 @@ def _advance(prob, x, mu, p_from, p_to, n_sub, opts, stored_step):
     while t < t_end - 1e-14:
         dt = min(dt, t_end - t)
         p = p_from + (t + dt) * (p_to - p_from)
-        force, moment = prob.loads.at(*p)
-        prob.gravity_factor = float(p[0])
         try:
-            x_start = prob.move_prescribed(x, mu, p)
+            x_start, force, moment = prob.at_load(x, mu, p)
             x_new, mu_new, its, res, _ = prob.newton(x_start, mu, force, moment, opts)
         except _StepFailed as fail:
             if dt / 2 < min_dt:
