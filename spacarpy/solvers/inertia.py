@@ -25,6 +25,7 @@ import scipy.sparse as sp
 
 from spacarpy.assembly import BlockPattern, scatter_add
 from spacarpy.elements.beam_mass import nodal_rotary_mass
+from spacarpy.rotation import tangent_part
 
 
 class Inertia:
@@ -59,6 +60,7 @@ class Inertia:
         u = num.unknown_of
         self.nodal_pattern = BlockPattern(num.n_unknown, [u[self.point_idx], u[self.rot_idx]])
         self.has_nodal = bool(self.point_idx.size or self.rot_idx.size)
+        self.batches = self._batches()
 
     @property
     def has_mass(self) -> bool:
@@ -76,10 +78,8 @@ class Inertia:
         ri = self.num.rot_idx
         if not ri.size:
             return v
-        q, qd = x[ri], v[ri]
-        qq = np.sum(q * q, axis=1, keepdims=True)
         v = v.copy()
-        v[ri] = qd - np.sum(q * qd, axis=1, keepdims=True) / qq * q
+        v[ri] = tangent_part(x[ri], v[ri])
         return v
 
     def _batches(self):
@@ -108,7 +108,7 @@ class Inertia:
 
     def matrix(self, x: np.ndarray) -> sp.csc_matrix:
         """The mass matrix (n_coord, n_coord) at x."""
-        return self.pattern.assemble([f(x[idx], 1) for f, idx, _ in self._batches()])
+        return self.pattern.assemble([f(x[idx], 1) for f, idx, _ in self.batches])
 
     def forces(self, x: np.ndarray, v: np.ndarray, a: np.ndarray):
         """``(blocks, M a + h)`` at (x, v, a): the mass blocks of every batch (element
@@ -117,7 +117,7 @@ class Inertia:
         v = self.physical(x, v)
         n = self.num.n_coord
         blocks, force = [], np.zeros(n)
-        for mass_of, idx, rot in self._batches():
+        for mass_of, idx, rot in self.batches:
             xl, vl, al = x[idx], v[idx], a[idx]
             n_b, k = xl.shape
             if not n_b:

@@ -30,6 +30,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -38,6 +39,7 @@ import scipy.sparse.linalg as spla
 from spacarpy.assembly import scatter_add
 from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import Model
+from spacarpy.rotation import tangent_part
 from spacarpy.solvers.inertia import Inertia
 from spacarpy.solvers.static import StaticProblem, solve_static
 
@@ -191,12 +193,24 @@ class TransientProblem:
         self.inertia = Inertia(model, self.num)
         self.free = self.prob.free
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
-        self.weight = np.where(self.prob.rot_mask, 1.0 / self.num.length_scale, 1.0)
         self.f_damp, self.damp_blocks = None, {}
-        self.mass_diagonal = self.inertia.matrix(self.num.x0).diagonal()
         self.level = 0.0                 # largest force level of the accepted states
         self.trial_level = None
         self.last_level = 0.0
+
+    @cached_property
+    def mass_diagonal(self) -> np.ndarray:
+        """Diagonal of M in the initial configuration (which coordinates carry mass; used
+        by the error control only)."""
+        return self.inertia.matrix(self.num.x0).diagonal()
+
+    def constraint_jacobian(self, ev, moment) -> sp.csc_matrix:
+        """C (n_constraint, n_unknown) at an evaluated state, without the saddle-point
+        scaling of the Newton matrix."""
+        n_x = self.prob.pattern.n_x
+        mu0 = np.zeros(self.num.n_constraint)
+        A = self.prob.matrix(ev, mu0, moment, material_only=True)
+        return (A[n_x:, :n_x] / self.prob.scale).tocsc()
 
     # ---------------------------------------------------------------- time-dependent data
     def prescribed(self, t: float):
@@ -231,20 +245,14 @@ class TransientProblem:
         if self.f_damp is not None:
             f_in = f_in + self.f_damp              # (damping counted with the inertia)
         r = ev.r + f_in[self.free]
-        w = self.weight
-        level = max(float(np.abs(ev.f_ext * w).max(initial=0.0)),
-                    float(np.abs(ev.f_int * w).max(initial=0.0)),
-                    float(np.abs(f_in * w).max(initial=0.0)))
+        level = self.prob.force_level(ev.f_ext, ev.f_int, f_in)
         # the reference grows only with accepted states (accept_level) and the predictor:
         # a wild Newton iterate must not inflate it and so pass as converged
         if self.trial_level is None:
             self.trial_level = level
         ref = max(self.level, self.trial_level)
-        ref = ref if ref > 0 else 1.0
         self.last_level = level
-        res = max(float(np.abs(r * w[self.free]).max(initial=0.0)) / ref,
-                  float(np.abs(ev.c * self.prob.constraint_weight).max(initial=0.0)))
-        floor = 10 * np.finfo(float).eps * self.prob.scale * self.num.length_scale / ref
+        res, floor = self.prob.residual_norm(r, ev.c, None, None, level=ref if ref > 0 else 1.0)
         return ev, blocks, f_in, r, res, floor, moment
 
     def damping_forces(self, x, v, states, mass_blocks):
@@ -260,7 +268,7 @@ class TransientProblem:
         n = self.num.n_coord
         f = np.zeros(n)
         if alpha:
-            for (_, idx, _), m in zip(self.inertia._batches(), mass_blocks):
+            for (_, idx, _), m in zip(self.inertia.batches, mass_blocks):
                 if len(m):
                     f += scatter_add(n, idx, alpha * np.einsum("nij,nj->ni", m, vp[idx]))
         out = {}
@@ -457,11 +465,10 @@ def _initial_velocities(tp, x, v, given: dict):
             target[ri] = True
             q = x[ri]
             v0[ri] = 0.5 * np.concatenate([[-w @ q[1:]], q[0] * w + np.cross(w, q[1:])])
-    ev = prob.evaluate(x, np.zeros(num.n_constraint), *tp.loads(0.0))
+    force, moment = tp.loads(0.0)
+    ev = prob.evaluate(x, np.zeros(num.n_constraint), force, moment)
     n_x = prob.pattern.n_x
-    A = prob.matrix(ev, np.zeros(num.n_constraint), np.zeros((tp.prob.loads.moment_rot.size, 3)),
-                    material_only=True)
-    C = (A[n_x:, :n_x] / prob.scale).tocsc()
+    C = tp.constraint_jacobian(ev, moment)
     fixed_part = np.where(free, 0.0, v0)
     rhs_c = -_constraint_rates(prob, x, fixed_part)               # prescribed velocities
     weight = (np.where(prob.rot_mask[free], num.length_scale ** 2, 1.0)
@@ -502,9 +509,8 @@ def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc):
     blocks, f_in = tp.inertia.forces(x, v, a)                     # h + M_fp a_p
     M = tp.inertia.assemble(blocks)
     rhs_f = -(ev.f_int - ev.f_ext + f_in)[free]
-    A = prob.matrix(ev, np.zeros_like(mu), moment, material_only=True)
     n_x = prob.pattern.n_x
-    C = (A[n_x:, :n_x] / prob.scale).tocsc()
+    C = tp.constraint_jacobian(ev, moment)
     c_acc = _constraint_rates(prob, x, a)                         # C_p a_p
     if np.any(v):                                                 # (dC/dt) v
         eps = 1e-6 / float(np.abs(v).max())
@@ -552,9 +558,8 @@ def _gauge(num, x, v, a, a_tilde):
     if not ri.size:
         return
     q = x[ri]
+    v[ri] = qd = tangent_part(q, v[ri])
     qq = np.sum(q * q, axis=1, keepdims=True)
-    qd = v[ri] - np.sum(q * v[ri], axis=1, keepdims=True) / qq * q
-    v[ri] = qd
     centripetal = -np.sum(qd * qd, axis=1, keepdims=True) / qq
     for acc in (a, a_tilde):
         acc[ri] += (centripetal - np.sum(q * acc[ri], axis=1, keepdims=True) / qq) * q
