@@ -72,7 +72,6 @@ class RunSummary:
     n_time: int = 0                                     # transient: stored time steps
     integration_steps: int = 0
     rejected_steps: int = 0
-    transient_wall_time: float = 0.0
     newton_iterations: int = 0
 
 
@@ -183,7 +182,6 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
 
     result = solve_transient(model, topts, on_step=on_step, on_static_step=on_static_step,
                              progress=opts.progress, problem=problem)
-    summary.transient_wall_time = result.wall_time
     summary.newton_iterations = result.n_newton
     summary.integration_steps = result.n_steps_taken
     summary.rejected_steps = result.n_rejected

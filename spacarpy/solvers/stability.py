@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from spacarpy.model import BIFURCATION_CHOICES as CHOICES
 from spacarpy.solvers.eigen import DENSE_LIMIT, null_space_basis
 
 log = logging.getLogger(__name__)
@@ -130,4 +129,4 @@ def switch_branch(prob, x, mu, force, moment, opts, stab: Stability, step: int):
     return xb, mub, sb
 
 
-__all__ = ["Stability", "stability", "switch_branch", "potential_energy", "CHOICES"]
+__all__ = ["Stability", "stability", "switch_branch", "potential_energy"]

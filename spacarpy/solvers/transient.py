@@ -359,7 +359,6 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     tp.start_step()
     ev, _, f_in, r, res, _, _ = tp.residual(0.0, x, v, a, mu)
     tp.accept_level()
-    energy0 = dict(T=tp.inertia.kinetic_energy(x, v), U=tp.elastic_energy(ev.states))
     work = dissipated = 0.0
     p_damp = tp.damping_power(x, v)
     q_prev = tp.driving_force(ev, f_in)
@@ -438,7 +437,6 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
         if progress is not None:
             progress(t_target, opts.t_end)
     result.wall_time = time.perf_counter() - t_wall
-    result.energy0 = energy0
     return result
 
 
