@@ -1,7 +1,13 @@
 """Compare a result file with its baseline: every numeric dataset both contain, with tolerances.
 
-A dataset differs when some element fails ``|a - b| <= atol + rtol * |b|`` (b the baseline;
-NaN equals NaN, inf equals inf of the same sign), or when the shapes differ. For each differing
+A dataset differs when some element fails ``|a - b| <= atol + rtol * |b| + floor * max|B|``
+(b the baseline, max|B| the largest finite magnitude in the baseline dataset; NaN equals NaN,
+inf equals inf of the same sign), or when the shapes differ. The last term is the round-off
+of a value that is zero, or nearly so, in exact arithmetic beside large ones: a vanishing
+reaction component next to a 10^6 N one, a frequency near a critical point where the
+eigenvalue w^2 is a difference of much larger numbers. Such values change with every
+change of the solver's iteration path (within its tolerance) and carry no information below
+``floor`` (1e-9) of the dataset's scale. For each differing
 dataset the worst element is reported: its index and its relative difference ``|a - b| / |b|``.
 Datasets whose values legitimately vary between machines or runs (:data:`IGNORED`) are skipped.
 """
@@ -61,7 +67,7 @@ def _numeric_datasets(f) -> dict:
     return out
 
 
-def _compare(path, a, b, rtol, atol) -> DatasetDiff | None:
+def _compare(path, a, b, rtol, atol, floor=0.0) -> DatasetDiff | None:
     if a.shape != b.shape:
         return DatasetDiff(path, None, np.nan, np.nan, np.inf, -1,
                            f"{path}: shape {a.shape} differs from the baseline's {b.shape}")
@@ -70,9 +76,11 @@ def _compare(path, a, b, rtol, atol) -> DatasetDiff | None:
     a = a.astype(float)
     b = b.astype(float)
     same_special = (np.isnan(a) & np.isnan(b)) | (np.isinf(a) & (a == b))
+    finite = np.abs(b[np.isfinite(b)])
+    scale = float(finite.max()) if finite.size else 0.0
     with np.errstate(invalid="ignore", over="ignore"):
         err = np.abs(a - b)
-        allowed = atol + rtol * np.abs(b)
+        allowed = atol + rtol * np.abs(b) + floor * scale
         bad = ~same_special & ~(err <= allowed)
     if not bad.any():
         return None
@@ -92,7 +100,7 @@ def _compare(path, a, b, rtol, atol) -> DatasetDiff | None:
 
 
 def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
-                  ignore=IGNORED) -> list[DatasetDiff]:
+                  floor: float = 1e-9, ignore=IGNORED) -> list[DatasetDiff]:
     """Compare every numeric dataset that both files contain.
 
     Parameters
@@ -101,6 +109,8 @@ def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
         HDF5 result files.
     rtol, atol : float
         Relative and absolute tolerance.
+    floor : float
+        Round-off floor relative to each baseline dataset's largest magnitude.
     ignore : sequence of str
         fnmatch patterns of dataset paths not compared (default :data:`IGNORED`).
 
@@ -117,7 +127,7 @@ def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
         for path in sorted(set(da) & set(db)):
             if any(fnmatch.fnmatchcase(path, pat) for pat in ignore):
                 continue
-            d = _compare(path, da[path][()], db[path][()], rtol, atol)
+            d = _compare(path, da[path][()], db[path][()], rtol, atol, floor)
             if d is not None:
                 diffs.append(d)
     return diffs
