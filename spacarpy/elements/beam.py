@@ -49,7 +49,7 @@ from typing import NamedTuple
 import numpy as np
 
 from spacarpy.linalg import batch_matvec
-from spacarpy.rotation import quadratic_form
+from spacarpy.rotation import hessian_combination, vector_jacobians
 
 N_LDOF = 14
 N_DEF = 6
@@ -155,8 +155,7 @@ class BeamState(NamedTuple):
     n1: np.ndarray         # (n, 3) unit chord
     length: np.ndarray     # (n,) current chord length
     l0: np.ndarray         # (n,)
-    Hy: np.ndarray         # (n, 3, 4, 4) quadratic form of n_y
-    Hz: np.ndarray         # (n, 3, 4, 4) quadratic form of n_z
+    u: np.ndarray          # (n, 2, 3) reference vectors [n_y, n_z] (nodal ones = R(q) u)
 
 
 def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
@@ -174,20 +173,15 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     n = x.shape[0]
     qp, qq = x[:, QP], x[:, QQ]
     d = x[:, RQ] - x[:, RP]
-    hy, hz = quadratic_form(ny), quadratic_form(nz)
-    # nodal vectors n = q^T H q and their derivatives 2 H q
-    dnyp = 2.0 * batch_matvec(hy, qp[:, None, :])          # (n, 3, 4)
-    dnzp = 2.0 * batch_matvec(hz, qp[:, None, :])
-    dnyq = 2.0 * batch_matvec(hy, qq[:, None, :])
-    dnzq = 2.0 * batch_matvec(hz, qq[:, None, :])
-    nyp = 0.5 * batch_matvec(dnyp, qp)
-    nzp = 0.5 * batch_matvec(dnzp, qp)
-    nyq = 0.5 * batch_matvec(dnyq, qq)
-    nzq = 0.5 * batch_matvec(dnzq, qq)
-    y = np.concatenate([d, nyp, nzp, nyq, nzq], axis=1)
-
-    Yp = np.concatenate([dnyp, dnzp], axis=1)
-    Yq = np.concatenate([dnyq, dnzq], axis=1)
+    # nodal vectors n = R(q) v = q^T H(v) q (quadratic in q) and their derivatives 2 H(v) q;
+    # Yp = d[n_y^p, n_z^p]/dq^p (n, 6, 4), and n = (2 H q) . q / 2
+    u = np.stack([ny, nz], axis=1)                                  # (n, 2, 3)
+    Yp = vector_jacobians(qp, u).reshape(n, 6, 4)
+    Yq = vector_jacobians(qq, u).reshape(n, 6, 4)
+    vp = 0.5 * batch_matvec(Yp, qp)                                 # [n_y^p, n_z^p]
+    vq = 0.5 * batch_matvec(Yq, qq)
+    y = np.concatenate([d, vp, vq], axis=1)
+    nyp, nzp, nyq, nzq = vp[:, :3], vp[:, 3:], vq[:, :3], vq[:, 3:]
 
     length = np.linalg.norm(d, axis=1)
     n1 = d / length[:, None]
@@ -224,7 +218,7 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     else:
         raise ValueError(f"unknown deformation variant {variant!r}")
     return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Yp=Yp, Yq=Yq, n1=n1,
-                     length=length, l0=l0, Hy=hy, Hz=hz)
+                     length=length, l0=l0, u=u)
 
 
 # (mode index, sign, slice of the nodal vector in y, name) for e3..e6 of Eq. (7).
@@ -281,16 +275,12 @@ def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
     hx[:, QQ, QP] = pq.transpose(0, 2, 1)
     # the nodal vectors are quadratic in q: d^2 n_k/dq^2 = 2 H_k
     c = batch_matvec(st.G.transpose(0, 2, 1), w_hat)                       # (n, 15)
-    hx[:, QP, QP] += 2.0 * (_combine(c[:, YNYP], st.Hy) + _combine(c[:, YNZP], st.Hz))
-    hx[:, QQ, QQ] += 2.0 * (_combine(c[:, YNYQ], st.Hy) + _combine(c[:, YNZQ], st.Hz))
+    # sum_k c_k d^2(R u)_k/dq^2 over both vectors = hessian_combination(sum_i c_i u_i^T)
+    hx[:, QP, QP] += hessian_combination(c[:, 3:9].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
+    hx[:, QQ, QQ] += hessian_combination(c[:, 9:15].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
     if extra is not None:
         hx += extra
     return hx
-
-
-def _combine(c: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """``sum_k c[n, k] h[n, k, :, :]`` for c (n, 3), h (n, 3, 4, 4)."""
-    return (c[:, None, :] @ h.reshape(h.shape[0], 3, 16)).reshape(-1, 4, 4)
 
 
 def beam_deformations(x, ny, nz, l0, variant="modified") -> np.ndarray:
