@@ -105,14 +105,19 @@ class BlockPattern:
     index_blocks : list of (n_b, k_b) int arrays
         For each batch, the global row/column index of every local entry of its (k_b, k_b)
         blocks; -1 drops the row/column (a fixed coordinate).
+    upper : bool
+        Keep only the upper triangle (row <= column) of a symmetric matrix: half the
+        scatter work, and the input a symmetric factorization (LDL^T) takes.
     """
 
-    def __init__(self, n: int, index_blocks):
+    def __init__(self, n: int, index_blocks, upper: bool = False):
         self.n = n
         rows = [np.repeat(ix, ix.shape[1], axis=1).ravel() for ix in index_blocks]
         cols = [np.tile(ix, (1, ix.shape[1])).ravel() for ix in index_blocks]
         rows, cols = np.concatenate(rows), np.concatenate(cols)
         self.valid = (rows >= 0) & (cols >= 0)
+        if upper:
+            self.valid &= rows <= cols
         key = cols[self.valid] * n + rows[self.valid]
         uniq, self.scatter = np.unique(key, return_inverse=True)
         self.indices = (uniq % n).astype(np.int32)

@@ -42,6 +42,9 @@ from spacarpy.linalg import batch_matvec
 from spacarpy.model import Model
 from spacarpy.numbering import Numbering, number_model
 from spacarpy.rotation import lambda_matrix, moment_matrix
+from spacarpy.solvers.reduced import ReducedNewton
+from spacarpy.solvers.reduced import applies as reduced_applies
+from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
 
 log = logging.getLogger(__name__)
 
@@ -73,6 +76,8 @@ class Timings:
     assembly: float = 0.0
     solve: float = 0.0
     iterations: int = 0
+    factorizations: int = 0     # sparse LU factorizations (Newton and kinematic correction)
+    corrections: int = 0        # kinematic-correction steps (each one back-substitution)
     total: float = 0.0
 
 
@@ -130,8 +135,18 @@ class StaticProblem:
         num = self.num
         self.kin_pattern = BlockPattern(
             num.n_unknown, [num.unknown_of[g.idx] for g in num.groups]
-            + [num.unknown_of[num.rot_idx[num.euler_nodes]]])
+            + [num.unknown_of[num.rot_idx[num.euler_nodes]]], upper=True)
+        self._kin_factor = SPDFactorization()
         self.kinematic_correction = True
+        self._kin_lu = None        # factorized Gauss-Newton matrix of correct_kinematics
+        # Newton steps without the Euler constraints where the model allows (reduced.py)
+        self.reduced = ReducedNewton(self) if reduced_applies(self) else None
+        # round-off level of the scaled deformation mismatch in correct_kinematics: the
+        # coordinates' round-off relative to the shortest element scale
+        min_scale = min([float(np.min(g.scale, initial=np.inf)) for g in num.groups]
+                        + [np.inf])
+        self.kin_floor = 64 * np.finfo(float).eps * num.length_scale / (
+            min_scale if np.isfinite(min_scale) and min_scale > 0 else 1.0)
         self._initial_check = False
         self.has_commit = any(g.kind.commit is not None for g in num.groups)
         # gravity: applied with the initial load (factor a of the load path), then constant
@@ -162,13 +177,18 @@ class StaticProblem:
         self._reaction_setup()
 
     # ------------------------------------------------------------------ evaluation
-    def evaluate(self, x, mu, force, moment) -> "_Eval":
-        """Deformations, stress resultants and residuals at (x, mu) under the given load."""
+    def evaluate(self, x, mu, force, moment, states=None) -> "_Eval":
+        """Deformations, stress resultants and residuals at (x, mu) under the given load.
+
+        ``states`` are the kernel states at exactly this x when the caller has them already
+        (the kinematic correction ends with them)."""
         num = self.num
         t0 = time.perf_counter()
+        known = states
         states, sigmas, forces = [], [], []
-        for g in num.groups:
-            st = g.kind.state(x[g.idx], g.ref, self.variant, g.prev)
+        for i, g in enumerate(num.groups):
+            st = (known[i] if known is not None
+                  else g.kind.state(x[g.idx], g.ref, self.variant, g.prev))
             sigma = batch_matvec(g.S, st.e)
             sigma[g.rigid_elem, g.rigid_mode] = mu[g.rigid_slice]
             states.append(st)
@@ -218,6 +238,23 @@ class StaticProblem:
         """
         num = self.num
         t0 = time.perf_counter()
+        k_el, euler_diag, mom_blocks = self.element_blocks(ev, mu, moment, material_only, extra)
+        t1 = time.perf_counter()
+        A = self.pattern.assemble(k_el, euler_diag, mom_blocks,
+                                  [st.D[g.rigid_elem, g.rigid_mode]
+                                   for g, st in zip(num.groups, ev.states)],
+                                  2.0 * ev.q_eu,
+                                  scale=self.scale if scale is None else scale)
+        self.timings.kernels += t1 - t0
+        self.timings.assembly += time.perf_counter() - t1
+        return A
+
+    def element_blocks(self, ev: "_Eval", mu, moment, material_only: bool = False,
+                       extra=None):
+        """The K block's pieces: element tangents (one (n_elem, n_ldof, n_ldof) array per
+        group), the Euler-node diagonal ``2 mu`` and the moment-load blocks (see
+        :meth:`matrix`)."""
+        num = self.num
         k_el = []
         for i, (g, st, sigma) in enumerate(zip(num.groups, ev.states, ev.sigmas)):
             k = st.D.transpose(0, 2, 1) @ (g.S @ st.D)
@@ -234,15 +271,7 @@ class StaticProblem:
         else:
             euler_diag = 2.0 * mu[num.n_rigid:]
             mom_blocks = -2.0 * moment_matrix(moment) if n_m else np.zeros((0, 4, 4))
-        t1 = time.perf_counter()
-        A = self.pattern.assemble(k_el, euler_diag, mom_blocks,
-                                  [st.D[g.rigid_elem, g.rigid_mode]
-                                   for g, st in zip(num.groups, ev.states)],
-                                  2.0 * ev.q_eu,
-                                  scale=self.scale if scale is None else scale)
-        self.timings.kernels += t1 - t0
-        self.timings.assembly += time.perf_counter() - t1
-        return A
+        return k_el, euler_diag, mom_blocks
 
     # ------------------------------------------------------------------ norms
     def force_level(self, *forces) -> float:
@@ -322,8 +351,9 @@ class StaticProblem:
         on success, raises _StepFailed otherwise."""
         history = []
         dx_norm = np.inf
+        states = None
         for it in range(opts.max_iter + 1):
-            ev = self.evaluate(x, mu, force, moment)
+            ev = self.evaluate(x, mu, force, moment, states)
             r, c = ev.r, ev.c
             res, floor = self.residual_norm(r, c, ev.f_int, ev.f_ext)
             history.append(res)
@@ -332,21 +362,33 @@ class StaticProblem:
             # converged: the last increment below the tolerance and the residual below the
             # tolerance or at its round-off floor (with very short, stiff elements the force
             # residual cannot be resolved better, while positions still are)
-            if res <= max(opts.tol, floor) and (it == 0 or dx_norm <= opts.tol):
+            # (an untouched configuration needs the residual itself below the tolerance:
+            # with millions of elements the round-off floor can exceed the load change)
+            if (res <= opts.tol or (it > 0 and res <= floor)) and (
+                    it == 0 or dx_norm <= opts.tol):
                 self._check_element_range(ev.states)
                 return x, mu, it, res, history
             if it == opts.max_iter:
                 break
             if it >= 3 and res > 1e3 * history[1] and res > 1e3 * opts.tol:
                 raise _StepFailed("diverging", history)
-            A = self.matrix(ev, mu, moment)
-            t0 = time.perf_counter()
-            rhs = -np.concatenate([r, self.scale * c])
-            dz = self._solve(A, rhs, x, history)
-            self.timings.solve += time.perf_counter() - t0
             self.timings.iterations += 1
-            dx = dz[: self.pattern.n_x]
-            dmu = dz[self.pattern.n_x:] * self.scale
+            step = None
+            if self.reduced is not None:
+                t0 = time.perf_counter()
+                k_el, euler_diag, _ = self.element_blocks(ev, mu, moment)
+                self.timings.kernels += time.perf_counter() - t0
+                step = self.reduced.step(ev, x, mu, k_el, euler_diag, history)
+            if step is not None:
+                dx, dmu = step
+            else:
+                A = self.matrix(ev, mu, moment)
+                t0 = time.perf_counter()
+                rhs = -np.concatenate([r, self.scale * c])
+                dz = self._solve(A, rhs, x, history)
+                self.timings.solve += time.perf_counter() - t0
+                dx = dz[: self.pattern.n_x]
+                dmu = dz[self.pattern.n_x:] * self.scale
             if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
                 raise _StepFailed("non-finite increment", history)
             dx_norm = self.increment_norm(dx)
@@ -357,13 +399,16 @@ class StaticProblem:
                     raise _StepFailed("increment too large", history)
             x_lin = x.copy()
             x_lin[self.free] += dx
+            states = None
             if self.kinematic_correction:
-                x_lin = self.correct_kinematics(x_lin, dx, ev.states)
+                x_lin, states = self.correct_kinematics(x_lin, dx, ev.states,
+                                                        return_states=True)
             x = x_lin
             mu = mu + dmu
         raise _StepFailed(f"no convergence in {opts.max_iter} iterations", history)
 
-    def correct_kinematics(self, x_lin, dx, st_old, max_iter: int = 2, rigid_target=None):
+    def correct_kinematics(self, x_lin, dx, st_old, max_iter: int = 8, rigid_target=None,
+                           return_states: bool = False):
         """Move the linearly updated configuration onto the deformations Newton predicted.
 
         Newton's increment predicts every deformation to first order,
@@ -372,9 +417,20 @@ class StaticProblem:
         (by ``l0 theta^2 / 2``); with stiff axial or bending modes that artificial strain
         makes the next residual enormous and Newton wanders (hundreds of iterations for a
         finely meshed cantilever). Like SPACAR's kinematic analysis, this step restores the
-        geometry: a few Gauss-Newton iterations on ``e(x) = e_target``, ``q.q = 1`` in the
-        least-squares sense (rows scaled by 1/l0). Near the
-        solution the correction is of second order, so quadratic convergence is kept.
+        geometry: Gauss-Newton iterations on ``e(x) = e_target``, ``q.q = 1`` in the
+        least-squares sense (rows scaled by 1/l0).
+
+        The Gauss-Newton matrix ``W^T W`` (W = D / l0) depends on the geometry only, and the
+        geometry changes little from one Newton iteration to the next, so its factorization
+        is kept and reused (a chord iteration) until it stops contracting fast: in a Newton
+        iteration near convergence the correction costs deformation evaluations and
+        back-substitutions, no factorization. The iterations stop when the correction is
+        below ``|first correction|^2`` (what two exact Gauss-Newton steps reach) or below
+        round-off; near the solution it is of second order, so Newton's quadratic
+        convergence is kept. An increment whose square is below round-off cannot stretch
+        anything measurably and is taken as it is. With ``return_states`` the kernel states
+        at the returned configuration come along (None when not computed there), so that
+        the next residual evaluation does not repeat them.
         """
         num = self.num
         eu = num.rot_idx[num.euler_nodes]
@@ -385,38 +441,78 @@ class StaticProblem:
             for g, t in zip(num.groups, targets):
                 t[g.rigid_elem, g.rigid_mode] = rigid_target[g.rigid_slice]
         inv_scale = [1.0 / g.scale for g in num.groups]
-        x = x_lin
-        for _ in range(max_iter):
-            t0 = time.perf_counter()
+
+        def mismatch(x):
             states = [g.kind.state(x[g.idx], g.ref, self.variant, g.prev) for g in num.groups]
-            q = x[eu]
             g_e = [(t - st.e) * w for t, st, w in zip(targets, states, inv_scale)]
-            g_q = 1.0 - np.sum(q * q, axis=1)
+            g_q = 1.0 - np.sum(x[eu] ** 2, axis=1)
             worst = max([np.abs(v).max(initial=0.0) for v in g_e]
                         + [np.abs(g_q).max(initial=0.0)])
-            if worst < 1e-14:
+            return states, g_e, g_q, (worst if np.isfinite(worst) else np.inf)
+
+        size = self.increment_norm(dx)
+        if rigid_target is None and size * size < self.kin_floor:
+            return (x_lin, None) if return_states else x_lin
+        if size > 1e-3:
+            self._kin_lu = None               # a large step: the kept matrix is too stale
+        x = x_lin
+        done = None
+        worst0 = prev = back = None
+        n_factor, reused = 0, False
+        for _ in range(max_iter):
+            t0 = time.perf_counter()
+            states, g_e, g_q, worst = mismatch(x)
+            worst0 = worst if worst0 is None else worst0
+            if worst <= max(self.kin_floor, 1e-9 * worst0):
+                done = states
                 break
+            if prev is not None and not worst <= 0.05 * prev:
+                if reused:
+                    # the kept matrix was too stale: undo its step, refactorize there
+                    x, states, g_e, g_q, worst = back
+                    self._kin_lu = None
+                elif n_factor >= 2:
+                    # two fresh Gauss-Newton steps and still no fast contraction: targets
+                    # that cannot be met exactly (least squares, a saturated deformation);
+                    # stop here, as plain Gauss-Newton with two steps would
+                    done = states
+                    break
+                else:
+                    self._kin_lu = None        # far from the targets: a fresh matrix here
+            wq = 2.0 * x[eu]
             w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
-            t1 = time.perf_counter()
-            wq = 2.0 * q
-            m = self.kin_pattern.assemble(
-                [w.transpose(0, 2, 1) @ w for w in w_e] + [wq[:, :, None] * wq[:, None, :]],
-                diag_shift=1e-12)
             rhs = scatter_add(num.n_coord, eu, wq * g_q[:, None])
             for g, w, ge in zip(num.groups, w_e, g_e):
                 rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), ge))
-            rhs = rhs[self.free]
-            t2 = time.perf_counter()
-            try:
-                lu = spla.splu(m, permc_spec="COLAMD")
-            except RuntimeError:
-                return x_lin                       # no correction possible: plain Newton
-            x = x.copy()
-            x[self.free] += lu.solve(rhs)
+            t1 = time.perf_counter()
             self.timings.kernels += t1 - t0
-            self.timings.assembly += t2 - t1
-            self.timings.solve += time.perf_counter() - t2
-        return x
+            reused = self._kin_lu is not None
+            if not reused:
+                m = self.kin_pattern.assemble(
+                    [w.transpose(0, 2, 1) @ w for w in w_e]
+                    + [wq[:, :, None] * wq[:, None, :]], diag_shift=1e-12)
+                t2 = time.perf_counter()
+                self.timings.assembly += t2 - t1
+                t1 = t2
+                try:
+                    self._kin_lu = self._kin_factor.factorize(m)
+                except FactorizationError:
+                    self._kin_lu = None            # no correction possible: plain Newton
+                    return (x_lin, None) if return_states else x_lin
+                n_factor += 1
+                self.timings.factorizations += 1
+            self.timings.corrections += 1
+            back = (x, states, g_e, g_q, worst)
+            x = x.copy()
+            try:
+                step = self._kin_lu(rhs[self.free])
+            except FactorizationError:
+                self._kin_lu = None
+                return (x_lin, None) if return_states else x_lin
+            x[self.free] += step
+            self.timings.solve += time.perf_counter() - t1
+            prev = worst
+        return (x, done) if return_states else x
 
     def _check_element_range(self, states):
         """Kind-specific validity checks of a converged state (BEAM: Eq. 7 saturation)."""
@@ -452,7 +548,7 @@ class StaticProblem:
         self.rigid_target = rigid_target
         moved = x.copy()
         moved[idx] = target
-        return self.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=4,
+        return self.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=8,
                                        rigid_target=None if same_e else rigid_target)
 
     def commit(self, x, mu, force, moment):
@@ -466,6 +562,7 @@ class StaticProblem:
     def _solve(self, A, rhs, x, history=()):
         try:
             lu = spla.splu(A, permc_spec="COLAMD")
+            self.timings.factorizations += 1
             dz = lu.solve(rhs)
         except RuntimeError:                  # "Factor is exactly singular"
             dz = None

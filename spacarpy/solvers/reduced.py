@@ -1,0 +1,182 @@
+"""Newton steps in the tangent space of the Euler-parameter normalizations.
+
+The static solver's Newton system is bordered by one constraint ``q.q = 1`` per orientation
+node (and by the rigid-mode constraints). For an orientation node whose four Euler parameters
+are all free, the constraint can be eliminated exactly: write the increment of its
+parameters in the orthonormal basis ``B(q) = [q/|q|, T(q)]`` with ``T(q) = Lambda(q)^T / |q|``
+(three directions tangent to the sphere, :func:`spacarpy.rotation.lambda_matrix`). The
+constraint row fixes the radial component, ``2 q.dq = -(q.q - 1)``, the radial rows give the
+node's multiplier increment, and what is left is a system in the tangent components only,
+``B^T K B`` without its radial rows and columns. This is the same Newton step as the bordered
+one in exact arithmetic (a null-space elimination, not an approximation).
+
+When every constraint of a model is of this kind and no dead moment loads it (their
+derivative is skew-symmetric), the remaining matrix is the symmetric tangent stiffness in
+rotation-like coordinates, which is positive definite at a stable equilibrium and is
+factorized by the LDL^T of :class:`~spacarpy.solvers.sparse.SPDFactorization` with its
+ordering and symbolic analysis done once per model (the bordered matrix has zero diagonal
+blocks and needs SuperLU's pivoting instead). A step is checked by its residual in the
+reduced system; an inaccurate one (an LDL^T without pivoting on an indefinite matrix near a
+limit point) returns ``None`` and the caller solves the bordered system instead.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from spacarpy.assembly import BlockPattern, scatter_add
+from spacarpy.linalg import batch_matvec
+from spacarpy.rotation import lambda_matrix
+from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
+
+
+def applies(prob) -> bool:
+    """Whether the model's Newton steps can use :class:`ReducedNewton`: every constraint is
+    the normalization of a node with four free Euler parameters, no rigid modes, no moment
+    loads, and element kinds whose Euler parameters come in slots of four."""
+    num = prob.num
+    if num.n_rigid or prob.loads.moment_rot.size or not num.euler_nodes.size:
+        return False
+    free = ~num.fixed_mask
+    if not free[num.rot_idx[num.euler_nodes]].all():
+        return False
+    try:
+        _quaternion_slots(num)
+    except ValueError:
+        return False
+    return True
+
+
+def _quaternion_slots(num):
+    """Per element group, the local slots where an Euler-parameter quadruple starts (its
+    four parameters in order lambda0..lambda3 in consecutive slots, the same for every
+    element of the group)."""
+    comp = np.full(num.n_coord, -1, dtype=np.int64)
+    comp[num.rot_idx] = np.arange(4)
+    out = []
+    for g in num.groups:
+        c = comp[g.idx]                                   # (n_e, n_ldof)
+        if g.n_elem and (c != c[0]).any():
+            raise ValueError(f"{g.keyword}: Euler parameters in varying local slots")
+        first = c[0] if g.n_elem else np.full(g.idx.shape[1], -1)
+        starts = np.flatnonzero(first == 0)
+        for s in starts:
+            if s + 4 > first.size or not np.array_equal(first[s:s + 4], np.arange(4)):
+                raise ValueError(f"{g.keyword}: Euler parameters not in slots of four")
+        if (first >= 0).sum() != 4 * starts.size:
+            raise ValueError(f"{g.keyword}: incomplete Euler-parameter slots")
+        out.append(starts)
+    return out
+
+
+class ReducedNewton:
+    """Newton steps of a :class:`~spacarpy.solvers.static.StaticProblem` without its Euler
+    constraints (see the module docstring); build only where :func:`applies`."""
+
+    def __init__(self, prob):
+        self.prob = prob
+        num = prob.num
+        self.nodes = num.euler_nodes                       # orientation-node indices
+        self.eu = num.rot_idx[self.nodes]                  # (n_eu, 4) coordinate indices
+        self.slots = _quaternion_slots(num)
+        node_of = np.full(num.n_coord, -1, dtype=np.int64)
+        node_of[self.eu[:, 0]] = np.arange(self.nodes.size)
+        # for each group and quaternion slot: which Euler node (index into self.nodes)
+        self.slot_nodes = [[node_of[g.idx[:, s]] for s in starts]
+                           for g, starts in zip(num.groups, self.slots)]
+        # reduced unknowns: the free coordinates without the radial (lambda0) slot of each
+        # Euler node, whose component follows from the constraint
+        keep = ~num.fixed_mask
+        keep[self.eu[:, 0]] = False
+        self.unknown_of = np.full(num.n_coord, -1, dtype=np.int64)
+        self.unknown_of[keep] = np.arange(int(keep.sum()))
+        self.n = int(keep.sum())
+        self.keep = keep
+        self.free = ~num.fixed_mask
+        self.pattern = BlockPattern(self.n, [self.unknown_of[g.idx] for g in num.groups]
+                                    + [self.unknown_of[self.eu]], upper=True)
+        self.factor = SPDFactorization()
+
+    def basis(self, q: np.ndarray) -> np.ndarray:
+        """B(q) = [q/|q|, Lambda(q)^T/|q|], (n, 4, 4) orthonormal for every q != 0."""
+        nq = np.linalg.norm(q, axis=1)
+        b = np.empty(q.shape + (4,))
+        b[:, :, 0] = q / nq[:, None]
+        b[:, :, 1:] = lambda_matrix(q).transpose(0, 2, 1) / nq[:, None, None]
+        return b
+
+    def _rotate(self, k_el, b):
+        """Element blocks in the rotated coordinates: ``B_e^T k B_e`` per element."""
+        out = []
+        for k, starts, nodes in zip(k_el, self.slots, self.slot_nodes):
+            k = k.copy()
+            for s, nd in zip(starts, nodes):
+                be = b[nd]                                          # (n_e, 4, 4)
+                k[:, :, s:s + 4] = k[:, :, s:s + 4] @ be
+                k[:, s:s + 4, :] = be.transpose(0, 2, 1) @ k[:, s:s + 4, :]
+            out.append(k)
+        return out
+
+    def step(self, ev, x, mu, k_el, euler_diag, history=()):
+        """The Newton increment ``(dx over the free coordinates, dmu)``, or None when the
+        factorization fails or its solution is inaccurate (the caller then solves the
+        bordered system)."""
+        prob, num = self.prob, self.prob.num
+        timings = prob.timings
+        t0 = time.perf_counter()
+        q = x[self.eu]
+        nq = np.linalg.norm(q, axis=1)
+        b = self.basis(q)
+        k_rot = self._rotate(k_el, b)
+        # the rotated residual over all coordinates
+        r_full = ev.f_int - ev.f_ext
+        r_full[self.eu] = np.einsum("nab,na->nb", b, r_full[self.eu])
+        # the radial component of each Euler increment, from its constraint 2 q.dq = -c
+        z = np.zeros(num.n_coord)
+        c_eu = ev.c[num.n_rigid:]
+        z[self.eu[:, 0]] = -c_eu / (2.0 * nq)
+        # K z for that particular solution, element by element (only radial entries of z
+        # are nonzero), plus the Euler-node diagonal 2 mu
+        kz = np.zeros(num.n_coord)
+        for g, k in zip(num.groups, k_rot):
+            kz += scatter_add(num.n_coord, g.idx, batch_matvec(k, z[g.idx]))
+        kz[self.eu[:, 0]] += euler_diag * z[self.eu[:, 0]]
+        rhs = -(r_full + kz)[self.keep]
+        diag = np.broadcast_to(euler_diag[:, None, None] * np.eye(4), (self.nodes.size, 4, 4))
+        t1 = time.perf_counter()
+        a = self.pattern.assemble(k_rot + [diag])
+        t2 = time.perf_counter()
+        timings.kernels += t1 - t0
+        timings.assembly += t2 - t1
+        try:
+            solve = self.factor.factorize(a)
+            timings.factorizations += 1
+            y = solve(rhs)
+            # accuracy check in the reduced system (LDL^T without pivoting)
+            ay = a @ y + a.T @ y - a.diagonal() * y
+            err = np.abs(ay - rhs).max(initial=0.0)
+            scale = np.abs(rhs).max(initial=0.0) + np.abs(a.data).max(initial=0.0) * np.abs(
+                y).max(initial=0.0)
+            if not err <= 1e-8 * scale:
+                y = y + solve(rhs - ay)                 # one step of iterative refinement
+                ay = a @ y + a.T @ y - a.diagonal() * y
+                err = np.abs(ay - rhs).max(initial=0.0)
+                if not err <= 1e-8 * scale:
+                    return None
+        except FactorizationError:
+            return None
+        finally:
+            timings.solve += time.perf_counter() - t2
+        z[self.keep] = y
+        # back to the Euler parameters, and the multiplier increments from the radial rows:
+        # (K z)_radial + 2 |q| dmu = -r_radial
+        kz = np.zeros(num.n_coord)
+        for g, k in zip(num.groups, k_rot):
+            kz += scatter_add(num.n_coord, g.idx, batch_matvec(k, z[g.idx]))
+        radial = self.eu[:, 0]
+        kz[radial] += euler_diag * z[radial]
+        dmu = -(r_full[radial] + kz[radial]) / (2.0 * nq)
+        dq = np.einsum("nab,nb->na", b, z[self.eu])
+        z[self.eu] = dq
+        return z[self.free], np.concatenate([np.zeros(num.n_rigid), dmu])
