@@ -55,13 +55,14 @@ class BorderedPattern:
         cols += [eu.ravel(), np.repeat(erow, 4)]
         rows = np.concatenate(rows).astype(np.int64)
         cols = np.concatenate(cols).astype(np.int64)
-        self.valid = (rows >= 0) & (cols >= 0)
-        key = cols[self.valid] * self.n + rows[self.valid]      # column-major order = CSC
-        uniq, self.scatter = np.unique(key, return_inverse=True)
+        valid = (rows >= 0) & (cols >= 0)
+        key = cols[valid] * self.n + rows[valid]                # column-major order = CSC
+        uniq, inverse = np.unique(key, return_inverse=True)
         self.indices = (uniq % self.n).astype(np.int32)
         counts = np.bincount(uniq // self.n, minlength=self.n)
         self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
         self.nnz = uniq.size
+        self.scatter = _scatter_map(valid, inverse, self.nnz)
 
     def assemble(self, k_elem, euler_diag, moment_blocks, c_rigid, c_euler,
                  scale: float = 1.0) -> sp.csc_matrix:
@@ -84,9 +85,18 @@ class BorderedPattern:
             parts += [cr, cr]
         ce = scale * c_euler.ravel()
         parts += [ce, ce]
-        vals = np.concatenate(parts)
-        data = np.bincount(self.scatter, weights=vals[self.valid], minlength=self.nnz)
+        data = np.bincount(self.scatter, weights=np.concatenate(parts),
+                           minlength=self.nnz + 1)[:self.nnz]
         return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+def _scatter_map(valid: np.ndarray, inverse: np.ndarray, nnz: int) -> np.ndarray:
+    """Target of every local entry in the CSC data array; dropped entries (fixed
+    coordinates, the lower triangle of a symmetric pattern) go to a spare slot ``nnz`` that
+    is cut off after the sum (cheaper than masking the values at every assembly)."""
+    out = np.full(valid.size, nnz, dtype=np.intp)
+    out[valid] = inverse.ravel()
+    return out
 
 
 def scatter_add(n: int, idx: np.ndarray, vals: np.ndarray) -> np.ndarray:
@@ -115,21 +125,22 @@ class BlockPattern:
         rows = [np.repeat(ix, ix.shape[1], axis=1).ravel() for ix in index_blocks]
         cols = [np.tile(ix, (1, ix.shape[1])).ravel() for ix in index_blocks]
         rows, cols = np.concatenate(rows), np.concatenate(cols)
-        self.valid = (rows >= 0) & (cols >= 0)
+        valid = (rows >= 0) & (cols >= 0)
         if upper:
-            self.valid &= rows <= cols
-        key = cols[self.valid] * n + rows[self.valid]
-        uniq, self.scatter = np.unique(key, return_inverse=True)
+            valid &= rows <= cols
+        key = cols[valid] * n + rows[valid]
+        uniq, inverse = np.unique(key, return_inverse=True)
         self.indices = (uniq % n).astype(np.int32)
         self.indptr = np.concatenate([[0], np.cumsum(np.bincount(uniq // n, minlength=n))]
                                      ).astype(np.int32)
         self.nnz = uniq.size
+        self.scatter = _scatter_map(valid, inverse, self.nnz)
         self.diag = np.flatnonzero(self.indices == np.repeat(np.arange(n), np.diff(self.indptr)))
 
     def assemble(self, blocks, diag_shift: float = 0.0) -> sp.csc_matrix:
         """Fill the pattern with ``blocks`` (one (n_b, k_b, k_b) array per batch)."""
-        vals = np.concatenate([b.ravel() for b in blocks])
-        data = np.bincount(self.scatter, weights=vals[self.valid], minlength=self.nnz)
+        data = np.bincount(self.scatter, weights=np.concatenate([b.ravel() for b in blocks]),
+                           minlength=self.nnz + 1)[:self.nnz]
         if diag_shift:
             data[self.diag] += diag_shift
         return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))

@@ -107,10 +107,10 @@ class ReducedNewton:
         return b
 
     def _rotate(self, k_el, b):
-        """Element blocks in the rotated coordinates: ``B_e^T k B_e`` per element."""
+        """Element blocks in the rotated coordinates: ``B_e^T k B_e`` per element (in place:
+        the caller's blocks are its own and not used afterwards)."""
         out = []
         for k, starts, nodes in zip(k_el, self.slots, self.slot_nodes):
-            k = k.copy()
             for s, nd in zip(starts, nodes):
                 be = b[nd]                                          # (n_e, 4, 4)
                 k[:, :, s:s + 4] = k[:, :, s:s + 4] @ be

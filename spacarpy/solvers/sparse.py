@@ -33,31 +33,52 @@ class SPDFactorization:
 
     :meth:`factorize` takes the upper triangle (CSC, row <= column, as assembled by
     ``BlockPattern(..., upper=True)``) and returns a ``solve(rhs)`` callable valid until the
-    next :meth:`factorize`. Without qdldl, SuperLU factorizes the full symmetric matrix.
+    next :meth:`factorize`. The matrix is first scaled symmetrically to a unit diagonal
+    (``D A D``, D = diag(A)^-1/2): the static solver's matrices mix positions with Euler
+    parameters and element lengths over many decades, and without the scaling the round-off
+    of the factorization grows with that spread (at 10^5 elements the kinematic correction's
+    steps were noise). Without qdldl, SuperLU factorizes the full symmetric matrix.
     """
 
     def __init__(self):
         self._solver = None
+        self._pattern = None            # (indptr, indices) of the last matrix
+        self._col = self._diag = None
+
+    def _scaling(self, upper: sp.csc_matrix) -> np.ndarray:
+        if self._pattern is None or self._pattern[0] is not upper.indptr:
+            col = np.repeat(np.arange(upper.shape[1]), np.diff(upper.indptr))
+            self._col, self._diag = col, np.flatnonzero(upper.indices == col)
+            self._pattern = (upper.indptr, upper.indices)
+        d = np.zeros(upper.shape[0])
+        d[upper.indices[self._diag]] = upper.data[self._diag]
+        if not np.all(d > 0):
+            raise FactorizationError("a diagonal entry is not positive")
+        return 1.0 / np.sqrt(d)
 
     def factorize(self, upper: sp.csc_matrix):
+        s = self._scaling(upper)
+        scaled = sp.csc_matrix((upper.data * s[upper.indices] * s[self._col], upper.indices,
+                                upper.indptr), shape=upper.shape)
         if _qdldl is None:
-            full = (upper + sp.triu(upper, k=1).T).tocsc()
+            full = (scaled + sp.triu(scaled, k=1).T).tocsc()
             try:
-                return spla.splu(full, permc_spec="COLAMD").solve
+                lu = spla.splu(full, permc_spec="COLAMD")
             except RuntimeError as exc:
                 raise FactorizationError(str(exc)) from None
+            return lambda rhs: s * lu.solve(s * np.asarray(rhs, dtype=float))
         try:
             if self._solver is None:
-                self._solver = _qdldl.Solver(upper, upper=True)
+                self._solver = _qdldl.Solver(scaled, upper=True)
             else:
-                self._solver.update(upper, upper=True)
+                self._solver.update(scaled, upper=True)
         except (RuntimeError, ValueError) as exc:
             self._solver = None
             raise FactorizationError(str(exc)) from None
         solver = self._solver
 
         def solve(rhs):
-            x = solver.solve(np.ascontiguousarray(rhs, dtype=float))
+            x = s * solver.solve(np.ascontiguousarray(s * np.asarray(rhs, dtype=float)))
             if not np.all(np.isfinite(x)):
                 raise FactorizationError("zero pivot in the LDL^T factorization")
             return x

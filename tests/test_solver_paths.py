@@ -1,0 +1,125 @@
+"""The static solver's fast paths give the same answers as the plain ones.
+
+- the tangent-space Newton step (spacarpy.solvers.reduced) equals the bordered one;
+- the LDL^T factorization (qdldl) and its SuperLU fallback solve the same SPD systems;
+- the kinematic correction with a kept factorization converges like a fresh one;
+- an untouched configuration is never accepted on the residual's round-off floor alone;
+- the baseline comparison's round-off floor separates noise from real changes.
+"""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import spacarpy.solvers.sparse as sparse_mod
+from spacarpy.batch.compare import _compare
+from spacarpy.cases import cantilever_deck
+from spacarpy.deck import build_model, parse_deck
+from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+
+
+def cantilever(n, **kw):
+    text = cantilever_deck(n, n_steps=kw.pop("n_steps", 10), tol=1e-9, compact=True)
+    return build_model(parse_deck(text, "<cantilever>"), text=text, path="<cantilever>")
+
+
+def off_equilibrium_state(prob, seed=0):
+    """A deformed, loaded, not normalized state with nonzero multipliers."""
+    rng = np.random.default_rng(seed)
+    num = prob.num
+    x = num.x0.copy()
+    free = ~num.fixed_mask
+    x[free] += 0.02 * rng.standard_normal(free.sum())
+    mu = 1e3 * rng.standard_normal(num.n_constraint)
+    force, moment = prob.loads.at(1.0, 0.7)
+    return x, mu, force, moment
+
+
+def test_tangent_space_newton_step_equals_the_bordered_step():
+    prob = StaticProblem(cantilever(6))
+    assert prob.reduced is not None
+    x, mu, force, moment = off_equilibrium_state(prob)
+    ev = prob.evaluate(x, mu, force, moment)
+    k_el, euler_diag, _ = prob.element_blocks(ev, mu, moment)
+    dx_r, dmu_r = prob.reduced.step(ev, x, mu, k_el, euler_diag)
+    A = prob.matrix(ev, mu, moment)
+    dz = np.linalg.solve(A.toarray(), -np.concatenate([ev.r, prob.scale * ev.c]))
+    dx, dmu = dz[:prob.pattern.n_x], dz[prob.pattern.n_x:] * prob.scale
+    assert np.allclose(dx_r, dx, rtol=1e-8, atol=1e-10 * np.abs(dx).max())
+    assert np.allclose(dmu_r, dmu, rtol=1e-7, atol=1e-9 * np.abs(dmu).max())
+    # and it is a real Newton step: the Euler constraints are met to first order
+    q, dq = x[prob.num.rot_idx[prob.num.euler_nodes]], np.zeros_like(x)
+    dq[~prob.num.fixed_mask] = dx_r
+    lin = np.sum(q * q, 1) - 1 + 2 * np.sum(q * dq[prob.num.rot_idx[prob.num.euler_nodes]], 1)
+    assert np.abs(lin).max() < 1e-12
+
+
+def test_models_with_rigid_modes_or_moments_keep_the_bordered_step():
+    from spacarpy.deck import load_deck
+    from pathlib import Path
+    decks = Path(__file__).resolve().parents[1] / "decks"
+    assert StaticProblem(load_deck(decks / "planar_four_bar.dat")).reduced is None
+    assert StaticProblem(load_deck(decks / "table1_cantilever_8el_modified.dat")).reduced \
+        is not None
+
+
+@pytest.mark.parametrize("use_qdldl", [True, False])
+def test_spd_factorization_solves_like_a_dense_solver(monkeypatch, use_qdldl):
+    if not use_qdldl:
+        monkeypatch.setattr(sparse_mod, "_qdldl", None)
+    rng = np.random.default_rng(1)
+    n = 60
+    a = sp.random(n, n, density=0.1, random_state=2)
+    m = (a @ a.T + sp.eye(n)).tocsc()
+    f = sparse_mod.SPDFactorization()
+    for shift in (0.0, 3.0):               # a second factorization on the same pattern
+        mm = (m + shift * sp.eye(n)).tocsc()
+        b = rng.standard_normal(n)
+        x = f.factorize(sp.triu(mm, format="csc"))(b)
+        assert np.allclose(x, np.linalg.solve(mm.toarray(), b), rtol=1e-10, atol=1e-12)
+
+
+def test_singular_spd_matrix_raises_a_factorization_error():
+    m = sp.csc_matrix(np.diag([1.0, 0.0, 2.0]))
+    with pytest.raises(sparse_mod.FactorizationError):
+        sparse_mod.SPDFactorization().factorize(sp.triu(m, format="csc"))(np.ones(3))
+
+
+def test_fine_cantilever_converges_quadratically_with_few_factorizations():
+    """200 elements, Table 1 load in 10 steps: 4 Newton iterations per step (the last one
+    only confirms), and the kept Gauss-Newton factorization saves a good part of the
+    correction's factorizations: two fresh Gauss-Newton steps after every correcting Newton
+    iteration (the scheme before) would need ``its + 2 (its - steps)``."""
+    model = cantilever(200)
+    prob = StaticProblem(model)
+    res = solve_static(model, problem=prob, options=StaticOptions(max_iter=20, tol=1e-8,
+                                                                   n_steps=10))
+    its = [s.iterations for s in res.steps[1:]]
+    assert max(its) <= 4
+    t = prob.timings
+    assert t.factorizations <= 0.8 * (t.iterations + 2 * (t.iterations - len(its)))
+    tip = res.steps[-1].x[prob.num.pos_idx[-1]]
+    # converged to the 200-element answer, between Table 1's 128-element value and the limit
+    assert abs(2.0 - tip[0] - 0.508551) < 2e-5 and abs(tip[1] - 1.207256) < 2e-5
+
+
+def test_an_untouched_configuration_is_not_accepted_on_the_round_off_floor(monkeypatch):
+    model = cantilever(4, n_steps=1)
+    prob = StaticProblem(model)
+    real = prob.residual_norm
+
+    def huge_floor(*args, **kw):               # as with 10^5 elements: floor > change
+        res, _ = real(*args, **kw)
+        return res, 10.0
+    monkeypatch.setattr(prob, "residual_norm", huge_floor)
+    res = solve_static(model, problem=prob, options=StaticOptions(max_iter=20, tol=1e-9))
+    assert res.steps[-1].iterations >= 1
+    assert res.steps[-1].x[prob.num.pos_idx[-1]][1] > 1.0     # it did move (u_y ~ 1.22 m)
+
+
+def test_baseline_comparison_floor_ignores_round_off_of_vanishing_values_only():
+    base = np.array([1.3e6, -2.0e5, 3.1e-8, 0.0])
+    noise = base + np.array([0.0, 0.0, -4e-7, 2e-7])        # 1e-13 of the scale
+    assert _compare("/r", noise, base, 1e-6, 1e-9, floor=1e-9) is None
+    assert _compare("/r", noise, base, 1e-6, 1e-9, floor=0.0) is not None
+    real = base * np.array([1.0, 1.0 + 1e-5, 1.0, 1.0])       # a real change of 1e-5
+    assert _compare("/r", real, base, 1e-6, 1e-9, floor=1e-9) is not None
