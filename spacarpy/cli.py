@@ -99,17 +99,25 @@ def build_parser() -> argparse.ArgumentParser:
     _set_option(check)
     _verbosity(check)
 
-    bench = sub.add_parser("bench", help="time the solver on straight cantilevers")
-    bench.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000, 10000],
-                       help="numbers of elements (default: 10 100 1000 10000)")
-    bench.add_argument("--steps", type=int, default=10, help="load steps (default 10)")
-    bench.add_argument("--transient-sizes", type=int, nargs="*", default=[100, 1000],
-                       metavar="N", help="elements of the transient cases (default 100 1000; "
-                                         "none: skip them)")
-    bench.add_argument("--transient-steps", type=int, default=100,
-                       help="time steps of the transient cases (default 100)")
+    bench = sub.add_parser("bench", help="time the solvers on cantilevers and a bend of "
+                                         "growing size (optionally beside Exudyn)")
+    bench.add_argument("--cases", nargs="+", choices=["cantilever", "bend", "eigen",
+                                                      "transient"],
+                       default=["cantilever", "bend", "eigen", "transient"],
+                       help="which cases (default: all four)")
+    bench.add_argument("--sizes", type=int, nargs="+", default=None,
+                       help="numbers of elements for every case (default: 10 100 1000 10000; "
+                            "transient 10 100)")
+    bench.add_argument("--steps", type=int, default=10, help="static load steps (default 10)")
+    bench.add_argument("--transient-steps", type=int, default=1000,
+                       help="time steps of the transient case (default 1000)")
     bench.add_argument("--repeat", type=int, default=3,
                        help="repetitions per size; min and median are shown (default 3)")
+    bench.add_argument("--peer", choices=["exudyn"], default=None,
+                       help="solve the same problems with a peer code in the same run "
+                            "(pip install 'spacarpy[bench]')")
+    bench.add_argument("--markdown", metavar="FILE", default=None,
+                       help="also write the tables as Markdown (docs/performance.md)")
     _verbosity(bench)
     _results_commands(sub)
     _batch_commands(sub)
@@ -296,10 +304,9 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_check(args)
         if args.command == "bench":
             from spacarpy.bench import run_bench
-            run_bench(sizes=args.sizes, n_steps=args.steps, repeat=args.repeat)
-            if args.transient_sizes:
-                from spacarpy.bench import run_transient_bench
-                run_transient_bench(sizes=args.transient_sizes, n_steps=args.transient_steps)
+            run_bench(cases=args.cases, sizes=args.sizes, n_steps=args.steps,
+                      repeat=args.repeat, transient_steps=args.transient_steps,
+                      peer=args.peer, markdown=args.markdown)
             return EXIT_OK
         if args.command in _RESULT_COMMANDS:
             return _RESULT_COMMANDS[args.command](args)
