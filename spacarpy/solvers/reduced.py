@@ -118,7 +118,7 @@ class ReducedNewton:
             out.append(k)
         return out
 
-    def step(self, ev, x, mu, k_el, euler_diag, history=()):
+    def step(self, ev, x, mu, k_el, euler_diag):
         """The Newton increment ``(dx over the free coordinates, dmu)``, or None when the
         factorization fails or its solution is inaccurate (the caller then solves the
         bordered system)."""

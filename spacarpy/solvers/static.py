@@ -16,7 +16,9 @@ where ``sigma = S e`` for flexible (DYNE) and stiff released (RLSE + ESTIFF) mod
 ``sigma = mu`` for rigid ones, and ``f_ext`` holds the dead forces and the generalized forces
 ``2 Lambda(q)^T T`` of dead moments. Newton's matrix is the bordered tangent
 ``[[K_T, C^T], [C, 0]]`` with ``K_T = D^T S D + sum sigma_i d2e_i + 2 mu I4 - df_ext/dx``,
-assembled on a fixed sparsity pattern and factorized with SuperLU.
+assembled on a fixed sparsity pattern and factorized with SuperLU; where the only constraints
+are Euler normalizations the same step is solved in their tangent space with an LDL^T
+(:mod:`spacarpy.solvers.reduced`).
 
 A step is converged when the scaled residual and the scaled last increment are both below
 the tolerance (forces relative to the load and internal-force level, moments divided by the
@@ -138,7 +140,8 @@ class StaticProblem:
             + [num.unknown_of[num.rot_idx[num.euler_nodes]]], upper=True)
         self._kin_factor = SPDFactorization()
         self.kinematic_correction = True
-        self._kin_lu = None        # factorized Gauss-Newton matrix of correct_kinematics
+        # solve() of the kept Gauss-Newton factorization of correct_kinematics
+        self._kin_solve = None
         # Newton steps without the Euler constraints where the model allows (reduced.py)
         self.reduced = ReducedNewton(self) if reduced_applies(self) else None
         # round-off level of the scaled deformation mismatch in correct_kinematics: the
@@ -378,7 +381,7 @@ class StaticProblem:
                 t0 = time.perf_counter()
                 k_el, euler_diag, _ = self.element_blocks(ev, mu, moment)
                 self.timings.kernels += time.perf_counter() - t0
-                step = self.reduced.step(ev, x, mu, k_el, euler_diag, history)
+                step = self.reduced.step(ev, x, mu, k_el, euler_diag)
             if step is not None:
                 dx, dmu = step
             else:
@@ -454,7 +457,7 @@ class StaticProblem:
         if rigid_target is None and size * size < self.kin_floor:
             return (x_lin, None) if return_states else x_lin
         if size > 1e-3:
-            self._kin_lu = None               # a large step: the kept matrix is too stale
+            self._kin_solve = None               # a large step: the kept matrix is too stale
         x = x_lin
         done = None
         worst0 = prev = back = None
@@ -470,7 +473,7 @@ class StaticProblem:
                 if reused:
                     # the kept matrix was too stale: undo its step, refactorize there
                     x, states, g_e, g_q, worst = back
-                    self._kin_lu = None
+                    self._kin_solve = None
                 elif n_factor >= 2:
                     # two fresh Gauss-Newton steps and still no fast contraction: targets
                     # that cannot be met exactly (least squares, a saturated deformation);
@@ -478,7 +481,7 @@ class StaticProblem:
                     done = states
                     break
                 else:
-                    self._kin_lu = None        # far from the targets: a fresh matrix here
+                    self._kin_solve = None        # far from the targets: a fresh matrix here
             wq = 2.0 * x[eu]
             w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
             rhs = scatter_add(num.n_coord, eu, wq * g_q[:, None])
@@ -486,7 +489,7 @@ class StaticProblem:
                 rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), ge))
             t1 = time.perf_counter()
             self.timings.kernels += t1 - t0
-            reused = self._kin_lu is not None
+            reused = self._kin_solve is not None
             if not reused:
                 m = self.kin_pattern.assemble(
                     [w.transpose(0, 2, 1) @ w for w in w_e]
@@ -495,9 +498,9 @@ class StaticProblem:
                 self.timings.assembly += t2 - t1
                 t1 = t2
                 try:
-                    self._kin_lu = self._kin_factor.factorize(m)
+                    self._kin_solve = self._kin_factor.factorize(m)
                 except FactorizationError:
-                    self._kin_lu = None            # no correction possible: plain Newton
+                    self._kin_solve = None            # no correction possible: plain Newton
                     return (x_lin, None) if return_states else x_lin
                 n_factor += 1
                 self.timings.factorizations += 1
@@ -505,9 +508,9 @@ class StaticProblem:
             back = (x, states, g_e, g_q, worst)
             x = x.copy()
             try:
-                step = self._kin_lu(rhs[self.free])
+                step = self._kin_solve(rhs[self.free])
             except FactorizationError:
-                self._kin_lu = None
+                self._kin_solve = None
                 return (x_lin, None) if return_states else x_lin
             x[self.free] += step
             self.timings.solve += time.perf_counter() - t1
