@@ -105,6 +105,44 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     return m
 
 
+def beam_mass_gradient(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray,
+                       nz: np.ndarray, l0: np.ndarray, mass: np.ndarray) -> np.ndarray:
+    """``d(v^T M(x) v)/dx`` (n_elem, 14) of :func:`beam_mass_matrix` at fixed v.
+
+    The transient solver's convective terms need it; differencing M costs 16 mass-matrix
+    evaluations per element. Analytically (M depends on the Euler parameters only):
+
+    - translation: ``v^T M_c v = rho A l0 u^T C u`` with ``u = N v`` and ``C`` the Hermite
+      coefficients; the tangent rows of u are ``l0 (2 H_k(n_x) q) . v_q``, so
+      ``d/dq = 2 rho A l0 (du/dq)^T C u = 2 rho A l0^2 * 2 sum_k w_k H_k(n_x) v_q`` with
+      ``w = C u`` at the tangent rows;
+    - rotation: ``omega_a = G(q_a) v_a`` and ``G(q) p = -G(p) q``, so
+      ``d/dq_a sum_ab 4 l0 c_ab omega_a^T J omega_b = -8 l0 sum_b c_ab G(v_a)^T J omega_b``.
+    """
+    n = x.shape[0]
+    qp, qq = x[:, QP], x[:, QQ]
+    vqp, vqq = v[:, QP], v[:, QQ]
+    hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
+    tp = 2.0 * l0[:, None] * ((hx @ qp[:, None, :, None])[..., 0] @ vqp[:, :, None])[..., 0]
+    tq = 2.0 * l0[:, None] * ((hx @ qq[:, None, :, None])[..., 0] @ vqq[:, :, None])[..., 0]
+    u = np.stack([v[:, RP], tp, v[:, RQ], tq], axis=2)          # (n, 3, 4): (component, i)
+    w = u @ HERMITE_MASS                                        # C u, per component
+    grad = np.zeros((n, 14))
+    coef = 2.0 * mass[:, 0] * l0 * l0                           # 2 rho A l0^2
+    for sl, i, vq in ((QP, 1, vqp), (QQ, 3, vqq)):
+        hw = np.einsum("nk,nkab->nab", w[:, :, i], hx)          # sum_k w_k H_k(n_x)
+        grad[:, sl] = 2.0 * coef[:, None] * (hw @ vq[:, :, None])[..., 0]
+    if np.any(mass[:, 1:]):
+        e = np.stack([nx, ny, nz], axis=2)
+        jg = e @ section_inertia(mass) @ e.transpose(0, 2, 1)
+        om = [(g_matrix(q) @ vq[:, :, None])[..., 0] for q, vq in ((qp, vqp), (qq, vqq))]
+        for a, (sl, vq) in enumerate(((QP, vqp), (QQ, vqq))):
+            jw = sum(LINEAR_MASS[a, b] * (jg @ om[b][:, :, None])[..., 0] for b in range(2))
+            grad[:, sl] -= (8.0 * l0)[:, None] * (
+                g_matrix(vq).transpose(0, 2, 1) @ jw[:, :, None])[..., 0]
+    return grad
+
+
 def nodal_rotary_mass(q: np.ndarray, inertia: np.ndarray) -> np.ndarray:
     """4x4 mass blocks ``4 G^T J G`` of orientation nodes: q (n, 4), inertia (n, 3, 3)."""
     g = g_matrix(q)

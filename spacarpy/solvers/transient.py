@@ -268,9 +268,9 @@ class TransientProblem:
         n = self.num.n_coord
         f = np.zeros(n)
         if alpha:
-            for (_, idx, _), m in zip(self.inertia.batches, mass_blocks):
+            for b, m in zip(self.inertia.batches, mass_blocks):
                 if len(m):
-                    f += scatter_add(n, idx, alpha * np.einsum("nij,nj->ni", m, vp[idx]))
+                    f += scatter_add(n, b.idx, alpha * np.einsum("nij,nj->ni", m, vp[b.idx]))
         out = {}
         for i, g in groups:
             D = states[i].D
