@@ -159,3 +159,26 @@ def test_analytic_kinetic_energy_gradient_equals_the_differenced_one():
         g.kind = replace(g.kind, mass_gradient=None)
     _, f_diff = Inertia(model, prob.num).forces(xg, vg, ag)
     assert np.allclose(f_fast, f_diff, rtol=1e-11, atol=1e-11 * np.abs(f_diff).max())
+
+
+def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatch):
+    from spacarpy.bench import transient_cantilever_deck
+    from spacarpy.solvers import static as static_mod
+    from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
+    text = transient_cantilever_deck(6, 30)
+
+    def run():
+        model = build_model(parse_deck(text, "<t>"), text=text, path="<t>")
+        opts = TransientOptions(t_end=model.timestep[0], n_steps=30, rho_inf=0.5, tol=1e-10,
+                                phi=TimeFunction(*model.time_function))
+        res = solve_transient(model, opts)
+        tip_y = res.steps[-1].x[res.problem.num.pos_idx[-1][1]]
+        return res.problem.reduced is not None, res.steps[-1].x, res.n_newton, tip_y
+
+    reduced, x_r, its_r, tip = run()
+    monkeypatch.setattr(static_mod, "reduced_applies", lambda prob: False)
+    bordered, x_b, its_b, _ = run()
+    assert reduced and not bordered
+    assert its_r == its_b
+    assert np.allclose(x_r, x_b, rtol=0, atol=1e-11)
+    assert tip > 1e-3                 # the tip has moved (u_y of cm after 30 ms)

@@ -118,10 +118,12 @@ class ReducedNewton:
             out.append(k)
         return out
 
-    def step(self, ev, x, mu, k_el, euler_diag):
+    def step(self, ev, x, mu, k_el, euler_diag, residual=None):
         """The Newton increment ``(dx over the free coordinates, dmu)``, or None when the
         factorization fails or its solution is inaccurate (the caller then solves the
-        bordered system)."""
+        bordered system). ``residual`` (n_coord,) replaces the static force residual
+        ``f_int - f_ext`` of ``ev`` (the transient solver adds the inertia forces; its
+        ``k_el`` carry ``beta' M + gamma' C``)."""
         prob, num = self.prob, self.prob.num
         timings = prob.timings
         t0 = time.perf_counter()
@@ -130,7 +132,7 @@ class ReducedNewton:
         b = self.basis(q)
         k_rot = self._rotate(k_el, b)
         # the rotated residual over all coordinates
-        r_full = ev.f_int - ev.f_ext
+        r_full = (ev.f_int - ev.f_ext) if residual is None else residual.copy()
         r_full[self.eu] = np.einsum("nab,na->nb", b, r_full[self.eu])
         # the radial component of each Euler increment, from its constraint 2 q.dq = -c
         z = np.zeros(num.n_coord)

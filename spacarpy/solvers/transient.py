@@ -617,27 +617,37 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         extra, nodal = tp.inertia.iteration_parts(blocks, beta_p + gamma_p * tp.model.damping[0])
         for i, cb in tp.damp_blocks.items():
             extra[i] = extra.get(i, 0.0) + gamma_p * cb
-        scale = max(prob.scale, beta_p * m_max)
-        S = prob.matrix(ev, mu1, moment, extra=extra, scale=scale)
-        if nodal is not None:
-            S = S + sp.block_diag([nodal, sp.csc_matrix((S.shape[0] - n_x,) * 2)],
-                                  format="csc")
-        rhs = -np.concatenate([r, scale * ev.c])
-        try:
-            dz = spla.splu(S, permc_spec="COLAMD").solve(rhs)
-        except RuntimeError:
-            raise _StepFailed("singular iteration matrix") from None
-        if not np.all(np.isfinite(dz)):
+        step = None
+        if prob.reduced is not None and nodal is None:
+            # the static solver's tangent-space step (solvers/reduced.py) with the inertia
+            # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
+            k_el, euler_diag, _ = prob.element_blocks(ev, mu1, moment, extra=extra)
+            r_full = np.zeros(num.n_coord)
+            r_full[free] = r
+            step = prob.reduced.step(ev, x1, mu1, k_el, euler_diag, residual=r_full)
+        if step is not None:
+            dx, dmu = step
+        else:
+            scale = max(prob.scale, beta_p * m_max)
+            S = prob.matrix(ev, mu1, moment, extra=extra, scale=scale)
+            if nodal is not None:
+                S = S + sp.block_diag([nodal, sp.csc_matrix((S.shape[0] - n_x,) * 2)],
+                                      format="csc")
+            rhs = -np.concatenate([r, scale * ev.c])
+            try:
+                dz = spla.splu(S, permc_spec="COLAMD").solve(rhs)
+            except RuntimeError:
+                raise _StepFailed("singular iteration matrix") from None
+            dx, dmu = dz[:n_x], dz[n_x:] * scale
+        if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
             raise _StepFailed("non-finite Newton increment")
-        dz[n_x:] *= scale / prob.scale
-        dx = dz[:n_x]
         dx_norm = prob.increment_norm(dx)
         if np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) > 0.5:
             raise _StepFailed("Newton increment too large")
         x1[free] += dx
         v1[free] += gamma_p * dx
         a1[free] += beta_p * dx
-        mu1 = mu1 + dz[n_x:] * prob.scale
+        mu1 = mu1 + dmu
     hist = ", ".join(f"{v:.2e}" for v in history)
     raise _StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})")
 
