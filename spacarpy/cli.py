@@ -108,6 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--sizes", type=int, nargs="+", default=None,
                        help="numbers of elements for every case (default: 10 100 1000 10000; "
                             "transient 10 100)")
+    bench.add_argument("--case-sizes", action="append", default=[], metavar="CASE=N,N,...",
+                       help="numbers of elements for one case (repeatable; overrides "
+                            "--sizes for it), e.g. cantilever=1000,10000,100000")
     bench.add_argument("--steps", type=int, default=10, help="static load steps (default 10)")
     bench.add_argument("--transient-steps", type=int, default=1000,
                        help="time steps of the transient case (default 1000)")
@@ -122,6 +125,24 @@ def build_parser() -> argparse.ArgumentParser:
     _results_commands(sub)
     _batch_commands(sub)
     return p
+
+
+def _bench_sizes(args):
+    """--sizes and --case-sizes as run_bench's ``sizes`` (a list, a dict per case or None)."""
+    if not args.case_sizes:
+        return args.sizes
+    from spacarpy.bench import CASES, DEFAULT_SIZES
+    out = {c: (args.sizes or DEFAULT_SIZES[c]) for c in CASES}
+    for item in args.case_sizes:
+        case, _, values = item.partition("=")
+        try:
+            if case not in CASES:
+                raise ValueError
+            out[case] = [int(v) for v in values.split(",") if v.strip()]
+        except ValueError:
+            raise SystemExit(f"spacarpy bench: --case-sizes {item!r}: expected CASE=N,N,... "
+                             f"with CASE one of {', '.join(CASES)}") from None
+    return out
 
 
 def _nonnegative_float(text: str) -> float:
@@ -304,7 +325,8 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_check(args)
         if args.command == "bench":
             from spacarpy.bench import run_bench
-            run_bench(cases=args.cases, sizes=args.sizes, n_steps=args.steps,
+            sizes = _bench_sizes(args)
+            run_bench(cases=args.cases, sizes=sizes, n_steps=args.steps,
                       repeat=args.repeat, transient_steps=args.transient_steps,
                       peer=args.peer, markdown=args.markdown)
             return EXIT_OK
