@@ -21,9 +21,10 @@ import numpy as np
 __all__ = ["IGNORED", "DatasetDiff", "compare_files"]
 
 #: Dataset paths (fnmatch patterns) not compared: the Newton residual and iteration counts
-#: (they depend on round-off), and mode shapes (their sign, and the basis of repeated
-#: eigenvalues, are arbitrary).
-IGNORED = ("/static/residual", "/static/iterations", "/*/shape_position", "/*/shape_euler")
+#: of static and transient runs (they depend on round-off), and mode shapes (their sign, and
+#: the basis of repeated eigenvalues, are arbitrary).
+IGNORED = ("/static/residual", "/static/iterations", "/transient/residual",
+           "/transient/iterations", "/*/shape_position", "/*/shape_euler")
 
 
 @dataclass(frozen=True)
