@@ -182,3 +182,20 @@ def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatc
     assert its_r == its_b
     assert np.allclose(x_r, x_b, rtol=0, atol=1e-11)
     assert tip > 1e-3                 # the tip has moved (u_y of cm after 30 ms)
+
+
+def test_few_modes_of_a_mid_size_model_come_from_the_sparse_solver_unchanged():
+    from spacarpy.bench import eigen_cantilever_deck
+    from spacarpy.solvers import eigen
+    from spacarpy.solvers.linearize import MassAssembler, linearize
+    text = eigen_cantilever_deck(60)                     # 420 free coordinates
+    model = build_model(parse_deck(text, "<e>"), text=text, path="<e>")
+    prob = StaticProblem(model)
+    x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
+    lin = linearize(prob, x, mu, *prob.loads.at(0.0, 0.0), mass=MassAssembler(model, prob.num))
+    assert lin.K.shape[0] > eigen.FEW_MODES_DENSE_LIMIT
+    sparse = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10)
+    dense = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10, dense_limit=10**6)
+    assert np.allclose(sparse.frequency, dense.frequency, rtol=1e-9)
+    assert np.array_equal(sparse.kind, dense.kind)
+    assert abs(dense.frequency[0] - 20.727) < 0.01       # first bending mode (Hz)

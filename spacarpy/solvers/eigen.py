@@ -24,6 +24,8 @@ import scipy.sparse.linalg as spla
 log = logging.getLogger(__name__)
 
 DENSE_LIMIT = 2500
+#: the dense limit when fewer than a quarter of the modes are wanted (see eigenmodes)
+FEW_MODES_DENSE_LIMIT = 400
 
 ELASTIC, RIGID_BODY, UNSTABLE, COMPLEX, INFINITE = 0, 1, 2, 3, 4
 KIND_NAMES = {ELASTIC: "elastic", RIGID_BODY: "rigid-body", UNSTABLE: "unstable",
@@ -105,11 +107,19 @@ def frequencies(lam: np.ndarray, kind: np.ndarray) -> np.ndarray:
     return f
 
 
-def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int = DENSE_LIMIT) -> Modes:
-    """Lowest ``n_modes`` modes of the linearization ``lin`` (see module docstring)."""
+def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None) -> Modes:
+    """Lowest ``n_modes`` modes of the linearization ``lin`` (see module docstring).
+
+    The dense solve is used up to ``dense_limit`` free coordinates (default
+    :data:`DENSE_LIMIT`), but not for a few modes of a model larger than
+    :data:`FEW_MODES_DENSE_LIMIT`: there one sparse factorization and ARPACK are much faster
+    (0.01 s instead of 0.12 s for 10 modes of 700 coordinates) and give the same modes."""
     if lin.M is None:
         raise ValueError("no mass: an eigenfrequency analysis needs EM or XM data")
     n_x = lin.K.shape[0]
+    if dense_limit is None:
+        dense_limit = DENSE_LIMIT if 4 * n_modes >= n_x else min(DENSE_LIMIT,
+                                                                  FEW_MODES_DENSE_LIMIT)
     if n_x <= dense_limit:
         lam, vec = _dense(lin, n_x)
     else:
