@@ -17,7 +17,9 @@ factorized by the LDL^T of :class:`~spacarpy.solvers.sparse.SPDFactorization` wi
 ordering and symbolic analysis done once per model (the bordered matrix has zero diagonal
 blocks and needs SuperLU's pivoting instead). A step is checked by its residual in the
 reduced system; an inaccurate one (an LDL^T without pivoting on an indefinite matrix near a
-limit point) returns ``None`` and the caller solves the bordered system instead.
+limit point), or a tangent with a non-positive diagonal entry (beyond a buckling load: the
+factorization equilibrates by the diagonal), returns ``None`` and the caller solves the
+bordered system with SuperLU instead.
 """
 from __future__ import annotations
 
