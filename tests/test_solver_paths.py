@@ -125,10 +125,10 @@ def test_baseline_comparison_floor_ignores_round_off_of_vanishing_values_only():
     assert _compare("/r", real, base, 1e-6, 1e-9, floor=1e-9) is not None
 
 
-def test_analytic_kinetic_energy_gradient_equals_the_differenced_one():
-    """The BEAM's d(v^T M v)/dx (beam_mass_gradient) against unit central differences of
-    its mass matrix, which are exact (M is quadratic in the Euler parameters), and the
-    transient inertia forces with and without it."""
+def test_analytic_convective_terms_equal_the_differenced_ones():
+    """The BEAM's dM/dt v and d(v^T M v)/dx (beam_convective) against unit central
+    differences of its mass matrix, which are exact (M is quadratic in the Euler
+    parameters), and the transient inertia forces with and without them."""
     from dataclasses import replace
 
     from spacarpy.elements import beam, beam_mass
@@ -139,13 +139,17 @@ def test_analytic_kinetic_energy_gradient_equals_the_differenced_one():
     nx, ny, nz, l0 = beam.reference_triads(rng.standard_normal((n, 3)),
                                            rng.standard_normal((n, 3)), np.full((n, 3), np.nan))
     mass = np.abs(rng.standard_normal((n, 5)))
-    grad = beam_mass.beam_mass_gradient(x, v, nx, ny, nz, l0, mass)
+    mdot_v, grad = beam_mass.beam_convective(x, v, nx, ny, nz, l0, mass)
 
     def f(xx):
         return np.einsum("ni,nij,nj->n", v, beam_mass.beam_mass_matrix(xx, nx, ny, nz, l0,
                                                                        mass), v)
     fd = np.stack([(f(x + e) - f(x - e)) / 2 for e in np.eye(14)], axis=1)
     assert np.allclose(grad, fd, rtol=1e-12, atol=1e-12 * np.abs(fd).max())
+    dm = (beam_mass.beam_mass_matrix(x + v, nx, ny, nz, l0, mass)
+          - beam_mass.beam_mass_matrix(x - v, nx, ny, nz, l0, mass)) / 2
+    md = np.einsum("nij,nj->ni", dm, v)
+    assert np.allclose(mdot_v, md, rtol=1e-12, atol=1e-12 * np.abs(md).max())
 
     from spacarpy.bench import transient_cantilever_deck
     text = transient_cantilever_deck(5, 10)
@@ -156,7 +160,7 @@ def test_analytic_kinetic_energy_gradient_equals_the_differenced_one():
     fast = Inertia(model, prob.num)
     _, f_fast = fast.forces(xg, vg, ag)
     for g in prob.num.groups:                       # the same model without the gradient
-        g.kind = replace(g.kind, mass_gradient=None)
+        g.kind = replace(g.kind, convective=None)
     _, f_diff = Inertia(model, prob.num).forces(xg, vg, ag)
     assert np.allclose(f_fast, f_diff, rtol=1e-11, atol=1e-11 * np.abs(f_diff).max())
 

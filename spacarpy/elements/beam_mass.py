@@ -105,42 +105,59 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     return m
 
 
-def beam_mass_gradient(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray,
-                       nz: np.ndarray, l0: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """``d(v^T M(x) v)/dx`` (n_elem, 14) of :func:`beam_mass_matrix` at fixed v.
+def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray,
+                    nz: np.ndarray, l0: np.ndarray, mass: np.ndarray):
+    """``(dM/dt v, d(v^T M v)/dx)``, both (n_elem, 14), of :func:`beam_mass_matrix` at
+    velocities v: the two parts of the convective term ``h = dM/dt v - grad/2`` of Eq. 60.
 
-    The transient solver's convective terms need it; differencing M costs 16 mass-matrix
-    evaluations per element. Analytically (M depends on the Euler parameters only):
+    Differencing M would cost 2 mass-matrix evaluations per Euler parameter. Analytically
+    (M depends on the Euler parameters only):
 
-    - translation: ``v^T M_c v = rho A l0 u^T C u`` with ``u = N v`` and ``C`` the Hermite
-      coefficients; the tangent rows of u are ``l0 (2 H_k(n_x) q) . v_q``, so
-      ``d/dq = 2 rho A l0 (du/dq)^T C u = 2 rho A l0^2 * 2 sum_k w_k H_k(n_x) v_q`` with
-      ``w = C u`` at the tangent rows;
-    - rotation: ``omega_a = G(q_a) v_a`` and ``G(q) p = -G(p) q``, so
-      ``d/dq_a sum_ab 4 l0 c_ab omega_a^T J omega_b = -8 l0 sum_b c_ab G(v_a)^T J omega_b``.
+    - translation: ``M_c = rho A l0 N^T C N`` with ``C`` the Hermite coefficients and the
+      tangent rows of ``N`` equal to ``l0 B = l0 2 H_k(n_x) q``, linear in q. With
+      ``u = N v``, ``w = C u``, ``u' = dN/dt v`` (tangent rows ``2 l0 v_q^T H_k v_q``) and
+      ``w' = C u'``: ``v^T M v = rho A l0 u.w``, its q-gradient is
+      ``2 rho A l0 (dN/dq v)^T w = 2 rho A l0^2 * 2 sum_k w_k H_k v_q``, and
+      ``dM/dt v = rho A l0 ((dN/dt)^T w + N^T w')``;
+    - rotation: ``omega_a = G(q_a) v_a``, ``G(q) p = -G(p) q`` and ``G(p) p = 0``, so the
+      q-gradient of ``sum_ab 4 l0 c_ab omega_a^T J omega_b`` is
+      ``-8 l0 sum_b c_ab G(v_a)^T J omega_b`` and ``dM/dt v`` is minus half of it.
     """
     n = x.shape[0]
     qp, qq = x[:, QP], x[:, QQ]
     vqp, vqq = v[:, QP], v[:, QQ]
     hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
-    tp = 2.0 * l0[:, None] * ((hx @ qp[:, None, :, None])[..., 0] @ vqp[:, :, None])[..., 0]
-    tq = 2.0 * l0[:, None] * ((hx @ qq[:, None, :, None])[..., 0] @ vqq[:, :, None])[..., 0]
-    u = np.stack([v[:, RP], tp, v[:, RQ], tq], axis=2)          # (n, 3, 4): (component, i)
-    w = u @ HERMITE_MASS                                        # C u, per component
-    grad = np.zeros((n, 14))
-    coef = 2.0 * mass[:, 0] * l0 * l0                           # 2 rho A l0^2
-    for sl, i, vq in ((QP, 1, vqp), (QQ, 3, vqq)):
-        hw = np.einsum("nk,nkab->nab", w[:, :, i], hx)          # sum_k w_k H_k(n_x)
-        grad[:, sl] = 2.0 * coef[:, None] * (hw @ vq[:, :, None])[..., 0]
+    # B q-columns (n, 3, 4) and the tangent velocities l0 B v_q, l0 (dB/dt) v_q
+    bp = 2.0 * (hx @ qp[:, None, :, None])[..., 0]
+    bq = 2.0 * (hx @ qq[:, None, :, None])[..., 0]
+    hvp = 2.0 * (hx @ vqp[:, None, :, None])[..., 0]
+    hvq = 2.0 * (hx @ vqq[:, None, :, None])[..., 0]
+    lc = l0[:, None]
+    u = np.stack([v[:, RP], lc * (bp @ vqp[:, :, None])[..., 0], v[:, RQ],
+                  lc * (bq @ vqq[:, :, None])[..., 0]], axis=2)          # (n, 3, 4)
+    du = np.zeros_like(u)
+    du[:, :, 1] = lc * (hvp @ vqp[:, :, None])[..., 0]
+    du[:, :, 3] = lc * (hvq @ vqq[:, :, None])[..., 0]
+    w, dw = u @ HERMITE_MASS, du @ HERMITE_MASS                  # C u, C u' per component
+    ra = (mass[:, 0] * l0)[:, None]                              # rho A l0
+    grad, mdot = np.zeros((n, 14)), np.zeros((n, 14))
+    for sl, i, hv, b in ((QP, 1, hvp, bp), (QQ, 3, hvq, bq)):
+        dn_w = lc * (hv.transpose(0, 2, 1) @ w[:, :, i, None])[..., 0]   # (dN/dq v)^T w
+        grad[:, sl] = 2.0 * ra * dn_w
+        mdot[:, sl] = ra * (dn_w + lc * (b.transpose(0, 2, 1) @ dw[:, :, i, None])[..., 0])
+    mdot[:, RP] = ra * dw[:, :, 0]
+    mdot[:, RQ] = ra * dw[:, :, 2]
     if np.any(mass[:, 1:]):
         e = np.stack([nx, ny, nz], axis=2)
         jg = e @ section_inertia(mass) @ e.transpose(0, 2, 1)
         om = [(g_matrix(q) @ vq[:, :, None])[..., 0] for q, vq in ((qp, vqp), (qq, vqq))]
         for a, (sl, vq) in enumerate(((QP, vqp), (QQ, vqq))):
             jw = sum(LINEAR_MASS[a, b] * (jg @ om[b][:, :, None])[..., 0] for b in range(2))
-            grad[:, sl] -= (8.0 * l0)[:, None] * (
+            rot = (8.0 * l0)[:, None] * (
                 g_matrix(vq).transpose(0, 2, 1) @ jw[:, :, None])[..., 0]
-    return grad
+            grad[:, sl] -= rot
+            mdot[:, sl] += 0.5 * rot
+    return mdot, grad
 
 
 def nodal_rotary_mass(q: np.ndarray, inertia: np.ndarray) -> np.ndarray:

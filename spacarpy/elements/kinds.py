@@ -13,10 +13,10 @@ state(x_local, ref, variant, prev) -> state with ``.e`` (n, n_def) and ``.D`` (n
 hessian(state, w) -> (n, n_ldof, n_ldof)
 stiffness(props, ref) -> (n, n_def, n_def)
 mass(x_local, ref, mass) -> (n, n_ldof, n_ldof) or None
-mass_gradient(x_local, v_local, ref, mass) -> (n, n_ldof), optional
-    ``d(v^T M v)/dx`` at fixed v, for the convective terms; without it the transient solver
-    differences the mass matrix (exact, since M is at most quadratic in the Euler
-    parameters, but 2 evaluations per Euler parameter).
+convective(x_local, v_local, ref, mass) -> (dM/dt v, d(v^T M v)/dx), each (n, n_ldof), optional
+    The two parts of the convective terms; without it the transient solver differences the
+    mass matrix (exact, since M is at most quadratic in the Euler parameters, but 2
+    evaluations per Euler parameter plus 2 along v).
 commit(state, prev) -> None
     Update the kind's persistent state after a converged step (the hinge's turn count).
 check(state, ref) -> (element row, message) or None
@@ -52,7 +52,7 @@ class Kind:
     hessian: Callable
     stiffness: Callable
     mass: Callable | None = None
-    mass_gradient: Callable | None = None
+    convective: Callable | None = None
     commit: Callable | None = None
     check: Callable | None = None
     gravity: Callable | None = None
@@ -130,7 +130,7 @@ BEAM = Kind(
     stiffness=lambda props, ref: beam.stiffness_matrix(props, ref["l0"]),
     mass=lambda x, ref, m: beam_mass.beam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"],
                                                       ref["l0"], m),
-    mass_gradient=lambda x, v, ref, m: beam_mass.beam_mass_gradient(
+    convective=lambda x, v, ref, m: beam_mass.beam_convective(
         x, v, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m),
     check=_beam_check, gravity=_beam_gravity)
 
@@ -253,7 +253,7 @@ PLBEAM = Kind(
     stiffness=lambda props, ref: BEAM.stiffness(_plbeam_props(props), ref)[
         :, PLBEAM_MODES[:, None], PLBEAM_MODES],
     mass=lambda x, ref, m: BEAM.mass(x, ref, _plbeam_mass(m)),
-    mass_gradient=lambda x, v, ref, m: BEAM.mass_gradient(x, v, ref, _plbeam_mass(m)),
+    convective=lambda x, v, ref, m: BEAM.convective(x, v, ref, _plbeam_mass(m)),
     check=lambda st, ref: _beam_check(st.full, ref),
     gravity=lambda x, ref, m, g: _beam_gravity(x, ref, _plbeam_mass(m), g))
 

@@ -12,9 +12,9 @@ velocity matrices ``G(q)`` are linear or quadratic in the Euler parameters. A ce
 difference of a quadratic function is *exact* for any step, so the derivatives of M in h are
 taken as central differences with unit step on each element's local coordinates: exact (to
 round-off), vectorized over the elements, and valid for every kernel without writing its
-convective terms by hand. A kind that provides ``mass_gradient`` (the BEAM: 14 of its 19
-mass-matrix evaluations were this gradient, and the transient runs three times faster with
-it) has ``d(v^T M v)/dx`` computed analytically; ``dM/dt v`` stays the difference along v.
+convective terms by hand. A kind that provides ``convective`` (the BEAM, whose 19
+mass-matrix evaluations per residual dominated the transient runs) has ``dM/dt v`` and
+``d(v^T M v)/dx`` computed analytically, and M is evaluated once.
 
 Unlike :class:`spacarpy.solvers.linearize.MassAssembler` (free coordinates only), the matrix
 here spans all coordinates, so prescribed motions (INPUTX, INPUTR with their velocities and
@@ -38,7 +38,7 @@ class _Batch(NamedTuple):
     mass_of: Callable             # (x_local, reps) -> (reps * n, k, k) mass blocks
     idx: np.ndarray               # (n, k) global coordinate indices
     rot: np.ndarray               # local Euler-parameter slots (M depends on them only)
-    grad_of: Callable | None      # (x_local, v_local) -> d(v^T M v)/dx, or None
+    conv_of: Callable | None      # (x_local, v_local) -> (dM/dt v, d(v^T M v)/dx), or None
 
 
 class Inertia:
@@ -111,11 +111,11 @@ class Inertia:
                                                      for t in g.kind.slots[:j])
                                   for j, s in enumerate(g.kind.slots) if s == "rot"]
                                  + [np.zeros(0, np.int64)]).astype(np.int64)
-            grad_of = None
-            if g.kind.mass_gradient is not None:
-                def grad_of(xl, vl, g=g):
-                    return g.kind.mass_gradient(xl, vl, g.ref, g.mass)
-            out.append(_Batch(mass_of, g.idx, rot, grad_of))
+            conv_of = None
+            if g.kind.convective is not None:
+                def conv_of(xl, vl, g=g):
+                    return g.kind.convective(xl, vl, g.ref, g.mass)
+            out.append(_Batch(mass_of, g.idx, rot, conv_of))
         pm, jr = self.point_mass, self.rot_inertia
         out.append(_Batch((lambda xl, reps: np.tile(pm, reps)[:, None, None] * np.eye(3)),
                           self.point_idx, np.zeros(0, np.int64), None))
@@ -134,7 +134,7 @@ class Inertia:
         v = self.physical(x, v)
         n = self.num.n_coord
         blocks, force = [], np.zeros(n)
-        for mass_of, idx, rot, grad_of in self.batches:
+        for mass_of, idx, rot, conv_of in self.batches:
             xl, vl, al = x[idx], v[idx], a[idx]
             n_b, k = xl.shape
             if not n_b:
@@ -145,13 +145,19 @@ class Inertia:
                 blocks.append(m)
                 force += scatter_add(n, idx, np.einsum("nij,nj->ni", m, al))
                 continue
-            # M at x, at x +- v (and, for kinds without an analytic mass_gradient, at x +- e_j
-            # for the r local Euler parameters; positions do not enter M) in one call: the
-            # central differences give dM/dt v and d(v^T M v)/dx exactly (M is quadratic
-            # in the Euler parameters)
-            r = rot.size if grad_of is None else 0
+            if conv_of is not None:                  # analytic convective terms
+                m = mass_of(xl, 1)
+                blocks.append(m)
+                mdot_v, grad = conv_of(xl, vl)
+                force += scatter_add(n, idx, np.einsum("nij,nj->ni", m, al) + mdot_v
+                                     - 0.5 * grad)
+                continue
+            # M at x, at x +- v and at x +- e_j for the r local Euler parameters (positions
+            # do not enter M) in one call: the central differences give dM/dt v and
+            # d(v^T M v)/dx exactly (M is quadratic in the Euler parameters)
+            r = rot.size
             unit = np.zeros((r, k))
-            unit[np.arange(r), rot[:r]] = 1.0
+            unit[np.arange(r), rot] = 1.0
             steps = np.concatenate([np.zeros((1, k)), unit, -unit])
             shifted = np.concatenate([xl[None] + steps[:, None, :],
                                       (xl + vl)[None], (xl - vl)[None]])
@@ -159,12 +165,9 @@ class Inertia:
             m = ms[0]
             blocks.append(m)
             dm_v = 0.5 * (ms[-2] - ms[-1])
-            if grad_of is not None:
-                grad = grad_of(xl, vl)
-            else:
-                vmv = np.einsum("ni,jnik,nk->jn", vl, ms[1:2 * r + 1], vl)
-                grad = np.zeros((n_b, k))
-                grad[:, rot] = 0.5 * (vmv[:r] - vmv[r:]).T
+            vmv = np.einsum("ni,jnik,nk->jn", vl, ms[1:2 * r + 1], vl)
+            grad = np.zeros((n_b, k))
+            grad[:, rot] = 0.5 * (vmv[:r] - vmv[r:]).T
             f = np.einsum("nij,nj->ni", m, al) + np.einsum("nij,nj->ni", dm_v, vl) - 0.5 * grad
             force += scatter_add(n, idx, f)
         return blocks, force
