@@ -406,11 +406,9 @@ _MARKDOWN_NOTES = """## How to read it
   spacarpy solves models up to 2500 free coordinates densely (all modes, exact
   classification of rigid-body and unstable modes), which is why 100 elements take longer
   than Exudyn's sparse solve; above that one sparse LU and ARPACK in shift-invert mode.
-- The transient case evaluates the mass matrix three times per residual (at x and x +- v,
-  for the exact convective terms of Eq. 60; the gradient of the kinetic energy is analytic)
-  and solves its iteration matrix in the tangent space with the static solver's LDL^T. At 10
-  elements Python overhead per step dominates; at 100 the residual (elastic and inertia
-  forces) takes about half of the time.
+- The transient case evaluates the mass matrix once per residual (the convective terms of
+  Eq. 60 are analytic for the beam) and solves its iteration matrix in the tangent space
+  with the static solver's LDL^T. At 10 elements Python overhead per step dominates.
 
 ## Where the static time goes, and the 10^5-element target
 
