@@ -54,6 +54,18 @@ def g_matrix(q: np.ndarray) -> np.ndarray:
     return out
 
 
+def _twice_h_times(hx: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``2 H_k(n_x) q`` (n, 3, 4) for the quadratic forms hx (n, 3, 4, 4): the derivative
+    ``d n_x / d q`` at q, or ``d/dt`` of it for q a velocity."""
+    return 2.0 * (hx @ q[:, None, :, None])[..., 0]
+
+
+def _global_section_inertia(nx, ny, nz, mass) -> np.ndarray:
+    """The section inertia tensors per unit length (n, 3, 3) in initial global axes."""
+    e = np.stack([nx, ny, nz], axis=2)                          # columns n_x n_y n_z
+    return e @ section_inertia(mass) @ e.transpose(0, 2, 1)
+
+
 def section_inertia(mass: np.ndarray) -> np.ndarray:
     """Per-unit-length rotary inertia tensors J (n_elem, 3, 3) in element axes from EM data
     ``[rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz]`` (n_elem, 5)."""
@@ -80,8 +92,7 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     n = x.shape[0]
     qp, qq = x[:, QP], x[:, QQ]
     hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
-    bp = 2.0 * (hx @ qp[:, None, :, None])[..., 0]              # (n, 3, 4) d n_x^p / d q^p
-    bq = 2.0 * (hx @ qq[:, None, :, None])[..., 0]
+    bp, bq = _twice_h_times(hx, qp), _twice_h_times(hx, qq)   # (n, 3, 4) d n_x / d q
     # N = sum_i h_i P_i with P_i (n, 3, 14)
     p = np.zeros((n, 4, 3, 14))
     p[:, 0, :, RP] = np.eye(3)
@@ -94,8 +105,7 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     m *= (mass[:, 0] * l0)[:, None, None]
 
     if np.any(mass[:, 1:]):
-        e = np.stack([nx, ny, nz], axis=2)                      # (n, 3, 3), columns n_x n_y n_z
-        jg = e @ section_inertia(mass) @ e.transpose(0, 2, 1)   # J in initial global axes
+        jg = _global_section_inertia(nx, ny, nz, mass)
         gp, gq = g_matrix(qp), g_matrix(qq)
         for (sa, ga), (sb, gb), c in (((QP, gp), (QP, gp), LINEAR_MASS[0, 0]),
                                       ((QP, gp), (QQ, gq), LINEAR_MASS[0, 1]),
@@ -128,10 +138,8 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
     vqp, vqq = v[:, QP], v[:, QQ]
     hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
     # B q-columns (n, 3, 4) and the tangent velocities l0 B v_q, l0 (dB/dt) v_q
-    bp = 2.0 * (hx @ qp[:, None, :, None])[..., 0]
-    bq = 2.0 * (hx @ qq[:, None, :, None])[..., 0]
-    hvp = 2.0 * (hx @ vqp[:, None, :, None])[..., 0]
-    hvq = 2.0 * (hx @ vqq[:, None, :, None])[..., 0]
+    bp, bq = _twice_h_times(hx, qp), _twice_h_times(hx, qq)
+    hvp, hvq = _twice_h_times(hx, vqp), _twice_h_times(hx, vqq)
     lc = l0[:, None]
     u = np.stack([v[:, RP], lc * (bp @ vqp[:, :, None])[..., 0], v[:, RQ],
                   lc * (bq @ vqq[:, :, None])[..., 0]], axis=2)          # (n, 3, 4)
@@ -148,8 +156,7 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
     mdot[:, RP] = ra * dw[:, :, 0]
     mdot[:, RQ] = ra * dw[:, :, 2]
     if np.any(mass[:, 1:]):
-        e = np.stack([nx, ny, nz], axis=2)
-        jg = e @ section_inertia(mass) @ e.transpose(0, 2, 1)
+        jg = _global_section_inertia(nx, ny, nz, mass)
         om = [(g_matrix(q) @ vq[:, :, None])[..., 0] for q, vq in ((qp, vqp), (qq, vqq))]
         for a, (sl, vq) in enumerate(((QP, vqp), (QQ, vqq))):
             jw = sum(LINEAR_MASS[a, b] * (jg @ om[b][:, :, None])[..., 0] for b in range(2))

@@ -33,6 +33,11 @@ from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
 
 
+def _symmetric_matvec(upper, y):
+    """``A y`` for a symmetric A given by its upper triangle (CSC)."""
+    return upper @ y + upper.T @ y - upper.diagonal() * y
+
+
 def applies(prob) -> bool:
     """Whether the model's Newton steps can use :class:`ReducedNewton`: every constraint is
     the normalization of a node with four free Euler parameters, no rigid modes, no moment
@@ -120,6 +125,18 @@ class ReducedNewton:
             out.append(k)
         return out
 
+    def _k_times(self, k_rot, euler_diag, z):
+        """``K z`` (n_coord,) in the rotated coordinates, element by element. The Euler
+        nodes' diagonal (2 mu I in any orthonormal basis) is added on the radial slots only:
+        :meth:`step` uses it where z has only radial entries, or reads only radial rows."""
+        num = self.prob.num
+        kz = np.zeros(num.n_coord)
+        for g, k in zip(num.groups, k_rot):
+            kz += scatter_add(num.n_coord, g.idx, batch_matvec(k, z[g.idx]))
+        radial = self.eu[:, 0]
+        kz[radial] += euler_diag * z[radial]
+        return kz
+
     def step(self, ev, x, mu, k_el, euler_diag, residual=None):
         """The Newton increment ``(dx over the free coordinates, dmu)``, or None when the
         factorization fails or its solution is inaccurate (the caller then solves the
@@ -142,11 +159,7 @@ class ReducedNewton:
         z[self.eu[:, 0]] = -c_eu / (2.0 * nq)
         # K z for that particular solution, element by element (only radial entries of z
         # are nonzero), plus the Euler-node diagonal 2 mu
-        kz = np.zeros(num.n_coord)
-        for g, k in zip(num.groups, k_rot):
-            kz += scatter_add(num.n_coord, g.idx, batch_matvec(k, z[g.idx]))
-        kz[self.eu[:, 0]] += euler_diag * z[self.eu[:, 0]]
-        rhs = -(r_full + kz)[self.keep]
+        rhs = -(r_full + self._k_times(k_rot, euler_diag, z))[self.keep]
         diag = np.broadcast_to(euler_diag[:, None, None] * np.eye(4), (self.nodes.size, 4, 4))
         t1 = time.perf_counter()
         a = self.pattern.assemble(k_rot + [diag])
@@ -158,14 +171,13 @@ class ReducedNewton:
             timings.factorizations += 1
             y = solve(rhs)
             # accuracy check in the reduced system (LDL^T without pivoting)
-            ay = a @ y + a.T @ y - a.diagonal() * y
+            ay = _symmetric_matvec(a, y)
             err = np.abs(ay - rhs).max(initial=0.0)
             scale = np.abs(rhs).max(initial=0.0) + np.abs(a.data).max(initial=0.0) * np.abs(
                 y).max(initial=0.0)
             if not err <= 1e-8 * scale:
                 y = y + solve(rhs - ay)                 # one step of iterative refinement
-                ay = a @ y + a.T @ y - a.diagonal() * y
-                err = np.abs(ay - rhs).max(initial=0.0)
+                err = np.abs(_symmetric_matvec(a, y) - rhs).max(initial=0.0)
                 if not err <= 1e-8 * scale:
                     return None
         except FactorizationError:
@@ -175,12 +187,8 @@ class ReducedNewton:
         z[self.keep] = y
         # back to the Euler parameters, and the multiplier increments from the radial rows:
         # (K z)_radial + 2 |q| dmu = -r_radial
-        kz = np.zeros(num.n_coord)
-        for g, k in zip(num.groups, k_rot):
-            kz += scatter_add(num.n_coord, g.idx, batch_matvec(k, z[g.idx]))
         radial = self.eu[:, 0]
-        kz[radial] += euler_diag * z[radial]
-        dmu = -(r_full[radial] + kz[radial]) / (2.0 * nq)
+        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z)[radial]) / (2.0 * nq)
         dq = np.einsum("nab,nb->na", b, z[self.eu])
         z[self.eu] = dq
         return z[self.free], np.concatenate([np.zeros(num.n_rigid), dmu])
