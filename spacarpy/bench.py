@@ -39,6 +39,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from spacarpy.deck import model_from_text
+
 CASES = ("cantilever", "bend", "eigen", "transient")
 #: shear stiffness GA / EA of the benchmark cantilever (Exudyn's SHEAR_FACTOR)
 SHEAR = 10.0
@@ -88,11 +90,6 @@ def transient_cantilever_deck(n: int, n_steps: int, dt: float = 1e-3) -> str:
                         f"TIMESTEP {n_steps * dt!r} {n_steps}")
 
 
-def _model(text: str, name: str):
-    from spacarpy.deck import build_model, parse_deck
-    return build_model(parse_deck(text, name), text=text, path=name)
-
-
 # ----------------------------------------------------------------------------------------
 # one (case, size), run inside a child process
 # ----------------------------------------------------------------------------------------
@@ -107,7 +104,7 @@ def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
             if case == "cantilever"
             else bend_deck(n, n_steps=n_steps, tol=1e-8))
     t0 = time.perf_counter()
-    model = _model(text, f"<{case} {n}>")
+    model = model_from_text(text, f"<{case} {n}>")
     parse = time.perf_counter() - t0
     totals, timings, setups = [], [], []
     for _ in range(max(repeat, 1)):
@@ -135,7 +132,7 @@ def _eigen_row(n: int, repeat: int) -> dict:
     from spacarpy.solvers.linearize import MassAssembler, linearize
     from spacarpy.solvers.static import StaticProblem
     t0 = time.perf_counter()
-    model = _model(eigen_cantilever_deck(n), f"<eigen cantilever {n}>")
+    model = model_from_text(eigen_cantilever_deck(n), f"<eigen cantilever {n}>")
     prob = StaticProblem(model)
     mass = MassAssembler(model, prob.num)
     setup = time.perf_counter() - t0
@@ -157,7 +154,8 @@ def _eigen_row(n: int, repeat: int) -> dict:
 def _transient_row(n: int, n_steps: int) -> dict:
     from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
     t0 = time.perf_counter()
-    model = _model(transient_cantilever_deck(n, n_steps), f"<transient cantilever {n}>")
+    model = model_from_text(transient_cantilever_deck(n, n_steps),
+                            f"<transient cantilever {n}>")
     setup = time.perf_counter() - t0
     opts = TransientOptions(t_end=model.timestep[0], n_steps=n_steps, rho_inf=0.5, tol=1e-8,
                             phi=TimeFunction(*model.time_function))
@@ -316,8 +314,10 @@ def machine_summary() -> str:
 
 def run_bench(cases=("cantilever", "bend", "eigen", "transient"), sizes=None, n_steps: int = 10,
               repeat: int = 3, transient_steps: int = 1000, peer: str | None = None,
-              markdown: str | None = None, out=sys.stdout) -> dict:
-    """Run the benchmark; print one table per case (and write them as Markdown)."""
+              markdown: str | None = None, out=None) -> dict:
+    """Run the benchmark; print one table per case to ``out`` (default: the current
+    sys.stdout) and write them as Markdown."""
+    out = sys.stdout if out is None else out
     if peer not in (None, "exudyn"):
         raise ValueError(f"unknown peer {peer!r} (known: exudyn)")
     if peer:
