@@ -9,12 +9,12 @@ from scipy.optimize import brentq
 from scipy.special import ellipk
 
 from spacarpy.cli import main
-from spacarpy.deck import parse_deck
-from spacarpy.deck.build import build_model
-from spacarpy.errors import DeckError
+from spacarpy.deck import model_from_text
 from spacarpy.results.reader import open_results
 from spacarpy.results.tables import extract
 from spacarpy.solvers.static import solve_static
+
+from helpers import deck_errors
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -23,16 +23,6 @@ E, G, T, B, L_LEAF = 195e9, 75e9, 0.2e-3, 0.03, 0.1
 EI_WEAK, EI_STIFF = E * B * T**3 / 12, E * T * B**3 / 12
 GJ = G * B * T**3 / 3 * (1 - 0.63 * T / B)
 PAPER_TORQUE = 0.30361
-
-
-def build(text):
-    return build_model(parse_deck(text, "t.dat"), text=text, path="t.dat")
-
-
-def deck_errors(text):
-    with pytest.raises(DeckError) as info:
-        build(text)
-    return [(loc.line, msg) for loc, msg, _ in info.value.items]
 
 
 def hinged_cantilever(kin, data, n=4):
@@ -49,8 +39,8 @@ def test_a_hinge_driven_by_inpute_equals_turning_the_node_by_inputr():
     """Driving the root hinge angle to 0.4 rad (INPUTE/DELINPE) and turning the root node by
     0.4 rad about the hinge axis (INPUTR/DELINPR) are the same problem: the same equilibrium,
     and the hinge's stress resultant (the driving torque) is the reaction moment."""
-    hinge = build(hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6", "DELINPE 9 1 0.4"))
-    turned = build(hinged_cantilever("INPUTR 2 0 0 1", "DELINPR 2 0.4"))
+    hinge = model_from_text(hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6", "DELINPE 9 1 0.4"))
+    turned = model_from_text(hinged_cantilever("INPUTR 2 0 0 1", "DELINPR 2 0.4"))
     res_h, res_t = solve_static(hinge), solve_static(turned)
     num_h, num_t = res_h.problem.num, res_t.problem.num
     # the generated intermediate nodes are numbered differently (the hinge model has more
@@ -76,7 +66,7 @@ def test_a_hinge_driven_by_inpute_equals_turning_the_node_by_inputr():
 def test_inpute_initial_value_is_reached_at_step_0():
     text = hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6", "INPUTE 9 1 0.1\n"
                              "DELINPE 9 1 0.2")
-    res = solve_static(build(text))
+    res = solve_static(model_from_text(text))
     angles = [s.group_deformation["HINGE"][0, 0] for s in res.steps]
     np.testing.assert_allclose(angles, 0.1 + 0.2 * np.arange(7) / 6, atol=1e-12)
 
@@ -115,7 +105,7 @@ def elastica_tip_angle(ratio):
 
 
 def tip_angle(n, ratio, bifurcation="switch"):
-    model = build(column_text(ratio * np.pi**2 / 4, bifurcation, n=n))
+    model = model_from_text(column_text(ratio * np.pi**2 / 4, bifurcation, n=n))
     res = solve_static(model)
     q = res.steps[-1].x[res.problem.num.rot_idx[list(model.orientation_ids).index(4)]]
     return abs(2 * np.arctan2(q[3], q[0])), res

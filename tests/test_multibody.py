@@ -107,9 +107,10 @@ def test_hinged_rod_with_tip_mass_oscillates_at_sqrt_k_over_m_l2():
 from pathlib import Path  # noqa: E402
 
 from spacarpy.cli import main  # noqa: E402
-from spacarpy.deck import build_model, parse_deck  # noqa: E402
-from spacarpy.errors import DeckError  # noqa: E402
+from spacarpy.deck import model_from_text  # noqa: E402
 from spacarpy.results import read_results  # noqa: E402
+
+from helpers import deck_errors  # noqa: E402
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -123,12 +124,6 @@ def test_multibody_decks_run_from_the_command_line(tmp_path, deck, node, expecte
     res = read_results(out)
     row = list(res.position_nodes).index(node)
     np.testing.assert_allclose(res.static.position[-1, row], expected, atol=1e-9)
-
-
-def deck_errors(text):
-    with pytest.raises(DeckError) as info:
-        build_model(parse_deck(text, "m.dat"), text=text, path="m.dat")
-    return [(loc.line, msg) for loc, msg, _ in info.value.items]
 
 
 def test_deck_errors_of_the_new_element_kinds():
@@ -178,7 +173,7 @@ def cantilever_text(extra_kin="", extra_data="", n=8):
 
 
 def solve_text(text):
-    model = build_model(parse_deck(text, "p.dat"), text=text, path="p.dat")
+    model = model_from_text(text, "p.dat")
     res = solve_static(model)
     return model, res, res.steps[-1]
 

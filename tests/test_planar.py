@@ -9,10 +9,8 @@ from scipy.optimize import brentq
 
 from spacarpy.cases import TABLE1
 from spacarpy.cli import main
-from spacarpy.deck import parse_deck
-from spacarpy.deck.build import build_model
+from spacarpy.deck import model_from_text
 from spacarpy.elements.kinds import KINDS
-from spacarpy.errors import DeckError
 from spacarpy.rotation import from_axis_angle
 from spacarpy.solvers.eigen import eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
@@ -21,16 +19,7 @@ from spacarpy.solvers.static import solve_static
 sys.path.insert(0, str(Path(__file__).parent))
 from test_elements_truss_hinge_rbeam import fd_columns  # noqa: E402
 from test_multibody import planar_four_bar_equilibrium  # noqa: E402
-
-
-def build(text):
-    return build_model(parse_deck(text, "p.dat"), text=text, path="p.dat")
-
-
-def errors_of(text):
-    with pytest.raises(DeckError) as info:
-        build(text)
-    return [(loc.line, msg) for loc, msg, _ in info.value.items]
+from helpers import deck_errors  # noqa: E402
 
 
 def planar_cantilever(n, variant, L=2.0, ei=1.725e6, ea=2.07e9, force=None):
@@ -86,7 +75,7 @@ def test_planar_kernels_have_exact_derivatives(keyword):
 def test_plbeam_cantilever_reproduces_table1(variant):
     """Table 1 of the paper with 8 PLBEAMs: the tip displacement to its six printed digits,
     the same as with the spatial BEAM."""
-    model = build(planar_cantilever(8, variant))
+    model = model_from_text(planar_cantilever(8, variant))
     assert model.planar
     res = solve_static(model)
     tip = res.steps[-1].x[res.problem.num.pos_idx[list(model.position_ids).index(17)]]
@@ -105,7 +94,7 @@ def test_pltruss_two_bar_truss_matches_the_exact_nonlinear_equilibrium():
                       "PLTRUSS 2 5 3", "DYNE 1 1", "DYNE 2 1", "FIX 1", "FIX 5", "END", "HALT",
                       f"ESTIFF 1:2 {EA}", f"DELXF 3 0 {-P}", "ITERSTEP 20 4 1e-12", "END",
                       "END", ""])
-    res = solve_static(build(text))
+    res = solve_static(model_from_text(text))
     apex = res.steps[-1].x[res.problem.num.pos_idx[1]]
     l0 = np.hypot(half, h)
     v = brentq(lambda v: 2 * EA * (np.hypot(half, h - v) - l0) / l0 * (h - v)
@@ -148,7 +137,7 @@ def test_planar_four_bar_has_one_dof_no_redundancy_and_the_loop_closure_equilibr
     assert main(["run", str(deck), "--mode", "check"]) == 0
     out = capsys.readouterr().out
     assert re.search(r"degrees of freedom +1, no free motion", out)
-    model = build(FOUR_BAR)
+    model = model_from_text(FOUR_BAR)
     res = solve_static(model)
     phi, c = planar_four_bar_equilibrium()
     x = res.steps[-1].x
@@ -166,14 +155,14 @@ def test_planar_pendulum_frequency_and_prescribed_angle():
     text = "\n".join(["X 1 0 0", f"X 3 {L} 0", "PLBEAM 1 1 4 3 6", "PLHINGE 10 2 4",
                       "DYNE 10 1", "FIX 1", "FIX 2", "END", "HALT", f"ESTIFF 10 {k}",
                       f"XM 3 {m}", "ITERSTEP 20 1 1e-12", "END", "END", ""])
-    model = build(text)
+    model = model_from_text(text)
     res = solve_static(model)
     st = res.steps[-1]
     lin = linearize(res.problem, st.x, st.mu, *res.problem.loads.at(1.0, 1.0),
                     MassAssembler(model, res.problem.num))
     modes = eigenmodes(lin, res.problem.num, res.problem.free, n_modes=1)
     assert modes.frequency[0] == pytest.approx(np.sqrt(k / (m * L**2)) / (2 * np.pi), rel=1e-10)
-    turned = build(text.replace("FIX 2\n", "FIX 2\nINPUTX 4 1\n")
+    turned = model_from_text(text.replace("FIX 2\n", "FIX 2\nINPUTX 4 1\n")
                    .replace("XM 3", "DELINPX 4 1 0.3\nXM 3"))
     res = solve_static(turned)
     prob = res.problem
@@ -184,13 +173,13 @@ def test_planar_pendulum_frequency_and_prescribed_angle():
 
 
 def test_planar_deck_errors():
-    msgs = [m for _, m in errors_of("X 1 0 0\nX 3 1 0\nBEAM 1 1 2 3 4\nEND\nEND\n")]
+    msgs = [m for _, m in deck_errors("X 1 0 0\nX 3 1 0\nBEAM 1 1 2 3 4\nEND\nEND\n")]
     assert ("X 1: expected x y z (3 coordinates), got 2; only a planar model (PLBEAM, PLTRUSS, "
             "PLHINGE) may leave out z") in msgs
     text = ("X 1 0 0\nX 3 1 0 0.5\nX 5 2 0\nPLBEAM 1 1 2 3 4\nTRUSS 2 3 5\nDYNE 1 1 2 3\n"
             "FIX 1\nFIX 2 2\nEND\nHALT\nESTIFF 1 1 1\nEM 1 1 2 3\nXF 3 1 2 3\nXF 4 1 1\n"
             "END\nEND\n")
-    errors = errors_of(text)
+    errors = deck_errors(text)
     msgs = [m for _, m in errors]
     assert "X 3: a planar model lies in the x-y plane, but z = 0.5" in msgs
     assert ("TRUSS: a planar model (PLBEAM at line 4) has planar elements only (PLBEAM, PLTRUSS, "
@@ -200,6 +189,6 @@ def test_planar_deck_errors():
     assert "EM 1: a PLBEAM takes rhoA [rhoIz], got 3 values" in msgs
     assert ("XF: node 4 is a planar orientation node: expected XF 4 m (the moment about z), "
             "got 2 value(s)") in msgs
-    spatial = [m for _, m in errors_of("X 1 0 0 0\nX 3 1 0 0\nBEAM 1 1 2 3 4\nFIX 1\nFIX 2\nEND"
+    spatial = [m for _, m in deck_errors("X 1 0 0 0\nX 3 1 0 0\nBEAM 1 1 2 3 4\nFIX 1\nFIX 2\nEND"
                                        "\nHALT\nDELXF 3 1 2\nEND\nEND\n")]
     assert "DELXF: expected three components (DELXF 3 f1 f2 f3), got 2" in spatial

@@ -13,13 +13,13 @@ import scipy.sparse as sp
 import spacarpy.solvers.sparse as sparse_mod
 from spacarpy.batch.compare import _compare
 from spacarpy.cases import cantilever_deck
-from spacarpy.deck import build_model, parse_deck
+from spacarpy.deck import model_from_text
 from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
 
 
 def cantilever(n, **kw):
     text = cantilever_deck(n, n_steps=kw.pop("n_steps", 10), tol=1e-9, compact=True)
-    return build_model(parse_deck(text, "<cantilever>"), text=text, path="<cantilever>")
+    return model_from_text(text, "<cantilever>")
 
 
 def off_equilibrium_state(prob, seed=0):
@@ -153,7 +153,7 @@ def test_analytic_convective_terms_equal_the_differenced_ones():
 
     from spacarpy.bench import transient_cantilever_deck
     text = transient_cantilever_deck(5, 10)
-    model = build_model(parse_deck(text, "<t>"), text=text, path="<t>")
+    model = model_from_text(text, "<t>")
     prob = StaticProblem(model)
     xg = prob.num.x0 + 0.05 * rng.standard_normal(prob.num.n_coord)
     vg, ag = rng.standard_normal((2, prob.num.n_coord))
@@ -172,7 +172,7 @@ def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatc
     text = transient_cantilever_deck(6, 30)
 
     def run():
-        model = build_model(parse_deck(text, "<t>"), text=text, path="<t>")
+        model = model_from_text(text, "<t>")
         opts = TransientOptions(t_end=model.timestep[0], n_steps=30, rho_inf=0.5, tol=1e-10,
                                 phi=TimeFunction(*model.time_function))
         res = solve_transient(model, opts)
@@ -193,7 +193,7 @@ def test_few_modes_of_a_mid_size_model_come_from_the_sparse_solver_unchanged():
     from spacarpy.solvers import eigen
     from spacarpy.solvers.linearize import MassAssembler, linearize
     text = eigen_cantilever_deck(60)                     # 420 free coordinates
-    model = build_model(parse_deck(text, "<e>"), text=text, path="<e>")
+    model = model_from_text(text, "<e>")
     prob = StaticProblem(model)
     x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
     lin = linearize(prob, x, mu, *prob.loads.at(0.0, 0.0), mass=MassAssembler(model, prob.num))

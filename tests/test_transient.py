@@ -8,8 +8,7 @@ import pytest
 from scipy.special import ellipk
 
 from spacarpy.cli import main
-from spacarpy.deck import load_deck, parse_deck
-from spacarpy.deck.build import build_model
+from spacarpy.deck import load_deck, model_from_text
 from spacarpy.errors import DeckError
 from spacarpy.numbering import number_model
 from spacarpy.results import validate_file
@@ -19,10 +18,6 @@ from spacarpy.solvers.transient import TIME_FUNCTIONS, TimeFunction, alpha_param
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 G = 9.81
-
-
-def build(text):
-    return build_model(parse_deck(text, "t.dat"), text=text, path="t.dat")
 
 
 # ------------------------------------------------------------------ building blocks
@@ -89,7 +84,7 @@ def test_inertia_forces_have_the_power_of_the_kinetic_energy():
     """v . (M a + h) = dT/dt along any motion that keeps |q| = 1 (checked by a central
     difference of T along x(t) = x + v t + a t^2/2), for beams, rigid rods, trusses, point
     masses and rotary inertias together; and h vanishes at rest."""
-    model = build(MIXED)
+    model = model_from_text(MIXED)
     num = number_model(model)
     inertia = Inertia(model, num)
     rng = np.random.default_rng(3)
@@ -117,7 +112,7 @@ def test_uniform_rotation_of_a_rigid_body_needs_no_torque():
     """A body spinning at constant rate about a principal axis: the inertia force on its
     Euler parameters is along q only (taken by the normalization multiplier)."""
     text = "X 1 0 0 0\nX 3 1 0 0\nRBEAM 1 1 2 3 0 1 0\nEND\nHALT\nEM 1 2 0.1 0.05 0.05 0\nEND\nEND\n"
-    model = build(text)
+    model = model_from_text(text)
     num = number_model(model)
     inertia = Inertia(model, num)
     w, theta = 3.0, 0.4                                  # about the rod's local z = global z
@@ -252,10 +247,10 @@ def test_transient_deck_errors(tmp_path):
     assert main(["run", str(deck), "-q"]) == 2
     bad = base.replace("RHOINF 1", "RHOINF 1.5\nTIMEFUNCTION ramp\nSTART later")
     with pytest.raises(DeckError) as info:
-        build(base.replace("RHOINF 1", 'TIMEFUNCTION expr "sin(2*pi*f*t)"'))
+        model_from_text(base.replace("RHOINF 1", 'TIMEFUNCTION expr "sin(2*pi*f*t)"'))
     assert "TIMEFUNCTION expr: " in info.value.items[0][1] and "f" in info.value.items[0][1]
     with pytest.raises(DeckError) as info:
-        build(bad)
+        model_from_text(bad)
     messages = [m for _, m, _ in info.value.items]
     assert "RHOINF: the spectral radius lies in [0, 1], got 1.5" in messages
     assert any(m.startswith("TIMEFUNCTION ramp takes 1 parameter(s)") for m in messages)

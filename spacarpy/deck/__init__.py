@@ -25,7 +25,7 @@ from spacarpy.model import Model
 
 __all__ = ["KEYWORDS", "UNSUPPORTED", "CrossSection", "CrossSections", "DeckSummary",
            "ModelBuilder", "Statement", "build_model", "check_deck", "cross_sections",
-           "load_deck", "model_to_deck", "parse_deck", "read_deck_text"]
+           "load_deck", "model_from_text", "model_to_deck", "parse_deck", "read_deck_text"]
 
 
 def load_deck(path, *, deformations: str | None = None, analysis: str | None = None,
@@ -50,7 +50,14 @@ def load_deck(path, *, deformations: str | None = None, analysis: str | None = N
     DeckError
         If the file cannot be read, or with every problem found in it.
     """
-    text = read_deck_text(path)
-    statements = parse_deck(text, str(path), overrides=overrides)
-    return build_model(statements, text=text, path=str(path), deformations=deformations,
+    return model_from_text(read_deck_text(path), str(path), deformations=deformations,
+                           analysis=analysis, overrides=overrides)
+
+
+def model_from_text(text: str, name: str = "<text>", *, deformations: str | None = None,
+                    analysis: str | None = None, overrides: dict | None = None) -> Model:
+    """Parse and build deck text held in memory (generated decks, tests); ``name`` stands
+    for the file name in error messages. Options as in :func:`load_deck`."""
+    statements = parse_deck(text, name, overrides=overrides)
+    return build_model(statements, text=text, path=name, deformations=deformations,
                        analysis=analysis)
