@@ -79,7 +79,6 @@ class Timings:
     solve: float = 0.0
     iterations: int = 0
     factorizations: int = 0     # sparse LU factorizations (Newton and kinematic correction)
-    corrections: int = 0        # kinematic-correction steps (each one back-substitution)
     total: float = 0.0
 
 
@@ -504,7 +503,6 @@ class StaticProblem:
                     return (x_lin, None) if return_states else x_lin
                 n_factor += 1
                 self.timings.factorizations += 1
-            self.timings.corrections += 1
             back = (x, states, g_e, g_q, worst)
             x = x.copy()
             try:
