@@ -33,6 +33,7 @@ from typing import Callable
 import numpy as np
 
 from spacarpy.elements import beam, beam_mass, hinge, rbeam, truss
+from spacarpy.elements.chunks import in_chunks
 from spacarpy.rotation import quadratic_form
 
 #: Largest |e_hat_k| / l0 (torsion, bending) accepted in a converged BEAM state: the basic
@@ -124,14 +125,14 @@ def _rbeam_gravity(x, ref, mass, g):
 BEAM = Kind(
     keyword="BEAM", slots=("pos", "rot", "pos", "rot"), n_def=6, length_modes=(True,) * 6,
     reference=_beam_reference,
-    state=lambda x, ref, variant, prev: beam.beam_state(x, ref["ny"], ref["nz"], ref["l0"],
-                                                        variant),
-    hessian=lambda st, w: beam.beam_weighted_hessian(st, w),
+    state=lambda x, ref, variant, prev: in_chunks(beam.beam_state, len(x), x, ref["ny"],
+                                                  ref["nz"], ref["l0"], variant),
+    hessian=lambda st, w: in_chunks(beam.beam_weighted_hessian, len(w), st, w),
     stiffness=lambda props, ref: beam.stiffness_matrix(props, ref["l0"]),
-    mass=lambda x, ref, m: beam_mass.beam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"],
-                                                      ref["l0"], m),
-    convective=lambda x, v, ref, m: beam_mass.beam_convective(
-        x, v, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m),
+    mass=lambda x, ref, m: in_chunks(beam_mass.beam_mass_matrix, len(x), x, ref["nx"],
+                                     ref["ny"], ref["nz"], ref["l0"], m),
+    convective=lambda x, v, ref, m: in_chunks(beam_mass.beam_convective, len(x), x, v,
+                                              ref["nx"], ref["ny"], ref["nz"], ref["l0"], m),
     check=_beam_check, gravity=_beam_gravity)
 
 
