@@ -36,6 +36,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, BorderedPattern, scatter_add
@@ -52,6 +53,59 @@ log = logging.getLogger(__name__)
 
 #: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
 _FLOOR_FACTOR = 10.0
+
+
+class _SquareJacobian:
+    """The kinematic correction's Jacobian ``W = [D / scale; 2 q^T]`` as a square sparse
+    matrix, for models with exactly as many deformations and Euler normalizations as free
+    coordinates (trees of elements: every element adds its end node). Its LU factorization
+    (SuperLU, partial pivoting) solves the Gauss-Newton step as ``W step = g`` instead of
+    through the normal equations ``W^T W``, whose condition number is that of W squared: on a
+    10^5-element cantilever W^T W is beyond double precision and its steps are noise."""
+
+    @staticmethod
+    def applies(num) -> bool:
+        n_rows = sum(g.idx.shape[0] * g.scale.shape[1] for g in num.groups)
+        return num.n_unknown > 0 and n_rows + num.euler_nodes.size == num.n_unknown
+
+    def __init__(self, num):
+        rows, cols, off = [], [], 0
+        for g in num.groups:
+            n_e, n_def = g.scale.shape
+            r = off + np.arange(n_e * n_def).reshape(n_e, n_def)
+            rows.append(np.broadcast_to(r[:, :, None], (n_e, n_def, g.idx.shape[1])).ravel())
+            cols.append(np.broadcast_to(num.unknown_of[g.idx][:, None, :],
+                                        (n_e, n_def, g.idx.shape[1])).ravel())
+            off += n_e * n_def
+        eu = num.rot_idx[num.euler_nodes]
+        rows.append(np.repeat(off + np.arange(eu.shape[0]), 4))
+        cols.append(num.unknown_of[eu].ravel())
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        self.keep = cols >= 0                       # entries in fixed columns are dropped
+        n = num.n_unknown
+        # the CSC layout once: where each kept entry goes (no duplicates: a row belongs to
+        # one element or node)
+        order = sp.csc_matrix((np.arange(1, self.keep.sum() + 1, dtype=float),
+                               (rows[self.keep], cols[self.keep])), shape=(n, n))
+        self.perm = order.data.astype(np.int64) - 1
+        self.indices, self.indptr, self.n = order.indices, order.indptr, n
+
+    def factorize(self, w_e, wq):
+        """LU of W for the element blocks ``w_e`` (per group (n_e, n_def, n_ldof)) and the
+        Euler rows ``wq`` (n_eu, 4); returns ``solve(g)``."""
+        data = np.concatenate([w.ravel() for w in w_e] + [wq.ravel()])[self.keep][self.perm]
+        mat = sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+        try:
+            lu = spla.splu(mat, permc_spec="COLAMD")
+        except RuntimeError as exc:              # singular: e.g. a straight-line start
+            raise FactorizationError(str(exc)) from None
+
+        def solve(g):
+            out = lu.solve(g)
+            if not np.all(np.isfinite(out)):
+                raise FactorizationError("non-finite Gauss-Newton step")
+            return out
+        return solve
 
 
 @dataclass
@@ -138,6 +192,7 @@ class StaticProblem:
             num.n_unknown, [num.unknown_of[g.idx] for g in num.groups]
             + [num.unknown_of[num.rot_idx[num.euler_nodes]]], upper=True)
         self._kin_factor = SPDFactorization()
+        self._kin_square = _SquareJacobian(num) if _SquareJacobian.applies(num) else None
         self.kinematic_correction = True
         # solve() of the kept Gauss-Newton factorization of correct_kinematics
         self._kin_solve = None
@@ -171,6 +226,10 @@ class StaticProblem:
         # round-off floor: the largest element stiffness entry (N/m)
         smax = max([float(np.abs(g.S).max(initial=0.0)) for g in num.groups] + [0.0])
         self.scale = smax if smax > 0 else 1.0
+        # the round-off of a position is relative to its magnitude, not to the model's size:
+        # a model far from the origin has a residual floor that much higher
+        pos = num.x0[num.pos_idx]
+        self.position_magnitude = max(num.length_scale, float(np.abs(pos).max(initial=0.0)))
         # weights of the constraint violations in the residual norm: rigid length-like
         # modes relative to the length scale, angles and Euler normalizations absolute
         self.constraint_weight = np.concatenate(
@@ -289,8 +348,9 @@ class StaticProblem:
         Forces are taken relative to the force level (max of external and internal forces,
         :meth:`force_level`, or the given ``level``), constraint violations relative to 1
         (rigid modes divided by the length scale). The floor is what double precision can
-        resolve: the stiffest element stiffness times the round-off of the coordinates; a
-        residual below it cannot be reduced further by any iteration.
+        resolve: the stiffest element stiffness times the round-off of the coordinates (of
+        the largest of the model's size and its distance from the origin); a residual below
+        it cannot be reduced further by any iteration.
         """
         L = self.num.length_scale
         w = np.where(self.rot_mask, 1.0 / L, 1.0)
@@ -299,8 +359,8 @@ class StaticProblem:
         rr = np.abs(r * w[self.free]).max(initial=0.0)
         rel = rr / level if level > 0 else (0.0 if rr == 0 else np.inf)
         cw = self.constraint_weight
-        floor = (_FLOOR_FACTOR * np.finfo(float).eps * getattr(self, "scale", 0.0) * L / level
-                 if level > 0 else 0.0)
+        floor = (_FLOOR_FACTOR * np.finfo(float).eps * getattr(self, "scale", 0.0)
+                 * self.position_magnitude / level if level > 0 else 0.0)
         return max(rel, np.abs(c * cw).max(initial=0.0)), floor
 
     def increment_norm(self, dx) -> float:
@@ -359,6 +419,8 @@ class StaticProblem:
             r, c = ev.r, ev.c
             res, floor = self.residual_norm(r, c, ev.f_int, ev.f_ext)
             history.append(res)
+            log.debug("iteration %d: residual %.3g (floor %.3g), last increment %.3g",
+                      it, res, floor, dx_norm)
             if not np.isfinite(res):
                 raise _StepFailed("non-finite residual", history)
             # converged: the last increment below the tolerance and the residual below the
@@ -455,7 +517,7 @@ class StaticProblem:
         size = self.increment_norm(dx)
         if rigid_target is None and size * size < self.kin_floor:
             return (x_lin, None) if return_states else x_lin
-        if size > 1e-3:
+        if size > 1e-2:
             self._kin_solve = None               # a large step: the kept matrix is too stale
         x = x_lin
         done = None
@@ -465,6 +527,8 @@ class StaticProblem:
             t0 = time.perf_counter()
             states, g_e, g_q, worst = mismatch(x)
             worst0 = worst if worst0 is None else worst0
+            log.debug("kinematic correction: mismatch %.3g (matrix %s)", worst,
+                      "kept" if self._kin_solve is not None else "new")
             if worst <= max(self.kin_floor, 1e-9 * worst0):
                 done = states
                 break
@@ -476,20 +540,40 @@ class StaticProblem:
                 elif n_factor >= 2:
                     # two fresh Gauss-Newton steps and still no fast contraction: targets
                     # that cannot be met exactly (least squares, a saturated deformation);
-                    # stop here, as plain Gauss-Newton with two steps would
+                    # stop here, as plain Gauss-Newton with two steps would, at the better
+                    # of the last two configurations
+                    if back[4] < worst:
+                        x, states = back[0], back[1]
                     done = states
                     break
                 else:
                     self._kin_solve = None        # far from the targets: a fresh matrix here
+            reused = self._kin_solve is not None
             wq = 2.0 * x[eu]
-            w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
-            rhs = scatter_add(num.n_coord, eu, wq * g_q[:, None])
-            for g, w, ge in zip(num.groups, w_e, g_e):
-                rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), ge))
+            w_e = rhs = None
+            if not reused or self._kin_square is None:
+                w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
+            if self._kin_square is None:              # the normal equations' right side
+                rhs = scatter_add(num.n_coord, eu, wq * g_q[:, None])
+                for g, w, ge in zip(num.groups, w_e, g_e):
+                    rhs += scatter_add(num.n_coord, g.idx,
+                                       batch_matvec(w.transpose(0, 2, 1), ge))
             t1 = time.perf_counter()
             self.timings.kernels += t1 - t0
-            reused = self._kin_solve is not None
-            if not reused:
+            if not reused and self._kin_square is not None:
+                # as many deformations and normalizations as unknowns (a tree): solve
+                # W step = g itself, whose condition is that of W, not of W^T W
+                t2 = time.perf_counter()
+                self.timings.assembly += t2 - t1
+                t1 = t2
+                try:
+                    self._kin_solve = self._kin_square.factorize(w_e, wq)
+                except FactorizationError:
+                    self._kin_solve = None
+                    return (x_lin, None) if return_states else x_lin
+                n_factor += 1
+                self.timings.factorizations += 1
+            elif not reused:
                 m = self.kin_pattern.assemble(
                     [w.transpose(0, 2, 1) @ w for w in w_e]
                     + [wq[:, :, None] * wq[:, None, :]], diag_shift=1e-12)
@@ -506,7 +590,11 @@ class StaticProblem:
             back = (x, states, g_e, g_q, worst)
             x = x.copy()
             try:
-                step = self._kin_solve(rhs[self.free])
+                if self._kin_square is not None:
+                    step = self._kin_solve(np.concatenate(
+                        [v.ravel() for v in g_e] + [g_q]))
+                else:
+                    step = self._kin_solve(rhs[self.free])
             except FactorizationError:
                 self._kin_solve = None
                 return (x_lin, None) if return_states else x_lin

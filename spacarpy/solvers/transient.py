@@ -624,7 +624,8 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             k_el, euler_diag, _ = prob.element_blocks(ev, mu1, moment, extra=extra)
             r_full = np.zeros(num.n_coord)
             r_full[free] = r
-            step = prob.reduced.step(ev, x1, mu1, k_el, euler_diag, residual=r_full)
+            step = prob.reduced.step(ev, x1, mu1, k_el, euler_diag, residual=r_full,
+                                      invariant=False)
         if step is not None:
             dx, dmu = step
         else:
