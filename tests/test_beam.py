@@ -219,3 +219,22 @@ def test_linear_stiffness_equals_textbook_timoshenko_beam(variant):
     k = du.T @ S @ du
     ref = textbook_beam_stiffness(L, EA, GJ, EIy, EIz, 12 * cz / L**2, 12 * cy / L**2)
     np.testing.assert_allclose(k, ref, rtol=1e-12, atol=1e-9 * np.abs(ref).max())
+
+
+def test_deformations_alone_equal_those_of_the_full_state():
+    """beam_deformations (used by the kinematic correction's chord iterations) computes
+    exactly the e of beam_state, for both variants."""
+    from spacarpy.elements.beam import beam_deformations, beam_state
+    rng = np.random.default_rng(7)
+    n = 9
+    x = np.zeros((n, 14))
+    x[:, 7] = 1.0
+    x[:, :3] += 0.05 * rng.standard_normal((n, 3))
+    for s in (3, 10):
+        q = np.c_[np.ones(n), 0.2 * rng.standard_normal((n, 3))]
+        x[:, s:s + 4] = q / np.linalg.norm(q, axis=1)[:, None]
+    ny, nz, l0 = np.tile([0, 1.0, 0], (n, 1)), np.tile([0, 0, 1.0], (n, 1)), np.ones(n)
+    for variant in ("modified", "basic"):
+        assert np.array_equal(beam_deformations(x, ny, nz, l0, variant),
+                              beam_state(x, ny, nz, l0, variant).e)
+    assert np.abs(beam_state(x, ny, nz, l0).e).max() > 1e-2

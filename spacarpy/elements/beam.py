@@ -172,23 +172,9 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     """
     n = x.shape[0]
     qp, qq = x[:, QP], x[:, QQ]
-    d = x[:, RQ] - x[:, RP]
-    # nodal vectors n = R(q) v = q^T H(v) q (quadratic in q) and their derivatives 2 H(v) q;
-    # Yp = d[n_y^p, n_z^p]/dq^p (n, 6, 4), and n = (2 H q) . q / 2
-    u = np.stack([ny, nz], axis=1)                                  # (n, 2, 3)
-    Yp = vector_jacobians(qp, u).reshape(n, 6, 4)
-    Yq = vector_jacobians(qq, u).reshape(n, 6, 4)
-    vp = 0.5 * batch_matvec(Yp, qp)                                 # [n_y^p, n_z^p]
-    vq = 0.5 * batch_matvec(Yq, qq)
-    y = np.concatenate([d, vp, vq], axis=1)
-    nyp, nzp, nyq, nzq = vp[:, :3], vp[:, 3:], vq[:, :3], vq[:, 3:]
-
-    length = np.linalg.norm(d, axis=1)
-    n1 = d / length[:, None]
+    u, Yp, Yq, y, length, n1, e_hat, projections = _basic(x, ny, nz, l0)
+    nyp, nzp, nyq, nzq = y[:, YNYP], y[:, YNZP], y[:, YNYQ], y[:, YNZQ]
     lc = l0[:, None]
-    e_hat = np.empty((n, 6))
-    e_hat[:, 0] = length - l0
-    e_hat[:, 1] = 0.5 * l0 * (np.sum(nzp * nyq, 1) - np.sum(nyp * nzq, 1))
     G = np.zeros((n, 6, 15))
     G[:, 0, YD] = n1
     G[:, 1, YNZP] = 0.5 * lc * nyq
@@ -196,10 +182,8 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     G[:, 1, YNYP] = -0.5 * lc * nzq
     G[:, 1, YNZQ] = -0.5 * lc * nyp
     # bending modes: e_j = s_j l0 (n1 . a_j)
-    for j, s, sl, a in _BENDING:
+    for (j, s, sl, a), proj in zip(_BENDING, projections):
         av = y[:, sl]
-        proj = np.sum(n1 * av, axis=1)
-        e_hat[:, j] = s * l0 * proj
         G[:, j, YD] = s * lc * (av - proj[:, None] * n1) / length[:, None]
         G[:, j, sl] = s * lc * n1
     D_hat = np.empty((n, 6, N_LDOF))
@@ -210,15 +194,57 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
 
     if variant == "basic":
         e, D, J = e_hat, D_hat, None
-    elif variant == "modified":
-        qe = (e_hat @ Q_MODIFIED.reshape(36, 6).T).reshape(n, 6, 6) / lc[:, :, None]
-        e = e_hat + 0.5 * batch_matvec(qe, e_hat)
+    else:
+        e, qe = _modified(e_hat, l0, variant)
         J = np.eye(6) + qe
         D = J @ D_hat
-    else:
-        raise ValueError(f"unknown deformation variant {variant!r}")
     return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Yp=Yp, Yq=Yq, n1=n1,
                      length=length, l0=l0, u=u)
+
+
+def _basic(x, ny, nz, l0):
+    """The nodal vectors and basic deformations (Eq. 7) shared by :func:`beam_state` and
+    :func:`beam_deformations`: (u, Yp, Yq, y, length, n1, e_hat, bending projections)."""
+    n = x.shape[0]
+    qp, qq = x[:, QP], x[:, QQ]
+    d = x[:, RQ] - x[:, RP]
+    # nodal vectors n = R(q) v = q^T H(v) q (quadratic in q) and their derivatives 2 H(v) q;
+    # Yp = d[n_y^p, n_z^p]/dq^p (n, 6, 4), and n = (2 H q) . q / 2
+    u = np.stack([ny, nz], axis=1)                                  # (n, 2, 3)
+    Yp = vector_jacobians(qp, u).reshape(n, 6, 4)
+    Yq = vector_jacobians(qq, u).reshape(n, 6, 4)
+    vp = 0.5 * batch_matvec(Yp, qp)                                 # [n_y^p, n_z^p]
+    vq = 0.5 * batch_matvec(Yq, qq)
+    y = np.concatenate([d, vp, vq], axis=1)
+    nyp, nzp, nyq, nzq = vp[:, :3], vp[:, 3:], vq[:, :3], vq[:, 3:]
+    length = np.linalg.norm(d, axis=1)
+    n1 = d / length[:, None]
+    e_hat = np.empty((n, 6))
+    e_hat[:, 0] = length - l0
+    e_hat[:, 1] = 0.5 * l0 * (np.sum(nzp * nyq, 1) - np.sum(nyp * nzq, 1))
+    projections = []
+    for j, s, sl, a in _BENDING:                 # bending modes: e_j = s_j l0 (n1 . a_j)
+        proj = np.sum(n1 * y[:, sl], axis=1)
+        e_hat[:, j] = s * l0 * proj
+        projections.append(proj)
+    return u, Yp, Yq, y, length, n1, e_hat, projections
+
+
+def _modified(e_hat, l0, variant):
+    """Modified deformations (Eq. 48b) and their quadratic-form matrices ``Q e_hat / l0``."""
+    if variant != "modified":
+        raise ValueError(f"unknown deformation variant {variant!r}")
+    n = e_hat.shape[0]
+    qe = (e_hat @ Q_MODIFIED.reshape(36, 6).T).reshape(n, 6, 6) / l0[:, None, None]
+    return e_hat + 0.5 * batch_matvec(qe, e_hat), qe
+
+
+def beam_deformations(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
+                      variant: str = "modified") -> np.ndarray:
+    """The deformations e (n_elem, 6) of :func:`beam_state` alone, without their
+    derivatives (for the iterations of the kinematic correction, a third of the work)."""
+    e_hat = _basic(x, ny, nz, l0)[6]
+    return e_hat if variant == "basic" else _modified(e_hat, l0, variant)[0]
 
 
 # (mode index, sign, slice of the nodal vector in y, name) for e3..e6 of Eq. (7).

@@ -10,6 +10,8 @@ reference(x0_slots, vector) -> (ref, scale)
     (n, n_def) that makes deformations dimensionless (a length for length-like modes, 1 for
     angles); used to weigh residuals and the kinematic correction.
 state(x_local, ref, variant, prev) -> state with ``.e`` (n, n_def) and ``.D`` (n, n_def, n_ldof)
+deformations(x_local, ref, variant, prev) -> e (n, n_def), optional
+    ``state(...).e`` without the derivatives, where that is much cheaper (the BEAM).
 hessian(state, w) -> (n, n_ldof, n_ldof)
 stiffness(props, ref) -> (n, n_def, n_def)
 mass(x_local, ref, mass) -> (n, n_ldof, n_ldof) or None
@@ -53,6 +55,7 @@ class Kind:
     hessian: Callable
     stiffness: Callable
     mass: Callable | None = None
+    deformations: Callable | None = None
     convective: Callable | None = None
     commit: Callable | None = None
     check: Callable | None = None
@@ -127,6 +130,8 @@ BEAM = Kind(
     reference=_beam_reference,
     state=lambda x, ref, variant, prev: in_chunks(beam.beam_state, len(x), x, ref["ny"],
                                                   ref["nz"], ref["l0"], variant),
+    deformations=lambda x, ref, variant, prev: in_chunks(
+        beam.beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant),
     hessian=lambda st, w: in_chunks(beam.beam_weighted_hessian, len(w), st, w),
     stiffness=lambda props, ref: beam.stiffness_matrix(props, ref["l0"]),
     mass=lambda x, ref, m: in_chunks(beam_mass.beam_mass_matrix, len(x), x, ref["nx"],
@@ -250,6 +255,8 @@ PLBEAM = Kind(
     reference=_plbeam_reference,
     state=lambda x, ref, variant, prev: _Selected(BEAM.state(x, ref, variant, prev),
                                                   PLBEAM_MODES),
+    deformations=lambda x, ref, variant, prev: BEAM.deformations(x, ref, variant, prev)[
+        :, PLBEAM_MODES],
     hessian=lambda st, w: BEAM.hessian(st.full, _expand(w, PLBEAM_MODES, 6)),
     stiffness=lambda props, ref: BEAM.stiffness(_plbeam_props(props), ref)[
         :, PLBEAM_MODES[:, None], PLBEAM_MODES],

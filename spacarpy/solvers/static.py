@@ -506,9 +506,20 @@ class StaticProblem:
                 t[g.rigid_elem, g.rigid_mode] = rigid_target[g.rigid_slice]
         inv_scale = [1.0 / g.scale for g in num.groups]
 
-        def mismatch(x):
-            states = [g.kind.state(x[g.idx], g.ref, self.variant, g.prev) for g in num.groups]
-            g_e = [(t - st.e) * w for t, st, w in zip(targets, states, inv_scale)]
+        def full_states(x):
+            return [g.kind.state(x[g.idx], g.ref, self.variant, g.prev) for g in num.groups]
+
+        def mismatch(x, full):
+            # the deformations alone where the Jacobian is not needed (a chord iteration
+            # with the kept square factorization): a third of the kernel's work
+            if full or any(g.kind.deformations is None for g in num.groups):
+                states = full_states(x)
+                e = [st.e for st in states]
+            else:
+                states = None
+                e = [g.kind.deformations(x[g.idx], g.ref, self.variant, g.prev)
+                     for g in num.groups]
+            g_e = [(t - ei) * w for t, ei, w in zip(targets, e, inv_scale)]
             g_q = 1.0 - np.sum(x[eu] ** 2, axis=1)
             worst = max([np.abs(v).max(initial=0.0) for v in g_e]
                         + [np.abs(g_q).max(initial=0.0)])
@@ -525,7 +536,8 @@ class StaticProblem:
         n_factor, reused = 0, False
         for _ in range(max_iter):
             t0 = time.perf_counter()
-            states, g_e, g_q, worst = mismatch(x)
+            states, g_e, g_q, worst = mismatch(
+                x, self._kin_solve is None or self._kin_square is None)
             worst0 = worst if worst0 is None else worst0
             log.debug("kinematic correction: mismatch %.3g (matrix %s)", worst,
                       "kept" if self._kin_solve is not None else "new")
@@ -552,6 +564,8 @@ class StaticProblem:
             wq = 2.0 * x[eu]
             w_e = rhs = None
             if not reused or self._kin_square is None:
+                if states is None:
+                    states = full_states(x)
                 w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
             if self._kin_square is None:              # the normal equations' right side
                 rhs = scatter_add(num.n_coord, eu, wq * g_q[:, None])
