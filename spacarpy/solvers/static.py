@@ -528,8 +528,10 @@ class StaticProblem:
         size = self.increment_norm(dx)
         if rigid_target is None and size * size < self.kin_floor:
             return (x_lin, None) if return_states else x_lin
-        if size > 1e-2:
-            self._kin_solve = None               # a large step: the kept matrix is too stale
+        if size > (1e-2 if self._kin_square is not None else 1e-3):
+            # a large step: the kept matrix is too stale (the square system's chord steps
+            # still contract fast after increments of 1e-2, the normal equations' not)
+            self._kin_solve = None
         x = x_lin
         done = None
         worst0 = prev = back = None
@@ -552,10 +554,7 @@ class StaticProblem:
                 elif n_factor >= 2:
                     # two fresh Gauss-Newton steps and still no fast contraction: targets
                     # that cannot be met exactly (least squares, a saturated deformation);
-                    # stop here, as plain Gauss-Newton with two steps would, at the better
-                    # of the last two configurations
-                    if back[4] < worst:
-                        x, states = back[0], back[1]
+                    # stop here, as plain Gauss-Newton with two steps would
                     done = states
                     break
                 else:
