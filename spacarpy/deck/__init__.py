@@ -18,7 +18,7 @@ from spacarpy.deck.api import ModelBuilder
 from spacarpy.deck.build import build_model
 from spacarpy.deck.check import DeckSummary, check_deck
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED
-from spacarpy.deck.parser import Statement, parse_deck, read_deck_text
+from spacarpy.deck.parser import Statement, gc_paused, parse_deck, read_deck_text
 from spacarpy.deck.visualization import CrossSection, CrossSections, cross_sections
 from spacarpy.deck.writer import model_to_deck
 from spacarpy.model import Model
@@ -58,6 +58,8 @@ def model_from_text(text: str, name: str = "<text>", *, deformations: str | None
                     analysis: str | None = None, overrides: dict | None = None) -> Model:
     """Parse and build deck text held in memory (generated decks, tests); ``name`` stands
     for the file name in error messages. Options as in :func:`load_deck`."""
-    statements = parse_deck(text, name, overrides=overrides)
-    return build_model(statements, text=text, path=name, deformations=deformations,
-                       analysis=analysis)
+    # one pause of the garbage collector for both steps (see gc_paused), ending after the
+    # statements are gone: the collection that follows has only the model to look at
+    with gc_paused():
+        return build_model(parse_deck(text, name, overrides=overrides), text=text, path=name,
+                           deformations=deformations, analysis=analysis)

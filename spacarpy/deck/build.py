@@ -20,7 +20,7 @@ import numpy as np
 
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, UNSUPPORTED_ELEMENTS
-from spacarpy.deck.parser import Statement
+from spacarpy.deck.parser import Statement, gc_paused
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.elements.kinds import PLANAR_KINDS
 from spacarpy.errors import DeckError, SourceLoc
@@ -87,6 +87,24 @@ def _valid_modes() -> str:
     return f"{', '.join(ANALYSES)} or a SPACAR mode number ({numbers}; negative = silent)"
 
 
+def _row_norms(v: np.ndarray) -> np.ndarray:
+    """The length of each row of v (n, 3), computed as np.linalg.norm computes the length of
+    one vector (the square root of a dot product), so that checks made for all elements at
+    once give exactly the results they gave element by element."""
+    return np.sqrt(np.matmul(v[:, None, :], v[:, :, None])[:, 0, 0])
+
+
+def _lookup(ids: np.ndarray, values: np.ndarray):
+    """Where each of ``values`` is in ``ids`` (distinct numbers): ``(index, found)``, arrays of
+    the shape of values; index means nothing where found is False."""
+    if len(ids) == 0:
+        return np.zeros(values.shape, dtype=np.intp), np.zeros(values.shape, dtype=bool)
+    order = np.argsort(ids)
+    k = np.minimum(np.searchsorted(ids, values, sorter=order), len(ids) - 1)
+    index = order[k]
+    return index, ids[index] == values
+
+
 def _element_name(st: Statement, e: int) -> str:
     """'element 7', or 'element 7 (made by the BEAMARC line)' for generated elements."""
     return f"element {e}" + (f" (made by the {st.origin} line)" if st.origin else "")
@@ -129,6 +147,7 @@ class _Element:
         self.roles = KEYWORDS[st.keyword].node_roles
         self.id = st.fields[0]
         self.nodes = list(st.fields[1:1 + len(self.roles)])
+        self.position_nodes = [n for n, r in zip(self.nodes, self.roles) if r == "p"]
         at = info["vector_at"]
         self.vector_given = at is not None and len(st.fields) >= at + 3
         self.orientation = (tuple(st.fields[at:at + 3]) if self.vector_given
@@ -141,16 +160,6 @@ class _Element:
         self.estiff: Statement | None = None
         self.mass = (0.0,) * 5
         self.em: Statement | None = None
-
-    @property
-    def position_nodes(self) -> list:
-        return [n for n, r in zip(self.nodes, self.roles) if r == "p"]
-
-    # BEAM field names used by the BEAM-specific code paths
-    p = property(lambda self: self.nodes[0])
-    r = property(lambda self: self.nodes[1])
-    q = property(lambda self: self.nodes[2])
-    s = property(lambda self: self.nodes[3])
 
 
 class _ModelBuilder:
@@ -249,8 +258,9 @@ class _ModelBuilder:
     def build(self, statements, deformations, analysis, text) -> Model:
         for st in statements:
             key = (st.loc.file, st.loc.line)
-            self.by_line.setdefault(key, st)
-            self.rank.setdefault(key, len(self.rank))
+            if key not in self.rank:
+                self.by_line[key] = st
+                self.rank[key] = len(self.rank)
         statements, gen_errors, self.quiet_elements, self.quiet_nodes = \
             expand_generators(statements)
         self.errors.extend(gen_errors)
@@ -277,9 +287,9 @@ class _ModelBuilder:
             for i, role in enumerate(KEYWORDS[st.keyword].node_roles, start=1):
                 if role == "r":
                     self.orientation_use.setdefault(st.fields[i], st)
-        scale = self.model_size()
-        for st in element_sts:
-            self.beam(st, scale)
+        elements = [_Element(st) for st in element_sts]
+        for b, geometry in zip(elements, self.element_geometry(elements)):
+            self.beam(b, *geometry)
         if self.planar:
             self.check_planar(element_sts)
         for st in sorted(by_kw.get("DYNE", []) + by_kw.get("RLSE", []),
@@ -435,9 +445,40 @@ class _ModelBuilder:
             size = max(float(np.ptp(x, axis=0).max()), float(np.abs(x).max()))
         return size if 0 < size < np.inf else 1.0
 
-    def beam(self, st: Statement, scale: float) -> None:
-        """An element record of any supported kind (the name is historical)."""
-        b = _Element(st)
+    def element_geometry(self, elements: list[_Element]):
+        """Geometry checks of all elements at once: for each, whether it has zero length and
+        whether its orientation vector (hinge axis) is (nearly) zero or parallel to the element
+        axis (SPACAR's getLocalframe rule). Meaningless for an element with an undefined
+        position node: :meth:`beam` reports that and looks no further.
+
+        Returns
+        -------
+        iterator of (zero_length, zero_vector, parallel), one per element
+        """
+        n = len(elements)
+        ids = np.fromiter(self.positions, dtype=np.int64, count=len(self.positions))
+        x = np.array([xyz for xyz, _ in self.positions.values()], dtype=float).reshape(-1, 3)
+        # rows of x of each element's two position nodes (HINGEs have none)
+        two = np.array([len(b.position_nodes) == 2 for b in elements], dtype=bool)
+        ends = np.array([b.position_nodes if len(b.position_nodes) == 2 else (0, 0)
+                         for b in elements], dtype=np.int64).reshape(n, 2)
+        rows, found = _lookup(ids, ends)
+        has_axis = two & found.all(axis=1)
+        d = x[rows[:, 1]] - x[rows[:, 0]] if len(ids) else np.zeros((n, 3))
+        length = _row_norms(d)
+        zero_length = has_axis & (length <= ZERO_LENGTH_RTOL * self.model_size())
+        axis = np.divide(d, length[:, None], out=np.full_like(d, np.nan),
+                         where=(has_axis & ~zero_length)[:, None])
+        vector = np.array([b.orientation for b in elements], dtype=float).reshape(n, 3)
+        vector_norm = _row_norms(vector)                   # NaN where no vector is given
+        zero_vector = vector_norm < ORIENTATION_TOL
+        parallel = _row_norms(np.cross(axis, vector)) < ORIENTATION_TOL * vector_norm
+        return zip(zero_length.tolist(), zero_vector.tolist(), parallel.tolist())
+
+    def beam(self, b: _Element, zero_length: bool, zero_vector: bool, parallel: bool) -> None:
+        """An element record of any supported kind (the name is historical); the geometry
+        flags come from :meth:`element_geometry`."""
+        st = b.st
         ok = True
         if b.id in self.beams:
             first = self.beams[b.id].st
@@ -475,30 +516,21 @@ class _ModelBuilder:
         if not ok:
             return
         at = b.info["vector_at"]
-        axis = None
-        if len(b.position_nodes) == 2:
-            xp = np.array(self.positions[b.position_nodes[0]][0])
-            xq = np.array(self.positions[b.position_nodes[1]][0])
-            axis = xq - xp
-            length = float(np.linalg.norm(axis))
-            if length <= ZERO_LENGTH_RTOL * scale:
-                self.error(st.loc, f"{name} has zero length: nodes {b.position_nodes[0]} and "
-                                   f"{b.position_nodes[1]} are at the same position", st)
-                return
-            axis = axis / length
+        if zero_length:
+            self.error(st.loc, f"{name} has zero length: nodes {b.position_nodes[0]} and "
+                               f"{b.position_nodes[1]} are at the same position", st)
+            return
         if b.keyword == "HINGE" and not b.vector_given:
             self.error(st.loc, f"{name}: a HINGE needs its axis: HINGE {b.id} {b.nodes[0]} "
                                f"{b.nodes[1]} ax ay az", st)
             return
-        if b.vector_given:
-            o = np.array(b.orientation, dtype=float)
-            norm = float(np.linalg.norm(o))
-            shown = "(" + ", ".join(f"{v:g}" for v in o) + ")"
+        if b.vector_given and (zero_vector or parallel):
+            shown = "(" + ", ".join(f"{v:g}" for v in b.orientation) + ")"
             what = "hinge axis" if b.keyword == "HINGE" else "orientation vector"
-            if norm < ORIENTATION_TOL:
+            if zero_vector:
                 self.error(st.field_locs[at], f"{name}: the {what} {shown} is (nearly) zero",
                            st)
-            elif axis is not None and np.linalg.norm(np.cross(axis, o)) < ORIENTATION_TOL * norm:
+            else:
                 self.error(st.field_locs[at],
                            f"{name}: the orientation vector {shown} is parallel to the element "
                            f"axis (node {b.position_nodes[0]} to node {b.position_nodes[1]}); "
@@ -1085,11 +1117,14 @@ class _ModelBuilder:
                                      "which is not defined")
 
     def model(self, text: str) -> Model:
-        beams = [b for b in self.beams.values() if b.keyword == "BEAM"]
+        by_kind: dict[str, list[_Element]] = {}
+        for b in self.beams.values():
+            by_kind.setdefault(b.keyword, []).append(b)
+        beams = by_kind.get("BEAM", [])
         n = len(beams)
         sets = {}
         for kw in ELEMENT_KEYWORDS[1:]:
-            els = [b for b in self.beams.values() if b.keyword == kw]
+            els = by_kind.get(kw)
             if els:
                 sets[kw] = ElementSet(
                     kind=kw, ids=[b.id for b in els], nodes=[b.nodes for b in els],
@@ -1099,7 +1134,7 @@ class _ModelBuilder:
                     mass=[b.mass for b in els], locs=[b.st.loc for b in els])
         beam_set = BeamSet(
             ids=[b.id for b in beams],
-            nodes=[[b.p, b.r, b.q, b.s] for b in beams] if n else np.zeros((0, 4), int),
+            nodes=[b.nodes for b in beams] if n else np.zeros((0, 4), int),
             orientation=[b.orientation for b in beams] if n else np.zeros((0, 3)),
             def_class=[b.def_class for b in beams] if n else np.zeros((0, 6), np.int8),
             stiffness=[b.stiffness for b in beams] if n else np.zeros((0, 6)),
@@ -1183,7 +1218,8 @@ def build_model(statements, *, text: str, path: str, deformations: str | None = 
         statements = parse_deck(text, path, overrides=overrides)
     from spacarpy.deck.visualization import cross_sections
     statements = list(statements)
-    model = _ModelBuilder(path).build(statements, deformations, analysis, text)
+    with gc_paused():
+        model = _ModelBuilder(path).build(statements, deformations, analysis, text)
     sections = cross_sections(statements)
     model.cross_sections = sections if len(sections) else None
     return model

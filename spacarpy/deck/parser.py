@@ -1,22 +1,27 @@
 """Deck text -> checked :class:`Statement` records (syntax only, no model semantics).
 
-Lark (``grammar.lark``) splits the text into keyword records; the grammar accepts any line, so
-that every problem is found and reported at once. This module then checks every record against
-the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count, field types),
-converts the fields to ints/floats/strings, and tracks the module structure (END / HALT /
-END END / VISUALIZATION). It also implements the spacarpy extensions that act on the text:
-``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.deck.expressions`), ``1:48`` ranges
-and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with file,
-line and column; Lark's own exceptions never escape.
+Lark (``grammar.lark``) splits each line into a keyword record; the grammar accepts any line, so
+that every problem is found and reported at once (a line of a keyword and plain numbers takes a
+fast path that gives the same statements: see ``_PLAIN_LINE``). This module then checks every
+record against the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count,
+field types), converts the fields to ints/floats/strings, and tracks the module structure (END /
+HALT / END END / VISUALIZATION). It also implements the spacarpy extensions that act on the
+text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.deck.expressions`), ``1:48``
+ranges and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with
+file, line and column; Lark's own exceptions never escape.
 """
 from __future__ import annotations
 
+import contextlib
 import difflib
+import functools
+import gc
 import logging
 import math
 import os
 import re
 from dataclasses import dataclass
+from itertools import accumulate
 from pathlib import Path
 from typing import Mapping
 
@@ -32,10 +37,27 @@ __all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"
 
 logger = logging.getLogger(__name__)
 
-# The grammar accepts every sequence of tokens, so lexing is all the parsing a deck needs:
-# the records are the token runs between line ends (_NL). Lexing alone is twice as fast as
-# building the parse tree, which matters for decks of 10^4 elements.
+# The grammar accepts every sequence of tokens, so lexing is all the parsing a deck needs: a
+# record is the tokens of one line (no token spans a line end). Lexing alone is twice as fast as
+# building the parse tree.
 _LARK = Lark.open("grammar.lark", rel_to=__file__, parser="lalr", lexer="basic")
+
+# Lark lexes a few ten thousand tokens a second: most of the time of reading a deck of 10^5
+# elements, nearly all of whose lines are a keyword and plain numbers ("BEAM 7 13 14 15 16 0 1 0").
+# Such a line takes a fast path: one regular expression made of the grammar's own WORD and NUMBER
+# terminals recognises it and splits it into the tokens Lark would give, at the same columns, and
+# _Reader.plain_record converts the numbers directly. Every other line (words, strings,
+# {expressions}, ranges, unreadable fields, ...) and every plain line that is not simply correct
+# is lexed by Lark and checked by the general code, which reports all errors.
+_TERMINALS = {t.name: t.pattern.to_regexp() for t in _LARK.terminals}
+_PLAIN_LINE = re.compile(r"{ws}*(?P<data>{word}(?:{ws}+{number})*){ws}*(?:{comment})?".format(
+    ws=r"[^\S\n]", word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"],
+    comment=_TERMINALS["COMMENT"]))
+_PLAIN_FIELD = re.compile(r"[^\s#%]+")
+_BLANK_LINE = re.compile(r"{ws}*(?:{comment})?".format(ws=r"[^\S\n]",
+                                                       comment=_TERMINALS["COMMENT"]))
+#: Keywords whose records always take the general path (module structure, parameters, files).
+_GENERAL_KEYWORDS = frozenset({"END", "HALT", "INCLUDE", "SET", "VISUALIZATION"})
 
 #: Largest magnitude accepted for a whole-number field (node/element numbers, counts).
 _INT_LIMIT = 2**31 - 1
@@ -151,12 +173,30 @@ def parse_deck(text: str, filename: str = "<deck>", *,
     """
     reader = _Reader(overrides)
     path = None if filename.startswith("<") else Path(filename)
-    reader.read(text, filename, path)
-    reader.finish()
+    with gc_paused():
+        reader.read(text, filename, path)
+        reader.finish()
     if reader.errors:
         reader.errors.sort(key=lambda it: it[0])
         raise DeckError([it[1:] for it in reader.errors])
     return reader.out
+
+
+@contextlib.contextmanager
+def gc_paused():
+    """Pause Python's cyclic garbage collector for the block (reading and building a model).
+
+    A deck of 10^5 elements makes millions of small objects (statements, locations, tuples),
+    none of them in a reference cycle; the collector's passes over them, again and again as
+    they accumulate, took more time than the reading itself.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 # --------------------------------------------------------------------------- lexical level
@@ -167,7 +207,8 @@ class _Source:
 
     name: str                 # as shown in messages
     path: Path | None         # where it is (None for text without a file)
-    lines: list[str]
+    raw: list[str]            # the lines as read
+    lines: list[str]          # the lines as shown (without a carriage return at the end)
 
     def line(self, n: int) -> str | None:
         return self.lines[n - 1] if 1 <= n <= len(self.lines) else None
@@ -180,27 +221,36 @@ class _Record:
     source: _Source
 
 
-def _records(text: str, source: _Source):
-    """Split text into records; a lexer failure (not expected) becomes one error item."""
-    records: list[_Record] = []
-    current: list[Token] = []
-    try:
-        for tok in _LARK.lex(text):
-            if tok.type == "_NL":
-                if current:
-                    records.append(_Record(current[0], tuple(current[1:]), source))
-                    current = []
-            else:
-                current.append(tok)
-    except UnexpectedInput as exc:      # pragma: no cover - every character is some token
-        line = exc.line if isinstance(getattr(exc, "line", None), int) and exc.line > 0 else 1
-        col = exc.column if isinstance(getattr(exc, "column", None), int) and exc.column > 0 \
-            else 1
-        return records, (SourceLoc(source.name, line, col), "cannot read this line",
-                         source.line(line))
-    if current:
-        records.append(_Record(current[0], tuple(current[1:]), source))
-    return records, None
+def _lex_line(source: _Source, number: int) -> _Record | None:
+    """Lex line ``number`` with Lark: its record, or None for a blank or comment line.
+
+    Raises
+    ------
+    UnexpectedInput
+        Not expected: every character is some token.
+    """
+    tokens = list(_LARK.lex(source.raw[number - 1]))
+    if not tokens:
+        return None
+    for tok in tokens:
+        tok.line = tok.end_line = number
+    return _Record(tokens[0], tuple(tokens[1:]), source)
+
+
+def _plain_fields(line: str):
+    """The fast path's lexer (see _PLAIN_LINE): ``(texts, columns)`` of the tokens of a line
+    that is a keyword followed by plain numbers, the tokens and columns Lark would give; None
+    for any other line."""
+    plain = _PLAIN_LINE.fullmatch(line)
+    if plain is None:
+        return None
+    start, end = plain.span("data")
+    texts = plain["data"].split()
+    # nearly always the fields are one blank apart: then the columns follow from the lengths
+    columns = list(accumulate([len(text) + 1 for text in texts[:-1]], initial=start + 1))
+    if columns[-1] + len(texts[-1]) - 1 != end:
+        columns = [tok.start() + 1 for tok in _PLAIN_FIELD.finditer(line, start, end)]
+    return texts, columns
 
 
 def _bad_token_message(tok: Token) -> str:
@@ -251,6 +301,10 @@ def _number(text: str) -> float:
         return float(text.replace("d", "e").replace("D", "e"))
 
 
+def _expected(keyword: str, spec: FieldSpec, tok: Token) -> str:
+    return f"{keyword}: expected the {spec.name} ({KIND_DESCRIPTIONS[spec.kind]}), found '{tok}'"
+
+
 def _count_phrase(spec: KeywordSpec) -> str:
     counts = spec.counts
     if spec.variadic is not None:
@@ -281,6 +335,22 @@ def _field_specs(spec: KeywordSpec, n: int):
     return fields + [spec.variadic] * (n - len(fields))
 
 
+@functools.lru_cache(maxsize=1024)
+def _plain_kinds(keyword: str, data_module: bool, n: int):
+    """For the fast path: ``(kind, positive)`` of each of the n fields of a record of
+    ``keyword``, or None if such a record takes the general path (module structure, an unknown
+    keyword, a wrong field count, a field that is not a number)."""
+    spec = KEYWORDS.get(keyword)
+    if spec is None or keyword in _GENERAL_KEYWORDS:
+        return None
+    if spec.data_form is not None and data_module:
+        spec = spec.data_form
+    specs = _field_specs(spec, n)
+    if specs is None or any(f.kind not in ("int", "float") for f in specs):
+        return None
+    return tuple((f.kind, f.positive) for f in specs)
+
+
 class _Reader:
     """Reads files record by record: module structure, parameters, includes, all errors."""
 
@@ -301,7 +371,7 @@ class _Reader:
         self.module_start: SourceLoc | None = None
         self.structure_error = False    # a missing END was reported already
         self.unknown_uses: list = []    # (error index, name) of unknown parameters
-        self.last: _Record | None = None
+        self.last: tuple[_Source, int] | None = None   # where the last record is (file, line)
         self.stack: list[Path] = []     # files being read (include cycle detection)
 
     # ---------------------------------------------------------------- errors
@@ -316,22 +386,36 @@ class _Reader:
 
     # ---------------------------------------------------------------- files
     def read(self, text: str, name: str, path: Path | None) -> None:
-        source = _Source(name, path, [ln.rstrip("\r") for ln in text.split("\n")])
-        records, failure = _records(text, source)
+        raw = text.split("\n")
+        source = _Source(name, path, raw, [ln.rstrip("\r") for ln in raw])
         if path is not None:
             self.stack.append(path.resolve())
         try:
-            for rec in records:
+            for number in range(1, len(raw) + 1):
                 if self.stopped:
                     break
+                plain = _plain_fields(raw[number - 1])
+                if plain is None and _BLANK_LINE.fullmatch(raw[number - 1]):
+                    continue
                 self.order += 1
+                if plain is not None and self.plain_record(source, number, *plain):
+                    continue
+                try:
+                    rec = _lex_line(source, number)
+                except UnexpectedInput as exc:  # pragma: no cover - every character is some token
+                    col = getattr(exc, "column", None)
+                    col = col if isinstance(col, int) and col > 0 else 1
+                    self.errors.append(((1, self.order, 0), SourceLoc(name, number, col),
+                                        "cannot read this line", source.line(number)))
+                    break
                 self.record(rec)
-            if failure is not None:      # pragma: no cover
-                self.order += 1
-                self.errors.append(((1, self.order, 0),) + failure)
         finally:
             if path is not None:
                 self.stack.pop()
+
+    def last_record(self) -> _Record | None:
+        """The last record read (lexed again: the fast path keeps no tokens)."""
+        return _lex_line(*self.last) if self.last is not None else None
 
     def include(self, rec: _Record, st_fields: tuple) -> None:
         name = st_fields[0]
@@ -365,7 +449,7 @@ class _Reader:
         """Checks at the end of the deck: a missing END, unused --set overrides."""
         if self.any_end and not (self.prev_end or self.closed) and self.last is not None \
                 and not self.visual and not self.structure_error:
-            rec = self.last
+            rec = self.last_record()
             end = (rec.fields or (rec.head,))[-1]
             loc = SourceLoc(rec.source.name, end.line, end.end_column)
             start = (f" (the last module starts at line {self.module_start.line})"
@@ -405,9 +489,9 @@ class _Reader:
                     self.include(rec, converted[0][0])
                 elif self.set_parameter(rec, converted[0]):
                     name, value = converted[0][0][0], self.params[converted[0][0][0]]
-                    self.emit(rec, keyword, (name, value), converted[0][1],
+                    self.emit(rec, keyword, [((name, value), converted[0][1])],
                               -1 if self.visual else self.module)
-            self.last = rec
+            self.last = (rec.source, rec.head.line)
             return
         if self.visual or keyword == "VISUALIZATION":
             self.visualization(rec, keyword)
@@ -419,7 +503,7 @@ class _Reader:
         if spec is None:
             self.unknown_keyword(rec, keyword)
             self.prev_end = False
-            self.last = rec
+            self.last = (rec.source, rec.head.line)
             return
         if spec.data_form is not None and self.module >= 1:
             spec = spec.data_form
@@ -445,15 +529,48 @@ class _Reader:
                     self.module_start = self.loc(rec, head)
             this_module = self.module
             self.prev_end = False
-        self.last = rec
-        for fields, locs in converted or ():
-            self.emit(rec, keyword, fields, locs, this_module)
+        self.last = (rec.source, rec.head.line)
+        if converted is not None:
+            self.emit(rec, keyword, converted, this_module)
 
-    def emit(self, rec: _Record, keyword: str, fields: tuple, locs: tuple, module: int) -> None:
-        self.out.append(Statement(keyword=keyword, fields=fields, loc=self.loc(rec, rec.head),
-                                  field_locs=locs,
-                                  source_line=rec.source.line(rec.head.line) or "",
-                                  module=module))
+    def plain_record(self, source: _Source, number: int, texts: list, columns: list) -> bool:
+        """The fast path of :meth:`record` for a line of a keyword and plain numbers (see
+        _PLAIN_LINE): True if it was a simply correct record and its statement is out; False if
+        it needs the general path (which reports what is wrong with it)."""
+        if self.visual or self.closed:
+            return False
+        keyword = texts[0].upper()
+        kinds = _plain_kinds(keyword, self.module >= 1, len(texts) - 1)
+        if kinds is None:
+            return False
+        values = []
+        for text, (kind, positive) in zip(texts[1:], kinds):
+            value = _number(text)           # as convert() does
+            if kind == "float":
+                if not math.isfinite(value):
+                    return False
+            elif value.is_integer() and abs(value) <= _INT_LIMIT and (value >= 1 or not positive):
+                value = int(value)
+            else:
+                return False
+            values.append(value)
+        name = source.name
+        self.out.append(Statement(
+            keyword=keyword, fields=tuple(values), loc=SourceLoc(name, number, columns[0]),
+            field_locs=tuple(SourceLoc(name, number, column) for column in columns[1:]),
+            source_line=source.lines[number - 1], module=self.module))
+        self.prev_end = False
+        self.last = (source, number)
+        return True
+
+    def emit(self, rec: _Record, keyword: str, converted: list, module: int) -> None:
+        """Output the statements of a record: ``converted`` is a list of
+        ``(fields, field_locs)``, one per statement (see check_fields)."""
+        loc = self.loc(rec, rec.head)
+        source_line = rec.source.line(rec.head.line) or ""
+        for fields, locs in converted:
+            self.out.append(Statement(keyword=keyword, fields=fields, loc=loc, field_locs=locs,
+                                      source_line=source_line, module=module))
 
     def visualization(self, rec: _Record, keyword: str) -> None:
         if not self.visual:
@@ -482,11 +599,12 @@ class _Reader:
                     fields.append(self.as_written(tok))
                 except _FieldError:
                     fields.append(str(tok))
-            self.emit(rec, keyword, tuple(fields),
-                      tuple(self.loc(rec, t) for t in rec.fields), -1)
+            self.emit(rec, keyword, [(tuple(fields), tuple(self.loc(rec, t) for t in rec.fields))],
+                      -1)
             return
-        for fields, locs in self.check_fields(rec, keyword, spec) or ():
-            self.emit(rec, keyword, fields, locs, -1)
+        converted = self.check_fields(rec, keyword, spec)
+        if converted is not None:
+            self.emit(rec, keyword, converted, -1)
 
     def after_final_end(self, rec: _Record) -> None:
         self.error(self.loc(rec, rec.head),
@@ -503,7 +621,7 @@ class _Reader:
         what = {"NUMBER": "the number", "EXPR": "the expression", "RANGE": "the range",
                 "STRING": "the string"}.get(head.type, "")
         msg = f"expected a keyword at the start of the line, found {what} '{head}'"
-        prev = self.last
+        prev = self.last_record()
         n_here = 1 + len(rec.fields)
         if prev is not None and prev.source is rec.source and prev.head.type == "WORD":
             spec = KEYWORDS.get(str(prev.head).upper())
@@ -624,9 +742,11 @@ class _Reader:
                 ok = False
         if not ok:
             return None
+        locs = tuple(locs)
         if first_range is None:
-            return [(tuple(values), tuple(locs))]
-        return [((k,) + tuple(values[1:]), tuple(locs)) for k in first_range]
+            return [(tuple(values), locs)]
+        rest = tuple(values[1:])
+        return [((k,) + rest, locs) for k in first_range]
 
     def expression(self, tok: Token, index: int, text: str | None = None,
                    offset: int = 0) -> float:
@@ -658,11 +778,9 @@ class _Reader:
 
     def convert(self, tok: Token, spec: FieldSpec, keyword: str, index: int):
         """Convert one token to the value its field spec asks for, or raise _FieldError."""
-        what = (f"{keyword}: expected the {spec.name} ({KIND_DESCRIPTIONS[spec.kind]}), "
-                f"found '{tok}'")
         if spec.kind == "word":
             if tok.type not in ("WORD", "STRING"):
-                raise _FieldError(index, what)
+                raise _FieldError(index, _expected(keyword, spec, tok))
             return self.as_written(tok, index)
         if spec.kind == "value":
             value = self.as_written(tok, index)
@@ -676,7 +794,7 @@ class _Reader:
         elif tok.type == "EXPR":
             value = self.expression(tok, index)
         else:
-            raise _FieldError(index, what)
+            raise _FieldError(index, _expected(keyword, spec, tok))
         if spec.kind == "float":
             return value
         return self.whole(value, tok, spec, keyword, index)
@@ -689,8 +807,7 @@ class _Reader:
             if tok.type == "EXPR":
                 raise _FieldError(index, f"{keyword}: the {spec.name} must be a whole number, "
                                          f"but {tok} = {value:.10g}")
-            raise _FieldError(index, f"{keyword}: expected the {spec.name} "
-                                     f"({KIND_DESCRIPTIONS[spec.kind]}), found '{tok}'")
+            raise _FieldError(index, _expected(keyword, spec, tok))
         if abs(ivalue) > _INT_LIMIT:
             raise _FieldError(index, f"{keyword}: the {spec.name} '{tok}' is out of range")
         if spec.positive and ivalue < 1:
