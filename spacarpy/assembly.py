@@ -9,7 +9,7 @@ over the unknown coordinates and the constraint multipliers. Every contribution 
 of small dense blocks whose global positions never change, so :class:`BorderedPattern`
 computes the CSC structure and a scatter map once; afterwards each assembly is a single
 ``np.bincount`` into the data array (duplicates summed), with no COO->CSC conversion.
-Entries that fall on fixed coordinates are dropped by a precomputed mask.
+Entries that fall on fixed coordinates go to a spare slot cut off after the sum.
 """
 from __future__ import annotations
 
@@ -37,32 +37,18 @@ class BorderedPattern:
         self.n = n_x + num.n_constraint
         eu = u[num.rot_idx[num.euler_nodes]]                   # (n_eu, 4)
         mu_ = u[num.rot_idx[moment_rot]]                       # (n_m, 4)
-        erow = n_x + num.n_rigid + np.arange(num.euler_nodes.size)
-        rows, cols = [], []
-        for g in num.groups:                                   # element blocks
-            gu = u[g.idx]
-            k = gu.shape[1]
-            rows.append(np.repeat(gu, k, axis=1).ravel())
-            cols.append(np.tile(gu, (1, k)).ravel())
-        rows += [eu.ravel(), np.repeat(mu_, 4, axis=1).ravel()]
-        cols += [eu.ravel(), np.tile(mu_, (1, 4)).ravel()]
+        erow = (n_x + num.n_rigid + np.arange(num.euler_nodes.size))[:, None]
+        # (rows, columns) of every batch of blocks, in the order assemble() lists the values
+        blocks = [(gu, gu) for gu in (u[g.idx] for g in num.groups)]   # element blocks
+        blocks += [(eu.reshape(-1, 1), eu.reshape(-1, 1)),     # Euler diagonal
+                   (mu_, mu_)]                                 # moment-load blocks
         for g in num.groups:                                   # C_rigid and its transpose
             ru = u[g.idx][g.rigid_elem]                        # (n_rigid_g, n_ldof)
-            rrow = n_x + g.rigid_offset + np.arange(g.rigid_elem.size)
-            rows += [np.repeat(rrow, ru.shape[1]), ru.ravel()]
-            cols += [ru.ravel(), np.repeat(rrow, ru.shape[1])]
-        rows += [np.repeat(erow, 4), eu.ravel()]                # C_euler and its transpose
-        cols += [eu.ravel(), np.repeat(erow, 4)]
-        rows = np.concatenate(rows).astype(np.int64)
-        cols = np.concatenate(cols).astype(np.int64)
-        valid = (rows >= 0) & (cols >= 0)
-        key = cols[valid] * self.n + rows[valid]                # column-major order = CSC
-        uniq, inverse = np.unique(key, return_inverse=True)
-        self.indices = (uniq % self.n).astype(np.int32)
-        counts = np.bincount(uniq // self.n, minlength=self.n)
-        self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
-        self.nnz = uniq.size
-        self.scatter = _scatter_map(valid, inverse, self.nnz)
+            rrow = (n_x + g.rigid_offset + np.arange(g.rigid_elem.size))[:, None]
+            blocks += [(rrow, ru), (ru, rrow)]
+        blocks += [(erow, eu), (eu, erow)]                     # C_euler and its transpose
+        self.indices, self.indptr, self.scatter = _csc_pattern(self.n, blocks)
+        self.nnz = self.indices.size
 
     def assemble(self, k_elem, euler_diag, moment_blocks, c_rigid, c_euler,
                  scale: float = 1.0) -> sp.csc_matrix:
@@ -90,13 +76,97 @@ class BorderedPattern:
         return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-def _scatter_map(valid: np.ndarray, inverse: np.ndarray, nnz: int) -> np.ndarray:
-    """Target of every local entry in the CSC data array; dropped entries (fixed
-    coordinates, the lower triangle of a symmetric pattern) go to a spare slot ``nnz`` that
-    is cut off after the sum (cheaper than masking the values at every assembly)."""
-    out = np.full(valid.size, nnz, dtype=np.intp)
-    out[valid] = inverse.ravel()
-    return out
+def _csc_pattern(n: int, blocks, upper: bool = False):
+    """CSC structure of an ``n x n`` matrix that is a sum of dense blocks, and the scatter map.
+
+    ``blocks`` is a list of batches ``(rows, cols)``, int arrays (n_b, p) and (n_b, q): block
+    ``e`` of a batch adds its (p, q) values at rows ``rows[e]`` and columns ``cols[e]``; -1
+    drops a row/column (a fixed coordinate). The values of all blocks, each batch raveled in C
+    order (n_b, p, q) and the batches concatenated, are the entries the scatter map places.
+    With ``upper`` only the upper triangle (row <= column) is kept.
+
+    Returns ``indices`` and ``indptr`` (int32; rows sorted within each column) and
+    ``scatter``: the position of every entry in the CSC data array, ``nnz`` for a dropped
+    one (a spare slot cut off after the sum, cheaper than masking the values at every
+    assembly).
+
+    ``np.unique`` of one int64 key per entry (with ``return_inverse``) would sort all the
+    entries, ~2e7 for 1e5 beam elements: seconds, and several arrays of that length.
+    Instead:
+
+    * the pattern: with the boolean incidence matrices ``R`` and ``C`` (one row per block,
+      marking its rows resp. its columns), ``(C^T R)[c, r]`` is nonzero exactly when some
+      block covers (row r, column c). So scipy's sparse product ``C^T R`` (compiled, with a
+      dense accumulator, work ~ the number of entries; boolean, so nothing cancels) is the
+      pattern stored by columns: its CSR arrays are the CSC arrays we want.
+    * the scatter map: rows ``r`` and ``r + 1`` of one block are neighbours in every column
+      the block covers (no index lies between them), so their positions differ by one. Only
+      the first row of each run of consecutive row indices (a node, often the whole block)
+      is looked up, in all the block's columns; the other rows add their offset in the run.
+      The lookup samples the pattern, holding each entry's position as its value, with
+      fancy indexing (compiled; a search in one short column). Positions are stored minus
+      ``nnz``, so an entry outside the pattern (a dropped row/column, sent to the extra
+      empty row/column ``n``) reads 0 and lands on the spare slot ``nnz``, also after
+      adding an offset (the sum is clipped at ``nnz``). With ``upper`` the entries below
+      the diagonal are sent there explicitly (a run may cross the diagonal).
+    """
+    blocks = [(np.asarray(r), np.asarray(c)) for r, c in blocks]
+    pattern = (_incidence([c for _, c in blocks], n).T.tocsr()
+               @ _incidence([r for r, _ in blocks], n))
+    pattern.sort_indices()
+    indptr, indices = pattern.indptr, pattern.indices.astype(np.int32, copy=False)
+    del pattern
+    if upper:
+        keep = indices <= np.repeat(np.arange(n, dtype=indices.dtype), np.diff(indptr))
+        indices = indices[keep]
+        indptr = np.concatenate([[0], np.cumsum(keep, dtype=indptr.dtype)])[indptr]
+        del keep
+    nnz = indices.size
+    indptr = indptr.astype(np.int32)
+    pos_type = np.int32 if nnz < np.iinfo(np.int32).max else np.int64
+    lookup = sp.csr_array((np.arange(-nnz, 0, dtype=pos_type), indices,
+                           np.append(indptr, indptr[-1])), shape=(n + 1, n + 1))
+    index_type = lookup.indices.dtype          # spares scipy a conversion of the queries
+    scatter = np.empty(sum(r.shape[0] * r.shape[1] * c.shape[1] for r, c in blocks),
+                       dtype=np.intp)
+    start = 0
+    for r, c in blocks:
+        (n_b, p), q = r.shape, c.shape[1]
+        stop = start + n_b * p * q
+        if stop == start:
+            continue
+        r = np.where(r < 0, n, r).astype(index_type)
+        c = np.where(c < 0, n, c).astype(index_type)
+        # runs of consecutive row indices within each block (a dropped row is its own run)
+        follows = np.zeros((n_b, p), dtype=bool)
+        follows[:, 1:] = (r[:, 1:] == r[:, :-1] + 1) & (r[:, 1:] < n)
+        flat = np.arange(n_b * p)
+        offset = flat - np.maximum.accumulate(np.where(follows.ravel(), 0, flat))
+        run = np.cumsum(~follows.ravel()) - 1          # the run of each row, in row order
+        e0, a0 = np.nonzero(~follows)                  # the first row of each run
+        first = lookup[c[e0].ravel(), np.repeat(r[e0, a0], q)]
+        first = np.asarray(first).reshape(-1, q).astype(np.intp) + nnz
+        out = scatter[start:stop].reshape(n_b, p, q)
+        np.take(first, run.reshape(n_b, p), axis=0, out=out, mode="clip")   # unbuffered
+        out += offset.reshape(n_b, p, 1)
+        np.minimum(out, nnz, out=out)
+        if upper:
+            np.copyto(out, nnz, where=r[:, :, None] > c[:, None, :])
+        start = stop
+    return indices, indptr, scatter
+
+
+def _incidence(index_blocks, n: int) -> sp.csr_array:
+    """Boolean (n_blocks, n) CSR matrix whose row ``e`` marks the valid (>= 0) indices of
+    block ``e``, over all batches ``index_blocks`` ((n_b, k) arrays) in turn."""
+    keep = [ix >= 0 for ix in index_blocks]
+    indices = np.concatenate([ix[k] for ix, k in zip(index_blocks, keep)])
+    indptr = np.concatenate([[0], np.cumsum(np.concatenate([k.sum(axis=1) for k in keep]))])
+    # 32-bit indices where they fit: scipy keeps the index type of a sparse array, and the
+    # product's index arrays (as long as the pattern) would otherwise be 64-bit
+    index_type = np.int32 if max(n, indices.size) < np.iinfo(np.int32).max else np.int64
+    return sp.csr_array((np.ones(indices.size, dtype=bool), indices.astype(index_type),
+                         indptr.astype(index_type)), shape=(indptr.size - 1, n))
 
 
 def scatter_add(n: int, idx: np.ndarray, vals: np.ndarray) -> np.ndarray:
@@ -122,19 +192,9 @@ class BlockPattern:
 
     def __init__(self, n: int, index_blocks, upper: bool = False):
         self.n = n
-        rows = [np.repeat(ix, ix.shape[1], axis=1).ravel() for ix in index_blocks]
-        cols = [np.tile(ix, (1, ix.shape[1])).ravel() for ix in index_blocks]
-        rows, cols = np.concatenate(rows), np.concatenate(cols)
-        valid = (rows >= 0) & (cols >= 0)
-        if upper:
-            valid &= rows <= cols
-        key = cols[valid] * n + rows[valid]
-        uniq, inverse = np.unique(key, return_inverse=True)
-        self.indices = (uniq % n).astype(np.int32)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(uniq // n, minlength=n))]
-                                     ).astype(np.int32)
-        self.nnz = uniq.size
-        self.scatter = _scatter_map(valid, inverse, self.nnz)
+        self.indices, self.indptr, self.scatter = _csc_pattern(
+            n, [(ix, ix) for ix in index_blocks], upper=upper)
+        self.nnz = self.indices.size
         self.diag = np.flatnonzero(self.indices == np.repeat(np.arange(n), np.diff(self.indptr)))
 
     def assemble(self, blocks, diag_shift: float = 0.0) -> sp.csc_matrix:

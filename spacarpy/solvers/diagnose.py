@@ -85,7 +85,7 @@ def _report(prob, right, left) -> ModelError:
     return err
 
 
-def mechanism_error(prob, A, states, k: int = 8) -> ModelError | None:
+def mechanism_error(prob, A, states, k: int = 8, lu=None) -> ModelError | None:
     """Detect free motions that SuperLU factorized without complaint (tiny pivots).
 
     The smallest singular directions of ``A`` (block inverse iteration with its LU) are
@@ -93,15 +93,22 @@ def mechanism_error(prob, A, states, k: int = 8) -> ModelError | None:
     stiffness or is rigid (``D v`` ~ 0 relative to its size) and keeps every Euler
     normalization. Those exist only in a mechanism; soft but genuine elastic modes deform
     elements and are not reported. Returns the error to raise, or None.
+
+    ``lu`` is a factorization of ``A`` the caller already has (the solve of the Newton
+    system that preceded this check), used instead of factorizing ``A`` again: the LU is
+    the largest cost here. It must be ``splu(A, permc_spec="COLAMD")`` with the other
+    options at their defaults, the factorization made here otherwise (``COLAMD`` is
+    scipy's default), so that the result does not depend on who factorized.
     """
     num = prob.num
     n_x = prob.pattern.n_x
     if n_x == 0:
         return None
-    try:
-        lu = spla.splu(A.tocsc())
-    except RuntimeError:
-        return None
+    if lu is None:
+        try:
+            lu = spla.splu(A.tocsc(), permc_spec="COLAMD")
+        except RuntimeError:
+            return None
     rng = np.random.default_rng(1)
     v = rng.standard_normal((A.shape[0], min(k, A.shape[0])))
     for _ in range(3):
