@@ -661,7 +661,8 @@ class StaticProblem:
                 g.kind.commit(st, g.prev)
         return ev
 
-    def _solve(self, A, rhs, x, history=()):
+    def _solve(self, A, rhs, x, history=(), keep_lu: bool = False):
+        """Solve the bordered system by SuperLU; with ``keep_lu`` return (solution, LU)."""
         try:
             lu = spla.splu(A, permc_spec="COLAMD")
             self.timings.factorizations += 1
@@ -674,7 +675,7 @@ class StaticProblem:
                 raise singular_matrix_error(self, A, x)
             # during the iterations: a limit point, a bifurcation or a bad iterate
             raise _StepFailed("singular Newton matrix", list(history))
-        return dz
+        return (dz, lu) if keep_lu else dz
 
     def check_initial(self, allow_mechanism: bool = False):
         """Factorize the unloaded Newton matrix in the initial configuration.
@@ -707,14 +708,14 @@ class StaticProblem:
         A = self.matrix(ev, mu, zero_moment)
         self._initial_check = True
         try:
-            self._solve(A, np.ones(self.pattern.n), x)
+            _, lu = self._solve(A, np.ones(self.pattern.n), x, keep_lu=True)
         finally:
             self._initial_check = False
         # The LU exists, but round-off can hide an exact singularity behind tiny pivots:
         # look for deformation-free motions among the smallest modes (robust against the
         # huge but legitimate condition numbers of finely meshed stiff structures).
         from spacarpy.solvers.diagnose import mechanism_error
-        err = mechanism_error(self, A, ev.states)
+        err = mechanism_error(self, A, ev.states, lu=lu)      # the same LU, not a second
         if err is not None:
             raise err
 
