@@ -9,10 +9,27 @@ kernels are element-wise.
 """
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 #: Elements per chunk (measured: 1024 to 8192 are equally good for the BEAM).
 CHUNK = 2048
+
+#: Threads that evaluate chunks side by side (numpy releases the GIL inside its array
+#: operations, so the chunks of one kernel call run on several cores).
+THREADS = min(4, os.cpu_count() or 1)
+_pool: ThreadPoolExecutor | None = None
+
+
+def _map(fn, items):
+    global _pool
+    if THREADS <= 1 or len(items) < 2:
+        return [fn(i) for i in items]
+    if _pool is None:
+        _pool = ThreadPoolExecutor(THREADS, thread_name_prefix="spacarpy-kernel")
+    return list(_pool.map(fn, items))
 
 
 def _slices(n: int):
@@ -50,6 +67,6 @@ def in_chunks(kernel, n: int, *args):
         return kernel(*args)
     per_elem = [isinstance(a, tuple) or (isinstance(a, np.ndarray) and a.ndim and
                                          a.shape[0] == n) for a in args]
-    parts = [kernel(*[_take(a, s) if p else a for a, p in zip(args, per_elem)])
-             for s in _slices(n)]
+    parts = _map(lambda s: kernel(*[_take(a, s) if p else a for a, p in zip(args, per_elem)]),
+                 _slices(n))
     return _join(parts)
