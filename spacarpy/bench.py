@@ -193,6 +193,8 @@ def _peer_row(case: str, n: int, n_steps: int, transient_steps: int) -> dict:
 
 
 def _run_row(case: str, n: int, repeat: int, n_steps: int, transient_steps: int) -> dict:
+    from spacarpy.memory import keep_freed_memory
+    keep_freed_memory()                 # as `spacarpy run` does (spacarpy.memory)
     if case in ("cantilever", "bend"):
         return _static_row(case, n, repeat, n_steps)
     if case == "eigen":

@@ -316,6 +316,8 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:           # argparse: 2 for usage errors, 0 for --help
         return int(exc.code or 0)
+    from spacarpy.memory import keep_freed_memory
+    keep_freed_memory()                 # large models: reuse freed memory (spacarpy.memory)
     level = logging.WARNING if args.quiet else (logging.DEBUG if args.verbose else logging.INFO)
     logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr, force=True)
     try:
