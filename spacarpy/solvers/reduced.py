@@ -183,7 +183,7 @@ class ReducedNewton:
         return self._k_times(k_rot, euler_diag, z, all_slots=True,
                              invariant=invariant)[self.keep]
 
-    def _refine(self, solve, matvec, rhs, max_iter: int = 30):
+    def _refine(self, solve, matvec, rhs, max_iter: int = 30, quick_matvec=None):
         """Solve ``A y = rhs`` by conjugate gradients preconditioned with the LDL^T
         ``solve``, with the element-by-element product ``matvec`` (see :meth:`_k_times`).
 
@@ -196,13 +196,19 @@ class ReducedNewton:
         flip the sign of the softest pivots) the iterations continue with GMRES. Returns
         None when the result is still inaccurate (relative residual above 1e-3: an LDL^T
         without pivoting of an indefinite matrix near a limit point); the caller then
-        takes the bordered system instead."""
+        takes the bordered system instead. ``quick_matvec`` (the assembled matrix's product,
+        cheaper for small models) first tests the plain solution: where its residual is
+        below the iterations' tolerance (well-conditioned models) it is taken as it is."""
         y = solve(rhs)
-        r = rhs - matvec(y)
         b_norm = np.linalg.norm(rhs)
         if b_norm == 0.0:
             return y
         tol = 1e-10 * b_norm
+        if quick_matvec is not None and np.linalg.norm(rhs - quick_matvec(y)) <= tol:
+            return y
+        r = rhs - matvec(y)
+        if np.linalg.norm(r) <= tol:
+            return y
         p = z = solve(r)
         rz = r @ z
         for it in range(max_iter):
@@ -264,7 +270,8 @@ class ReducedNewton:
             solve = self.factor.factorize(a)
             timings.factorizations += 1
             y = self._refine(solve, lambda v: self._reduced_times(k_rot, euler_diag, v,
-                                                                  invariant), rhs)
+                                                                  invariant), rhs,
+                             quick_matvec=lambda v: _symmetric_matvec(a, v))
             if y is None:
                 return None
         except FactorizationError:
