@@ -421,7 +421,10 @@ into the tangent space of the Euler parameters, factorizes the tangent once (QDL
 refines that solution by 3-6 preconditioned conjugate-gradient iterations with an
 element-by-element product, and in the first two iterations of a load step it factorizes the
 kinematic correction's square Jacobian (SuperLU), whose LU the later ones reuse
-(docs/solver.md). Kernels run in chunks of 2048 elements on a pool of threads.
+(docs/solver.md). Kernels run in chunks of 2048 elements on a pool of threads, and the
+command-line program tells glibc to keep freed memory for reuse (spacarpy/memory.py;
+`SPACARPY_KEEP_MEMORY=0` switches it off): arrays above 32 MB were otherwise fresh pages,
+with their page faults, at every kernel call (a fifth of the 10^5 solve).
 
 On the 10^5-element cantilever (800 000 unknowns) every load step takes 4 Newton iterations,
 as at 10^3, and both codes reach the same tip (u_y = 1.207292 m). Before this work the
