@@ -171,7 +171,6 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     variant : {"modified", "basic"}
     """
     n = x.shape[0]
-    qp, qq = x[:, QP], x[:, QQ]
     u, Yp, Yq, y, length, n1, e_hat, projections = _basic(x, ny, nz, l0)
     nyp, nzp, nyq, nzq = y[:, YNYP], y[:, YNZP], y[:, YNYQ], y[:, YNZQ]
     lc = l0[:, None]
@@ -307,8 +306,3 @@ def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
     if extra is not None:
         hx += extra
     return hx
-
-
-def beam_deformations(x, ny, nz, l0, variant="modified") -> np.ndarray:
-    """Deformations only, (n_elem, 6): a convenience wrapper of :func:`beam_state`."""
-    return beam_state(x, ny, nz, l0, variant).e
