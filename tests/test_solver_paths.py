@@ -14,7 +14,8 @@ import spacarpy.solvers.sparse as sparse_mod
 from spacarpy.batch.compare import _compare
 from spacarpy.cases import cantilever_deck
 from spacarpy.deck import model_from_text
-from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+from spacarpy.solvers.static import (StaticOptions, StaticProblem, _NormalEquations,
+                                      _SquareJacobian, solve_static)
 
 
 def cantilever(n, **kw):
@@ -262,14 +263,14 @@ def test_square_kinematic_correction_agrees_with_the_normal_equations():
     from spacarpy.deck import load_deck
     from pathlib import Path
     decks = Path(__file__).resolve().parents[1] / "decks"
-    assert StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat"))._kin_square \
-        is None
+    assert isinstance(StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat"))._kin,
+                      _NormalEquations)
     results = []
     for square in (True, False):
         prob = StaticProblem(cantilever(8))
-        assert prob._kin_square is not None
+        assert isinstance(prob._kin, _SquareJacobian)
         if not square:
-            prob._kin_square = None
+            prob._kin = _NormalEquations(prob.num)
         x, mu, force, moment = off_equilibrium_state(prob, seed=4)
         x = prob.normalize(x)
         ev = prob.evaluate(x, mu, force, moment)

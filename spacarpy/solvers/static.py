@@ -61,7 +61,14 @@ class _SquareJacobian:
     coordinates (trees of elements: every element adds its end node). Its LU factorization
     (SuperLU, partial pivoting) solves the Gauss-Newton step as ``W step = g`` instead of
     through the normal equations ``W^T W``, whose condition number is that of W squared: on a
-    10^5-element cantilever W^T W is beyond double precision and its steps are noise."""
+    10^5-element cantilever W^T W is beyond double precision and its steps are noise.
+
+    Like :class:`_NormalEquations`: ``factorize(w_e, wq, timings)`` returns
+    ``step(g_e, g_q, w_e, wq)``; ``stale_after`` is the Newton increment after which a kept
+    factorization is dropped, ``jacobian_each_step`` whether ``step`` needs the current W."""
+
+    stale_after = 1e-2          # its chord steps still contract fast after such increments
+    jacobian_each_step = False
 
     @staticmethod
     def applies(num) -> bool:
@@ -81,31 +88,67 @@ class _SquareJacobian:
         rows.append(np.repeat(off + np.arange(eu.shape[0]), 4))
         cols.append(num.unknown_of[eu].ravel())
         rows, cols = np.concatenate(rows), np.concatenate(cols)
-        self.keep = cols >= 0                       # entries in fixed columns are dropped
+        keep = np.flatnonzero(cols >= 0)            # entries in fixed columns are dropped
         n = num.n_unknown
-        # the CSC layout once: where each kept entry goes (no duplicates: a row belongs to
-        # one element or node)
-        order = sp.csc_matrix((np.arange(1, self.keep.sum() + 1, dtype=float),
-                               (rows[self.keep], cols[self.keep])), shape=(n, n))
-        self.perm = order.data.astype(np.int64) - 1
+        # the CSC layout once: which of the concatenated entries fills each data slot (no
+        # duplicates: a row belongs to one element or node)
+        order = sp.csc_matrix((np.arange(1, keep.size + 1, dtype=float),
+                               (rows[keep], cols[keep])), shape=(n, n))
+        self.source = keep[order.data.astype(np.int64) - 1]
         self.indices, self.indptr, self.n = order.indices, order.indptr, n
 
-    def factorize(self, w_e, wq):
+    def factorize(self, w_e, wq, timings):
         """LU of W for the element blocks ``w_e`` (per group (n_e, n_def, n_ldof)) and the
-        Euler rows ``wq`` (n_eu, 4); returns ``solve(g)``."""
-        data = np.concatenate([w.ravel() for w in w_e] + [wq.ravel()])[self.keep][self.perm]
+        Euler rows ``wq`` (n_eu, 4)."""
+        t0 = time.perf_counter()
+        data = np.concatenate([w.ravel() for w in w_e] + [wq.ravel()])[self.source]
         mat = sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+        timings.assembly += time.perf_counter() - t0
         try:
             lu = spla.splu(mat, permc_spec="COLAMD")
         except RuntimeError as exc:              # singular: e.g. a straight-line start
             raise FactorizationError(str(exc)) from None
 
-        def solve(g):
-            out = lu.solve(g)
+        def step(g_e, g_q, w_e, wq):
+            out = lu.solve(np.concatenate([v.ravel() for v in g_e] + [g_q]))
             if not np.all(np.isfinite(out)):
                 raise FactorizationError("non-finite Gauss-Newton step")
             return out
-        return solve
+        return step
+
+
+class _NormalEquations:
+    """The kinematic correction's Gauss-Newton step from the normal equations
+    ``W^T W step = W^T g`` (least squares: closed loops, more deformations than unknowns),
+    factorized by QDLDL (:class:`~spacarpy.solvers.sparse.SPDFactorization`). Same interface
+    as :class:`_SquareJacobian`; the right side is formed with the current W."""
+
+    stale_after = 1e-3
+    jacobian_each_step = True
+
+    def __init__(self, num):
+        self.num = num
+        self.free = ~num.fixed_mask
+        self.eu = num.rot_idx[num.euler_nodes]
+        self.pattern = BlockPattern(
+            num.n_unknown, [num.unknown_of[g.idx] for g in num.groups]
+            + [num.unknown_of[self.eu]], upper=True)
+        self.factor = SPDFactorization()
+
+    def factorize(self, w_e, wq, timings):
+        t0 = time.perf_counter()
+        m = self.pattern.assemble([w.transpose(0, 2, 1) @ w for w in w_e]
+                                  + [wq[:, :, None] * wq[:, None, :]], diag_shift=1e-12)
+        timings.assembly += time.perf_counter() - t0
+        solve = self.factor.factorize(m)
+        num = self.num
+
+        def step(g_e, g_q, w_e, wq):
+            rhs = scatter_add(num.n_coord, self.eu, wq * g_q[:, None])
+            for g, w, ge in zip(num.groups, w_e, g_e):
+                rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), ge))
+            return solve(rhs[self.free])
+        return step
 
 
 @dataclass
@@ -188,13 +231,11 @@ class StaticProblem:
         self.loads = Loads(model, self.num)
         self.pattern = BorderedPattern(self.num, self.loads.moment_rot)
         num = self.num
-        self.kin_pattern = BlockPattern(
-            num.n_unknown, [num.unknown_of[g.idx] for g in num.groups]
-            + [num.unknown_of[num.rot_idx[num.euler_nodes]]], upper=True)
-        self._kin_factor = SPDFactorization()
-        self._kin_square = _SquareJacobian(num) if _SquareJacobian.applies(num) else None
+        # the kinematic correction's Gauss-Newton system, and the step() of its kept
+        # factorization
+        self._kin = (_SquareJacobian(num) if _SquareJacobian.applies(num)
+                     else _NormalEquations(num))
         self.kinematic_correction = True
-        # solve() of the kept Gauss-Newton factorization of correct_kinematics
         self._kin_solve = None
         # Newton steps without the Euler constraints where the model allows (reduced.py)
         self.reduced = ReducedNewton(self) if reduced_applies(self) else None
@@ -528,10 +569,9 @@ class StaticProblem:
         size = self.increment_norm(dx)
         if rigid_target is None and size * size < self.kin_floor:
             return (x_lin, None) if return_states else x_lin
-        if size > (1e-2 if self._kin_square is not None else 1e-3):
-            # a large step: the kept matrix is too stale (the square system's chord steps
-            # still contract fast after increments of 1e-2, the normal equations' not)
-            self._kin_solve = None
+        kin = self._kin
+        if size > kin.stale_after:
+            self._kin_solve = None               # a large step: the kept matrix is too stale
         x = x_lin
         done = None
         worst0 = prev = back = None
@@ -539,7 +579,7 @@ class StaticProblem:
         for _ in range(max_iter):
             t0 = time.perf_counter()
             states, g_e, g_q, worst = mismatch(
-                x, self._kin_solve is None or self._kin_square is None)
+                x, self._kin_solve is None or kin.jacobian_each_step)
             worst0 = worst if worst0 is None else worst0
             log.debug("kinematic correction: mismatch %.3g (matrix %s)", worst,
                       "kept" if self._kin_solve is not None else "new")
@@ -561,58 +601,27 @@ class StaticProblem:
                     self._kin_solve = None        # far from the targets: a fresh matrix here
             reused = self._kin_solve is not None
             wq = 2.0 * x[eu]
-            w_e = rhs = None
-            if not reused or self._kin_square is None:
+            w_e = None
+            if not reused or kin.jacobian_each_step:
                 if states is None:
                     states = full_states(x)
                 w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
-            if self._kin_square is None:              # the normal equations' right side
-                rhs = scatter_add(num.n_coord, eu, wq * g_q[:, None])
-                for g, w, ge in zip(num.groups, w_e, g_e):
-                    rhs += scatter_add(num.n_coord, g.idx,
-                                       batch_matvec(w.transpose(0, 2, 1), ge))
-            t1 = time.perf_counter()
-            self.timings.kernels += t1 - t0
-            if not reused and self._kin_square is not None:
-                # as many deformations and normalizations as unknowns (a tree): solve
-                # W step = g itself, whose condition is that of W, not of W^T W
-                t2 = time.perf_counter()
-                self.timings.assembly += t2 - t1
-                t1 = t2
-                try:
-                    self._kin_solve = self._kin_square.factorize(w_e, wq)
-                except FactorizationError:
-                    self._kin_solve = None
-                    return (x_lin, None) if return_states else x_lin
-                n_factor += 1
-                self.timings.factorizations += 1
-            elif not reused:
-                m = self.kin_pattern.assemble(
-                    [w.transpose(0, 2, 1) @ w for w in w_e]
-                    + [wq[:, :, None] * wq[:, None, :]], diag_shift=1e-12)
-                t2 = time.perf_counter()
-                self.timings.assembly += t2 - t1
-                t1 = t2
-                try:
-                    self._kin_solve = self._kin_factor.factorize(m)
-                except FactorizationError:
-                    self._kin_solve = None            # no correction possible: plain Newton
-                    return (x_lin, None) if return_states else x_lin
-                n_factor += 1
-                self.timings.factorizations += 1
+            self.timings.kernels += time.perf_counter() - t0
             back = (x, states, g_e, g_q, worst)
             x = x.copy()
+            t1, assembly0 = time.perf_counter(), self.timings.assembly
             try:
-                if self._kin_square is not None:
-                    step = self._kin_solve(np.concatenate(
-                        [v.ravel() for v in g_e] + [g_q]))
-                else:
-                    step = self._kin_solve(rhs[self.free])
+                if not reused:
+                    self._kin_solve = kin.factorize(w_e, wq, self.timings)
+                    n_factor += 1
+                    self.timings.factorizations += 1
+                step = self._kin_solve(g_e, g_q, w_e, wq)
             except FactorizationError:
-                self._kin_solve = None
+                self._kin_solve = None            # no correction possible: plain Newton
                 return (x_lin, None) if return_states else x_lin
             x[self.free] += step
-            self.timings.solve += time.perf_counter() - t1
+            # factorization and step; factorize() booked its assembly separately
+            self.timings.solve += time.perf_counter() - t1 - (self.timings.assembly - assembly0)
             prev = worst
         return (x, done) if return_states else x
 
