@@ -266,10 +266,13 @@ def test_square_kinematic_correction_agrees_with_the_normal_equations():
     assert isinstance(StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat"))._kin,
                       _NormalEquations)
     results = []
-    for square in (True, False):
+    for solver in ("triangular", "superlu", "normal"):
         prob = StaticProblem(cantilever(8))
         assert isinstance(prob._kin, _SquareJacobian)
-        if not square:
+        assert prob._kin.triangular is not None        # a tree: block forward substitution
+        if solver == "superlu":
+            prob._kin = _SquareJacobian(prob.num, triangular=False)
+        elif solver == "normal":
             prob._kin = _NormalEquations(prob.num)
         x, mu, force, moment = off_equilibrium_state(prob, seed=4)
         x = prob.normalize(x)
@@ -278,7 +281,8 @@ def test_square_kinematic_correction_agrees_with_the_normal_equations():
         x_lin = x.copy()
         x_lin[prob.free] += dx
         results.append(prob.correct_kinematics(x_lin, dx, ev.states))
-    assert np.abs(results[0] - results[1]).max() < 1e-8       # both stop at their floor
+    assert np.abs(results[0] - results[1]).max() < 1e-12      # the same linear system
+    assert np.abs(results[0] - results[2]).max() < 1e-8       # both stop at their floor
     assert np.abs(results[0] - x_lin).max() > 1e-4          # it did correct something
 
 
