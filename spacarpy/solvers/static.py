@@ -268,6 +268,7 @@ class StaticProblem:
             min_scale if np.isfinite(min_scale) and min_scale > 0 else 1.0)
         self._initial_check = False
         self.has_commit = any(g.kind.commit is not None for g in num.groups)
+        self._states_at = None                  # (x, kernel states at x), see evaluate()
         # gravity: applied with the initial load (factor a of the load path), then constant
         self.gravity = np.asarray(model.gravity, dtype=float)
         self.gravity_factor = 1.0
@@ -304,10 +305,15 @@ class StaticProblem:
         """Deformations, stress resultants and residuals at (x, mu) under the given load.
 
         ``states`` are the kernel states at exactly this x when the caller has them already
-        (the kinematic correction ends with them)."""
+        (the kinematic correction ends with them); the states of the last evaluated x are
+        kept and reused when x comes again (a stored step is evaluated once more for its
+        results, and then once more as the next step's start)."""
         num = self.num
         t0 = time.perf_counter()
         known = states
+        if known is None and self._states_at is not None and np.array_equal(
+                self._states_at[0], x):
+            known = self._states_at[1]          # e.g. a stored step, then the next one's start
         states, sigmas, forces = [], [], []
         for i, g in enumerate(num.groups):
             st = (known[i] if known is not None
@@ -317,6 +323,9 @@ class StaticProblem:
             states.append(st)
             sigmas.append(sigma)
             forces.append((sigma[:, None, :] @ st.D)[:, 0, :])
+        # the kernel states of the last configuration (they depend on x alone, unless a kind
+        # keeps a persistent state that commit() updates)
+        self._states_at = None if self.has_commit else (x.copy(), states)
         t1 = time.perf_counter()
         f_int = np.zeros(num.n_coord)
         for g, f_el in zip(num.groups, forces):
