@@ -50,23 +50,43 @@ def _take(a, s: slice):
     return a[s]
 
 
-def _join(parts):
-    """Concatenate chunk results: arrays, or tuples (NamedTuples) of arrays/None."""
-    first = parts[0]
-    if first is None:
+def _empty(part, n: int):
+    """Uninitialized arrays like the chunk result ``part`` (array, tuple of arrays or None)
+    with n rows."""
+    if part is None:
         return None
-    if isinstance(first, tuple):
-        return _like(first, [_join(list(f)) for f in zip(*parts)])
-    return np.concatenate(parts)
+    if isinstance(part, tuple):
+        return _like(part, [_empty(f, n) for f in part])
+    return np.empty((n,) + part.shape[1:], dtype=part.dtype)
+
+
+def _put(out, s: slice, part) -> None:
+    """Copy a chunk result into rows s of the full result."""
+    if out is None:
+        return
+    if isinstance(out, tuple):
+        for o, p in zip(out, part):
+            _put(o, s, p)
+        return
+    out[s] = part
 
 
 def in_chunks(kernel, n: int, *args):
     """``kernel(*args)`` for element-wise args (arrays or tuples of arrays with n rows;
-    anything else is passed as it is), evaluated chunk by chunk."""
+    anything else is passed as it is), evaluated chunk by chunk. The first chunk fixes the
+    result's shapes; every chunk is copied into the result by the thread that computed it
+    (joining the chunks afterwards was a tenth of the kernels' time at 10^5 elements)."""
     if n <= 2 * CHUNK:
         return kernel(*args)
     per_elem = [isinstance(a, tuple) or (isinstance(a, np.ndarray) and a.ndim and
                                          a.shape[0] == n) for a in args]
-    parts = _map(lambda s: kernel(*[_take(a, s) if p else a for a, p in zip(args, per_elem)]),
-                 _slices(n))
-    return _join(parts)
+
+    def run(s):
+        return kernel(*[_take(a, s) if p else a for a, p in zip(args, per_elem)])
+
+    first, *rest = _slices(n)
+    part = run(first)
+    out = _empty(part, n)
+    _put(out, first, part)
+    _map(lambda s: _put(out, s, run(s)), rest)
+    return out
