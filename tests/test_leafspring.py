@@ -207,3 +207,17 @@ def test_leafspring_guidance_frequencies_drop_at_the_critical_misalignment(misal
     mod, bas = tables["modified"], tables["basic"]
     for k in (1, 2, 3):
         np.testing.assert_allclose(bas[f"f{k}"][:12], mod[f"f{k}"][:12], rtol=1e-3)
+
+
+def test_branch_choice_does_not_depend_on_the_eigenvector_sign_or_round_off():
+    """Mirror-image post-buckling branches have equal energy to round-off; the switch takes
+    the first one tried along the eigenvector with a canonical sign, so neither the eigen
+    solver's arbitrary sign nor the last digits of the energies decide the branch."""
+    from spacarpy.solvers.stability import ENERGY_TIE, canonical_sign
+    rng = np.random.default_rng(7)
+    v = rng.standard_normal((30, 3))
+    assert np.array_equal(canonical_sign(v), canonical_sign(-v))
+    assert np.array_equal(canonical_sign(v * [1, -1, 1]), canonical_sign(v))
+    mirror = np.array([[0.0], [-1.0], [1.0 + 1e-15], [0.2]])     # equal magnitudes
+    assert canonical_sign(mirror)[1, 0] == 1.0 == canonical_sign(-mirror)[1, 0]
+    assert 1e-14 < ENERGY_TIE < 1e-8        # round-off ties, but not distinct branches

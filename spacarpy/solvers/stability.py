@@ -30,6 +30,10 @@ log = logging.getLogger(__name__)
 
 #: Relative size of an eigenvalue (to the largest one) below which it counts as zero.
 ZERO_TOL = 1e-10
+#: Relative difference of potential energy below which two branches count as equally good
+#: (mirror images; an equilibrium's energy is stationary, so its round-off is of the order
+#: of the squared position error: 1e-12 at a tolerance of 1e-6).
+ENERGY_TIE = 1e-10
 #: Perturbation amplitudes tried, as fractions of the model's length scale.
 AMPLITUDES = (1e-4, 1e-3, 1e-2, 0.03, 0.1)
 
@@ -75,7 +79,17 @@ def stability(prob, x, mu, force, moment) -> Stability | None:
     big = np.abs(lam).max(initial=0.0)
     index = int(np.sum(lam < -ZERO_TOL * big))
     return Stability(index=index, lowest=float(lam[0]),
-                     modes=T @ (v[:, :max(index, 1)] / d[:, None]))
+                     modes=canonical_sign(T @ (v[:, :max(index, 1)] / d[:, None])))
+
+
+def canonical_sign(modes: np.ndarray) -> np.ndarray:
+    """Eigenvectors (columns) with a sign that does not depend on round-off: the first entry
+    (in coordinate order) of at least half the largest magnitude is positive. (An eigen
+    solver's sign is arbitrary, and flips with the last digits of the matrix.)"""
+    mag = np.abs(modes)
+    first = np.argmax(mag >= 0.5 * mag.max(axis=0, initial=0.0), axis=0)
+    sign = np.sign(modes[first, np.arange(modes.shape[1])])
+    return modes * np.where(sign == 0, 1.0, sign)
 
 
 def potential_energy(prob, x, mu, force, moment) -> float:
@@ -93,9 +107,11 @@ def switch_branch(prob, x, mu, force, moment, opts, stab: Stability, step: int):
     Every eigenvector of a negative eigenvalue is tried with both signs, each with the
     smallest of :data:`AMPLITUDES` from which Newton reaches an equilibrium of lower index.
     Of the equilibria found, the one with the lowest index and then the lowest potential
-    energy is taken: a choice that does not depend on round-off (mirror-image branches have
-    equal energy and equal frequencies). Returns (x, mu, stability), the given state when no
-    perturbation lowers the index.
+    energy is taken. Mirror-image branches have equal energy (to round-off: their energies
+    agree to 15 digits on the leaf-spring guidance), so energies within :data:`ENERGY_TIE`
+    count as equal and the first candidate tried wins, with the eigenvectors' signs made
+    canonical (:func:`canonical_sign`): the branch chosen does not depend on round-off.
+    Returns (x, mu, stability), the given state when no perturbation lowers the index.
     """
     from spacarpy.solvers.static import _StepFailed
     num = prob.num
@@ -123,10 +139,13 @@ def switch_branch(prob, x, mu, force, moment, opts, stab: Stability, step: int):
                     break
     if not found:
         return x, mu, stab
-    index, _, xb, mub, sb = min(found, key=lambda c: (c[0], c[1]))
+    index = min(c[0] for c in found)
+    lowest = min(c[1] for c in found if c[0] == index)
+    tie = ENERGY_TIE * max(abs(lowest), 1e-300)
+    _, _, xb, mub, sb = next(c for c in found if c[0] == index and c[1] <= lowest + tie)
     log.info("step %d: switched from an unstable equilibrium (%d negative stiffness "
              "eigenvalue(s)) to a branch with %d", step, stab.index, index)
     return xb, mub, sb
 
 
-__all__ = ["Stability", "stability", "switch_branch", "potential_energy"]
+__all__ = ["Stability", "stability", "switch_branch", "potential_energy", "canonical_sign"]
