@@ -50,7 +50,9 @@ class BlockTriangular:
         self.n = n
         if n == 0:
             raise ValueError("empty matrix")
-        pattern = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n))
+        # (int8 data: only the structure counts, and at 10^5 elements it has 5e6 entries)
+        pattern = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, cols)),
+                                shape=(n, n))
         if pattern.nnz != rows.size:
             raise ValueError("duplicate entries in the pattern")
         match = maximum_bipartite_matching(pattern, perm_type="column")   # row -> column
@@ -59,7 +61,8 @@ class BlockTriangular:
         row_of_col = np.empty(n, dtype=np.int64)
         row_of_col[match] = np.arange(n)
         dep = row_of_col[cols]                     # the row each entry's column belongs to
-        graph = sp.csr_matrix((np.ones(rows.size), (rows, dep)), shape=(n, n))
+        graph = sp.csr_matrix((pattern.data, row_of_col[pattern.indices], pattern.indptr),
+                              shape=(n, n))
         n_blocks, block = connected_components(graph, directed=True, connection="strong")
         block = block.astype(np.int64)
         if not np.all(block[rows] >= block[dep]):
@@ -70,7 +73,7 @@ class BlockTriangular:
         s = int(size.max())
         start = np.concatenate([[0], np.cumsum(size)[:-1]])
         # rows in block order; column c takes the position of its matched row
-        order = np.lexsort((np.arange(n), block))
+        order = np.argsort(block, kind="stable")
         rank = np.empty(n, dtype=np.int64)
         rank[order] = np.arange(n)
         local = rank - start[block]                # position of a row inside its block
@@ -87,10 +90,12 @@ class BlockTriangular:
         b_row, b_col = block[rows], block[dep]
         diag = b_row == b_col
         self.diag_entries = np.flatnonzero(diag)
-        self.diag_at = (b_row[diag], local[rows[diag]], local[dep[diag]])
-        pad = ~self.rhs_valid
-        self.pad_at = (np.nonzero(pad)[0], np.nonzero(pad)[1], np.nonzero(pad)[1])
         self.shape = (n_blocks, s, s)
+        # (flat indices into the dense arrays: much faster than index tuples)
+        self.diag_at = np.ravel_multi_index((b_row[diag], local[rows[diag]], local[dep[diag]]),
+                                            self.shape)
+        pad_k, pad_i = np.nonzero(~self.rhs_valid)
+        self.pad_at = np.ravel_multi_index((pad_k, pad_i, pad_i), self.shape)
 
         # below-diagonal entries -> (block row, i, slot): the slots of a block row are its
         # distinct columns outside the block
@@ -102,13 +107,14 @@ class BlockTriangular:
         slot = np.arange(pairs.shape[1]) - first                   # slot number in its row
         width = int(slot.max()) + 1 if slot.size else 0
         self.off_entries = off
-        self.off_at = (key_block, local[rows[off]], slot[slot_of])
         self.off_shape = (n_blocks, s, width)
+        self.off_at = np.ravel_multi_index((key_block, local[rows[off]], slot[slot_of]),
+                                           self.off_shape)
         # L's entries: every (block row k, i < size_k, slot) product, then the unit diagonal
         n_slots = np.bincount(pairs[0], minlength=n_blocks)
         kk, ii, jj = np.nonzero((np.arange(s)[None, :, None] < size[:, None, None])
                                 & (np.arange(width)[None, None, :] < n_slots[:, None, None]))
-        self.product_at = (kk, ii, jj)
+        self.product_at = np.ravel_multi_index((kk, ii, jj), self.off_shape)
         col_of_slot = np.zeros((n_blocks, max(width, 1)), dtype=np.int64)
         col_of_slot[pairs[0], slot] = pairs[1]
         l_rows = np.concatenate([start[kk] + ii, np.arange(n)])
@@ -124,8 +130,9 @@ class BlockTriangular:
         ``solve(b) -> x``."""
         data = np.asarray(data, dtype=float)
         blocks = np.zeros(self.shape)
-        blocks[self.diag_at] = data[self.diag_entries]
-        blocks[self.pad_at] = 1.0
+        flat = blocks.reshape(-1)
+        flat[self.diag_at] = data[self.diag_entries]
+        flat[self.pad_at] = 1.0
         try:
             inv = in_chunks(np.linalg.inv, len(blocks), blocks)    # threads: 2x at 10^5
         except np.linalg.LinAlgError:
@@ -133,8 +140,8 @@ class BlockTriangular:
         if not np.all(np.isfinite(inv)):
             raise FactorizationError("non-finite diagonal block inverse")
         below = np.zeros(self.off_shape)
-        below[self.off_at] = data[self.off_entries]
-        products = (inv @ below)[self.product_at]
+        below.reshape(-1)[self.off_at] = data[self.off_entries]
+        products = (inv @ below).reshape(-1)[self.product_at]
         lower = sp.csc_matrix(
             (np.concatenate([products, np.ones(self.n)])[self.l_source], self.l_indices,
              self.l_indptr), shape=(self.n, self.n))
