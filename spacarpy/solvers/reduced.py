@@ -53,6 +53,17 @@ def _rotate_blocks(k, *bases, starts):
     return k
 
 
+def _element_products(k, idx, z, shift):
+    """``k_e z_e`` (n, n_ldof) with ``z_e = z[idx_e]``, the position triples starting at the
+    local slots ``shift`` taken relative to the first of them (see ReducedNewton._k_times)."""
+    ze = z[idx]
+    for a in shift[:0:-1]:
+        ze[:, a:a + 3] -= ze[:, shift[0]:shift[0] + 3]
+    if shift.size:
+        ze[:, shift[0]:shift[0] + 3] = 0.0
+    return batch_matvec(k, ze)
+
+
 def applies(prob) -> bool:
     """Whether the model's Newton steps can use :class:`ReducedNewton`: every constraint is
     the normalization of a node with four free Euler parameters, no rigid modes, no moment
@@ -165,10 +176,10 @@ class ReducedNewton:
         num = self.prob.num
         kz = np.zeros(num.n_coord)
         for g, k, pos in zip(num.groups, k_rot, self.pos_slots):
-            ze = z[g.idx]
-            if pos.size and invariant:
-                ze[:, pos] -= np.tile(ze[:, pos[:3]], pos.size // 3)
-            kz += scatter_add(num.n_coord, g.idx, batch_matvec(k, ze))
+            shift = pos[::3] if invariant else pos[:0]
+            kz += scatter_add(num.n_coord, g.idx,
+                              in_chunks(partial(_element_products, z=z, shift=shift),
+                                        len(k), k, g.idx))
         if all_slots:
             kz[self.eu] += euler_diag[:, None] * z[self.eu]
         else:

@@ -40,6 +40,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, BorderedPattern, scatter_add
+from spacarpy.elements.chunks import in_chunks
 from spacarpy.errors import ConvergenceError, ModelError, SolverError
 from spacarpy.linalg import batch_matvec
 from spacarpy.model import Model
@@ -170,6 +171,11 @@ class _NormalEquations:
                 rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), ge))
             return solve(rhs[self.free])
         return step
+
+
+def _material_stiffness(D, S):
+    """Element blocks ``D^T S D`` (n, n_ldof, n_ldof)."""
+    return D.transpose(0, 2, 1) @ (S @ D)
 
 
 @dataclass
@@ -389,7 +395,7 @@ class StaticProblem:
         num = self.num
         k_el = []
         for i, (g, st, sigma) in enumerate(zip(num.groups, ev.states, ev.sigmas)):
-            k = st.D.transpose(0, 2, 1) @ (g.S @ st.D)
+            k = in_chunks(_material_stiffness, len(st.D), st.D, g.S)
             if not material_only:
                 k += g.kind.hessian(st, sigma)
                 if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
