@@ -13,6 +13,9 @@ state(x_local, ref, variant, prev) -> state with ``.e`` (n, n_def) and ``.D`` (n
 deformations(x_local, ref, variant, prev) -> e (n, n_def), optional
     ``state(...).e`` without the derivatives, where that is much cheaper (the BEAM).
 hessian(state, w) -> (n, n_ldof, n_ldof)
+tangent(state, S, w) -> (n, n_ldof, n_ldof), optional
+    The element tangent ``D^T S D + hessian(state, w)`` in one pass (the BEAM's, chunk by
+    chunk while the chunk is in cache); without it the solver adds the two.
 stiffness(props, ref) -> (n, n_def, n_def)
 mass(x_local, ref, mass) -> (n, n_ldof, n_ldof) or None
 convective(x_local, v_local, ref, mass) -> (dM/dt v, d(v^T M v)/dx), each (n, n_ldof), optional
@@ -54,6 +57,7 @@ class Kind:
     state: Callable
     hessian: Callable
     stiffness: Callable
+    tangent: Callable | None = None
     mass: Callable | None = None
     deformations: Callable | None = None
     convective: Callable | None = None
@@ -70,6 +74,12 @@ class Kind:
 def _beam_reference(x0, vector):
     nx, ny, nz, l0 = beam.reference_triads(x0[0], x0[2], vector)
     return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 6, axis=1)
+
+
+def _beam_tangent(st, S, w):
+    k = beam.beam_weighted_hessian(st, w)
+    k += st.D.transpose(0, 2, 1) @ (S @ st.D)
+    return k
 
 
 def _beam_check(st, ref):
@@ -133,6 +143,7 @@ BEAM = Kind(
     deformations=lambda x, ref, variant, prev: in_chunks(
         beam.beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant),
     hessian=lambda st, w: in_chunks(beam.beam_weighted_hessian, len(w), st, w),
+    tangent=lambda st, S, w: in_chunks(_beam_tangent, len(w), st, S, w),
     stiffness=lambda props, ref: beam.stiffness_matrix(props, ref["l0"]),
     mass=lambda x, ref, m: in_chunks(beam_mass.beam_mass_matrix, len(x), x, ref["nx"],
                                      ref["ny"], ref["nz"], ref["l0"], m),

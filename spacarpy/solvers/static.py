@@ -395,11 +395,15 @@ class StaticProblem:
         num = self.num
         k_el = []
         for i, (g, st, sigma) in enumerate(zip(num.groups, ev.states, ev.sigmas)):
-            k = in_chunks(_material_stiffness, len(st.D), st.D, g.S)
-            if not material_only:
-                k += g.kind.hessian(st, sigma)
-                if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
-                    k -= ev.gravity_stiffness[i]          # -d f_gravity / dx
+            if material_only or g.kind.tangent is None:
+                k = in_chunks(_material_stiffness, len(st.D), st.D, g.S)
+                if not material_only:
+                    k += g.kind.hessian(st, sigma)
+            else:
+                k = g.kind.tangent(st, g.S, sigma)          # the same sum, in one pass
+            if not material_only and ev.gravity_stiffness and \
+                    ev.gravity_stiffness[i] is not None:
+                k -= ev.gravity_stiffness[i]                 # -d f_gravity / dx
             if extra is not None and i in extra:
                 k = k + extra[i]
             k_el.append(k)
