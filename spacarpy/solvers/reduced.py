@@ -228,6 +228,7 @@ class ReducedNewton:
             return y
         p = z = solve(r)
         rz = r @ z
+        method = "conjugate gradients"
         for it in range(max_iter):
             if np.linalg.norm(r) <= tol:
                 break
@@ -241,6 +242,7 @@ class ReducedNewton:
                                   rhs, x0=y, rtol=1e-10, restart=10, maxiter=1,
                                   M=spla.LinearOperator((rhs.size,) * 2, matvec=solve))
                 r = rhs - matvec(y)
+                method = "GMRES after conjugate gradients"
                 break
             alpha = rz / pap
             y = y + alpha * p
@@ -249,7 +251,7 @@ class ReducedNewton:
             rz, rz_old = r @ z, rz
             p = z + (rz / rz_old) * p
         final = np.linalg.norm(r) / b_norm          # (CG's updated residual, or GMRES's)
-        log.debug("conjugate gradients: %d iterations, relative residual %.2e", it, final)
+        log.debug("%s: %d iterations, relative residual %.2e", method, it, final)
         if not final <= 1e-3:
             return None
         return y
