@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from spacarpy.elements.beam import (beam_deformations, beam_state, beam_weighted_hessian,
-                                    reference_triads, stiffness_matrix)
+from spacarpy.elements.beam import (beam_deformations, beam_state, beam_tangent,
+                                    beam_weighted_hessian, reference_triads, stiffness_matrix)
 from spacarpy.rotation import from_axis_angle, lambda_matrix, rotation_matrix
 
 VARIANTS = ("basic", "modified")
@@ -72,6 +72,22 @@ def test_weighted_hessian_is_linear_in_the_weights(variant):
     w = rng.normal(size=(7, 6))
     parts = sum(beam_weighted_hessian(st, w * np.eye(6)[i]) for i in range(6))
     assert np.allclose(beam_weighted_hessian(st, w), parts, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_tangent_is_material_plus_geometric_stiffness(variant):
+    """beam_tangent folds D^T S D into the modified deformations' quadratic term
+    (D = J D_hat): the same matrix as the two parts computed apart."""
+    rng = np.random.default_rng(13)
+    x, ny, nz, l0 = random_elements(rng, 9)
+    st = beam_state(x, ny, nz, l0, variant)
+    w = rng.normal(size=(9, 6))
+    props = np.abs(rng.normal(size=(9, 6))) * [1e3, 1.0, 2.0, 3.0, 0.01, 0.02]
+    S = stiffness_matrix(props, l0)
+    apart = st.D.transpose(0, 2, 1) @ S @ st.D + beam_weighted_hessian(st, w)
+    k = beam_tangent(st, S, w)
+    assert np.abs(k - apart).max() <= 1e-13 * np.abs(apart).max()
+    assert np.abs(k - k.transpose(0, 2, 1)).max() <= 1e-13 * np.abs(k).max()
 
 
 @pytest.mark.parametrize("variant", VARIANTS)

@@ -253,16 +253,41 @@ _BENDING = ((2, -1.0, YNZP, "nzp"), (3, 1.0, YNZQ, "nzq"), (4, 1.0, YNYP, "nyp")
 
 def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
     """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 6) -> (n_elem, 14, 14)."""
-    n = w.shape[0]
-    lc = st.l0[:, None]
-    if st.J is not None:
-        # e = e_hat + e_hat^T Q e_hat / (2 l0): weights on e_hat and the quadratic part
-        w_hat = batch_matvec(st.J.transpose(0, 2, 1), w)
-        qw = (w @ Q_MODIFIED.reshape(6, 36)).reshape(n, 6, 6) / lc[:, :, None]
-        extra = st.D_hat.transpose(0, 2, 1) @ (qw @ st.D_hat)
-    else:
-        w_hat, extra = w, None
+    if st.J is None:
+        return _basic_hessian(st, w)
+    # e = e_hat + e_hat^T Q e_hat / (2 l0): weights on e_hat and the quadratic part
+    hx = _basic_hessian(st, batch_matvec(st.J.transpose(0, 2, 1), w))
+    hx += st.D_hat.transpose(0, 2, 1) @ (_quadratic_weights(st, w) @ st.D_hat)
+    return hx
 
+
+def _quadratic_weights(st: BeamState, w: np.ndarray) -> np.ndarray:
+    """``sum_i w_i Q_i / l0`` (n, 6, 6): the second derivative of the modified deformations
+    with respect to the basic ones, weighted."""
+    return (w @ Q_MODIFIED.reshape(6, 36)).reshape(-1, 6, 6) / st.l0[:, None, None]
+
+
+def beam_tangent(st: BeamState, S: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The element tangent ``D^T S D + sum_i w_i d^2 e_i / dx^2`` (n_elem, 14, 14).
+
+    For the modified deformations ``D = J D_hat``, so the material part and the quadratic
+    part of the second derivatives share the outer factors:
+    ``D_hat^T (J^T S J + sum_i w_i Q_i / l0) D_hat``, one product with the 14-column D_hat
+    instead of two (the largest products of the tangent)."""
+    if st.J is None:
+        hx = _basic_hessian(st, w)
+        hx += st.D.transpose(0, 2, 1) @ (S @ st.D)
+        return hx
+    jt = st.J.transpose(0, 2, 1)
+    hx = _basic_hessian(st, batch_matvec(jt, w))
+    inner = jt @ (S @ st.J) + _quadratic_weights(st, w)
+    hx += st.D_hat.transpose(0, 2, 1) @ (inner @ st.D_hat)
+    return hx
+
+
+def _basic_hessian(st: BeamState, w_hat: np.ndarray) -> np.ndarray:
+    """``sum_i w_hat_i d^2 e_hat_i / dx^2`` (basic deformations, Eq. 7) at the state ``st``."""
+    n = w_hat.shape[0]
     # weighted second derivatives of e_hat with respect to y, by blocks:
     # hdd (d, d), hdp (d, [n_y^p n_z^p]), hdq (d, [n_y^q n_z^q]), hpq (p vectors, q vectors)
     length, n1, y = st.length, st.n1, st.y
@@ -303,6 +328,4 @@ def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
     # sum_k c_k d^2(R u)_k/dq^2 over both vectors = hessian_combination(sum_i c_i u_i^T)
     hx[:, QP, QP] += hessian_combination(c[:, 3:9].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
     hx[:, QQ, QQ] += hessian_combination(c[:, 9:15].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
-    if extra is not None:
-        hx += extra
     return hx

@@ -76,12 +76,6 @@ def _beam_reference(x0, vector):
     return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 6, axis=1)
 
 
-def _beam_tangent(st, S, w):
-    k = beam.beam_weighted_hessian(st, w)
-    k += st.D.transpose(0, 2, 1) @ (S @ st.D)
-    return k
-
-
 def _beam_check(st, ref):
     rel = np.abs(st.e_hat[:, 1:]) / ref["l0"][:, None]
     if rel.size and rel.max() > MAX_BEAM_ROTATION:
@@ -143,7 +137,7 @@ BEAM = Kind(
     deformations=lambda x, ref, variant, prev: in_chunks(
         beam.beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant),
     hessian=lambda st, w: in_chunks(beam.beam_weighted_hessian, len(w), st, w),
-    tangent=lambda st, S, w: in_chunks(_beam_tangent, len(w), st, S, w),
+    tangent=lambda st, S, w: in_chunks(beam.beam_tangent, len(w), st, S, w),
     stiffness=lambda props, ref: beam.stiffness_matrix(props, ref["l0"]),
     mass=lambda x, ref, m: in_chunks(beam_mass.beam_mass_matrix, len(x), x, ref["nx"],
                                      ref["ny"], ref["nz"], ref["l0"], m),
