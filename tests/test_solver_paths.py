@@ -308,3 +308,31 @@ def test_a_model_far_from_the_origin_converges_like_one_at_the_origin():
         its.append([s.iterations for s in res.steps])
     assert its[0] == its[1]
     assert np.abs(tips[0] - tips[1]).max() < 1e-9
+
+
+def test_initial_check_of_a_determinate_tree_needs_no_lu(monkeypatch):
+    """A tree whose every mode carries stiffness, with a regular W, has neither mechanism
+    nor redundant constraint: the initial check passes without the bordered LU. A closed
+    loop, or a singular W, gets the full check."""
+    from pathlib import Path
+    from spacarpy.deck import load_deck
+    calls = []
+    original = StaticProblem._solve
+
+    def spy(self, *args, **kwargs):
+        calls.append(1)
+        return original(self, *args, **kwargs)
+    monkeypatch.setattr(StaticProblem, "_solve", spy)
+    prob = StaticProblem(cantilever(16))
+    prob.check_initial()
+    assert calls == []
+    decks = Path(__file__).resolve().parents[1] / "decks"
+    StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat")).check_initial()
+    assert calls == [1]                                  # a closed loop: the full check
+    # a singular diagonal block (the Euler row of a zero quaternion) is not regular
+    prob = StaticProblem(cantilever(4))
+    zero = (np.zeros(prob.num.n_constraint), np.zeros(prob.num.n_coord), np.zeros((0, 3)))
+    x = prob.num.x0.copy()
+    assert prob._determinate(prob.evaluate(x, *zero).states, x)
+    x[prob.num.rot_idx[prob.num.euler_nodes[0]]] = 0.0
+    assert not prob._determinate(prob.evaluate(x, *zero).states, x)

@@ -752,7 +752,7 @@ class StaticProblem:
             ev = self.evaluate(x, mu, zero_force, zero_moment)
         finally:
             self.gravity_factor = factor
-        if not self.pattern.n:
+        if not self.pattern.n or self._determinate(ev.states, x):
             return
         A = self.matrix(ev, mu, zero_moment)
         self._initial_check = True
@@ -767,6 +767,30 @@ class StaticProblem:
         err = mechanism_error(self, A, ev.states, lu=lu)      # the same LU, not a second
         if err is not None:
             raise err
+
+    def _determinate(self, states, x) -> bool:
+        """Whether the model is a tree whose every deformation mode is rigid or carries a
+        positive definite stiffness, with a regular square kinematic Jacobian W at x (its
+        diagonal blocks well conditioned, :meth:`BlockTriangular.regular`). Such a model has
+        no free motion (W v = 0 only for v = 0: every motion deforms a stiff or a rigid
+        mode or breaks an Euler normalization) and no redundant constraint (W's rows are
+        independent), so its unloaded Newton matrix is regular: the initial check needs no
+        LU of it (2-3 s at 10^5 elements, against 0.3 s for this test)."""
+        kin = self._kin
+        if not isinstance(kin, _SquareJacobian) or kin.triangular is None:
+            return False
+        for g in self.num.groups:
+            if not np.all(g.stiff_mask | (g.def_class == 0)):
+                return False               # a released mode without stiffness: a hinge
+            try:                           # S positive definite on the stiff modes
+                np.linalg.cholesky(g.S + np.eye(g.S.shape[1]) * ~g.stiff_mask[:, None, :])
+            except np.linalg.LinAlgError:
+                return False
+        eu = self.num.rot_idx[self.num.euler_nodes]
+        data = np.concatenate([(st.D / g.scale[:, :, None]).ravel()
+                               for g, st in zip(self.num.groups, states)]
+                              + [2.0 * x[eu].ravel()])
+        return kin.triangular.regular(data[kin.keep])
 
     def normalize(self, x):
         """Project Euler parameters exactly onto q.q = 1 (after convergence)."""

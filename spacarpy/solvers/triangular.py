@@ -27,6 +27,8 @@ singular the whole matrix is (its determinant is the product of the blocks'), an
 """
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -124,6 +126,17 @@ class BlockTriangular:
         self.l_source = lay.data.astype(np.int64) - 1
         self.l_indices, self.l_indptr = lay.indices, lay.indptr
         self.n_products = kk.size
+
+    def regular(self, data, rcond: float = 1e-8) -> bool:
+        """Whether the matrix with entries ``data`` is regular, with every diagonal block's
+        smallest singular value above ``rcond`` times its largest (a block triangular
+        matrix is singular exactly when a diagonal block is)."""
+        blocks = np.zeros(self.shape)
+        flat = blocks.reshape(-1)
+        flat[self.diag_at] = np.asarray(data, dtype=float)[self.diag_entries]
+        flat[self.pad_at] = 1.0
+        sv = in_chunks(partial(np.linalg.svd, compute_uv=False), len(blocks), blocks)
+        return bool(np.all(sv[:, -1] > rcond * sv[:, 0]))
 
     def factorize(self, data):
         """Factorize the matrix with entries ``data`` (in the order of the pattern); returns
