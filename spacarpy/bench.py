@@ -416,15 +416,19 @@ _MARKDOWN_NOTES = """## How to read it
 
 A Newton iteration of the static solver evaluates the element deformations and their first
 derivatives once or twice, the deformations alone once to three times more (the kinematic
-correction's chord iterations), the second derivatives once; it rotates the element tangents
-into the tangent space of the Euler parameters, factorizes the tangent once (QDLDL) and
-refines that solution by 3-6 preconditioned conjugate-gradient iterations with an
-element-by-element product, and in the first two iterations of a load step it factorizes the
-kinematic correction's square Jacobian (SuperLU), whose LU the later ones reuse
-(docs/solver.md). Kernels run in chunks of 2048 elements on a pool of threads, and the
-command-line program tells glibc to keep freed memory for reuse (spacarpy/memory.py;
-`SPACARPY_KEEP_MEMORY=0` switches it off): arrays above 32 MB were otherwise fresh pages,
-with their page faults, at every kernel call (a fifth of the 10^5 solve).
+correction's chord iterations), and the element tangent D^T S D + H(sigma) once, in one pass
+per chunk (for the modified deformations D^T S D is folded into their quadratic term: one
+product with the 14-column D_hat). It rotates the tangents into the tangent space of the
+Euler parameters, factorizes the assembled tangent once (QDLDL) and refines that solution by
+3-6 preconditioned conjugate-gradient iterations with an element-by-element product. In the
+first iterations of a load step it factorizes the kinematic correction's square Jacobian,
+which for a tree is block lower triangular: its 7x7 diagonal blocks are inverted
+(vectorized) and the rest is a compiled forward substitution (spacarpy/solvers/triangular.py,
+0.2 s at 10^5 elements where SuperLU's LU took 0.8-1.1 s); later iterations reuse it
+(docs/solver.md). Kernels run in chunks of 2048 elements on a pool of threads, each thread
+writing its chunk into the preallocated result, and the command-line program tells glibc to
+keep freed memory for reuse (spacarpy/memory.py; `SPACARPY_KEEP_MEMORY=0` switches it off):
+arrays above 32 MB were otherwise fresh pages, with their page faults, at every kernel call.
 
 On the 10^5-element cantilever (800 000 unknowns) every load step takes 4 Newton iterations,
 as at 10^3, and both codes reach the same tip (u_y = 1.207292 m). Before this work the
@@ -434,15 +438,9 @@ linearly and from the third load step not at all, and the kinematic correction's
 equations (condition number squared) returned noise. The conjugate-gradient refinement and
 the square Jacobian fixed that (tests in tests/test_solver_paths.py).
 
-What the 10^5 row still shows: the time per iteration grows about linearly (about 9-12 per
-decade from 10^3 to 10^5 on this machine), but the whole solve takes longer than the one
-minute the performance issue asks for, plus the set-up (reading 2x10^5 deck lines, the
-numbering and sparsity patterns, the initial mechanism check). Of an iteration at 10^5
-elements, a bit under half is element kernels (deformations, derivatives, rotation into the
-tangent space), a bit over a third the linear algebra (one LDL^T, the CG iterations, the
-square LU in half of the iterations), the rest assembly and vector work. What would close the gap: an assembly
-that writes the element blocks straight into the factorization's data (no scatter pass), a
-kinematic correction that uses the tree structure of W (block-triangular: a forward
-substitution instead of an LU), and fewer full deformation-derivative evaluations per
-iteration.
+The time per iteration grows about linearly from 10^3 to 10^5 elements. The set-up (not in
+the solve column) is mostly reading 2x10^5 deck lines and building the numbering, the
+sparsity patterns and the block-triangular structure; the solve column includes the initial
+mechanism check (a SuperLU factorization of the bordered matrix, 2-3 s at 10^5). This
+machine's speed drifts by up to 15 % between runs of the same code.
 """
