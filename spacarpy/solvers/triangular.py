@@ -79,7 +79,6 @@ class BlockTriangular:
         rank = np.empty(n, dtype=np.int64)
         rank[order] = np.arange(n)
         local = rank - start[block]                # position of a row inside its block
-        self.row_order = order                     # permuted position -> original row
         self.col_order = match[order]              # permuted position -> original column
         # the right side by blocks: (n_blocks, s) original rows, padded with row 0 (weight 0)
         self.rhs_rows = np.zeros((n_blocks, s), dtype=np.int64)
@@ -158,8 +157,7 @@ class BlockTriangular:
         lower = sp.csc_matrix(
             (np.concatenate([products, np.ones(self.n)])[self.l_source], self.l_indices,
              self.l_indptr), shape=(self.n, self.n))
-        rhs_rows, rhs_valid, row_order, col_order = (self.rhs_rows, self.rhs_valid,
-                                                     self.row_order, self.col_order)
+        rhs_rows, rhs_valid, col_order = self.rhs_rows, self.rhs_valid, self.col_order
 
         def solve(b):
             bb = np.where(rhs_valid, np.asarray(b, dtype=float)[rhs_rows], 0.0)
