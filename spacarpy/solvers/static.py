@@ -65,8 +65,8 @@ class _SquareJacobian:
     condition number is that of W squared: on a 10^5-element cantilever W^T W is beyond
     double precision and its steps are noise. A tree's W is block triangular, and is solved
     by block forward substitution (:class:`~spacarpy.solvers.triangular.BlockTriangular`,
-    0.1 s per factorization at 10^5 elements where SuperLU took 0.8-1.1 s); other square
-    patterns by SuperLU's LU with partial pivoting.
+    0.2 s per factorization at 10^5 elements where SuperLU took 0.8-1.1 s); other square
+    patterns by SuperLU's LU with partial pivoting (:class:`_SparseLU`).
 
     Like :class:`_NormalEquations`: ``factorize(w_e, wq, timings)`` returns
     ``step(g_e, g_q, w_e, wq)``; ``stale_after`` is the Newton increment after which a kept
@@ -97,39 +97,23 @@ class _SquareJacobian:
         n = num.n_unknown
         self.keep = keep
         # a tree's W is block triangular (supports outwards): block forward substitution,
-        # found once from the pattern (triangular.py); SuperLU where it is not
-        self.triangular = None
+        # its structure found once from the pattern (triangular.py); SuperLU where it is not
+        self.solver = None
         if triangular:
             try:
-                self.triangular = BlockTriangular(rows[keep], cols[keep], n)
+                self.solver = BlockTriangular(rows[keep], cols[keep], n)
             except ValueError as exc:
                 log.debug("kinematic correction: not block triangular (%s), SuperLU", exc)
-        if self.triangular is None:
-            # the CSC layout once: which of the concatenated entries fills each data slot
-            # (no duplicates: a row belongs to one element or node)
-            order = sp.csc_matrix((np.arange(1, keep.size + 1, dtype=float),
-                                   (rows[keep], cols[keep])), shape=(n, n))
-            self.source = keep[order.data.astype(np.int64) - 1]
-            self.indices, self.indptr = order.indices, order.indptr
-        self.n = n
+        if self.solver is None:
+            self.solver = _SparseLU(rows[keep], cols[keep], n)
 
     def factorize(self, w_e, wq, timings):
         """Factorize W for the element blocks ``w_e`` (per group (n_e, n_def, n_ldof)) and the
         Euler rows ``wq`` (n_eu, 4)."""
         t0 = time.perf_counter()
-        data = np.concatenate([w.ravel() for w in w_e] + [wq.ravel()])
-        if self.triangular is not None:
-            data = data[self.keep]
-            timings.assembly += time.perf_counter() - t0
-            solve = self.triangular.factorize(data)
-        else:
-            data = data[self.source]
-            mat = sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
-            timings.assembly += time.perf_counter() - t0
-            try:
-                solve = spla.splu(mat, permc_spec="COLAMD").solve
-            except RuntimeError as exc:              # singular: e.g. a straight-line start
-                raise FactorizationError(str(exc)) from None
+        data = np.concatenate([w.ravel() for w in w_e] + [wq.ravel()])[self.keep]
+        timings.assembly += time.perf_counter() - t0
+        solve = self.solver.factorize(data)
 
         def step(g_e, g_q, w_e, wq):
             out = solve(np.concatenate([v.ravel() for v in g_e] + [g_q]))
@@ -137,6 +121,28 @@ class _SquareJacobian:
                 raise FactorizationError("non-finite Gauss-Newton step")
             return out
         return step
+
+
+class _SparseLU:
+    """SuperLU (partial pivoting, COLAMD) for square matrices with the pattern ``(rows,
+    cols)``; the same interface as :class:`~spacarpy.solvers.triangular.BlockTriangular`:
+    ``factorize(data) -> solve``."""
+
+    def __init__(self, rows, cols, n: int):
+        # the CSC layout once: which entry of ``data`` fills each data slot (no duplicates:
+        # a row belongs to one element or node)
+        order = sp.csc_matrix((np.arange(1, rows.size + 1, dtype=float), (rows, cols)),
+                              shape=(n, n))
+        self.source = order.data.astype(np.int64) - 1
+        self.indices, self.indptr, self.n = order.indices, order.indptr, n
+
+    def factorize(self, data):
+        mat = sp.csc_matrix((data[self.source], self.indices, self.indptr),
+                            shape=(self.n, self.n))
+        try:
+            return spla.splu(mat, permc_spec="COLAMD").solve
+        except RuntimeError as exc:              # singular: e.g. a straight-line start
+            raise FactorizationError(str(exc)) from None
 
 
 class _NormalEquations:
@@ -645,7 +651,7 @@ class StaticProblem:
             if not reused or kin.jacobian_each_step:
                 if states is None:
                     states = full_states(x)
-                w_e = [st.D * w[:, :, None] for st, w in zip(states, inv_scale)]
+                w_e = self._jacobian_blocks(states, x)[0]
             self.timings.kernels += time.perf_counter() - t0
             back = (x, states, g_e, g_q, worst)
             x = x.copy()
@@ -777,7 +783,7 @@ class StaticProblem:
         independent), so its unloaded Newton matrix is regular: the initial check needs no
         LU of it (2-3 s at 10^5 elements, against 0.3 s for this test)."""
         kin = self._kin
-        if not isinstance(kin, _SquareJacobian) or kin.triangular is None:
+        if not isinstance(kin, _SquareJacobian) or not isinstance(kin.solver, BlockTriangular):
             return False
         for g in self.num.groups:
             if not np.all(g.stiff_mask | (g.def_class == 0)):
@@ -786,11 +792,15 @@ class StaticProblem:
                 np.linalg.cholesky(g.S + np.eye(g.S.shape[1]) * ~g.stiff_mask[:, None, :])
             except np.linalg.LinAlgError:
                 return False
-        eu = self.num.rot_idx[self.num.euler_nodes]
-        data = np.concatenate([(st.D / g.scale[:, :, None]).ravel()
-                               for g, st in zip(self.num.groups, states)]
-                              + [2.0 * x[eu].ravel()])
-        return kin.triangular.regular(data[kin.keep])
+        w_e, wq = self._jacobian_blocks(states, x)
+        return kin.solver.regular(np.concatenate([w.ravel() for w in w_e]
+                                                 + [wq.ravel()])[kin.keep])
+
+    def _jacobian_blocks(self, states, x):
+        """The kinematic correction's Jacobian W at x by blocks: ``D / scale`` per element
+        group and the Euler rows ``2 q`` (see :class:`_SquareJacobian`)."""
+        return ([st.D * (1.0 / g.scale)[:, :, None] for g, st in zip(self.num.groups, states)],
+                2.0 * x[self.num.rot_idx[self.num.euler_nodes]])
 
     def normalize(self, x):
         """Project Euler parameters exactly onto q.q = 1 (after convergence)."""
