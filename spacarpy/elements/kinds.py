@@ -69,6 +69,31 @@ class Kind:
     def n_ldof(self) -> int:
         return sum(3 if s == "pos" else 4 for s in self.slots)
 
+    @property
+    def position_starts(self) -> np.ndarray:
+        """Local slots where the position triples (x, y, z of each position node) start."""
+        width = [3 if s == "pos" else 4 for s in self.slots]
+        starts = np.cumsum([0] + width[:-1])
+        return np.array([a for a, s in zip(starts, self.slots) if s == "pos"], dtype=np.int64)
+
+
+def relative_positions(ze: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Element vectors ``ze`` (n, n_ldof[, k]) with every position triple (starting at the
+    local slots ``starts``) taken relative to the first one, in place.
+
+    An element's deformations depend on its positions through differences only, so
+    ``D z_e``, ``K_e z_e`` and ``z_e^T K_e z_e`` do not change; but they are then computed
+    from quantities of the size of the element's own motion. With the nodal displacements
+    of a long, finely meshed structure the products of stiffnesses ``EA/l0`` with
+    displacements of the size of the whole structure cancel to many digits, and the soft
+    (bending) part is lost in their round-off."""
+    if starts.size:
+        first = starts[0]
+        for a in starts[:0:-1]:
+            ze[:, a:a + 3] -= ze[:, first:first + 3]
+        ze[:, first:first + 3] = 0.0
+    return ze
+
 
 # ------------------------------------------------------------------------------ BEAM
 def _beam_reference(x0, vector):

@@ -32,6 +32,7 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, scatter_add
 from spacarpy.elements.chunks import in_chunks
+from spacarpy.elements.kinds import relative_positions
 from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
@@ -56,12 +57,7 @@ def _rotate_blocks(k, *bases, starts):
 def _element_products(k, idx, z, shift):
     """``k_e z_e`` (n, n_ldof) with ``z_e = z[idx_e]``, the position triples starting at the
     local slots ``shift`` taken relative to the first of them (see ReducedNewton._k_times)."""
-    ze = z[idx]
-    for a in shift[:0:-1]:
-        ze[:, a:a + 3] -= ze[:, shift[0]:shift[0] + 3]
-    if shift.size:
-        ze[:, shift[0]:shift[0] + 3] = 0.0
-    return batch_matvec(k, ze)
+    return batch_matvec(k, relative_positions(z[idx], shift))
 
 
 def applies(prob) -> bool:
@@ -113,15 +109,6 @@ class ReducedNewton:
         self.nodes = num.euler_nodes                       # orientation-node indices
         self.eu = num.rot_idx[self.nodes]                  # (n_eu, 4) coordinate indices
         self.slots = _quaternion_slots(num)
-        # per group, the local slots of the position coordinates (x, y, z of each position
-        # node in turn), for the translation-free element products of _k_times
-        self.pos_slots = []
-        for g in num.groups:
-            width = [3 if s == "pos" else 4 for s in g.kind.slots]
-            starts = np.cumsum([0] + width[:-1])
-            self.pos_slots.append(np.concatenate(
-                [np.arange(a, a + 3) for a, s in zip(starts, g.kind.slots) if s == "pos"]
-                + [np.zeros(0, dtype=np.int64)]).astype(np.int64))
         node_of = np.full(num.n_coord, -1, dtype=np.int64)
         node_of[self.eu[:, 0]] = np.arange(self.nodes.size)
         # for each group and quaternion slot: which Euler node (index into self.nodes)
@@ -165,19 +152,17 @@ class ReducedNewton:
         (:meth:`step` uses it where z has only radial entries, or reads only radial rows),
         or on all four with ``all_slots``.
 
-        Every element's stiffness is invariant to a translation of all its nodes (its
-        deformations depend on positions through differences only), so each element's
-        position slots are first taken relative to its first node: ``K_e z_e`` is then
-        computed from quantities of the size of the element's own motion. Applied to the
-        nodal displacements of a long, finely meshed structure directly, the products of
-        stiffnesses ``EA/l0`` with displacements of the size of the whole structure cancel
-        to many digits, and the soft (bending) part of ``K z`` is lost in their round-off.
-        Blocks that carry mass (the transient iteration matrix) are not translation
-        invariant: ``invariant=False`` multiplies them as they are."""
+        Each element's position slots are first taken relative to its first node
+        (:func:`~spacarpy.elements.kinds.relative_positions`): exact, since the stiffness
+        is invariant to a translation of all of an element's nodes, and it keeps the soft
+        (bending) part of ``K z``, which the products of ``EA/l0`` with displacements of
+        the size of the whole structure lose in their round-off. Blocks that carry mass
+        (the transient iteration matrix) are not translation invariant: ``invariant=False``
+        multiplies them as they are."""
         num = self.prob.num
         kz = np.zeros(num.n_coord)
-        for g, k, pos in zip(num.groups, k_rot, self.pos_slots):
-            shift = pos[::3] if invariant else pos[:0]
+        for g, k in zip(num.groups, k_rot):
+            shift = g.kind.position_starts if invariant else np.zeros(0, dtype=np.int64)
             kz += scatter_add(num.n_coord, g.idx,
                               in_chunks(partial(_element_products, z=z, shift=shift),
                                         len(k), k, g.idx))
