@@ -21,6 +21,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from spacarpy.elements.kinds import relative_positions
+
 log = logging.getLogger(__name__)
 
 DENSE_LIMIT = 2500
@@ -124,6 +126,7 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
         lam, vec = _dense(lin, n_x)
     else:
         lam, vec = _sparse(lin, n_x, n_modes)
+        lam = _rayleigh(lin, num, free, lam, vec)
     order = np.lexsort((np.abs(lam.imag), np.where(np.isfinite(lam), np.abs(lam.real), np.inf)))
     lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
     vec = _normalize(vec.real, lin.M)
@@ -168,6 +171,45 @@ def _sparse(lin, n_x, n_modes):
     with np.errstate(divide="ignore"):
         lam = shift + 1.0 / nu
     return lam, vec[:n_x]
+
+
+def _rayleigh(lin, num, free, lam, vec):
+    """The eigenvalues of a symmetric pencil as Rayleigh quotients ``v^T K v / v^T M v`` of
+    their (real) eigenvectors, the material part ``v^T K0 v`` summed element by element.
+
+    ARPACK's eigenvalue comes from the inverse operator, i.e. from the sparse LU's solutions,
+    whose error in the soft directions of a finely meshed structure is large (the assembled
+    stiffness spans 1e15 between axial and bending terms): the lowest frequency of the
+    10^4-element bench cantilever came out 6e-5 too high. The eigenvector is much better
+    than that, and a Rayleigh quotient's error is of second order in the eigenvector's. The
+    quotient with the assembled K is still 2e-7 off there (its product loses the soft part
+    to round-off); with ``v^T K0 v = sum_e (D_e v_e)^T S_e (D_e v_e)``, each element's
+    positions taken relative to its first node (:func:`relative_positions`), it is
+    20.7271436 Hz, as with 10^3 elements. The load-dependent part ``K - K0`` is small and
+    multiplied as assembled. Complex and infinite modes, and non-symmetric pencils
+    (follower-type loads), keep ARPACK's values."""
+    K, M = lin.K, lin.M
+    scale = abs(K).max() if K.nnz else 0.0
+    if scale == 0 or abs(K - K.T).max() > 1e-12 * scale:
+        return lam
+    real = np.isfinite(lam) & (np.abs(lam.imag) <= 1e-8 * np.abs(lam))
+    if not real.any():
+        return lam
+    v = vec[:, real]
+    # a real eigenvector up to a complex factor: turn its largest entry real
+    big = v[np.argmax(np.abs(v), axis=0), np.arange(v.shape[1])]
+    v = (v * (np.abs(big) / np.where(big == 0, 1.0, big))).real
+    energy = np.einsum("ij,ij->j", v, lin.G @ v)             # the load-dependent part
+    full = np.zeros((num.n_coord, v.shape[1]))
+    full[free] = v
+    for g, st in zip(num.groups, lin.states):
+        rates = st.D @ relative_positions(full[g.idx], g.kind.position_starts)
+        energy += np.einsum("eik,eij,ejk->k", rates, g.S, rates)
+    mass = np.einsum("ij,ij->j", v, M @ v)
+    out = lam.copy()
+    ok = mass > 0
+    out[np.flatnonzero(real)[ok]] = energy[ok] / mass[ok]
+    return out
 
 
 def _normalize(vec, M):
