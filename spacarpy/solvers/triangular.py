@@ -124,7 +124,6 @@ class BlockTriangular:
                             shape=(n, n))
         self.l_source = lay.data.astype(np.int64) - 1
         self.l_indices, self.l_indptr = lay.indices, lay.indptr
-        self.n_products = kk.size
 
     def regular(self, data, rcond: float = 1e-8) -> bool:
         """Whether the matrix with entries ``data`` is regular, with every diagonal block's
