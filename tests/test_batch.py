@@ -104,3 +104,34 @@ def test_docs_batch_example_runs(tmp_path, monkeypatch, capsys):
     assert main(args + ["-q"]) == 0
     assert "2 decks: 2 pass" in capsys.readouterr().out
     assert ET.parse(tmp_path / "batch.xml").getroot().find("testsuite").get("tests") == "2"
+
+
+def test_a_baseline_tolerance_file_loosens_named_datasets_only(tmp_path, capsys):
+    """``<baseline>.tol.json`` loosens the tolerances of the datasets it names (an
+    ill-conditioned quantity), with a required reason; a malformed file fails the deck."""
+    import h5py
+    deck = tmp_path / "decks" / "two_bar_truss.dat"
+    deck.parent.mkdir()
+    shutil.copy(DECKS / "two_bar_truss.dat", deck)
+    base = tmp_path / "base"
+    args = ["batch", str(deck.parent), "--baseline", str(base), "-q"]
+    assert main(args + ["--update-baseline"]) == 0
+    with h5py.File(base / "two_bar_truss.h5", "r+") as f:
+        f["/static/position"][...] *= 1.0 + 1e-4            # a 1e-4 relative change
+    capsys.readouterr()
+    assert main(args) == 1
+    assert "CHANGED" in capsys.readouterr().out
+    tol = base / "two_bar_truss.tol.json"
+    tol.write_text(json.dumps({"/static/reaction": {"rtol": 1e-3, "why": "other dataset"}}))
+    assert main(args) == 1                                   # names another dataset
+    tol.write_text(json.dumps({"/static/pos*": {"rtol": 1e-3, "why": "test"}}))
+    assert main(args) == 0
+    tol.write_text(json.dumps({"/static/pos*": {"rtol": 1e-3}}))       # no reason
+    capsys.readouterr()
+    assert main(args) == 1
+    out = capsys.readouterr().out
+    assert "FAILED" in out and "two_bar_truss.tol.json" in out and "reason" in out
+    # the shipped leaf-spring baselines say why their soft frequencies are loosened
+    from spacarpy.batch.compare import load_tolerances
+    for name in ("leafspring_guidance_misalignment", "leafspring_guidance_sweep"):
+        assert load_tolerances(BASELINE / f"{name}.tol.json")

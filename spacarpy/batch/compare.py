@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["IGNORED", "DatasetDiff", "compare_files"]
+__all__ = ["IGNORED", "DatasetDiff", "compare_files", "load_tolerances"]
 
 #: Dataset paths (fnmatch patterns) not compared: the Newton residual and iteration counts
 #: of static and transient runs (they depend on round-off), and mode shapes (their sign, and
@@ -100,8 +100,34 @@ def _compare(path, a, b, rtol, atol, floor=0.0) -> DatasetDiff | None:
                        f"difference {rel:.3g})")
 
 
+def load_tolerances(path) -> dict:
+    """A baseline's tolerance file (``<baseline>.tol.json``): ``{pattern: {"rtol": r,
+    "atol": a, "why": "..."}}`` with fnmatch patterns of dataset paths, for datasets that
+    are ill-conditioned in the model (a post-buckled soft frequency that moves by 1e-4 with
+    round-off). ``why`` is required: a loosened tolerance must say what it tolerates.
+    Raises ValueError naming the file and entry when the file is malformed."""
+    import json
+    try:
+        data = json.loads(open(path, encoding="utf-8").read())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: not a readable JSON file ({exc})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected an object {{dataset pattern: tolerances}}")
+    out = {}
+    for pattern, entry in data.items():
+        if not isinstance(entry, dict) or not entry.get("why") or \
+                set(entry) - {"rtol", "atol", "why"} or \
+                not all(isinstance(entry.get(k, 0.0), (int, float)) and entry.get(k, 0.0) >= 0
+                        for k in ("rtol", "atol")):
+            raise ValueError(f"{path}: {pattern!r}: expected {{\"rtol\": r, \"atol\": a, "
+                             f"\"why\": \"...\"}} with non-negative numbers and a reason")
+        out[pattern] = (entry.get("rtol"), entry.get("atol"))
+    return out
+
+
 def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
-                  floor: float = 1e-9, ignore=IGNORED) -> list[DatasetDiff]:
+                  floor: float = 1e-9, ignore=IGNORED,
+                  tolerances: dict | None = None) -> list[DatasetDiff]:
     """Compare every numeric dataset that both files contain.
 
     Parameters
@@ -114,6 +140,9 @@ def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
         Round-off floor relative to each baseline dataset's largest magnitude.
     ignore : sequence of str
         fnmatch patterns of dataset paths not compared (default :data:`IGNORED`).
+    tolerances : dict, optional
+        ``{pattern: (rtol or None, atol or None)}`` (:func:`load_tolerances`): the first
+        pattern that matches a dataset's path loosens its tolerances to those it gives.
 
     Returns
     -------
@@ -128,7 +157,12 @@ def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
         for path in sorted(set(da) & set(db)):
             if any(fnmatch.fnmatchcase(path, pat) for pat in ignore):
                 continue
-            d = _compare(path, da[path][()], db[path][()], rtol, atol, floor)
+            r, a = rtol, atol
+            for pat, (pr, pa) in (tolerances or {}).items():
+                if fnmatch.fnmatchcase(path, pat):
+                    r, a = max(r, pr or 0.0), max(a, pa or 0.0)     # loosen, never tighten
+                    break
+            d = _compare(path, da[path][()], db[path][()], r, a, floor)
             if d is not None:
                 diffs.append(d)
     return diffs

@@ -212,7 +212,7 @@ class DeckOutcome:
 
 
 def _verdict(res: TaskResult, baseline: Path | None, rtol, atol) -> DeckOutcome:
-    from spacarpy.batch.compare import compare_files
+    from spacarpy.batch.compare import compare_files, load_tolerances
 
     if res.status == "xfail":
         return DeckOutcome(res.key, "pass", res.message, res.seconds)
@@ -221,7 +221,13 @@ def _verdict(res: TaskResult, baseline: Path | None, rtol, atol) -> DeckOutcome:
         return DeckOutcome(res.key, "failed", f"{what}: {res.message}", res.seconds)
     if baseline is None or not baseline.exists():
         return DeckOutcome(res.key, "new", "no baseline", res.seconds)
-    diffs = compare_files(io.BytesIO(res.data), baseline, rtol=rtol, atol=atol)
+    tol_file = baseline.with_suffix(".tol.json")
+    try:
+        tolerances = load_tolerances(tol_file) if tol_file.exists() else None
+    except ValueError as exc:
+        return DeckOutcome(res.key, "failed", f"baseline tolerances: {exc}", res.seconds)
+    diffs = compare_files(io.BytesIO(res.data), baseline, rtol=rtol, atol=atol,
+                          tolerances=tolerances)
     if diffs:
         worst = max(diffs, key=lambda d: d.rel_diff)
         msg = (f"{len(diffs)} dataset{'s' * (len(diffs) > 1)} changed "
