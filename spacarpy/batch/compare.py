@@ -107,22 +107,28 @@ def load_tolerances(path) -> dict:
     round-off). ``why`` is required: a loosened tolerance must say what it tolerates.
     Raises ValueError naming the file and entry when the file is malformed."""
     import json
+    from pathlib import Path
     try:
-        data = json.loads(open(path, encoding="utf-8").read())
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise ValueError(f"{path}: not a readable JSON file ({exc})") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected an object {{dataset pattern: tolerances}}")
-    out = {}
     for pattern, entry in data.items():
-        if not isinstance(entry, dict) or not entry.get("why") or \
-                set(entry) - {"rtol", "atol", "why"} or \
-                not all(isinstance(entry.get(k, 0.0), (int, float)) and entry.get(k, 0.0) >= 0
-                        for k in ("rtol", "atol")):
+        if not _valid_tolerance(entry):
             raise ValueError(f"{path}: {pattern!r}: expected {{\"rtol\": r, \"atol\": a, "
                              f"\"why\": \"...\"}} with non-negative numbers and a reason")
-        out[pattern] = (entry.get("rtol"), entry.get("atol"))
-    return out
+    return {pattern: (entry.get("rtol"), entry.get("atol")) for pattern, entry in data.items()}
+
+
+def _valid_tolerance(entry) -> bool:
+    """An entry of a tolerance file: a reason, and rtol/atol non-negative numbers if given."""
+    if not isinstance(entry, dict) or set(entry) - {"rtol", "atol", "why"}:
+        return False
+    if not (isinstance(entry.get("why"), str) and entry["why"].strip()):
+        return False
+    return all(type(entry.get(k, 0.0)) in (int, float) and entry.get(k, 0.0) >= 0
+               for k in ("rtol", "atol"))
 
 
 def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
