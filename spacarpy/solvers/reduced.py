@@ -195,9 +195,9 @@ class ReducedNewton:
         without pivoting of an indefinite matrix near a limit point); the caller then
         takes the bordered system instead. ``quick_matvec`` (the assembled matrix's product,
         cheaper for small models) first tests the plain solution: where its residual is
-        below the iterations' tolerance (well-conditioned models) it is taken as it is; after three
-        misses in a row that test is no longer made. The accuracy reported and checked at the
-        end is CG's updated residual (GMRES's true one)."""
+        below the iterations' tolerance (well-conditioned models) it is taken as it is;
+        after three misses in a row that test is no longer made. The accuracy reported and
+        checked at the end is CG's updated residual (GMRES's true one)."""
         y = solve(rhs)
         b_norm = np.linalg.norm(rhs)
         if b_norm == 0.0:

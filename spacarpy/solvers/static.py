@@ -107,11 +107,21 @@ class _SquareJacobian:
         if self.solver is None:
             self.solver = _SparseLU(rows[keep], cols[keep], n)
 
+    def _entries(self, w_e, wq) -> np.ndarray:
+        """W's entries, in the pattern's order, from the element blocks and Euler rows."""
+        return np.concatenate([w.ravel() for w in w_e] + [wq.ravel()])[self.keep]
+
+    def regular(self, w_e, wq) -> bool:
+        """Whether W is block triangular with well-conditioned diagonal blocks (False when
+        its structure is not block triangular: then it cannot tell)."""
+        return (isinstance(self.solver, BlockTriangular)
+                and self.solver.regular(self._entries(w_e, wq)))
+
     def factorize(self, w_e, wq, timings):
         """Factorize W for the element blocks ``w_e`` (per group (n_e, n_def, n_ldof)) and the
         Euler rows ``wq`` (n_eu, 4)."""
         t0 = time.perf_counter()
-        data = np.concatenate([w.ravel() for w in w_e] + [wq.ravel()])[self.keep]
+        data = self._entries(w_e, wq)
         timings.assembly += time.perf_counter() - t0
         solve = self.solver.factorize(data)
 
@@ -782,8 +792,7 @@ class StaticProblem:
         mode or breaks an Euler normalization) and no redundant constraint (W's rows are
         independent), so its unloaded Newton matrix is regular: the initial check needs no
         LU of it (2-3 s at 10^5 elements, against 0.3 s for this test)."""
-        kin = self._kin
-        if not isinstance(kin, _SquareJacobian) or not isinstance(kin.solver, BlockTriangular):
+        if not isinstance(self._kin, _SquareJacobian):
             return False
         for g in self.num.groups:
             if not np.all(g.stiff_mask | (g.def_class == 0)):
@@ -792,9 +801,7 @@ class StaticProblem:
                 np.linalg.cholesky(g.S + np.eye(g.S.shape[1]) * ~g.stiff_mask[:, None, :])
             except np.linalg.LinAlgError:
                 return False
-        w_e, wq = self._jacobian_blocks(states, x)
-        return kin.solver.regular(np.concatenate([w.ravel() for w in w_e]
-                                                 + [wq.ravel()])[kin.keep])
+        return self._kin.regular(*self._jacobian_blocks(states, x))
 
     def _jacobian_blocks(self, states, x):
         """The kinematic correction's Jacobian W at x by blocks: ``D / scale`` per element

@@ -125,14 +125,20 @@ class BlockTriangular:
         self.l_source = lay.data.astype(np.int64) - 1
         self.l_indices, self.l_indptr = lay.indices, lay.indptr
 
-    def regular(self, data, rcond: float = 1e-8) -> bool:
-        """Whether the matrix with entries ``data`` is regular, with every diagonal block's
-        smallest singular value above ``rcond`` times its largest (a block triangular
-        matrix is singular exactly when a diagonal block is)."""
+    def _diagonal_blocks(self, data) -> np.ndarray:
+        """The dense diagonal blocks (n_blocks, s, s) of the matrix with entries ``data``,
+        the padding of smaller blocks 1 on the diagonal."""
         blocks = np.zeros(self.shape)
         flat = blocks.reshape(-1)
         flat[self.diag_at] = np.asarray(data, dtype=float)[self.diag_entries]
         flat[self.pad_at] = 1.0
+        return blocks
+
+    def regular(self, data, rcond: float = 1e-8) -> bool:
+        """Whether the matrix with entries ``data`` is regular, with every diagonal block's
+        smallest singular value above ``rcond`` times its largest (a block triangular
+        matrix is singular exactly when a diagonal block is)."""
+        blocks = self._diagonal_blocks(data)
         sv = in_chunks(partial(np.linalg.svd, compute_uv=False), len(blocks), blocks)
         return bool(np.all(sv[:, -1] > rcond * sv[:, 0]))
 
@@ -140,10 +146,7 @@ class BlockTriangular:
         """Factorize the matrix with entries ``data`` (in the order of the pattern); returns
         ``solve(b) -> x``."""
         data = np.asarray(data, dtype=float)
-        blocks = np.zeros(self.shape)
-        flat = blocks.reshape(-1)
-        flat[self.diag_at] = data[self.diag_entries]
-        flat[self.pad_at] = 1.0
+        blocks = self._diagonal_blocks(data)
         try:
             inv = in_chunks(np.linalg.inv, len(blocks), blocks)    # threads: 2x at 10^5
         except np.linalg.LinAlgError:
