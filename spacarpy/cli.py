@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import time
 from pathlib import Path
@@ -292,10 +293,6 @@ def _results_commands(sub) -> None:
     _verbosity(exp)
 
 
-def _int_or_all(text: str):
-    return text if text == "all" else int(text)
-
-
 def _selection(p) -> None:
     p.add_argument("--node", type=int, default=None, help="deck node number")
     p.add_argument("--element", type=int, default=None, help="deck element number")
@@ -310,7 +307,21 @@ def _verbosity(p):
     p.add_argument("-v", "--verbose", action="store_true", help="solver details")
 
 
+def _single_blas_thread() -> None:
+    """One BLAS thread unless the user says otherwise (OPENBLAS_NUM_THREADS etc. override).
+
+    spacarpy's dense work is many small matrices (6x6 element blocks, small reductions) and
+    sparse factorizations, where a multithreaded BLAS spends more time synchronising than
+    computing; batch runs and sweeps use one process per core anyway. Set here rather than
+    on ``import spacarpy``, since a library must not change its host's environment; it takes
+    effect only because nothing imported so far by this module has imported numpy.
+    """
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+
+
 def main(argv: list[str] | None = None) -> int:
+    _single_blas_thread()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
