@@ -1,8 +1,30 @@
-"""Helpers shared by the test modules (pytest puts tests/ on sys.path)."""
+"""Plain functions shared by several test modules (pytest puts tests/ on sys.path).
+
+Fixtures live in conftest.py; this module holds what is called, not injected: deck-error
+collection, finite differences, an independent planar four-bar solution, and a results writer
+process killed with SIGKILL. No test module imports another test module.
+"""
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from spacarpy.deck import model_from_text
 from spacarpy.errors import DeckError
+from spacarpy.model import BeamSet, Model
+from spacarpy.results import ResultsWriter
+
+TESTS = Path(__file__).resolve().parent
+REPO = TESTS.parent
+DECK_TEXT = "# tiny test deck, ünïcödé\nBEAM 1 1 2 3 4\nBEAM 2 3 4 5 6\nEND\n"
+REACTION_COMPONENT = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
 
 
 def deck_errors(text: str, name: str = "t.dat") -> list[tuple[int, str]]:
@@ -10,3 +32,123 @@ def deck_errors(text: str, name: str = "t.dat") -> list[tuple[int, str]]:
     with pytest.raises(DeckError) as info:
         model_from_text(text, name)
     return [(loc.line, msg) for loc, msg, _ in info.value.items]
+
+
+def fd_columns(func, x, h=1e-6):
+    """Central differences of func(x) (n, ...) with respect to every column of x (n, m)."""
+    cols = []
+    for k in range(x.shape[1]):
+        dx = np.zeros(x.shape[1])
+        dx[k] = h
+        cols.append((func(x + dx) - func(x - dx)) / (2 * h))
+    return np.stack(cols, axis=-1)
+
+
+def planar_four_bar_equilibrium(k=2.0, P=1.5):
+    """Independent planar solution: loop closure by circle intersection, virtual work
+    k phi = P dx_C/dphi (derivative of the closed-form C(phi) by a central difference)."""
+    A, D = np.array([0, 0.0]), np.array([1, 0.0])
+    L1, L2, L3 = 0.3, np.hypot(1.0, 0.5), 0.8
+
+    def c_of(phi):
+        B = A + L1 * np.array([-np.sin(phi), np.cos(phi)])
+        d = np.linalg.norm(D - B)
+        a = (L2**2 - L3**2 + d**2) / (2 * d)
+        h = np.sqrt(L2**2 - a**2)
+        mid = B + a * (D - B) / d
+        perp = np.array([-(D - B)[1], (D - B)[0]]) / d
+        return max(mid + h * perp, mid - h * perp, key=lambda c: c[1])   # the upper branch
+
+    phi = brentq(lambda p: k * p - P * (c_of(p + 1e-6)[0] - c_of(p - 1e-6)[0]) / 2e-6,
+                 -1.0, 1.0)
+    return phi, c_of(phi)
+
+
+# --- a results writer in its own process ------------------------------------------------------
+
+def chain_model(n_elem: int = 2, source_path: str = "decks/tiny.dat") -> Model:
+    """A straight chain of ``n_elem`` beams along x; positions odd, orientations even numbers."""
+    pos = np.arange(n_elem + 1) * 2 + 1
+    rot = pos + 1
+    nodes = np.column_stack([pos[:-1], rot[:-1], pos[1:], rot[1:]])
+    beams = BeamSet(ids=np.arange(1, n_elem + 1), nodes=nodes,
+                    orientation=np.full((n_elem, 3), np.nan),
+                    def_class=np.ones((n_elem, 6)), stiffness=np.ones((n_elem, 6)),
+                    has_stiffness=np.ones(n_elem, bool))
+    x0 = np.column_stack([np.linspace(0.0, 1.0, n_elem + 1), np.zeros((n_elem + 1, 2))])
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
+                 source_path=source_path, source_text=DECK_TEXT)
+
+
+def step_data(model: Model, k: int) -> dict:
+    """Deterministic, distinguishable arrays for load step ``k``."""
+    n_pos, n_rot, n_elem = model.position_ids.size, model.orientation_ids.size, model.beams.n_elem
+    angle = 0.01 * k * np.arange(n_rot)
+    euler = np.column_stack([np.cos(angle / 2), np.zeros(n_rot), np.zeros(n_rot),
+                             np.sin(angle / 2)])
+    return dict(
+        load_factor=0.1 * k,
+        position=model.position_x0 + 1e-3 * k * np.arange(3 * n_pos).reshape(n_pos, 3),
+        euler=euler,
+        deformation=1e-4 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
+        stress_resultant=-10.0 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
+        reaction=np.arange(6, dtype=float) - 2.5 * k,
+        iterations=k + 2,
+        residual=10.0 ** -(k + 7),
+    )
+
+
+def begin(w: ResultsWriter, model: Model) -> None:
+    w.begin_static(model.position_ids.size, model.orientation_ids.size, model.beams.n_elem,
+                   reaction_node=[1, 1, 1, 2, 2, 2], reaction_component=REACTION_COMPONENT)
+
+
+def writer(path, model) -> ResultsWriter:
+    return ResultsWriter(path, model, program_version="0.1.0", deformations="modified",
+                         analysis="static")
+
+
+CHILD = textwrap.dedent("""
+    import sys, time
+    sys.path[:0] = [{tests!r}, {repo!r}]
+    from helpers import chain_model, step_data, writer, begin
+    out, n_elem, pause = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+    model = chain_model(n_elem)
+    with writer(out, model) as w:
+        begin(w, model)
+        k = 0
+        while True:
+            w.static_step(**step_data(model, k))
+            k += 1
+            print(k, flush=True)
+            time.sleep(pause)
+""")
+
+
+def run_and_kill(tmp_path, n_elem: int, pause: float, kill_after: int = 3, on_running=None):
+    """Start a writer process, SIGKILL it once it reports ``kill_after`` written steps.
+
+    ``on_running(partial_path, reported)`` is called just before the kill.
+    """
+    script = tmp_path / "child.py"
+    script.write_text(CHILD.format(tests=str(TESTS), repo=str(REPO)))
+    out = tmp_path / "killed.h5"
+    proc = subprocess.Popen([sys.executable, str(script), str(out), str(n_elem), str(pause)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        reported = 0
+        while reported < kill_after:
+            line = proc.stdout.readline()
+            assert line, f"writer process died: {proc.stderr.read()}"
+            reported = int(line)
+        if on_running is not None:
+            on_running(tmp_path / "killed.partial.h5", reported)
+        proc.send_signal(signal.SIGKILL)
+        assert proc.wait(timeout=10) == -signal.SIGKILL
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()
+        proc.stderr.close()
+    return out, reported

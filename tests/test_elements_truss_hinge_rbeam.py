@@ -12,6 +12,8 @@ from spacarpy.elements.truss import (truss_deformations, truss_mass_matrix, trus
                                      truss_state, truss_stiffness, truss_weighted_hessian)
 from spacarpy.rotation import from_axis_angle, lambda_matrix, rotation_matrix
 
+from helpers import fd_columns
+
 
 # ------------------------------------------------------------------------------ helpers
 def quat_mul(a, b):
@@ -32,16 +34,6 @@ def random_quats(rng, n, spread, scale=False):
     if scale:                                   # the kernels are exact for any |q|
         q *= rng.uniform(0.8, 1.2, size=(n, 1))
     return q
-
-
-def fd_columns(func, x, h=1e-6):
-    """Central differences of func(x) (n, ...) with respect to every column of x (n, m)."""
-    cols = []
-    for k in range(x.shape[1]):
-        dx = np.zeros(x.shape[1])
-        dx[k] = h
-        cols.append((func(x + dx) - func(x - dx)) / (2 * h))
-    return np.stack(cols, axis=-1)
 
 
 def check_jacobian(state_fn, x):

@@ -110,7 +110,7 @@ from spacarpy.cli import main  # noqa: E402
 from spacarpy.deck import model_from_text  # noqa: E402
 from spacarpy.results import read_results  # noqa: E402
 
-from helpers import deck_errors  # noqa: E402
+from helpers import deck_errors, planar_four_bar_equilibrium  # noqa: E402
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -300,26 +300,6 @@ def test_prescribed_rotation_by_axis_and_angle():
                                                                     "INPUTR 2 0 0 1"))]
     assert any("INPUTR: node 3 is a position node" in m for m in messages)
     assert any("INPUTR: node 2 is already fixed or prescribed" in m for m in messages)
-
-
-def planar_four_bar_equilibrium(k=2.0, P=1.5):
-    """Independent planar solution: loop closure by circle intersection, virtual work
-    k phi = P dx_C/dphi (derivative of the closed-form C(phi) by a central difference)."""
-    A, D = np.array([0, 0.0]), np.array([1, 0.0])
-    L1, L2, L3 = 0.3, np.hypot(1.0, 0.5), 0.8
-
-    def c_of(phi):
-        B = A + L1 * np.array([-np.sin(phi), np.cos(phi)])
-        d = np.linalg.norm(D - B)
-        a = (L2**2 - L3**2 + d**2) / (2 * d)
-        h = np.sqrt(L2**2 - a**2)
-        mid = B + a * (D - B) / d
-        perp = np.array([-(D - B)[1], (D - B)[0]]) / d
-        return max(mid + h * perp, mid - h * perp, key=lambda c: c[1])   # the upper branch
-
-    phi = brentq(lambda p: k * p - P * (c_of(p + 1e-6)[0] - c_of(p - 1e-6)[0]) / 2e-6,
-                 -1.0, 1.0)
-    return phi, c_of(phi)
 
 
 def test_four_bar_linkage_matches_the_planar_solution(tmp_path):

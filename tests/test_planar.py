@@ -16,10 +16,7 @@ from spacarpy.solvers.eigen import eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
 from spacarpy.solvers.static import solve_static
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_elements_truss_hinge_rbeam import fd_columns  # noqa: E402
-from test_multibody import planar_four_bar_equilibrium  # noqa: E402
-from helpers import deck_errors  # noqa: E402
+from helpers import deck_errors, fd_columns, planar_four_bar_equilibrium
 
 
 def planar_cantilever(n, variant, L=2.0, ei=1.725e6, ea=2.07e9, force=None):

@@ -11,14 +11,13 @@ pytest.importorskip("matplotlib", reason="plots need the optional matplotlib (pi
 from spacarpy.cli import main                                      # noqa: E402
 from spacarpy.results import open_results                          # noqa: E402
 from spacarpy.results.plot import centre_lines, make_figure        # noqa: E402
-from test_results_reader import result_files                       # noqa: E402
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
-def files():
-    return result_files()
+def files(result_files):
+    return result_files
 
 
 @pytest.mark.parametrize("key, argv", [

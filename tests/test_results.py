@@ -24,51 +24,16 @@ from spacarpy.results import (
     validate_file,
 )
 
-REPO = Path(__file__).resolve().parents[1]
-DECK_TEXT = "# tiny test deck, ünïcödé\nBEAM 1 1 2 3 4\nBEAM 2 3 4 5 6\nEND\n"
-REACTION_COMPONENT = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-
-
-def chain_model(n_elem: int = 2, source_path: str = "decks/tiny.dat") -> Model:
-    """A straight chain of ``n_elem`` beams along x; positions odd, orientations even numbers."""
-    pos = np.arange(n_elem + 1) * 2 + 1
-    rot = pos + 1
-    nodes = np.column_stack([pos[:-1], rot[:-1], pos[1:], rot[1:]])
-    beams = BeamSet(ids=np.arange(1, n_elem + 1), nodes=nodes,
-                    orientation=np.full((n_elem, 3), np.nan),
-                    def_class=np.ones((n_elem, 6)), stiffness=np.ones((n_elem, 6)),
-                    has_stiffness=np.ones(n_elem, bool))
-    x0 = np.column_stack([np.linspace(0.0, 1.0, n_elem + 1), np.zeros((n_elem + 1, 2))])
-    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
-                 source_path=source_path, source_text=DECK_TEXT)
-
-
-def step_data(model: Model, k: int) -> dict:
-    """Deterministic, distinguishable arrays for load step ``k``."""
-    n_pos, n_rot, n_elem = model.position_ids.size, model.orientation_ids.size, model.beams.n_elem
-    angle = 0.01 * k * np.arange(n_rot)
-    euler = np.column_stack([np.cos(angle / 2), np.zeros(n_rot), np.zeros(n_rot),
-                             np.sin(angle / 2)])
-    return dict(
-        load_factor=0.1 * k,
-        position=model.position_x0 + 1e-3 * k * np.arange(3 * n_pos).reshape(n_pos, 3),
-        euler=euler,
-        deformation=1e-4 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
-        stress_resultant=-10.0 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
-        reaction=np.arange(6, dtype=float) - 2.5 * k,
-        iterations=k + 2,
-        residual=10.0 ** -(k + 7),
-    )
-
-
-def begin(w: ResultsWriter, model: Model) -> None:
-    w.begin_static(model.position_ids.size, model.orientation_ids.size, model.beams.n_elem,
-                   reaction_node=[1, 1, 1, 2, 2, 2], reaction_component=REACTION_COMPONENT)
-
-
-def writer(path, model) -> ResultsWriter:
-    return ResultsWriter(path, model, program_version="0.1.0", deformations="modified",
-                         analysis="static")
+from helpers import (
+    DECK_TEXT,
+    REACTION_COMPONENT,
+    REPO,
+    begin,
+    chain_model,
+    run_and_kill,
+    step_data,
+    writer,
+)
 
 
 def write_run(path, model, n_steps: int = 3) -> None:
@@ -334,52 +299,6 @@ def test_linearized_groups_round_trip(tmp_path):
 
 
 # --- a real process killed with SIGKILL ---------------------------------------------------------
-
-CHILD = textwrap.dedent("""
-    import sys, time
-    sys.path[:0] = [{tests!r}, {repo!r}]
-    from test_results import chain_model, step_data, writer, begin
-    out, n_elem, pause = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
-    model = chain_model(n_elem)
-    with writer(out, model) as w:
-        begin(w, model)
-        k = 0
-        while True:
-            w.static_step(**step_data(model, k))
-            k += 1
-            print(k, flush=True)
-            time.sleep(pause)
-""")
-
-
-def run_and_kill(tmp_path, n_elem: int, pause: float, kill_after: int = 3, on_running=None):
-    """Start a writer process, SIGKILL it once it reports ``kill_after`` written steps.
-
-    ``on_running(partial_path, reported)`` is called just before the kill.
-    """
-    script = tmp_path / "child.py"
-    script.write_text(CHILD.format(tests=str(Path(__file__).parent), repo=str(REPO)))
-    out = tmp_path / "killed.h5"
-    proc = subprocess.Popen([sys.executable, str(script), str(out), str(n_elem), str(pause)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        reported = 0
-        while reported < kill_after:
-            line = proc.stdout.readline()
-            assert line, f"writer process died: {proc.stderr.read()}"
-            reported = int(line)
-        if on_running is not None:
-            on_running(tmp_path / "killed.partial.h5", reported)
-        proc.send_signal(signal.SIGKILL)
-        assert proc.wait(timeout=10) == -signal.SIGKILL
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        proc.stdout.close()
-        proc.stderr.close()
-    return out, reported
-
 
 @pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs POSIX SIGKILL")
 def test_sigkill_between_steps_leaves_readable_partial(tmp_path):

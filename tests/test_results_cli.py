@@ -17,14 +17,13 @@ import pytest
 
 from spacarpy.cli import main
 from spacarpy.results import open_results, read_results, validate_file
-from test_results_reader import result_files
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def files():
-    return result_files()
+def files(result_files):
+    return result_files
 
 
 # --- validate --------------------------------------------------------------------------------

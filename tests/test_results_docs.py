@@ -14,7 +14,8 @@ from pathlib import Path
 import h5py
 
 from spacarpy.results.hdf5 import DATASET_ATTRS
-from test_results_reader import result_files
+
+from helpers import run_and_kill
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "results.md"
 
@@ -37,10 +38,9 @@ def written_paths(path) -> set:
     return out
 
 
-def test_documented_paths_equal_written_paths(tmp_path):
-    files = dict(result_files())
+def test_documented_paths_equal_written_paths(tmp_path, result_files):
+    files = dict(result_files)
     if hasattr(signal, "SIGKILL"):
-        from test_results import run_and_kill
         run_and_kill(tmp_path, n_elem=2, pause=0.02)
         files["killed"] = tmp_path / "killed.partial.h5"
     written = set().union(*(written_paths(p) for p in files.values()))

@@ -13,12 +13,13 @@ import pytest
 from spacarpy.cli import main
 from spacarpy.results import open_results
 from spacarpy.results.export import write_vtk, write_xdmf
-from test_results_reader import result_files
+
+from helpers import run_and_kill
 
 
 @pytest.fixture(scope="module")
-def files():
-    return result_files()
+def files(result_files):
+    return result_files
 
 
 def hdf_items(root):
@@ -120,7 +121,6 @@ def test_xdmf_with_stresses_and_modes(files, tmp_path):
 def test_xdmf_of_a_killed_run_copies_the_committed_steps(tmp_path):
     if not hasattr(signal, "SIGKILL"):
         pytest.skip("needs POSIX SIGKILL")
-    from test_results import run_and_kill
     out, _ = run_and_kill(tmp_path, n_elem=2, pause=0.02)
     partial = tmp_path / "killed.partial.h5"
     with pytest.raises(OSError):                       # the SWMR-write mark

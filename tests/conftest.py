@@ -1,0 +1,100 @@
+"""Shared fixtures of the test suite.
+
+Plain helper functions live in helpers.py; no test module imports another test module.
+Expensive shared inputs (real result files of the shipped decks) are session-scoped fixtures,
+computed once per run.
+"""
+from __future__ import annotations
+
+import os
+
+# The command line sets one BLAS thread (spacarpy.cli.main) before numpy is imported; the
+# in-process tests get the same setting, so they run the CLI's arithmetic. Set here, before
+# any test module imports numpy; the user's own setting wins.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import shutil  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+
+from spacarpy.cli import main  # noqa: E402
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
+
+
+# A clamped column of 4 elements with mass, loaded in compression below its Euler load
+# (pi^2 EI / 4 L^2 = 2.47 N) in 4 steps: frequencies and buckling multipliers at every step.
+COLUMN_DECK = """X 1 0 0 0
+BEAMS 1  1 2 3 4  4  0 1 0
+X 3 1 0 0
+DYNE 1:4 1:6
+FIX 1
+FIX 2
+END
+HALT
+ESTIFF 1:4 1e4 1 1 1
+EM 1:4 1 0.01 0.005 0.005
+DELXF 3 -2 0 0
+ITERSTEP 20 4 1e-10
+END
+END
+"""
+
+
+@pytest.fixture(scope="session")
+def result_files(tmp_path_factory) -> dict:
+    """Representative result files, {key: path}, written once per session.
+
+    ``bend``: Table 2 (static, 8 elements); ``frame``: the portal frame with cross-sections
+    (surface stresses); ``column``: eigen analysis with frequencies and buckling multipliers at
+    every step and a compliance; ``failed``: a run that stopped with an error (partial file).
+    """
+    tmp = tmp_path_factory.mktemp("results")
+    runs = {
+        "bend": ("table2_bend_8el_modified", []),
+        "frame": ("example_portal_frame", ["--set", "n=2"]),
+        "column": ("column", ["--modes-per-step", "--modes", "3", "--compliance", "3", "4"]),
+        "fourbar": ("four_bar_linkage", []),          # HINGE and RBEAM (schema 1.2)
+        "truss": ("two_bar_truss", []),               # TRUSS (schema 1.2)
+        "driven": ("driven", []),                     # a prescribed hinge angle (INPUTE)
+        "planar": ("planar_four_bar", []),            # PLBEAM, PLHINGE (schema 1.3)
+        "pltruss": ("pltruss", []),                   # PLTRUSS (schema 1.3)
+        "transient": ("pendulum", []),                # /transient (schema 1.4)
+    }
+    (tmp / "pendulum.dat").write_text((DECKS / "pendulum_rigid_90deg.dat").read_text()
+                                      .replace("TIMESTEP 2.2 440", "TIMESTEP 0.1 10"))
+    (tmp / "pltruss.dat").write_text(
+        "X 1 -1 0\nX 3 0 0.3\nX 5 1 0\nPLTRUSS 1 1 3\nPLTRUSS 2 5 3\nDYNE 1:2 1\nFIX 1\n"
+        "FIX 5\nEND\nHALT\nESTIFF 1:2 1e4\nDELXF 3 0 -50\nITERSTEP 20 4 1e-12\nEND\nEND\n")
+    (tmp / "driven.dat").write_text(
+        (DECKS / "hinged_rod_spring.dat").read_text()
+        .replace("DYNE 10 1 ", "INPUTE 10 1").replace("ESTIFF 10 {k}", "DELINPE 10 1 0.5")
+        .replace("DELXF 3 0 {F} 0", "").replace("EXPECT", "# EXPECT"))
+    # short transient runs of the other element kinds (their /transient datasets)
+    short = "MODE transient\n"
+    (tmp / "truss_dyn.dat").write_text(short + (DECKS / "two_bar_truss.dat").read_text()
+                                       .replace("ITERSTEP 20 4 1e-12", "EM 1:2 1\nTIMESTEP 0.01 2")
+                                       .replace("EXPECT", "# EXPECT"))
+    (tmp / "planar_dyn.dat").write_text(short + (DECKS / "planar_four_bar.dat").read_text()
+                                        .replace("ITERSTEP 20 5 1e-12", "EM 1:3 1\nTIMESTEP 0.01 2")
+                                        .replace("EXPECT", "# EXPECT"))
+    (tmp / "pltruss_dyn.dat").write_text(short + (tmp / "pltruss.dat").read_text()
+                                         .replace("ITERSTEP 20 4 1e-12", "EM 1:2 1\nTIMESTEP 0.01 2"))
+    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn"):
+        runs[key] = (key, [])
+    (tmp / "column.dat").write_text(COLUMN_DECK)
+    files = {}
+    for key, (deck, extra) in runs.items():
+        if (DECKS / f"{deck}.dat").exists():
+            shutil.copy(DECKS / f"{deck}.dat", tmp / f"{deck}.dat")
+        out = tmp / f"{key}.h5"
+        assert main(["run", str(tmp / f"{deck}.dat"), "-o", str(out), "-q", *extra]) == 0
+        files[key] = out
+    shutil.copy(DECKS / "table1_cantilever_1el_basic.dat", tmp / "bad.dat")
+    assert main(["run", str(tmp / "bad.dat"), "-o", str(tmp / "failed.h5"), "-q"]) == 1
+    files["failed"] = tmp / "failed.partial.h5"
+    return files
+
+
