@@ -21,7 +21,10 @@ import pytest  # noqa: E402
 
 from spacarpy.cli import main  # noqa: E402
 
-DECKS = Path(__file__).resolve().parents[1] / "decks"
+from helpers import docs_sweep_args  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+DECKS = REPO / "decks"
 
 
 # A clamped column of 4 elements with mass, loaded in compression below its Euler load
@@ -80,8 +83,9 @@ def result_files(tmp_path_factory) -> dict:
     (tmp / "planar_dyn.dat").write_text(short + (DECKS / "planar_four_bar.dat").read_text()
                                         .replace("ITERSTEP 20 5 1e-12", "EM 1:3 1\nTIMESTEP 0.01 2")
                                         .replace("EXPECT", "# EXPECT"))
-    (tmp / "pltruss_dyn.dat").write_text(short + (tmp / "pltruss.dat").read_text()
-                                         .replace("ITERSTEP 20 4 1e-12", "EM 1:2 1\nTIMESTEP 0.01 2"))
+    (tmp / "pltruss_dyn.dat").write_text(
+        short + (tmp / "pltruss.dat").read_text()
+        .replace("ITERSTEP 20 4 1e-12", "EM 1:2 1\nTIMESTEP 0.01 2"))
     for key in ("truss_dyn", "planar_dyn", "pltruss_dyn"):
         runs[key] = (key, [])
     (tmp / "column.dat").write_text(COLUMN_DECK)
@@ -98,3 +102,17 @@ def result_files(tmp_path_factory) -> dict:
     return files
 
 
+
+
+@pytest.fixture(scope="session")
+def column_sweep(tmp_path_factory) -> Path:
+    """docs/batch.md's sweep of a column over 21 load ratios (frequencies and buckling
+    multipliers in one file), run as documented from the repository root."""
+    out = tmp_path_factory.mktemp("sweep") / "column_sweep.h5"
+    cwd = os.getcwd()
+    os.chdir(REPO)
+    try:
+        assert main(docs_sweep_args(out)) == 0
+    finally:
+        os.chdir(cwd)
+    return out

@@ -1,11 +1,14 @@
 """Plain functions shared by several test modules (pytest puts tests/ on sys.path).
 
 Fixtures live in conftest.py; this module holds what is called, not injected: deck-error
-collection, finite differences, an independent planar four-bar solution, and a results writer
-process killed with SIGKILL. No test module imports another test module.
+collection, finite differences, an independent planar four-bar solution, the arguments of the
+documented sweep, and a results writer process killed with SIGKILL. No test module imports
+another test module.
 """
 from __future__ import annotations
 
+import re
+import shlex
 import signal
 import subprocess
 import sys
@@ -62,6 +65,16 @@ def planar_four_bar_equilibrium(k=2.0, P=1.5):
     phi = brentq(lambda p: k * p - P * (c_of(p + 1e-6)[0] - c_of(p - 1e-6)[0]) / 2e-6,
                  -1.0, 1.0)
     return phi, c_of(phi)
+
+
+def docs_sweep_args(out, deck: str = "sweep_column_load_ratio") -> list[str]:
+    """The arguments of docs/batch.md's ``spacarpy sweep decks/<deck>...`` example, writing to
+    ``out``, quiet, on two processes (run from the repository root)."""
+    text = (REPO / "docs" / "batch.md").read_text()
+    cmd = re.search(r"```console\n\$ spacarpy (sweep decks/" + deck + r".*?)\n", text).group(1)
+    args = shlex.split(cmd)
+    args[args.index("-o") + 1] = str(out)
+    return args + ["-q", "-j", "2"]
 
 
 # --- a results writer in its own process ------------------------------------------------------

@@ -1,7 +1,5 @@
 """``spacarpy sweep``: the docs/batch.md example (21 load ratios of a column: frequencies and
 buckling multiplier in one file), locally and on a two-worker Dask LocalCluster, identical."""
-import re
-import shlex
 from pathlib import Path
 
 import h5py
@@ -11,28 +9,9 @@ import pytest
 from spacarpy.batch.sweep import parse_sweep_axis
 from spacarpy.cli import main
 
+from helpers import docs_sweep_args
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _docs_sweep_args(out, deck="sweep_column_load_ratio"):
-    text = (ROOT / "docs" / "batch.md").read_text()
-    cmd = re.search(r"```console\n\$ spacarpy (sweep decks/" + deck + r".*?)\n", text).group(1)
-    args = shlex.split(cmd)
-    args[args.index("-o") + 1] = str(out)
-    return args + ["-q", "-j", "2"]
-
-
-@pytest.fixture(scope="module")
-def local_sweep(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sweep") / "column_sweep.h5"
-    import os
-    cwd = os.getcwd()
-    os.chdir(ROOT)
-    try:
-        assert main(_docs_sweep_args(out)) == 0
-    finally:
-        os.chdir(cwd)
-    return out
 
 
 def test_parse_axis():
@@ -44,8 +23,8 @@ def test_parse_axis():
             parse_sweep_axis(bad)
 
 
-def test_docs_sweep_gives_the_frequency_table_in_one_file(local_sweep):
-    with h5py.File(local_sweep) as f:
+def test_docs_sweep_gives_the_frequency_table_in_one_file(column_sweep):
+    with h5py.File(column_sweep) as f:
         assert f.attrs["filetype"] == "spacarpy-sweep"
         assert list(f.attrs["parameters"]) == ["ratio"]
         ratio = f["parameters/ratio"][()]
@@ -58,12 +37,12 @@ def test_docs_sweep_gives_the_frequency_table_in_one_file(local_sweep):
     np.testing.assert_allclose(crit, 1 / np.abs(ratio), rtol=1e-4)
 
 
-def test_sweep_on_a_two_worker_dask_local_cluster_gives_identical_numbers(local_sweep,
+def test_sweep_on_a_two_worker_dask_local_cluster_gives_identical_numbers(column_sweep,
                                                                           tmp_path):
     pytest.importorskip("distributed", reason="dask.distributed is not installed "
                                               "(pip install 'spacarpy[dask]')")
     out = tmp_path / "dask_sweep.h5"
-    args = _docs_sweep_args(out) + ["--dask", "local"]
+    args = docs_sweep_args(out) + ["--dask", "local"]
     import os
     cwd = os.getcwd()
     os.chdir(ROOT)
@@ -71,7 +50,7 @@ def test_sweep_on_a_two_worker_dask_local_cluster_gives_identical_numbers(local_
         assert main(args) == 0
     finally:
         os.chdir(cwd)
-    with h5py.File(local_sweep) as a, h5py.File(out) as b:
+    with h5py.File(column_sweep) as a, h5py.File(out) as b:
         for path in ("parameters/ratio", "eigen/frequency", "buckling/critical_load_multiplier",
                      "sweep/status"):
             np.testing.assert_array_equal(a[path][()], b[path][()])
@@ -106,7 +85,7 @@ def test_leafspring_misalignment_sweep_locally_and_on_dask(tmp_path):
     single 40-step run at the same angles, and identical numbers from a two-worker Dask
     LocalCluster."""
     local = tmp_path / "local.h5"
-    assert _run_in_root(_docs_sweep_args(local, "leafspring_guidance_sweep")) == 0
+    assert _run_in_root(docs_sweep_args(local, "leafspring_guidance_sweep")) == 0
     single = tmp_path / "single.h5"
     assert main(["run", str(ROOT / "decks" / "leafspring_guidance_misalignment.dat"), "-o",
                  str(single), "-q"]) == 0
@@ -121,7 +100,7 @@ def test_leafspring_misalignment_sweep_locally_and_on_dask(tmp_path):
     pytest.importorskip("distributed", reason="dask.distributed is not installed "
                                               "(pip install 'spacarpy[dask]')")
     dask_out = tmp_path / "dask.h5"
-    assert _run_in_root(_docs_sweep_args(dask_out, "leafspring_guidance_sweep")
+    assert _run_in_root(docs_sweep_args(dask_out, "leafspring_guidance_sweep")
                         + ["--dask", "local"]) == 0
     with h5py.File(local) as a, h5py.File(dask_out) as b:
         for path in ("parameters/phi", "eigen/frequency", "sweep/status"):
