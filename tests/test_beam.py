@@ -2,8 +2,14 @@
 import numpy as np
 import pytest
 
-from spacarpy.elements.beam import (beam_deformations, beam_state, beam_tangent,
-                                    beam_weighted_hessian, reference_triads, stiffness_matrix)
+from spacarpy.elements.beam import (
+    beam_deformations,
+    beam_state,
+    beam_tangent,
+    beam_weighted_hessian,
+    reference_triads,
+    stiffness_matrix,
+)
 from spacarpy.rotation import from_axis_angle, lambda_matrix, rotation_matrix
 
 VARIANTS = ("basic", "modified")

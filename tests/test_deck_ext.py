@@ -10,8 +10,14 @@ import numpy as np
 import pytest
 
 from spacarpy.cases import BEND, bend_deck
-from spacarpy.deck import (ModelBuilder, build_model, cross_sections, load_deck, model_to_deck,
-                           parse_deck)
+from spacarpy.deck import (
+    ModelBuilder,
+    build_model,
+    cross_sections,
+    load_deck,
+    model_to_deck,
+    parse_deck,
+)
 from spacarpy.deck.expressions import ExpressionError, evaluate
 from spacarpy.deck.generators import arc_points, line_points
 from spacarpy.errors import DeckError
@@ -61,7 +67,8 @@ def test_set_parameters_and_expressions_in_fields():
     sts = parse_deck(text)
     assert [s.keyword for s in sts] == ["SET", "SET", "X", "X", "X", "X"]
     assert sts[0].fields == ("R", 100.0) and sts[1].fields == ("half", 50.0)
-    assert sts[3].fields == (3, 100 * math.sin(math.pi / 4), -4.0, 100 * (1 - math.cos(math.pi / 4)))
+    assert sts[3].fields == (3, 100 * math.sin(math.pi / 4), -4.0,
+                             100 * (1 - math.cos(math.pi / 4)))
     assert sts[4].fields == (5, 512.0, 0.5, math.pi)
     assert sts[5].fields == (7, 50.0, 15.0, 5.0)
 

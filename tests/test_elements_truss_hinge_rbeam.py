@@ -4,12 +4,29 @@ import numpy as np
 import pytest
 
 from spacarpy.elements.beam_mass import beam_mass_matrix
-from spacarpy.elements.hinge import (hinge_deformations, hinge_reference, hinge_state,
-                                     hinge_stiffness, hinge_weighted_hessian)
-from spacarpy.elements.rbeam import (rbeam_deformations, rbeam_mass_matrix, rbeam_reference,
-                                     rbeam_state, rbeam_stiffness, rbeam_weighted_hessian)
-from spacarpy.elements.truss import (truss_deformations, truss_mass_matrix, truss_reference,
-                                     truss_state, truss_stiffness, truss_weighted_hessian)
+from spacarpy.elements.hinge import (
+    hinge_deformations,
+    hinge_reference,
+    hinge_state,
+    hinge_stiffness,
+    hinge_weighted_hessian,
+)
+from spacarpy.elements.rbeam import (
+    rbeam_deformations,
+    rbeam_mass_matrix,
+    rbeam_reference,
+    rbeam_state,
+    rbeam_stiffness,
+    rbeam_weighted_hessian,
+)
+from spacarpy.elements.truss import (
+    truss_deformations,
+    truss_mass_matrix,
+    truss_reference,
+    truss_state,
+    truss_stiffness,
+    truss_weighted_hessian,
+)
 from spacarpy.rotation import from_axis_angle, lambda_matrix, rotation_matrix
 
 from helpers import fd_columns

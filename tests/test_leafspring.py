@@ -39,7 +39,8 @@ def test_a_hinge_driven_by_inpute_equals_turning_the_node_by_inputr():
     """Driving the root hinge angle to 0.4 rad (INPUTE/DELINPE) and turning the root node by
     0.4 rad about the hinge axis (INPUTR/DELINPR) are the same problem: the same equilibrium,
     and the hinge's stress resultant (the driving torque) is the reaction moment."""
-    hinge = model_from_text(hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6", "DELINPE 9 1 0.4"))
+    hinge = model_from_text(hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6",
+                                              "DELINPE 9 1 0.4"))
     turned = model_from_text(hinged_cantilever("INPUTR 2 0 0 1", "DELINPR 2 0.4"))
     res_h, res_t = solve_static(hinge), solve_static(turned)
     num_h, num_t = res_h.problem.num, res_t.problem.num

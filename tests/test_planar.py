@@ -1,7 +1,5 @@
 """Planar models: PLBEAM, PLTRUSS and PLHINGE in the x-y plane (docs/deck.md, Planar models)."""
 import re
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest

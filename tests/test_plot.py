@@ -8,9 +8,9 @@ import pytest
 pytest.importorskip("matplotlib", reason="plots need the optional matplotlib (pip install "
                                          "\"spacarpy[plot]\")")
 
-from spacarpy.cli import main                                      # noqa: E402
-from spacarpy.results import open_results                          # noqa: E402
-from spacarpy.results.plot import centre_lines, make_figure        # noqa: E402
+from spacarpy.cli import main  # noqa: E402
+from spacarpy.results import open_results  # noqa: E402
+from spacarpy.results.plot import centre_lines, make_figure  # noqa: E402
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

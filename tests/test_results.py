@@ -5,9 +5,6 @@ import datetime as dt
 import hashlib
 import os
 import signal
-import subprocess
-import sys
-import textwrap
 from pathlib import Path
 
 import h5py
@@ -15,7 +12,6 @@ import numpy as np
 import pytest
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
-from spacarpy.model import BeamSet, Model
 from spacarpy.results import (
     SCHEMA_VERSION,
     ResultsFormatError,
@@ -27,7 +23,6 @@ from spacarpy.results import (
 from helpers import (
     DECK_TEXT,
     REACTION_COMPONENT,
-    REPO,
     begin,
     chain_model,
     run_and_kill,

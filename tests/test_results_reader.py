@@ -6,18 +6,13 @@ CLI, export, plot and documentation tests use the same files.
 """
 from __future__ import annotations
 
-import atexit
-import functools
 import shutil
-import tempfile
-from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 
 import spacarpy
-from spacarpy.cli import main
 from spacarpy.errors import EXIT_INPUT
 from spacarpy.results import (
     ResultsFormatError,
@@ -26,6 +21,7 @@ from spacarpy.results import (
     read_results,
     validate_file,
 )
+
 
 @pytest.fixture(scope="module")
 def files(result_files):

@@ -14,8 +14,13 @@ import spacarpy.solvers.sparse as sparse_mod
 from spacarpy.batch.compare import _compare
 from spacarpy.cases import cantilever_deck
 from spacarpy.deck import model_from_text
-from spacarpy.solvers.static import (StaticOptions, StaticProblem, _NormalEquations,
-                                      _SquareJacobian, solve_static)
+from spacarpy.solvers.static import (
+    StaticOptions,
+    StaticProblem,
+    _NormalEquations,
+    _SquareJacobian,
+    solve_static,
+)
 from spacarpy.solvers.triangular import BlockTriangular
 
 
@@ -56,8 +61,9 @@ def test_tangent_space_newton_step_equals_the_bordered_step():
 
 
 def test_models_with_rigid_modes_or_moments_keep_the_bordered_step():
-    from spacarpy.deck import load_deck
     from pathlib import Path
+
+    from spacarpy.deck import load_deck
     decks = Path(__file__).resolve().parents[1] / "decks"
     assert StaticProblem(load_deck(decks / "planar_four_bar.dat")).reduced is None
     assert StaticProblem(load_deck(decks / "table1_cantilever_8el_modified.dat")).reduced \
@@ -261,8 +267,9 @@ def test_square_kinematic_correction_agrees_with_the_normal_equations():
     """For a tree (as many deformations and normalizations as free coordinates) the
     kinematic correction solves W step = g by LU; it lands where the normal equations
     W^T W step = W^T g land. A closed loop keeps the normal equations."""
-    from spacarpy.deck import load_deck
     from pathlib import Path
+
+    from spacarpy.deck import load_deck
     decks = Path(__file__).resolve().parents[1] / "decks"
     assert isinstance(StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat"))._kin,
                       _NormalEquations)
@@ -316,6 +323,7 @@ def test_initial_check_of_a_determinate_tree_needs_no_lu(monkeypatch):
     nor redundant constraint: the initial check passes without the bordered LU. A closed
     loop, or a singular W, gets the full check."""
     from pathlib import Path
+
     from spacarpy.deck import load_deck
     calls = []
     original = StaticProblem._solve

@@ -111,7 +111,8 @@ def test_inertia_forces_have_the_power_of_the_kinetic_energy():
 def test_uniform_rotation_of_a_rigid_body_needs_no_torque():
     """A body spinning at constant rate about a principal axis: the inertia force on its
     Euler parameters is along q only (taken by the normalization multiplier)."""
-    text = "X 1 0 0 0\nX 3 1 0 0\nRBEAM 1 1 2 3 0 1 0\nEND\nHALT\nEM 1 2 0.1 0.05 0.05 0\nEND\nEND\n"
+    text = ("X 1 0 0 0\nX 3 1 0 0\nRBEAM 1 1 2 3 0 1 0\nEND\nHALT\nEM 1 2 0.1 0.05 0.05 0\n"
+            "END\nEND\n")
     model = model_from_text(text)
     num = number_model(model)
     inertia = Inertia(model, num)
