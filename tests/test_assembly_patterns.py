@@ -72,6 +72,7 @@ def test_random_batches_match_reference(seed, upper):
     assert_same(got, reference_pattern(n, *flat_entries(blocks), upper=upper))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("upper", [False, True])
 def test_large_batches_and_values(upper):
     """Overlapping blocks of consecutive indices (runs that straddle the diagonal) with

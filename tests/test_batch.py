@@ -27,6 +27,7 @@ def test_every_shipped_deck_has_a_baseline_and_they_are_small():
     assert sum(p.stat().st_size for p in BASELINE.glob("*.h5")) < 8e6
 
 
+@pytest.mark.slow
 def test_batch_over_shipped_decks_passes_against_committed_baselines(tmp_path, capsys):
     report = tmp_path / "r.json"
     assert main(["batch", str(DECKS), "--baseline", str(BASELINE), "-j", "2", "-q",
@@ -37,6 +38,7 @@ def test_batch_over_shipped_decks_passes_against_committed_baselines(tmp_path, c
     assert re.search(r"\d+ decks: \d+ pass, 0 changed, 0 failed, 0 new", out)
 
 
+@pytest.mark.slow
 def test_changed_failed_and_timeout_are_reported_while_the_others_complete(tmp_path, capsys):
     d = tmp_path / "decks"
     d.mkdir()
@@ -75,6 +77,7 @@ def test_changed_failed_and_timeout_are_reported_while_the_others_complete(tmp_p
     assert "/buckling/critical_load_multiplier" in failure.find("failure").text
 
 
+@pytest.mark.slow
 def test_update_baseline_then_new_and_pass(tmp_path, capsys):
     deck = tmp_path / "t.dat"
     shutil.copy(DECKS / "table3_lateral_buckling_1el_modified.dat", deck)
@@ -91,6 +94,7 @@ def test_no_deck_is_an_input_error(tmp_path, capsys):
     assert "names no deck" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_docs_batch_example_runs(tmp_path, monkeypatch, capsys):
     """The ``spacarpy batch`` example of docs/batch.md runs from the repository root and
     passes (the sweep example is run by tests/test_sweep.py)."""
@@ -106,6 +110,7 @@ def test_docs_batch_example_runs(tmp_path, monkeypatch, capsys):
     assert ET.parse(tmp_path / "batch.xml").getroot().find("testsuite").get("tests") == "2"
 
 
+@pytest.mark.slow
 def test_a_baseline_tolerance_file_loosens_named_datasets_only(tmp_path, capsys):
     """``<baseline>.tol.json`` loosens the tolerances of the datasets it names (an
     ill-conditioned quantity), with a required reason; a malformed file fails the deck."""

@@ -5,6 +5,7 @@ import pytest
 from spacarpy.cli import main
 
 
+@pytest.mark.slow
 def test_bench_writes_the_tables_with_the_results_each_case_reaches(tmp_path, capsys):
     md = tmp_path / "performance.md"
     assert main(["bench", "--cases", "cantilever", "eigen", "--sizes", "8", "--repeat", "1",

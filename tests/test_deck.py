@@ -702,6 +702,7 @@ def mutated_decks(draw):
     return name, text
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated_decks())
 def test_mutated_decks_only_raise_deck_errors(deck):

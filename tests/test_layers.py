@@ -10,6 +10,7 @@ breaks are strict xfails, to be removed when the branches of issue 16 are merged
 from __future__ import annotations
 
 import ast
+import functools
 import os
 import subprocess
 import sys
@@ -32,6 +33,7 @@ def module_names() -> dict[str, Path]:
     return out
 
 
+@functools.lru_cache(maxsize=1)
 def import_edges() -> list[tuple[str, str, int]]:
     """(importer, imported, line) for every import of a spacarpy module by a spacarpy module.
 

@@ -161,6 +161,7 @@ def misalignment(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_leafspring_guidance_before_buckling(misalignment):
     """At zero misalignment the first mode is the guided motion of the shuttle: stiffness of
     two clamped-guided leaves 24 EIw/l^3, mass of the shuttle plus 13/35 of the leaves
@@ -180,6 +181,7 @@ def test_leafspring_guidance_before_buckling(misalignment):
     assert abs(torque[4]) / phi[4] == pytest.approx(EI_STIFF / (2 * L_LEAF), rel=2e-3)
 
 
+@pytest.mark.slow
 def test_leafspring_guidance_frequencies_drop_at_the_critical_misalignment(misalignment):
     """The three frequencies fall sharply towards the misalignment at which the hinge torque
     reaches the critical torque (0.70 mrad in this model; 'about 0.8 mrad' in the article);

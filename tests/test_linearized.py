@@ -235,6 +235,7 @@ def test_compliance_under_load_is_expressed_in_the_rotated_body_axes():
     assert c_loc[5, 5] == pytest.approx(1.0, rel=2e-3)
 
 
+@pytest.mark.slow
 def test_sparse_eigenvalues_of_a_fine_mesh_are_exact_rayleigh_quotients():
     """ARPACK's shift-invert eigenvalue inherits the sparse LU's error in the soft
     directions (8e-6 too high for the lowest frequency of a 5000-element cantilever); the

@@ -274,6 +274,7 @@ def test_corpus_cross_hinge_runs_and_has_the_cross_spring_pivot_stiffness(tmp_pa
     assert np.all(np.diff(stiffness[1:]) < 0) and stiffness[-1] < 0.996 * stiffness[0]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not CORPUS.exists(), reason="the SPACAR corpus is not beside the repo")
 def test_every_corpus_deck_with_only_supported_features_runs_from_the_cli(tmp_path):
     """Every corpus deck that uses only supported features finishes. (spatools_cantilever.dat

@@ -295,6 +295,7 @@ def test_linearized_groups_round_trip(tmp_path):
 
 # --- a real process killed with SIGKILL ---------------------------------------------------------
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs POSIX SIGKILL")
 def test_sigkill_between_steps_leaves_readable_partial(tmp_path):
     model = chain_model()
@@ -319,6 +320,7 @@ def test_sigkill_between_steps_leaves_readable_partial(tmp_path):
     assert not partial.exists() and validate_file(out, require_complete=True) == []
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs POSIX SIGKILL")
 def test_sigkill_while_writing_keeps_committed_steps(tmp_path):
     # No pause and a bigger model: the kill almost always lands inside static_step.

@@ -193,6 +193,7 @@ def wait_for_steps(proc, n: int) -> None:
             return
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGINT") or sys.platform == "win32",
                     reason="needs POSIX signals")
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGKILL"])

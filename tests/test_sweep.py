@@ -23,6 +23,7 @@ def test_parse_axis():
             parse_sweep_axis(bad)
 
 
+@pytest.mark.slow
 def test_docs_sweep_gives_the_frequency_table_in_one_file(column_sweep):
     with h5py.File(column_sweep) as f:
         assert f.attrs["filetype"] == "spacarpy-sweep"
@@ -37,6 +38,7 @@ def test_docs_sweep_gives_the_frequency_table_in_one_file(column_sweep):
     np.testing.assert_allclose(crit, 1 / np.abs(ratio), rtol=1e-4)
 
 
+@pytest.mark.slow
 def test_sweep_on_a_two_worker_dask_local_cluster_gives_identical_numbers(column_sweep,
                                                                           tmp_path):
     pytest.importorskip("distributed", reason="dask.distributed is not installed "
@@ -56,6 +58,7 @@ def test_sweep_on_a_two_worker_dask_local_cluster_gives_identical_numbers(column
             np.testing.assert_array_equal(a[path][()], b[path][()])
 
 
+@pytest.mark.slow
 def test_failed_points_are_nan_with_status(tmp_path, capsys):
     deck = tmp_path / "d.dat"
     deck.write_text((ROOT / "decks" / "sweep_column_load_ratio.dat").read_text())
@@ -80,6 +83,7 @@ def _run_in_root(args):
         os.chdir(cwd)
 
 
+@pytest.mark.slow
 def test_leafspring_misalignment_sweep_locally_and_on_dask(tmp_path):
     """docs/batch.md's leaf-spring sweep: 21 misalignments in one file, the frequencies of the
     single 40-step run at the same angles, and identical numbers from a two-worker Dask

@@ -150,6 +150,7 @@ def pendulum_period(tmp_path, theta0, steps_per_period=200):
     return t[k] - w[k] * (t[k + 1] - t[k]) / (w[k + 1] - w[k]), exact
 
 
+@pytest.mark.slow
 def test_rigid_pendulum_period_small_amplitude(tmp_path):
     """Released at 0.05 rad: the period of the linear pendulum 2 pi sqrt(I/(m g d)) =
     2 pi sqrt(2L/(3g)) to 0.1 % (the amplitude itself lengthens it by 1.6e-4), the exact one
@@ -159,6 +160,7 @@ def test_rigid_pendulum_period_small_amplitude(tmp_path):
     assert period == pytest.approx(exact, rel=1e-4)
 
 
+@pytest.mark.slow
 def test_rigid_pendulum_period_at_90_degrees(tmp_path):
     """The shipped deck, released from the horizontal: the elliptic-integral period to
     1.4e-4 with 200 steps per period (0.1 % asked; 400 steps give 3.4e-5, second order), and
@@ -198,6 +200,7 @@ def tip_frequency(path):
     return (len(crossings) - 1) / (crossings[-1] - crossings[0])
 
 
+@pytest.mark.slow
 def test_cantilever_free_vibration_has_the_first_eigenfrequency(cantilever):
     """Released from a static deflection of 1e-3 L: the frequency of the tip's time history
     equals the first eigenfrequency of the same model to 0.5 % (measured: 8e-4 with 100
@@ -218,6 +221,7 @@ def test_cantilever_free_vibration_has_the_first_eigenfrequency(cantilever):
     assert validate_file(out) == []
 
 
+@pytest.mark.slow
 def test_cantilever_energy_over_100_periods_without_dissipation(tmp_path):
     """rho_inf = 1: T + U - W drifts by less than 0.1 % of the initial energy over 100
     periods (20 integration steps per period); with rho_inf = 0.5 the energy decays."""
@@ -264,6 +268,7 @@ def test_shipped_transient_decks_load():
         assert model.analysis == "transient" and model.timestep is not None
 
 
+@pytest.mark.slow
 def test_spin_up_of_a_flexible_beam(tmp_path):
     """Simo & Vu-Quoc's spin-up (decks/spinup_beam.dat, here with 4 elements): the hub turns
     by the prescribed angle (90 rad at t = 30 s), the tip lags behind in the rotating frame
@@ -286,6 +291,7 @@ def test_spin_up_of_a_flexible_beam(tmp_path):
     assert np.abs(lag[t > 20]).max() < 0.02
 
 
+@pytest.mark.slow
 def test_slider_crank_with_a_flexible_rod(tmp_path):
     """decks/slider_crank_flexible.dat: 4.2 crank revolutions at 150 rad/s. The slider follows
     the rigid-body kinematics x_B = r cos(theta) + sqrt(L^2 - r^2 sin^2(theta)) to 0.1 mm;
@@ -326,6 +332,7 @@ def peaks(t, y):
     return np.array(out)
 
 
+@pytest.mark.slow
 def test_rayleigh_mass_damping_decays_at_half_alpha(tmp_path):
     """DAMPING alpha 0: every mode decays as exp(-alpha t / 2) (damping ratio alpha/(2 omega));
     measured on the tip of the released cantilever over 5 periods to 2 %, and the energy
@@ -352,6 +359,7 @@ def test_rayleigh_mass_damping_decays_at_half_alpha(tmp_path):
     assert np.abs(bal - bal[0]).max() < 1e-2 * bal[0]
 
 
+@pytest.mark.slow
 def test_edamp_on_a_hinge_damps_the_pendulum_spring(tmp_path):
     """A rigid rod on a hinge spring k with EDAMP c on the hinge angle: a damped oscillator,
     I theta'' + c theta' + k theta = 0 with I = m L^2/3; the decay rate of the swing equals
@@ -379,6 +387,7 @@ def test_edamp_on_a_hinge_damps_the_pendulum_spring(tmp_path):
     assert 2 * np.pi / period == pytest.approx(omega_d, rel=5e-3)
 
 
+@pytest.mark.slow
 def test_adaptive_time_steps_meet_the_error_tolerance(tmp_path):
     """ERROR abs rel: the step size adapts to the local error. The 90-degree pendulum over
     one exact period (4 stored steps): tightening the tolerance by 100 cuts the error at the
@@ -403,6 +412,7 @@ def test_adaptive_time_steps_meet_the_error_tolerance(tmp_path):
     assert errors[2].max() < 1e-5
 
 
+@pytest.mark.slow
 def test_initial_velocities_spin_a_free_rod_about_its_centre(tmp_path):
     """VELOCITY: a free rigid rod (no supports, no loads) given an angular velocity w about z
     and the matching velocity of its end node spins about its fixed centre at the constant

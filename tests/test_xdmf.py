@@ -118,6 +118,7 @@ def test_xdmf_with_stresses_and_modes(files, tmp_path):
                                       res.eigen.shape(mode=2, step=k).position)
 
 
+@pytest.mark.slow
 def test_xdmf_of_a_killed_run_copies_the_committed_steps(tmp_path):
     if not hasattr(signal, "SIGKILL"):
         pytest.skip("needs POSIX SIGKILL")
