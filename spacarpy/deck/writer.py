@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from spacarpy.model import FLEXIBLE, RELEASED, Model
+from spacarpy.elements.base import FLEXIBLE, RELEASED
 
 __all__ = ["format_record", "format_value", "model_to_deck"]
 
@@ -69,7 +69,7 @@ def _element_lines(keyword: str, ids: np.ndarray, data: list[tuple], compact: bo
     return lines
 
 
-def model_to_deck(model: Model, *, cross_sections=None, compact: bool = False,
+def model_to_deck(model, *, cross_sections=None, compact: bool = False,
                   title: str | None = None) -> str:
     """Write a model as deck text that reads back into an equal model.
 
@@ -95,12 +95,13 @@ def model_to_deck(model: Model, *, cross_sections=None, compact: bool = False,
     ``IterStep`` whose ``extra`` is empty but ``n_init != 1`` cannot be written exactly (SPACAR's
     ITERSTEP needs fields 4 and 5 before n_init); fields 4 and 5 are then written as 0.
     """
-    b = model.beams
+    from spacarpy.model import ElementSet
+    b = model.elements.get("BEAM") or ElementSet.empty("BEAM")
     out = [f"# {title if title is not None else 'spacarpy model from ' + model.source_path}",
            f"DEFORMATIONS {model.deformations}", f"MODE {model.analysis}", ""]
     out += [format_record("X", int(n), *x) for n, x in
             zip(model.position_ids.tolist(), model.position_x0.tolist())]
-    for e, nodes, o in zip(b.ids.tolist(), b.nodes.tolist(), b.orientation.tolist()):
+    for e, nodes, o in zip(b.ids.tolist(), b.nodes.tolist(), b.vector.tolist()):
         vector = () if any(math.isnan(v) for v in o) else tuple(o)
         out.append(format_record("BEAM", e, *nodes, *vector))
     for cls, keyword in ((FLEXIBLE, "DYNE"), (RELEASED, "RLSE")):
