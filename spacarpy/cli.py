@@ -375,7 +375,7 @@ def cmd_run(args) -> int:
         args.deck, deformations=args.deformations, analysis=args.mode,
         overrides=dict(args.overrides) or None)
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
-    n_elem = model.beams.n_elem + sum(es.n_elem for es in model.element_sets.values())
+    n_elem = model.n_elem
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
              n_elem, model.analysis, model.deformations)

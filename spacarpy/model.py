@@ -19,12 +19,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from spacarpy.elements.base import FLEXIBLE, RELEASED, RIGID
+from spacarpy.elements.registry import KINDS, kind_of
 from spacarpy.errors import SourceLoc
 
-#: Deformation classes of an element deformation mode.
-RIGID = 0      # not listed in DYNE/RLSE: kept at its initial value (a constraint)
-FLEXIBLE = 1   # listed in DYNE: carries stiffness (ESTIFF required)
-RELEASED = 2   # listed in RLSE: free; carries ESTIFF stiffness if given, else none
+__all__ = ["ANALYSES", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS", "FLEXIBLE", "RELEASED",
+           "RIGID", "SPACAR_MODE_NUMBERS", "ElementSet", "Fix", "IterStep", "Load", "Model",
+           "NodalMass", "Prescribed", "PrescribedDeformation", "PrescribedRotation"]
+
+# The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) are declared with the element
+# kinds and re-exported here.
 
 DEFORMATION_VARIANTS = ("modified", "basic")
 BIFURCATION_CHOICES = ("off", "warn", "switch")
@@ -34,55 +38,72 @@ ANALYSES = ("static", "eigen", "buckling", "transient", "check")
 SPACAR_MODE_NUMBERS = {10: "static", 0: "check", 1: "transient", 8: "buckling", 4: "eigen", 7: "eigen"}
 
 
+def _columns(values, n: int, width: int) -> np.ndarray:
+    """``values`` as (n, width) floats: missing trailing columns are 0, extra ones dropped."""
+    a = np.asarray(values, dtype=float)
+    a = a.reshape(n, -1) if a.size else np.zeros((n, 0))
+    return np.pad(a, ((0, 0), (0, max(0, width - a.shape[1]))))[:, :width]
+
+
 @dataclass
-class BeamSet:
-    """All BEAM elements of a model, vectorized (element index first).
+class ElementSet:
+    """All elements of one kind, vectorized (element index first).
+
+    The array widths are the kind's declared ones (:mod:`spacarpy.elements.registry`): for a
+    BEAM ``nodes`` (n, 4), ``def_class`` (n, 6), ``stiffness`` (n, 6), ``mass`` (n, 5).
 
     Attributes
     ----------
+    kind : str
+        The deck keyword (a key of :data:`spacarpy.elements.registry.KINDS`).
     ids : (n_elem,) int
         Deck element numbers.
-    nodes : (n_elem, 4) int
-        Deck node numbers ``[p, r, q, s]``: position node p, orientation node r at p,
-        position node q, orientation node s at q.
-    orientation : (n_elem, 3) float
-        The deck's initial local y-axis direction (not yet orthogonalized). Rows of NaN mean
-        "not given": the default rule of :func:`spacarpy.elements.beam.reference_triads` applies.
-    def_class : (n_elem, 6) int8
+    nodes : (n_elem, n_slots) int
+        Deck node numbers in the keyword's order (the kind's ``node_roles``): BEAM
+        ``[p, r, q, s]``, TRUSS ``[p, q]``, HINGE ``[r, s]``, RBEAM ``[p, r, q]``.
+    vector : (n_elem, 3) float
+        The element line's trailing vector (the kind's ``vector``: BEAM and RBEAM the initial
+        local y-axis, not yet orthogonalized; HINGE the axis). Rows of NaN mean "not given"
+        (the kind's default rule applies); always NaN for kinds without one.
+    def_class : (n_elem, n_def) int8
         RIGID, FLEXIBLE or RELEASED per deformation mode.
-    stiffness : (n_elem, 6) float
-        ``EA, GJ, EIy, EIz, cy, cz`` (N, N m^2, N m^2, N m^2, m^2, m^2); cy = EIy/(k GA),
-        cz = EIz/(k GA) are shear flexibilities (0 = no shear deformation). Zero rows where no
-        ESTIFF was given.
+    stiffness : (n_elem, n_estiff) float
+        ESTIFF values in the kind's layout (BEAM ``EA, GJ, EIy, EIz, cy, cz``; TRUSS ``EA``;
+        HINGE ``k k2 k3``; ...), missing trailing values 0; zero rows where no ESTIFF was
+        given.
     has_stiffness : (n_elem,) bool
         Whether an ESTIFF line was given.
-    mass : (n_elem, 5) float
-        EM line: ``rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz`` per unit length (missing trailing
-        fields are zero; zero rows where no EM was given). Used by the linearized/transient
-        analyses.
+    mass : (n_elem, n_em) float
+        EM values in the kind's layout (BEAM, RBEAM ``rhoA, rho(Iy+Iz), rhoIy, rhoIz,
+        rhoIyz``; TRUSS ``rhoA``; none for hinges), zero rows where no EM was given.
     locs : list of SourceLoc
         Where each element was defined.
     """
 
+    kind: str
     ids: np.ndarray
     nodes: np.ndarray
-    orientation: np.ndarray
-    def_class: np.ndarray
-    stiffness: np.ndarray
-    has_stiffness: np.ndarray
+    vector: np.ndarray | None = None
+    def_class: np.ndarray | None = None
+    stiffness: np.ndarray | None = None
+    has_stiffness: np.ndarray | None = None
     mass: np.ndarray | None = None
     locs: list = field(default_factory=list)
 
     def __post_init__(self):
+        k = kind_of(self.kind)
         self.ids = np.asarray(self.ids, dtype=np.int64).reshape(-1)
         n = self.ids.size
-        self.nodes = np.asarray(self.nodes, dtype=np.int64).reshape(n, 4)
-        self.orientation = np.asarray(self.orientation, dtype=float).reshape(n, 3)
-        self.def_class = np.asarray(self.def_class, dtype=np.int8).reshape(n, 6)
-        self.stiffness = np.asarray(self.stiffness, dtype=float).reshape(n, 6)
-        self.has_stiffness = np.asarray(self.has_stiffness, dtype=bool).reshape(n)
-        self.mass = (np.zeros((n, 5)) if self.mass is None
-                     else np.asarray(self.mass, dtype=float).reshape(n, 5))
+        self.nodes = np.asarray(self.nodes, dtype=np.int64).reshape(n, len(k.slots))
+        self.vector = (np.full((n, 3), np.nan) if self.vector is None
+                       else np.asarray(self.vector, dtype=float).reshape(n, 3))
+        self.def_class = (np.full((n, k.n_def), RIGID, np.int8) if self.def_class is None
+                          else np.asarray(self.def_class, dtype=np.int8).reshape(n, k.n_def))
+        self.stiffness = _columns(np.zeros((n, 0)) if self.stiffness is None else self.stiffness,
+                                  n, k.n_estiff)
+        self.has_stiffness = (np.zeros(n, bool) if self.has_stiffness is None
+                              else np.asarray(self.has_stiffness, dtype=bool).reshape(n))
+        self.mass = _columns(np.zeros((n, 0)) if self.mass is None else self.mass, n, k.n_em)
         if not self.locs:
             self.locs = [None] * n
 
@@ -91,63 +112,9 @@ class BeamSet:
         return int(self.ids.size)
 
     @classmethod
-    def empty(cls) -> "BeamSet":
-        return cls(ids=np.zeros(0, int), nodes=np.zeros((0, 4), int), orientation=np.zeros((0, 3)),
-                   def_class=np.zeros((0, 6), np.int8), stiffness=np.zeros((0, 6)),
-                   has_stiffness=np.zeros(0, bool))
-
-
-@dataclass
-class ElementSet:
-    """All elements of one non-BEAM kind (TRUSS, HINGE, RBEAM), element index first.
-
-    Attributes
-    ----------
-    kind : str
-        The deck keyword.
-    ids : (n_elem,) int
-    nodes : (n_elem, n_slots) int
-        Deck node numbers in the keyword's order: TRUSS ``[p, q]``, HINGE ``[Rp, Rq]``,
-        RBEAM ``[p, Rp, q]``.
-    vector : (n_elem, 3) float
-        HINGE: the axis; RBEAM: the initial local y-axis (NaN row: default rule); TRUSS: NaN.
-    def_class : (n_elem, n_def) int8
-        RIGID / FLEXIBLE / RELEASED per mode (TRUSS 1, HINGE 3, RBEAM 3 modes).
-    stiffness : (n_elem, 3) float
-        ESTIFF values, zero-padded (TRUSS: EA; HINGE: k [k2 k3] in N m/rad; RBEAM: N/m).
-    has_stiffness : (n_elem,) bool
-    mass : (n_elem, 5) float
-        EM values, zero-padded (TRUSS, RBEAM: rhoA first, as for BEAM).
-    locs : list of SourceLoc
-    """
-
-    kind: str
-    ids: np.ndarray
-    nodes: np.ndarray
-    vector: np.ndarray
-    def_class: np.ndarray
-    stiffness: np.ndarray
-    has_stiffness: np.ndarray
-    mass: np.ndarray | None = None
-    locs: list = field(default_factory=list)
-
-    def __post_init__(self):
-        self.ids = np.asarray(self.ids, dtype=np.int64).reshape(-1)
-        n = self.ids.size
-        self.nodes = np.asarray(self.nodes, dtype=np.int64).reshape(n, -1)
-        self.vector = np.asarray(self.vector, dtype=float).reshape(n, 3)
-        self.def_class = np.asarray(self.def_class, dtype=np.int8).reshape(n, -1)
-        st = np.asarray(self.stiffness, dtype=float).reshape(n, -1)
-        self.stiffness = np.pad(st, ((0, 0), (0, max(0, 3 - st.shape[1]))))[:, :3]
-        self.has_stiffness = np.asarray(self.has_stiffness, dtype=bool).reshape(n)
-        m = np.zeros((n, 5)) if self.mass is None else np.asarray(self.mass, float).reshape(n, -1)
-        self.mass = np.pad(m, ((0, 0), (0, max(0, 5 - m.shape[1]))))[:, :5]
-        if not self.locs:
-            self.locs = [None] * n
-
-    @property
-    def n_elem(self) -> int:
-        return int(self.ids.size)
+    def empty(cls, kind: str) -> "ElementSet":
+        """A set of no elements of a kind (arrays of the kind's widths)."""
+        return cls(kind=kind, ids=np.zeros(0, np.int64), nodes=np.zeros(0, np.int64))
 
 
 @dataclass(frozen=True)
@@ -274,7 +241,9 @@ class Model:
         Initial positions (m).
     orientation_ids : (n_rot,) int
         Deck numbers of the orientation nodes (all start at the identity).
-    beams : BeamSet
+    elements : dict of str -> ElementSet
+        The elements by kind (deck keyword), in the registry's order
+        (:data:`spacarpy.elements.registry.KINDS`), only kinds the model has.
     fixes : list of Fix
     loads : list of Load
     iterstep : IterStep
@@ -288,8 +257,6 @@ class Model:
     gravity : (3,) float
         Gravitational acceleration (m/s^2) acting on element and nodal masses; applied with
         the initial load (XF) and constant over the load steps.
-    element_sets : dict of str -> ElementSet
-        Elements of the other kinds (TRUSS, HINGE, RBEAM), by keyword.
     cross_sections : spacarpy.deck.visualization.CrossSections or None
         Cross-section shapes and dimensions per element from the deck's VISUALIZATION
         section (BEAMPROPS/CROSSTYPE/CROSSDIM), for stresses and plots.
@@ -321,7 +288,7 @@ class Model:
     position_ids: np.ndarray
     position_x0: np.ndarray
     orientation_ids: np.ndarray
-    beams: BeamSet
+    elements: dict = field(default_factory=dict)
     fixes: list = field(default_factory=list)
     loads: list = field(default_factory=list)
     iterstep: IterStep = field(default_factory=IterStep)
@@ -330,7 +297,6 @@ class Model:
     prescribed_rotations: list = field(default_factory=list)
     prescribed_deformations: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
-    element_sets: dict = field(default_factory=dict)
     cross_sections: object | None = None
     analysis: str = "static"
     deformations: str = "modified"
@@ -354,10 +320,20 @@ class Model:
         self.position_ids = np.asarray(self.position_ids, dtype=np.int64).reshape(-1)
         self.position_x0 = np.asarray(self.position_x0, dtype=float).reshape(-1, 3)
         self.orientation_ids = np.asarray(self.orientation_ids, dtype=np.int64).reshape(-1)
+        for keyword, es in self.elements.items():
+            if es.kind != keyword:
+                raise ValueError(f"elements[{keyword!r}] holds {es.kind} elements")
+        self.elements = {k: self.elements[k] for k in KINDS
+                         if k in self.elements and self.elements[k].n_elem}
         if self.analysis not in ANALYSES:
             raise ValueError(f"unknown analysis {self.analysis!r}; expected one of {ANALYSES}")
         if self.deformations not in DEFORMATION_VARIANTS:
             raise ValueError(f"unknown deformation variant {self.deformations!r}")
+
+    @property
+    def n_elem(self) -> int:
+        """The number of elements of all kinds."""
+        return sum(es.n_elem for es in self.elements.values())
 
     def to_deck(self, **kw) -> str:
         """The model as SPACAR deck text (see :func:`spacarpy.deck.writer.model_to_deck`);
@@ -369,6 +345,6 @@ class Model:
 
     def __repr__(self) -> str:
         return (f"Model({self.position_ids.size} position nodes, {self.orientation_ids.size} "
-                f"orientation nodes, {self.beams.n_elem} beams, {len(self.fixes)} fixes, "
+                f"orientation nodes, {self.n_elem} elements, {len(self.fixes)} fixes, "
                 f"{len(self.loads)} loads, analysis={self.analysis!r}, "
                 f"deformations={self.deformations!r})")

@@ -4,8 +4,8 @@ The global coordinate vector holds every nodal coordinate: 3 per position node, 
 parameters per orientation node, nodes in ascending deck number (so that chains of elements
 give banded matrices). Fixed coordinates keep their initial value; every other coordinate is
 an unknown of the static problem. Elements are held in *groups*, one per element kind
-(:mod:`spacarpy.elements.kinds`), each with its global coordinate indices, reference data and
-stiffness. The constraints are the rigid deformation modes of all groups (``e_i(x) = 0``, in
+(:mod:`spacarpy.elements.registry`), each with its global coordinate indices, reference data
+and stiffness. The constraints are the rigid deformation modes of all groups (``e_i(x) = 0``, in
 group order) followed by the normalization ``q.q = 1`` of each orientation node that is not
 completely fixed. See docs/solver.md.
 """
@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.elements.kinds import KINDS, Kind
+from spacarpy.elements.base import ElementKind
+from spacarpy.elements.registry import KINDS
 from spacarpy.model import RIGID, Model
 
 
@@ -25,7 +26,7 @@ class ElementGroup:
 
     Attributes
     ----------
-    kind : Kind
+    kind : ElementKind
     ids : (n,) int
         Deck element numbers.
     nodes : (n, n_slots) int
@@ -41,8 +42,8 @@ class ElementGroup:
         Kind-specific reference data (triads, lengths, axes).
     scale : (n, n_def)
         Length (or 1 for angles) that makes each deformation dimensionless.
-    mass : (n, 5)
-        EM data.
+    mass : (n, n_em)
+        EM data in the kind's layout.
     rigid_elem, rigid_mode : (n_rigid_g,) int
         Rows and modes of this group's rigid deformations.
     rigid_offset : int
@@ -51,7 +52,7 @@ class ElementGroup:
         Persistent per-element state between converged steps (hinge turn counts).
     """
 
-    kind: Kind
+    kind: ElementKind
     ids: np.ndarray
     nodes: np.ndarray
     idx: np.ndarray
@@ -113,10 +114,6 @@ class Numbering:
         Prescribed deformations (INPUTE/DELINPE) among the rigid-mode constraints: their
         values at step 0, their increments, and which constraints they are (empty arrays
         when the model has none).
-
-    The BEAM group's arrays are also available under their historical names
-    (``beam_idx``, ``nx``, ``ny``, ``nz``, ``l0``, ``S``, ``has_stiffness_mode``), empty when the
-    model has no beams.
     """
 
     n_coord: int
@@ -189,50 +186,12 @@ class Numbering:
                 return g
         return None
 
-    # -- the BEAM group under its historical names ------------------------------------------
-    def _beam(self, name: str, shape):
-        g = self.group("BEAM")
-        if g is None:
-            return np.zeros(shape)
-        return {"beam_idx": g.idx, "S": g.S, "has_stiffness_mode": g.stiff_mask}.get(
-            name, g.ref.get(name))
-
-    beam_idx = property(lambda self: self._beam("beam_idx", (0, 14)).astype(np.int64))
-    nx = property(lambda self: self._beam("nx", (0, 3)))
-    ny = property(lambda self: self._beam("ny", (0, 3)))
-    nz = property(lambda self: self._beam("nz", (0, 3)))
-    l0 = property(lambda self: self._beam("l0", (0,)))
-    S = property(lambda self: self._beam("S", (0, 6, 6)))
-    has_stiffness_mode = property(lambda self: self._beam("has_stiffness_mode", (0, 6)))
-
-    def describe_coord(self, model: Model, k: int) -> str:
-        """A readable name of global coordinate k, e.g. 'node 7 y' or 'node 8 lambda2'."""
-        hit = np.argwhere(self.pos_idx == k)
-        if hit.size:
-            i, c = hit[0]
-            return f"node {model.position_ids[i]} {'xyz'[c]}"
-        i, c = np.argwhere(self.rot_idx == k)[0]
-        return f"node {model.orientation_ids[i]} lambda{c}"
-
     def node_of_coord(self, model: Model) -> np.ndarray:
         """(n_coord,) deck node number owning each coordinate."""
         out = np.empty(self.n_coord, dtype=np.int64)
         out[self.pos_idx] = model.position_ids[:, None]
         out[self.rot_idx] = model.orientation_ids[:, None]
         return out
-
-
-def _element_sets(model: Model):
-    """(keyword, ids, nodes, vector, def_class, stiffness, has_stiffness, mass) per kind."""
-    b = model.beams
-    if b.n_elem:
-        yield ("BEAM", b.ids, b.nodes, b.orientation, b.def_class, b.stiffness,
-               b.has_stiffness, b.mass)
-    for keyword in KINDS:
-        s = model.element_sets.get(keyword)
-        if keyword != "BEAM" and s is not None and s.n_elem:
-            yield (keyword, s.ids, s.nodes, s.vector, s.def_class, s.stiffness,
-                   s.has_stiffness, s.mass)
 
 
 def number_model(model: Model) -> Numbering:
@@ -257,8 +216,9 @@ def number_model(model: Model) -> Numbering:
 
     groups = []
     offset = 0
-    for keyword, e_ids, nodes, vector, def_class, props, has_props, mass in _element_sets(model):
+    for keyword, es in model.elements.items():
         kind = KINDS[keyword]
+        e_ids, nodes, def_class = es.ids, es.nodes, es.def_class
         idx_parts, x0_slots = [], []
         for j, slot in enumerate(kind.slots):
             if slot == "pos":
@@ -269,15 +229,15 @@ def number_model(model: Model) -> Numbering:
                 rows = np.array([rot_row[int(v)] for v in nodes[:, j]], dtype=np.int64)
                 idx_parts.append(rot_idx[rows])
                 x0_slots.append(None)
-        ref, scale = kind.reference(x0_slots, np.asarray(vector, dtype=float))
-        stiff = (def_class != RIGID) & np.asarray(has_props, bool)[:, None]
-        S = kind.stiffness(np.asarray(props, dtype=float), ref) * \
+        ref, scale = kind.reference(x0_slots, es.vector)
+        stiff = (def_class != RIGID) & es.has_stiffness[:, None]
+        S = kind.stiffness(es.stiffness, ref) * \
             (stiff[:, :, None] & stiff[:, None, :])
         r_elem, r_mode = np.nonzero(def_class == RIGID)
         groups.append(ElementGroup(
             kind=kind, ids=np.asarray(e_ids, np.int64), nodes=np.asarray(nodes, np.int64),
             idx=np.concatenate(idx_parts, axis=1), def_class=np.asarray(def_class, np.int8),
-            stiff_mask=stiff, S=S, ref=ref, scale=scale, mass=np.asarray(mass, float),
+            stiff_mask=stiff, S=S, ref=ref, scale=scale, mass=es.mass,
             rigid_elem=r_elem.astype(np.int64), rigid_mode=r_mode.astype(np.int64),
             rigid_offset=offset))
         if model.element_damping:

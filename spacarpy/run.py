@@ -120,7 +120,8 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
     with ResultsWriter(out, model, program_version=__version__,
                        deformations=model.deformations, analysis=model.analysis) as writer:
         writer.begin_static(model.position_ids.size, model.orientation_ids.size,
-                            model.beams.n_elem, problem.reaction_node,
+                            (model.elements["BEAM"].n_elem if "BEAM" in model.elements
+                             else 0), problem.reaction_node,
                             problem.reaction_component,
                             n_eigen_modes=opts.n_modes if want_eigen else 0,
                             n_buckling_modes=opts.n_modes if want_buckling else 0,

@@ -21,7 +21,7 @@ from scipy.optimize import brentq
 
 from spacarpy.deck import model_from_text
 from spacarpy.errors import DeckError
-from spacarpy.model import BeamSet, Model
+from spacarpy.model import ElementSet, Model
 from spacarpy.results import ResultsWriter
 
 TESTS = Path(__file__).resolve().parent
@@ -84,18 +84,19 @@ def chain_model(n_elem: int = 2, source_path: str = "decks/tiny.dat") -> Model:
     pos = np.arange(n_elem + 1) * 2 + 1
     rot = pos + 1
     nodes = np.column_stack([pos[:-1], rot[:-1], pos[1:], rot[1:]])
-    beams = BeamSet(ids=np.arange(1, n_elem + 1), nodes=nodes,
-                    orientation=np.full((n_elem, 3), np.nan),
-                    def_class=np.ones((n_elem, 6)), stiffness=np.ones((n_elem, 6)),
-                    has_stiffness=np.ones(n_elem, bool))
+    beams = ElementSet("BEAM", ids=np.arange(1, n_elem + 1), nodes=nodes,
+                       vector=np.full((n_elem, 3), np.nan),
+                       def_class=np.ones((n_elem, 6)), stiffness=np.ones((n_elem, 6)),
+                       has_stiffness=np.ones(n_elem, bool))
     x0 = np.column_stack([np.linspace(0.0, 1.0, n_elem + 1), np.zeros((n_elem + 1, 2))])
-    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, elements={"BEAM": beams},
                  source_path=source_path, source_text=DECK_TEXT)
 
 
 def step_data(model: Model, k: int) -> dict:
     """Deterministic, distinguishable arrays for load step ``k``."""
-    n_pos, n_rot, n_elem = model.position_ids.size, model.orientation_ids.size, model.beams.n_elem
+    n_pos, n_rot = model.position_ids.size, model.orientation_ids.size
+    n_elem = model.elements["BEAM"].n_elem
     angle = 0.01 * k * np.arange(n_rot)
     euler = np.column_stack([np.cos(angle / 2), np.zeros(n_rot), np.zeros(n_rot),
                              np.sin(angle / 2)])
@@ -112,7 +113,8 @@ def step_data(model: Model, k: int) -> dict:
 
 
 def begin(w: ResultsWriter, model: Model) -> None:
-    w.begin_static(model.position_ids.size, model.orientation_ids.size, model.beams.n_elem,
+    w.begin_static(model.position_ids.size, model.orientation_ids.size,
+                   model.elements["BEAM"].n_elem,
                    reaction_node=[1, 1, 1, 2, 2, 2], reaction_component=REACTION_COMPONENT)
 
 

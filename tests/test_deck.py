@@ -75,11 +75,11 @@ def test_valid_deck_builds_expected_model():
     np.testing.assert_array_equal(m.position_ids, [1, 3, 5])
     np.testing.assert_array_equal(m.position_x0, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
     np.testing.assert_array_equal(m.orientation_ids, [2, 4, 6])
-    b = m.beams
+    b = m.elements["BEAM"]
     np.testing.assert_array_equal(b.ids, [1, 2])
     np.testing.assert_array_equal(b.nodes, [[1, 2, 3, 4], [3, 4, 5, 6]])
-    np.testing.assert_array_equal(b.orientation[0], [0, 0, 1])
-    assert np.isnan(b.orientation[1]).all()
+    np.testing.assert_array_equal(b.vector[0], [0, 0, 1])
+    assert np.isnan(b.vector[1]).all()
     np.testing.assert_array_equal(b.def_class, [[FLEXIBLE] * 6,
                                                 [FLEXIBLE, RELEASED, FLEXIBLE, FLEXIBLE,
                                                  RIGID, RIGID]])
@@ -118,7 +118,7 @@ def test_statements_modules_and_locations():
 
 def test_keywords_case_insensitive():
     m = build(VALID.lower())
-    assert m.beams.n_elem == 2 and m.iterstep.n_steps == 5
+    assert m.elements["BEAM"].n_elem == 2 and m.iterstep.n_steps == 5
     assert parse_deck("beam 1 1 2 3 4\n")[0].keyword == "BEAM"
 
 
@@ -127,13 +127,13 @@ def test_comments_both_styles_and_trailing():
             "   # indented comment\nBEAM 1 1 2 3 4  # beam\n")
     m = build(text)
     np.testing.assert_array_equal(m.position_ids, [1, 3])
-    assert m.beams.n_elem == 1
+    assert m.elements["BEAM"].n_elem == 1
 
 
 def test_crlf_tabs_and_missing_final_newline():
     text = VALID.replace("\n", "\r\n").replace(" ", "\t").rstrip("\r\n")
     m = build(text)
-    assert m.beams.n_elem == 2
+    assert m.elements["BEAM"].n_elem == 2
     sts = parse_deck(text)
     assert not sts[0].source_line.endswith("\r")
 
@@ -149,7 +149,7 @@ def test_numbers_in_many_forms_and_int_from_float():
 
 def test_no_end_is_accepted_and_iterstep_defaults():
     m = build(BASE)
-    assert m.beams.n_elem == 1
+    assert m.elements["BEAM"].n_elem == 1
     assert m.iterstep == IterStep()
 
 
@@ -190,7 +190,7 @@ def test_estiff_seventh_value_warns(caplog):
     text = BASE + "DYNE 1 1\nESTIFF 1 1 2 3 4 5 6 7\n"
     with caplog.at_level(logging.WARNING, logger="spacarpy.deck.build"):
         m = build(text)
-    np.testing.assert_allclose(m.beams.stiffness[0], [1, 2, 3, 4, 5, 6])
+    np.testing.assert_allclose(m.elements["BEAM"].stiffness[0], [1, 2, 3, 4, 5, 6])
     assert any("7th value" in r.getMessage() for r in caplog.records)
 
 
@@ -240,11 +240,11 @@ def test_corpus_spatools_cantilever_builds():
     m = load_deck(corpus_path("spatools_cantilever.dat"))
     np.testing.assert_array_equal(m.position_ids, [1, 3, 5, 7, 9])
     np.testing.assert_array_equal(m.orientation_ids, [2, 4, 6, 8, 10])
-    np.testing.assert_array_equal(m.beams.ids, [1, 2, 3, 4])
-    assert (m.beams.def_class == FLEXIBLE).all()
-    np.testing.assert_allclose(m.beams.stiffness[0], [525e6, 63082.154762, 109375, 109375,
-                                                      0.000729, 0.000729])
-    np.testing.assert_allclose(m.beams.orientation, [[0, 0, 1]] * 4)
+    np.testing.assert_array_equal(m.elements["BEAM"].ids, [1, 2, 3, 4])
+    assert (m.elements["BEAM"].def_class == FLEXIBLE).all()
+    np.testing.assert_allclose(m.elements["BEAM"].stiffness[0],
+                               [525e6, 63082.154762, 109375, 109375, 0.000729, 0.000729])
+    np.testing.assert_allclose(m.elements["BEAM"].vector, [[0, 0, 1]] * 4)
     assert [(f.node, f.coords) for f in m.fixes] == [(1, (1, 2, 3)), (2, (1, 2, 3, 4))]
     assert [(ld.node, ld.kind) for ld in m.loads] == [(3, "DELXF"), (3, "XF")]
     assert (m.iterstep.max_iter, m.iterstep.n_steps, m.iterstep.n_init) == (10, 9, 9)
@@ -255,9 +255,9 @@ def test_corpus_dynastatflex_builds():
     m = load_deck(corpus_path("dynastatflex_simple_beam.dat"))
     np.testing.assert_array_equal(m.position_ids, np.arange(1, 50, 2))
     np.testing.assert_array_equal(m.orientation_ids, np.arange(2, 51, 2))
-    assert m.beams.n_elem == 24
+    assert m.elements["BEAM"].n_elem == 24
     # the deck makes only the bending modes 3 and 4 flexible (DYNE e 3 4)
-    np.testing.assert_array_equal(m.beams.def_class,
+    np.testing.assert_array_equal(m.elements["BEAM"].def_class,
                                   [[RIGID, RIGID, FLEXIBLE, FLEXIBLE, RIGID, RIGID]] * 24)
     assert [(ld.node, ld.kind, ld.value) for ld in m.loads] == [(26, "DELXF", (0.0, 0.0, 0.3))]
     assert (m.iterstep.n_steps, m.iterstep.n_init) == (4, 1)

@@ -45,9 +45,10 @@ def assert_models_equal(a, b, atol=0.0):
     np.testing.assert_array_equal(a.position_ids, b.position_ids)
     np.testing.assert_allclose(a.position_x0, b.position_x0, rtol=0, atol=atol)
     np.testing.assert_array_equal(a.orientation_ids, b.orientation_ids)
-    for name in ("ids", "nodes", "orientation", "def_class", "stiffness", "has_stiffness",
+    for name in ("ids", "nodes", "vector", "def_class", "stiffness", "has_stiffness",
                  "mass"):
-        np.testing.assert_array_equal(getattr(a.beams, name), getattr(b.beams, name), name)
+        np.testing.assert_array_equal(getattr(a.elements["BEAM"], name),
+                                      getattr(b.elements["BEAM"], name), name)
     assert [(f.node, f.coords) for f in a.fixes] == [(f.node, f.coords) for f in b.fixes]
     assert [(ld.node, ld.kind, ld.value) for ld in a.loads] == \
         [(ld.node, ld.kind, ld.value) for ld in b.loads]
@@ -143,14 +144,14 @@ def test_overrides_replace_the_set_value():
                             "parameters: L, n, h)")]
     model = build_model(parse_deck(BASE), text="SET E 1\n" + BASE, path="t.dat",
                         overrides={"E": "2"})
-    assert model.beams.n_elem == 1
+    assert model.elements["BEAM"].n_elem == 1
 
 
 def test_load_deck_with_overrides(tmp_path):
     deck = tmp_path / "bend.dat"
     deck.write_text(bend_deck(8))
     model = load_deck(deck, overrides={"n": 3, "R": "50"})
-    assert model.beams.n_elem == 3
+    assert model.elements["BEAM"].n_elem == 3
     np.testing.assert_allclose(model.position_x0[-1], [50 * math.sin(math.pi / 4), 0,
                                                         50 * (1 - math.cos(math.pi / 4))])
 
@@ -201,7 +202,7 @@ def test_include_relative_to_the_including_file_and_shares_parameters(tmp_path):
                     "ESTIFF 1 {L} 1 1 1\nEND\nEND\n")
     model = load_deck(main)
     np.testing.assert_array_equal(model.position_x0, [[0, 0, 0], [2, 0, 0]])
-    assert model.beams.stiffness[0, 0] == 2.0
+    assert model.elements["BEAM"].stiffness[0, 0] == 2.0
     sts = parse_deck(main.read_text(), str(main))
     modules = {(s.keyword, s.fields[:1]): s.module for s in sts}
     assert modules[("FIX", (1,))] == 0 and modules[("ESTIFF", (1,))] == 1
@@ -275,11 +276,11 @@ def test_generator_numbering_rule_and_order():
     np.testing.assert_array_equal(model.position_ids, [1, 3, 41, 43, 45, 47])
     np.testing.assert_allclose(model.position_x0[3:], [[1, 0, 0], [2, 0, 0], [3, 1.5, 0]])
     np.testing.assert_array_equal(model.orientation_ids, [2, 4, 42, 44, 46, 48])
-    np.testing.assert_array_equal(model.beams.ids, [10, 11, 12, 20, 21, 30])
-    np.testing.assert_array_equal(model.beams.nodes[:5], [[1, 2, 43, 44], [43, 44, 45, 46],
-                                                          [45, 46, 3, 4], [3, 4, 47, 48],
-                                                          [47, 48, 41, 42]])
-    np.testing.assert_array_equal(model.beams.orientation[:5], [[0, 0, 1]] * 5)
+    np.testing.assert_array_equal(model.elements["BEAM"].ids, [10, 11, 12, 20, 21, 30])
+    np.testing.assert_array_equal(model.elements["BEAM"].nodes[:5],
+                                  [[1, 2, 43, 44], [43, 44, 45, 46], [45, 46, 3, 4],
+                                   [3, 4, 47, 48], [47, 48, 41, 42]])
+    np.testing.assert_array_equal(model.elements["BEAM"].vector[:5], [[0, 0, 1]] * 5)
     assert [f.node for f in model.fixes] == [1, 2, 45]       # generated nodes are referable
 
 
@@ -312,7 +313,7 @@ def test_table2_generator_deck_equals_the_explicit_arc(n):
     generated = build(bend_deck(n))
     explicit = build(explicit_bend(n, "generator"))
     assert_models_equal(generated, explicit, atol=1e-12)
-    np.testing.assert_array_equal(generated.beams.def_class, FLEXIBLE)
+    np.testing.assert_array_equal(generated.elements["BEAM"].def_class, FLEXIBLE)
     assert (ROOT / "decks" / f"table2_bend_{n}el_modified.dat").read_text() == bend_deck(n)
 
 
@@ -397,7 +398,7 @@ def test_model_builder_other_keywords():
              .stiffness(range(1, 4), 1, 2, 3, 4).mass(1, 2.0, 0.1)
              .nodal_mass(5, 0.5).load(5, 1, 0, 0, initial=True).load(6, 0, 0, 1)
              .iterstep(10, 5, 1e-8, n_init=2).build(deformations="basic"))
-    assert model.deformations == "basic" and model.beams.n_elem == 3
+    assert model.deformations == "basic" and model.elements["BEAM"].n_elem == 3
     assert [(m.node, m.values) for m in model.nodal_masses] == [(5, (0.5,))]
     assert [ld.kind for ld in model.loads] == ["XF", "DELXF"]
     assert model.iterstep.n_init == 2 and model.iterstep.extra == (1.0, 3.0)
@@ -451,7 +452,7 @@ def test_round_trip_of_every_model_feature():
             "XM 4 1e-3 0 0 2e-3 0 3e-3\nXF 5 -1 0 0\nDELXF 4 0 0 0.5\nDELXF 4 0.1 0 0\n"
             "ITERSTEP 10 0 1e-8 1 3 2\nEND\nEND\n")
     model = build(text)
-    assert np.isnan(model.beams.orientation[1]).all() and model.iterstep.n_steps == 1
+    assert np.isnan(model.elements["BEAM"].vector[1]).all() and model.iterstep.n_steps == 1
     out = _round_trip(model)
     assert "BEAM 2 3 4 5 6\n" in out and "FIX 1\n" in out and "FIX 5 2 3\n" in out
 

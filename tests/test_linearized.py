@@ -5,7 +5,7 @@ import pytest
 
 from spacarpy.elements.beam import reference_triads
 from spacarpy.elements.beam_mass import beam_mass_matrix
-from spacarpy.model import BeamSet, Fix, IterStep, Load, Model, NodalMass
+from spacarpy.model import ElementSet, Fix, IterStep, Load, Model, NodalMass
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.eigen import ELASTIC, RIGID_BODY, UNSTABLE, eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
@@ -22,9 +22,9 @@ def straight(n, *, L=1.0, stiffness=(1e6, 1.0, 1.0, 1.0, 0, 0), mass=(1.0, 0, 0,
     x0 = np.zeros((n + 1, 3))
     x0[:, 0] = np.linspace(0, L, n + 1)
     dc = np.ones((n, 6)) if def_class is None else np.tile(def_class, (n, 1))
-    beams = BeamSet(ids=np.arange(1, n + 1),
+    beams = ElementSet("BEAM", ids=np.arange(1, n + 1),
                     nodes=np.stack([pos[:-1], rot[:-1], pos[1:], rot[1:]], 1),
-                    orientation=np.tile([0, 1.0, 0], (n, 1)), def_class=dc,
+                    vector=np.tile([0, 1.0, 0], (n, 1)), def_class=dc,
                     stiffness=np.tile(stiffness, (n, 1)), has_stiffness=np.ones(n, bool),
                     mass=np.tile(mass, (n, 1)))
     fix = {"clamped": [Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
@@ -32,7 +32,8 @@ def straight(n, *, L=1.0, stiffness=(1e6, 1.0, 1.0, 1.0, 0, 0), mass=(1.0, 0, 0,
            "free": []}[fixes]
     loads = [Load(int(pos[-1]) if node == "tip" else int(node), "DELXF", tuple(v))
              for node, v in loads]
-    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams, fixes=fix,
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot,
+                 elements={"BEAM": beams}, fixes=fix,
                  loads=loads, nodal_masses=list(nodal_masses),
                  iterstep=IterStep(max_iter=20, n_steps=1, tol=1e-12), deformations=variant)
 

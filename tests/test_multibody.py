@@ -4,17 +4,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from spacarpy.model import (
-    FLEXIBLE,
-    RIGID,
-    BeamSet,
-    ElementSet,
-    Fix,
-    IterStep,
-    Load,
-    Model,
-    NodalMass,
-)
+from spacarpy.model import FLEXIBLE, RIGID, ElementSet, Fix, IterStep, Load, Model, NodalMass
 from spacarpy.solvers.eigen import eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
 from spacarpy.solvers.static import solve_static
@@ -28,7 +18,7 @@ def two_bar_truss(P, EA=1e4, h=0.3, half=1.0):
                          def_class=[[FLEXIBLE], [FLEXIBLE]], stiffness=[[EA], [EA]],
                          has_stiffness=[True, True])
     return Model(position_ids=[1, 3, 5], position_x0=[[-half, 0, 0], [0, h, 0], [half, 0, 0]],
-                 orientation_ids=[], beams=BeamSet.empty(), element_sets={"TRUSS": trusses},
+                 orientation_ids=[], elements={"TRUSS": trusses},
                  fixes=[Fix(1, (1, 2, 3)), Fix(5, (1, 2, 3)), Fix(3, (3,))],
                  loads=[Load(3, "DELXF", (0, -P, 0))], iterstep=IterStep(n_steps=4, tol=1e-12))
 
@@ -58,19 +48,18 @@ def hinged_rod(F, k=3.0, L=2.0, rod="BEAM", tip_mass=0.0):
                                 def_class=[[FLEXIBLE, RIGID, RIGID]], stiffness=[[k]],
                                 has_stiffness=[True])}
     if rod == "BEAM":
-        beams = BeamSet(ids=[1], nodes=[[1, 4, 3, 6]], orientation=[(0, 1.0, 0)],
-                        def_class=np.full((1, 6), RIGID), stiffness=np.zeros((1, 6)),
-                        has_stiffness=[False])
+        sets["BEAM"] = ElementSet("BEAM", ids=[1], nodes=[[1, 4, 3, 6]], vector=[(0, 1.0, 0)],
+                                  def_class=np.full((1, 6), RIGID), stiffness=np.zeros((1, 6)),
+                                  has_stiffness=[False])
         rot = [2, 4, 6]
     else:
-        beams = BeamSet.empty()
         sets["RBEAM"] = ElementSet(kind="RBEAM", ids=[1], nodes=[[1, 4, 3]],
                                    vector=[(0, 1.0, 0)], def_class=np.full((1, 3), RIGID),
                                    stiffness=np.zeros((1, 3)), has_stiffness=[False])
         rot = [2, 4]
     masses = [NodalMass(3, (tip_mass,))] if tip_mass else []
     return Model(position_ids=[1, 3], position_x0=[[0, 0, 0], [L, 0, 0]], orientation_ids=rot,
-                 beams=beams, element_sets=sets, fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
+                 elements=sets, fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
                  loads=[Load(3, "DELXF", (0, F, 0))] if F else [], nodal_masses=masses,
                  iterstep=IterStep(n_steps=5, tol=1e-12))
 
@@ -242,7 +231,7 @@ def test_gravity_on_a_rigid_rod_balances_the_hinge_spring():
     """RBEAM rod of mass m (EM rhoA), hinge spring k, gravity g along +y:
     k theta = m g (L/2) cos(theta)."""
     model = hinged_rod(0.0, k=3.0, L=2.0, rod="RBEAM")
-    model.element_sets["RBEAM"].mass[:, 0] = 1.5            # rhoA: m = 3 kg
+    model.elements["RBEAM"].mass[:, 0] = 1.5            # rhoA: m = 3 kg
     model.gravity = (0.0, 2.0, 0.0)
     res = solve_static(model)
     theta = brentq(lambda t: 3.0 * t - 3.0 * 2.0 * 1.0 * np.cos(t), 0, np.pi / 2)

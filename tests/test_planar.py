@@ -8,7 +8,7 @@ from scipy.optimize import brentq
 from spacarpy.cases import TABLE1
 from spacarpy.cli import main
 from spacarpy.deck import model_from_text
-from spacarpy.elements.kinds import KINDS
+from spacarpy.elements.registry import KINDS
 from spacarpy.rotation import from_axis_angle
 from spacarpy.solvers.eigen import eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize

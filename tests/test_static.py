@@ -7,7 +7,7 @@ import pytest
 
 from spacarpy.deck import load_deck
 from spacarpy.errors import ConvergenceError, ModelError, SolverError
-from spacarpy.model import RIGID, BeamSet, Fix, IterStep, Load, Model
+from spacarpy.model import RIGID, ElementSet, Fix, IterStep, Load, Model
 from spacarpy.rotation import from_axis_angle, rotation_matrix
 from spacarpy.solvers.static import StaticOptions, solve_static
 
@@ -35,7 +35,7 @@ def tip_position(res):
                          + [("basic", n, v) for n, v in TABLE1_BASIC.items()])
 def test_table1_cantilever(variant, n, expected):
     model = load_deck(DECKS / f"table1_cantilever_{n}el_{variant}.dat")
-    assert model.deformations == variant and model.beams.n_elem == n
+    assert model.deformations == variant and model.elements["BEAM"].n_elem == n
     tip = tip_position(solve_static(model))
     ux, uy = 2.0 - tip[0], tip[1]          # Table 1 prints the shortening and the deflection
     assert round(ux, 6) == pytest.approx(expected[0], abs=1e-12)
@@ -70,14 +70,16 @@ def test_randomly_oriented_cantilever_gives_the_rotated_tip_displacement():
     for _ in range(2):
         rot = rotation_matrix(from_axis_angle(rng.normal(size=3), rng.uniform(0.5, 3.0)))
         shift = rng.normal(size=3)
-        b = base.beams
-        beams = BeamSet(ids=b.ids, nodes=b.nodes, orientation=np.tile(rot @ [0, 1.0, 0], (8, 1)),
-                        def_class=b.def_class, stiffness=b.stiffness,
-                        has_stiffness=b.has_stiffness)
+        b = base.elements["BEAM"]
+        beams = ElementSet("BEAM", ids=b.ids, nodes=b.nodes,
+                           vector=np.tile(rot @ [0, 1.0, 0], (8, 1)),
+                           def_class=b.def_class, stiffness=b.stiffness,
+                           has_stiffness=b.has_stiffness)
         loads = [Load(ld.node, ld.kind, tuple(rot @ np.array(ld.value))) for ld in base.loads]
         model = Model(position_ids=base.position_ids,
                       position_x0=base.position_x0 @ rot.T + shift,
-                      orientation_ids=base.orientation_ids, beams=beams, fixes=base.fixes,
+                      orientation_ids=base.orientation_ids, elements={"BEAM": beams},
+                      fixes=base.fixes,
                       loads=loads, iterstep=base.iterstep)
         tip = tip_position(solve_static(model))
         np.testing.assert_allclose(tip - shift, rot @ tip0, atol=1e-9)
@@ -101,10 +103,11 @@ def two_beam_model(fixes, def_class=None, loads=()):
     dc = np.ones((2, 6)) if def_class is None else def_class
     return Model(position_ids=[1, 3, 5], position_x0=[[0, 0, 0], [1, 0, 0], [2, 0, 0]],
                  orientation_ids=[2, 4, 6],
-                 beams=BeamSet(ids=[11, 12], nodes=[[1, 2, 3, 4], [3, 4, 5, 6]],
-                               orientation=np.tile([0, 1.0, 0], (2, 1)), def_class=dc,
-                               stiffness=np.tile([1e6, 1e3, 1e3, 1e3, 0, 0], (2, 1)),
-                               has_stiffness=[True, True]),
+                 elements={"BEAM": ElementSet(
+                     "BEAM", ids=[11, 12], nodes=[[1, 2, 3, 4], [3, 4, 5, 6]],
+                     vector=np.tile([0, 1.0, 0], (2, 1)), def_class=dc,
+                     stiffness=np.tile([1e6, 1e3, 1e3, 1e3, 0, 0], (2, 1)),
+                     has_stiffness=[True, True])},
                  fixes=fixes, loads=list(loads), iterstep=IterStep(n_steps=1))
 
 
@@ -151,12 +154,13 @@ def moment_cantilever(n, variant, moment, EI=1.0, EA=1e7, L=1.0):
     rot = pos + 1
     x0 = np.zeros((n + 1, 3))
     x0[:, 0] = np.linspace(0, L, n + 1)
-    beams = BeamSet(ids=np.arange(1, n + 1), nodes=np.stack([pos[:-1], rot[:-1], pos[1:],
-                                                            rot[1:]], 1),
-                    orientation=np.tile([0, 1.0, 0], (n, 1)), def_class=np.ones((n, 6)),
-                    stiffness=np.tile([EA, EI, EI, EI, 0, 0], (n, 1)),
-                    has_stiffness=np.ones(n, bool))
-    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
+    beams = ElementSet("BEAM", ids=np.arange(1, n + 1),
+                       nodes=np.stack([pos[:-1], rot[:-1], pos[1:], rot[1:]], 1),
+                       vector=np.tile([0, 1.0, 0], (n, 1)), def_class=np.ones((n, 6)),
+                       stiffness=np.tile([EA, EI, EI, EI, 0, 0], (n, 1)),
+                       has_stiffness=np.ones(n, bool))
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot,
+                 elements={"BEAM": beams},
                  fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
                  loads=[Load(int(rot[-1]), "DELXF", (0, 0, moment))],
                  iterstep=IterStep(max_iter=20, n_steps=8, tol=1e-10), deformations=variant)
@@ -215,12 +219,13 @@ def chain(n, def_class=None, fixes=(), loads=()):
     x0 = np.zeros((n + 1, 3))
     x0[:, 0] = np.linspace(0, 1, n + 1)
     dc = np.ones((n, 6)) if def_class is None else np.full((n, 6), def_class)
-    beams = BeamSet(ids=np.arange(1, n + 1), nodes=np.stack([pos[:-1], rot[:-1], pos[1:],
-                                                            rot[1:]], 1),
-                    orientation=np.tile([0, 1.0, 0], (n, 1)), def_class=dc,
-                    stiffness=np.tile([1e6, 1.0, 1.0, 1.0, 0, 0], (n, 1)),
-                    has_stiffness=np.ones(n, bool))
-    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot, beams=beams,
+    beams = ElementSet("BEAM", ids=np.arange(1, n + 1),
+                       nodes=np.stack([pos[:-1], rot[:-1], pos[1:], rot[1:]], 1),
+                       vector=np.tile([0, 1.0, 0], (n, 1)), def_class=dc,
+                       stiffness=np.tile([1e6, 1.0, 1.0, 1.0, 0, 0], (n, 1)),
+                       has_stiffness=np.ones(n, bool))
+    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot,
+                 elements={"BEAM": beams},
                  fixes=list(fixes), loads=list(loads), iterstep=IterStep(n_steps=1))
 
 

@@ -22,10 +22,10 @@ from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, UNSUPPORTED_ELEMENTS
 from spacarpy.deck.parser import Statement, gc_paused
 from spacarpy.deck.visualization import collect_cross_sections
-from spacarpy.elements.kinds import PLANAR_KINDS
+from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.model import (ANALYSES, BIFURCATION_CHOICES, DEFORMATION_VARIANTS, FLEXIBLE,
-                            RELEASED, RIGID, SPACAR_MODE_NUMBERS, BeamSet, ElementSet, Fix,
+                            RELEASED, RIGID, SPACAR_MODE_NUMBERS, ElementSet, Fix,
                             IterStep, Load, Model, NodalMass, Prescribed, PrescribedDeformation,
                             PrescribedRotation)
 
@@ -33,8 +33,6 @@ __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
 
 logger = logging.getLogger(__name__)
 
-#: Stiffness value (index into ESTIFF's EA GJ EIy EIz) that carries each BEAM deformation mode.
-_MODE_STIFFNESS = (0, 1, 2, 2, 3, 3)
 _STIFFNESS_NAMES = ("EA", "GJ", "EIy", "EIz", "cy", "cz")
 _MASS_NAMES = ("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz")
 _COORD_NAMES = {"position": ("x", "y", "z"),
@@ -110,28 +108,22 @@ def _element_name(st: Statement, e: int) -> str:
     return f"element {e}" + (f" (made by the {st.origin} line)" if st.origin else "")
 
 
-#: Per element keyword: number of deformation modes, index of the first vector field
-#: (orientation / hinge axis) or None, allowed ESTIFF value counts, the stiffness names,
-#: which ESTIFF value carries each mode's stiffness, and whether EM applies.
-_KIND_INFO = {
-    "BEAM": dict(n_def=6, vector_at=5, n_estiff=(4, 7), stiff_names=_STIFFNESS_NAMES,
-                 mode_stiffness=_MODE_STIFFNESS, has_mass=True,
-                 estiff_usage="EA GJ EIy EIz"),
-    "TRUSS": dict(n_def=1, vector_at=None, n_estiff=(1, 1), stiff_names=("EA",),
-                  mode_stiffness=(0,), has_mass=True, estiff_usage="EA"),
-    "HINGE": dict(n_def=3, vector_at=3, n_estiff=(0, 3), stiff_names=("k", "k2", "k3"),
-                  mode_stiffness=(0, 1, 2), has_mass=False, estiff_usage="k [k2 k3]"),
-    "RBEAM": dict(n_def=3, vector_at=4, n_estiff=(0, 3), stiff_names=("k1", "k2", "k3"),
-                  mode_stiffness=(0, 1, 2), has_mass=True, estiff_usage="[k1 k2 k3]"),
-    "PLBEAM": dict(n_def=3, vector_at=None, n_estiff=(2, 3), stiff_names=("EA", "EI", "c"),
-                   mode_stiffness=(0, 1, 1), has_mass=True, estiff_usage="EA EI [c]",
-                   n_em=2, em_usage="rhoA [rhoIz]"),
-    "PLTRUSS": dict(n_def=1, vector_at=None, n_estiff=(1, 1), stiff_names=("EA",),
-                    mode_stiffness=(0,), has_mass=True, estiff_usage="EA",
-                    n_em=1, em_usage="rhoA"),
-    "PLHINGE": dict(n_def=1, vector_at=None, n_estiff=(0, 1), stiff_names=("k",),
-                    mode_stiffness=(0,), has_mass=False, estiff_usage="k"),
-}
+def _kind_info(kind) -> dict:
+    """What the builder checks of an element kind, from its declaration: number of deformation
+    modes, index of the first vector field (orientation / hinge axis) or None, allowed ESTIFF
+    value counts, the stiffness names, which ESTIFF value carries each mode's stiffness, and
+    whether (and how much) EM applies."""
+    est, em = kind.estiff, kind.em
+    info = dict(n_def=kind.n_def, vector_at=1 + len(kind.slots) if kind.vector else None,
+                n_estiff=(est.required, est.allowed), stiff_names=est.names,
+                mode_stiffness=kind.mode_stiffness, has_mass=em is not None,
+                estiff_usage=est.usage)
+    if em is not None and em.allowed is not None:
+        info.update(n_em=em.allowed, em_usage=em.usage)
+    return info
+
+
+_KIND_INFO = {keyword: _kind_info(kind) for keyword, kind in KINDS.items()}
 #: The element keywords the model builder supports, in the order the model keeps them.
 ELEMENT_KEYWORDS = tuple(_KIND_INFO)
 
@@ -1120,10 +1112,8 @@ class _ModelBuilder:
         by_kind: dict[str, list[_Element]] = {}
         for b in self.beams.values():
             by_kind.setdefault(b.keyword, []).append(b)
-        beams = by_kind.get("BEAM", [])
-        n = len(beams)
         sets = {}
-        for kw in ELEMENT_KEYWORDS[1:]:
+        for kw in ELEMENT_KEYWORDS:
             els = by_kind.get(kw)
             if els:
                 sets[kw] = ElementSet(
@@ -1132,23 +1122,13 @@ class _ModelBuilder:
                     stiffness=[b.stiffness for b in els],
                     has_stiffness=[b.estiff is not None for b in els],
                     mass=[b.mass for b in els], locs=[b.st.loc for b in els])
-        beam_set = BeamSet(
-            ids=[b.id for b in beams],
-            nodes=[b.nodes for b in beams] if n else np.zeros((0, 4), int),
-            orientation=[b.orientation for b in beams] if n else np.zeros((0, 3)),
-            def_class=[b.def_class for b in beams] if n else np.zeros((0, 6), np.int8),
-            stiffness=[b.stiffness for b in beams] if n else np.zeros((0, 6)),
-            has_stiffness=[b.estiff is not None for b in beams],
-            mass=[b.mass for b in beams] if n else np.zeros((0, 5)),
-            locs=[b.st.loc for b in beams],
-        )
         ids = list(self.positions)
         x0 = [self.positions[k][0] for k in ids] if ids else np.zeros((0, 3))
         return Model(
             position_ids=ids,
             position_x0=x0,
             orientation_ids=sorted(self.orientation_use),
-            beams=beam_set,
+            elements=sets,
             fixes=[Fix(node=k, coords=tuple(sorted(c)), loc=loc)
                    for k, (c, loc) in self.fixes.items()],
             loads=self.loads,
@@ -1165,7 +1145,6 @@ class _ModelBuilder:
                                                      initial=v.get("initial", 0.0))
                                   for n, v in self.rotations.items()],
             gravity=self.gravity,
-            element_sets=sets,
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",
             bifurcation=self.bifurcation,

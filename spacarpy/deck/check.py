@@ -245,7 +245,8 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
 def _from_model(s: DeckSummary, model: Model) -> None:
     from spacarpy.numbering import number_model
 
-    dc = model.beams.def_class
+    beams = model.elements.get("BEAM")
+    dc = beams.def_class if beams is not None else np.zeros((0, 6), np.int8)
     s.flexible = int(np.count_nonzero(dc == FLEXIBLE))
     s.released = int(np.count_nonzero(dc == RELEASED))
     s.rigid = int(np.count_nonzero(dc == RIGID))

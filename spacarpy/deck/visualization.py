@@ -89,7 +89,7 @@ class CrossSections:
         return self.by_element.get(element)
 
     def arrays(self, element_ids) -> tuple[np.ndarray, np.ndarray]:
-        """Cross-section data aligned with ``element_ids`` (e.g. ``model.beams.ids``).
+        """Cross-section data aligned with ``element_ids`` (e.g. ``model.elements["BEAM"].ids``).
 
         Returns
         -------

@@ -1,10 +1,14 @@
 """Model -> deck text: the inverse of reading a deck.
 
 :func:`model_to_deck` writes a :class:`spacarpy.model.Model` as a deck that reads back into an
-equal model (every array and field, floats to the last bit: numbers are written with Python's
-shortest round-trip representation). By default the deck uses only SPACAR keywords plus the two
-spacarpy lines MODE and DEFORMATIONS; ``compact=True`` also writes element ranges
+equal model (every element kind, every array and setting, floats to the last bit: numbers are
+written with Python's shortest round-trip representation). By default the deck uses only SPACAR
+keywords plus the spacarpy lines the model needs (MODE, DEFORMATIONS, and the extensions whose
+settings differ from their defaults); ``compact=True`` also writes element ranges
 (``DYNE 1:48 1 2 3 4 5 6``), a spacarpy extension. :func:`format_record` writes one record.
+
+The model is only read through its attributes (``spacarpy.model`` is not imported), so that
+``Model.to_deck`` can call this module without an import cycle.
 """
 from __future__ import annotations
 
@@ -12,13 +16,15 @@ import math
 
 import numpy as np
 
-from spacarpy.model import FLEXIBLE, RELEASED, Model
+from spacarpy.elements.base import FLEXIBLE, RELEASED
+from spacarpy.elements.registry import KINDS
 
 __all__ = ["format_record", "format_value", "model_to_deck"]
 
 
 def format_value(value) -> str:
-    """One field as deck text: ints as digits, floats in shortest round-trip form.
+    """One field as deck text: ints as digits, floats in shortest round-trip form, other
+    values (words) as they are.
 
     Raises
     ------
@@ -69,13 +75,31 @@ def _element_lines(keyword: str, ids: np.ndarray, data: list[tuple], compact: bo
     return lines
 
 
-def model_to_deck(model: Model, *, cross_sections=None, compact: bool = False,
+def _axis_for(unit) -> tuple:
+    """Axis components that the deck reader's normalization (``a / |a|``) turns into exactly
+    ``unit``: ``unit`` itself is not always one (its norm differs from 1 in the last bit), so
+    its neighbours one unit in the last place away are tried too."""
+    u = np.asarray(unit, dtype=float)
+    choices = np.stack([u, np.nextafter(u, -np.inf), np.nextafter(u, np.inf)])  # (3, 3)
+    for pick in np.ndindex(3, 3, 3):
+        c = choices[list(pick), [0, 1, 2]]
+        if np.array_equal(c / np.linalg.norm(c), u):
+            return tuple(float(v) for v in c)
+    return tuple(float(v) for v in u)
+
+
+def _quoted(value) -> str:
+    """A TIMEFUNCTION parameter: numbers as numbers, an expression in double quotes."""
+    return f'"{value}"' if isinstance(value, str) else format_value(value)
+
+
+def model_to_deck(model, *, cross_sections=None, compact: bool = False,
                   title: str | None = None) -> str:
     """Write a model as deck text that reads back into an equal model.
 
     Parameters
     ----------
-    model : Model
+    model : spacarpy.model.Model
     cross_sections : CrossSections, optional
         Written as a VISUALIZATION section (BEAMPROPS / CROSSTYPE / CROSSDIM).
     compact : bool
@@ -91,43 +115,107 @@ def model_to_deck(model: Model, *, cross_sections=None, compact: bool = False,
 
     Notes
     -----
-    The round trip is exact for models read from decks. A model built in Python with an
-    ``IterStep`` whose ``extra`` is empty but ``n_init != 1`` cannot be written exactly (SPACAR's
-    ITERSTEP needs fields 4 and 5 before n_init); fields 4 and 5 are then written as 0.
+    The round trip is exact for models read from decks (source locations, the source text
+    and path aside). A model built in Python with an ``IterStep`` whose ``extra`` is empty but
+    ``n_init != 1`` cannot be written exactly (SPACAR's ITERSTEP needs fields 4 and 5 before
+    n_init); fields 4 and 5 are then written as 0.
     """
-    b = model.beams
+    planar = bool(model.planar)
     out = [f"# {title if title is not None else 'spacarpy model from ' + model.source_path}",
-           f"DEFORMATIONS {model.deformations}", f"MODE {model.analysis}", ""]
-    out += [format_record("X", int(n), *x) for n, x in
+           f"DEFORMATIONS {model.deformations}", f"MODE {model.analysis}"]
+    if model.bifurcation != "off":
+        out.append(f"BIFURCATION {model.bifurcation}")
+    if model.n_modes is not None:
+        out.append(f"MODES {int(model.n_modes)} {'each' if model.modes_each_step else 'last'}")
+    out.append("")
+    # ---------------------------------------------------------------- kinematics module
+    out += [format_record("X", int(n), *(x[:2] if planar else x)) for n, x in
             zip(model.position_ids.tolist(), model.position_x0.tolist())]
-    for e, nodes, o in zip(b.ids.tolist(), b.nodes.tolist(), b.orientation.tolist()):
-        vector = () if any(math.isnan(v) for v in o) else tuple(o)
-        out.append(format_record("BEAM", e, *nodes, *vector))
-    for cls, keyword in ((FLEXIBLE, "DYNE"), (RELEASED, "RLSE")):
-        data = [tuple(int(k) + 1 for k in np.flatnonzero(row == cls)) or None
-                for row in b.def_class]
-        out += _element_lines(keyword, b.ids, data, compact)
+    for keyword, es in model.elements.items():
+        kind = KINDS[keyword]
+        for e, nodes, v in zip(es.ids.tolist(), es.nodes.tolist(), es.vector.tolist()):
+            given = kind.vector is not None and not any(math.isnan(c) for c in v)
+            out.append(format_record(keyword, e, *nodes, *(v if given else ())))
+    for es in model.elements.values():
+        for cls, keyword in ((FLEXIBLE, "DYNE"), (RELEASED, "RLSE")):
+            data = [tuple(int(k) + 1 for k in np.flatnonzero(row == cls)) or None
+                    for row in es.def_class]
+            out += _element_lines(keyword, es.ids, data, compact)
     position_nodes = set(model.position_ids.tolist())
     for fix in model.fixes:
         size = 3 if fix.node in position_nodes else 4
         coords = () if tuple(fix.coords) == tuple(range(1, size + 1)) else fix.coords
         out.append(format_record("FIX", fix.node, *coords))
+    for p in model.prescribed:
+        out.append(format_record("INPUTX", p.node, p.coord))
+    for r in model.prescribed_rotations:
+        out.append(format_record("INPUTX", r.node, 1) if planar
+                   else format_record("INPUTR", r.node, *_axis_for(r.axis)))
+    for d in model.prescribed_deformations:
+        out.append(format_record("INPUTE", d.element, d.mode))
     out += ["END", "HALT", ""]
-    data = [tuple(float(v) for v in row) if has else None
-            for row, has in zip(b.stiffness, b.has_stiffness)]
-    out += _element_lines("ESTIFF", b.ids, data, compact)
-    data = [tuple(float(v) for v in row) if np.any(row != 0) else None for row in b.mass]
-    out += _element_lines("EM", b.ids, data, compact)
+    # ---------------------------------------------------------------- data module
+    for keyword, es in model.elements.items():
+        data = [tuple(float(v) for v in row) if has else None
+                for row, has in zip(es.stiffness, es.has_stiffness)]
+        out += _element_lines("ESTIFF", es.ids, data, compact)
+    for keyword, es in model.elements.items():
+        if KINDS[keyword].em is None:
+            continue
+        data = [tuple(float(v) for v in row) if np.any(row != 0) else None for row in es.mass]
+        out += _element_lines("EM", es.ids, data, compact)
+    for e, values in model.element_damping.items():
+        out.append(format_record("EDAMP", int(e), *[float(v) for v in values]))
     for xm in model.nodal_masses:
         out.append(format_record("XM", xm.node, *[float(v) for v in xm.values]))
     for load in model.loads:
-        out.append(format_record(load.kind, load.node, *[float(v) for v in load.value]))
+        value = [float(v) for v in load.value]
+        if planar:
+            value = value[:2] if load.node in position_nodes else value[2:]
+        out.append(format_record(load.kind, load.node, *value))
+    for p in model.prescribed:
+        if p.initial is not None:
+            out.append(format_record("INPUTX", p.node, p.coord, float(p.initial)))
+        if p.delta != 0:
+            out.append(format_record("DELINPX", p.node, p.coord, float(p.delta)))
+    for r in model.prescribed_rotations:
+        if planar:
+            if r.initial != 0:
+                out.append(format_record("INPUTX", r.node, 1, float(r.initial)))
+            if r.angle != 0:
+                out.append(format_record("DELINPX", r.node, 1, float(r.angle)))
+        elif r.angle != 0:
+            out.append(format_record("DELINPR", r.node, float(r.angle)))
+    for d in model.prescribed_deformations:
+        if d.initial is not None:
+            out.append(format_record("INPUTE", d.element, d.mode, float(d.initial)))
+        if d.delta != 0:
+            out.append(format_record("DELINPE", d.element, d.mode, float(d.delta)))
+    if any(g != 0 for g in model.gravity):
+        out.append(format_record("GRAVITY", *[float(g) for g in model.gravity]))
     it = model.iterstep
     fields = [it.max_iter, it.n_steps, float(it.tol)]
     if it.extra or it.n_init != 1:
         extra = tuple(float(v) for v in it.extra) + (0.0,) * (2 - len(it.extra))
         fields += [*extra[:2], it.n_init]
     out.append(format_record("ITERSTEP", *fields))
+    if model.timestep is not None:
+        out.append(format_record("TIMESTEP", float(model.timestep[0]), int(model.timestep[1])))
+    if model.error_tol is not None:
+        out.append(format_record("ERROR", *[float(v) for v in model.error_tol]))
+    if model.substeps != 1:
+        out.append(format_record("SUBSTEPS", int(model.substeps)))
+    if model.rho_inf != 0.9:
+        out.append(format_record("RHOINF", float(model.rho_inf)))
+    if tuple(model.damping) != (0.0, 0.0):
+        out.append(format_record("DAMPING", *[float(v) for v in model.damping]))
+    if model.start != "deck":
+        out.append(f"START {model.start}")
+    kind, params = model.time_function
+    if (kind, tuple(params)) != ("constant", ()):
+        out.append(" ".join(["TIMEFUNCTION", kind] + [_quoted(v) for v in params]))
+    for n, v in model.initial_velocities.items():
+        out.append(format_record("VELOCITY", int(n), *[float(c) for c in v]))
     out += ["END", "END"]
     if cross_sections is not None and len(cross_sections):
         out += ["", "VISUALIZATION"]

@@ -1,7 +1,8 @@
 """The discrete-deformation-mode (DDM) spatial beam of Jonker & Meijaard (2013), vectorized.
 
 Pure functions on arrays with the element index first. Nothing here knows about decks,
-nodes or global numbering.
+nodes or global numbering. The element kind :class:`Beam` at the end wraps them for the
+solvers (:mod:`spacarpy.elements.base`).
 
 Symbols
 -------
@@ -48,6 +49,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from spacarpy.elements.base import SECTION_MASS, ElementKind, Fields
+from spacarpy.elements.chunks import in_chunks
 from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import hessian_combination, vector_jacobians
 
@@ -329,3 +332,95 @@ def _basic_hessian(st: BeamState, w_hat: np.ndarray) -> np.ndarray:
     hx[:, QP, QP] += hessian_combination(c[:, 3:9].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
     hx[:, QQ, QQ] += hessian_combination(c[:, 9:15].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
     return hx
+
+
+# ------------------------------------------------------------------------------ the kind
+#: Largest |e_hat_k| / l0 (torsion, bending) accepted in a converged BEAM state: the basic
+#: deformations of Eq. (7) are sines of relative rotations, near 1 (90 degrees) they
+#: saturate, the Jacobian loses rank and Newton can land on a spurious equilibrium.
+MAX_BEAM_ROTATION = 0.95
+
+
+def check_saturation(st: BeamState, ref: dict):
+    """(element row, message) of the most rotated element past :data:`MAX_BEAM_ROTATION`,
+    or None."""
+    rel = np.abs(st.e_hat[:, 1:]) / ref["l0"][:, None]
+    if rel.size and rel.max() > MAX_BEAM_ROTATION:
+        i, k = np.unravel_index(np.argmax(rel), rel.shape)
+        return int(i), (
+            f"deformation mode {k + 2} reached |e/l0| = {rel[i, k]:.3f}, a relative rotation "
+            f"of about {np.degrees(np.arcsin(min(rel[i, k], 1.0))):.0f} degrees inside one "
+            f"element. The deformation measures of Eq. (7) saturate at 90 degrees, so this "
+            f"state is not a valid beam solution; use more elements.")
+    return None
+
+
+def beam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
+    """Hermite centre line (Eq. 57): int r = l0 [r^p/2 + l0 n_x^p/12 + r^q/2 - l0 n_x^q/12]."""
+    from spacarpy.elements.beam_mass import tangent_gravity
+    n = x.shape[0]
+    m = mass[:, 0] * ref["l0"]
+    f = np.zeros((n, 14))
+    k = np.zeros((n, 14, 14))
+    f[:, 0:3] = f[:, 7:10] = 0.5 * m[:, None] * g
+    for qs, sign in ((slice(3, 7), 1.0), (slice(10, 14), -1.0)):
+        fq, kq = tangent_gravity(x[:, qs], ref["nx"], g, sign * m * ref["l0"] / 12.0)
+        f[:, qs] = fq
+        k[:, qs, qs] = kq
+    return f, k
+
+
+class Beam(ElementKind):
+    """``BEAM e p r q s [oy_x oy_y oy_z]``: the spatial DDM beam (kernels above; its
+    consistent mass in :mod:`spacarpy.elements.beam_mass`). Large kernels run chunk by
+    chunk (:func:`spacarpy.elements.chunks.in_chunks`)."""
+
+    keyword = "BEAM"
+    slots = ("pos", "rot", "pos", "rot")
+    node_roles = ("p", "r", "q", "s")
+    modes = ("elongation", "torsion", "bending y at p", "bending y at q", "bending z at p",
+             "bending z at q")
+    mode_units = ("m",) * 6
+    length_modes = (True,) * 6
+    #: the 7th value (BEAMW's warping stiffness) is accepted with a warning and ignored
+    estiff = Fields(("EA", "GJ", "EIy", "EIz", "cy", "cz"),
+                    ("N", "N m^2", "N m^2", "N m^2", "m^2", "m^2"), 4, 7,
+                    "EA GJ EIy EIz")
+    mode_stiffness = (0, 1, 2, 2, 3, 3)
+    em = SECTION_MASS
+    vector = "local y-axis"
+
+    def reference(self, x0, vector):
+        nx, ny, nz, l0 = reference_triads(x0[0], x0[2], vector)
+        return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 6, axis=1)
+
+    def state(self, x, ref, variant, prev):
+        return in_chunks(beam_state, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant)
+
+    def deformations(self, x, ref, variant, prev):
+        return in_chunks(beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant)
+
+    def hessian(self, st, w):
+        return in_chunks(beam_weighted_hessian, len(w), st, w)
+
+    def tangent(self, st, S, w):
+        return in_chunks(beam_tangent, len(w), st, S, w)
+
+    def stiffness(self, props, ref):
+        return stiffness_matrix(props, ref["l0"])
+
+    def mass(self, x, ref, m):
+        from spacarpy.elements.beam_mass import beam_mass_matrix
+        return in_chunks(beam_mass_matrix, len(x), x, ref["nx"], ref["ny"], ref["nz"],
+                         ref["l0"], m)
+
+    def convective(self, x, v, ref, m):
+        from spacarpy.elements.beam_mass import beam_convective
+        return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
+                         ref["l0"], m)
+
+    def check(self, st, ref):
+        return check_saturation(st, ref)
+
+    def gravity(self, x, ref, mass, g):
+        return beam_gravity(x, ref, mass, g)

@@ -171,3 +171,10 @@ def nodal_rotary_mass(q: np.ndarray, inertia: np.ndarray) -> np.ndarray:
     """4x4 mass blocks ``4 G^T J G`` of orientation nodes: q (n, 4), inertia (n, 3, 3)."""
     g = g_matrix(q)
     return 4.0 * g.transpose(0, 2, 1) @ inertia @ g
+
+
+def tangent_gravity(q: np.ndarray, nx: np.ndarray, g: np.ndarray, coef: np.ndarray):
+    """Force ``coef * B^T g`` on the Euler parameters of a node whose tangent ``n_x = R(q) n_x``
+    carries mass, with ``B = d n_x / d q = 2 H(n_x) q``, and its derivative ``2 coef H.g``."""
+    hg = np.einsum("nkab,k->nab", quadratic_form(nx), g)       # (n, 4, 4): sum_k g_k H_k
+    return 2.0 * coef[:, None] * (hg @ q[..., None])[..., 0], 2.0 * coef[:, None, None] * hg

@@ -67,6 +67,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from spacarpy.elements.base import ElementKind, Fields
 from spacarpy.linalg import batch_matvec, property_columns
 from spacarpy.rotation import hessian_combination, vector_jacobians
 
@@ -214,3 +215,36 @@ def hinge_stiffness(props: np.ndarray) -> np.ndarray:
     (n_elem,) or (n_elem, 1..3); missing values are 0."""
     k = property_columns(props, N_DEF, "HINGE ESTIFF")
     return k[:, :, None] * np.eye(N_DEF)
+
+
+# ------------------------------------------------------------------------------ the kind
+class Hinge(ElementKind):
+    """``HINGE e r s [ax ay az]``: a revolute joint between two orientation nodes (kernels
+    above). Its persistent state is the joint angle of the last converged step
+    (``prev["e1"]``), which keeps the angle continuous over several turns."""
+
+    keyword = "HINGE"
+    slots = ("rot", "rot")
+    node_roles = ("r", "s")
+    modes = ("rotation about the axis", "rotation about b", "rotation about c")
+    mode_units = ("rad", "1", "1")
+    length_modes = (False,) * 3
+    estiff = Fields(("k", "k2", "k3"), ("N m/rad",) * 3, 0, 3, "k [k2 k3]")
+    mode_stiffness = (0, 1, 2)
+    vector = "axis"
+
+    def reference(self, x0, vector):
+        a, b, c = hinge_reference(vector)
+        return dict(a=a, b=b, c=c), np.ones((a.shape[0], 3))
+
+    def state(self, x, ref, variant, prev):
+        return hinge_state(x, ref["a"], ref["b"], ref["c"], e1_previous=prev.get("e1"))
+
+    def hessian(self, st, w):
+        return hinge_weighted_hessian(st, w)
+
+    def stiffness(self, props, ref):
+        return hinge_stiffness(props[:, :3])
+
+    def commit(self, st, prev):
+        prev["e1"] = st.e[:, 0].copy()

@@ -65,7 +65,8 @@ from typing import NamedTuple
 import numpy as np
 
 from spacarpy.elements.beam import reference_triads
-from spacarpy.elements.beam_mass import g_matrix, section_inertia
+from spacarpy.elements.base import SECTION_MASS, ElementKind, Fields
+from spacarpy.elements.beam_mass import g_matrix, section_inertia, tangent_gravity
 from spacarpy.linalg import batch_matvec, property_columns
 from spacarpy.rotation import hessian_combination, vector_jacobians
 
@@ -184,3 +185,52 @@ def rbeam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndar
     g = g_matrix(qp)
     out[:, QP, QP] += 4.0 * (g.transpose(0, 2, 1) @ jg @ g)
     return out
+
+
+# ------------------------------------------------------------------------------ the kind
+def rbeam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
+    """Rigid rod: its mass at the centre r^p + R(q^p) n_x l0 / 2."""
+    n = x.shape[0]
+    m = mass[:, 0] * ref["l0"]
+    f = np.zeros((n, 10))
+    k = np.zeros((n, 10, 10))
+    f[:, 0:3] = m[:, None] * g
+    fq, kq = tangent_gravity(x[:, 3:7], ref["nx"], g, m * ref["l0"] / 2.0)
+    f[:, 3:7] = fq
+    k[:, 3:7, 3:7] = kq
+    return f, k
+
+
+class RBeam(ElementKind):
+    """``RBEAM e p r q [oy_x oy_y oy_z]``: node q carried rigidly by the body of p (kernels
+    above)."""
+
+    keyword = "RBEAM"
+    slots = ("pos", "rot", "pos")
+    node_roles = ("p", "r", "q")
+    modes = ("elongation along x", "displacement along y", "displacement along z")
+    mode_units = ("m",) * 3
+    length_modes = (True,) * 3
+    estiff = Fields(("k1", "k2", "k3"), ("N/m",) * 3, 0, 3, "[k1 k2 k3]")
+    mode_stiffness = (0, 1, 2)
+    em = SECTION_MASS
+    vector = "local y-axis"
+
+    def reference(self, x0, vector):
+        nx, ny, nz, l0 = rbeam_reference(x0[0], x0[2], vector)
+        return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 3, axis=1)
+
+    def state(self, x, ref, variant, prev):
+        return rbeam_state(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"])
+
+    def hessian(self, st, w):
+        return rbeam_weighted_hessian(st, w)
+
+    def stiffness(self, props, ref):
+        return rbeam_stiffness(props[:, :3])
+
+    def mass(self, x, ref, m):
+        return rbeam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m)
+
+    def gravity(self, x, ref, mass, g):
+        return rbeam_gravity(x, ref, mass, g)

@@ -33,6 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from spacarpy.elements.base import ElementKind, Fields
 from spacarpy.linalg import property_columns
 
 N_LDOF = 6
@@ -104,3 +105,46 @@ def truss_mass_matrix(mass: np.ndarray, l0: np.ndarray) -> np.ndarray:
     rho_a = property_columns(mass, 1, "TRUSS EM")[:, 0]
     block = np.kron(np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0, np.eye(3))
     return (rho_a * l0)[:, None, None] * block
+
+
+# ------------------------------------------------------------------------------ the kind
+def truss_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
+    """Half the truss's mass ``rhoA l0`` on each end node; the forces are constant."""
+    n = x.shape[0]
+    f = np.zeros((n, 6))
+    f[:, 0:3] = f[:, 3:6] = 0.5 * (mass[:, 0] * ref["l0"])[:, None] * g
+    return f, np.zeros((n, 6, 6))
+
+
+class Truss(ElementKind):
+    """``TRUSS e p q``: a rod between two position nodes (kernels above)."""
+
+    keyword = "TRUSS"
+    slots = ("pos", "pos")
+    node_roles = ("p", "q")
+    modes = ("elongation",)
+    mode_units = ("m",)
+    length_modes = (True,)
+    estiff = Fields(("EA",), ("N",), 1, 1, "EA")
+    mode_stiffness = (0,)
+    #: values after rhoA are accepted and ignored (the BEAM's EM layout)
+    em = Fields(("rhoA",), ("kg/m",), 1, None, "rhoA")
+
+    def reference(self, x0, vector):
+        l0 = truss_reference(x0[0], x0[1])
+        return dict(l0=l0), l0[:, None].copy()
+
+    def state(self, x, ref, variant, prev):
+        return truss_state(x, ref["l0"])
+
+    def hessian(self, st, w):
+        return truss_weighted_hessian(st, w)
+
+    def stiffness(self, props, ref):
+        return truss_stiffness(props[:, :1], ref["l0"])
+
+    def mass(self, x, ref, m):
+        return truss_mass_matrix(m[:, :1], ref["l0"])
+
+    def gravity(self, x, ref, mass, g):
+        return truss_gravity(x, ref, mass, g)

@@ -48,8 +48,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from spacarpy.elements.registry import KINDS
 from spacarpy.errors import EXIT_INPUT, SpacarError
-from spacarpy.model import ANALYSES, DEFORMATION_VARIANTS, Model
+from spacarpy.model import ANALYSES, DEFORMATION_VARIANTS, ElementSet, Model
 
 log = logging.getLogger(__name__)
 
@@ -235,7 +236,7 @@ _LIN_DATASETS = {
     },
 }
 #: Element kinds besides BEAM with their own datasets (schema 1.2): keyword -> modes.
-OTHER_KINDS = {"TRUSS": 1, "HINGE": 3, "RBEAM": 3, "PLBEAM": 3, "PLTRUSS": 1, "PLHINGE": 1}
+OTHER_KINDS = {k: kind.n_def for k, kind in KINDS.items() if k != "BEAM"}
 # schema 1.4: the element datasets of /transient have the units of their /static twins
 DATASET_ATTRS.update({
     f"transient/{k.lower()}_{w}": (DATASET_ATTRS[f"static/{k.lower()}_{w}"][0],
@@ -479,7 +480,7 @@ class ResultsWriter:
             raise RuntimeError("begin_static was already called")
         counts = {"n_position_node": (n_position_node, self.model.position_ids.size),
                   "n_orientation_node": (n_orientation_node, self.model.orientation_ids.size),
-                  "n_elem": (n_elem, self.model.beams.n_elem)}
+                  "n_elem": (n_elem, _beams(self.model).n_elem)}
         for name, (given, expected) in counts.items():
             if operator.index(given) != expected:
                 raise ValueError(f"{name} = {given} does not match the model ({expected})")
@@ -507,7 +508,7 @@ class ResultsWriter:
         if self._sections is not None and self._sections.known.any():
             step_datasets.update(_STRESS_DATASETS)
             trailing.update({name: (n_elem,) for name in _STRESS_DATASETS})
-        for kind, es in sorted(self.model.element_sets.items()):   # schema 1.2
+        for kind, es in sorted(self.model.elements.items()):   # schema 1.2
             if es.n_elem and kind in OTHER_KINDS:
                 for what in ("deformation", "stress_resultant"):
                     name = f"{kind.lower()}_{what}"
@@ -630,7 +631,7 @@ class ResultsWriter:
                     "iterations": (),
                     "residual": ()}
         dtypes = dict(_TRANSIENT_DATASETS)
-        for kind, es in sorted(self.model.element_sets.items()):
+        for kind, es in sorted(self.model.elements.items()):
             if es.n_elem and kind in OTHER_KINDS:
                 for what in ("deformation", "stress_resultant"):
                     name = f"{kind.lower()}_{what}"
@@ -843,7 +844,7 @@ class ResultsWriter:
         a["deformations"] = self.deformations
         _create(f, "deck", text, dtype=h5py.string_dtype("utf-8"))
         g = f.create_group("model")
-        beams = model.beams
+        beams = _beams(model)
         _create(g, "position_nodes", np.asarray(model.position_ids, dtype=np.int64))
         _create(g, "position_x0", np.asarray(model.position_x0, dtype=np.float64).reshape(-1, 3))
         _create(g, "orientation_nodes", np.asarray(model.orientation_ids, dtype=np.int64))
@@ -852,7 +853,7 @@ class ResultsWriter:
         _create(g, "element_type", np.full(beams.n_elem, b"BEAM", dtype="S4"),
                 dtype=h5py.string_dtype("ascii", 4))
         self._write_model_11(g)
-        for kind, es in sorted(model.element_sets.items()):     # schema 1.2
+        for kind, es in sorted(model.elements.items()):     # schema 1.2
             if es.n_elem and kind in OTHER_KINDS:
                 _create(g, f"{kind.lower()}_elements", np.asarray(es.ids, dtype=np.int64))
                 _create(g, f"{kind.lower()}_element_nodes", np.asarray(es.nodes, dtype=np.int64))
@@ -866,14 +867,19 @@ class ResultsWriter:
         from spacarpy.numbering import number_model
         from spacarpy.results.stress import section_properties
 
-        model, beams = self.model, self.model.beams
+        model, beams = self.model, _beams(self.model)
         num = number_model(model)
+        group = num.group("BEAM")
+        idx = group.idx if group is not None else np.zeros((0, 14), np.int64)
+        ref = (group.ref if group is not None
+               else {k: np.zeros((0, 3)) for k in ("nx", "ny", "nz")})
+        l0 = ref["l0"] if group is not None else np.zeros(0)
         row_of = np.full(num.n_coord, -1, dtype=np.int64)
         row_of[num.pos_idx[:, 0]] = np.arange(num.pos_idx.shape[0])
         _create(g, "element_position_rows",
-                row_of[num.beam_idx[:, [0, 7]]].reshape(beams.n_elem, 2))
-        _create(g, "element_length", np.asarray(num.l0, dtype=np.float64))
-        _create(g, "element_axes", np.stack([num.nx, num.ny, num.nz], axis=1)
+                row_of[idx[:, [0, 7]]].reshape(beams.n_elem, 2))
+        _create(g, "element_length", np.asarray(l0, dtype=np.float64))
+        _create(g, "element_axes", np.stack([ref["nx"], ref["ny"], ref["nz"]], axis=1)
                 .reshape(beams.n_elem, 3, 3))
         ds = _create(g, "element_deformation_class", beams.def_class.astype(np.int8))
         ds.attrs["class_names"] = ", ".join(DEFORMATION_CLASS_NAMES)
@@ -901,8 +907,13 @@ class ResultsWriter:
         _create(g, "coordinate_node", num.node_of_coord(model))
         _create(g, "coordinate_index", index)
         _create(g, "coordinate_fixed", num.fixed_mask.astype(bool))
-        self._l0 = np.asarray(num.l0, dtype=np.float64)
+        self._l0 = np.asarray(l0, dtype=np.float64)
         self._sections = section_properties(shape, dims)
+
+
+def _beams(model) -> ElementSet:
+    """The model's BEAM elements (an empty set when it has none)."""
+    return model.elements.get("BEAM") or ElementSet.empty("BEAM")
 
 
 def _absolute_deck_path(source_path: str) -> str:

@@ -21,7 +21,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from spacarpy.elements.kinds import relative_positions
+from spacarpy.elements.base import relative_positions
 
 log = logging.getLogger(__name__)
 

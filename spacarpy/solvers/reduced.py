@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, scatter_add
 from spacarpy.elements.chunks import in_chunks
-from spacarpy.elements.kinds import relative_positions
+from spacarpy.elements.base import relative_positions
 from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
@@ -153,7 +153,7 @@ class ReducedNewton:
         or on all four with ``all_slots``.
 
         Each element's position slots are first taken relative to its first node
-        (:func:`~spacarpy.elements.kinds.relative_positions`): exact, since the stiffness
+        (:func:`~spacarpy.elements.base.relative_positions`): exact, since the stiffness
         is invariant to a translation of all of an element's nodes, and it keeps the soft
         (bending) part of ``K z``, which the products of ``EA/l0`` with displacements of
         the size of the whole structure lose in their round-off. Blocks that carry mass

@@ -1,0 +1,214 @@
+"""The element-kind base class: what every element kind declares and which kernels it offers.
+
+An element kind is one subclass of :class:`ElementKind` in its own module
+(``spacarpy/elements/<kind>.py``), listed once in :mod:`spacarpy.elements.registry`. The class
+*declares* the facts the rest of the program needs (deck keyword, node slots, deformation modes
+with names and units, the ESTIFF and EM field layouts, the meaning of the element line's
+trailing vector) and *wraps* the kind's pure array kernels in a uniform interface that the
+solvers call element group by element group (element index first everywhere):
+
+reference(x0_slots, vector) -> (ref, scale)
+    Reference data from the initial configuration (a dict: triads, lengths, axes) and the
+    per-mode scale (n, n_def) that makes deformations dimensionless (a length for
+    length-like modes, 1 for angles); used to weigh residuals and the kinematic correction.
+state(x_local, ref, variant, prev) -> state with ``.e`` (n, n_def) and ``.D`` (n, n_def, n_ldof)
+deformations(x_local, ref, variant, prev) -> e (n, n_def), optional
+    ``state(...).e`` without the derivatives, where that is much cheaper (the BEAM).
+hessian(state, w) -> (n, n_ldof, n_ldof)
+tangent(state, S, w) -> (n, n_ldof, n_ldof), optional
+    The element tangent ``D^T S D + hessian(state, w)`` in one pass; without it the solver
+    adds the two.
+stiffness(props, ref) -> (n, n_def, n_def)
+    From the ESTIFF values (n, len(estiff.names)).
+mass(x_local, ref, mass) -> (n, n_ldof, n_ldof), optional
+    From the EM values (n, len(em.names)).
+convective(x_local, v_local, ref, mass) -> (dM/dt v, d(v^T M v)/dx), each (n, n_ldof), optional
+    The two parts of the convective terms; without it the transient solver differences the
+    mass matrix.
+commit(state, prev) -> None, optional
+    Update the kind's persistent state after a converged step (the hinge's turn count).
+check(state, ref) -> (element row, message) or None, optional
+    A validity check of a converged state (the BEAM's saturation of Eq. 7).
+gravity(x_local, ref, mass, g) -> (f (n, n_ldof), df/dx (n, n_ldof, n_ldof)), optional
+    Generalized gravity forces of the element's own mass and their derivative.
+
+An optional kernel a kind does not have is ``None`` (the solvers test ``kind.mass is None``).
+The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) live here too, so that the model,
+the deck writer and the kernels' users share them without importing one another.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+#: Deformation classes of an element deformation mode.
+RIGID = 0      # not listed in DYNE/RLSE: kept at its initial value (a constraint)
+FLEXIBLE = 1   # listed in DYNE: carries stiffness (ESTIFF required)
+RELEASED = 2   # listed in RLSE: free; carries ESTIFF stiffness if given, else none
+
+
+class Fields(NamedTuple):
+    """The layout of an element's ESTIFF or EM values.
+
+    names, units : tuple of str
+        The stored values, in deck order (the model keeps ``len(names)`` columns; missing
+        trailing values are 0).
+    required : int
+        How many values a line must give at least.
+    allowed : int or None
+        How many values a line may give at most (values past ``names`` are accepted and
+        ignored); None: no limit is checked.
+    usage : str
+        The values as a usage text, e.g. ``"EA GJ EIy EIz [cy cz]"``.
+    """
+
+    names: tuple
+    units: tuple
+    required: int
+    allowed: int | None
+    usage: str
+
+    @property
+    def width(self) -> int:
+        return len(self.names)
+
+
+#: The EM layout of the kinds with a mass per unit length and a cross-section inertia.
+SECTION_MASS = Fields(("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz", "rhoIyz"),
+                      ("kg/m", "kg m", "kg m", "kg m", "kg m"), 1, None,
+                      "rhoA [rho(Iy+Iz) rhoIy rhoIz rhoIyz]")
+
+
+class ElementKind:
+    """Base class of the element kinds; one instance per kind lives in the registry.
+
+    Class attributes (declared by every kind)
+    -----------------------------------------
+    keyword : str
+        The deck keyword.
+    slots : tuple of str
+        Per node of the element line: ``"pos"`` (3 coordinates) or ``"rot"`` (4 Euler
+        parameters), in deck order.
+    node_roles : tuple of str
+        A name per node for messages and docs, e.g. ``("p", "r", "q", "s")``.
+    modes, mode_units : tuple of str
+        Name and unit of each deformation mode (1-based in the deck: ``DYNE e 1 2``).
+    length_modes : tuple of bool
+        Per mode: True when the deformation is a length (m); it sets the mode's scale.
+    estiff, em : Fields or None
+        The ESTIFF and EM layouts; ``em = None``: the element has no mass of its own.
+    mode_stiffness : tuple of int
+        Per mode: the ESTIFF value (index into ``estiff.names``) that carries its stiffness.
+    vector : str or None
+        What the element line's trailing three numbers mean (``"local y-axis"``, ``"axis"``),
+        None when the line has none.
+    planar : bool
+        A planar kind (a model with one is planar and may have planar kinds only).
+    """
+
+    keyword: str = ""
+    slots: tuple = ()
+    node_roles: tuple = ()
+    modes: tuple = ()
+    mode_units: tuple = ()
+    length_modes: tuple = ()
+    estiff: Fields | None = None
+    em: Fields | None = None
+    mode_stiffness: tuple = ()
+    vector: str | None = None
+    planar: bool = False
+
+    # optional kernels: None where the kind has none
+    tangent: Callable | None = None
+    deformations: Callable | None = None
+    mass: Callable | None = None
+    convective: Callable | None = None
+    commit: Callable | None = None
+    check: Callable | None = None
+    gravity: Callable | None = None
+
+    @property
+    def n_def(self) -> int:
+        return len(self.modes)
+
+    @property
+    def n_ldof(self) -> int:
+        return sum(3 if s == "pos" else 4 for s in self.slots)
+
+    @property
+    def n_estiff(self) -> int:
+        return self.estiff.width if self.estiff is not None else 0
+
+    @property
+    def n_em(self) -> int:
+        return self.em.width if self.em is not None else 0
+
+    @cached_property
+    def position_starts(self) -> np.ndarray:
+        """Local slots where the position triples (x, y, z of each position node) start
+        (cached: the element-wise products of every CG iteration ask for it)."""
+        width = [3 if s == "pos" else 4 for s in self.slots]
+        starts = np.cumsum([0] + width[:-1])
+        return np.array([a for a, s in zip(starts, self.slots) if s == "pos"], dtype=np.int64)
+
+    def reference(self, x0_slots, vector):
+        raise NotImplementedError
+
+    def state(self, x, ref, variant, prev):
+        raise NotImplementedError
+
+    def hessian(self, st, w):
+        raise NotImplementedError
+
+    def stiffness(self, props, ref):
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"<element kind {self.keyword}>"
+
+
+def relative_positions(ze: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Element vectors ``ze`` (n, n_ldof[, k]) with every position triple (starting at the
+    local slots ``starts``) taken relative to the first one, in place.
+
+    An element's deformations depend on its positions through differences only, so
+    ``D z_e``, ``K_e z_e`` and ``z_e^T K_e z_e`` do not change; but they are then computed
+    from quantities of the size of the element's own motion. With the nodal displacements
+    of a long, finely meshed structure the products of stiffnesses ``EA/l0`` with
+    displacements of the size of the whole structure cancel to many digits, and the soft
+    (bending) part is lost in their round-off."""
+    if starts.size:
+        first = starts[0]
+        for a in starts[:0:-1]:
+            ze[:, a:a + 3] -= ze[:, first:first + 3]
+        ze[:, first:first + 3] = 0.0
+    return ze
+
+
+# ------------------------------------------------------------------------------ restricted kinds
+# A kind may be another kind's kernel restricted to some of its modes (the planar kinds: the
+# spatial kernels in the x-y plane, where the out-of-plane deformations vanish identically).
+@dataclass
+class Selected:
+    """A kernel state restricted to some of its modes (``full`` is the kernel's own)."""
+
+    full: object
+    modes: np.ndarray
+
+    @property
+    def e(self):
+        return self.full.e[:, self.modes]
+
+    @property
+    def D(self):
+        return self.full.D[:, self.modes]
+
+
+def expand(w: np.ndarray, modes: np.ndarray, n_full: int) -> np.ndarray:
+    """Weights (n, len(modes)) of the kept modes as weights (n, n_full) of all modes."""
+    out = np.zeros((w.shape[0], n_full))
+    out[:, modes] = w
+    return out
