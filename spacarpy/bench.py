@@ -137,11 +137,11 @@ def _eigen_row(n: int, repeat: int) -> dict:
     mass = MassAssembler(model, prob.num)
     setup = time.perf_counter() - t0
     x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
-    force, moment = prob.loads.at(0.0, 0.0)
+    load = prob.loads.at(0.0, 0.0)
     totals = []
     for _ in range(max(repeat, 1)):
         t1 = time.perf_counter()
-        lin = linearize(prob, x, mu, force, moment, mass=mass)
+        lin = linearize(prob, x, mu, load, mass=mass)
         md = eigenmodes(lin, prob.num, prob.free, n_modes=10)
         totals.append(time.perf_counter() - t1)
     f = np.sort(md.frequency[md.kind == ELASTIC])

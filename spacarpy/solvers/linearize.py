@@ -84,13 +84,14 @@ class MassAssembler:
         return self.pattern.assemble(blocks + [m_pt, m_rot])
 
 
-def linearize(prob, x, mu, force, moment, mass: MassAssembler | None = None) -> Linearization:
-    """Linearized matrices of a :class:`~spacarpy.solvers.static.StaticProblem` at (x, mu)
-    under the given load (the state should be an equilibrium of that load)."""
-    ev = prob.evaluate(x, mu, force, moment)
+def linearize(prob, x, mu, load, mass: MassAssembler | None = None) -> Linearization:
+    """Linearized matrices of a :class:`~spacarpy.solvers.equilibrium.StaticProblem` at
+    (x, mu) under ``load`` (a :class:`~spacarpy.solvers.loads.LoadState`; the state should
+    be an equilibrium of that load)."""
+    ev = prob.evaluate(x, mu, load)
     n_x = prob.pattern.n_x
-    a = prob.matrix(ev, mu, moment)
-    a0 = prob.matrix(ev, mu, moment, material_only=True)
+    a = prob.matrix(ev, mu)
+    a0 = prob.matrix(ev, mu, material_only=True)
     K = a[:n_x, :n_x].tocsc()
     K_mat = a0[:n_x, :n_x].tocsc()
     C = (a[n_x:, :n_x] / prob.scale).tocsr()
