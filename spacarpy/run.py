@@ -44,8 +44,6 @@ from spacarpy.solvers.static import solve_static
 
 log = logging.getLogger(__name__)
 
-SUPPORTED = ("static", "eigen", "buckling", "transient", "check")
-
 
 class AnalysisInputError(SpacarError):
     """The requested analysis cannot be run on this model (missing mass, not supported)."""
@@ -83,9 +81,6 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
 
     opts = options or RunOptions(n_modes=model.n_modes or 10,
                                  modes_per_step=model.modes_each_step)
-    if model.analysis not in SUPPORTED:
-        raise AnalysisInputError(f"analysis '{model.analysis}' is not supported yet; this "
-                                 f"version runs {', '.join(SUPPORTED)}")
     problem = StaticProblem(model)
     num = problem.num
     if model.analysis == "check":
