@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spacarpy import __version__
-from spacarpy.errors import SpacarError, EXIT_INPUT
+from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.model import Model
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.compliance import nodal_compliance

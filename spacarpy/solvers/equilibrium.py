@@ -152,7 +152,7 @@ class StaticProblem:
         if loads.has_gravity and load.gravity_factor:
             gv = load.gravity_factor * loads.gravity
             f_ext += load.gravity_factor * loads.point_weight
-            for g_, st in zip(num.groups, states):
+            for g_ in num.groups:
                 if g_.kind.gravity is None:
                     gk.append(None)
                     continue

@@ -8,7 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
 #: Time functions phi(t) for the DELXF loads and the prescribed-motion increments.
 TIME_FUNCTIONS = {
     "constant": "phi = 1 (the loads of the end of the static path, unchanged)",
