@@ -137,11 +137,11 @@ def _eigen_row(n: int, repeat: int) -> dict:
     mass = MassAssembler(model, prob.num)
     setup = time.perf_counter() - t0
     x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
-    force, moment = prob.loads.at(0.0, 0.0)
+    load = prob.loads.at(0.0, 0.0)
     totals = []
     for _ in range(max(repeat, 1)):
         t1 = time.perf_counter()
-        lin = linearize(prob, x, mu, force, moment, mass=mass)
+        lin = linearize(prob, x, mu, load, mass=mass)
         md = eigenmodes(lin, prob.num, prob.free, n_modes=10)
         totals.append(time.perf_counter() - t1)
     f = np.sort(md.frequency[md.kind == ELASTIC])
@@ -445,4 +445,21 @@ kinematic check (for a tree such as the cantilever the singular values of W's di
 blocks, 0.3 s at 10^5 elements; other models factorize the bordered matrix and search its
 smallest modes, docs/solver.md). This machine's speed drifts by up to 15 % between runs of
 the same code.
+
+## History
+
+Measurements that motivated choices in the code (the code's comments keep the reasons):
+
+- Kinematic correction of a tree, 10^5 elements: block forward substitution
+  (spacarpy/solvers/triangular.py) 0.2-0.35 s per factorization, where SuperLU's LU took
+  0.8-1.1 s.
+- Initial kinematic check of a determinate tree, 10^5 elements: the regularity test of W's
+  diagonal blocks 0.3 s, against 2-3 s for the LU of the bordered matrix it replaces.
+- Gauss-Newton normal equations, 10^4-element cantilever (70 000 unknowns): QDLDL
+  factorizes in 12-15 ms where SuperLU needs 80 ms, and solves in 2-3 ms instead of 8.
+- Block assembly with ``upper`` (spacarpy/assembly.py): gathering only the entries that land
+  in the pattern took the assembly from 70 to 35 ms at 10^5 elements.
+- Block-diagonal inverses on the thread pool: twice as fast at 10^5 elements.
+- Eigenmodes: 10 modes of 700 coordinates take 0.01 s by one sparse factorization and
+  ARPACK, 0.12 s densely.
 """

@@ -32,17 +32,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spacarpy import __version__
-from spacarpy.errors import SpacarError, EXIT_INPUT
+from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.model import Model
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.compliance import nodal_compliance
 from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes
+from spacarpy.solvers.equilibrium import StaticProblem
+from spacarpy.solvers.kinematic_check import dof_report
 from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import StaticProblem, solve_static
+from spacarpy.solvers.static import solve_static
 
 log = logging.getLogger(__name__)
-
-SUPPORTED = ("static", "eigen", "buckling", "transient", "check")
 
 
 class AnalysisInputError(SpacarError):
@@ -81,13 +81,10 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
 
     opts = options or RunOptions(n_modes=model.n_modes or 10,
                                  modes_per_step=model.modes_each_step)
-    if model.analysis not in SUPPORTED:
-        raise AnalysisInputError(f"analysis '{model.analysis}' is not supported yet; this "
-                                 f"version runs {', '.join(SUPPORTED)}")
     problem = StaticProblem(model)
     num = problem.num
     if model.analysis == "check":
-        return RunSummary(report=kinematic_check(problem))
+        return RunSummary(report=dof_report(problem))
     mass = MassAssembler(model, num)
     transient = model.analysis == "transient"
     if transient and model.timestep is None:
@@ -129,11 +126,11 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
 
         def on_step(step):
             k = summary.n_steps
-            writer.static_step(step.load_factor, step.x[num.pos_idx], step.x[num.rot_idx],
-                               step.deformation, step.stress, step.reaction,
-                               step.iterations, step.residual,
-                               group_deformation=step.group_deformation,
-                               group_stress=step.group_stress)
+            _writer_step(writer.static_step, load_factor=step.load_factor,
+                         position=step.x[num.pos_idx], euler=step.x[num.rot_idx],
+                         deformation=step.deformation, stress_resultant=step.stress,
+                         reaction=step.reaction, iterations=step.iterations,
+                         residual=step.residual)
             summary.n_steps += 1
             msg = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
                    f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "
@@ -167,13 +164,13 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
     width = len(str(n_steps))
 
     def on_step(step):
-        writer.transient_step(step.time, step.x[num.pos_idx], step.x[num.rot_idx],
-                              step.v[num.pos_idx], step.v[num.rot_idx], step.deformation,
-                              step.stress, step.kinetic_energy, step.elastic_energy,
-                              step.external_work, step.iterations, step.residual,
-                              group_deformation=step.group_deformation,
-                              group_stress=step.group_stress,
-                              dissipated_energy=step.dissipated_energy)
+        _writer_step(writer.transient_step, time=step.time, position=step.x[num.pos_idx],
+                     euler=step.x[num.rot_idx], velocity=step.v[num.pos_idx],
+                     euler_rate=step.v[num.rot_idx], deformation=step.deformation,
+                     stress_resultant=step.stress, kinetic_energy=step.kinetic_energy,
+                     elastic_energy=step.elastic_energy, external_work=step.external_work,
+                     iterations=step.iterations, residual=step.residual,
+                     dissipated_energy=step.dissipated_energy)
         k = summary.n_time
         summary.n_time += 1
         if k % max(n_steps // 20, 1) == 0 or k == n_steps:
@@ -191,7 +188,7 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
 def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buckling,
                      compliance_rows, summary):
     num = problem.num
-    lin = linearize(problem, step.x, step.mu, *problem.loads.at(1.0, step.load_factor),
+    lin = linearize(problem, step.x, step.mu, problem.loads.at(1.0, step.load_factor),
                     mass=mass if want_eigen else None)
     text = ""
     if compliance_rows is not None:
@@ -223,23 +220,13 @@ def _node_shapes(num, free, shapes):
     return full[:, num.pos_idx], full[:, num.rot_idx]
 
 
-def kinematic_check(problem: StaticProblem) -> str:
-    """SPACAR's mode 0: count coordinates, constraints and degrees of freedom, and verify in
-    the initial configuration that the model is neither a mechanism nor over-constrained.
-
-    Returns the report; raises :class:`~spacarpy.errors.ModelError` (naming the free
-    motions or the redundant deformation modes) when the check fails. Nothing is written.
-    """
-    num, model = problem.num, problem.model
-    kinds = ", ".join(f"{g.n_elem} {g.keyword}" for g in num.groups) or "none"
-    n_fixed = int(num.fixed_mask.sum())
-    problem.check_initial()          # raises ModelError for mechanisms / over-constraints
-    dof = num.n_unknown - num.n_constraint
-    return "\n".join([
-        f"{model.source_path}: kinematic check passed",
-        f"  elements            {kinds}",
-        f"  coordinates         {num.n_coord} ({model.position_ids.size} position nodes x 3 + "
-        f"{model.orientation_ids.size} orientation nodes x 4), {n_fixed} fixed",
-        f"  constraints         {num.n_constraint} ({num.n_rigid} rigid deformation modes + "
-        f"{num.euler_nodes.size} Euler normalizations), all independent",
-        f"  degrees of freedom  {dof}, no free motion"])
+# MERGE: results writer 2.0 takes the dicts directly
+def _writer_step(append, *, deformation: dict, stress_resultant: dict, **fields):
+    """Call the results writer's ``static_step`` / ``transient_step`` (``append``) with the
+    element results as dicts keyword -> (n_elem, n_def), converted to the 1.x writer's
+    arguments (BEAM as ``deformation`` / ``stress_resultant``, the other kinds as
+    ``group_deformation`` / ``group_stress``)."""
+    empty = np.zeros((0, 6))
+    append(deformation=deformation.get("BEAM", empty),
+           stress_resultant=stress_resultant.get("BEAM", empty),
+           group_deformation=deformation, group_stress=stress_resultant, **fields)

@@ -114,7 +114,6 @@ def test_the_graph_sees_deferred_and_relative_imports():
     assert any(a == "spacarpy.cli" and b.startswith("spacarpy.deck") for a, b, _ in edges)
 
 
-@BEING_FIXED
 def test_no_import_cycles():
     edges = import_edges()
     found = cycles(edges)

@@ -53,11 +53,11 @@ def test_a_hinge_driven_by_inpute_equals_turning_the_node_by_inputr():
         np.testing.assert_allclose(s_h.x[num_h.pos_idx], s_t.x[num_t.pos_idx], atol=1e-11)
         np.testing.assert_allclose(s_h.x[num_h.rot_idx[rows]], s_t.x[num_t.rot_idx[rows_t]],
                                    atol=1e-11)
-    assert res_h.steps[-1].group_deformation["HINGE"][0, 0] == pytest.approx(0.4, abs=1e-12)
+    assert res_h.steps[-1].deformation["HINGE"][0, 0] == pytest.approx(0.4, abs=1e-12)
     prob = res_t.problem
     reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component),
                     res_t.steps[-1].reaction))
-    torque = res_h.steps[-1].group_stress["HINGE"][0, 0]
+    torque = res_h.steps[-1].stress["HINGE"][0, 0]
     # the reaction is the moment the support exerts on the node; the hinge's stress
     # resultant is the moment the node exerts on the hinge (dual to the hinge angle)
     assert torque == pytest.approx(-reac[(2, "Mz")], rel=1e-9)
@@ -68,7 +68,7 @@ def test_inpute_initial_value_is_reached_at_step_0():
     text = hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6", "INPUTE 9 1 0.1\n"
                              "DELINPE 9 1 0.2")
     res = solve_static(model_from_text(text))
-    angles = [s.group_deformation["HINGE"][0, 0] for s in res.steps]
+    angles = [s.deformation["HINGE"][0, 0] for s in res.steps]
     np.testing.assert_allclose(angles, 0.1 + 0.2 * np.arange(7) / 6, atol=1e-12)
 
 

@@ -42,7 +42,7 @@ def linearized_final_state(model, with_mass=True):
     res = solve_static(model)
     prob, st = res.problem, res.steps[-1]
     mass = MassAssembler(model, prob.num) if with_mass else None
-    return prob, linearize(prob, st.x, st.mu, *prob.loads.at(1.0, 1.0), mass=mass)
+    return prob, linearize(prob, st.x, st.mu, prob.loads.at(1.0, 1.0), mass=mass)
 
 
 def modes_of(model, n_modes):
@@ -252,7 +252,7 @@ def test_sparse_eigenvalues_of_a_fine_mesh_are_exact_rayleigh_quotients():
         model = model_from_text(eigen_cantilever_deck(n), f"<cantilever {n}>")
         prob = StaticProblem(model)
         lin = linearize(prob, prob.num.x0.copy(), np.zeros(prob.num.n_constraint),
-                        *prob.loads.at(0.0, 0.0), mass=MassAssembler(model, prob.num))
+                        prob.loads.at(0.0, 0.0), mass=MassAssembler(model, prob.num))
         assert lin.K.shape[0] > E.FEW_MODES_DENSE_LIMIT          # the sparse path
         md = E.eigenmodes(lin, prob.num, prob.free, n_modes=4)
         f1[n] = md.frequency[0]

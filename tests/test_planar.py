@@ -153,7 +153,7 @@ def test_planar_pendulum_frequency_and_prescribed_angle():
     model = model_from_text(text)
     res = solve_static(model)
     st = res.steps[-1]
-    lin = linearize(res.problem, st.x, st.mu, *res.problem.loads.at(1.0, 1.0),
+    lin = linearize(res.problem, st.x, st.mu, res.problem.loads.at(1.0, 1.0),
                     MassAssembler(model, res.problem.num))
     modes = eigenmodes(lin, res.problem.num, res.problem.free, n_modes=1)
     assert modes.frequency[0] == pytest.approx(np.sqrt(k / (m * L**2)) / (2 * np.pi), rel=1e-10)
@@ -164,7 +164,7 @@ def test_planar_pendulum_frequency_and_prescribed_angle():
     reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component),
                     res.steps[-1].reaction))
     assert reac[(4, "Mz")] == pytest.approx(k * 0.3, rel=1e-10)
-    assert res.steps[-1].group_deformation["PLHINGE"][0, 0] == pytest.approx(0.3, abs=1e-12)
+    assert res.steps[-1].deformation["PLHINGE"][0, 0] == pytest.approx(0.3, abs=1e-12)
 
 
 def test_planar_deck_errors():

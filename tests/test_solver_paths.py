@@ -14,13 +14,9 @@ import spacarpy.solvers.sparse as sparse_mod
 from spacarpy.batch.compare import _compare
 from spacarpy.cases import cantilever_deck
 from spacarpy.deck import model_from_text
-from spacarpy.solvers.static import (
-    StaticOptions,
-    StaticProblem,
-    _NormalEquations,
-    _SquareJacobian,
-    solve_static,
-)
+from spacarpy.solvers import kinematic_check
+from spacarpy.solvers.kinematic_correction import NormalEquations, SquareJacobian
+from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
 from spacarpy.solvers.triangular import BlockTriangular
 
 
@@ -37,18 +33,17 @@ def off_equilibrium_state(prob, seed=0):
     free = ~num.fixed_mask
     x[free] += 0.02 * rng.standard_normal(free.sum())
     mu = 1e3 * rng.standard_normal(num.n_constraint)
-    force, moment = prob.loads.at(1.0, 0.7)
-    return x, mu, force, moment
+    return x, mu, prob.loads.at(1.0, 0.7)
 
 
 def test_tangent_space_newton_step_equals_the_bordered_step():
     prob = StaticProblem(cantilever(6))
     assert prob.reduced is not None
-    x, mu, force, moment = off_equilibrium_state(prob)
-    ev = prob.evaluate(x, mu, force, moment)
-    k_el, euler_diag, _ = prob.element_blocks(ev, mu, moment)
+    x, mu, load = off_equilibrium_state(prob)
+    ev = prob.evaluate(x, mu, load)
+    k_el, euler_diag, _ = prob.element_blocks(ev, mu)
     dx_r, dmu_r = prob.reduced.step(ev, x, mu, k_el, euler_diag)
-    A = prob.matrix(ev, mu, moment)
+    A = prob.matrix(ev, mu)
     dz = np.linalg.solve(A.toarray(), -np.concatenate([ev.r, prob.scale * ev.c]))
     dx, dmu = dz[:prob.pattern.n_x], dz[prob.pattern.n_x:] * prob.scale
     assert np.allclose(dx_r, dx, rtol=1e-8, atol=1e-10 * np.abs(dx).max())
@@ -176,7 +171,7 @@ def test_analytic_convective_terms_equal_the_differenced_ones():
 
 def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatch):
     from spacarpy.bench import transient_cantilever_deck
-    from spacarpy.solvers import static as static_mod
+    from spacarpy.solvers import equilibrium as equilibrium_mod
     from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
     text = transient_cantilever_deck(6, 30)
 
@@ -189,7 +184,7 @@ def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatc
         return res.problem.reduced is not None, res.steps[-1].x, res.n_newton, tip_y
 
     reduced, x_r, its_r, tip = run()
-    monkeypatch.setattr(static_mod, "reduced_applies", lambda prob: False)
+    monkeypatch.setattr(equilibrium_mod, "reduced_applies", lambda prob: False)
     bordered, x_b, its_b, _ = run()
     assert reduced and not bordered
     assert its_r == its_b
@@ -205,7 +200,7 @@ def test_few_modes_of_a_mid_size_model_come_from_the_sparse_solver_unchanged():
     model = model_from_text(text, "<e>")
     prob = StaticProblem(model)
     x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
-    lin = linearize(prob, x, mu, *prob.loads.at(0.0, 0.0), mass=MassAssembler(model, prob.num))
+    lin = linearize(prob, x, mu, prob.loads.at(0.0, 0.0), mass=MassAssembler(model, prob.num))
     assert lin.K.shape[0] > eigen.FEW_MODES_DENSE_LIMIT
     sparse = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10)
     dense = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10, dense_limit=10**6)
@@ -222,9 +217,9 @@ def test_element_wise_product_equals_the_assembled_matrix_and_ignores_translatio
     soft bending directions of a 10^5-element beam resolvable."""
     prob = StaticProblem(cantilever(6))
     red = prob.reduced
-    x, mu, force, moment = off_equilibrium_state(prob)
-    ev = prob.evaluate(x, mu, force, moment)
-    k_el, euler_diag, _ = prob.element_blocks(ev, mu, moment)
+    x, mu, load = off_equilibrium_state(prob)
+    ev = prob.evaluate(x, mu, load)
+    k_el, euler_diag, _ = prob.element_blocks(ev, mu)
     k_rot = red._rotate(k_el, red.basis(x[red.eu]))
     diag = np.broadcast_to(euler_diag[:, None, None] * np.eye(4), (red.nodes.size, 4, 4))
     upper = red.pattern.assemble([k.copy() for k in k_rot] + [diag]).toarray()
@@ -272,20 +267,21 @@ def test_square_kinematic_correction_agrees_with_the_normal_equations():
 
     from spacarpy.deck import load_deck
     decks = Path(__file__).resolve().parents[1] / "decks"
-    assert isinstance(StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat"))._kin,
-                      _NormalEquations)
+    assert isinstance(StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat"))
+                      .corrector.system, NormalEquations)
     results = []
     for solver in ("triangular", "superlu", "normal"):
         prob = StaticProblem(cantilever(8))
-        assert isinstance(prob._kin, _SquareJacobian)
-        assert isinstance(prob._kin.solver, BlockTriangular)   # a tree: forward substitution
+        kin = prob.corrector
+        assert isinstance(kin.system, SquareJacobian)
+        assert isinstance(kin.system.solver, BlockTriangular)   # a tree: forward substitution
         if solver == "superlu":
-            prob._kin = _SquareJacobian(prob.num, triangular=False)
+            kin.system = SquareJacobian(prob.num, triangular=False)
         elif solver == "normal":
-            prob._kin = _NormalEquations(prob.num)
-        x, mu, force, moment = off_equilibrium_state(prob, seed=4)
+            kin.system = NormalEquations(prob.num)
+        x, mu, load = off_equilibrium_state(prob, seed=4)
         x = prob.normalize(x)
-        ev = prob.evaluate(x, mu, force, moment)
+        ev = prob.evaluate(x, mu, load)
         dx = 0.05 * np.random.default_rng(5).standard_normal(prob.num.n_unknown)
         x_lin = x.copy()
         x_lin[prob.free] += dx
@@ -327,22 +323,22 @@ def test_initial_check_of_a_determinate_tree_needs_no_lu(monkeypatch):
 
     from spacarpy.deck import load_deck
     calls = []
-    original = StaticProblem._solve
+    original = kinematic_check.bordered_solve
 
-    def spy(self, *args, **kwargs):
+    def spy(*args, **kwargs):
         calls.append(1)
-        return original(self, *args, **kwargs)
-    monkeypatch.setattr(StaticProblem, "_solve", spy)
-    prob = StaticProblem(cantilever(16))
-    prob.check_initial()
+        return original(*args, **kwargs)
+    monkeypatch.setattr(kinematic_check, "bordered_solve", spy)
+    kinematic_check.check_initial(StaticProblem(cantilever(16)))
     assert calls == []
     decks = Path(__file__).resolve().parents[1] / "decks"
-    StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat")).check_initial()
+    kinematic_check.check_initial(
+        StaticProblem(load_deck(decks / "leafspring_guidance_buckling.dat")))
     assert calls == [1]                                  # a closed loop: the full check
     # a singular diagonal block (the Euler row of a zero quaternion) is not regular
     prob = StaticProblem(cantilever(4))
-    zero = (np.zeros(prob.num.n_constraint), np.zeros(prob.num.n_coord), np.zeros((0, 3)))
+    mu, load = np.zeros(prob.num.n_constraint), prob.loads.unloaded()
     x = prob.num.x0.copy()
-    assert prob._determinate(prob.evaluate(x, *zero).states, x)
+    assert kinematic_check.determinate(prob, prob.evaluate(x, mu, load).states, x)
     x[prob.num.rot_idx[prob.num.euler_nodes[0]]] = 0.0
-    assert not prob._determinate(prob.evaluate(x, *zero).states, x)
+    assert not kinematic_check.determinate(prob, prob.evaluate(x, mu, load).states, x)

@@ -142,11 +142,11 @@ def test_rigid_modes_are_enforced_exactly_and_carry_the_stress_resultant():
                            loads=[Load(5, "DELXF", (50.0, 20.0, 0.0))])
     res = solve_static(model)
     st = res.steps[-1]
-    assert np.abs(st.deformation[:, 0]).max() < 1e-12
+    assert np.abs(st.deformation["BEAM"][:, 0]).max() < 1e-12
     # the axial multiplier equals the axial force: tip force projected on the last chord
     tip, mid = st.x[res.problem.num.pos_idx[2]], st.x[res.problem.num.pos_idx[1]]
     chord = (tip - mid) / np.linalg.norm(tip - mid)
-    assert st.stress[1, 0] == pytest.approx(np.dot([50.0, 20.0, 0.0], chord), rel=1e-8)
+    assert st.stress["BEAM"][1, 0] == pytest.approx(np.dot([50.0, 20.0, 0.0], chord), rel=1e-8)
 
 
 def moment_cantilever(n, variant, moment, EI=1.0, EA=1e7, L=1.0):
@@ -199,8 +199,8 @@ def test_newton_matrix_equals_finite_differences_of_the_residual():
     x = num.x0.copy()
     x[prob.free] += 0.05 * rng.normal(size=num.n_unknown)
     mu = rng.normal(size=num.n_constraint)
-    force, moment = prob.loads.at(1.0, 1.0)
-    a = prob.matrix(prob.evaluate(x, mu, force, moment), mu, moment).toarray()
+    load = prob.loads.at(1.0, 1.0)
+    a = prob.matrix(prob.evaluate(x, mu, load), mu).toarray()
     n_x = prob.pattern.n_x
     h = 1e-6
     fd = np.zeros((a.shape[0], n_x))
@@ -208,7 +208,7 @@ def test_newton_matrix_equals_finite_differences_of_the_residual():
         xp, xm = x.copy(), x.copy()
         xp[np.flatnonzero(prob.free)[k]] += h
         xm[np.flatnonzero(prob.free)[k]] -= h
-        ep, em = prob.evaluate(xp, mu, force, moment), prob.evaluate(xm, mu, force, moment)
+        ep, em = prob.evaluate(xp, mu, load), prob.evaluate(xm, mu, load)
         fd[:, k] = np.concatenate([ep.r - em.r, prob.scale * (ep.c - em.c)]) / (2 * h)
     np.testing.assert_allclose(a[:, :n_x], fd, atol=1e-6 * np.abs(a).max())
 

@@ -50,15 +50,14 @@ from typing import NamedTuple
 import numpy as np
 
 from spacarpy.elements.base import SECTION_MASS, ElementKind, Fields
+from spacarpy.elements.beam_layout import N_LDOF, QP, QQ, RP, RQ
+from spacarpy.elements.beam_mass import beam_convective, beam_mass_matrix, tangent_gravity
 from spacarpy.elements.chunks import in_chunks
 from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import hessian_combination, vector_jacobians
 
-N_LDOF = 14
 N_DEF = 6
 
-# Local coordinate slices.
-RP, QP, RQ, QQ = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 14)
 # Intermediate slices y = [d, nyp, nzp, nyq, nzq].
 YD, YNYP, YNZP, YNYQ, YNZQ = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12),
                               slice(12, 15))
@@ -357,7 +356,6 @@ def check_saturation(st: BeamState, ref: dict):
 
 def beam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
     """Hermite centre line (Eq. 57): int r = l0 [r^p/2 + l0 n_x^p/12 + r^q/2 - l0 n_x^q/12]."""
-    from spacarpy.elements.beam_mass import tangent_gravity
     n = x.shape[0]
     m = mass[:, 0] * ref["l0"]
     f = np.zeros((n, 14))
@@ -410,12 +408,10 @@ class Beam(ElementKind):
         return stiffness_matrix(props, ref["l0"])
 
     def mass(self, x, ref, m):
-        from spacarpy.elements.beam_mass import beam_mass_matrix
         return in_chunks(beam_mass_matrix, len(x), x, ref["nx"], ref["ny"], ref["nz"],
                          ref["l0"], m)
 
     def convective(self, x, v, ref, m):
-        from spacarpy.elements.beam_mass import beam_convective
         return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
                          ref["l0"], m)
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spacarpy.elements.beam import QP, QQ, RP, RQ
+from spacarpy.elements.beam_layout import QP, QQ, RP, RQ
 from spacarpy.rotation import quadratic_form
 
 #: int_0^1 h_i h_j dxi for the Hermite functions h1..h4 (Eq. 59, times 420).

@@ -30,6 +30,7 @@ import scipy.sparse as sp
 from spacarpy.assembly import BlockPattern, scatter_add
 from spacarpy.elements.beam_mass import nodal_rotary_mass
 from spacarpy.rotation import tangent_part
+from spacarpy.solvers.nodal import nodal_masses
 
 
 class _Batch(NamedTuple):
@@ -46,22 +47,10 @@ class Inertia:
 
     def __init__(self, model, num):
         self.num = num
-        pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
-        rot_row = {int(n): i for i, n in enumerate(model.orientation_ids)}
-        point_idx, point_mass, rot_nodes, rot_inertia = [], [], [], []
-        for xm in model.nodal_masses:
-            n = int(xm.node)
-            if n in pos_row:
-                point_idx.append(num.pos_idx[pos_row[n]])
-                point_mass.append(float(xm.values[0]))
-            else:
-                ixx, ixy, ixz, iyy, iyz, izz = (tuple(xm.values) + (0.0,) * 6)[:6]
-                rot_nodes.append(rot_row[n])
-                rot_inertia.append([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        self.point_idx = np.array(point_idx, dtype=np.int64).reshape(-1, 3)
-        self.point_mass = np.array(point_mass, dtype=float)
-        self.rot_idx = num.rot_idx[np.array(rot_nodes, dtype=np.int64)].reshape(-1, 4)
-        self.rot_inertia = np.array(rot_inertia, dtype=float).reshape(-1, 3, 3)
+        point = nodal_masses(model, num)
+        self.point_idx, self.point_mass = point.point_idx, point.point_mass
+        self.rot_idx = num.rot_idx[point.rot_nodes].reshape(-1, 4)
+        self.rot_inertia = point.rot_inertia
         self.groups = [g for g in num.groups if g.kind.mass is not None and np.any(g.mass)]
         #: position of each of self.groups in num.groups
         self.group_pos = [next(i for i, h in enumerate(num.groups) if h is g)

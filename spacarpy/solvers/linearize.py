@@ -22,6 +22,7 @@ import scipy.sparse as sp
 
 from spacarpy.assembly import BlockPattern
 from spacarpy.elements.beam_mass import nodal_rotary_mass
+from spacarpy.solvers.nodal import nodal_masses
 
 
 @dataclass
@@ -62,23 +63,9 @@ class MassAssembler:
     def __init__(self, model, num):
         self.model, self.num = model, num
         u = num.unknown_of
-        pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
-        rot_row = {int(n): i for i, n in enumerate(model.orientation_ids)}
-        self.point_idx, self.point_mass = [], []
-        self.rot_nodes, self.rot_inertia = [], []
-        for xm in model.nodal_masses:
-            n = int(xm.node)
-            if n in pos_row:
-                self.point_idx.append(num.pos_idx[pos_row[n]])
-                self.point_mass.append(float(xm.values[0]))
-            else:
-                ixx, ixy, ixz, iyy, iyz, izz = (tuple(xm.values) + (0.0,) * 6)[:6]
-                self.rot_nodes.append(rot_row[n])
-                self.rot_inertia.append([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        self.point_idx = np.array(self.point_idx, dtype=np.int64).reshape(-1, 3)
-        self.point_mass = np.array(self.point_mass)
-        self.rot_nodes = np.array(self.rot_nodes, dtype=np.int64)
-        self.rot_inertia = np.array(self.rot_inertia, dtype=float).reshape(-1, 3, 3)
+        point = nodal_masses(model, num)
+        self.point_idx, self.point_mass = point.point_idx, point.point_mass
+        self.rot_nodes, self.rot_inertia = point.rot_nodes, point.rot_inertia
         # element groups with inertia (a HINGE has none)
         self.groups = [g for g in num.groups if g.kind.mass is not None]
         self.pattern = BlockPattern(num.n_unknown, [u[g.idx] for g in self.groups]
@@ -97,13 +84,14 @@ class MassAssembler:
         return self.pattern.assemble(blocks + [m_pt, m_rot])
 
 
-def linearize(prob, x, mu, force, moment, mass: MassAssembler | None = None) -> Linearization:
-    """Linearized matrices of a :class:`~spacarpy.solvers.static.StaticProblem` at (x, mu)
-    under the given load (the state should be an equilibrium of that load)."""
-    ev = prob.evaluate(x, mu, force, moment)
+def linearize(prob, x, mu, load, mass: MassAssembler | None = None) -> Linearization:
+    """Linearized matrices of a :class:`~spacarpy.solvers.equilibrium.StaticProblem` at
+    (x, mu) under ``load`` (a :class:`~spacarpy.solvers.loads.LoadState`; the state should
+    be an equilibrium of that load)."""
+    ev = prob.evaluate(x, mu, load)
     n_x = prob.pattern.n_x
-    a = prob.matrix(ev, mu, moment)
-    a0 = prob.matrix(ev, mu, moment, material_only=True)
+    a = prob.matrix(ev, mu)
+    a0 = prob.matrix(ev, mu, material_only=True)
     K = a[:n_x, :n_x].tocsc()
     K_mat = a0[:n_x, :n_x].tocsc()
     C = (a[n_x:, :n_x] / prob.scale).tocsr()

@@ -100,7 +100,7 @@ def _quaternion_slots(num):
 
 
 class ReducedNewton:
-    """Newton steps of a :class:`~spacarpy.solvers.static.StaticProblem` without its Euler
+    """Newton steps of a :class:`~spacarpy.solvers.equilibrium.StaticProblem` without its Euler
     constraints (see the module docstring); build only where :func:`applies`."""
 
     def __init__(self, prob):

@@ -14,7 +14,8 @@ classical "perturbation along the critical eigenvector" branch switching, withou
 to put an artificial imperfection into the model.
 
 Only models small enough for the dense reduction (``eigen.DENSE_LIMIT`` free coordinates)
-are checked; beyond that the solver says so once.
+are checked; beyond that the solver says so once. :class:`PathStability` does this along
+the static solver's load path.
 """
 from __future__ import annotations
 
@@ -24,7 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from spacarpy.errors import ConvergenceError
 from spacarpy.solvers.eigen import DENSE_LIMIT, null_space_basis
+from spacarpy.solvers.errors import StepFailed
+from spacarpy.solvers.linearize import linearize
+from spacarpy.solvers.loads import LoadState
+from spacarpy.solvers.newton import newton
 
 log = logging.getLogger(__name__)
 
@@ -58,14 +64,13 @@ class Stability:
     modes: np.ndarray
 
 
-def stability(prob, x, mu, force, moment) -> Stability | None:
-    """Index of the reduced tangent of ``prob`` at (x, mu); None when the model is too large
-    for the dense reduction."""
-    from spacarpy.solvers.linearize import linearize
+def stability(prob, x, mu, load: LoadState) -> Stability | None:
+    """Index of the reduced tangent of ``prob`` at (x, mu) under ``load``; None when the
+    model is too large for the dense reduction."""
     n_x = prob.pattern.n_x
     if n_x > DENSE_LIMIT:
         return None
-    lin = linearize(prob, x, mu, force, moment)
+    lin = linearize(prob, x, mu, load)
     T = null_space_basis(lin.C, n_x)
     if T.shape[1] == 0:
         return Stability(index=0, lowest=np.inf, modes=np.zeros((n_x, 1)))
@@ -92,16 +97,16 @@ def canonical_sign(modes: np.ndarray) -> np.ndarray:
     return modes * np.where(sign == 0, 1.0, sign)
 
 
-def potential_energy(prob, x, mu, force, moment) -> float:
+def potential_energy(prob, x, mu, load: LoadState) -> float:
     """Elastic energy of the flexible modes minus the work of the dead forces (the measure
     by which branches at the same load are ranked; moments and gravity are left out)."""
-    ev = prob.evaluate(x, mu, force, moment)
+    ev = prob.evaluate(x, mu, load)
     elastic = sum(0.5 * float(np.einsum("ni,nij,nj->", st.e, g.S, st.e))
                   for g, st in zip(prob.num.groups, ev.states))
-    return elastic - float(force @ x)
+    return elastic - float(load.force @ x)
 
 
-def switch_branch(prob, x, mu, force, moment, opts, stab: Stability, step: int):
+def switch_branch(prob, x, mu, load: LoadState, opts, stab: Stability, step: int):
     """Try to leave an unstable equilibrium for a stable(r) one at the same load.
 
     Every eigenvector of a negative eigenvalue is tried with both signs, each with the
@@ -113,7 +118,6 @@ def switch_branch(prob, x, mu, force, moment, opts, stab: Stability, step: int):
     canonical (:func:`canonical_sign`): the branch chosen does not depend on round-off.
     Returns (x, mu, stability), the given state when no perturbation lowers the index.
     """
-    from spacarpy.solvers.static import _StepFailed
     num = prob.num
     free = ~num.fixed_mask
     rot = num.is_rotation_coord[free]
@@ -128,13 +132,13 @@ def switch_branch(prob, x, mu, force, moment, opts, stab: Stability, step: int):
                 xp = x.copy()
                 xp[free] += sign * amp / size * mode
                 try:
-                    xn, mun, *_ = prob.newton(prob.normalize(xp), mu, force, moment, opts)
-                except _StepFailed:
+                    xn, mun, *_ = newton(prob, prob.normalize(xp), mu, load, opts)
+                except StepFailed:
                     continue
                 xn = prob.normalize(xn)
-                sn = stability(prob, xn, mun, force, moment)
+                sn = stability(prob, xn, mun, load)
                 if sn is not None and sn.index < stab.index:
-                    found.append((sn.index, potential_energy(prob, xn, mun, force, moment),
+                    found.append((sn.index, potential_energy(prob, xn, mun, load),
                                   xn, mun, sn))
                     break
     if not found:
@@ -148,4 +152,131 @@ def switch_branch(prob, x, mu, force, moment, opts, stab: Stability, step: int):
     return xb, mub, sb
 
 
-__all__ = ["Stability", "stability", "switch_branch", "potential_energy", "canonical_sign"]
+class PathStability:
+    """``BIFURCATION warn|switch``: the index of the tangent after every stored step, with a
+    warning when it rises and (switch) branch switching, see
+    :mod:`spacarpy.solvers.stability`.
+
+    Switching happens close to the critical point, where the new branch is still near the
+    old one: the load interval of the step is bisected (``BISECTIONS`` times) down to a
+    state just beyond the point where the index rose, the state there is perturbed along
+    the unstable eigenvector, and from the equilibrium found the step is completed along
+    the new branch in sub-steps.
+
+    ``predictor`` is the load path's :class:`~spacarpy.solvers.newton.Predictor`;
+    ``advance(x, mu, p_from, p_to, n_sub, stored_step)`` follows the path between two load
+    parameters with step cutting (the static solver's).
+    """
+
+    BISECTIONS = 8
+
+    def __init__(self, prob, opts, predictor, advance):
+        self.prob, self.opts = prob, opts
+        self.predictor, self.advance = predictor, advance
+        self.on = opts.bifurcation in ("warn", "switch")
+        self.index = 0
+        self.told_size = False
+        self.last = None               # (x, mu, params, stability) of the last stored step
+
+    def _stability(self, x, mu, params):
+        return stability(self.prob, x, mu, self.prob.loads.at(*params))
+
+    def _solve_at(self, x, mu, params):
+        prob = self.prob
+        load = prob.loads.at(*params)
+        x1, mu1, *_ = newton(prob, self.predictor(x, mu, load), mu, load, self.opts)
+        return prob.normalize(x1), mu1
+
+    def _bisect(self, lo, hi):
+        """Narrow the load interval between ``lo`` (index not above the path's) and ``hi``
+        (index above it); both are (x, mu, params, stability). Returns the new ``hi``."""
+        x_lo, mu_lo, p_lo, _ = lo
+        p_lo = np.asarray(p_lo, float)
+        for _ in range(self.BISECTIONS):
+            p_mid = 0.5 * (p_lo + np.asarray(hi[2], float))
+            try:
+                x_mid, mu_mid = self._solve_at(x_lo, mu_lo, p_mid)
+            except StepFailed:
+                break
+            s_mid = self._stability(x_mid, mu_mid, p_mid)
+            if s_mid.index > self.index:
+                hi = (x_mid, mu_mid, p_mid, s_mid)
+            else:
+                p_lo, x_lo, mu_lo = p_mid, x_mid, mu_mid
+        return hi
+
+    def _switch_at(self, state, step):
+        """Perturb-and-solve at one state's load; returns the new state or None."""
+        x, mu, p, stab = state
+        prob = self.prob
+        load = prob.loads.at(*p)
+        # the predictor moves to that load (the state is there already: it only
+        # re-imposes prescribed values, and the path continues from this load)
+        self.predictor(x, mu, load)
+        xs, mus, ss = switch_branch(prob, x, mu, load, self.opts, stab, step)
+        if ss.index >= stab.index:
+            return None
+        if prob.has_commit:
+            prob.commit(xs, mus, load)
+        return xs, mus, p, ss
+
+    def _switch(self, x, mu, params, stab, step):
+        """Bisect back towards the critical point, switch there and come back to ``params``
+        along the new branch (repeatedly, when several eigenvalues cross within the step);
+        as a last resort switch at ``params`` itself."""
+        target = np.asarray(params, float)
+        cur = (x, mu, target, stab)
+        lo = self.last
+        for _ in range(4):
+            if lo is None or cur[3].index <= self.index:
+                break
+            hi = self._bisect(lo, cur)
+            switched = self._switch_at(hi, step)
+            if switched is None:
+                break
+            if np.array_equal(np.asarray(hi[2], float), target):
+                cur = switched
+                break
+            if switched[3].index <= self.index:
+                lo = switched
+            try:
+                xa, mua, *_ = self.advance(switched[0], switched[1],
+                                           np.asarray(hi[2], float), target, 8, step)
+            except ConvergenceError:
+                break
+            xa = self.prob.normalize(xa)
+            cur = (xa, mua, target, self._stability(xa, mua, target))
+        if cur[3].index < stab.index:
+            return cur[0], cur[1], cur[3]
+        direct = self._switch_at((x, mu, target, stab), step)
+        if direct is not None:
+            return direct[0], direct[1], direct[3]
+        return x, mu, stab
+
+    def check(self, x, mu, params, step):
+        if not self.on:
+            return x, mu
+        prob = self.prob
+        stab = self._stability(x, mu, params)
+        if stab is None:
+            if not self.told_size:
+                log.warning("BIFURCATION: the stability check needs the dense reduction "
+                            "(at most %d free coordinates); this model has %d, not checked",
+                            DENSE_LIMIT, prob.pattern.n_x)
+                self.told_size = True
+            return x, mu
+        if stab.index > self.index and self.opts.bifurcation == "switch":
+            x, mu, stab = self._switch(x, mu, params, stab, step)
+        if stab.index > self.index:
+            log.warning("step %d: the equilibrium is unstable: %d negative stiffness "
+                        "eigenvalue(s) (a limit or bifurcation point was passed)%s", step,
+                        stab.index, "; no stable branch found nearby"
+                        if self.opts.bifurcation == "switch" else
+                        "; 'BIFURCATION switch' follows the stable branch")
+        self.index = stab.index
+        self.last = (x.copy(), mu.copy(), np.asarray(params, float), stab)
+        return x, mu
+
+
+__all__ = ["PathStability", "Stability", "stability", "switch_branch", "potential_energy",
+           "canonical_sign"]

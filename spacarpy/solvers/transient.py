@@ -9,9 +9,10 @@ normalizations), as in the static solver (docs/solver.md):
     c(x, t) = 0
 
 with the inertia forces of :mod:`spacarpy.solvers.inertia` (Eq. 60), the elastic and
-constraint forces and the tangent of :class:`~spacarpy.solvers.static.StaticProblem`, and the
-loads ``XF + phi(t) DELXF`` (prescribed coordinates and deformations likewise follow
-``phi(t)`` times their increments, :class:`TimeFunction`). The constraints are kept at
+constraint forces and the tangent of :class:`~spacarpy.solvers.equilibrium.StaticProblem`,
+and the loads ``XF + phi(t) DELXF`` (prescribed coordinates and deformations likewise
+follow ``phi(t)`` times their increments,
+:class:`~spacarpy.solvers.time_functions.TimeFunction`). The constraints are kept at
 position level (index 3), which the generalized-alpha method of Arnold & Brüls (2007) integrates
 with second-order accuracy. Its numerical dissipation is set by the spectral radius at
 infinite frequency ``rho_inf`` in [0, 1]: 1 is the undamped trapezoidal rule (energy
@@ -27,10 +28,10 @@ down when the velocities are large. A step whose Newton iterations fail is halve
 from __future__ import annotations
 
 import logging
-import math
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -40,76 +41,16 @@ from spacarpy.assembly import scatter_add
 from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import Model
 from spacarpy.rotation import tangent_part
+from spacarpy.solvers.equilibrium import StaticProblem
+from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.inertia import Inertia
-from spacarpy.solvers.static import StaticProblem, solve_static
+from spacarpy.solvers.kinematic_check import check_initial
+from spacarpy.solvers.loads import LoadState
+from spacarpy.solvers.nodal import node_rows
+from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.time_functions import TIME_FUNCTIONS, TimeFunction
 
 log = logging.getLogger(__name__)
-
-#: Time functions phi(t) for the DELXF loads and the prescribed-motion increments.
-TIME_FUNCTIONS = {
-    "constant": "phi = 1 (the loads of the end of the static path, unchanged)",
-    "zero": "phi = 0 (DELXF removed at t = 0: release from a static deflection)",
-    "linear": "phi = t (DELINPR angle = angular velocity, DELXF = force rate)",
-    "ramp": "phi = min(t / T, 1)",
-    "smoothstep": "phi = 3 s^2 - 2 s^3, s = min(t / T, 1)",
-    "spinup": "phi = (t^2/2 + (T/2pi)^2 (cos(2 pi t/T) - 1)) / T for t < T, t - T/2 after "
-              "(Simo & Vu-Quoc's spin-up: the rate rises smoothly from 0 to 1 at t = T)",
-    "sine": "phi = sin(2 pi f t)",
-    "table": "phi piecewise linear through (t1, phi1), (t2, phi2), ...; constant outside",
-    "expr": 'phi = the expression in t given as a string, e.g. "1 - exp(-t/0.1)" (the '
-            "functions and operators of {expressions}; derivatives by central differences)",
-}
-
-
-@dataclass(frozen=True)
-class TimeFunction:
-    """phi(t) with its first and second derivatives (see :data:`TIME_FUNCTIONS`)."""
-
-    kind: str = "constant"
-    params: tuple = ()
-
-    def __call__(self, t: float) -> tuple[float, float, float]:
-        k, p = self.kind, self.params
-        if k == "constant":
-            return 1.0, 0.0, 0.0
-        if k == "zero":
-            return 0.0, 0.0, 0.0
-        if k == "linear":
-            return t, 1.0, 0.0
-        if k == "ramp":
-            T = p[0]
-            return (t / T, 1.0 / T, 0.0) if t < T else (1.0, 0.0, 0.0)
-        if k == "smoothstep":
-            T = p[0]
-            if t >= T:
-                return 1.0, 0.0, 0.0
-            s = t / T
-            return 3 * s * s - 2 * s**3, (6 * s - 6 * s * s) / T, (6 - 12 * s) / T**2
-        if k == "spinup":
-            T = p[0]
-            if t >= T:
-                return t - T / 2, 1.0, 0.0
-            w = 2 * math.pi / T
-            return ((t * t / 2 + (math.cos(w * t) - 1) / w**2) / T,
-                    (t - math.sin(w * t) / w) / T, (1 - math.cos(w * t)) / T)
-        if k == "sine":
-            w = 2 * math.pi * p[0]
-            return math.sin(w * t), w * math.cos(w * t), -w * w * math.sin(w * t)
-        if k == "expr":
-            from spacarpy.deck.expressions import evaluate
-            text = str(p[0])
-            h = 1e-4 * max(1.0, abs(t))
-            f0, fp, fm = (evaluate(text, {"t": t + d}) for d in (0.0, h, -h))
-            return f0, (fp - fm) / (2 * h), (fp - 2 * f0 + fm) / (h * h)
-        if k == "table":
-            ts, vs = np.asarray(p[0::2], float), np.asarray(p[1::2], float)
-            if t <= ts[0] or t >= ts[-1]:
-                return float(vs[0] if t <= ts[0] else vs[-1]), 0.0, 0.0
-            i = int(np.searchsorted(ts, t, side="right")) - 1
-            rate = (vs[i + 1] - vs[i]) / (ts[i + 1] - ts[i])
-            return float(vs[i] + rate * (t - ts[i])), float(rate), 0.0
-        raise ValueError(f"unknown time function {k!r}")
-
 
 @dataclass
 class TransientOptions:
@@ -143,10 +84,8 @@ class TransientStep:
     elastic_energy: float
     external_work: float
     dissipated_energy: float
-    deformation: np.ndarray                  # BEAM (n_beam, 6)
-    stress: np.ndarray
-    group_deformation: dict
-    group_stress: dict
+    deformation: dict                        # element keyword -> (n_elem, n_def)
+    stress: dict                             # keyword -> (n_elem, n_def) stress resultants
 
     @property
     def energy_balance(self) -> float:
@@ -167,8 +106,20 @@ class TransientResult:
     n_newton: int = 0
 
 
-class _StepFailed(Exception):
-    pass
+class Residual(NamedTuple):
+    """The equations of motion evaluated at one (t, x, v, a, mu), see
+    :meth:`TransientProblem.residual`."""
+
+    ev: object                   # the static part (an equilibrium Evaluation)
+    blocks: list                 # mass blocks per inertia batch
+    f_in: np.ndarray             # (n_coord,) inertia and damping forces
+    r: np.ndarray                # force residual over the free coordinates
+    res: float                   # scaled residual norm
+    floor: float                 # its round-off floor
+    load: LoadState
+    f_damp: np.ndarray | None    # (n_coord,) damping forces, None without damping
+    damp_blocks: dict            # velocity derivative of the damping per element group
+    level: float                 # force level of this state
 
 
 def alpha_parameters(rho_inf: float) -> tuple[float, float, float, float]:
@@ -193,10 +144,7 @@ class TransientProblem:
         self.inertia = Inertia(model, self.num)
         self.free = self.prob.free
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
-        self.f_damp, self.damp_blocks = None, {}
         self.level = 0.0                 # largest force level of the accepted states
-        self.trial_level = None
-        self.last_level = 0.0
 
     @cached_property
     def mass_diagonal(self) -> np.ndarray:
@@ -204,12 +152,12 @@ class TransientProblem:
         by the error control only)."""
         return self.inertia.matrix(self.num.x0).diagonal()
 
-    def constraint_jacobian(self, ev, moment) -> sp.csc_matrix:
+    def constraint_jacobian(self, ev) -> sp.csc_matrix:
         """C (n_constraint, n_unknown) at an evaluated state, without the saddle-point
         scaling of the Newton matrix."""
         n_x = self.prob.pattern.n_x
         mu0 = np.zeros(self.num.n_constraint)
-        A = self.prob.matrix(ev, mu0, moment, material_only=True)
+        A = self.prob.matrix(ev, mu0, material_only=True)
         return (A[n_x:, :n_x] / self.prob.scale).tocsc()
 
     # ---------------------------------------------------------------- time-dependent data
@@ -226,34 +174,33 @@ class TransientProblem:
         d2 = (xp - 2 * x + xm) / eps**2
         return idx, x, d1 * dphi, d2 * dphi**2 + d1 * ddphi
 
-    def loads(self, t: float):
-        phi = self.opts.phi(t)[0]
-        self.prob.rigid_target = self.num.rigid_targets(1.0, phi)
-        self.prob.gravity_factor = 1.0
-        return self.prob.loads.at(1.0, phi)
+    def loads(self, t: float) -> LoadState:
+        """The load at time t: XF and gravity, ``phi(t)`` times DELXF, and the prescribed
+        deformations at ``phi(t)``."""
+        return self.prob.loads.at(1.0, self.opts.phi(t)[0])
 
     # ---------------------------------------------------------------- residual
-    def residual(self, t, x, v, a, mu):
+    def residual(self, t, x, v, a, mu, trial_level: float | None = None) -> Residual:
         """Evaluate the equations at (t, x, v, a, mu). The force residual is measured
         against the largest force level met so far in the run (``self.level``: external,
         internal and inertia forces, moments divided by the length scale), not the current
-        one, which vanishes whenever a vibrating structure passes its rest position."""
-        force, moment = self.loads(t)
-        ev = self.prob.evaluate(x, mu, force, moment)
+        one, which vanishes whenever a vibrating structure passes its rest position.
+
+        ``trial_level`` is the force level of the step's first evaluation (the predictor;
+        None: this is it): the reference grows only with accepted states
+        (:meth:`accept_level`) and the predictor, so that a wild Newton iterate cannot
+        inflate it and so pass as converged."""
+        load = self.loads(t)
+        ev = self.prob.evaluate(x, mu, load)
         blocks, f_in = self.inertia.forces(x, v, a)
-        self.f_damp, self.damp_blocks = self.damping_forces(x, v, ev.states, blocks)
-        if self.f_damp is not None:
-            f_in = f_in + self.f_damp              # (damping counted with the inertia)
+        f_damp, damp_blocks = self.damping_forces(x, v, ev.states, blocks)
+        if f_damp is not None:
+            f_in = f_in + f_damp                   # (damping counted with the inertia)
         r = ev.r + f_in[self.free]
         level = self.prob.force_level(ev.f_ext, ev.f_int, f_in)
-        # the reference grows only with accepted states (accept_level) and the predictor:
-        # a wild Newton iterate must not inflate it and so pass as converged
-        if self.trial_level is None:
-            self.trial_level = level
-        ref = max(self.level, self.trial_level)
-        self.last_level = level
+        ref = max(self.level, level if trial_level is None else trial_level)
         res, floor = self.prob.residual_norm(r, ev.c, None, None, level=ref if ref > 0 else 1.0)
-        return ev, blocks, f_in, r, res, floor, moment
+        return Residual(ev, blocks, f_in, r, res, floor, load, f_damp, damp_blocks, level)
 
     def damping_forces(self, x, v, states, mass_blocks):
         """Viscous damping forces (n_coord,) and their velocity derivative per element group:
@@ -283,19 +230,16 @@ class TransientProblem:
             out[i] = D.transpose(0, 2, 1) @ cd
         return f, out
 
-    def damping_power(self, x, v) -> float:
-        """Power dissipated by the damping forces of the last evaluation, v . f_damp."""
-        if self.f_damp is None:
+    def damping_power(self, x, v, f_damp) -> float:
+        """Power dissipated by the damping forces ``f_damp`` (of :meth:`residual`),
+        v . f_damp."""
+        if f_damp is None:
             return 0.0
-        return float(self.inertia.physical(x, v) @ self.f_damp)
+        return float(self.inertia.physical(x, v) @ f_damp)
 
-    def start_step(self) -> None:
-        """A new step (or attempt): its first evaluation sets the trial reference level."""
-        self.trial_level = None
-
-    def accept_level(self) -> None:
-        """The last evaluated state was accepted: its force level joins the reference."""
-        self.level = max(self.level, self.last_level)
+    def accept_level(self, level: float) -> None:
+        """A state of force level ``level`` was accepted: it joins the reference."""
+        self.level = max(self.level, level)
 
     def elastic_energy(self, states) -> float:
         return float(sum(0.5 * np.einsum("ni,nij,nj->", st.e, g.S, st.e)
@@ -343,10 +287,10 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
         x, mu = st.steps[-1].x.copy(), st.steps[-1].mu.copy()
     else:
         # a mechanism is what dynamics is about; redundant constraints are still an error
-        prob.check_initial(allow_mechanism=True)
+        check_initial(prob, allow_mechanism=True)
         x, mu = num.x0.copy(), np.zeros(num.n_constraint)
     if prob.has_commit:                          # hinge turn counts of the start state
-        prob.commit(x, mu, *tp.loads(0.0))
+        prob.commit(x, mu, tp.loads(0.0))
     idx, xp0, vp0, ap0 = tp.prescribed(0.0)
     x[idx] = xp0
     v = np.zeros(num.n_coord)
@@ -356,25 +300,21 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)
     a_tilde = a.copy()
-    tp.start_step()
-    ev, _, f_in, r, res, _, _ = tp.residual(0.0, x, v, a, mu)
-    tp.accept_level()
+    start = tp.residual(0.0, x, v, a, mu)
+    ev, f_in, res = start.ev, start.f_in, start.res
+    tp.accept_level(start.level)
     work = dissipated = 0.0
-    p_damp = tp.damping_power(x, v)
+    p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in)
 
     def store(t, x, v, a, mu, its, res, ev):
-        by_kind = {g.keyword: (st.e, sig) for g, st, sig in
-                   zip(num.groups, ev.states, ev.sigmas)}
-        beam_e, beam_s = by_kind.get("BEAM", (np.zeros((0, 6)), np.zeros((0, 6))))
+        deformation, stress = prob.element_results(ev)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
-                             deformation=beam_e, stress=beam_s,
-                             group_deformation={k: e for k, (e, _) in by_kind.items()},
-                             group_stress={k: s for k, (_, s) in by_kind.items()})
+                             deformation=deformation, stress=stress)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -391,7 +331,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             h = t_target - t if t_target - t - h < 1e-6 * h_int else h
             try:
                 out = _step(tp, t, h, x, v, a, a_tilde, mu, (am, af, gamma, beta), opts)
-            except _StepFailed as fail:
+            except StepFailed as fail:
                 if h / 2 < h_int / 2 ** opts.max_cuts:
                     raise ConvergenceError(
                         f"transient step at t = {t:.6g} s (step {k}) did not converge after "
@@ -399,7 +339,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
                 h /= 2
                 continue
-            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in = out
+            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp = out
             grow = 2.0
             if opts.error is not None:
                 # local error estimate of the position update (Zienkiewicz & Xie's
@@ -423,12 +363,12 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 dt_target = (num.rigid_targets(1.0, opts.phi(t + h)[0])
                              - num.rigid_targets(1.0, opts.phi(t)[0]))
                 work += 0.5 * float(((mu + mu_new)[:num.n_rigid] * dt_target)[presc].sum())
-            p_new = tp.damping_power(x_new, v)
+            p_new = tp.damping_power(x_new, v, f_damp)
             dissipated += 0.5 * (p_damp + p_new) * h
             q_prev, x, mu, p_damp = q_new, x_new, mu_new, p_new
             result.n_newton += its
             if prob.has_commit:
-                prob.commit(x, mu, *tp.loads(t + h))
+                prob.commit(x, mu, tp.loads(t + h))
             t += h
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
@@ -449,8 +389,7 @@ def _initial_velocities(tp, x, v, given: dict):
     kept."""
     num, prob, free = tp.num, tp.prob, tp.free
     model = tp.model
-    pos_row = {int(n): i for i, n in enumerate(model.position_ids)}
-    rot_row = {int(n): i for i, n in enumerate(model.orientation_ids)}
+    pos_row, rot_row = node_rows(model)
     v0 = v.copy()
     target = np.zeros(num.n_coord, dtype=bool)
     for n, value in given.items():
@@ -463,10 +402,9 @@ def _initial_velocities(tp, x, v, given: dict):
             target[ri] = True
             q = x[ri]
             v0[ri] = 0.5 * np.concatenate([[-w @ q[1:]], q[0] * w + np.cross(w, q[1:])])
-    force, moment = tp.loads(0.0)
-    ev = prob.evaluate(x, np.zeros(num.n_constraint), force, moment)
+    ev = prob.evaluate(x, np.zeros(num.n_constraint), tp.loads(0.0))
     n_x = prob.pattern.n_x
-    C = tp.constraint_jacobian(ev, moment)
+    C = tp.constraint_jacobian(ev)
     fixed_part = np.where(free, 0.0, v0)
     rhs_c = -_constraint_rates(prob, x, fixed_part)               # prescribed velocities
     weight = (np.where(prob.rot_mask[free], num.length_scale ** 2, 1.0)
@@ -502,13 +440,12 @@ def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc):
     num, free, prob = tp.num, tp.free, tp.prob
     a = np.zeros(num.n_coord)
     a[tp.presc_idx] = a_presc
-    force, moment = tp.loads(0.0)
-    ev = prob.evaluate(x, np.zeros_like(mu), force, moment)     # no constraint forces
+    ev = prob.evaluate(x, np.zeros_like(mu), tp.loads(0.0))     # no constraint forces
     blocks, f_in = tp.inertia.forces(x, v, a)                     # h + M_fp a_p
     M = tp.inertia.assemble(blocks)
     rhs_f = -(ev.f_int - ev.f_ext + f_in)[free]
     n_x = prob.pattern.n_x
-    C = tp.constraint_jacobian(ev, moment)
+    C = tp.constraint_jacobian(ev)
     c_acc = _constraint_rates(prob, x, a)                         # C_p a_p
     if np.any(v):                                                 # (dC/dt) v
         eps = 1e-6 / float(np.abs(v).max())
@@ -583,12 +520,14 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     n_x = prob.pattern.n_x
     dx_norm = np.inf
     history = []
-    tp.start_step()
+    trial_level = None               # the force level of the step's predictor
     for it in range(opts.max_iter + 1):
-        ev, blocks, f_in, r, res, floor, moment = tp.residual(t1, x1, v1, a1, mu1)
+        ev, blocks, f_in, r, res, floor, _, f_damp, damp_blocks, level = tp.residual(
+            t1, x1, v1, a1, mu1, trial_level)
+        trial_level = level if trial_level is None else trial_level
         history.append(res)
         if not np.isfinite(res):
-            raise _StepFailed("non-finite residual")
+            raise StepFailed("non-finite residual", history)
         if it == 0:
             # round-off floor of the force residual: the inertia term beta' M of the
             # iteration matrix times the round-off of the coordinates (as the static
@@ -605,8 +544,8 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
                                                        or res <= 1e-3 * opts.tol):
             a_tilde_new = at_new + (1 - af) / (1 - am) * a1
             _gauge(num, x1, v1, a1, a_tilde_new)
-            tp.accept_level()
-            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in
+            tp.accept_level(level)
+            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp
         if it == opts.max_iter:
             break
         # iteration matrix [K_t + beta' M, C^T; C, 0] on the Newton matrix's fixed pattern;
@@ -615,13 +554,13 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         # beta' M + gamma' C: the Rayleigh alpha M rides on the mass blocks, the stiffness-
         # proportional and deformation-rate damping are element blocks
         extra, nodal = tp.inertia.iteration_parts(blocks, beta_p + gamma_p * tp.model.damping[0])
-        for i, cb in tp.damp_blocks.items():
+        for i, cb in damp_blocks.items():
             extra[i] = extra.get(i, 0.0) + gamma_p * cb
         step = None
         if prob.reduced is not None and nodal is None:
             # the static solver's tangent-space step (solvers/reduced.py) with the inertia
             # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
-            k_el, euler_diag, _ = prob.element_blocks(ev, mu1, moment, extra=extra)
+            k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
             r_full = np.zeros(num.n_coord)
             r_full[free] = r
             step = prob.reduced.step(ev, x1, mu1, k_el, euler_diag, residual=r_full,
@@ -630,7 +569,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             dx, dmu = step
         else:
             scale = max(prob.scale, beta_p * m_max)
-            S = prob.matrix(ev, mu1, moment, extra=extra, scale=scale)
+            S = prob.matrix(ev, mu1, extra=extra, scale=scale)
             if nodal is not None:
                 S = S + sp.block_diag([nodal, sp.csc_matrix((S.shape[0] - n_x,) * 2)],
                                       format="csc")
@@ -638,19 +577,20 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             try:
                 dz = spla.splu(S, permc_spec="COLAMD").solve(rhs)
             except RuntimeError:
-                raise _StepFailed("singular iteration matrix") from None
+                raise StepFailed("singular iteration matrix", history) from None
             dx, dmu = dz[:n_x], dz[n_x:] * scale
         if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
-            raise _StepFailed("non-finite Newton increment")
+            raise StepFailed("non-finite Newton increment", history)
         dx_norm = prob.increment_norm(dx)
         if np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) > 0.5:
-            raise _StepFailed("Newton increment too large")
+            raise StepFailed("Newton increment too large", history)
         x1[free] += dx
         v1[free] += gamma_p * dx
         a1[free] += beta_p * dx
         mu1 = mu1 + dmu
     hist = ", ".join(f"{v:.2e}" for v in history)
-    raise _StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})")
+    raise StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})",
+                     history)
 
 
 __all__ = ["TimeFunction", "TIME_FUNCTIONS", "TransientOptions", "TransientStep",

@@ -7,7 +7,7 @@ outwards, W is block lower triangular: an element's deformations involve the coo
 its own end node (the diagonal block) and of nodes already passed (below the diagonal).
 Solving such a system is forward kinematics: node after node, each from its parent. A
 general sparse LU (SuperLU) finds that out again at every factorization, with its ordering
-and symbolic analysis; at 10^5 elements that took 0.8-1.1 s per factorization.
+and symbolic analysis.
 
 :class:`BlockTriangular` finds the structure once per pattern, from the pattern alone:
 
@@ -148,7 +148,7 @@ class BlockTriangular:
         data = np.asarray(data, dtype=float)
         blocks = self._diagonal_blocks(data)
         try:
-            inv = in_chunks(np.linalg.inv, len(blocks), blocks)    # threads: 2x at 10^5
+            inv = in_chunks(np.linalg.inv, len(blocks), blocks)    # on the thread pool
         except np.linalg.LinAlgError:
             raise FactorizationError("singular diagonal block") from None
         if not np.all(np.isfinite(inv)):

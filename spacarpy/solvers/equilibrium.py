@@ -1,0 +1,339 @@
+"""The static equilibrium equations of one model: residual, Newton matrix, norms, reactions.
+
+Unknowns are all free nodal coordinates x (positions and the four Euler parameters of each
+orientation node) and one Lagrange multiplier per constraint. Constraints are
+
+- rigid deformation modes: ``e_i(x) = 0`` (the multiplier *is* the stress resultant sigma_i),
+- Euler-parameter normalization ``q.q - 1 = 0`` of every orientation node not fully fixed.
+
+Equilibrium (Eq. 16/55 without inertia) with the constraint forces:
+
+    r(x, mu) = sum_e D_e^T sigma_e + sum_n 2 q_n mu_n - f_ext(x) = 0,     c(x) = 0,
+
+where ``sigma = S e`` for flexible (DYNE) and stiff released (RLSE + ESTIFF) modes and
+``sigma = mu`` for rigid ones, and ``f_ext`` holds the dead forces and the generalized forces
+``2 Lambda(q)^T T`` of dead moments. Newton's matrix is the bordered tangent
+``[[K_T, C^T], [C, 0]]`` with ``K_T = D^T S D + sum sigma_i d2e_i + 2 mu I4 - df_ext/dx``,
+assembled on a fixed sparsity pattern (documented in docs/solver.md).
+
+:class:`StaticProblem` holds the model's fixed data (numbering, patterns, scales, the
+kinematic corrector); the load is an argument of every evaluation (a
+:class:`~spacarpy.solvers.loads.LoadState`), never a field of the problem.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from spacarpy.assembly import BorderedPattern, scatter_add
+from spacarpy.elements.chunks import in_chunks
+from spacarpy.errors import SolverError
+from spacarpy.linalg import batch_matvec
+from spacarpy.model import Model
+from spacarpy.numbering import Numbering, number_model
+from spacarpy.rotation import lambda_matrix, moment_matrix
+from spacarpy.solvers.kinematic_correction import KinematicCorrector
+from spacarpy.solvers.loads import Loads, LoadState
+from spacarpy.solvers.reduced import ReducedNewton
+from spacarpy.solvers.reduced import applies as reduced_applies
+
+#: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
+_FLOOR_FACTOR = 10.0
+
+
+def _material_stiffness(D, S):
+    """Element blocks ``D^T S D`` (n, n_ldof, n_ldof)."""
+    return D.transpose(0, 2, 1) @ (S @ D)
+
+
+@dataclass
+class Timings:
+    """Wall time spent per part of the Newton iterations (seconds) and iteration count."""
+
+    kernels: float = 0.0
+    assembly: float = 0.0
+    solve: float = 0.0
+    iterations: int = 0
+    factorizations: int = 0     # sparse LU factorizations (Newton and kinematic correction)
+    total: float = 0.0
+
+
+@dataclass
+class Evaluation:
+    """The equilibrium equations evaluated at one (x, mu) under one load."""
+
+    states: list               # per element group: the kernel state (.e, .D, ...)
+    sigmas: list               # per element group: stress resultants (n, n_def)
+    r: np.ndarray
+    c: np.ndarray
+    f_int: np.ndarray
+    f_ext: np.ndarray
+    q_eu: np.ndarray
+    load: LoadState            # the load it was evaluated under
+    gravity_stiffness: list = field(default_factory=list)   # per group, or empty
+
+
+class StaticProblem:
+    """Residual, Newton matrix and norms of one model's static equations."""
+
+    def __init__(self, model: Model, num: Numbering | None = None, deformations: str | None = None):
+        self.model = model
+        self.num = num if num is not None else number_model(model)
+        self.variant = deformations or model.deformations
+        self.loads = Loads(model, self.num)
+        self.pattern = BorderedPattern(self.num, self.loads.moment_rot)
+        num = self.num
+        self.timings = Timings()
+        # the kinematic correction after each Newton update (kinematic_correction.py)
+        self.corrector = KinematicCorrector(num, self.variant, self.timings)
+        self.kinematic_correction = True
+        # Newton steps without the Euler constraints where the model allows (reduced.py)
+        self.reduced = ReducedNewton(self) if reduced_applies(self) else None
+        self.has_commit = any(g.kind.commit is not None for g in num.groups)
+        self._states_at = None                  # (x, kernel states at x), see evaluate()
+        self.free = ~num.fixed_mask
+        self.rot_mask = num.is_rotation_coord
+        # balances the constraint rows of the saddle-point matrix and sets the residual's
+        # round-off floor: the largest element stiffness entry (N/m)
+        smax = max([float(np.abs(g.S).max(initial=0.0)) for g in num.groups] + [0.0])
+        self.scale = smax if smax > 0 else 1.0
+        # the round-off of a position is relative to its magnitude, not to the model's size:
+        # a model far from the origin has a residual floor that much higher
+        pos = num.x0[num.pos_idx]
+        self.position_magnitude = max(num.length_scale, float(np.abs(pos).max(initial=0.0)))
+        # weights of the constraint violations in the residual norm: rigid length-like
+        # modes relative to the length scale, angles and Euler normalizations absolute
+        self.constraint_weight = np.concatenate(
+            [np.where(np.asarray(g.kind.length_modes)[g.rigid_mode], 1.0 / num.length_scale,
+                      1.0) for g in num.groups] + [np.ones(num.euler_nodes.size)])
+        self._reaction_setup()
+
+    # ------------------------------------------------------------------ evaluation
+    def evaluate(self, x, mu, load: LoadState, states=None) -> Evaluation:
+        """Deformations, stress resultants and residuals at (x, mu) under ``load``.
+
+        ``states`` are the kernel states at exactly this x when the caller has them already
+        (the kinematic correction ends with them); the states of the last evaluated x are
+        kept and reused when x comes again (a stored step is evaluated once more for its
+        results, and then once more as the next step's start)."""
+        num = self.num
+        t0 = time.perf_counter()
+        known = states
+        if known is None and self._states_at is not None and np.array_equal(
+                self._states_at[0], x):
+            known = self._states_at[1]          # e.g. a stored step, then the next one's start
+        states, sigmas, forces = [], [], []
+        for i, g in enumerate(num.groups):
+            st = (known[i] if known is not None
+                  else g.kind.state(x[g.idx], g.ref, self.variant, g.prev))
+            sigma = batch_matvec(g.S, st.e)
+            sigma[g.rigid_elem, g.rigid_mode] = mu[g.rigid_slice]
+            states.append(st)
+            sigmas.append(sigma)
+            forces.append((sigma[:, None, :] @ st.D)[:, 0, :])
+        # the kernel states of the last configuration (they depend on x alone, unless a kind
+        # keeps a persistent state that commit() updates)
+        self._states_at = None if self.has_commit else (x.copy(), states)
+        t1 = time.perf_counter()
+        f_int = np.zeros(num.n_coord)
+        for g, f_el in zip(num.groups, forces):
+            f_int += scatter_add(num.n_coord, g.idx, f_el)
+        q_eu = x[num.rot_idx[num.euler_nodes]]
+        f_int[num.rot_idx[num.euler_nodes]] += 2.0 * q_eu * mu[num.n_rigid:, None]
+        f_ext = load.force.copy()
+        loads = self.loads
+        if loads.moment_rot.size:
+            q_m = x[num.rot_idx[loads.moment_rot]]
+            f_ext[num.rot_idx[loads.moment_rot]] += 2.0 * np.einsum(
+                "nab,nb->na", moment_matrix(load.moment), q_m)
+        gk = []
+        if loads.has_gravity and load.gravity_factor:
+            gv = load.gravity_factor * loads.gravity
+            f_ext += load.gravity_factor * loads.point_weight
+            for g_ in num.groups:
+                if g_.kind.gravity is None:
+                    gk.append(None)
+                    continue
+                fg, kg = g_.kind.gravity(x[g_.idx], g_.ref, g_.mass, gv)
+                f_ext += scatter_add(num.n_coord, g_.idx, fg)
+                gk.append(kg)
+        r = (f_int - f_ext)[self.free]
+        c = np.concatenate([st.e[g.rigid_elem, g.rigid_mode] - load.rigid_target[g.rigid_slice]
+                            for g, st in zip(num.groups, states)]
+                           + [np.sum(q_eu * q_eu, axis=1) - 1.0])
+        self.timings.kernels += t1 - t0
+        self.timings.assembly += time.perf_counter() - t1
+        return Evaluation(states=states, sigmas=sigmas, r=r, c=c, f_int=f_int, f_ext=f_ext,
+                          q_eu=q_eu, load=load, gravity_stiffness=gk)
+
+    def matrix(self, ev: Evaluation, mu, material_only: bool = False, extra=None,
+               scale: float | None = None):
+        """The bordered Newton matrix at an evaluated state (CSC).
+
+        With ``material_only`` the K block holds only the material stiffness D^T S D (K0 of
+        Eq. 62); otherwise the full tangent K0 + G0 + N0 (geometric stiffness from the stress
+        resultants and all constraint multipliers, load-dependent part of the moments of
+        ``ev.load``).
+        The constraint blocks are the same in both and scaled by ``self.scale`` (or
+        ``scale``). ``extra`` adds blocks to the element blocks of some groups (``{group
+        position: (n_elem, n_ldof, n_ldof)}``; the transient solver's ``beta' M``).
+        """
+        num = self.num
+        t0 = time.perf_counter()
+        k_el, euler_diag, mom_blocks = self.element_blocks(ev, mu, material_only, extra)
+        t1 = time.perf_counter()
+        A = self.pattern.assemble(k_el, euler_diag, mom_blocks,
+                                  [st.D[g.rigid_elem, g.rigid_mode]
+                                   for g, st in zip(num.groups, ev.states)],
+                                  2.0 * ev.q_eu,
+                                  scale=self.scale if scale is None else scale)
+        self.timings.kernels += t1 - t0
+        self.timings.assembly += time.perf_counter() - t1
+        return A
+
+    def element_blocks(self, ev: Evaluation, mu, material_only: bool = False, extra=None):
+        """The K block's pieces: element tangents (one (n_elem, n_ldof, n_ldof) array per
+        group), the Euler-node diagonal ``2 mu`` and the moment-load blocks (see
+        :meth:`matrix`)."""
+        num = self.num
+        k_el = []
+        for i, (g, st, sigma) in enumerate(zip(num.groups, ev.states, ev.sigmas)):
+            if material_only or g.kind.tangent is None:
+                k = in_chunks(_material_stiffness, len(st.D), st.D, g.S)
+                if not material_only:
+                    k += g.kind.hessian(st, sigma)
+            else:
+                k = g.kind.tangent(st, g.S, sigma)          # the same sum, in one pass
+            if not material_only and ev.gravity_stiffness and \
+                    ev.gravity_stiffness[i] is not None:
+                k -= ev.gravity_stiffness[i]                 # -d f_gravity / dx
+            if extra is not None and i in extra:
+                k = k + extra[i]
+            k_el.append(k)
+        n_m = self.loads.moment_rot.size
+        if material_only:
+            euler_diag, mom_blocks = np.zeros(num.euler_nodes.size), np.zeros((n_m, 4, 4))
+        else:
+            euler_diag = 2.0 * mu[num.n_rigid:]
+            mom_blocks = -2.0 * moment_matrix(ev.load.moment) if n_m else np.zeros((0, 4, 4))
+        return k_el, euler_diag, mom_blocks
+
+    # ------------------------------------------------------------------ norms
+    def force_level(self, *forces) -> float:
+        """Largest entry of the given force vectors (n_coord,), the generalized forces on
+        Euler parameters (moments) divided by the length scale."""
+        w = np.where(self.rot_mask, 1.0 / self.num.length_scale, 1.0)
+        return max([float(np.abs(f * w).max(initial=0.0)) for f in forces] + [0.0])
+
+    def residual_norm(self, r, c, f_int, f_ext, level: float | None = None
+                      ) -> tuple[float, float]:
+        """Scaled residual and its round-off floor.
+
+        Forces are taken relative to the force level (max of external and internal forces,
+        :meth:`force_level`, or the given ``level``), constraint violations relative to 1
+        (rigid modes divided by the length scale). The floor is what double precision can
+        resolve: the stiffest element stiffness times the round-off of the coordinates (of
+        the largest of the model's size and its distance from the origin); a residual below
+        it cannot be reduced further by any iteration.
+        """
+        L = self.num.length_scale
+        w = np.where(self.rot_mask, 1.0 / L, 1.0)
+        if level is None:
+            level = self.force_level(f_ext, f_int)
+        rr = np.abs(r * w[self.free]).max(initial=0.0)
+        rel = rr / level if level > 0 else (0.0 if rr == 0 else np.inf)
+        cw = self.constraint_weight
+        floor = (_FLOOR_FACTOR * np.finfo(float).eps * getattr(self, "scale", 0.0)
+                 * self.position_magnitude / level if level > 0 else 0.0)
+        return max(rel, np.abs(c * cw).max(initial=0.0)), floor
+
+    def increment_norm(self, dx) -> float:
+        w = np.where(self.rot_mask[self.free], 1.0, 1.0 / self.num.length_scale)
+        return float(np.abs(dx * w).max(initial=0.0))
+
+    # ------------------------------------------------------------------ reactions
+    def _reaction_setup(self):
+        """Which reaction components are reported: one per fixed position coordinate, and
+        for an orientation node with fixed Euler parameters the moment components whose
+        lambda_1..3 are fixed (all three when lambda_0 is fixed too). A planar model reports
+        Fx, Fy and Mz only (its out-of-plane coordinates are held by the plane, not by FIX)."""
+        num, model = self.num, self.model
+        comp_node, comp_name, self._reac_pos, self._reac_rot = [], [], [], []
+        held = num.fixed_mask & ~num.planar_mask if num.planar_mask.size else num.fixed_mask
+        for i, n in enumerate(model.position_ids):
+            for c in range(3):
+                if held[num.pos_idx[i, c]]:
+                    comp_node.append(int(n))
+                    comp_name.append("F" + "xyz"[c])
+                    self._reac_pos.append(num.pos_idx[i, c])
+        for i, n in enumerate(model.orientation_ids):
+            fx = held[num.rot_idx[i]]
+            if model.planar:                   # only the moment about z
+                comps = [2] if fx.any() else []
+            else:
+                comps = [0, 1, 2] if fx[0] and fx.any() else [c - 1 for c in (1, 2, 3) if fx[c]]
+            for c in comps:
+                comp_node.append(int(n))
+                comp_name.append("M" + "xyz"[c])
+                self._reac_rot.append((i, c))
+        self.reaction_node = np.array(comp_node, dtype=np.int64)
+        self.reaction_component = comp_name
+
+    def reactions(self, x, f_int, f_ext) -> np.ndarray:
+        """Reaction forces (N) and moments (N m) at the fixed coordinates, global axes."""
+        g = f_int - f_ext
+        out = [g[i] for i in self._reac_pos]
+        if self._reac_rot:
+            rows = sorted({i for i, _ in self._reac_rot})
+            idx = self.num.rot_idx[rows]
+            moments = 0.5 * np.einsum("nka,na->nk", lambda_matrix(x[idx]), g[idx])
+            where = {r: k for k, r in enumerate(rows)}
+            out += [moments[where[i], c] for i, c in self._reac_rot]
+        return np.array(out, dtype=float)
+
+    def check_element_range(self, states):
+        """Kind-specific validity checks of a converged state (BEAM: Eq. 7 saturation)."""
+        for g, st in zip(self.num.groups, states):
+            if g.kind.check is None:
+                continue
+            hit = g.kind.check(st, g.ref)
+            if hit is not None:
+                i, message = hit
+                raise SolverError(f"spurious equilibrium: {g.keyword} {int(g.ids[i])} "
+                                  f"{message}")
+
+    def commit(self, x, mu, load: LoadState):
+        """Let the element kinds update their persistent state after a converged step."""
+        ev = self.evaluate(x, mu, load)
+        for g, st in zip(self.num.groups, ev.states):
+            if g.kind.commit is not None:
+                g.kind.commit(st, g.prev)
+        return ev
+
+    def element_results(self, ev: Evaluation) -> tuple[dict, dict]:
+        """The deformations and stress resultants of every element kind at an evaluated
+        state: two dicts keyword -> (n_elem, n_def) (the rigid modes' stress resultants
+        are their multipliers)."""
+        deformation, stress = {}, {}
+        for g, st, sig in zip(self.num.groups, ev.states, ev.sigmas):
+            deformation[g.keyword], stress[g.keyword] = st.e, sig
+        return deformation, stress
+
+    def correct_kinematics(self, x_lin, dx, states, **kw):
+        """The kinematic correction of a Newton update ``dx`` (see
+        :meth:`KinematicCorrector.correct
+        <spacarpy.solvers.kinematic_correction.KinematicCorrector.correct>`)."""
+        return self.corrector.correct(x_lin, dx, states, self.increment_norm(dx), **kw)
+
+    def normalize(self, x):
+        """Project Euler parameters exactly onto q.q = 1 (after convergence)."""
+        x = x.copy()
+        idx = self.num.rot_idx[self.num.euler_nodes]
+        q = x[idx]
+        x[idx] = q / np.linalg.norm(q, axis=1)[:, None]
+        return x
+
+
+__all__ = ["Evaluation", "StaticProblem", "Timings"]

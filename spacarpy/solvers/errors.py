@@ -1,0 +1,20 @@
+"""The failure of one solver step, as the load path and time stepping see it.
+
+:class:`StepFailed` is raised by an iteration (static Newton, a transient step) that did not
+converge; the caller cuts the step and retries, and only when it can cut no further turns it
+into a :class:`~spacarpy.errors.ConvergenceError` for the user.
+"""
+from __future__ import annotations
+
+
+class StepFailed(Exception):
+    """An iteration did not converge: ``reason`` says why, ``history`` holds the scaled
+    residuals of its iterations."""
+
+    def __init__(self, reason: str, history=()):
+        super().__init__(reason)
+        self.reason = reason
+        self.history = list(history)
+
+
+__all__ = ["StepFailed"]

@@ -1,0 +1,93 @@
+"""The loads of a static or transient problem at one point of the load path.
+
+:class:`Loads` holds what the model's load lines give (dead forces and moments split into
+their XF and DELXF parts, gravity, prescribed deformations) and builds from it, for load
+parameters ``(a, s)`` (``a`` on the initial XF load, ``s`` on the DELXF increments), a frozen
+:class:`LoadState`. A LoadState is what the equilibrium evaluation takes as its load: the
+problem object carries no load of its own.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from spacarpy.solvers.nodal import nodal_masses, node_rows
+
+
+@dataclass(frozen=True)
+class LoadState:
+    """The load at load parameters ``(a, s)``.
+
+    Attributes
+    ----------
+    a, s : float
+        The factors on the XF load and on the DELXF increments.
+    force : (n_coord,)
+        Dead nodal forces ``a XF + s DELXF`` in global axes (zero on Euler parameters).
+    moment : (n_m, 3)
+        Dead moments of the loaded orientation nodes (:attr:`Loads.moment_rot`).
+    gravity_factor : float
+        Factor on gravity: applied with the initial load (``a``), then constant.
+    rigid_target : (n_rigid,)
+        Values the rigid-mode constraints hold: zero for ordinary rigid modes, the
+        prescribed deformations (INPUTE/DELINPE) at ``(a, s)``.
+    """
+
+    a: float
+    s: float
+    force: np.ndarray
+    moment: np.ndarray
+    gravity_factor: float
+    rigid_target: np.ndarray
+
+
+class Loads:
+    """Dead loads of the model split into XF and DELXF parts, in global coordinates, plus
+    gravity (nodal point masses and the element masses, :attr:`gravity`) and the prescribed
+    deformations; :meth:`at` gives the :class:`LoadState` at load parameters ``(a, s)``."""
+
+    def __init__(self, model, num):
+        self.num = num
+        pos_row, rot_row = node_rows(model)
+        self.force = {k: np.zeros(num.n_coord) for k in ("XF", "DELXF")}
+        moment = {k: np.zeros((model.orientation_ids.size, 3)) for k in ("XF", "DELXF")}
+        for ld in model.loads:
+            n = int(ld.node)
+            if n in pos_row:
+                self.force[ld.kind][num.pos_idx[pos_row[n]]] += ld.value
+            else:
+                moment[ld.kind][rot_row[n]] += ld.value
+        loaded = np.flatnonzero(np.any(moment["XF"] != 0, axis=1)
+                                | np.any(moment["DELXF"] != 0, axis=1))
+        self.moment_rot = loaded                            # orientation-node indices
+        self.moment = {k: v[loaded] for k, v in moment.items()}
+        self.has_xf = bool(np.any(self.force["XF"]) or np.any(self.moment["XF"]))
+        # gravity belongs to the initial load, reached in phase A
+        self.has_xf = self.has_xf or bool(np.any(model.gravity))
+        self.any = self.has_xf or bool(np.any(self.force["DELXF"]) or np.any(self.moment["DELXF"]))
+        # gravity: the weights of the nodal point masses here, the elements' in their kinds
+        self.gravity = np.asarray(model.gravity, dtype=float)
+        self.has_gravity = bool(np.any(self.gravity))
+        point = nodal_masses(model, num)
+        self.point_weight = np.zeros(num.n_coord)
+        for idx, m in zip(point.point_idx, point.point_mass):
+            self.point_weight[idx] += m * self.gravity
+
+    def at(self, a: float, s: float, gravity_factor: float | None = None) -> LoadState:
+        """The load ``a * XF + s * DELXF`` with gravity times ``gravity_factor`` (default
+        ``a``) and the prescribed deformations at ``(a, s)``."""
+        return LoadState(a=float(a), s=float(s),
+                         force=a * self.force["XF"] + s * self.force["DELXF"],
+                         moment=a * self.moment["XF"] + s * self.moment["DELXF"],
+                         gravity_factor=float(a if gravity_factor is None else gravity_factor),
+                         rigid_target=self.num.rigid_targets(a, s))
+
+    def unloaded(self) -> LoadState:
+        """No load at all: no forces, moments or gravity, rigid modes held at zero."""
+        return LoadState(a=0.0, s=0.0, force=np.zeros(self.num.n_coord),
+                         moment=np.zeros((self.moment_rot.size, 3)), gravity_factor=0.0,
+                         rigid_target=np.zeros(self.num.n_rigid))
+
+
+__all__ = ["LoadState", "Loads"]

@@ -1,0 +1,139 @@
+"""Newton's method on the static equilibrium equations at one load, and the predictor
+that carries a converged state to the next load.
+
+Each Newton iteration solves the bordered system ``[[K_T, C^T], [C, 0]]`` (SuperLU, or the
+tangent-space LDL^T of :mod:`spacarpy.solvers.reduced` where the only constraints are
+Euler normalizations) and then moves the linear update onto the predicted deformations
+(:mod:`spacarpy.solvers.kinematic_correction`). A step is converged when the scaled
+residual and the scaled last increment are both below the tolerance (forces relative to
+the load and internal-force level, moments divided by the model's length scale; positions
+relative to that length, Euler parameters absolute), see docs/solver.md.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from spacarpy.solvers.errors import StepFailed
+from spacarpy.solvers.loads import LoadState
+
+log = logging.getLogger(__name__)
+
+
+def bordered_solve(prob, A, rhs):
+    """Solve the bordered Newton system ``A dz = rhs`` by SuperLU. Returns ``(dz, lu)``, or
+    ``(None, None)`` when A is singular (or the solution not finite)."""
+    try:
+        lu = spla.splu(A, permc_spec="COLAMD")
+        prob.timings.factorizations += 1
+        dz = lu.solve(rhs)
+    except RuntimeError:                  # "Factor is exactly singular"
+        return None, None
+    if not np.all(np.isfinite(dz)):
+        return None, None
+    return dz, lu
+
+
+def newton(prob, x, mu, load: LoadState, opts):
+    """Newton iterations from (x, mu) under ``load`` (``opts``: max_iter, tol; a
+    :class:`~spacarpy.solvers.static.StaticOptions`). Returns (x, mu, its, res, history) on
+    success, raises :class:`~spacarpy.solvers.errors.StepFailed` otherwise."""
+    history = []
+    dx_norm = np.inf
+    states = None
+    for it in range(opts.max_iter + 1):
+        ev = prob.evaluate(x, mu, load, states)
+        r, c = ev.r, ev.c
+        res, floor = prob.residual_norm(r, c, ev.f_int, ev.f_ext)
+        history.append(res)
+        log.debug("iteration %d: residual %.3g (floor %.3g), last increment %.3g",
+                  it, res, floor, dx_norm)
+        if not np.isfinite(res):
+            raise StepFailed("non-finite residual", history)
+        # converged: the last increment below the tolerance and the residual below the
+        # tolerance or at its round-off floor (with very short, stiff elements the force
+        # residual cannot be resolved better, while positions still are)
+        # (an untouched configuration needs the residual itself below the tolerance:
+        # with millions of elements the round-off floor can exceed the load change)
+        if (res <= opts.tol or (it > 0 and res <= floor)) and (
+                it == 0 or dx_norm <= opts.tol):
+            prob.check_element_range(ev.states)
+            return x, mu, it, res, history
+        if it == opts.max_iter:
+            break
+        if it >= 3 and res > 1e3 * history[1] and res > 1e3 * opts.tol:
+            raise StepFailed("diverging", history)
+        prob.timings.iterations += 1
+        step = None
+        if prob.reduced is not None:
+            t0 = time.perf_counter()
+            k_el, euler_diag, _ = prob.element_blocks(ev, mu)
+            prob.timings.kernels += time.perf_counter() - t0
+            step = prob.reduced.step(ev, x, mu, k_el, euler_diag)
+        if step is not None:
+            dx, dmu = step
+        else:
+            A = prob.matrix(ev, mu)
+            t0 = time.perf_counter()
+            rhs = -np.concatenate([r, prob.scale * c])
+            dz, _ = bordered_solve(prob, A, rhs)
+            if dz is None:
+                # a limit point, a bifurcation or a bad iterate
+                raise StepFailed("singular Newton matrix", history)
+            prob.timings.solve += time.perf_counter() - t0
+            dx = dz[: prob.pattern.n_x]
+            dmu = dz[prob.pattern.n_x:] * prob.scale
+        if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
+            raise StepFailed("non-finite increment", history)
+        dx_norm = prob.increment_norm(dx)
+        if dx_norm > 0.5 and prob.num.n_unknown:
+            # an Euler-parameter or position jump of order one per iteration: not a
+            # Newton step any more, cut the load step instead of wandering off
+            if np.abs(dx[prob.rot_mask[prob.free]]).max(initial=0.0) > 0.5:
+                raise StepFailed("increment too large", history)
+        x_lin = x.copy()
+        x_lin[prob.free] += dx
+        states = None
+        if prob.kinematic_correction:
+            x_lin, states = prob.corrector.correct(x_lin, dx, ev.states, dx_norm,
+                                                   return_states=True)
+        x = x_lin
+        mu = mu + dmu
+    raise StepFailed(f"no convergence in {opts.max_iter} iterations", history)
+
+
+class Predictor:
+    """Carries a converged state to a new load: sets the prescribed coordinates to their
+    values there and moves the rest of the model along kinematically (every deformation
+    kept at its current value, prescribed deformations moved to their new targets, Euler
+    normalizations restored), a start for Newton.
+
+    It remembers the rigid-mode targets of the load it last moved to: the prescribed
+    deformations are corrected only where the new load changes them."""
+
+    def __init__(self, prob):
+        self.prob = prob
+        self.rigid_target = np.zeros(prob.num.n_rigid)
+
+    def __call__(self, x, mu, load: LoadState):
+        prob = self.prob
+        num = prob.num
+        idx, target = num.prescribed_state(load.a, load.s)
+        same_e = np.array_equal(load.rigid_target, self.rigid_target)
+        if (not idx.size or np.array_equal(target, x[idx])) and same_e:
+            return x
+        unloaded = dataclasses.replace(load, force=np.zeros(num.n_coord),
+                                       moment=np.zeros((prob.loads.moment_rot.size, 3)))
+        states = prob.evaluate(x, mu, unloaded).states
+        self.rigid_target = load.rigid_target
+        moved = x.copy()
+        moved[idx] = target
+        return prob.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=8,
+                                       rigid_target=None if same_e else load.rigid_target)
+
+
+__all__ = ["Predictor", "bordered_solve", "newton"]
