@@ -78,6 +78,8 @@ class RunSummary:
 def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummary:
     """Run ``model.analysis`` and write ``out`` (crash-safe, see :mod:`spacarpy.results`)."""
     from spacarpy.results import ResultsWriter
+    from spacarpy.results.model_data import model_datasets      # MERGE: results branch
+    from spacarpy.results.stress import SurfaceStress           # MERGE: results branch
 
     opts = options or RunOptions(n_modes=model.n_modes or 10,
                                  modes_per_step=model.modes_each_step)
@@ -117,7 +119,9 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
     n_steps = model.iterstep.n_steps
     summary = RunSummary()
 
-    with ResultsWriter(out, model, program_version=__version__,
+    model_data = model_datasets(model, num)                     # MERGE: results branch
+    surface_stress = SurfaceStress(model_data)                  # MERGE: results branch
+    with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
                        deformations=model.deformations, analysis=model.analysis) as writer:
         writer.begin_static(model.position_ids.size, model.orientation_ids.size,
                             model.beams.n_elem, problem.reaction_node,
@@ -128,11 +132,13 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
 
         def on_step(step):
             k = summary.n_steps
-            writer.static_step(step.load_factor, step.x[num.pos_idx], step.x[num.rot_idx],
-                               step.deformation, step.stress, step.reaction,
-                               step.iterations, step.residual,
-                               group_deformation=step.group_deformation,
-                               group_stress=step.group_stress)
+            writer.static_step(  # MERGE: results branch (dicts keyword -> (n, n_def))
+                load_factor=step.load_factor, position=step.x[num.pos_idx],
+                euler=step.x[num.rot_idx],
+                deformation={"BEAM": step.deformation, **step.group_deformation},
+                stress_resultant={"BEAM": step.stress, **step.group_stress},
+                reaction=step.reaction, iterations=step.iterations, residual=step.residual,
+                **surface_stress(step.stress))
             summary.n_steps += 1
             msg = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
                    f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "
@@ -166,13 +172,14 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
     width = len(str(n_steps))
 
     def on_step(step):
-        writer.transient_step(step.time, step.x[num.pos_idx], step.x[num.rot_idx],
-                              step.v[num.pos_idx], step.v[num.rot_idx], step.deformation,
-                              step.stress, step.kinetic_energy, step.elastic_energy,
-                              step.external_work, step.iterations, step.residual,
-                              group_deformation=step.group_deformation,
-                              group_stress=step.group_stress,
-                              dissipated_energy=step.dissipated_energy)
+        writer.transient_step(  # MERGE: results branch (dicts keyword -> (n, n_def))
+            time=step.time, position=step.x[num.pos_idx], euler=step.x[num.rot_idx],
+            velocity=step.v[num.pos_idx], euler_rate=step.v[num.rot_idx],
+            deformation={"BEAM": step.deformation, **step.group_deformation},
+            stress_resultant={"BEAM": step.stress, **step.group_stress},
+            kinetic_energy=step.kinetic_energy, elastic_energy=step.elastic_energy,
+            external_work=step.external_work, iterations=step.iterations,
+            residual=step.residual, dissipated_energy=step.dissipated_energy)
         k = summary.n_time
         summary.n_time += 1
         if k % max(n_steps // 20, 1) == 0 or k == n_steps:

@@ -16,6 +16,7 @@ import pytest
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.model import BeamSet, Model
+from spacarpy.results.schema import DATASETS
 from spacarpy.results import (
     SCHEMA_VERSION,
     ResultsFormatError,
@@ -53,8 +54,10 @@ def step_data(model: Model, k: int) -> dict:
         load_factor=0.1 * k,
         position=model.position_x0 + 1e-3 * k * np.arange(3 * n_pos).reshape(n_pos, 3),
         euler=euler,
-        deformation=1e-4 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
-        stress_resultant=-10.0 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
+        deformation={"BEAM": 1e-4 * (k + 1) * np.arange(6 * n_elem, dtype=float)
+                     .reshape(n_elem, 6)},
+        stress_resultant={"BEAM": -10.0 * (k + 1) * np.arange(6 * n_elem, dtype=float)
+                          .reshape(n_elem, 6)},
         reaction=np.arange(6, dtype=float) - 2.5 * k,
         iterations=k + 2,
         residual=10.0 ** -(k + 7),
@@ -84,8 +87,13 @@ def assert_steps(static, model, n_steps: int) -> None:
     assert static.n_step == n_steps
     for name in ("load_factor", "position", "euler", "deformation", "stress_resultant",
                  "reaction", "iterations", "residual"):
-        expected = np.array([step_data(model, k)[name] for k in range(n_steps)])
+        expected = np.array([_beam(step_data(model, k)[name]) for k in range(n_steps)])
         np.testing.assert_array_equal(getattr(static, name), expected, err_msg=name)
+
+
+def _beam(value):
+    """The BEAM array of a per-kind dict, other values as they are."""
+    return value["BEAM"] if isinstance(value, dict) else value
 
 
 def sha256(path) -> str:
@@ -131,18 +139,19 @@ def test_layout_follows_schema(tmp_path):
     write_run(out, chain_model())
     with h5py.File(out, "r") as f:
         assert f.attrs["schema_version"].dtype == np.int32
-        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [1, 4]
+        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 0]
         assert f["deck"].shape == ()
         assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
-        info = h5py.check_string_dtype(f["model/element_type"].dtype)
+        info = h5py.check_string_dtype(f["model/elements/BEAM/cross_section_type"].dtype)
         assert info.encoding == "ascii" and info.length == 4
         lf = f["static/load_factor"]
         assert h5py.h5ds.is_scale(lf.id)
-        for name in ("position", "euler", "deformation", "stress_resultant", "reaction",
-                     "iterations", "residual"):
+        for name in ("position", "euler", "elements/BEAM/deformation",
+                     "elements/BEAM/stress_resultant", "reaction", "iterations", "residual"):
             ds = f["static"][name]
             assert ds.maxshape[0] is None and ds.chunks is not None
             assert ds.dims[0].label == "step"
+            assert ds.attrs["units"] == DATASETS["static/" + name].units
             assert h5py.h5ds.is_attached(ds.id, lf.id, 0)
         units = {}
 
@@ -152,10 +161,11 @@ def test_layout_follows_schema(tmp_path):
                 units[name] = obj.attrs["units"]
 
         f.visititems(collect)
-        assert units["static/position"] == "m" and units["static/stress_resultant"] == "N"
+        assert units["static/position"] == "m"
+        assert units["static/elements/BEAM/stress_resultant"] == "N"
         assert units["static/reaction"] == "N | N m (see reaction_component)"
         assert units["model/position_nodes"] == "1"
-        assert len(units) == 17 + 14      # 1.0 datasets + the 1.1 model datasets
+        assert len(units) == 16 + 14      # the 1.0 datasets but element_type + the 1.1 ones
 
 
 def test_overwrites_existing_output_only_when_finished(tmp_path):
@@ -180,7 +190,7 @@ def test_newer_major_version_is_refused(tmp_path):
     with pytest.raises(ResultsFormatError) as info:
         read_results(out)
     message = str(info.value)
-    assert "99.0" in message and "1.4" in message
+    assert "99.0" in message and "2.0" in message
     assert isinstance(info.value, SpacarError) and info.value.exit_code == EXIT_INPUT
     problems = validate_file(out)
     assert len(problems) == 1 and "99" in problems[0]
@@ -189,8 +199,8 @@ def test_newer_major_version_is_refused(tmp_path):
 def test_newer_minor_version_is_read(tmp_path):
     out = tmp_path / "r.h5"
     write_run(out, chain_model())
-    _set_attr(out, "schema_version", np.array([1, 7], dtype=np.int32))
-    assert read_results(out).schema_version == (1, 7)
+    _set_attr(out, "schema_version", np.array([2, 7], dtype=np.int32))
+    assert read_results(out).schema_version == (2, 7)
     assert validate_file(out) == []
 
 
