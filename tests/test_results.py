@@ -16,7 +16,6 @@ import pytest
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.model import BeamSet, Model
-from spacarpy.results.schema import DATASETS
 from spacarpy.results import (
     SCHEMA_VERSION,
     ResultsFormatError,
@@ -24,6 +23,7 @@ from spacarpy.results import (
     read_results,
     validate_file,
 )
+from spacarpy.results.schema import DATASETS
 
 REPO = Path(__file__).resolve().parents[1]
 DECK_TEXT = "# tiny test deck, ünïcödé\nBEAM 1 1 2 3 4\nBEAM 2 3 4 5 6\nEND\n"

@@ -63,8 +63,10 @@ def _copy_committed(res: ResultsFile, target: Path) -> None:
     """Copy what the XDMF file references, committed steps only, into ``target``."""
     with res._file() as src, h5py.File(target, "w", libver=("v110", "v110")) as dst:
         n_step = src["static/load_factor"].shape[0] if "static" in src else 0
-        for name in ("model/position_x0", "model/elements/BEAM/position_rows", "static/load_factor",
-                     "static/position", "static/elements/BEAM/stress_resultant", "static/elements/BEAM/max_normal_stress",
+        for name in ("model/position_x0", "model/elements/BEAM/position_rows",
+                     "static/load_factor", "static/position",
+                     "static/elements/BEAM/stress_resultant",
+                     "static/elements/BEAM/max_normal_stress",
                      "static/elements/BEAM/max_von_mises_stress"):
             if res._has(name):
                 real = res._name(name)
@@ -129,7 +131,8 @@ def write_xdmf(path, out=None) -> Path:
 
 def _referenced(f: h5py.File, res: ResultsFile) -> list[str]:
     names = ["model/position_x0", "static/position", "static/elements/BEAM/stress_resultant"]
-    names += [n for n in ("model/elements/BEAM/position_rows", "static/elements/BEAM/max_normal_stress",
+    names += [n for n in ("model/elements/BEAM/position_rows",
+                          "static/elements/BEAM/max_normal_stress",
                           "static/elements/BEAM/max_von_mises_stress", "eigen/shape_position",
                           "buckling/shape_position") if res._name(n) in f]
     return names

@@ -1,9 +1,11 @@
-"""Lazy, typed access to a results file: :func:`open_results`.
+"""Reading a results file (schema 1.x or 2.x): lazy open_results, eager read_results.
 
-This module's one job is reading results conveniently: :func:`open_results` checks the file
-once (file type, schema version, layout: the same checks as :func:`~spacarpy.results.read_results`)
-and returns a :class:`ResultsFile` whose groups are views that read only what is asked for, by
-deck node and element numbers::
+This module's one job is reading results: :func:`open_results` checks the file once (file
+type, schema version, layout: :func:`spacarpy.results.validate.check_readable`) and returns a
+:class:`ResultsFile` whose groups are views that read only what is asked for, by deck node and
+element numbers; :func:`read_results` loads everything into arrays. Both address datasets by
+their 2.0 names and read 1.x files through
+:data:`spacarpy.results.schema.LEGACY_NAMES`::
 
     res = spacarpy.open_results("bend.h5")
     res.static.position(node=3)              # (n_step, 3): node 3 at every load step
@@ -12,12 +14,17 @@ deck node and element numbers::
     res.eigen.frequency                      # (n_lin, n_mode) Hz
     res.eigen.shape(mode=1).position         # (n_pos, 3) at the last linearized step
     res.buckling.critical_load_multiplier    # (n_lin,)
+    res.transient.position(node=3)           # (n_t, 3): node 3 at every time step
 
 Nothing but the root attributes is kept in memory: every access opens the file (SWMR-read for
 a file whose writer was killed or is still running) and slices the dataset. Inside
 ``with open_results(path) as res:`` one file handle is kept open instead. Steps are the rows of
 ``/static`` (0 = the initial state, as ITERSTEP counts them; negative numbers count from the
 end); only committed steps are visible. Modes are numbered from 1.
+
+The module is longer than 600 lines because it holds one view class per group (model,
+static, transient, linearized) plus the eager reader, which share the name mapping, the
+selectors and the root attributes; splitting them would scatter one interface over modules.
 """
 from __future__ import annotations
 
@@ -32,9 +39,9 @@ import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.results.h5file import (
-    ResultsFormatError, SchemaFile, open_for_reading, schema_major, str_list)
+    SchemaFile, open_for_reading, schema_major, str_list)
 from spacarpy.results.schema import (
-    DATASETS, KIND_NAMES, MODE_KIND_NAMES, SCHEMA_VERSION, legacy_name, new_name)
+    DATASETS, KIND_NAMES, MODE_KIND_NAMES, legacy_name, new_name)
 from spacarpy.results.validate import check_readable
 from spacarpy.results.stress import section_forces, section_properties, surface_stress
 

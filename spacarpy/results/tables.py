@@ -9,6 +9,9 @@ Extracted tables are *long*: one row per (step, entity), with the index columns 
 them, so that ``--node`` and ``--step`` only filter rows and the columns never change. Time
 histories of ``/transient`` (``energy``, ``time_*``) have ``time`` as their first column,
 then ``step`` and the entity.
+
+Longer than 600 lines: one small extractor per quantity of :data:`QUANTITIES` and the summary
+of every group, all rendered through :class:`Table`.
 """
 from __future__ import annotations
 
