@@ -245,7 +245,7 @@ def _results_commands(sub) -> None:
                                          "scripts and spreadsheets",
                          formatter_class=argparse.RawDescriptionHelpFormatter,
                          epilog="quantities:\n" + "\n".join(
-                             f"  {k:<17} {v}" for k, v in QUANTITIES.items()))
+                             f"  {k:<21} {v}" for k, v in QUANTITIES.items()))
     ext.add_argument("file", type=Path, help="result file (.h5)")
     ext.add_argument("what", choices=list(QUANTITIES), metavar="WHAT",
                      help="quantity to extract (listed below)")
@@ -271,6 +271,8 @@ def _results_commands(sub) -> None:
                       help="shape: draw every step, not only --step (default: the last)")
     plot.add_argument("--quantity", default="displacement",
                       help="history: the quantity (default: displacement)")
+    plot.add_argument("--time", type=float, default=None, metavar="T",
+                      help="shape: draw the stored time step of /transient nearest to T (s)")
     plot.add_argument("--scale", type=float, default=None,
                       help="shape: displacement magnification (default 1); mode: amplitude "
                            "of the mode shape (default: 15%% of the model size)")
@@ -514,7 +516,7 @@ def cmd_plot(args) -> int:
     with open_results(args.file) as res:
         fig = make_figure(res, args.kind, node=args.node, element=args.element, step=step,
                           mode=args.mode, quantity=args.quantity, scale=args.scale,
-                          view=args.view)
+                          view=args.view, time=args.time)
         save(fig, out)
     print(out)
     return EXIT_OK

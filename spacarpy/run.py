@@ -78,6 +78,8 @@ class RunSummary:
 def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummary:
     """Run ``model.analysis`` and write ``out`` (crash-safe, see :mod:`spacarpy.results`)."""
     from spacarpy.results import ResultsWriter
+    from spacarpy.results.model_data import model_datasets
+    from spacarpy.results.stress import SurfaceStress
 
     opts = options or RunOptions(n_modes=model.n_modes or 10,
                                  modes_per_step=model.modes_each_step)
@@ -114,23 +116,25 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
     n_steps = model.iterstep.n_steps
     summary = RunSummary()
 
-    with ResultsWriter(out, model, program_version=__version__,
+    model_data = model_datasets(model, num)
+    surface_stress = SurfaceStress(model_data)
+    with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
                        deformations=model.deformations, analysis=model.analysis) as writer:
         writer.begin_static(model.position_ids.size, model.orientation_ids.size,
-                            (model.elements["BEAM"].n_elem if "BEAM" in model.elements
-                             else 0), problem.reaction_node,
-                            problem.reaction_component,
+                            problem.reaction_node, problem.reaction_component,
                             n_eigen_modes=opts.n_modes if want_eigen else 0,
                             n_buckling_modes=opts.n_modes if want_buckling else 0,
                             compliance_node=opts.compliance_node, transient=transient)
 
         def on_step(step):
             k = summary.n_steps
-            _writer_step(writer.static_step, load_factor=step.load_factor,
-                         position=step.x[num.pos_idx], euler=step.x[num.rot_idx],
-                         deformation=step.deformation, stress_resultant=step.stress,
-                         reaction=step.reaction, iterations=step.iterations,
-                         residual=step.residual)
+            writer.static_step(
+                load_factor=step.load_factor, position=step.x[num.pos_idx],
+                euler=step.x[num.rot_idx],
+                deformation=step.deformation,
+                stress_resultant=step.stress,
+                reaction=step.reaction, iterations=step.iterations, residual=step.residual,
+                **surface_stress(step.stress.get("BEAM")))
             summary.n_steps += 1
             msg = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
                    f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "
@@ -164,13 +168,14 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
     width = len(str(n_steps))
 
     def on_step(step):
-        _writer_step(writer.transient_step, time=step.time, position=step.x[num.pos_idx],
-                     euler=step.x[num.rot_idx], velocity=step.v[num.pos_idx],
-                     euler_rate=step.v[num.rot_idx], deformation=step.deformation,
-                     stress_resultant=step.stress, kinetic_energy=step.kinetic_energy,
-                     elastic_energy=step.elastic_energy, external_work=step.external_work,
-                     iterations=step.iterations, residual=step.residual,
-                     dissipated_energy=step.dissipated_energy)
+        writer.transient_step(
+            time=step.time, position=step.x[num.pos_idx], euler=step.x[num.rot_idx],
+            velocity=step.v[num.pos_idx], euler_rate=step.v[num.rot_idx],
+            deformation=step.deformation,
+            stress_resultant=step.stress,
+            kinetic_energy=step.kinetic_energy, elastic_energy=step.elastic_energy,
+            external_work=step.external_work, iterations=step.iterations,
+            residual=step.residual, dissipated_energy=step.dissipated_energy)
         k = summary.n_time
         summary.n_time += 1
         if k % max(n_steps // 20, 1) == 0 or k == n_steps:
@@ -218,15 +223,3 @@ def _node_shapes(num, free, shapes):
     full = np.zeros((shapes.shape[1], num.n_coord))
     full[:, free] = shapes.T
     return full[:, num.pos_idx], full[:, num.rot_idx]
-
-
-# MERGE: results writer 2.0 takes the dicts directly
-def _writer_step(append, *, deformation: dict, stress_resultant: dict, **fields):
-    """Call the results writer's ``static_step`` / ``transient_step`` (``append``) with the
-    element results as dicts keyword -> (n_elem, n_def), converted to the 1.x writer's
-    arguments (BEAM as ``deformation`` / ``stress_resultant``, the other kinds as
-    ``group_deformation`` / ``group_stress``)."""
-    empty = np.zeros((0, 6))
-    append(deformation=deformation.get("BEAM", empty),
-           stress_resultant=stress_resultant.get("BEAM", empty),
-           group_deformation=deformation, group_stress=stress_resultant, **fields)

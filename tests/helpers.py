@@ -104,8 +104,10 @@ def step_data(model: Model, k: int) -> dict:
         load_factor=0.1 * k,
         position=model.position_x0 + 1e-3 * k * np.arange(3 * n_pos).reshape(n_pos, 3),
         euler=euler,
-        deformation=1e-4 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
-        stress_resultant=-10.0 * (k + 1) * np.arange(6 * n_elem, dtype=float).reshape(n_elem, 6),
+        deformation={"BEAM": 1e-4 * (k + 1) * np.arange(6 * n_elem, dtype=float)
+                     .reshape(n_elem, 6)},
+        stress_resultant={"BEAM": -10.0 * (k + 1) * np.arange(6 * n_elem, dtype=float)
+                          .reshape(n_elem, 6)},
         reaction=np.arange(6, dtype=float) - 2.5 * k,
         iterations=k + 2,
         residual=10.0 ** -(k + 7),
@@ -114,7 +116,6 @@ def step_data(model: Model, k: int) -> dict:
 
 def begin(w: ResultsWriter, model: Model) -> None:
     w.begin_static(model.position_ids.size, model.orientation_ids.size,
-                   model.elements["BEAM"].n_elem,
                    reaction_node=[1, 1, 1, 2, 2, 2], reaction_component=REACTION_COMPONENT)
 
 

@@ -34,12 +34,12 @@ def test_run_writes_the_documented_static_contract(tmp_path, capsys):
         assert f.attrs["program_version"] and f.attrs["deck_path"]
         assert list(f["model/position_nodes"][:]) == list(range(1, 18, 2))
         assert list(f["model/orientation_nodes"][:]) == list(range(2, 19, 2))
-        assert list(f["model/elements"][:]) == list(range(1, 9))
+        assert list(f["model/elements/BEAM/ids"][:]) == list(range(1, 9))
         np.testing.assert_allclose(f["static/load_factor"][:], np.linspace(0, 1, 11))
         assert f["static/position"].shape == (11, 9, 3)
         assert f["static/euler"].shape == (11, 9, 4)
-        assert f["static/deformation"].shape == (11, 8, 6)
-        assert f["static/stress_resultant"].shape == (11, 8, 6)
+        assert f["static/elements/BEAM/deformation"].shape == (11, 8, 6)
+        assert f["static/elements/BEAM/stress_resultant"].shape == (11, 8, 6)
         tip = f["static/position"][-1, -1]
         assert round(2.0 - tip[0], 6) == 0.512121 and round(tip[1], 6) == 1.211296
         comps = [c.decode() for c in f["static/reaction_component"][:]]

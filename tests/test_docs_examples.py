@@ -162,6 +162,8 @@ DOC_RESULTS = {
                 ["--modes-per-step", "--compliance", "3", "4"]),
     "cantilever.h5": ("table1_cantilever_8el_modified.dat", [], "", []),
 }
+#: Result files the examples name that the shared ``result_files`` fixture (conftest.py) makes.
+SHARED_RESULTS = {"frame.h5": "frame", "column.h5": "column", "pendulum.h5": "transient"}
 SLOW_FILES = {"column_sweep.h5"}
 
 
@@ -187,6 +189,8 @@ def doc_result_file(tmp_path_factory, request):
     def get(name: str) -> Path:
         if name == "column_sweep.h5":
             return request.getfixturevalue("column_sweep")
+        if name in SHARED_RESULTS:
+            return request.getfixturevalue("result_files")[SHARED_RESULTS[name]]
         if name not in made:
             assert name in DOC_RESULTS, f"no run makes {name}: add it to DOC_RESULTS"
             deck, edits, appendix, extra = DOC_RESULTS[name]

@@ -19,6 +19,7 @@ from spacarpy.results import (
     read_results,
     validate_file,
 )
+from spacarpy.results.schema import DATASETS
 
 from helpers import (
     DECK_TEXT,
@@ -44,8 +45,13 @@ def assert_steps(static, model, n_steps: int) -> None:
     assert static.n_step == n_steps
     for name in ("load_factor", "position", "euler", "deformation", "stress_resultant",
                  "reaction", "iterations", "residual"):
-        expected = np.array([step_data(model, k)[name] for k in range(n_steps)])
+        expected = np.array([_beam(step_data(model, k)[name]) for k in range(n_steps)])
         np.testing.assert_array_equal(getattr(static, name), expected, err_msg=name)
+
+
+def _beam(value):
+    """The BEAM array of a per-kind dict, other values as they are."""
+    return value["BEAM"] if isinstance(value, dict) else value
 
 
 def sha256(path) -> str:
@@ -91,18 +97,19 @@ def test_layout_follows_schema(tmp_path):
     write_run(out, chain_model())
     with h5py.File(out, "r") as f:
         assert f.attrs["schema_version"].dtype == np.int32
-        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [1, 4]
+        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 0]
         assert f["deck"].shape == ()
         assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
-        info = h5py.check_string_dtype(f["model/element_type"].dtype)
+        info = h5py.check_string_dtype(f["model/elements/BEAM/cross_section_type"].dtype)
         assert info.encoding == "ascii" and info.length == 4
         lf = f["static/load_factor"]
         assert h5py.h5ds.is_scale(lf.id)
-        for name in ("position", "euler", "deformation", "stress_resultant", "reaction",
-                     "iterations", "residual"):
+        for name in ("position", "euler", "elements/BEAM/deformation",
+                     "elements/BEAM/stress_resultant", "reaction", "iterations", "residual"):
             ds = f["static"][name]
             assert ds.maxshape[0] is None and ds.chunks is not None
             assert ds.dims[0].label == "step"
+            assert ds.attrs["units"] == DATASETS["static/" + name].units
             assert h5py.h5ds.is_attached(ds.id, lf.id, 0)
         units = {}
 
@@ -112,10 +119,11 @@ def test_layout_follows_schema(tmp_path):
                 units[name] = obj.attrs["units"]
 
         f.visititems(collect)
-        assert units["static/position"] == "m" and units["static/stress_resultant"] == "N"
+        assert units["static/position"] == "m"
+        assert units["static/elements/BEAM/stress_resultant"] == "N"
         assert units["static/reaction"] == "N | N m (see reaction_component)"
         assert units["model/position_nodes"] == "1"
-        assert len(units) == 17 + 14      # 1.0 datasets + the 1.1 model datasets
+        assert len(units) == 16 + 14      # the 1.0 datasets but element_type + the 1.1 ones
 
 
 def test_overwrites_existing_output_only_when_finished(tmp_path):
@@ -140,7 +148,7 @@ def test_newer_major_version_is_refused(tmp_path):
     with pytest.raises(ResultsFormatError) as info:
         read_results(out)
     message = str(info.value)
-    assert "99.0" in message and "1.4" in message
+    assert "99.0" in message and "2.0" in message
     assert isinstance(info.value, SpacarError) and info.value.exit_code == EXIT_INPUT
     problems = validate_file(out)
     assert len(problems) == 1 and "99" in problems[0]
@@ -149,8 +157,8 @@ def test_newer_major_version_is_refused(tmp_path):
 def test_newer_minor_version_is_read(tmp_path):
     out = tmp_path / "r.h5"
     write_run(out, chain_model())
-    _set_attr(out, "schema_version", np.array([1, 7], dtype=np.int32))
-    assert read_results(out).schema_version == (1, 7)
+    _set_attr(out, "schema_version", np.array([2, 7], dtype=np.int32))
+    assert read_results(out).schema_version == (2, 7)
     assert validate_file(out) == []
 
 
@@ -251,9 +259,9 @@ def test_bad_step_is_rejected_before_touching_the_file(tmp_path):
 
 def test_counts_must_match_model(tmp_path):
     model = chain_model()
-    with pytest.raises(ValueError, match="n_elem"):
+    with pytest.raises(ValueError, match="n_orientation_node"):
         with writer(tmp_path / "r.h5", model) as w:
-            w.begin_static(3, 3, 5, [], [])
+            w.begin_static(3, 5, [], [])
     assert w._file is None
 
 
@@ -261,7 +269,7 @@ def test_no_reactions_and_no_steps(tmp_path):
     model = chain_model()
     out = tmp_path / "r.h5"
     with writer(out, model) as w:
-        w.begin_static(3, 3, 2, [], [])
+        w.begin_static(3, 3, [], [])
         w.finish()
     assert validate_file(out) == []
     res = read_results(out)
@@ -276,7 +284,7 @@ def test_linearized_groups_round_trip(tmp_path):
     shapes = [(rng.standard_normal((2, 3, 3)), rng.standard_normal((2, 3, 4))) for _ in range(2)]
     with ResultsWriter(out, model, program_version="0.1.0", deformations="basic",
                        analysis="eigen") as w:
-        w.begin_static(3, 3, 2, [1], ["Fx"], n_eigen_modes=2, n_buckling_modes=2,
+        w.begin_static(3, 3, [1], ["Fx"], n_eigen_modes=2, n_buckling_modes=2,
                        compliance_node=(5, 6))
         for k in range(2):
             w.static_step(**{**step_data(model, k), "reaction": [1.0]})

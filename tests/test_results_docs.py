@@ -1,9 +1,12 @@
-"""docs/results.md documents exactly the datasets the writer produces.
+"""docs/results.md documents exactly the schema table, and the files hold exactly its datasets.
 
-Every dataset path of every representative file the test suite writes (static, static with
-cross-sections, linearized groups with compliance, a failed run, a killed run) must be in a
-table row of docs/results.md, and every documented path must occur in one of those files and in
-the writer's table of units.
+The dataset tables of docs/results.md are the rows :func:`schema_rows` renders from
+:data:`spacarpy.results.schema.DATASETS` (path, dtype, shape, units, meaning): every row must
+be there as rendered, and no other dataset row. Every dataset path of every representative file
+the test suite writes (static, static with cross-sections, linearized groups with compliance,
+transient runs of every element kind, a failed run, a killed run) must be in the table, and
+every dataset of the table must occur in one of those files. Run this module as a script to
+print the rendered rows.
 """
 from __future__ import annotations
 
@@ -13,21 +16,58 @@ from pathlib import Path
 
 import h5py
 
-from spacarpy.results.hdf5 import DATASET_ATTRS
+from spacarpy.results.schema import DATASETS, n_def, n_slots
 
 from helpers import run_and_kill
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "results.md"
 
+_DTYPES = {"f8": "float64", "i8": "int64", "i4": "int32", "i1": "int8", "?": "bool",
+           "ascii": "fixed-length ASCII string", "utf-8": "variable-length UTF-8 string"}
+_SYMBOLS = {"step": "n_step", "time_step": "n_t", "linearized_step": "n_lin",
+            "mode": "n_mode", "position_node": "n_pos", "orientation_node": "n_rot",
+            "reaction": "n_reac", "coordinate": "3", "euler_parameter": "4",
+            "global_coordinate": "n_coord", "load": "n_load", "input": "n_input"}
 
-def documented_paths() -> set:
-    """Dataset paths in the first column of the schema tables: ``| `/group/name` | ...``."""
-    paths = set()
-    for line in DOC.read_text(encoding="utf-8").splitlines():
-        m = re.match(r"\|\s*`(/[a-z0-9_/]+)`\s*\|", line)
+
+def _shape(spec) -> str:
+    dims = []
+    for d in spec.shape:
+        if isinstance(d, int):
+            dims.append(str(d))
+        elif d == "element":
+            dims.append("n_elem" if spec.kind == "BEAM" else f"n_{spec.kind.lower()}")
+        elif d == "deformation_mode":
+            dims.append(str(n_def(spec.kind)))
+        elif d == "slot":
+            dims.append(str(n_slots(spec.kind)))
+        else:
+            dims.append(_SYMBOLS[d])
+    return "`()` (scalar)" if not dims else f"`({', '.join(dims)}{',' * (len(dims) == 1)})`"
+
+
+def schema_rows() -> list[tuple[str, str]]:
+    """(path, markdown row) of every dataset of the schema, in table order."""
+    out = []
+    for path, spec in DATASETS.items():
+        units = spec.units.replace("|", "\\|")
+        since = f" (since {spec.since[0]}.{spec.since[1]})" if spec.since > (1, 0) else ""
+        out.append((f"/{path}", f"| `/{path}` | {_DTYPES[spec.dtype]} | {_shape(spec)} | "
+                                f"`{units}` | {spec.long_name}{since} |"))
+    return out
+
+
+def documented_rows() -> dict:
+    """Rows of the dataset tables, by path: ``| `/group/name` | ...`` lines of the section
+    ``## Datasets``."""
+    text = DOC.read_text(encoding="utf-8")
+    section = text[text.index("\n## Datasets"):text.index("\n## How a file is written")]
+    rows = {}
+    for line in section.splitlines():
+        m = re.match(r"\|\s*`(/[A-Za-z0-9_/]+)`\s*\|", line)
         if m:
-            paths.add(m.group(1))
-    return paths
+            rows[m.group(1)] = line
+    return rows
 
 
 def written_paths(path) -> set:
@@ -38,21 +78,24 @@ def written_paths(path) -> set:
     return out
 
 
-def test_documented_paths_equal_written_paths(tmp_path, result_files):
+def test_documented_rows_are_the_schema_table():
+    documented = documented_rows()
+    rendered = dict(schema_rows())
+    assert set(documented) == set(rendered)
+    for path, row in rendered.items():
+        assert documented[path] == row, path
+
+
+def test_written_paths_are_the_schema_table(tmp_path, result_files):
     files = dict(result_files)
     if hasattr(signal, "SIGKILL"):
         run_and_kill(tmp_path, n_elem=2, pause=0.02)
         files["killed"] = tmp_path / "killed.partial.h5"
     written = set().union(*(written_paths(p) for p in files.values()))
-    documented = documented_paths()
-    assert written - documented == set(), "written but not documented"
-    assert documented - written == set(), "documented but written by no test file"
-    assert documented == {"/" + k for k in DATASET_ATTRS}
+    table = {"/" + p for p in DATASETS}
+    assert written - table == set(), "written but not in the schema"
+    assert table - written == set(), "in the schema but written by no test file"
 
 
-def test_documented_units_match_the_writer():
-    text = DOC.read_text(encoding="utf-8")
-    for name, (units, _) in DATASET_ATTRS.items():
-        row = next(line for line in text.splitlines() if line.startswith(f"| `/{name}`"))
-        cells = [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", row)[1:-1]]
-        assert f"`{units}`" in cells or (units.startswith("m/N") and "same" in cells), name
+if __name__ == "__main__":
+    print("\n".join(row for _, row in schema_rows()))

@@ -7,6 +7,7 @@ CLI, export, plot and documentation tests use the same files.
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -21,6 +22,8 @@ from spacarpy.results import (
     read_results,
     validate_file,
 )
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +40,7 @@ def test_every_written_file_is_valid(files):
 def test_open_results_is_exported_at_the_top(files):
     assert spacarpy.open_results is open_results
     res = spacarpy.open_results(files["bend"])
-    assert res.completed and res.analysis == "static" and res.schema_version == (1, 4)
+    assert res.completed and res.analysis == "static" and res.schema_version == (2, 0)
     assert "static analysis, completed" in repr(res)
 
 
@@ -142,16 +145,16 @@ def test_newer_major_version_is_refused_with_both_versions(files, tmp_path):
     path = tmp_path / "future.h5"
     shutil.copy(files["bend"], path)
     with h5py.File(path, "r+") as f:
-        f.attrs["schema_version"] = np.array([2, 0], dtype=np.int32)
-    with pytest.raises(ResultsFormatError, match=r"schema version 2\.0 is newer than schema "
-                                                 r"version 1\.4"):
+        f.attrs["schema_version"] = np.array([3, 0], dtype=np.int32)
+    with pytest.raises(ResultsFormatError, match=r"schema version 3\.0 is newer than schema "
+                                                 r"version 2\.0"):
         open_results(path)
 
 
 def test_schema_1_0_file_is_still_read(files, tmp_path):
     """A 1.0 file lacks the 1.1 model datasets: lengths and connectivity are derived."""
     path = tmp_path / "old.h5"
-    shutil.copy(files["bend"], path)
+    shutil.copy(DECKS / "baseline" / "table2_bend_8el_modified.h5", path)     # schema 1.x
     with h5py.File(path, "r+") as f:
         f.attrs["schema_version"] = np.array([1, 0], dtype=np.int32)
         for name in list(f["model"]):

@@ -378,7 +378,7 @@ def test_edamp_on_a_hinge_damps_the_pendulum_spring(tmp_path):
     assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
     with h5py.File(out) as f:
         t = f["transient/time"][()]
-        angle = f["transient/hinge_deformation"][:, 0, 0]
+        angle = f["transient/elements/HINGE/deformation"][:, 0, 0]
     pk = peaks(t, angle)
     rate = -np.polyfit(pk[:, 0], np.log(pk[:, 1]), 1)[0]
     assert rate == pytest.approx(c / (2 * inertia), rel=0.01)
@@ -403,7 +403,7 @@ def test_adaptive_time_steps_meet_the_error_tolerance(tmp_path):
         out = tmp_path / f"p{tol:g}.h5"
         assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
         with h5py.File(out) as f:
-            angle = f["transient/hinge_deformation"][:, 0, 0]
+            angle = f["transient/elements/HINGE/deformation"][:, 0, 0]
             steps = int(f["transient/time"].shape[0])
         results.append((abs(angle[-1]), abs(angle[2] + np.pi)))
         assert steps == 5

@@ -57,13 +57,22 @@ class DatasetDiff:
 
 
 def _numeric_datasets(f) -> dict:
+    """Numeric datasets by their schema-2.0 path (a 1.x file's names mapped through
+    :data:`spacarpy.results.schema.LEGACY_NAMES`, so a 2.0 result compares with a 1.x
+    baseline)."""
     import h5py
 
+    from spacarpy.results.h5file import schema_major
+    from spacarpy.results.schema import new_name
+
+    legacy = schema_major(f) < 2
     out = {}
 
     def visit(name, obj):
         if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "biuf":
-            out["/" + name] = obj
+            path = new_name("/" + name) if legacy else "/" + name
+            if path is not None:
+                out[path] = obj
     f.visititems(visit)
     return out
 

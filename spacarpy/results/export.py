@@ -9,7 +9,7 @@ reads the HDF5 datasets directly. The layout follows meshio's XDMF time series:
 - one ``Grid CollectionType="Temporal"`` named ``static`` with one uniform grid per committed
   load step, its ``Time`` the load factor (the step number if the load factors do not
   increase strictly);
-- beams as ``Polyline`` cells with 2 nodes (p, q) from ``/model/element_position_rows``;
+- beams as ``Polyline`` cells with 2 nodes (p, q) from ``/model/elements/BEAM/position_rows``;
 - node coordinates = the positions of the step (``HyperSlab`` of ``/static/position``);
 - node attributes ``displacement`` (vector: position minus ``/model/position_x0``, an XDMF
   ``Function``), and at linearized steps ``eigenmode_<j>`` / ``buckling_mode_<j>`` (vectors);
@@ -63,14 +63,17 @@ def _copy_committed(res: ResultsFile, target: Path) -> None:
     """Copy what the XDMF file references, committed steps only, into ``target``."""
     with res._file() as src, h5py.File(target, "w", libver=("v110", "v110")) as dst:
         n_step = src["static/load_factor"].shape[0] if "static" in src else 0
-        for name in ("model/position_x0", "model/element_position_rows", "static/load_factor",
-                     "static/position", "static/stress_resultant", "static/max_normal_stress",
-                     "static/max_von_mises_stress"):
-            if name in src:
-                data = src[name][()] if name.startswith("model") else src[name][:n_step]
-                dst.create_dataset(name, data=data)
-        if "model/element_position_rows" not in src:
-            dst.create_dataset("model/element_position_rows",
+        for name in ("model/position_x0", "model/elements/BEAM/position_rows",
+                     "static/load_factor", "static/position",
+                     "static/elements/BEAM/stress_resultant",
+                     "static/elements/BEAM/max_normal_stress",
+                     "static/elements/BEAM/max_von_mises_stress"):
+            if res._has(name):
+                real = res._name(name)
+                data = src[real][()] if name.startswith("model") else src[real][:n_step]
+                dst.create_dataset(real, data=data)
+        if not res._has("model/elements/BEAM/position_rows"):
+            dst.create_dataset(res._name("model/elements/BEAM/position_rows"),
                                data=res.model.element_position_rows)
         for group in ("eigen", "buckling"):
             if group in src:
@@ -107,13 +110,17 @@ def write_xdmf(path, out=None) -> Path:
         _copy_committed(res, data_file)
         log.warning("%s is marked as open for SWMR writing (its writer was killed); the "
                     "committed steps were copied to %s for ParaView", path, data_file)
-    href = os.path.relpath(data_file.resolve(), out.resolve().parent)
+    relative = os.path.relpath(data_file.resolve(), out.resolve().parent)
+
+    def href(name):     # a dataset by its 2.0 name, at its name in the file
+        return f"{relative}:/{res._name(name)}"
+
     if data_file == path:
         with res._file() as f:
-            shapes = {name: f[name].shape for name in _referenced(f)}
+            shapes = {name: f[res._name(name)].shape for name in _referenced(f, res)}
     else:
         with h5py.File(data_file, "r") as f:
-            shapes = {name: f[name].shape for name in _referenced(f)}
+            shapes = {name: f[res._name(name)].shape for name in _referenced(f, res)}
     tree = _xdmf_tree(res, href, shapes)
     ET.indent(tree, space="  ")
     tmp = out.with_name(out.name + ".tmp")
@@ -122,18 +129,19 @@ def write_xdmf(path, out=None) -> Path:
     return out
 
 
-def _referenced(f: h5py.File) -> list[str]:
-    names = ["model/position_x0", "static/position", "static/stress_resultant"]
-    names += [n for n in ("model/element_position_rows", "static/max_normal_stress",
-                          "static/max_von_mises_stress", "eigen/shape_position",
-                          "buckling/shape_position") if n in f]
+def _referenced(f: h5py.File, res: ResultsFile) -> list[str]:
+    names = ["model/position_x0", "static/position", "static/elements/BEAM/stress_resultant"]
+    names += [n for n in ("model/elements/BEAM/position_rows",
+                          "static/elements/BEAM/max_normal_stress",
+                          "static/elements/BEAM/max_von_mises_stress", "eigen/shape_position",
+                          "buckling/shape_position") if res._name(n) in f]
     return names
 
 
-def _hdf(parent, href: str, name: str, shape, number_type="Float", precision=8):
+def _hdf(parent, href, name: str, shape, number_type="Float", precision=8):
     item = ET.SubElement(parent, "DataItem", Dimensions=_dims(shape), NumberType=number_type,
                          Precision=str(precision), Format="HDF")
-    item.text = f"{href}:/{name}"
+    item.text = href(name)
     return item
 
 
@@ -141,7 +149,7 @@ def _dims(shape) -> str:
     return " ".join(str(int(n)) for n in shape)
 
 
-def _slab(parent, href: str, name: str, full_shape, start, count, dims=None):
+def _slab(parent, href, name: str, full_shape, start, count, dims=None):
     """A HyperSlab of ``name``: ``count`` values from ``start``, reshaped to ``dims``.
 
     The slab opens with a comment naming the selection: VTK's XDMF 2 reader keys its geometry
@@ -159,7 +167,7 @@ def _slab(parent, href: str, name: str, full_shape, start, count, dims=None):
     return item
 
 
-def _xdmf_tree(res: ResultsFile, href: str, shapes: dict) -> ET.ElementTree:
+def _xdmf_tree(res: ResultsFile, href, shapes: dict) -> ET.ElementTree:
     s, m = res.static, res.model
     n_pos, n_elem, n_step = m.n_pos, m.n_elem, s.n_step
     lf = s.load_factor
@@ -174,14 +182,14 @@ def _xdmf_tree(res: ResultsFile, href: str, shapes: dict) -> ET.ElementTree:
         if view is not None and f"{group}/shape_position" in shapes:
             modes[group] = {int(k): r for r, k in enumerate(view.step)}
     pos_shape = shapes["static/position"]
-    sig_shape = shapes["static/stress_resultant"]
+    sig_shape = shapes["static/elements/BEAM/stress_resultant"]
     for k in range(n_step):
         grid = ET.SubElement(series, "Grid", Name=f"step {k}", GridType="Uniform")
         ET.SubElement(grid, "Time", Value=repr(float(times[k])))
         topo = ET.SubElement(grid, "Topology", TopologyType="Polyline", NodesPerElement="2",
                              NumberOfElements=str(n_elem))
-        if "model/element_position_rows" in shapes:
-            _hdf(topo, href, "model/element_position_rows", (n_elem, 2), "Int", 8)
+        if "model/elements/BEAM/position_rows" in shapes:
+            _hdf(topo, href, "model/elements/BEAM/position_rows", (n_elem, 2), "Int", 8)
         else:       # schema 1.0 file: the connectivity inline
             item = ET.SubElement(topo, "DataItem", Dimensions=f"{n_elem} 2", NumberType="Int",
                                  Format="XML")
@@ -198,13 +206,14 @@ def _xdmf_tree(res: ResultsFile, href: str, shapes: dict) -> ET.ElementTree:
                                   "sigma6")):
             att = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar",
                                 Center="Cell")
-            _slab(att, href, "static/stress_resultant", sig_shape, (k, 0, j),
+            _slab(att, href, "static/elements/BEAM/stress_resultant", sig_shape, (k, 0, j),
                   (1, n_elem, 1), (n_elem,))
         for name in ("max_normal_stress", "max_von_mises_stress"):
-            if f"static/{name}" in shapes:
+            if f"static/elements/BEAM/{name}" in shapes:
                 att = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar",
                                     Center="Cell")
-                _slab(att, href, f"static/{name}", shapes[f"static/{name}"], (k, 0),
+                path = f"static/elements/BEAM/{name}"
+                _slab(att, href, path, shapes[path], (k, 0),
                       (1, n_elem), (n_elem,))
         for group, rows in modes.items():
             if k not in rows:

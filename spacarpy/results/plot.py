@@ -23,17 +23,19 @@ from spacarpy.rotation import rotate
 
 __all__ = ["PlotUnavailableError", "PLOTS", "make_figure", "shape_figure",
            "load_displacement_figure", "frequency_figure", "buckling_figure", "history_figure",
-           "mode_figure", "save", "centre_lines"]
+           "mode_figure", "save", "centre_lines", "straight_lines"]
 
 #: Plot kinds of ``spacarpy plot`` and what they show.
 PLOTS = {
-    "shape": "undeformed and deformed shape in 3D (equal axes); --step, coloured by the von "
-             "Mises stress when cross-sections are known",
+    "shape": "undeformed and deformed shape in 3D (equal axes); --step, or --time for a "
+             "transient run; coloured by the von Mises stress when cross-sections are known",
     "load-displacement": "load factor against the displacement of --node",
     "frequency": "natural frequencies against the load factor (--modes-per-step runs)",
     "buckling": "buckling load multipliers against the load factor",
     "history": "a quantity against the step: --quantity (displacement, position, reaction, "
-               "section_forces, stress, strain_energy) with --node or --element",
+               "section_forces, stress, strain_energy) with --node or --element; for a "
+               "transient run against the time: --quantity displacement, position, velocity, "
+               "euler, deformation, stress_resultant or energy",
     "mode": "eigenmode --mode (default 1) at --step, over the deformed shape",
     "buckling-mode": "buckling mode --mode (default 1) at --step",
 }
@@ -121,6 +123,33 @@ def _segments(lines: np.ndarray) -> np.ndarray:
     return np.stack([lines[:, :-1], lines[:, 1:]], axis=2).reshape(-1, 2, 3)
 
 
+def straight_lines(res: ResultsFile, position) -> np.ndarray:
+    """(n, 2, 3) straight segments between the first two position nodes of every element
+    of the other kinds than BEAM (TRUSS, RBEAM, PLTRUSS ...)."""
+    from spacarpy.results.schema import slot_roles
+
+    m, out = res.model, []
+    for kind in m.element_kinds:
+        if kind == "BEAM":
+            continue
+        cols = [j for j, r in enumerate(slot_roles(kind)) if r == "pos"][:2]
+        if len(cols) == 2:
+            rows = m.position_row(m.element_kind_nodes(kind)[:, cols])
+            out.append(np.asarray(position)[rows])
+    return np.concatenate(out) if out else np.zeros((0, 2, 3))
+
+
+def _add_lines(ax, segments, **style):
+    """Add a Line3DCollection unless there is nothing to draw."""
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    if len(segments):
+        coll = Line3DCollection(segments, **style)
+        ax.add_collection3d(coll)
+        return coll
+    return None
+
+
 def _equal_axes(ax, points: np.ndarray, view=None) -> None:
     """Cube limits around ``points`` (n, 3) and a cubic box: equal scales on x, y, z; the
     camera at ``view`` = (elevation, azimuth) in degrees if given."""
@@ -154,7 +183,7 @@ def _title(res, text: str) -> str:
 # --------------------------------------------------------------------------------------------
 
 def shape_figure(res: ResultsFile, step=None, color: str = "auto", scale=None, view=None,
-                 **_):
+                 time=None, **_):
     """Undeformed shape (grey, dashed) and the deformed shape at the given step(s).
 
     Parameters
@@ -169,11 +198,30 @@ def shape_figure(res: ResultsFile, step=None, color: str = "auto", scale=None, v
         the vector part of the Euler parameters, which is exact for small rotations.
     view : (float, float), optional
         Elevation and azimuth of the camera in degrees (matplotlib's default: 30, -60).
+    time : float, optional
+        Draw the stored time step of ``/transient`` nearest to this time (s); ``step`` then
+        counts time steps. A file with time steps and no load step draws ``/transient``.
     """
     _, Figure = _mpl()
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
-    s, m = _static(res), res.model
+    m = res.model
+    transient = time is not None or (
+        res.transient is not None and res.transient.n_step
+        and (res.static is None or res.static.n_step == 0))
+    if transient:
+        if res.transient is None or res.transient.n_step == 0:
+            raise ResultsQueryError(f"{res.path} has no time steps (/transient) to plot")
+        s = res.transient
+        if time is not None:
+            step = s.step_at(float(time))
+        lf = s.time
+        what_of = "t = {:.4g} s"
+        color = "plain" if color == "auto" else color
+    else:
+        s = _static(res)
+        lf = s.load_factor
+        what_of = "load factor {:.4g}"
     steps = (np.arange(s.n_step) if isinstance(step, str) and step == "all"
              else np.atleast_1d(s.step_index(-1 if step is None else step)))
     steps = np.arange(s.n_step)[steps]
@@ -182,11 +230,10 @@ def shape_figure(res: ResultsFile, step=None, color: str = "auto", scale=None, v
     euler0 = np.zeros((m.n_rot, 4))
     euler0[:, 0] = 1.0
     undeformed = centre_lines(res, m.position_x0, euler0)
-    ax.add_collection3d(Line3DCollection(_segments(undeformed), colors="0.35",
-                                         linestyles="--", linewidths=1.2, label="undeformed"))
-    points = [undeformed.reshape(-1, 3)]
-    use_stress = color == "stress" or (color == "auto" and s.has_stress)
-    lf = s.load_factor
+    _add_lines(ax, np.concatenate([_segments(undeformed), straight_lines(res, m.position_x0)]),
+               colors="0.35", linestyles="--", linewidths=1.2, label="undeformed")
+    points = [undeformed.reshape(-1, 3), m.position_x0]
+    use_stress = not transient and (color == "stress" or (color == "auto" and s.has_stress))
     scale = 1.0 if scale is None else float(scale)
 
     def magnified(k):
@@ -201,8 +248,9 @@ def shape_figure(res: ResultsFile, step=None, color: str = "auto", scale=None, v
         pos, eul = magnified(k)
         lines = centre_lines(res, pos, eul)
         points.append(lines.reshape(-1, 3))
+        points.append(pos)
         last = i == steps.size - 1
-        label = f"step {k}, load factor {lf[k]:.4g}"
+        label = f"step {k}, " + what_of.format(lf[k])
         if last and use_stress:
             mises = s.max_von_mises_stress(step=int(k)) / 1e6
             coll = Line3DCollection(_segments(lines), cmap="viridis", linewidths=2.4,
@@ -213,9 +261,9 @@ def shape_figure(res: ResultsFile, step=None, color: str = "auto", scale=None, v
                          label="largest von Mises stress [MPa]")
         else:
             alpha = 1.0 if last else 0.25 + 0.5 * i / max(steps.size - 1, 1)
-            ax.add_collection3d(Line3DCollection(_segments(lines), colors="C0",
-                                                 linewidths=2.0 if last else 1.0, alpha=alpha,
-                                                 label=label if last else None))
+            _add_lines(ax, np.concatenate([_segments(lines), straight_lines(res, pos)]),
+                       colors="C0", linewidths=2.0 if last else 1.0, alpha=alpha,
+                       label=label if last else None)
         if last:
             ax.scatter(pos[:, 0], pos[:, 1], pos[:, 2], s=10, color="k", depthshade=False)
     _equal_axes(ax, np.concatenate(points), view)
@@ -302,6 +350,11 @@ def history_figure(res: ResultsFile, quantity: str = "displacement", node=None, 
     """A per-step quantity of one node or element against the step (and load factor)."""
     from spacarpy.results.tables import extract
 
+    timed = _TIMED.get(quantity)
+    if timed is not None and res.transient is not None and res.transient.n_step and (
+            res.static is None or res.static.n_step == 0 or quantity in ("velocity",
+                                                                         "energy")):
+        return _time_history_figure(res, timed, quantity, node, element)
     if quantity not in ("displacement", "position", "euler", "reaction", "section_forces",
                         "stress", "strain_energy", "deformation", "stress_resultant"):
         raise ResultsQueryError(f"history of {quantity!r} is not supported")
@@ -336,6 +389,39 @@ def history_figure(res: ResultsFile, quantity: str = "displacement", node=None, 
         top.set_xlabel("load factor")
     what = f"node {node}" if element is None else f"element {element}"
     ax.set_title(_title(res, f"{quantity}, {what}"), fontsize=10)
+    return fig
+
+
+#: quantities of ``plot history`` with a time history in ``/transient``
+_TIMED = {"displacement": "time_displacement", "position": "time_position",
+          "velocity": "time_velocity", "euler": "time_euler",
+          "deformation": "time_deformation", "stress_resultant": "time_stress_resultant",
+          "energy": "energy"}
+
+
+def _time_history_figure(res, what, quantity, node, element):
+    """A time history of ``/transient`` (time on the x axis)."""
+    from spacarpy.results.tables import extract
+
+    if quantity in ("displacement", "position", "velocity", "euler") and node is None:
+        raise ResultsQueryError(f"history of {quantity}: give --node")
+    _, Figure = _mpl()
+    table = extract(res, what, node=node, element=element)
+    time = np.asarray(table.columns[0], dtype=float)
+    first = 4 if what == "energy" else 3          # after time, step and the entity
+    names = table.names
+    fig = Figure(figsize=(6.4, 4.4))
+    ax = fig.add_subplot()
+    for j in range(first, len(names)):
+        unit = table.units[j]
+        ax.plot(time, np.asarray(table.columns[j], dtype=float), "-", lw=1.2,
+                label=f"{names[j]} [{unit}]" if unit != "1" else names[j])
+    ax.set_xlabel("time [s]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    what_of = ("energies" if what == "energy" else
+               f"node {node}" if element is None else f"element {element}")
+    ax.set_title(_title(res, f"{quantity} against time, {what_of}"), fontsize=10)
     return fig
 
 

@@ -200,3 +200,29 @@ def _rect_torsion_modulus(b, c):
     sech = 2 * np.exp(-x) / (1 + np.exp(-2 * x))
     k = 1 - 8 / np.pi**2 * np.sum(sech / _ODD**2, axis=0)
     return k1 * b * c**2 / k
+
+
+class SurfaceStress:
+    """The largest surface stresses of the BEAM elements of one model, step by step.
+
+    Built from the writer's ``/model`` arrays (:func:`spacarpy.results.model_data.model_datasets`);
+    calling it with a step's BEAM stress resultants gives the keyword arguments
+    ``max_normal_stress`` and ``max_von_mises_stress`` of
+    :meth:`spacarpy.results.writer.ResultsWriter.static_step`, or ``{}`` when no element has a
+    known cross-section (the file then has no stress datasets).
+    """
+
+    def __init__(self, model_data: dict):
+        b = "model/elements/BEAM"
+        self.l0 = np.asarray(model_data[f"{b}/length"], dtype=np.float64)
+        self.props = section_properties(np.char.decode(model_data[f"{b}/cross_section_type"],
+                                                       "ascii"),
+                                         model_data[f"{b}/cross_section_dims"])
+        self.any = bool(self.props.known.any())
+
+    def __call__(self, stress_resultant) -> dict:
+        if not self.any:
+            return {}
+        normal, mises = surface_stress(np.asarray(stress_resultant, dtype=np.float64), self.l0,
+                                       self.props)
+        return {"max_normal_stress": normal, "max_von_mises_stress": mises}

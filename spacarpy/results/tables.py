@@ -6,7 +6,12 @@ aligned text, CSV or JSON). It returns strings; printing them is the command lin
 
 Extracted tables are *long*: one row per (step, entity), with the index columns first
 (``step``, ``load_factor``, then ``node``, ``element`` or ``mode``) and the components after
-them, so that ``--node`` and ``--step`` only filter rows and the columns never change.
+them, so that ``--node`` and ``--step`` only filter rows and the columns never change. Time
+histories of ``/transient`` (``energy``, ``time_*``) have ``time`` as their first column,
+then ``step`` and the entity.
+
+Longer than 600 lines: one small extractor per quantity of :data:`QUANTITIES` and the summary
+of every group, all rendered through :class:`Table`.
 """
 from __future__ import annotations
 
@@ -46,6 +51,15 @@ QUANTITIES = {
     "elements": "elements: nodes, length, cross-section, stiffness",
     "coordinates": "global coordinates: node, index in the node, fixed",
     "deck": "the deck text, verbatim",
+    "energy": "time steps of /transient: iterations, residual, energies T U W D (J) and the "
+              "balance T + U + D - W",
+    "time_position": "time history of node positions x y z (m); --node, --step",
+    "time_displacement": "time history of node displacements (m); --node, --step",
+    "time_velocity": "time history of node velocities (m/s); --node, --step",
+    "time_euler": "time history of Euler parameters; --node, --step",
+    "time_deformation": "time history of element deformations (one element kind: that of "
+                        "--element, default the first); --element, --step",
+    "time_stress_resultant": "time history of element stress resultants; --element, --step",
 }
 
 
@@ -252,7 +266,7 @@ def _modes(view, mode):
 
 def _x_frequency_table(res, step, mode, **_):
     """Wide: step, load_factor, one column per prescribed deformation (its value at the
-    step, from ``/static/<kind>_deformation``), then one column per mode."""
+    step, from ``/static/elements/<KIND>/deformation``), then one column per mode."""
     view = _lin(res, "eigen")
     rows, modes = _lin_rows(res, view, step), _modes(view, mode)
     steps = view.step[rows]
@@ -260,15 +274,14 @@ def _x_frequency_table(res, step, mode, **_):
     columns = [steps, view.load_factor[rows]]
     inputs = res.model._get("input_deformation")
     for element, k in (inputs if inputs is not None else np.zeros((0, 2), int)):
-        for kind, unit in (("hinge", "rad"), ("truss", "m"), ("rbeam", "m"), ("beam", "m")):
-            ids = res.model._get(f"{kind}_elements" if kind != "beam" else "elements")
+        for kind, unit in (("HINGE", "rad"), ("TRUSS", "m"), ("RBEAM", "m"), ("BEAM", "m")):
+            ids = res.model._get(f"model/elements/{kind}/ids")
             if ids is None or int(element) not in ids.tolist():
                 continue
-            path = f"static/{kind}_deformation" if kind != "beam" else "static/deformation"
             i = ids.tolist().index(int(element))
-            values = res._read(path)[:, i, int(k) - 1]
+            values = res._read(f"static/elements/{kind}/deformation")[:, i, int(k) - 1]
             names.append(f"e{int(element)}.{int(k)}")
-            units.append(unit if not (kind == "hinge" and k > 1) else "rad")
+            units.append(unit)
             columns.append(values[steps])
             break
     freq = view.frequency[np.ix_(rows, modes)]
@@ -374,6 +387,82 @@ def _x_coordinates(res, node, **_):
                              m.coordinate_fixed[idx].astype(int)])
 
 
+def _transient(res):
+    if res.transient is None or res.transient.n_step == 0:
+        raise ResultsQueryError(f"{res.path} has no time steps (/transient)")
+    return res.transient
+
+
+def _time_steps(tr, step):
+    steps = np.atleast_1d(np.arange(tr.n_step)[tr.step_index(step)])
+    return steps, tr.time[steps]
+
+
+def _x_energy(res, step, **_):
+    tr = _transient(res)
+    steps, t = _time_steps(tr, step)
+    cols = [t, steps, tr.iterations[steps], tr.residual[steps], tr.kinetic_energy[steps],
+            tr.elastic_energy[steps], tr.external_work[steps], tr.dissipated_energy[steps],
+            tr.energy_balance[steps]]
+    return Table("time steps", ["time", "step", "iterations", "residual", "kinetic_energy",
+                                "elastic_energy", "external_work", "dissipated_energy",
+                                "energy_balance"], ["s", "1", "1", "1"] + ["J"] * 5, cols)
+
+
+def _time_long(title, t, steps, entity_name, ids, values, comps, units):
+    """Long table with the time first, from values (n_sel_step, n_sel_entity, n_comp)."""
+    n_s, n_e = values.shape[:2]
+    flat = values.reshape(n_s * n_e, -1)
+    cols = [np.repeat(t, n_e), np.repeat(steps, n_e), np.tile(ids, n_s)]
+    cols += [flat[:, j] for j in range(flat.shape[1])]
+    return Table(title, ["time", "step", entity_name] + list(comps),
+                 ["s", "1", "1"] + list(units), cols)
+
+
+def _x_time_nodal(name, comps, units, title):
+    def get(res, node, step, **_):
+        tr = _transient(res)
+        steps, t = _time_steps(tr, step)
+        m = res.model
+        if name in ("euler", "euler_rate"):
+            ids = m.orientation_nodes if node is None else np.atleast_1d(node)
+            rows = m.orientation_row(ids)
+        else:
+            ids = m.position_nodes if node is None else np.atleast_1d(node)
+            rows = m.position_row(ids)
+        values = getattr(tr, name)(step=steps)[:, rows]
+        return _time_long(title, t, steps, "node", ids, values, comps, units)
+    return get
+
+
+def _element_kind(res, element) -> str:
+    """The element kind of deck element ``element`` (None: the first kind with elements)."""
+    m = res.model
+    kinds = [k for k in m.element_kinds if m.element_ids(k).size]
+    if element is None:
+        if not kinds:
+            raise ResultsQueryError("the model has no elements")
+        return kinds[0]
+    for kind in kinds:
+        if int(element) in m.element_ids(kind).tolist():
+            return kind
+    raise ResultsQueryError(f"element {element} is not in this model")
+
+
+def _x_time_element(what):
+    def get(res, element, step, **_):
+        tr = _transient(res)
+        steps, t = _time_steps(tr, step)
+        kind = _element_kind(res, element)
+        ids = res.model.element_ids(kind) if element is None else np.atleast_1d(element)
+        values = getattr(tr, what)(element=ids, step=steps, kind=kind)
+        letter = "e" if what == "deformation" else "s"
+        comps = [f"{letter}{i}" for i in range(1, values.shape[-1] + 1)]
+        return _time_long(f"{kind} {what.replace('_', ' ')}s", t, steps, "element", ids,
+                          values, comps, ["1"] * len(comps))
+    return get
+
+
 def _x_deck(res, **_):
     return Table("deck", ["line"], ["1"], [np.array(res.deck.splitlines(), dtype=object)])
 
@@ -415,6 +504,16 @@ _EXTRACTORS = {
     "elements": _x_elements,
     "coordinates": _x_coordinates,
     "deck": _x_deck,
+    "energy": _x_energy,
+    "time_position": _x_time_nodal("position", ["x", "y", "z"], ["m"] * 3, "node positions"),
+    "time_displacement": _x_time_nodal("displacement", ["ux", "uy", "uz"], ["m"] * 3,
+                                       "node displacements"),
+    "time_velocity": _x_time_nodal("velocity", ["vx", "vy", "vz"], ["m/s"] * 3,
+                                   "node velocities"),
+    "time_euler": _x_time_nodal("euler", ["lambda0", "lambda1", "lambda2", "lambda3"],
+                                ["1"] * 4, "Euler parameters"),
+    "time_deformation": _x_time_element("deformation"),
+    "time_stress_resultant": _x_time_element("stress_resultant"),
 }
 
 
@@ -448,6 +547,8 @@ def summary(res: ResultsFile) -> str:
              f"{m.n_elem} elements{n_coord}"]
     if res.static is not None:
         lines += [""] + _static_summary(res)
+    if res.transient is not None:
+        lines += [""] + _transient_summary(res)
     if res.eigen is not None and res.eigen.n_lin:
         lines += [""] + _eigen_summary(res)
     if res.buckling is not None and res.buckling.n_lin:
@@ -527,6 +628,34 @@ def _static_summary(res) -> list:
                             f"node {s.reaction_node[sel][j]}, step {k}"])
     out += ["", "Extremes over all steps (element axes for the section forces):"]
     out += _indent(_align(ext))
+    return out
+
+
+def _transient_summary(res) -> list:
+    tr, m = res.transient, res.model
+    n = tr.n_step
+    out = [f"Time steps: {n} committed"]
+    if n == 0:
+        return out
+    t = tr.time
+    out[0] += f", t = {t[0]:.6g} .. {t[-1]:.6g} s"
+    u = np.linalg.norm(tr.displacement(), axis=-1)               # (n_step, n_pos)
+    kin, ela = tr.kinetic_energy, tr.elastic_energy
+    work, diss = tr.external_work, tr.dissipated_energy
+    bal = tr.energy_balance
+    rows = [["step", "time [s]", "iterations", "max |u| [m]", "T [J]", "U [J]", "W [J]",
+             "D [J]"]]
+    rows += [[str(k), f"{t[k]:.6g}", str(tr.iterations[k]), f"{u[k].max():.6g}"
+              if u.shape[1] else "-", f"{kin[k]:.6g}", f"{ela[k]:.6g}", f"{work[k]:.6g}",
+              f"{diss[k]:.6g}"] for k in range(n)]
+    out += _indent(_align(_elided(rows)))
+    drift = float(np.max(np.abs(bal - bal[0])))
+    out += [f"  energy balance T + U + D - W: {bal[0]:.6g} J at t = {t[0]:.6g} s, largest "
+            f"change {drift:.3g} J"]
+    if u.size:
+        k, j = np.unravel_index(np.argmax(u), u.shape)
+        out += [f"  largest displacement |u| {u[k, j]:.6g} m at node {m.position_nodes[j]}, "
+                f"t = {t[k]:.6g} s"]
     return out
 
 

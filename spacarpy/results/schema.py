@@ -1,0 +1,392 @@
+"""The results-file schema (version 2.0) as one table, and the map from the 1.x names.
+
+This module's one job is to declare the schema: :data:`DATASETS` holds every dataset once
+(path, dtype, shape in named dimensions, units, long name, the schema version that introduced
+the quantity). :mod:`~spacarpy.results.writer`, :mod:`~spacarpy.results.reader` and
+:mod:`~spacarpy.results.validate` all work from it; ``docs/results.md`` documents it (a test
+checks the two agree).
+
+Element data are grouped by element kind: ``/model/elements/<KIND>/...``,
+``/static/elements/<KIND>/...`` and ``/transient/elements/<KIND>/...``. The per-kind datasets
+are generated from the element kinds' declared facts (the number of deformation modes and
+node slots of :data:`KINDS`). Schema 1.x stored BEAM data at ``/static/deformation`` and the
+other kinds at ``/static/truss_deformation`` etc.; :data:`LEGACY_NAMES` maps every 2.0 path
+to its 1.x name, so that 1.x files are read, validated and compared through the 2.0 names.
+Node-based datasets (``/static/position`` ...) keep their 1.x paths and shapes.
+
+Dimension names: ``step`` (committed load steps), ``time_step`` (committed time steps),
+``linearized_step``, ``mode``, ``position_node`` (n_pos), ``orientation_node`` (n_rot),
+``element`` (elements of the dataset's kind), ``deformation_mode`` (the kind's n_def),
+``slot`` (the kind's node slots), ``reaction``, ``coordinate`` (3), ``euler_parameter`` (4),
+``global_coordinate`` (n_coord), ``load`` (load lines), ``input`` (prescribed deformations);
+integers are fixed sizes.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from spacarpy.elements.registry import KINDS as _KINDS
+
+__all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "KIND_NAMES",
+           "LEGACY_NAMES", "legacy_name", "new_name", "spec_for", "STEP_GROUPS",
+           "REACTION_COMPONENTS", "REACTION_UNITS", "MODE_KIND_NAMES",
+           "DEFORMATION_CLASS_NAMES", "ROOT_ATTRS", "n_def", "n_slots", "slot_roles"]
+
+#: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
+#: incompatible (paths moved); MINOR ones only add optional content. Files of major
+#: version 1 are read through :data:`LEGACY_NAMES`.
+SCHEMA_VERSION = (2, 0)
+#: Value of the root attribute ``filetype``.
+FILETYPE = "spacarpy-results"
+#: Value of the root attribute ``program``.
+PROGRAM = "spacarpy"
+#: Required root attributes (``error`` is optional: only present on a failed run).
+ROOT_ATTRS = ("filetype", "schema_version", "program", "program_version", "created", "deck_path",
+              "deck_sha256", "analysis", "deformations", "completed")
+#: Reaction component names and their units.
+REACTION_COMPONENTS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mx": "N m", "My": "N m", "Mz": "N m"}
+#: ``units`` attribute of ``/static/reaction`` (units depend on the component).
+REACTION_UNITS = "N | N m (see reaction_component)"
+#: Names of the ``/eigen/kind`` codes.
+MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite")
+#: Names of the deformation classes in ``/model/elements/BEAM/deformation_class``.
+DEFORMATION_CLASS_NAMES = ("rigid", "flexible", "released")
+#: Element kinds, in the order their groups are written.
+KIND_NAMES = tuple(_KINDS)
+
+
+def n_def(kind: str) -> int:
+    """Number of deformation modes of element kind ``kind``."""
+    return _KINDS[kind].n_def
+
+
+def n_slots(kind: str) -> int:
+    """Number of node slots (deck nodes per element) of element kind ``kind``."""
+    return len(_KINDS[kind].slots)
+
+
+def slot_roles(kind: str) -> tuple:
+    """``"pos"`` or ``"rot"`` for each node slot of element kind ``kind``."""
+    return tuple(_KINDS[kind].slots)
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """One dataset of the schema.
+
+    Attributes
+    ----------
+    path : str
+        Path relative to the root, e.g. ``static/elements/TRUSS/deformation``.
+    dtype : str
+        numpy dtype written (``"f8"``, ``"i8"``, ``"i4"``, ``"i1"``, ``"?"``), or ``"ascii"``
+        / ``"utf-8"`` for strings.
+    shape : tuple
+        Named dimensions (see the module docstring) or fixed sizes; axis 0 of a step dataset
+        is ``step``, ``time_step`` or ``linearized_step``.
+    units, long_name : str
+        The CF attributes stored on the dataset.
+    since : tuple
+        Schema version that introduced the quantity (its 2.0 path may be newer; see
+        :data:`LEGACY_NAMES`).
+    kind : str or None
+        The element kind of a per-kind dataset.
+    optional : bool
+        Absent unless the run has it (prescribed deformations, surface stresses).
+    """
+
+    path: str
+    dtype: str
+    shape: tuple
+    units: str
+    long_name: str
+    since: tuple = (1, 0)
+    kind: str | None = None
+    optional: bool = False
+
+    @property
+    def group(self) -> str:
+        """Top-level group (``model``, ``static`` ...), ``""`` for ``/deck``."""
+        return self.path.split("/")[0] if "/" in self.path else ""
+
+    @property
+    def kind_class(self) -> str:
+        """``int``, ``float``, ``ascii``, ``bool`` or ``str``: what the validator checks."""
+        if self.dtype == "ascii":
+            return "ascii"
+        if self.dtype == "utf-8":
+            return "str"
+        dt = np.dtype(self.dtype)
+        return {"i": "int", "u": "int", "f": "float", "b": "bool"}[dt.kind]
+
+
+#: Groups whose datasets grow by one row per step, with their commit (scale) dataset.
+STEP_GROUPS = {"static": "load_factor", "transient": "time", "eigen": "step",
+               "buckling": "step", "compliance": "step"}
+
+# units of the per-kind element datasets (deformation, stress resultant)
+_KIND_UNITS = {
+    "BEAM": ("m", "N"), "TRUSS": ("m", "N"), "HINGE": ("rad | 1", "N m"),
+    "RBEAM": ("m", "N"), "PLBEAM": ("m", "N"), "PLTRUSS": ("m", "N"),
+    "PLHINGE": ("rad", "N m")}
+_KIND_MEANING = {
+    "BEAM": ("generalized deformations of each BEAM element",
+             "generalized stress resultants (dual to the deformations) of each BEAM element"),
+    "TRUSS": ("elongation of each TRUSS element", "axial force of each TRUSS element"),
+    "HINGE": ("HINGE deformations: 1 the joint angle (rad), 2-3 the small relative "
+              "rotations (1)", "HINGE stress resultants: the joint moment and the constraint "
+              "moments"),
+    "RBEAM": ("RBEAM deformations (position of q in the body of p)", "RBEAM constraint forces"),
+    "PLBEAM": ("PLBEAM deformations: 1 elongation, 2-3 bending in the x-y plane at p and q "
+               "(l0 times a sine)", "PLBEAM stress resultants: normal force, bending moments "
+               "divided by l0"),
+    "PLTRUSS": ("elongation of each PLTRUSS element", "axial force of each PLTRUSS element"),
+    "PLHINGE": ("PLHINGE joint angle", "PLHINGE joint moment")}
+_KIND_SINCE = {"BEAM": (1, 0), "TRUSS": (1, 2), "HINGE": (1, 2), "RBEAM": (1, 2),
+               "PLBEAM": (1, 3), "PLTRUSS": (1, 3), "PLHINGE": (1, 3)}
+_KIND_SLOTS = {"BEAM": "[p r q s]", "TRUSS": "[p q]", "HINGE": "[r s]", "RBEAM": "[p r q]",
+               "PLBEAM": "[p r q s]", "PLTRUSS": "[p q]", "PLHINGE": "[r s]"}
+
+_LIN_SHAPE = {"mode": ("linearized_step", "mode"),
+              "position": ("linearized_step", "mode", "position_node", "coordinate"),
+              "euler": ("linearized_step", "mode", "orientation_node", "euler_parameter")}
+
+
+def _spec_list() -> list[DatasetSpec]:
+    S = DatasetSpec
+    v11, v14 = (1, 1), (1, 4)
+    out = [
+        S("deck", "utf-8", (), "1", "input deck text, verbatim"),
+        S("model/position_nodes", "i8", ("position_node",), "1",
+          "deck number of each position node"),
+        S("model/position_x0", "f8", ("position_node", "coordinate"), "m",
+          "initial position of each position node"),
+        S("model/orientation_nodes", "i8", ("orientation_node",), "1",
+          "deck number of each orientation node"),
+        S("model/input_deformation", "i8", ("input", 2), "1",
+          "[element, mode] of each prescribed deformation (INPUTE), present when the model "
+          "has them", (1, 2), optional=True),
+        S("model/load_node", "i8", ("load",), "1", "deck node number of each nodal load line",
+          v11),
+        S("model/load_type", "ascii", ("load",), "1",
+          "XF (acting from the start) or DELXF (scaled by the load factor)", v11),
+        S("model/load_value", "f8", ("load", 3), "N | N m",
+          "force (position node, N) or moment (orientation node, N m) of each load line, "
+          "global axes", v11),
+        S("model/coordinate_node", "i8", ("global_coordinate",), "1",
+          "deck node number owning each global coordinate", v11),
+        S("model/coordinate_index", "i1", ("global_coordinate",), "1",
+          "index of the coordinate in its node: 1..3 = x y z, 1..4 = lambda0..lambda3", v11),
+        S("model/coordinate_fixed", "?", ("global_coordinate",), "1",
+          "whether the coordinate is fixed (FIX)", v11),
+        # static
+        S("static/load_factor", "f8", ("step",), "1",
+          "load factor on DELXF (load = XF + load_factor * DELXF)"),
+        S("static/position", "f8", ("step", "position_node", "coordinate"), "m",
+          "position of each position node"),
+        S("static/euler", "f8", ("step", "orientation_node", "euler_parameter"), "1",
+          "Euler parameters (lambda0, lambda1, lambda2, lambda3) of each orientation node"),
+        S("static/reaction", "f8", ("step", "reaction"), REACTION_UNITS,
+          "reaction force or moment of each reaction component"),
+        S("static/iterations", "i4", ("step",), "1", "Newton iterations used in the load step"),
+        S("static/residual", "f8", ("step",), "1", "final relative residual of the load step"),
+        S("static/reaction_node", "i8", ("reaction",), "1",
+          "deck node number of each reaction component"),
+        S("static/reaction_component", "ascii", ("reaction",), "1",
+          "name (Fx Fy Fz Mx My Mz) of each reaction component"),
+        # transient
+        S("transient/time", "f8", ("time_step",), "s",
+          "time of each stored time step (the step is committed when its time is written)",
+          v14),
+        S("transient/position", "f8", ("time_step", "position_node", "coordinate"), "m",
+          "position of each position node", v14),
+        S("transient/euler", "f8", ("time_step", "orientation_node", "euler_parameter"), "1",
+          "Euler parameters of each orientation node", v14),
+        S("transient/velocity", "f8", ("time_step", "position_node", "coordinate"), "m/s",
+          "velocity of each position node", v14),
+        S("transient/euler_rate", "f8", ("time_step", "orientation_node", "euler_parameter"),
+          "1/s", "time derivative of the Euler parameters (angular velocity in body axes: "
+          "2 G(q) dq/dt)", v14),
+        S("transient/kinetic_energy", "f8", ("time_step",), "J", "kinetic energy T of the model",
+          v14),
+        S("transient/elastic_energy", "f8", ("time_step",), "J",
+          "elastic energy U of the flexible deformation modes", v14),
+        S("transient/external_work", "f8", ("time_step",), "J",
+          "work W done on the model since t = 0 by the loads, gravity and the prescribed "
+          "motions; T + U + D - W is constant for an exact integration", v14),
+        S("transient/dissipated_energy", "f8", ("time_step",), "J",
+          "energy dissipated by the damping (DAMPING, EDAMP) since t = 0", v14),
+        S("transient/iterations", "i4", ("time_step",), "1",
+          "Newton iterations of the last time step", v14),
+        S("transient/residual", "f8", ("time_step",), "1",
+          "final relative residual of the last time step", v14),
+        # linearized groups
+        S("eigen/step", "i4", ("linearized_step",), "1",
+          "index of the static step (row of /static) that was linearized"),
+        S("eigen/frequency", "f8", _LIN_SHAPE["mode"], "Hz",
+          "natural frequency; negative: unstable mode (divergence rate), NaN: complex or "
+          "infinite eigenvalue, 0: rigid-body mode"),
+        S("eigen/eigenvalue_real", "f8", _LIN_SHAPE["mode"], "s-2",
+          "real part of the eigenvalue omega^2"),
+        S("eigen/eigenvalue_imag", "f8", _LIN_SHAPE["mode"], "s-2",
+          "imaginary part of the eigenvalue omega^2"),
+        S("eigen/kind", "i1", _LIN_SHAPE["mode"], "1",
+          "mode kind: 0 elastic, 1 rigid-body, 2 unstable, 3 complex, 4 infinite (see "
+          "attribute kind_names)"),
+        S("eigen/shape_position", "f8", _LIN_SHAPE["position"], "m kg-1/2",
+          "mass-normalized mode shape: position perturbation of each position node"),
+        S("eigen/shape_euler", "f8", _LIN_SHAPE["euler"], "kg-1/2",
+          "mass-normalized mode shape: Euler-parameter perturbation of each orientation node"),
+        S("buckling/step", "i4", ("linearized_step",), "1",
+          "index of the static step (row of /static) that was linearized"),
+        S("buckling/load_multiplier", "f8", _LIN_SHAPE["mode"], "1",
+          "buckling load multipliers of the load acting in the step, smallest magnitude "
+          "first (NaN: none)"),
+        S("buckling/critical_load_multiplier", "f8", ("linearized_step",), "1",
+          "smallest positive buckling load multiplier (inf: none)"),
+        S("buckling/shape_position", "f8", _LIN_SHAPE["position"], "1",
+          "buckling mode shape (largest component 1): position perturbation of each "
+          "position node"),
+        S("buckling/shape_euler", "f8", _LIN_SHAPE["euler"], "1",
+          "buckling mode shape (largest component 1): Euler-parameter perturbation of each "
+          "orientation node"),
+        S("compliance/step", "i4", ("linearized_step",), "1",
+          "index of the static step (row of /static) that was linearized"),
+        S("compliance/global", "f8", ("linearized_step", 6, 6),
+          "m/N | rad/(N m) | m/(N m) = rad/N",
+          "6x6 compliance [dr; dphi] = C [dF; dT] of the chosen node, global axes"),
+        S("compliance/local", "f8", ("linearized_step", 6, 6),
+          "m/N | rad/(N m) | m/(N m) = rad/N",
+          "6x6 compliance of the chosen node in its current body axes"),
+    ]
+    for kind in KIND_NAMES:
+        since = _KIND_SINCE.get(kind, (2, 0))
+        eu, su = _KIND_UNITS.get(kind, ("1", "1"))
+        em, sm = _KIND_MEANING.get(kind, (f"deformations of each {kind} element",
+                                          f"stress resultants of each {kind} element"))
+        m = f"model/elements/{kind}"
+        out += [
+            S(f"{m}/ids", "i8", ("element",), "1", f"deck number of each {kind} element",
+              since, kind),
+            S(f"{m}/nodes", "i8", ("element", "slot"), "1",
+              f"deck node numbers {_KIND_SLOTS.get(kind, '')} of each {kind} element".replace(
+                  "  ", " "), since, kind)]
+        for group, axis0, tsince in (("static", "step", since), ("transient", "time_step",
+                                                                  max(since, (1, 4)))):
+            g = f"{group}/elements/{kind}"
+            shape = (axis0, "element", "deformation_mode")
+            out += [S(f"{g}/deformation", "f8", shape, eu,
+                      em if group == "static" else f"{kind} deformations, as in /static",
+                      tsince, kind),
+                    S(f"{g}/stress_resultant", "f8", shape, su,
+                      sm if group == "static" else f"{kind} stress resultants, as in /static",
+                      tsince, kind)]
+    # BEAM element properties and cross-sections (schema 1.1)
+    b = "model/elements/BEAM"
+    out += [
+        S(f"{b}/position_rows", "i8", ("element", 2), "1",
+          "rows of /model/position_nodes holding the element's nodes p and q (0-based; a "
+          "line-cell connectivity)", v11, "BEAM"),
+        S(f"{b}/length", "f8", ("element",), "m", "reference length l0 of each element",
+          v11, "BEAM"),
+        S(f"{b}/axes", "f8", ("element", 3, 3), "1",
+          "initial element axes: rows x (p to q), y, z as unit vectors in global axes",
+          v11, "BEAM"),
+        S(f"{b}/deformation_class", "i1", ("element", "deformation_mode"), "1",
+          "class of each deformation mode: 0 rigid, 1 flexible (DYNE), 2 released (RLSE)",
+          v11, "BEAM"),
+        S(f"{b}/stiffness", "f8", ("element", 6), "N | N m2 | N m2 | N m2 | m2 | m2",
+          "ESTIFF: EA, GJ, EIy, EIz, cy = EIy/kGA, cz = EIz/kGA (0 where not given)",
+          v11, "BEAM"),
+        S(f"{b}/mass", "f8", ("element", 5), "kg/m | kg m | kg m | kg m | kg m",
+          "EM per unit length: rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz (0 where not given)",
+          v11, "BEAM"),
+        S(f"{b}/cross_section_type", "ascii", ("element",), "1",
+          "cross-section shape of each element: RECT, CIRC, or empty when not known",
+          v11, "BEAM"),
+        S(f"{b}/cross_section_dims", "f8", ("element", 2), "m",
+          "cross-section dimensions: RECT (w along y, t along z), CIRC (d, NaN); NaN when "
+          "not known", v11, "BEAM"),
+        S("static/elements/BEAM/max_normal_stress", "f8", ("step", "element"), "Pa",
+          "largest magnitude of the normal stress at the surface of each element (NaN: "
+          "cross-section not known)", v11, "BEAM", optional=True),
+        S("static/elements/BEAM/max_von_mises_stress", "f8", ("step", "element"), "Pa",
+          "largest von Mises stress at the surface of each element (NaN: cross-section not "
+          "known)", v11, "BEAM", optional=True),
+    ]
+    return out
+
+
+#: Every dataset of the schema, by path relative to the root.
+DATASETS: dict[str, DatasetSpec] = {s.path: s for s in _spec_list()}
+
+# 1.x names of the BEAM datasets that moved (2.0 name -> 1.x name)
+_BEAM_LEGACY = {
+    "model/elements/BEAM/ids": "model/elements",
+    "model/elements/BEAM/nodes": "model/element_nodes",
+    "model/elements/BEAM/position_rows": "model/element_position_rows",
+    "model/elements/BEAM/length": "model/element_length",
+    "model/elements/BEAM/axes": "model/element_axes",
+    "model/elements/BEAM/deformation_class": "model/element_deformation_class",
+    "model/elements/BEAM/stiffness": "model/element_stiffness",
+    "model/elements/BEAM/mass": "model/element_mass",
+    "model/elements/BEAM/cross_section_type": "model/cross_section_type",
+    "model/elements/BEAM/cross_section_dims": "model/cross_section_dims",
+    "static/elements/BEAM/deformation": "static/deformation",
+    "static/elements/BEAM/stress_resultant": "static/stress_resultant",
+    "static/elements/BEAM/max_normal_stress": "static/max_normal_stress",
+    "static/elements/BEAM/max_von_mises_stress": "static/max_von_mises_stress",
+    "transient/elements/BEAM/deformation": "transient/deformation",
+    "transient/elements/BEAM/stress_resultant": "transient/stress_resultant",
+}
+
+#: 2.0 path -> 1.x path of every dataset that moved in schema 2.0. Paths not listed kept
+#: their name. ``/model/element_type`` (1.x: "BEAM" for every BEAM element) has no 2.0
+#: twin: the kind is the group name.
+LEGACY_NAMES: dict[str, str] = {
+    **_BEAM_LEGACY,
+    **{f"model/elements/{k}/{new}": f"model/{k.lower()}_{old}"
+       for k in KIND_NAMES if k != "BEAM"
+       for new, old in (("ids", "elements"), ("nodes", "element_nodes"))},
+    **{f"{g}/elements/{k}/{w}": f"{g}/{k.lower()}_{w}"
+       for k in KIND_NAMES if k != "BEAM" for g in ("static", "transient")
+       for w in ("deformation", "stress_resultant")},
+}
+_NEW_NAMES = {old: new for new, old in LEGACY_NAMES.items()}
+#: Datasets that 1.x files may lack although their schema version has them:
+#: ``/transient/dissipated_energy`` was added within schema 1.4.
+LEGACY_OPTIONAL = ("transient/dissipated_energy",)
+#: 1.x datasets dropped in 2.0.
+LEGACY_DROPPED = ("model/element_type",)
+
+
+def legacy_name(path: str, major: int) -> str:
+    """Where the 2.0 dataset ``path`` lives in a file of schema major version ``major``."""
+    return LEGACY_NAMES.get(path, path) if major < 2 else path
+
+
+def new_name(path: str) -> str | None:
+    """2.0 name of the 1.x dataset ``path`` (leading ``/`` kept); None if dropped."""
+    lead = "/" if path.startswith("/") else ""
+    p = path.lstrip("/")
+    if p in LEGACY_DROPPED:
+        return None
+    return lead + _NEW_NAMES.get(p, p)
+
+
+_KIND_RE = re.compile(r"^(model|static|transient)/elements/([^/]+)/")
+
+
+def spec_for(path: str) -> DatasetSpec | None:
+    """The spec of the 2.0 dataset ``path`` (no leading ``/``), or None if not in the
+    schema."""
+    return DATASETS.get(path.lstrip("/"))
+
+
+def element_kind_of(path: str) -> str | None:
+    """Element kind of a per-kind path, e.g. ``TRUSS`` for ``static/elements/TRUSS/...``."""
+    m = _KIND_RE.match(path.lstrip("/"))
+    return m.group(2) if m else None

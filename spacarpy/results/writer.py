@@ -1,0 +1,529 @@
+"""Stream an analysis into a crash-safe results file (schema 2.0): :class:`ResultsWriter`.
+
+This module's one job is writing: the writer receives arrays (the ``/model`` datasets from
+:func:`spacarpy.results.model_data.model_datasets`, then every step's results) and stores them
+at the paths, dtypes and shapes of :data:`spacarpy.results.schema.DATASETS`; it computes no
+numbering and no stresses. The file's life cycle (partial file, SWMR, commit by scale,
+fsync) is :mod:`spacarpy.results.h5file`'s.
+
+- Every step is written, flushed, then *committed* by appending its scale value
+  (``/static/load_factor``, ``/transient/time``, ``/<group>/step``) and flushing again.
+- A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
+  cleanly with ``completed = False`` and the error message; the partial file is kept.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import logging
+import operator
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from spacarpy.model import ANALYSES, DEFORMATION_VARIANTS, Model
+from spacarpy.results import h5file
+from spacarpy.results.h5file import ascii_array, create, create_extendable, partial_path_for
+from spacarpy.results.schema import (
+    DATASETS, DEFORMATION_CLASS_NAMES, FILETYPE, MODE_KIND_NAMES, PROGRAM, REACTION_COMPONENTS,
+    SCHEMA_VERSION, n_def)
+
+log = logging.getLogger(__name__)
+
+__all__ = ["ResultsWriter"]
+
+_INTERRUPTED = "interrupted by user"
+_NOT_FINISHED = "results writer closed without finish()"
+_STRESS = ("max_normal_stress", "max_von_mises_stress")
+_COLUMNS = {"stiffness": "EA GJ EIy EIz cy cz", "mass": "rhoA rho(Iy+Iz) rhoIy rhoIz rhoIyz"}
+
+
+class ResultsWriter:
+    """Stream the results of one analysis into a crash-safe HDF5 results file.
+
+    Use it as a context manager; the file is opened on entering the ``with`` block and is
+    closed on every way out of it::
+
+        with ResultsWriter("out.h5", model, program_version=__version__,
+                           deformations="modified", analysis="static") as w:
+            w.begin_static(n_pos, n_rot, reaction_node, reaction_component)
+            for ...:                      # every converged load step
+                w.static_step(load_factor=..., position=..., euler=...,
+                              deformation={"BEAM": e}, stress_resultant={"BEAM": s}, ...)
+            w.finish()                    # completed = True, partial file -> out.h5
+
+    Leaving the block through an exception without :meth:`finish` closes the file with
+    ``completed = False`` and ``error`` set, keeps it at :attr:`partial_path` and leaves
+    :attr:`final_path` untouched; the exception propagates. Leaving the block normally without
+    :meth:`finish` is treated the same way (error "results writer closed without finish()").
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Final output file. Written only by :meth:`finish`, atomically.
+    model : spacarpy.model.Model
+        The analysed model; its deck text and path are stored.
+    program_version : str
+        spacarpy version, stored as root attribute ``program_version``.
+    deformations : str
+        ``"modified"`` or ``"basic"``.
+    analysis : str
+        One of :data:`spacarpy.model.ANALYSES`.
+    model_data : dict, optional
+        The ``/model`` datasets (:func:`~spacarpy.results.model_data.model_datasets`);
+        prepared from ``model`` when not given.
+
+    Attributes
+    ----------
+    final_path : pathlib.Path
+        Where the finished file ends up.
+    partial_path : pathlib.Path
+        Where the file is written until :meth:`finish` (and where an unfinished run stays).
+    """
+
+    def __init__(self, path, model: Model, *, program_version: str, deformations: str,
+                 analysis: str, model_data: dict | None = None):
+        if deformations not in DEFORMATION_VARIANTS:
+            raise ValueError(f"unknown deformation variant {deformations!r}; "
+                             f"expected one of {DEFORMATION_VARIANTS}")
+        if analysis not in ANALYSES:
+            raise ValueError(f"unknown analysis {analysis!r}; expected one of {ANALYSES}")
+        if model_data is None:
+            from spacarpy.results.model_data import model_datasets
+            model_data = model_datasets(model)
+        self.final_path = Path(path)
+        self.partial_path = partial_path_for(self.final_path)
+        self.model = model
+        self.model_data = model_data
+        self.program_version = str(program_version)
+        self.deformations = deformations
+        self.analysis = analysis
+        #: element kinds of the file and their element counts
+        self.kinds = {p.split("/")[2]: v.shape[0] for p, v in model_data.items()
+                      if p.startswith("model/elements/") and p.endswith("/ids")}
+        self._file: h5py.File | None = None
+        self._swmr = False
+        self._state = "new"        # new -> open -> (finishing -> finished | aborted)
+        self._groups: dict[str, dict] = {}     # group -> {"scale", "datasets", "shapes", "n"}
+
+    # -- context manager ----------------------------------------------------------------------
+
+    def __enter__(self) -> "ResultsWriter":
+        return self.open()
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is None:
+            if self._state == "open":
+                log.warning("%s: %s; keeping the partial file %s", self.final_path, _NOT_FINISHED,
+                            self.partial_path)
+                self.abort(_NOT_FINISHED)
+        elif self._state in ("open", "finishing"):
+            if issubclass(exc_type, KeyboardInterrupt):
+                message = _INTERRUPTED
+            else:
+                message = str(exc) or exc_type.__name__
+            self.abort(message)
+        return False   # never swallow the exception
+
+    # -- public API ---------------------------------------------------------------------------
+
+    @property
+    def n_step(self) -> int:
+        """Number of static steps written and committed so far."""
+        return self._groups["static"]["n"] if "static" in self._groups else 0
+
+    @property
+    def has_stress(self) -> bool:
+        """Whether the file stores surface stresses (some BEAM has a known cross-section)."""
+        types = self.model_data.get("model/elements/BEAM/cross_section_type")
+        return types is not None and bool(np.any(types != b""))
+
+    def open(self) -> "ResultsWriter":
+        """Create the partial file and write the root attributes, ``/deck`` and ``/model``.
+
+        Called by ``__enter__``; call it yourself only when not using ``with`` (and then call
+        :meth:`finish` or :meth:`abort` in a ``finally``).
+        """
+        if self._state != "new":
+            raise RuntimeError("a ResultsWriter can be opened only once")
+        if self.partial_path.exists():
+            log.info("replacing the stale partial file %s", self.partial_path)
+        self._file = h5py.File(self.partial_path, "w", libver=h5file.LIBVER)
+        try:
+            self._write_header(self._file)
+            self._file.flush()
+        except BaseException:
+            self._file.close()
+            self._file = None
+            self._state = "aborted"
+            self.partial_path.unlink(missing_ok=True)
+            raise
+        self._state = "open"
+        log.debug("writing results to %s", self.partial_path)
+        return self
+
+    def begin_static(self, n_position_node: int, n_orientation_node: int, reaction_node,
+                     reaction_component, *, n_eigen_modes: int = 0,
+                     n_buckling_modes: int = 0, compliance_node=None,
+                     transient: bool = False) -> None:
+        """Create the ``/static`` group (and the others asked for) with empty step datasets.
+
+        After this call the file is switched to SWMR mode: no new datasets or groups can be
+        added, only steps appended.
+
+        Parameters
+        ----------
+        n_position_node, n_orientation_node : int
+            ``n_pos`` and ``n_rot``; must match the model (the element counts of each kind
+            come from the model's datasets).
+        reaction_node : array_like of int, shape (n_reac,)
+            Deck node number of each reaction component.
+        reaction_component : sequence of str, length n_reac
+            ``"Fx" "Fy" "Fz"`` (force on a position node, N) or ``"Mx" "My" "Mz"`` (moment on an
+            orientation node, N m).
+        n_eigen_modes, n_buckling_modes : int
+            When positive, also create the ``/eigen`` or ``/buckling`` group for that many
+            modes per linearized step (:meth:`eigen_step`, :meth:`buckling_step`).
+        compliance_node : (int, int) or None
+            Deck numbers (position node, orientation node) whose 6x6 compliance is stored
+            per linearized step (:meth:`compliance_step`).
+        transient : bool
+            Also create the ``/transient`` group for :meth:`transient_step`.
+        """
+        f = self._require_open("begin_static")
+        if "static" in self._groups:
+            raise RuntimeError("begin_static was already called")
+        md = self.model_data
+        counts = {"n_position_node": (n_position_node, md["model/position_nodes"].size),
+                  "n_orientation_node": (n_orientation_node, md["model/orientation_nodes"].size)}
+        for name, (given, expected) in counts.items():
+            if operator.index(given) != expected:
+                raise ValueError(f"{name} = {given} does not match the model ({expected})")
+        reaction_node = np.asarray(reaction_node, dtype=np.int64).reshape(-1)
+        reaction_component = [str(c) for c in reaction_component]
+        if len(reaction_component) != reaction_node.size:
+            raise ValueError(f"{reaction_node.size} reaction nodes but "
+                             f"{len(reaction_component)} reaction components")
+        unknown = sorted(set(reaction_component) - set(REACTION_COMPONENTS))
+        if unknown:
+            raise ValueError(f"unknown reaction components {unknown}; "
+                             f"expected {list(REACTION_COMPONENTS)}")
+        self._sizes = {"position_node": int(n_position_node),
+                       "orientation_node": int(n_orientation_node),
+                       "reaction": reaction_node.size, "coordinate": 3, "euler_parameter": 4}
+        self._create_step_group(f, "static")
+        g = f["static"]
+        create(g, "reaction_node", reaction_node)
+        names = ascii_array(reaction_component)
+        create(g, "reaction_component", names, dtype=h5py.string_dtype("ascii", names.itemsize))
+        for group, n_mode in (("eigen", n_eigen_modes), ("buckling", n_buckling_modes),
+                              ("compliance", 1 if compliance_node is not None else 0)):
+            if n_mode > 0:
+                self._create_step_group(f, group, n_mode=int(n_mode))
+        if compliance_node is not None:
+            f["compliance"].attrs["position_node"] = np.int64(compliance_node[0])
+            f["compliance"].attrs["orientation_node"] = np.int64(compliance_node[1])
+        if transient:
+            self._create_step_group(f, "transient")
+        f.flush()
+        # From here on only appends: SWMR keeps the file consistent on disk at every instant.
+        f.swmr_mode = True
+        self._swmr = True
+
+    def static_step(self, load_factor: float, position, euler, deformation: dict,
+                    stress_resultant: dict, reaction, iterations: int, residual: float,
+                    max_normal_stress=None, max_von_mises_stress=None) -> None:
+        """Append one converged static load step and make it durable.
+
+        Parameters
+        ----------
+        load_factor : float
+            Factor on DELXF (load = XF + load_factor * DELXF).
+        position : array_like, shape (n_pos, 3)
+            Node positions (m).
+        euler : array_like, shape (n_rot, 4)
+            Euler parameters of the orientation nodes (1).
+        deformation, stress_resultant : dict of str -> array_like (n_elem_of_kind, n_def)
+            Generalized deformations and stress resultants of every element kind of the
+            model, by kind keyword (``"BEAM"``, ``"TRUSS"`` ...).
+        reaction : array_like, shape (n_reac,)
+            Reactions in the order of ``reaction_component`` (N or N m).
+        iterations : int
+            Newton iterations used.
+        residual : float
+            Final relative residual.
+        max_normal_stress, max_von_mises_stress : array_like, shape (n_beam,), optional
+            Largest surface stresses of the BEAM elements (Pa); required when the model has
+            cross-sections (:class:`spacarpy.results.stress.SurfaceStress` computes them).
+        """
+        given = {"position": position, "euler": euler, "reaction": reaction,
+                 "iterations": operator.index(iterations), "residual": float(residual),
+                 "elements/BEAM/max_normal_stress": max_normal_stress,
+                 "elements/BEAM/max_von_mises_stress": max_von_mises_stress}
+        self._step("static", float(load_factor), given, deformation, stress_resultant)
+
+    def transient_step(self, time: float, position, euler, velocity, euler_rate,
+                       deformation: dict, stress_resultant: dict, kinetic_energy: float,
+                       elastic_energy: float, external_work: float, iterations: int,
+                       residual: float, dissipated_energy: float = 0.0) -> None:
+        """Append one time step (arrays as in :meth:`static_step`, plus the velocities and
+        the energies) and make it durable: the arrays first, then ``/transient/time``
+        commits the step."""
+        given = {"position": position, "euler": euler, "velocity": velocity,
+                 "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
+                 "elastic_energy": elastic_energy, "external_work": external_work,
+                 "dissipated_energy": float(dissipated_energy),
+                 "iterations": operator.index(iterations), "residual": float(residual)}
+        self._step("transient", float(time), given, deformation, stress_resultant)
+
+    def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
+                   shape_euler) -> None:
+        """Append the modes of one linearized static step (``step`` = its row in /static).
+
+        Arrays may hold fewer modes than the group was created for; missing ones are NaN
+        (kind 4). ``eigenvalue`` is complex (omega^2), ``shape_*`` (n_mode, n_pos, 3) and
+        (n_mode, n_rot, 4).
+        """
+        lam = np.asarray(eigenvalue, dtype=complex)
+        self._append_linearized("eigen", step, {
+            "frequency": frequency, "eigenvalue_real": lam.real, "eigenvalue_imag": lam.imag,
+            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
+
+    def buckling_step(self, step: int, load_multiplier, critical: float, shape_position,
+                      shape_euler) -> None:
+        """Append the buckling multipliers and shapes of one linearized static step."""
+        self._append_linearized("buckling", step, {
+            "load_multiplier": load_multiplier, "critical_load_multiplier": critical,
+            "shape_position": shape_position, "shape_euler": shape_euler})
+
+    def compliance_step(self, step: int, global_, local) -> None:
+        """Append the 6x6 nodal compliance (global and body axes) of one linearized step."""
+        self._append_linearized("compliance", step, {"global": global_, "local": local})
+
+    def finish(self) -> None:
+        """Mark the run complete, close the file and move it atomically to :attr:`final_path`.
+
+        An existing file at :attr:`final_path` is replaced only here, by a complete file.
+        """
+        self._require_open("finish")
+        self._state = "finishing"
+        self._mark(completed=True, error=None)
+        h5file.fsync(self.partial_path)
+        os.replace(self.partial_path, self.final_path)
+        h5file.fsync(self.final_path.parent)
+        self._state = "finished"
+        what = f"{self.n_step} static steps"
+        if "transient" in self._groups:
+            what += f", {self._groups['transient']['n']} time steps"
+        log.info("results written to %s (%s)", self.final_path, what)
+
+    def abort(self, error: str) -> None:
+        """Close the file as an unfinished run: ``completed = False``, ``error = error``.
+
+        The partial file is kept at :attr:`partial_path`; :attr:`final_path` is not touched.
+        Never raises (a failure to mark the file is logged), so that it cannot hide the error
+        that caused the abort. Does nothing if the writer is already finished or aborted.
+        """
+        if self._state in ("finished", "aborted"):
+            return
+        if self._state == "new":
+            self._state = "aborted"
+            return
+        try:
+            if self._file is None:   # finish() failed after closing the file
+                self._swmr = False
+                self._file = h5py.File(self.partial_path, "r+", libver=h5file.LIBVER)
+            self._mark(completed=False, error=error)
+        except Exception:
+            log.exception("could not mark %s as incomplete", self.partial_path)
+        finally:
+            self._close()
+            self._state = "aborted"
+        log.warning("run not completed (%s); %d static steps kept in %s", error, self.n_step,
+                    self.partial_path)
+
+    # -- internals ----------------------------------------------------------------------------
+
+    def _specs(self, group: str):
+        """Schema entries of a step group that this file has (per-kind ones for its kinds)."""
+        for path, spec in DATASETS.items():
+            if spec.group != group or not spec.shape or spec.shape[0] not in (
+                    "step", "time_step", "linearized_step"):
+                continue
+            if spec.kind is not None and spec.kind not in self.kinds:
+                continue
+            if path.endswith(_STRESS) and not self.has_stress:
+                continue
+            yield path, spec
+
+    def _size(self, dim, kind, n_mode):
+        if isinstance(dim, int):
+            return dim
+        if dim == "element":
+            return self.kinds[kind]
+        if dim == "deformation_mode":
+            return n_def(kind)
+        if dim == "mode":
+            return n_mode
+        return self._sizes[dim]
+
+    def _create_step_group(self, f, group: str, n_mode: int = 0) -> None:
+        g = f.create_group(group)
+        scale_name = {"static": "load_factor", "transient": "time"}.get(group, "step")
+        entry = {"datasets": {}, "shapes": {}, "dtypes": {}, "n": 0}
+        lin = scale_name == "step"
+        if lin:
+            g.attrs["n_mode"] = np.int32(n_mode)
+        for path, spec in self._specs(group):
+            name = path[len(group) + 1:]
+            trailing = tuple(self._size(d, spec.kind, n_mode) for d in spec.shape[1:])
+            parent = g.require_group(name.rsplit("/", 1)[0]) if "/" in name else g
+            ds = create_extendable(parent, name.rsplit("/", 1)[-1], trailing,
+                                   np.dtype(spec.dtype))
+            if name == scale_name:
+                if not lin:
+                    ds.make_scale(name)
+                ds.dims[0].label = spec.shape[0]
+                entry["scale"] = ds
+                continue
+            ds.dims[0].label = spec.shape[0]
+            if name == "kind":
+                ds.attrs["kind_names"] = ", ".join(MODE_KIND_NAMES)
+            entry["datasets"][name] = ds
+            entry["shapes"][name] = trailing
+            entry["dtypes"][name] = np.dtype(spec.dtype)
+        if not lin:
+            for name, ds in entry["datasets"].items():
+                ds.dims[0].attach_scale(entry["scale"])
+                spec = DATASETS[f"{group}/{name}"]
+                for axis, label in enumerate(spec.shape[1:], start=1):
+                    if isinstance(label, str):
+                        ds.dims[axis].label = label
+        self._groups[group] = entry
+
+    def _step(self, group: str, value: float, given: dict, deformation, stress) -> None:
+        self._require_open(f"{group}_step")
+        if group not in self._groups:
+            raise RuntimeError(f"{group}_step called before begin_static"
+                               + ("(transient=True)" if group == "transient" else ""))
+        entry = self._groups[group]
+        for what, values in (("deformation", deformation), ("stress_resultant", stress)):
+            if values is None:
+                values = {}
+            if not isinstance(values, dict):
+                raise TypeError(f"{group}_step: {what} must be a dict kind -> (n, n_def) "
+                                f"array, e.g. {{'BEAM': e}}")
+            extra = sorted(set(values) - set(self.kinds))
+            if extra:
+                raise ValueError(f"{group}_step: {what} of {extra}, which the model has not")
+            for kind, n in self.kinds.items():
+                # a kind the model has no elements of (the BEAM group is always written)
+                given[f"elements/{kind}/{what}"] = values.get(
+                    kind, np.zeros((0, n_def(kind))) if n == 0 else None)
+        rows = {}
+        for name in entry["datasets"]:
+            data = given.get(name)
+            if data is None:
+                raise ValueError(f"{group}_step: {name} is missing")
+            row = np.asarray(data, dtype=entry["dtypes"][name])
+            if row.shape != entry["shapes"][name]:
+                raise ValueError(f"{group}_step: {name} has shape {row.shape}, "
+                                 f"expected {entry['shapes'][name]}")
+            rows[name] = row
+        k = entry["n"]
+        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], value, k)
+        entry["n"] = k + 1
+        if group == "static":
+            log.debug("static step %d written (load factor %g)", k, value)
+
+    def _append_linearized(self, group, step, values) -> None:
+        self._require_open(f"{group}_step")
+        if group not in self._groups:
+            raise RuntimeError(f"{group}_step: begin_static was called without "
+                               f"n_{group}_modes")
+        entry = self._groups[group]
+        rows = {}
+        for name, value in values.items():
+            trailing, dtype = entry["shapes"][name], entry["dtypes"][name]
+            fill = 4 if name == "kind" else np.nan
+            row = np.full(trailing, fill, dtype=dtype)
+            given = np.asarray(value, dtype=dtype)
+            if given.ndim:
+                row[tuple(slice(0, min(a, b)) for a, b in zip(given.shape, trailing))] = \
+                    given[tuple(slice(0, b) for b in trailing)]
+            else:
+                row[...] = given
+            rows[name] = row
+        k = entry["n"]
+        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], int(step), k)
+        entry["n"] = k + 1
+
+    def _require_open(self, what: str) -> h5py.File:
+        if self._state != "open":
+            raise RuntimeError(f"{what}: the results writer is {self._state}, not open "
+                               "(use it as a context manager)")
+        return self._file
+
+    def _close(self) -> None:
+        if self._file is not None:
+            try:
+                self._file.close()
+            finally:
+                self._file = None
+
+    def _mark(self, completed: bool, error: str | None) -> None:
+        """Set ``completed``/``error`` and close the file (leaving SWMR mode first)."""
+        try:
+            if self._swmr:
+                # Attributes must not be modified in SWMR mode: close, reopen normally.
+                self._close()
+                self._swmr = False
+                self._file = h5py.File(self.partial_path, "r+", libver=h5file.LIBVER)
+            attrs = self._file.attrs
+            attrs["completed"] = np.bool_(completed)
+            if error is not None:
+                attrs["error"] = str(error)
+            elif "error" in attrs:
+                del attrs["error"]
+        finally:
+            self._close()
+
+    def _write_header(self, f: h5py.File) -> None:
+        model = self.model
+        text = model.source_text or ""
+        a = f.attrs
+        a["completed"] = np.bool_(False)    # first, so that any partial file says "incomplete"
+        a["filetype"] = FILETYPE
+        a["schema_version"] = np.array(SCHEMA_VERSION, dtype=np.int32)
+        a["program"] = PROGRAM
+        a["program_version"] = self.program_version
+        a["created"] = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+        a["deck_path"] = _absolute_deck_path(model.source_path)
+        a["deck_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()
+        a["deck_text"] = text    # also here, so the run is identified from the root alone
+        a["analysis"] = self.analysis
+        a["deformations"] = self.deformations
+        create(f, "deck", text, dtype=h5py.string_dtype("utf-8"))
+        for path, value in self.model_data.items():
+            if path not in DATASETS:
+                raise ValueError(f"model data {path!r} is not a dataset of the schema")
+            value = np.asarray(value)
+            dtype = (h5py.string_dtype("ascii", max(value.dtype.itemsize, 1))
+                     if value.dtype.kind == "S" else None)
+            parent, name = path.rsplit("/", 1)
+            ds = create(f.require_group(parent), name, value, dtype=dtype)
+            what = name
+            if what == "deformation_class":
+                ds.attrs["class_names"] = ", ".join(DEFORMATION_CLASS_NAMES)
+            elif what in _COLUMNS and path.startswith("model/elements/BEAM/"):
+                ds.attrs["columns"] = _COLUMNS[what]
+
+
+def _absolute_deck_path(source_path: str) -> str:
+    """Absolute deck path; pseudo names such as ``<model>`` or ``<string>`` are kept."""
+    source_path = str(source_path)
+    if source_path.startswith("<"):
+        return source_path
+    return os.path.abspath(source_path)
