@@ -96,6 +96,12 @@ class ElementKind:
         A name per node for messages and docs, e.g. ``("p", "r", "q", "s")``.
     modes, mode_units : tuple of str
         Name and unit of each deformation mode (1-based in the deck: ``DYNE e 1 2``).
+    stress_units : tuple of str
+        Unit of each mode's stress resultant (the dual of the deformation: N for a length,
+        N m for an angle).
+    deformation_meaning, stress_meaning : str
+        What the deformations and stress resultants of the kind are, in words (the
+        ``long_name`` of its result datasets).
     length_modes : tuple of bool
         Per mode: True when the deformation is a length (m); it sets the mode's scale.
     estiff, em : Fields or None
@@ -114,6 +120,9 @@ class ElementKind:
     node_roles: tuple = ()
     modes: tuple = ()
     mode_units: tuple = ()
+    stress_units: tuple = ()
+    deformation_meaning: str = ""
+    stress_meaning: str = ""
     length_modes: tuple = ()
     estiff: Fields | None = None
     em: Fields | None = None

@@ -379,6 +379,10 @@ class Beam(ElementKind):
     modes = ("elongation", "torsion", "bending y at p", "bending y at q", "bending z at p",
              "bending z at q")
     mode_units = ("m",) * 6
+    stress_units = ("N",) * 6
+    deformation_meaning = "generalized deformations of each BEAM element"
+    stress_meaning = ("generalized stress resultants (dual to the deformations) of each BEAM "
+                      "element")
     length_modes = (True,) * 6
     #: the 7th value (BEAMW's warping stiffness) is accepted with a warning and ignored
     estiff = Fields(("EA", "GJ", "EIy", "EIz", "cy", "cz"),

@@ -228,6 +228,10 @@ class Hinge(ElementKind):
     node_roles = ("r", "s")
     modes = ("rotation about the axis", "rotation about b", "rotation about c")
     mode_units = ("rad", "1", "1")
+    stress_units = ("N m",) * 3
+    deformation_meaning = ("HINGE deformations: 1 the joint angle (rad), 2-3 the small relative "
+                           "rotations (1)")
+    stress_meaning = "HINGE stress resultants: the joint moment and the constraint moments"
     length_modes = (False,) * 3
     estiff = Fields(("k", "k2", "k3"), ("N m/rad",) * 3, 0, 3, "k [k2 k3]")
     mode_stiffness = (0, 1, 2)

@@ -40,6 +40,10 @@ class PlBeam(ElementKind):
     node_roles = Beam.node_roles
     modes = ("elongation", "bending at p", "bending at q")
     mode_units = ("m",) * 3
+    stress_units = ("N",) * 3
+    deformation_meaning = ("PLBEAM deformations: 1 elongation, 2-3 bending in the x-y plane at p "
+                           "and q (l0 times a sine)")
+    stress_meaning = "PLBEAM stress resultants: normal force, bending moments divided by l0"
     length_modes = (True,) * 3
     estiff = Fields(("EA", "EI", "c"), ("N", "N m^2", "m^2"), 2, 3, "EA EI [c]")
     mode_stiffness = (0, 1, 1)

@@ -19,6 +19,9 @@ class PlHinge(ElementKind):
     node_roles = Hinge.node_roles
     modes = ("rotation about z",)
     mode_units = ("rad",)
+    stress_units = ("N m",)
+    deformation_meaning = "PLHINGE joint angle"
+    stress_meaning = "PLHINGE joint moment"
     length_modes = (False,)
     estiff = Fields(("k",), ("N m/rad",), 0, 1, "k")
     mode_stiffness = (0,)

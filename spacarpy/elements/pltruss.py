@@ -10,5 +10,7 @@ class PlTruss(Truss):
     """``PLTRUSS e p q``: a TRUSS whose model is planar."""
 
     keyword = "PLTRUSS"
+    deformation_meaning = "elongation of each PLTRUSS element"
+    stress_meaning = "axial force of each PLTRUSS element"
     em = Fields(("rhoA",), ("kg/m",), 1, 1, "rhoA")
     planar = True

@@ -210,6 +210,9 @@ class RBeam(ElementKind):
     node_roles = ("p", "r", "q")
     modes = ("elongation along x", "displacement along y", "displacement along z")
     mode_units = ("m",) * 3
+    stress_units = ("N",) * 3
+    deformation_meaning = "RBEAM deformations (position of q in the body of p)"
+    stress_meaning = "RBEAM constraint forces"
     length_modes = (True,) * 3
     estiff = Fields(("k1", "k2", "k3"), ("N/m",) * 3, 0, 3, "[k1 k2 k3]")
     mode_stiffness = (0, 1, 2)

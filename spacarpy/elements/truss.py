@@ -124,6 +124,9 @@ class Truss(ElementKind):
     node_roles = ("p", "q")
     modes = ("elongation",)
     mode_units = ("m",)
+    stress_units = ("N",)
+    deformation_meaning = "elongation of each TRUSS element"
+    stress_meaning = "axial force of each TRUSS element"
     length_modes = (True,)
     estiff = Fields(("EA",), ("N",), 1, 1, "EA")
     mode_stiffness = (0,)

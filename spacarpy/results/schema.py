@@ -127,28 +127,15 @@ class DatasetSpec:
 STEP_GROUPS = {"static": "load_factor", "transient": "time", "eigen": "step",
                "buckling": "step", "compliance": "step"}
 
-# units of the per-kind element datasets (deformation, stress resultant)
-_KIND_UNITS = {
-    "BEAM": ("m", "N"), "TRUSS": ("m", "N"), "HINGE": ("rad | 1", "N m"),
-    "RBEAM": ("m", "N"), "PLBEAM": ("m", "N"), "PLTRUSS": ("m", "N"),
-    "PLHINGE": ("rad", "N m")}
-_KIND_MEANING = {
-    "BEAM": ("generalized deformations of each BEAM element",
-             "generalized stress resultants (dual to the deformations) of each BEAM element"),
-    "TRUSS": ("elongation of each TRUSS element", "axial force of each TRUSS element"),
-    "HINGE": ("HINGE deformations: 1 the joint angle (rad), 2-3 the small relative "
-              "rotations (1)", "HINGE stress resultants: the joint moment and the constraint "
-              "moments"),
-    "RBEAM": ("RBEAM deformations (position of q in the body of p)", "RBEAM constraint forces"),
-    "PLBEAM": ("PLBEAM deformations: 1 elongation, 2-3 bending in the x-y plane at p and q "
-               "(l0 times a sine)", "PLBEAM stress resultants: normal force, bending moments "
-               "divided by l0"),
-    "PLTRUSS": ("elongation of each PLTRUSS element", "axial force of each PLTRUSS element"),
-    "PLHINGE": ("PLHINGE joint angle", "PLHINGE joint moment")}
+
+def _units(per_mode) -> str:
+    """One ``units`` attribute for a dataset whose modes have the units ``per_mode``."""
+    return " | ".join(dict.fromkeys(per_mode)) or "1"
+
+
+#: Schema version that introduced each kind's datasets (kinds added later: their own).
 _KIND_SINCE = {"BEAM": (1, 0), "TRUSS": (1, 2), "HINGE": (1, 2), "RBEAM": (1, 2),
                "PLBEAM": (1, 3), "PLTRUSS": (1, 3), "PLHINGE": (1, 3)}
-_KIND_SLOTS = {"BEAM": "[p r q s]", "TRUSS": "[p q]", "HINGE": "[r s]", "RBEAM": "[p r q]",
-               "PLBEAM": "[p r q s]", "PLTRUSS": "[p q]", "PLHINGE": "[r s]"}
 
 _LIN_SHAPE = {"mode": ("linearized_step", "mode"),
               "position": ("linearized_step", "mode", "position_node", "coordinate"),
@@ -263,17 +250,18 @@ def _spec_list() -> list[DatasetSpec]:
           "6x6 compliance of the chosen node in its current body axes"),
     ]
     for kind in KIND_NAMES:
-        since = _KIND_SINCE.get(kind, (2, 0))
-        eu, su = _KIND_UNITS.get(kind, ("1", "1"))
-        em, sm = _KIND_MEANING.get(kind, (f"deformations of each {kind} element",
-                                          f"stress resultants of each {kind} element"))
+        facts = _KINDS[kind]
+        since = _KIND_SINCE.get(kind, SCHEMA_VERSION)
+        eu, su = _units(facts.mode_units), _units(facts.stress_units)
+        em = facts.deformation_meaning or f"deformations of each {kind} element"
+        sm = facts.stress_meaning or f"stress resultants of each {kind} element"
         m = f"model/elements/{kind}"
         out += [
             S(f"{m}/ids", "i8", ("element",), "1", f"deck number of each {kind} element",
               since, kind),
             S(f"{m}/nodes", "i8", ("element", "slot"), "1",
-              f"deck node numbers {_KIND_SLOTS.get(kind, '')} of each {kind} element".replace(
-                  "  ", " "), since, kind)]
+              f"deck node numbers [{' '.join(facts.node_roles)}] of each {kind} element",
+              since, kind)]
         for group, axis0, tsince in (("static", "step", since), ("transient", "time_step",
                                                                   max(since, (1, 4)))):
             g = f"{group}/elements/{kind}"
