@@ -271,17 +271,31 @@ def _results_commands(sub) -> None:
                       help="shape: draw every step, not only --step (default: the last)")
     plot.add_argument("--quantity", default="displacement",
                       help="history: the quantity (default: displacement)")
-    plot.add_argument("--time", type=float, default=None, metavar="T",
-                      help="shape: draw the stored time step of /transient nearest to T (s)")
+    plot.add_argument("--time", type=float, nargs="+", default=None, metavar="T",
+                      help="shape: draw the stored time steps of /transient nearest to these "
+                           "times (s)")
     plot.add_argument("--scale", type=float, default=None,
-                      help="shape: displacement magnification (default 1); mode: amplitude "
-                           "of the mode shape (default: 15%% of the model size)")
+                      help="shape, animate: displacement magnification (default: automatic "
+                           "when the displacements are small, stated in the legend; 1 = true "
+                           "scale); mode: amplitude of the mode shape (default: 15%% of the "
+                           "model size)")
+    plot.add_argument("--x", dest="x_axis", choices=("auto", "prescribed", "load-factor"),
+                      default="auto",
+                      help="frequency, buckling, load-displacement: the load axis: the "
+                           "quantity the run prescribes (a DELINPE angle in mrad, a DELXF "
+                           "force in N), or the load factor (default auto: the prescribed "
+                           "quantity where there is one)")
+    plot.add_argument("--fps", type=float, default=20.0,
+                      help="animate: frames per second (default 20)")
+    plot.add_argument("--frames", type=_positive_int, default=200,
+                      help="animate: at most this many frames, spread over the steps "
+                           "(default 200)")
     plot.add_argument("--view", type=float, nargs=2, default=None, metavar=("ELEV", "AZIM"),
                       help="shape, mode: camera elevation and azimuth in degrees (default "
                            "30 -60)")
     plot.add_argument("-o", "--output", type=Path, default=None,
-                      help="image file; the suffix picks the format (default: "
-                           "<file>_<kind>.png)")
+                      help="image file; the suffix picks the format: .png, .pdf, .svg; "
+                           "animate: .gif, .mp4 (default: <file>_<kind>.png, .gif)")
     _verbosity(plot)
 
     exp = sub.add_parser("export", help="files for ParaView: an XDMF sidecar (reads the "
@@ -383,6 +397,9 @@ def cmd_run(args) -> int:
              n_elem, model.analysis, model.deformations)
     progress = (_ProgressBar(sys.stderr) if model.analysis == "transient" and not args.quiet
                 and sys.stderr.isatty() else None)
+    handlers = logging.getLogger().handlers if progress is not None else []
+    for handler in handlers:         # a log line first clears the bar's line
+        handler.addFilter(progress.clear_line)
     summary = run_model(model, out, RunOptions(n_modes=args.modes or model.n_modes or 10,
                                                modes_per_step=(args.modes_per_step
                                                                or model.modes_each_step),
@@ -390,6 +407,8 @@ def cmd_run(args) -> int:
                                                progress=progress))
     if progress is not None:
         progress.close()
+    for handler in handlers:
+        handler.removeFilter(progress.clear_line)
     if model.analysis == "check":
         print(summary.report)
         return EXIT_OK
@@ -431,6 +450,16 @@ class _ProgressBar:
                           f"{100 * frac:5.1f}%  remaining {eta:6.1f} s ")
         self.stream.flush()
         self.shown = True
+
+    def clear_line(self, record=None) -> bool:
+        """Blank the bar's line so that a log line starts at its beginning (a logging
+        filter: lets every record through); the next update draws the bar again."""
+        if self.shown:
+            self.stream.write("\r" + " " * (self.width + 60) + "\r")
+            self.stream.flush()
+            self.shown = False
+            self.last = 0.0
+        return True
 
     def close(self) -> None:
         if self.shown:
@@ -509,27 +538,39 @@ def cmd_extract(args) -> int:
 def cmd_plot(args) -> int:
     """``spacarpy plot FILE [KIND]``: an image file."""
     from spacarpy.results import open_results
-    from spacarpy.results.plot import make_figure, save
+    from spacarpy.results.plot import animate, make_figure, save
+    from spacarpy.results.plot_base import ANIMATION_SUFFIXES, IMAGE_SUFFIXES, check_output
 
-    out = args.output or args.file.with_name(f"{args.file.stem}_{args.kind}.png")
+    animation = args.kind == "animate"
+    out = args.output or args.file.with_name(
+        f"{args.file.stem}_{args.kind}{'.gif' if animation else '.png'}")
+    out = check_output(out, ANIMATION_SUFFIXES if animation else IMAGE_SUFFIXES,
+                       f"plot {args.kind}")          # before any work
     step = "all" if args.all_steps else args.step
     with open_results(args.file) as res:
-        fig = make_figure(res, args.kind, node=args.node, element=args.element, step=step,
-                          mode=args.mode, quantity=args.quantity, scale=args.scale,
-                          view=args.view, time=args.time)
-        save(fig, out)
+        if animation:
+            animate(res, out, fps=args.fps, max_frames=args.frames, scale=args.scale,
+                    view=args.view)
+        else:
+            fig = make_figure(res, args.kind, node=args.node, element=args.element,
+                              step=step, mode=args.mode, quantity=args.quantity,
+                              scale=args.scale, view=args.view, time=args.time,
+                              x=args.x_axis)
+            save(fig, out)
     print(out)
     return EXIT_OK
 
 
 def cmd_export(args) -> int:
     """``spacarpy export FILE --xdmf | --vtk``: files for ParaView."""
-    from spacarpy.results.export import write_vtk, write_xdmf
+    from spacarpy.results.export import check_export_output, write_vtk, write_xdmf
 
     want_xdmf = args.xdmf or not args.vtk
     if args.output is not None and want_xdmf and args.vtk:
         print("export: -o names one file; give only one of --xdmf and --vtk", file=sys.stderr)
         return EXIT_INPUT
+    if args.output is not None:          # before any work
+        check_export_output(args.output, ".pvd" if args.vtk else ".xdmf")
     if want_xdmf:
         print(write_xdmf(args.file, args.output))
     if args.vtk:

@@ -8,22 +8,30 @@ reads the HDF5 datasets directly. The layout follows meshio's XDMF time series:
 
 - one ``Grid CollectionType="Temporal"`` named ``static`` with one uniform grid per committed
   load step, its ``Time`` the load factor (the step number if the load factors do not
-  increase strictly);
+  increase strictly); for a transient run (a file with time steps) the collection is named
+  ``transient``, one grid per stored time step, its ``Time`` the time (s), with the node
+  attribute ``velocity`` besides ``displacement``;
 - beams as ``Polyline`` cells with 2 nodes (p, q) from ``/model/elements/BEAM/position_rows``;
-- node coordinates = the positions of the step (``HyperSlab`` of ``/static/position``);
+  a model with other line elements (TRUSS, RBEAM, PLBEAM, PLTRUSS) has one cell per element
+  between its first two position nodes, BEAMs first, written inline;
+- node coordinates = the positions of the step (``HyperSlab`` of ``/static/position`` or
+  ``/transient/position``);
 - node attributes ``displacement`` (vector: position minus ``/model/position_x0``, an XDMF
   ``Function``), and at linearized steps ``eigenmode_<j>`` / ``buckling_mode_<j>`` (vectors);
 - cell attributes ``normal_force`` (sigma_1, N) and ``sigma2`` ... ``sigma6`` (the other
   generalized stress resultants, N; torque and end moments are these times the element
-  length), plus ``max_normal_stress`` and ``max_von_mises_stress`` (Pa) when the file has them.
+  length), plus ``max_normal_stress`` and ``max_von_mises_stress`` (Pa) when the file has them
+  (static runs whose only line elements are BEAMs).
 
 References are ``<file>.h5:/path``, relative to the ``.xdmf`` file. A partial file whose writer
 was killed keeps HDF5's "open for SWMR write" mark, which other HDF5 readers refuse; for such
 a file the committed steps are first copied to ``<name>.xdmf.h5`` next to the XDMF file, and
 the XDMF file points there.
 
-VTK (:func:`write_vtk`) writes one ``.vtu`` file per step and a ``.pvd`` collection with
-meshio (the optional ``vtk`` extra).
+VTK (:func:`write_vtk`) writes one ``.vtu`` file per step (time step of a transient run) and
+a ``.pvd`` collection with meshio (the optional ``vtk`` extra), with the same cells.
+
+Output paths are checked before any work (:func:`check_export_output`).
 """
 from __future__ import annotations
 
@@ -41,13 +49,66 @@ from spacarpy.results.stress import section_forces
 
 log = logging.getLogger(__name__)
 
-__all__ = ["write_xdmf", "write_vtk", "ExportUnavailableError"]
+__all__ = ["write_xdmf", "write_vtk", "ExportUnavailableError", "ExportError",
+           "check_export_output",
+           "line_cells"]
+
+_LINE_KINDS = ("BEAM", "TRUSS", "RBEAM", "PLBEAM", "PLTRUSS")
 
 
 class ExportUnavailableError(SpacarError):
     """An optional package needed for an export is not installed."""
 
     exit_code = EXIT_INPUT
+
+
+class ExportError(SpacarError):
+    """The output cannot be written, or the file has nothing to export (exit 2)."""
+
+    exit_code = EXIT_INPUT
+
+
+def check_export_output(out, suffix: str) -> Path:
+    """``out`` as a Path when it can be written (an existing, writable directory, not a
+    directory itself, the suffix ``suffix``); else a :class:`SpacarError` (exit 2)."""
+    out = Path(out)
+    if str(out) in ("", "."):
+        raise ExportError("export: -o needs a file name")
+    if out.suffix.lower() != suffix:
+        raise ExportError(f"export: cannot write {out}: the file name must end in {suffix}")
+    if out.is_dir():
+        raise ExportError(f"export: cannot write {out}: it is a directory")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise ExportError(f"export: cannot write {out}: the directory {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ExportError(f"export: cannot write {out}: the directory {parent} is not "
+                          "writable")
+    return out
+
+
+def line_cells(res: ResultsFile) -> tuple[np.ndarray, bool]:
+    """((n_cell, 2) position rows of every line element, BEAMs first; whether the cells are
+    exactly the BEAMs (so that BEAM cell data fits them))."""
+    from spacarpy.results.schema import slot_roles
+
+    m = res.model
+    cells = [m.element_position_rows.reshape(-1, 2)]
+    for kind in m.element_kinds:
+        if kind != "BEAM" and kind in _LINE_KINDS:
+            cols = [j for j, r in enumerate(slot_roles(kind)) if r == "pos"][:2]
+            cells.append(m.position_row(m.element_kind_nodes(kind)[:, cols]).reshape(-1, 2))
+    all_cells = np.concatenate(cells).astype(np.int64)
+    return all_cells, len(all_cells) == m.n_elem
+
+
+def _group(res: ResultsFile) -> str:
+    """``transient`` for a file with time steps, else ``static``."""
+    if res.transient is not None and res.transient.n_step:
+        return "transient"
+    if res.static is None:
+        raise ExportError(f"{res.path} has no load steps and no time steps: nothing to export")
+    return "static"
 
 
 def _needs_swmr_read(path) -> bool:
@@ -62,13 +123,15 @@ def _needs_swmr_read(path) -> bool:
 def _copy_committed(res: ResultsFile, target: Path) -> None:
     """Copy what the XDMF file references, committed steps only, into ``target``."""
     with res._file() as src, h5py.File(target, "w", libver=("v110", "v110")) as dst:
-        n_step = src["static/load_factor"].shape[0] if "static" in src else 0
+        group = _group(res)
+        n_step = getattr(res, group).n_step
         for name in ("model/position_x0", "model/elements/BEAM/position_rows",
-                     "static/load_factor", "static/position",
+                     "static/load_factor", "static/position", "transient/time",
+                     "transient/position", "transient/velocity",
                      "static/elements/BEAM/stress_resultant",
                      "static/elements/BEAM/max_normal_stress",
                      "static/elements/BEAM/max_von_mises_stress"):
-            if res._has(name):
+            if res._has(name) and (name.startswith("model") or name.startswith(group)):
                 real = res._name(name)
                 data = src[real][()] if name.startswith("model") else src[real][:n_step]
                 dst.create_dataset(real, data=data)
@@ -100,10 +163,9 @@ def write_xdmf(path, out=None) -> Path:
         The XDMF file written.
     """
     path = Path(path)
-    out = Path(out) if out is not None else path.with_suffix(".xdmf")
+    out = check_export_output(out if out is not None else path.with_suffix(".xdmf"), ".xdmf")
     res = open_results(path)
-    if res.static is None:
-        raise SpacarError(f"{path} has no static load steps: nothing to export")
+    _group(res)
     data_file = path
     if _needs_swmr_read(path):
         data_file = out.with_name(out.stem + ".xdmf.h5")
@@ -130,11 +192,14 @@ def write_xdmf(path, out=None) -> Path:
 
 
 def _referenced(f: h5py.File, res: ResultsFile) -> list[str]:
-    names = ["model/position_x0", "static/position", "static/elements/BEAM/stress_resultant"]
-    names += [n for n in ("model/elements/BEAM/position_rows",
+    group = _group(res)
+    names = ["model/position_x0", f"{group}/position"]
+    names += [n for n in ("model/elements/BEAM/position_rows", "transient/velocity",
+                          f"{group}/elements/BEAM/stress_resultant",
                           "static/elements/BEAM/max_normal_stress",
                           "static/elements/BEAM/max_von_mises_stress", "eigen/shape_position",
-                          "buckling/shape_position") if res._name(n) in f]
+                          "buckling/shape_position")
+              if n.startswith(("model", group, "eigen", "buckling")) and res._name(n) in f]
     return names
 
 
@@ -168,62 +233,75 @@ def _slab(parent, href, name: str, full_shape, start, count, dims=None):
 
 
 def _xdmf_tree(res: ResultsFile, href, shapes: dict) -> ET.ElementTree:
-    s, m = res.static, res.model
-    n_pos, n_elem, n_step = m.n_pos, m.n_elem, s.n_step
-    lf = s.load_factor
-    times = lf if n_step < 2 or np.all(np.diff(lf) > 0) else np.arange(n_step, dtype=float)
+    group = _group(res)
+    s, m = getattr(res, group), res.model
+    n_pos, n_step = m.n_pos, s.n_step
+    if group == "transient":
+        times = s.time
+    else:
+        lf = s.load_factor
+        times = lf if n_step < 2 or np.all(np.diff(lf) > 0) else np.arange(n_step, dtype=float)
+    cells, beams_only = line_cells(res)
+    n_cell = len(cells)
     root = ET.Element("Xdmf", {"Version": "3.0", "xmlns:xi": "http://www.w3.org/2001/XInclude"})
     domain = ET.SubElement(root, "Domain")
-    series = ET.SubElement(domain, "Grid", Name="static", GridType="Collection",
+    series = ET.SubElement(domain, "Grid", Name=group, GridType="Collection",
                            CollectionType="Temporal")
     modes = {}
-    for group in ("eigen", "buckling"):
-        view = getattr(res, group)
-        if view is not None and f"{group}/shape_position" in shapes:
-            modes[group] = {int(k): r for r, k in enumerate(view.step)}
-    pos_shape = shapes["static/position"]
-    sig_shape = shapes["static/elements/BEAM/stress_resultant"]
+    for lin in ("eigen", "buckling"):
+        view = getattr(res, lin)
+        if group == "static" and view is not None and f"{lin}/shape_position" in shapes:
+            modes[lin] = {int(k): r for r, k in enumerate(view.step)}
+    pos_shape = shapes[f"{group}/position"]
+    sig_name = f"{group}/elements/BEAM/stress_resultant"
+    cell_data = beams_only and n_cell > 0 and sig_name in shapes
     for k in range(n_step):
         grid = ET.SubElement(series, "Grid", Name=f"step {k}", GridType="Uniform")
         ET.SubElement(grid, "Time", Value=repr(float(times[k])))
         topo = ET.SubElement(grid, "Topology", TopologyType="Polyline", NodesPerElement="2",
-                             NumberOfElements=str(n_elem))
-        if "model/elements/BEAM/position_rows" in shapes:
-            _hdf(topo, href, "model/elements/BEAM/position_rows", (n_elem, 2), "Int", 8)
-        else:       # schema 1.0 file: the connectivity inline
-            item = ET.SubElement(topo, "DataItem", Dimensions=f"{n_elem} 2", NumberType="Int",
+                             NumberOfElements=str(n_cell))
+        if beams_only and "model/elements/BEAM/position_rows" in shapes:
+            _hdf(topo, href, "model/elements/BEAM/position_rows", (n_cell, 2), "Int", 8)
+        else:       # other line elements, or a schema 1.0 file: the connectivity inline
+            item = ET.SubElement(topo, "DataItem", Dimensions=f"{n_cell} 2", NumberType="Int",
                                  Format="XML")
-            item.text = " ".join(map(str, m.element_position_rows.ravel().tolist()))
+            item.text = " ".join(map(str, cells.ravel().tolist()))
         geo = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
-        _slab(geo, href, "static/position", pos_shape, (k, 0, 0), (1, n_pos, 3), (n_pos, 3))
+        _slab(geo, href, f"{group}/position", pos_shape, (k, 0, 0), (1, n_pos, 3),
+              (n_pos, 3))
         att = ET.SubElement(grid, "Attribute", Name="displacement", AttributeType="Vector",
                             Center="Node")
         fn = ET.SubElement(att, "DataItem", ItemType="Function", Function="$0 - $1",
                            Dimensions=f"{n_pos} 3")
-        _slab(fn, href, "static/position", pos_shape, (k, 0, 0), (1, n_pos, 3), (n_pos, 3))
+        _slab(fn, href, f"{group}/position", pos_shape, (k, 0, 0), (1, n_pos, 3), (n_pos, 3))
         _hdf(fn, href, "model/position_x0", (n_pos, 3))
-        for j, name in enumerate(("normal_force", "sigma2", "sigma3", "sigma4", "sigma5",
-                                  "sigma6")):
-            att = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar",
-                                Center="Cell")
-            _slab(att, href, "static/elements/BEAM/stress_resultant", sig_shape, (k, 0, j),
-                  (1, n_elem, 1), (n_elem,))
-        for name in ("max_normal_stress", "max_von_mises_stress"):
-            if f"static/elements/BEAM/{name}" in shapes:
+        if "transient/velocity" in shapes and group == "transient":
+            att = ET.SubElement(grid, "Attribute", Name="velocity", AttributeType="Vector",
+                                Center="Node")
+            _slab(att, href, "transient/velocity", shapes["transient/velocity"], (k, 0, 0),
+                  (1, n_pos, 3), (n_pos, 3))
+        if cell_data:
+            for j, name in enumerate(("normal_force", "sigma2", "sigma3", "sigma4", "sigma5",
+                                      "sigma6")):
                 att = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar",
                                     Center="Cell")
-                path = f"static/elements/BEAM/{name}"
-                _slab(att, href, path, shapes[path], (k, 0),
-                      (1, n_elem), (n_elem,))
-        for group, rows in modes.items():
+                _slab(att, href, sig_name, shapes[sig_name], (k, 0, j), (1, n_cell, 1), (n_cell,))
+            for name in ("max_normal_stress", "max_von_mises_stress"):
+                if f"{group}/elements/BEAM/{name}" in shapes:
+                    att = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar",
+                                        Center="Cell")
+                    path = f"{group}/elements/BEAM/{name}"
+                    _slab(att, href, path, shapes[path], (k, 0),
+                          (1, n_cell), (n_cell,))
+        for lin, rows in modes.items():
             if k not in rows:
                 continue
-            full = shapes[f"{group}/shape_position"]
-            label = "eigenmode" if group == "eigen" else "buckling_mode"
+            full = shapes[f"{lin}/shape_position"]
+            label = "eigenmode" if lin == "eigen" else "buckling_mode"
             for j in range(full[1]):
                 att = ET.SubElement(grid, "Attribute", Name=f"{label}_{j + 1}",
                                     AttributeType="Vector", Center="Node")
-                _slab(att, href, f"{group}/shape_position", full, (rows[k], j, 0, 0),
+                _slab(att, href, f"{lin}/shape_position", full, (rows[k], j, 0, 0),
                       (1, 1, n_pos, 3), (n_pos, 3))
     return ET.ElementTree(root)
 
@@ -233,7 +311,8 @@ def _xdmf_tree(res: ResultsFile, href, shapes: dict) -> ET.ElementTree:
 # --------------------------------------------------------------------------------------------
 
 def write_vtk(path, out=None) -> Path:
-    """Write one ``.vtu`` per committed step and a ``.pvd`` collection (needs meshio).
+    """Write one ``.vtu`` per committed step (time step of a transient run) and a ``.pvd``
+    collection (needs meshio).
 
     Parameters
     ----------
@@ -254,32 +333,39 @@ def write_vtk(path, out=None) -> Path:
         raise ExportUnavailableError("VTK export needs meshio, which is not installed: pip "
                                      "install \"spacarpy[vtk]\" (or pip install meshio)") from exc
     path = Path(path)
-    out = Path(out) if out is not None else path.with_suffix(".pvd")
+    out = check_export_output(out if out is not None else path.with_suffix(".pvd"), ".pvd")
     res = open_results(path)
-    s, m = res.static, res.model
-    if s is None:
-        raise SpacarError(f"{path} has no static load steps: nothing to export")
+    group = _group(res)
+    s, m = getattr(res, group), res.model
+    line, beams_only = line_cells(res)
     with res:
         position = s.position()
-        sigma = s.stress_resultant()
-        forces = section_forces(sigma, m.element_length)
-        stress = ((s.max_normal_stress(), s.max_von_mises_stress()) if s.has_stress
-                  else None)
-        lf = s.load_factor
-    cells = [("line", m.element_position_rows.astype(np.int64))]
+        velocity = s.velocity() if group == "transient" else None
+        cell = beams_only and len(line) > 0 and res._has(
+            f"{group}/elements/BEAM/stress_resultant")
+        sigma = s.stress_resultant() if cell else None
+        forces = section_forces(sigma, m.element_length) if cell else None
+        stress = ((s.max_normal_stress(), s.max_von_mises_stress())
+                  if cell and group == "static" and s.has_stress else None)
+        times = s.time if group == "transient" else s.load_factor
+    cells = [("line", line)]
     root = ET.Element("VTKFile", type="Collection", version="0.1")
     coll = ET.SubElement(root, "Collection")
     for k in range(s.n_step):
         name = f"{out.stem}_{k}.vtu"
-        cell_data = {"normal_force": [forces[k, :, 0]], "torque": [forces[k, :, 1]],
-                     "stress_resultant": [sigma[k]]}
+        cell_data = {}
+        if cell:
+            cell_data = {"normal_force": [forces[k, :, 0]], "torque": [forces[k, :, 1]],
+                         "stress_resultant": [sigma[k]]}
         if stress is not None:
             cell_data["max_normal_stress"] = [stress[0][k]]
             cell_data["max_von_mises_stress"] = [stress[1][k]]
+        point_data = {"displacement": position[k] - m.position_x0}
+        if velocity is not None:
+            point_data["velocity"] = velocity[k]
         meshio.write_points_cells(out.with_name(name), position[k], cells,
-                                  point_data={"displacement": position[k] - m.position_x0},
-                                  cell_data=cell_data)
-        ET.SubElement(coll, "DataSet", timestep=repr(float(lf[k])), part="0", file=name)
+                                  point_data=point_data, cell_data=cell_data or None)
+        ET.SubElement(coll, "DataSet", timestep=repr(float(times[k])), part="0", file=name)
     tree = ET.ElementTree(root)
     ET.indent(tree, space="  ")
     tree.write(out, encoding="utf-8", xml_declaration=True)

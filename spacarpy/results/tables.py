@@ -155,12 +155,19 @@ def extract(res: ResultsFile, what: str, *, node=None, element=None, step=None,
     if what not in QUANTITIES:
         raise ResultsQueryError(f"unknown quantity {what!r}; choose one of "
                                 f"{', '.join(QUANTITIES)}")
+    no_static = res.static is None or res.static.n_step == 0
+    if (no_static and f"time_{what}" in QUANTITIES and res.transient is not None
+            and res.transient.n_step):
+        what = f"time_{what}"          # a transient run: its time history
     return _EXTRACTORS[what](res, node=node, element=element, step=step, mode=mode)
 
 
 def _static(res):
-    if res.static is None:
-        raise ResultsQueryError(f"{res.path} has no static load steps (/static)")
+    if res.static is None or res.static.n_step == 0:
+        timed = (" (it has time steps: extract time_position, time_displacement, "
+                 "time_velocity, ..., energy)"
+                 if res.transient is not None and res.transient.n_step else "")
+        raise ResultsQueryError(f"{res.path} has no static load steps (/static){timed}")
     return res.static
 
 
