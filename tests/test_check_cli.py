@@ -182,3 +182,6 @@ def test_check_counts_the_modes_of_every_element_kind(capsys):
     assert main(["check", str(ROOT / "decks" / "four_bar_linkage.dat")]) == 0
     assert "deformation modes   21: 1 flexible, 6 released, 14 rigid\n" in \
         capsys.readouterr().out
+    assert main(["check", str(ROOT / "decks" / "parallelogram_four_bar_3d.dat")]) == 0
+    assert "deformation modes   30: 0 flexible, 4 released, 26 rigid\n" in \
+        capsys.readouterr().out
