@@ -139,19 +139,29 @@ def test_near_dead_point_says_the_rank_is_not_clear(tmp_path, capsys):
 
 
 def test_rank_decision_has_a_gap_that_round_off_cannot_cross():
-    rank, null = numerical_rank(np.diag([1.0, 1e-3, 1e-16]))
+    rank, null, _ = numerical_rank(np.diag([1.0, 1e-3, 1e-16]))
     assert (rank.rank, rank.clear) == (2, True) and null.shape == (3, 1)
     assert rank.kept == pytest.approx(1e-3) and rank.dropped == pytest.approx(1e-16)
-    rank, _ = numerical_rank(np.diag([1.0, 1e-7]))
-    assert not rank.clear                                   # inside the gap: flagged
+    rank, _, _ = numerical_rank(np.diag([1.0, 1e-7]))
+    assert (rank.rank, rank.clear) == (1, False)           # inside the gap: zero, flagged
+
+
+def redundant(rows) -> tuple[list, bool]:
+    M = np.array(rows, dtype=float)
+    M /= np.linalg.norm(M, axis=1)[:, None]
+    _, _, left = numerical_rank(M, right=False, left=True)
+    return dependent_rows(left)
 
 
 def test_dependent_rows_are_the_later_rows_of_a_dependent_set():
-    a, b = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
-    c = (a + b) / np.sqrt(2)
-    assert dependent_rows(np.array([a, b, c])) == ([2], True)
-    assert dependent_rows(np.array([c, a, b])) == ([2], True)
-    assert dependent_rows(np.array([a, a, b])) == ([1], True)
+    """Walking the rows in order, a row that repeats earlier ones is named, whatever basis
+    of the left null space the SVD returns."""
+    a, b, c, d = [1.0, 0, 0, 0], [0, 1.0, 0, 0], [1.0, 1.0, 0, 0], [0, 0, 1.0, 0]
+    assert redundant([a, b, c]) == ([2], True)
+    assert redundant([c, a, b]) == ([2], True)
+    assert redundant([a, a, b]) == ([1], True)
+    assert redundant([a, d, b, c, a, d]) == ([3, 4, 5], True)
+    assert redundant([a, b, d]) == ([], True)
 
 
 def test_canonical_motions_do_not_depend_on_the_null_space_basis():
@@ -165,3 +175,13 @@ def test_canonical_motions_do_not_depend_on_the_null_space_basis():
     assert c1 == c2 == [0, 1]
     np.testing.assert_allclose(m1, m2, atol=1e-12)
     np.testing.assert_allclose(m1[:2], np.eye(2), atol=1e-12)
+
+
+def test_the_report_in_docs_is_the_real_one(monkeypatch, capsys):
+    """docs/multibody.md shows the parallelogram's report verbatim."""
+    doc = (DECKS.parent / "docs" / "multibody.md").read_text()
+    cmd = "$ spacarpy run decks/parallelogram_four_bar_3d.dat --mode check -q\n"
+    shown = doc[doc.index(cmd) + len(cmd):].split("```", 1)[0]
+    monkeypatch.chdir(DECKS.parent)
+    assert main(["run", "decks/parallelogram_four_bar_3d.dat", "--mode", "check", "-q"]) == 0
+    assert capsys.readouterr().out == shown

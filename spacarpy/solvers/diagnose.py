@@ -44,11 +44,13 @@ class Rank:
     dropped: float
 
     def describe(self) -> str:
-        if np.isnan(self.kept) and self.clear:
+        if np.isnan(self.kept) and np.isnan(self.dropped):
             return "nothing to decide (no constraint)"
-        text = (f"smallest kept singular value {self.kept:.1e}, largest dropped "
-                f"{self.dropped:.1e} (relative; zero below {ZERO:g}, nonzero above "
-                f"{NONZERO:g})")
+        dropped = ("none dropped" if np.isnan(self.dropped) else
+                   "largest dropped < 1e-12 (round-off)" if self.dropped < 1e-12 else
+                   f"largest dropped {self.dropped:.1e}")
+        text = (f"smallest kept singular value {self.kept:.1e}, {dropped} (relative; zero "
+                f"below {ZERO:g}, nonzero above {NONZERO:g})")
         if not self.clear:
             text += ("; NOT CLEAR: a singular value lies between the two (counted as zero): "
                      "the configuration is close to a singular one (a dead point?) and the "
@@ -64,39 +66,63 @@ def unit_rows(M) -> np.ndarray:
     return M / np.where(norm > 0, norm, 1.0)[:, None]
 
 
-def numerical_rank(M) -> tuple[Rank, np.ndarray]:
-    """The rank of ``M`` (rows of unit norm, see :func:`unit_rows`) by an SVD, and an
-    orthonormal basis of its null space (columns)."""
+def numerical_rank(M, right: bool = True, left: bool = False):
+    """The rank of ``M`` (rows of unit norm, see :func:`unit_rows`) by an SVD.
+
+    Returns (Rank, N, L): orthonormal bases of the right null space (columns of N, when
+    ``right``) and of the left null space (columns of L, when ``left``); the singular
+    vectors are computed only when the rank is deficient and a basis was asked for.
+    """
     m, n = M.shape
     if m == 0 or n == 0:
-        return Rank(0, True, np.nan, 0.0), np.eye(n)
-    _, s, vt = np.linalg.svd(M)
+        return Rank(0, True, np.nan, np.nan), np.eye(n), np.eye(m)
+    s = np.linalg.svd(M, compute_uv=False)
     smax = s[0] if s[0] > 0 else 1.0
     rel = s / smax
     rank = int(np.count_nonzero(rel >= NONZERO))           # the gap counts as zero
     clear = not np.any((rel > ZERO) & (rel < NONZERO))
     kept = float(rel[rank - 1]) if rank else np.nan
-    dropped = float(rel[rank]) if rank < s.size else 0.0
-    return Rank(rank, clear, kept, dropped), vt[rank:].T
+    dropped = float(rel[rank]) if rank < s.size else np.nan
+    N, L = np.zeros((n, 0)), np.zeros((m, 0))
+    if (right and rank < n) or (left and rank < m):
+        u, _, vt = np.linalg.svd(M)
+        N, L = vt[rank:].T, u[:, rank:]
+    return Rank(rank, clear, kept, dropped), N, L
 
 
-def dependent_rows(M) -> tuple[list, bool]:
-    """Rows of ``M`` (unit norm) that repeat earlier ones: walking the rows in order, a row
-    is dependent when its part outside the span of the independent rows before it is below
-    ``ZERO`` (and independent above ``NONZERO``). The order decides which rows of a
-    dependent set are named, never round-off. Returns (indices, clear)."""
-    basis = np.zeros((0, M.shape[1]))
+def dependent_rows(L) -> tuple[list, bool]:
+    """The rows of a matrix that repeat earlier rows, from ``L``, an orthonormal basis of
+    its left null space (m x k).
+
+    Walking the rows in order, row i repeats earlier ones exactly when a left null vector
+    ends at i (its last nonzero entry). Gaussian elimination on the columns of ``L^T`` from
+    the last row backwards finds the k rows where the null vectors end: that set does not
+    depend on the basis, so the order of the rows decides which rows of a dependent set
+    are named, never round-off. An entry counts as nonzero above ``NONZERO`` (the vectors
+    kept at unit norm) and as zero below ``ZERO``. Returns (sorted indices, clear).
+    """
+    W = np.array(L, dtype=float).T.copy()
+    k, m = W.shape
     out, clear = [], True
-    for i, row in enumerate(M):
-        r = row - basis.T @ (basis @ row)
-        r -= basis.T @ (basis @ r)                      # twice is enough (Kahan)
-        norm = float(np.linalg.norm(r))
-        if norm < NONZERO:
-            clear &= norm < ZERO
-            out.append(i)
-        else:
-            basis = np.vstack([basis, r / norm])
-    return out, clear
+    active = np.ones(k, bool)
+    for j in range(m - 1, -1, -1):
+        rows = np.flatnonzero(active)
+        if not rows.size:
+            break
+        col = np.abs(W[rows, j])
+        v = float(col.max())
+        if v < NONZERO:
+            clear &= v < ZERO
+            continue
+        p = rows[int(np.argmax(col))]
+        others = rows[rows != p]
+        if others.size:
+            W[others] -= np.outer(W[others, j] / W[p, j], W[p])
+            norm = np.linalg.norm(W[others], axis=1)
+            W[others] /= np.where(norm > 0, norm, 1.0)[:, None]
+        active[p] = False
+        out.append(j)
+    return sorted(out), clear and len(out) == k
 
 
 def canonical_motions(N, drivers) -> tuple[np.ndarray, list]:

@@ -15,7 +15,6 @@ import numpy as np
 from spacarpy.errors import ModelError
 from spacarpy.model import RIGID
 from spacarpy.solvers.diagnose import (
-    DENSE_LIMIT,
     NONZERO,
     Rank,
     _fmt,
@@ -25,6 +24,11 @@ from spacarpy.solvers.diagnose import (
     unit_rows,
 )
 from spacarpy.solvers.newton import bordered_solve
+
+#: Largest model (free coordinates plus constraints) that gets the dense rank analysis of
+#: :func:`kinematic_analysis` (two SVDs: about a second at this size on one core). Larger
+#: models get the determinate-tree test or the static solver's sparse check.
+KINEMATIC_LIMIT = 1200
 
 
 def check_initial(prob, allow_mechanism: bool = False) -> ModelError | None:
@@ -60,7 +64,7 @@ def check_initial(prob, allow_mechanism: bool = False) -> ModelError | None:
            else mechanism_error(prob, A, ev.states, lu=lu))      # the same LU, not a second
     if err is None:
         return None
-    if A.shape[0] <= DENSE_LIMIT:       # name exactly what the rank analysis finds
+    if A.shape[0] <= KINEMATIC_LIMIT:   # name exactly what the rank analysis finds
         err = analysis_error(prob, kinematic_analysis(prob)) or err
     raise err
 
@@ -150,8 +154,8 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
     """The rank-revealing analysis of the kinematic check in the initial configuration.
 
     Dense SVDs of the scaled Jacobians (positions in units of the model's length scale,
-    every row of unit norm): for models up to :data:`~spacarpy.solvers.diagnose.DENSE_LIMIT`
-    unknowns plus constraints. The redundant constraints are named by walking the rigid
+    every row of unit norm): for models up to :data:`KINEMATIC_LIMIT` unknowns plus
+    constraints. The redundant constraints are named by walking the rigid
     modes in a fixed order, Euler normalizations first, then the modes of the bodies (BEAM,
     TRUSS, RBEAM, ...), then those of the joints (HINGE, PLHINGE), each kind by element:
     the last ones of a dependent set are named, so a joint's mode rather than a body's.
@@ -185,13 +189,11 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
     J = np.array(rows).reshape(len(rows), num.n_coord)[:, free] / col
     kinds = np.array(kinds, dtype=int)
     C = unit_rows(J[kinds == 0])
-    rank, _ = numerical_rank(C)
-    dep, clear = dependent_rows(C)
-    if len(dep) != C.shape[0] - rank.rank:
-        clear = False
+    rank, _, L = numerical_rank(C, right=False, left=True)
+    dep, clear = dependent_rows(L)
     rank.clear &= clear
     cnames = [n for n, k in zip(names, kinds) if k == 0]
-    motion_rank, N = numerical_rank(unit_rows(J[kinds <= 1]))
+    motion_rank, N, _ = numerical_rank(unit_rows(J[kinds <= 1]))
     released = np.flatnonzero(kinds == 2)
     drivers = np.vstack([J[released], np.diag(col)])       # rates in physical units
     V, chosen = canonical_motions(N, drivers)
@@ -240,8 +242,8 @@ def dof_report(prob) -> str:
     each) and the redundant constraints (each with the RLSE line that releases it).
 
     A mechanism or redundant constraints are results here, not errors (the static solver
-    refuses them, :func:`check_initial`). Models with more than
-    :data:`~spacarpy.solvers.diagnose.DENSE_LIMIT` unknowns and constraints that are not
+    refuses them, :func:`check_initial`). Models with more than :data:`KINEMATIC_LIMIT`
+    unknowns and constraints that are not
     statically determinate trees get the static solver's check instead, which raises a
     :class:`~spacarpy.errors.ModelError` naming the free motions or redundant modes.
     """
@@ -256,7 +258,7 @@ def dof_report(prob) -> str:
            f"{num.euler_nodes.size} Euler normalizations)")
     x = num.x0.copy()
     ev = prob.evaluate(x, np.zeros(n_con), prob.loads.unloaded())
-    if (num.n_unknown + n_con > DENSE_LIMIT or not prob.pattern.n
+    if (num.n_unknown + n_con > KINEMATIC_LIMIT or not prob.pattern.n
             or determinate(prob, ev.states, x)):
         check_initial(prob)          # raises ModelError for mechanisms / over-constraints
         return "\n".join([f"{model.source_path}: kinematic check passed", *head,
@@ -296,5 +298,5 @@ def dof_report(prob) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["KinematicAnalysis", "analysis_error", "check_initial", "determinate", "dof_report",
-           "kinematic_analysis", "mode_name"]
+__all__ = ["KINEMATIC_LIMIT", "KinematicAnalysis", "analysis_error", "check_initial",
+           "determinate", "dof_report", "kinematic_analysis", "mode_name"]
