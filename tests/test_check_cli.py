@@ -175,3 +175,13 @@ def test_example_deck_with_generators_checks_and_runs(tmp_path, capsys):
     out = tmp_path / "frame.h5"
     assert main(["run", str(deck), "-q", "-o", str(out), "--set", "n=4"]) == 0
     assert out.exists()
+
+
+def test_check_counts_the_modes_of_every_element_kind(capsys):
+    """D12: ``spacarpy check`` counted BEAM modes only (four_bar_linkage: 0 of each)."""
+    assert main(["check", str(ROOT / "decks" / "four_bar_linkage.dat")]) == 0
+    assert "deformation modes   21: 1 flexible, 6 released, 14 rigid\n" in \
+        capsys.readouterr().out
+    assert main(["check", str(ROOT / "decks" / "parallelogram_four_bar_3d.dat")]) == 0
+    assert "deformation modes   30: 0 flexible, 4 released, 26 rigid\n" in \
+        capsys.readouterr().out

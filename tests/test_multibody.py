@@ -155,10 +155,20 @@ def test_mode_check_names_a_mechanism(tmp_path, capsys):
     deck = tmp_path / "mech.dat"
     deck.write_text("X 1 0 0 0\nX 3 1 0 0\nTRUSS 1 1 3\nDYNE 1 1\nFIX 1\nFIX 3 1\nEND\nHALT\n"
                     "ESTIFF 1 100\nEND\nEND\n")
-    assert main(["run", str(deck), "--mode", "check", "-q"]) == 3
-    assert "mechanism: 2 free motion(s) that no flexible element resists; nodes that move: 3" \
-        in capsys.readouterr().err
+    # a mechanism is the kinematic check's result (SPACAR mode 0), not an error
+    assert main(["run", str(deck), "--mode", "check", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "kinematic check: a mechanism with 2 free motions" in out
+    assert "degrees of freedom  2, 2 of them free motions that no stiffness resists" in out
+    assert "free motion 1       node 3 y (the others held); nodes that move: 3\n" in out
+    assert "free motion 2       node 3 z (the others held); nodes that move: 3\n" in out
     assert not (tmp_path / "mech.h5").exists()
+    # a loaded static run refuses it (exit 3) with the same diagnosis
+    deck.write_text(deck.read_text().replace("ESTIFF 1 100", "ESTIFF 1 100\nDELXF 3 0 1 0"))
+    assert main(["run", str(deck), "--mode", "static", "-q"]) == 3
+    assert ("mechanism: 2 free motion(s) that no flexible element resists; nodes that move: "
+            "3; motion 1 driven by node 3 y; motion 2 driven by node 3 z") \
+        in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------------ prescribed motion
@@ -317,9 +327,14 @@ def test_four_bar_without_releases_is_reported_three_times_over_constrained(tmp_
     text = text.replace("RLSE 13 2 3", "").replace("RLSE 12 2", "")
     deck = tmp_path / "fb_over.dat"
     deck.write_text(text)
-    assert main(["run", str(deck), "--mode", "check", "-q"]) == 3
-    err = capsys.readouterr().err
-    assert "over-constrained: 3 redundant constraint(s) among: HINGE 11 mode 2" in err
-    assert "'RLSE 13 2' would release it" in err
+    assert main(["run", str(deck), "--mode", "check", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "kinematic check: 3 redundant constraints\n" in out
+    assert ("  redundant           HINGE 13 mode 2: 'RLSE 13 2' releases it\n"
+            "                      HINGE 14 mode 2: 'RLSE 14 2' releases it\n"
+            "                      HINGE 14 mode 3: 'RLSE 14 3' releases it\n") in out
+    assert main(["run", str(deck), "-q", "-o", str(tmp_path / "fb.h5")]) == 3
+    assert ("over-constrained: 3 redundant constraint(s): HINGE 13 mode 2 ('RLSE 13 2' "
+            "releases it); HINGE 14 mode 2") in capsys.readouterr().err
     assert main(["run", str(DECKS / "four_bar_linkage.dat"), "--mode", "check", "-q"]) == 0
     assert "degrees of freedom  1, no free motion" in capsys.readouterr().out

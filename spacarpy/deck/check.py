@@ -245,8 +245,9 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
 def _from_model(s: DeckSummary, model: Model) -> None:
     from spacarpy.numbering import number_model
 
-    beams = model.elements.get("BEAM")
-    dc = beams.def_class if beams is not None else np.zeros((0, 6), np.int8)
+    # the deformation modes of every element kind (the registry sets each kind's count)
+    dcs = [es.def_class.ravel() for es in model.elements.values()]
+    dc = np.concatenate(dcs) if dcs else np.zeros(0, np.int8)
     s.flexible = int(np.count_nonzero(dc == FLEXIBLE))
     s.released = int(np.count_nonzero(dc == RELEASED))
     s.rigid = int(np.count_nonzero(dc == RIGID))

@@ -12,6 +12,8 @@ inverse iteration with one sparse LU of the slightly shifted matrix instead of a
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -20,6 +22,140 @@ from spacarpy.errors import ModelError
 
 #: Largest bordered system diagnosed with a dense SVD.
 DENSE_LIMIT = 4000
+
+#: The rank decision of :func:`numerical_rank`: on a matrix whose rows are scaled to unit
+#: norm, a singular value below ``ZERO * s_max`` is zero and one above ``NONZERO * s_max``
+#: is not. Round-off leaves exact zeros near 1e-15 s_max, so it cannot move a singular
+#: value across the gap between the two; a value inside the gap is counted as zero (the
+#: model is treated as at the singular configuration it is close to) and reported as
+#: unclear.
+ZERO, NONZERO = 1e-9, 1e-6
+
+
+@dataclass
+class Rank:
+    """A rank decision: ``rank``, whether it was ``clear`` (no singular value in the gap
+    between ZERO and NONZERO), the smallest singular value counted (``kept``) and the
+    largest one dropped (``dropped``), both relative to the largest."""
+
+    rank: int
+    clear: bool
+    kept: float
+    dropped: float
+
+    def describe(self) -> str:
+        if np.isnan(self.kept) and np.isnan(self.dropped):
+            return "nothing to decide (no constraint)"
+        dropped = ("none dropped" if np.isnan(self.dropped) else
+                   "largest dropped < 1e-12 (round-off)" if self.dropped < 1e-12 else
+                   f"largest dropped {self.dropped:.1e}")
+        text = (f"smallest kept singular value {self.kept:.1e}, {dropped} (relative; zero "
+                f"below {ZERO:g}, nonzero above {NONZERO:g})")
+        if not self.clear:
+            text += ("; NOT CLEAR: a singular value lies between the two (counted as zero): "
+                     "the configuration is close to a singular one (a dead point?) and the "
+                     "counts are those of that singular configuration")
+        return text
+
+
+def unit_rows(M) -> np.ndarray:
+    """``M`` (dense) with every nonzero row scaled to unit norm (the rank and the row
+    dependencies do not change; the rank decision becomes independent of the units)."""
+    M = np.asarray(M, dtype=float)
+    norm = np.linalg.norm(M, axis=1)
+    return M / np.where(norm > 0, norm, 1.0)[:, None]
+
+
+def numerical_rank(M, right: bool = True, left: bool = False):
+    """The rank of ``M`` (rows of unit norm, see :func:`unit_rows`) by an SVD.
+
+    Returns (Rank, N, L): orthonormal bases of the right null space (columns of N, when
+    ``right``) and of the left null space (columns of L, when ``left``); the singular
+    vectors are computed only when the rank is deficient and a basis was asked for.
+    """
+    m, n = M.shape
+    if m == 0 or n == 0:
+        return Rank(0, True, np.nan, np.nan), np.eye(n), np.eye(m)
+    s = np.linalg.svd(M, compute_uv=False)
+    smax = s[0] if s[0] > 0 else 1.0
+    rel = s / smax
+    rank = int(np.count_nonzero(rel >= NONZERO))           # the gap counts as zero
+    clear = not np.any((rel > ZERO) & (rel < NONZERO))
+    kept = float(rel[rank - 1]) if rank else np.nan
+    dropped = float(rel[rank]) if rank < s.size else np.nan
+    N, L = np.zeros((n, 0)), np.zeros((m, 0))
+    if (right and rank < n) or (left and rank < m):
+        u, _, vt = np.linalg.svd(M)
+        N, L = vt[rank:].T, u[:, rank:]
+    return Rank(rank, clear, kept, dropped), N, L
+
+
+def dependent_rows(L) -> tuple[list, bool]:
+    """The rows of a matrix that repeat earlier rows, from ``L``, an orthonormal basis of
+    its left null space (m x k).
+
+    Walking the rows in order, row i repeats earlier ones exactly when a left null vector
+    ends at i (its last nonzero entry). Gaussian elimination on the columns of ``L^T`` from
+    the last row backwards finds the k rows where the null vectors end: that set does not
+    depend on the basis, so the order of the rows decides which rows of a dependent set
+    are named, never round-off. An entry counts as nonzero above ``NONZERO`` (the vectors
+    kept at unit norm) and as zero below ``ZERO``. Returns (sorted indices, clear).
+    """
+    W = np.array(L, dtype=float).T.copy()
+    k, m = W.shape
+    out, clear = [], True
+    active = np.ones(k, bool)
+    for j in range(m - 1, -1, -1):
+        rows = np.flatnonzero(active)
+        if not rows.size:
+            break
+        col = np.abs(W[rows, j])
+        v = float(col.max())
+        if v < NONZERO:
+            clear &= v < ZERO
+            continue
+        p = rows[int(np.argmax(col))]
+        others = rows[rows != p]
+        if others.size:
+            W[others] -= np.outer(W[others, j] / W[p, j], W[p])
+            norm = np.linalg.norm(W[others], axis=1)
+            W[others] /= np.where(norm > 0, norm, 1.0)[:, None]
+        active[p] = False
+        out.append(j)
+    return sorted(out), clear and len(out) == k
+
+
+def canonical_motions(N, drivers) -> tuple[np.ndarray, list]:
+    """A basis of the null space spanned by the columns of ``N`` that round-off cannot
+    rotate: the first rows of ``drivers`` (in order) whose rates are independent on that
+    space are chosen, and motion k moves driver k by one and the other chosen ones not at
+    all (a rate of one in the driver's own units: the rows of ``drivers`` are not scaled
+    here). Returns (motions as columns, chosen driver indices)."""
+    d = N.shape[1]
+    if d == 0:
+        return N, []
+    G = drivers @ N
+    scale = np.linalg.norm(G, axis=1)
+    chosen = [int(i) for i in _first_independent(unit_rows(G), scale, d)]
+    return N @ np.linalg.inv(G[chosen]), chosen
+
+
+def _first_independent(G, scale, d) -> list:
+    """The first ``d`` independent rows of ``G`` (unit norm; rows with ``scale`` ~ 0 skipped)."""
+    basis = np.zeros((0, G.shape[1]))
+    chosen = []
+    for i, row in enumerate(G):
+        if scale[i] <= NONZERO * scale.max(initial=0.0):
+            continue
+        r = row - basis.T @ (basis @ row)
+        r -= basis.T @ (basis @ r)
+        norm = float(np.linalg.norm(r))
+        if norm >= NONZERO:
+            basis = np.vstack([basis, r / norm])
+            chosen.append(i)
+            if len(chosen) == d:
+                break
+    return chosen
 
 
 def singular_matrix_error(prob, A, x) -> ModelError:
