@@ -18,7 +18,7 @@ from spacarpy.deck import (
     model_to_deck,
     parse_deck,
 )
-from spacarpy.deck.expressions import ExpressionError, evaluate
+from spacarpy.expressions import ExpressionError, evaluate
 from spacarpy.deck.generators import arc_points, line_points
 from spacarpy.errors import DeckError
 from spacarpy.model import FLEXIBLE

@@ -24,10 +24,13 @@ from spacarpy.deck.parser import Statement, gc_paused
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.errors import DeckError, SourceLoc
+from spacarpy.expressions import ExpressionError, evaluate
 from spacarpy.model import (ANALYSES, BIFURCATION_CHOICES, DEFORMATION_VARIANTS, FLEXIBLE,
                             RELEASED, RIGID, SPACAR_MODE_NUMBERS, ElementSet, Fix,
                             IterStep, Load, Model, NodalMass, Prescribed, PrescribedDeformation,
                             PrescribedRotation)
+from spacarpy.time_functions import KINDS as TIME_FUNCTION_KINDS
+from spacarpy.time_functions import TIME_FUNCTIONS
 
 __all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
 
@@ -1008,16 +1011,13 @@ class _ModelBuilder:
         self.element_damping[el.id] = values + (0.0,) * (n_def - len(values))
 
     def time_function_line(self, st: Statement) -> None:
-        from spacarpy.solvers.transient import TIME_FUNCTIONS
         kind = str(st.fields[0]).lower()
-        need = {"constant": 0, "zero": 0, "linear": 0, "ramp": 1, "smoothstep": 1,
-                "spinup": 1, "sine": 1}
-        if kind not in TIME_FUNCTIONS:
+        spec = TIME_FUNCTION_KINDS.get(kind)
+        if spec is None:
             self.error(st.field_locs[0], f"TIMEFUNCTION: unknown kind '{st.fields[0]}'; "
                                          f"expected {', '.join(TIME_FUNCTIONS)}", st)
             return
         if kind == "expr":
-            from spacarpy.deck.expressions import ExpressionError, evaluate
             if len(st.fields) != 2 or not isinstance(st.fields[1], str):
                 self.error(st.loc, 'TIMEFUNCTION expr takes one expression in t, in double '
                                    'quotes: TIMEFUNCTION expr "1 - exp(-t/0.1)"', st)
@@ -1040,11 +1040,11 @@ class _ModelBuilder:
                 self.error(st.loc, "TIMEFUNCTION table: expected pairs t1 phi1 t2 phi2 ... (at "
                                    "least two, times increasing)", st)
                 return
-        elif len(params) != need[kind]:
-            self.error(st.loc, f"TIMEFUNCTION {kind} takes {need[kind]} parameter(s) "
-                               f"({TIME_FUNCTIONS[kind]}), got {len(params)}", st)
+        elif len(params) != spec.n_params:
+            self.error(st.loc, f"TIMEFUNCTION {kind} takes {spec.n_params} parameter(s) "
+                               f"({spec.description}), got {len(params)}", st)
             return
-        elif kind in ("ramp", "smoothstep", "spinup", "sine") and params[0] <= 0:
+        elif spec.positive_first and params[0] <= 0:
             self.error(st.field_locs[1], f"TIMEFUNCTION {kind}: the parameter must be "
                                          f"positive, got {params[0]:g}", st)
             return

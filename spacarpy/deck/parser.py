@@ -6,7 +6,7 @@ fast path that gives the same statements: see ``_PLAIN_LINE``). This module then
 record against the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count,
 field types), converts the fields to ints/floats/strings, and tracks the module structure (END /
 HALT / END END / VISUALIZATION). It also implements the spacarpy extensions that act on the
-text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.deck.expressions`), ``1:48``
+text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.expressions`), ``1:48``
 ranges and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with
 file, line and column; Lark's own exceptions never escape.
 """
@@ -28,7 +28,7 @@ from typing import Mapping
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
 
-from spacarpy.deck.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
+from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
 from spacarpy.deck.keywords import (KEYWORDS, KIND_DESCRIPTIONS, VISUALIZATION_KEYWORDS,
                                     FieldSpec, KeywordSpec)
 from spacarpy.errors import DeckError, SourceLoc

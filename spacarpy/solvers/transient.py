@@ -12,7 +12,7 @@ with the inertia forces of :mod:`spacarpy.solvers.inertia` (Eq. 60), the elastic
 constraint forces and the tangent of :class:`~spacarpy.solvers.equilibrium.StaticProblem`,
 and the loads ``XF + phi(t) DELXF`` (prescribed coordinates and deformations likewise
 follow ``phi(t)`` times their increments,
-:class:`~spacarpy.solvers.time_functions.TimeFunction`). The constraints are kept at
+:class:`~spacarpy.time_functions.TimeFunction`). The constraints are kept at
 position level (index 3), which the generalized-alpha method of Arnold & Brüls (2007) integrates
 with second-order accuracy. Its numerical dissipation is set by the spectral radius at
 infinite frequency ``rho_inf`` in [0, 1]: 1 is the undamped trapezoidal rule (energy
@@ -48,7 +48,7 @@ from spacarpy.solvers.kinematic_check import check_initial
 from spacarpy.solvers.loads import LoadState
 from spacarpy.solvers.nodal import node_rows
 from spacarpy.solvers.static import solve_static
-from spacarpy.solvers.time_functions import TIME_FUNCTIONS, TimeFunction
+from spacarpy.time_functions import TIME_FUNCTIONS, TimeFunction
 
 log = logging.getLogger(__name__)
 
