@@ -9,8 +9,8 @@ Both import it from here, so neither depends on the other.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

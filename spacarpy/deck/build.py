@@ -25,14 +25,36 @@ from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.expressions import ExpressionError, evaluate
-from spacarpy.model import (ANALYSES, BIFURCATION_CHOICES, DEFORMATION_VARIANTS, FLEXIBLE,
-                            RELEASED, RIGID, SPACAR_MODE_NUMBERS, ElementSet, Fix,
-                            IterStep, Load, Model, NodalMass, Prescribed, PrescribedDeformation,
-                            PrescribedRotation)
+from spacarpy.job import Job
+from spacarpy.model import (
+    FLEXIBLE,
+    RELEASED,
+    RIGID,
+    ElementSet,
+    Fix,
+    Load,
+    Model,
+    NodalMass,
+    Prescribed,
+    PrescribedDeformation,
+    PrescribedRotation,
+)
+from spacarpy.settings import (
+    BIFURCATION_CHOICES,
+    DEFORMATION_VARIANTS,
+    AnalysisSettings,
+    IterStep,
+    LinearizedSettings,
+    StaticSettings,
+    TransientSettings,
+    resolve_analysis,
+    resolve_deformations,
+    valid_modes,
+)
 from spacarpy.time_functions import KINDS as TIME_FUNCTION_KINDS
 from spacarpy.time_functions import TIME_FUNCTIONS
 
-__all__ = ["build_model", "resolve_analysis", "resolve_deformations"]
+__all__ = ["build_job", "build_model"]
 
 logger = logging.getLogger(__name__)
 
@@ -48,44 +70,6 @@ ZERO_LENGTH_RTOL = 1e-12
 #: Orientation vectors shorter than this, or with |n_x x o| < this * |o|, are rejected
 #: (SPACAR's getLocalframe rule).
 ORIENTATION_TOL = 1e-5
-
-
-def resolve_analysis(value) -> str | None:
-    """Map a MODE value (name, SPACAR number, or its text) to an analysis name.
-
-    Returns None if the value is not valid. Negative SPACAR numbers (silent runs) map like
-    their positive counterparts.
-    """
-    if isinstance(value, str):
-        text = value.strip().lower()
-        if text in ANALYSES:
-            return text
-        try:
-            number = float(text)
-        except ValueError:
-            return None
-        if not number.is_integer():
-            return None
-        value = int(number)
-    if isinstance(value, float):
-        if not value.is_integer():
-            return None
-        value = int(value)
-    if isinstance(value, int):
-        return SPACAR_MODE_NUMBERS.get(abs(value))
-    return None
-
-
-def resolve_deformations(value) -> str | None:
-    """Map a DEFORMATIONS value to ``"basic"``/``"modified"``, or None if not valid."""
-    if isinstance(value, str) and value.strip().lower() in DEFORMATION_VARIANTS:
-        return value.strip().lower()
-    return None
-
-
-def _valid_modes() -> str:
-    numbers = ", ".join(f"{k}={v}" for k, v in sorted(SPACAR_MODE_NUMBERS.items()))
-    return f"{', '.join(ANALYSES)} or a SPACAR mode number ({numbers}; negative = silent)"
 
 
 def _row_norms(v: np.ndarray) -> np.ndarray:
@@ -157,7 +141,7 @@ class _Element:
         self.em: Statement | None = None
 
 
-class _ModelBuilder:
+class _DeckSemantics:
     """Collects the meaning of the statements pass by pass, and every error on the way."""
 
     def __init__(self, path: str):
@@ -250,7 +234,7 @@ class _ModelBuilder:
         return out
 
     # ---------------------------------------------------------------- passes
-    def build(self, statements, deformations, analysis, text) -> Model:
+    def build(self, statements, deformations, analysis, text) -> Job:
         for st in statements:
             key = (st.loc.file, st.loc.line)
             if key not in self.rank:
@@ -397,7 +381,7 @@ class _ModelBuilder:
             raise DeckError(self.sorted_errors())
         for msg in self.warnings:
             logger.warning(msg)
-        return self.model(text)
+        return self.job(text)
 
     def note_foreign(self, st: Statement) -> None:
         roles = KEYWORDS[st.keyword].node_roles
@@ -978,7 +962,7 @@ class _ModelBuilder:
         value = resolve_analysis(st.fields[0])
         if value is None:
             self.error(st.field_locs[0], f"MODE: unknown analysis '{st.fields[0]}'; expected "
-                                         f"{_valid_modes()}", st)
+                                         f"{valid_modes()}", st)
         self.analysis = value
 
     def deformations_line(self, st: Statement) -> None:
@@ -1076,7 +1060,7 @@ class _ModelBuilder:
         if analysis is not None:
             value = resolve_analysis(analysis)
             if value is None:
-                self.error(None, f"unknown analysis '{analysis}'; expected {_valid_modes()}")
+                self.error(None, f"unknown analysis '{analysis}'; expected {valid_modes()}")
             self.analysis = value
         if deformations is not None:
             value = resolve_deformations(deformations)
@@ -1108,7 +1092,7 @@ class _ModelBuilder:
                 self.warnings.append(f"{cs.loc}: a cross-section is given for element {e}, "
                                      "which is not defined")
 
-    def model(self, text: str) -> Model:
+    def job(self, text: str) -> Job:
         by_kind: dict[str, list[_Element]] = {}
         for b in self.beams.values():
             by_kind.setdefault(b.keyword, []).append(b)
@@ -1124,7 +1108,7 @@ class _ModelBuilder:
                     mass=[b.mass for b in els], locs=[b.st.loc for b in els])
         ids = list(self.positions)
         x0 = [self.positions[k][0] for k in ids] if ids else np.zeros((0, 3))
-        return Model(
+        model = Model(
             position_ids=ids,
             position_x0=x0,
             orientation_ids=sorted(self.orientation_use),
@@ -1132,7 +1116,6 @@ class _ModelBuilder:
             fixes=[Fix(node=k, coords=tuple(sorted(c)), loc=loc)
                    for k, (c, loc) in self.fixes.items()],
             loads=self.loads,
-            iterstep=self.iterstep or IterStep(),
             nodal_masses=self.nodal_masses,
             prescribed=[Prescribed(node=n, coord=c, initial=v["initial"], delta=v["delta"],
                                    loc=v["loc"]) for (n, c), v in self.prescribed.items()],
@@ -1145,29 +1128,29 @@ class _ModelBuilder:
                                                      initial=v.get("initial", 0.0))
                                   for n, v in self.rotations.items()],
             gravity=self.gravity,
-            analysis=self.analysis or "static",
-            deformations=self.deformations or "modified",
-            bifurcation=self.bifurcation,
             planar=self.planar,
-            timestep=self.timestep,
-            rho_inf=self.rho_inf,
-            substeps=self.substeps,
-            error_tol=self.error_tol,
-            initial_velocities=self.initial_velocities,
             damping=self.damping,
             element_damping=self.element_damping,
-            start=self.start,
-            time_function=self.time_function,
-            n_modes=self.n_modes,
-            modes_each_step=self.modes_each_step,
             source_path=self.path,
             source_text=text,
         )
+        settings = AnalysisSettings(
+            analysis=self.analysis or "static",
+            deformations=self.deformations or "modified",
+            bifurcation=self.bifurcation,
+            static=StaticSettings(iterstep=self.iterstep or IterStep()),
+            linearized=LinearizedSettings(n_modes=self.n_modes,
+                                          modes_each_step=self.modes_each_step),
+            transient=TransientSettings(
+                timestep=self.timestep, rho_inf=self.rho_inf, substeps=self.substeps,
+                error_tol=self.error_tol, start=self.start, time_function=self.time_function,
+                initial_velocities=self.initial_velocities))
+        return Job(model, settings)
 
 
-def build_model(statements, *, text: str, path: str, deformations: str | None = None,
-                analysis: str | None = None, overrides: dict | None = None) -> Model:
-    """Build and validate a Model from parsed deck statements.
+def build_job(statements, *, text: str, path: str, deformations: str | None = None,
+              analysis: str | None = None, overrides: dict | None = None) -> Job:
+    """Build and validate the model and the analysis settings of parsed deck statements.
 
     Parameters
     ----------
@@ -1185,7 +1168,8 @@ def build_model(statements, *, text: str, path: str, deformations: str | None = 
 
     Returns
     -------
-    Model
+    Job
+        The structure (``job.model``) and the settings (``job.settings``).
 
     Raises
     ------
@@ -1198,7 +1182,13 @@ def build_model(statements, *, text: str, path: str, deformations: str | None = 
     from spacarpy.deck.visualization import cross_sections
     statements = list(statements)
     with gc_paused():
-        model = _ModelBuilder(path).build(statements, deformations, analysis, text)
+        job = _DeckSemantics(path).build(statements, deformations, analysis, text)
     sections = cross_sections(statements)
-    model.cross_sections = sections if len(sections) else None
-    return model
+    job.model.cross_sections = sections if len(sections) else None
+    return job
+
+
+def build_model(statements, **kw) -> Model:
+    """The structural model of parsed deck statements: ``build_job(...).model`` (the analysis
+    settings are checked too, then dropped). Arguments as :func:`build_job`."""
+    return build_job(statements, **kw).model

@@ -28,10 +28,10 @@ from typing import Mapping
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
 
-from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
 from spacarpy.deck.keywords import (KEYWORDS, KIND_DESCRIPTIONS, VISUALIZATION_KEYWORDS,
                                     FieldSpec, KeywordSpec)
 from spacarpy.errors import DeckError, SourceLoc
+from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
 
 __all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"]
 

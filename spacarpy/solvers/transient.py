@@ -41,6 +41,7 @@ from spacarpy.assembly import scatter_add
 from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import Model
 from spacarpy.rotation import tangent_part
+from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.equilibrium import StaticProblem
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.inertia import Inertia
@@ -67,6 +68,20 @@ class TransientOptions:
     phi: TimeFunction = field(default_factory=TimeFunction)
     error: tuple | None = None               # ERROR (abs, rel): adaptive step size
     deformations: str = "modified"
+    initial_velocities: dict = field(default_factory=dict)   # node -> (3,) VELOCITY
+
+    @classmethod
+    def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:
+        """The options of a deck's settings: TIMESTEP, SUBSTEPS, ERROR, RHOINF, START,
+        TIMEFUNCTION, VELOCITY, and ITERSTEP's tolerance (at most 1e-10) and iteration limit
+        (at least 20)."""
+        tr, it = settings.transient, settings.static.iterstep
+        t_end, n_steps = tr.timestep
+        return cls(t_end=t_end, n_steps=n_steps, substeps=tr.substeps, error=tr.error_tol,
+                   rho_inf=tr.rho_inf, tol=min(it.tol, 1e-10), max_iter=max(it.max_iter, 20),
+                   start=tr.start, phi=TimeFunction(*tr.time_function),
+                   deformations=settings.deformations,
+                   initial_velocities=dict(tr.initial_velocities))
 
 
 @dataclass
@@ -258,8 +273,12 @@ class TransientProblem:
 
 def solve_transient(model: Model, options: TransientOptions | None = None, *, on_step=None,
                     on_static_step=None, progress=None,
-                    problem: StaticProblem | None = None) -> TransientResult:
+                    problem: StaticProblem | None = None,
+                    settings: AnalysisSettings | None = None) -> TransientResult:
     """Integrate the equations of motion from t = 0 to ``t_end`` in ``n_steps`` stored steps.
+
+    ``settings`` give the static load path of START static (ITERSTEP, BIFURCATION; default:
+    the defaults).
 
     ``on_step(TransientStep)`` is called after each stored step (the results writer appends
     it at once), ``on_static_step`` for the steps of the initial static analysis
@@ -281,7 +300,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     result = TransientResult(problem=prob)
     # ---- initial state
     if opts.start == "static":
-        st = solve_static(model, deformations=opts.deformations, problem=prob,
+        st = solve_static(model, settings, deformations=opts.deformations, problem=prob,
                           on_step=on_static_step)
         result.static = st
         x, mu = st.steps[-1].x.copy(), st.steps[-1].mu.copy()
@@ -295,8 +314,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     x[idx] = xp0
     v = np.zeros(num.n_coord)
     v[idx] = vp0
-    if model.initial_velocities:
-        v = _initial_velocities(tp, x, v, model.initial_velocities)
+    if opts.initial_velocities:
+        v = _initial_velocities(tp, x, v, opts.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)
     a_tilde = a.copy()
