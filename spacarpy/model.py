@@ -1,6 +1,6 @@
 """The typed, validated model: what a deck means, independent of how it was written.
 
-A :class:`Model` is produced from a parsed deck by :mod:`spacarpy.deck.build` (or built directly
+A :class:`Model` is produced from a parsed deck by :mod:`spacarpy.deck.semantics` (or built directly
 from Python). It is the structure only; what to compute on it (MODE, ITERSTEP, TIMESTEP, ...)
 is a :class:`spacarpy.settings.AnalysisSettings` kept beside it (:class:`spacarpy.job.Job`).
 It holds deck numbers (the user's node and element numbers) and SI values only; turning it

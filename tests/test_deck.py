@@ -1,4 +1,5 @@
-"""Tests of deck parsing (spacarpy.deck.parser) and deck -> Model building (spacarpy.deck.build)."""
+"""Tests of deck parsing (spacarpy.deck.parser) and deck -> Model building
+(spacarpy.deck.semantics)."""
 from __future__ import annotations
 
 import logging
@@ -197,7 +198,7 @@ def test_deformations_extension_and_command_line_overrides():
 
 def test_estiff_seventh_value_warns(caplog):
     text = BASE + "DYNE 1 1\nESTIFF 1 1 2 3 4 5 6 7\n"
-    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.build"):
+    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.semantics"):
         m = build(text)
     np.testing.assert_allclose(m.elements["BEAM"].stiffness[0], [1, 2, 3, 4, 5, 6])
     assert any("7th value" in r.getMessage() for r in caplog.records)
@@ -207,7 +208,7 @@ def test_unconnected_position_node_is_an_error_unless_fixed(caplog):
     line, col, msg = only_item(deck_error(BASE + "X 9 5 5 5\n"))
     assert (line, col) == (4, 3)
     assert msg.startswith("position node 9 is not connected to any element: it would float")
-    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.build"):
+    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.semantics"):
         m = build(BASE + "X 9 5 5 5\nFIX 9\n")
     assert 9 in m.position_ids
     assert any("node 9 is not connected" in r.getMessage() for r in caplog.records)

@@ -20,10 +20,10 @@ documented in docs/deck.md.
 from __future__ import annotations
 
 from spacarpy.deck.api import ModelBuilder
-from spacarpy.deck.build import build_job, build_model
 from spacarpy.deck.check import DeckSummary, check_deck
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED
 from spacarpy.deck.parser import Statement, gc_paused, parse_deck, read_deck_text
+from spacarpy.deck.semantics import build_job, build_model
 from spacarpy.deck.visualization import CrossSection, CrossSections, cross_sections
 from spacarpy.deck.writer import model_to_deck
 from spacarpy.job import Job

@@ -27,8 +27,8 @@ import dataclasses
 import sys
 from collections.abc import Iterable
 
-from spacarpy.deck.build import build_job
 from spacarpy.deck.parser import parse_deck
+from spacarpy.deck.semantics import build_job
 from spacarpy.deck.writer import format_value
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.job import Job

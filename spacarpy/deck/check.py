@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.deck.build import build_job
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import GENERATORS, KEYWORDS
 from spacarpy.deck.parser import Statement, parse_deck, read_deck_text
+from spacarpy.deck.semantics import build_job
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError
 from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Model

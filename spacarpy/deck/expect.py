@@ -301,7 +301,7 @@ def load_with_expectations(path, *, deformations: str | None = None,
         The model and the analysis settings.
     expects : list of Expect
     """
-    from spacarpy.deck.build import build_job
+    from spacarpy.deck.semantics import build_job
     from spacarpy.deck.parser import parse_deck, read_deck_text
 
     text = read_deck_text(path)

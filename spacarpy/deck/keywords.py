@@ -2,8 +2,8 @@
 
 This module is data only. :mod:`spacarpy.deck.parser` checks every record of a deck against
 :data:`KEYWORDS` (field count and field types, with the user-facing field names used in error
-messages) and :data:`VISUALIZATION_KEYWORDS`; :mod:`spacarpy.deck.build` gives the records their
-meaning. Every SPACAR keyword has its real field layout here, also the ones spacarpy cannot
+messages) and :data:`VISUALIZATION_KEYWORDS`; :mod:`spacarpy.deck.semantics` gives the records
+their meaning. Every SPACAR keyword has its real field layout here, also the ones spacarpy cannot
 analyse yet (``supported=False``): those are parsed and checked like the others, so that
 field-count errors are meaningful and the typed values are kept, and the model builder refuses
 them with "not supported yet: KEYWORD". The layouts come from ../shared/spacar/README.md and the
