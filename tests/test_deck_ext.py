@@ -529,3 +529,39 @@ def test_an_error_repeated_by_a_range_or_generator_is_reported_once():
             "ESTIFF 1:3 -1 1 1 1\nFIX 1\nFIX 2\n")
     assert errors(text) == [(5, 12, "ESTIFF 1: EA must not be negative, got -1 (and 2 more like "
                                     "it from this line)")]
+
+
+# ------------------------------------------------------------------ named fields, settings
+
+def test_statements_have_named_field_access_with_locations():
+    st = parse_deck("RHOINF 0.7\nITERSTEP 10 4\n", "t.dat")
+    rho, it = st
+    assert rho["rho_inf"] == rho.value("rho_inf") == 0.7
+    assert (rho.loc_of("rho_inf").line, rho.loc_of("rho_inf").column) == (1, 8)
+    assert it.value("tol") is None and it.value("tol", 5e-7) == 5e-7
+    assert it.loc_of("tol") == it.loc                  # left out: the keyword's location
+    with pytest.raises(KeyError):
+        it["tol"]
+    with pytest.raises(KeyError):
+        it.value("nonsense")
+
+
+def test_field_specs_carry_the_choices_and_ranges_the_semantics_check():
+    from spacarpy.deck.keywords import KEYWORDS
+    rho = KEYWORDS["RHOINF"].field("rho_inf")[1]
+    assert (rho.min, rho.max, rho.range_text) == (0.0, 1.0, "[0, 1]")
+    assert rho.accepts(1.0) and not rho.accepts(1.5)
+    assert KEYWORDS["START"].field("start")[1].accepts("STATIC")
+    assert KEYWORDS["BIFURCATION"].field("setting")[1].choices == ("off", "warn", "switch")
+    [(line, col, msg)] = errors(BASE + "RHOINF 1.5\n")
+    assert (line, col) == (4, 8) and msg == "RHOINF: the spectral radius lies in [0, 1], got 1.5"
+
+
+def test_command_line_choices_make_new_settings():
+    job = build_both(BASE + "MODE eigen\nMODES 3\n")
+    new = job.settings.override(analysis="8", n_modes=5, modes_each_step=True)
+    assert (job.settings.analysis, job.settings.linearized.n_modes) == ("eigen", 3)
+    assert (new.analysis, new.linearized.count, new.linearized.modes_each_step) == \
+        ("buckling", 5, True)
+    with pytest.raises(ValueError, match="unknown analysis 'fancy'"):
+        job.settings.override(analysis="fancy")

@@ -105,6 +105,43 @@ class Statement:
     module: int
     origin: str | None = None
 
+    @property
+    def spec(self) -> KeywordSpec:
+        """The field layout the record was read with (the data-module form where it has
+        one)."""
+        spec = KEYWORDS.get(self.keyword) or VISUALIZATION_KEYWORDS[self.keyword]
+        if self.module > 0 and spec.data_form is not None:
+            return spec.data_form
+        return spec
+
+    def value(self, name: str, default=None):
+        """The value of the field called ``name`` (the ``short`` name of its
+        :class:`~spacarpy.deck.keywords.FieldSpec`, e.g. ``st.value("rho_inf")``), or
+        ``default`` if the record leaves that optional field out. A variadic field gives its
+        first value."""
+        i = self.spec.field(name)[0]
+        return self.fields[i] if i < len(self.fields) else default
+
+    def values(self, name: str) -> tuple:
+        """The values from the field called ``name`` to the end (variadic fields)."""
+        return tuple(self.fields[self.spec.field(name)[0]:])
+
+    def loc_of(self, name: str) -> SourceLoc:
+        """Where the field called ``name`` is (the keyword's location if it is left out)."""
+        i = self.spec.field(name)[0]
+        return self.field_locs[i] if i < len(self.field_locs) else self.loc
+
+    def field_spec(self, name: str) -> FieldSpec:
+        """The :class:`~spacarpy.deck.keywords.FieldSpec` of the field called ``name``."""
+        return self.spec.field(name)[1]
+
+    def __getitem__(self, name: str):
+        """``st["rho_inf"]``: the value of a field by name (KeyError if left out)."""
+        i = self.spec.field(name)[0]
+        if i >= len(self.fields):
+            raise KeyError(f"{self.keyword}: the {name} field is not given")
+        return self.fields[i]
+
 
 def read_text(path) -> str:
     """Read a deck file as text: UTF-8 (a byte-order mark is dropped), else latin-1.

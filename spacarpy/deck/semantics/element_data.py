@@ -193,11 +193,13 @@ class _ElementDataPass(UsesTopology):
     def damping(self, st: Statement) -> None:
         """``DAMPING alpha beta``: Rayleigh damping alpha M + beta K0."""
         if self.ctx.once(st, self.errors):
-            if st.fields[0] < 0 or st.fields[1] < 0:
+            alpha, beta = st["alpha"], st["beta"]
+            if not (st.field_spec("alpha").accepts(alpha)
+                    and st.field_spec("beta").accepts(beta)):
                 self.error(st.loc, "DAMPING: alpha and beta must not be negative, got "
-                                          f"{st.fields[0]:g} {st.fields[1]:g}", st)
+                                   f"{alpha:g} {beta:g}", st)
             else:
-                self.result.damping = (float(st.fields[0]), float(st.fields[1]))
+                self.result.damping = (float(alpha), float(beta))
 
 
 def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,

@@ -15,7 +15,6 @@ from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
 from spacarpy.expressions import ExpressionError, evaluate
 from spacarpy.settings import (
-    BIFURCATION_CHOICES,
     DEFORMATION_VARIANTS,
     AnalysisSettings,
     IterStep,
@@ -64,127 +63,130 @@ class _SettingsPass(UsesTopology):
 
     def timestep_line(self, st: Statement) -> None:
         """``TIMESTEP t_end n_steps``."""
-        if not (st.fields[0] > 0 and st.fields[1] >= 1):
-            self.error(st.loc, "TIMESTEP: expected a positive end time and at least "
-                                      f"one step, got {st.fields[0]:g} {st.fields[1]}", st)
+        t_end, n_steps = st["t_end"], st["n_steps"]
+        if not (t_end > 0 and n_steps >= 1):
+            self.error(st.loc, "TIMESTEP: expected a positive end time and at least one step, "
+                               f"got {t_end:g} {n_steps}", st)
         else:
-            self.timestep = (float(st.fields[0]), int(st.fields[1]))
+            self.timestep = (float(t_end), int(n_steps))
 
     def velocity_line(self, st: Statement) -> None:
         """``VELOCITY n vx vy vz``: an initial velocity."""
-        n = st.fields[0]
+        n = st["n"]
         if self.node_kind(n) is None:
-            self.error(st.field_locs[0], f"VELOCITY: node {n} is not defined (no X line "
-                                                "and not used by any element)", st)
+            self.error(st.loc_of("n"), f"VELOCITY: node {n} is not defined (no X line and not "
+                                       "used by any element)", st)
         elif n in self.initial_velocities:
             self.error(st.loc, f"VELOCITY: node {n} is given twice", st)
         else:
-            self.initial_velocities[n] = tuple(float(v) for v in st.fields[1:4])
+            self.initial_velocities[n] = tuple(float(st[c]) for c in ("vx", "vy", "vz"))
 
     def error_line(self, st: Statement) -> None:
         """``ERROR abs rel``: adaptive time steps."""
-        if st.fields[0] < 0 or st.fields[1] < 0 or st.fields[0] + st.fields[1] <= 0:
-            self.error(st.loc, "ERROR: expected non-negative tolerances abs rel, not "
-                                      f"both zero, got {st.fields[0]:g} {st.fields[1]:g}", st)
+        tol_abs, tol_rel = st["abs"], st["rel"]
+        if tol_abs < 0 or tol_rel < 0 or tol_abs + tol_rel <= 0:
+            self.error(st.loc, "ERROR: expected non-negative tolerances abs rel, not both zero, "
+                               f"got {tol_abs:g} {tol_rel:g}", st)
         else:
-            self.error_tol = (float(st.fields[0]), float(st.fields[1]))
+            self.error_tol = (float(tol_abs), float(tol_rel))
 
     def substeps_line(self, st: Statement) -> None:
-        """``SUBSTEPS n``: integration steps per stored step."""
-        self.substeps = int(st.fields[0])
+        """``SUBSTEPS k``: integration steps per stored step."""
+        self.substeps = int(st["k"])
 
     def rho_inf_line(self, st: Statement) -> None:
-        """``RHOINF rho``."""
-        if not 0.0 <= st.fields[0] <= 1.0:
-            self.error(st.field_locs[0], "RHOINF: the spectral radius lies in [0, 1], "
-                                                f"got {st.fields[0]:g}", st)
+        """``RHOINF rho_inf``, in the range its field declares."""
+        rho, spec = st["rho_inf"], st.field_spec("rho_inf")
+        if not spec.accepts(rho):
+            self.error(st.loc_of("rho_inf"), f"RHOINF: the spectral radius lies in "
+                                             f"{spec.range_text}, got {rho:g}", st)
         else:
-            self.rho_inf = float(st.fields[0])
+            self.rho_inf = float(rho)
 
     def start_line(self, st: Statement) -> None:
-        """``START deck|static``."""
-        value = str(st.fields[0]).lower()
-        if value not in ("deck", "static"):
-            self.error(st.field_locs[0], "START: expected 'deck' (at rest in the deck's "
-                                                "configuration) or 'static' (the static "
-                                                f"equilibrium), got '{st.fields[0]}'", st)
+        """``START deck|static`` (the choices of its field)."""
+        if not st.field_spec("start").accepts(st["start"]):
+            self.error(st.loc_of("start"), "START: expected 'deck' (at rest in the deck's "
+                                           "configuration) or 'static' (the static "
+                                           f"equilibrium), got '{st['start']}'", st)
         else:
-            self.start = value
+            self.start = str(st["start"]).lower()
 
     def iterstep_line(self, st: Statement) -> None:
-        """``ITERSTEP max_iter n_steps [tol [f4 f5 [n_init]]]``."""
+        """``ITERSTEP max_iter n_steps [tol [f4 [f5 [n_init]]]]``."""
         if not self.ctx.once(st, self.errors):
             return
-        f = st.fields
-        max_iter, n_steps = f[0], f[1]
+        max_iter, n_steps = st["max_iter"], st["n_steps"]
         ok = True
         if max_iter < 1:
-            self.error(st.field_locs[0], f"ITERSTEP: the maximum number of iterations must be "
-                                         f"at least 1, got {max_iter}", st)
+            self.error(st.loc_of("max_iter"), "ITERSTEP: the maximum number of iterations must "
+                                              f"be at least 1, got {max_iter}", st)
             ok = False
         if n_steps < 0:
-            self.error(st.field_locs[1], f"ITERSTEP: the number of load steps must not be "
-                                         f"negative, got {n_steps}", st)
+            self.error(st.loc_of("n_steps"), "ITERSTEP: the number of load steps must not be "
+                                             f"negative, got {n_steps}", st)
             ok = False
-        tol = f[2] if len(f) > 2 else IterStep.tol
+        tol = st.value("tol", IterStep.tol)
         if tol <= 0:
-            self.error(st.field_locs[2], f"ITERSTEP: the tolerance must be positive, got {tol:g}",
+            self.error(st.loc_of("tol"), f"ITERSTEP: the tolerance must be positive, got {tol:g}",
                        st)
             ok = False
-        n_init = f[5] if len(f) > 5 else 1
+        n_init = st.value("n_init", 1)
         if n_init < 0:
-            self.error(st.field_locs[5], f"ITERSTEP: the number of initial-load steps must not "
-                                         f"be negative, got {n_init}", st)
+            self.error(st.loc_of("n_init"), "ITERSTEP: the number of initial-load steps must not "
+                                            f"be negative, got {n_init}", st)
             ok = False
+        extra = tuple(v for v in (st.value("f4"), st.value("f5")) if v is not None)
         if ok:
             self.iterstep = IterStep(max_iter=max_iter, n_steps=max(n_steps, 1), tol=float(tol),
-                                     n_init=max(n_init, 1), extra=tuple(f[3:5]), loc=st.loc)
+                                     n_init=max(n_init, 1), extra=extra, loc=st.loc)
 
     def mode_line(self, st: Statement) -> None:
         """``MODE analysis``."""
         if not self.ctx.once(st, self.errors):
             return
-        value = resolve_analysis(st.fields[0])
+        value = resolve_analysis(st["analysis"])
         if value is None:
-            self.error(st.field_locs[0], f"MODE: unknown analysis '{st.fields[0]}'; expected "
-                                         f"{valid_modes()}", st)
+            self.error(st.loc_of("analysis"), f"MODE: unknown analysis '{st['analysis']}'; "
+                                              f"expected {valid_modes()}", st)
         self.analysis = value
 
     def deformations_line(self, st: Statement) -> None:
         """``DEFORMATIONS variant``."""
         if not self.ctx.once(st, self.errors):
             return
-        value = resolve_deformations(st.fields[0])
+        value = resolve_deformations(st["variant"])
         if value is None:
-            self.error(st.field_locs[0], f"DEFORMATIONS: unknown variant '{st.fields[0]}'; "
-                                         f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
+            self.error(st.loc_of("variant"), f"DEFORMATIONS: unknown variant '{st['variant']}'; "
+                                             f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
         self.deformations = value
 
     def time_function_line(self, st: Statement) -> None:
-        """``TIMEFUNCTION kind params``, checked against :mod:`spacarpy.time_functions`."""
-        kind = str(st.fields[0]).lower()
+        """``TIMEFUNCTION kind p...``, checked against :mod:`spacarpy.time_functions`."""
+        kind = str(st["kind"]).lower()
         spec = TIME_FUNCTION_KINDS.get(kind)
         if spec is None:
-            self.error(st.field_locs[0], f"TIMEFUNCTION: unknown kind '{st.fields[0]}'; "
-                                         f"expected {', '.join(TIME_FUNCTIONS)}", st)
+            self.error(st.loc_of("kind"), f"TIMEFUNCTION: unknown kind '{st['kind']}'; "
+                                          f"expected {', '.join(TIME_FUNCTIONS)}", st)
             return
+        given = st.values("p")
         if kind == "expr":
-            if len(st.fields) != 2 or not isinstance(st.fields[1], str):
+            if len(given) != 1 or not isinstance(given[0], str):
                 self.error(st.loc, 'TIMEFUNCTION expr takes one expression in t, in double '
                                    'quotes: TIMEFUNCTION expr "1 - exp(-t/0.1)"', st)
                 return
             try:
-                evaluate(st.fields[1], {"t": 0.0})
+                evaluate(given[0], {"t": 0.0})
             except (ExpressionError, ValueError, ZeroDivisionError) as exc:
-                self.error(st.field_locs[1], f"TIMEFUNCTION expr: {exc} (the expression may use "
-                                             "t, pi and the functions of {expressions})", st)
+                self.error(st.loc_of("p"), f"TIMEFUNCTION expr: {exc} (the expression may use "
+                                           "t, pi and the functions of {expressions})", st)
                 return
-            self.time_function = ("expr", (st.fields[1],))
+            self.time_function = ("expr", given)
             return
-        if any(isinstance(v, str) for v in st.fields[1:]):
+        if any(isinstance(v, str) for v in given):
             self.error(st.loc, f"TIMEFUNCTION {kind}: expected numbers after the kind", st)
             return
-        params = tuple(float(v) for v in st.fields[1:])
+        params = tuple(float(v) for v in given)
         if kind == "table":
             ok = len(params) >= 4 and len(params) % 2 == 0 and np.all(np.diff(params[0::2]) > 0)
             if not ok:
@@ -196,34 +198,34 @@ class _SettingsPass(UsesTopology):
                                f"({spec.description}), got {len(params)}", st)
             return
         elif spec.positive_first and params[0] <= 0:
-            self.error(st.field_locs[1], f"TIMEFUNCTION {kind}: the parameter must be "
-                                         f"positive, got {params[0]:g}", st)
+            self.error(st.loc_of("p"), f"TIMEFUNCTION {kind}: the parameter must be positive, "
+                                       f"got {params[0]:g}", st)
             return
         self.time_function = (kind, params)
 
     def modes_line(self, st: Statement) -> None:
-        """``MODES count [each|last]``."""
+        """``MODES count [each|last]`` (the choices of its ``where`` field)."""
         if not self.ctx.once(st, self.errors):
             return
-        self.n_modes = int(st.fields[0])
-        if len(st.fields) > 1:
-            where = str(st.fields[1]).lower()
-            if where not in ("each", "last"):
-                self.error(st.field_locs[1], f"MODES: expected 'each' (linearize at every load "
-                                             f"step) or 'last', got '{st.fields[1]}'", st)
+        self.n_modes = int(st["count"])
+        where = st.value("where")
+        if where is not None:
+            if not st.field_spec("where").accepts(where):
+                self.error(st.loc_of("where"), "MODES: expected 'each' (linearize at every load "
+                                               f"step) or 'last', got '{where}'", st)
                 return
-            self.modes_each_step = where == "each"
+            self.modes_each_step = str(where).lower() == "each"
 
     def bifurcation_line(self, st: Statement) -> None:
-        """``BIFURCATION off|warn|switch``."""
+        """``BIFURCATION off|warn|switch`` (the choices of its field)."""
         if not self.ctx.once(st, self.errors):
             return
-        value = str(st.fields[0]).lower()
-        if value not in BIFURCATION_CHOICES:
-            self.error(st.field_locs[0], f"BIFURCATION: unknown setting '{st.fields[0]}'; "
-                                         f"expected {', '.join(BIFURCATION_CHOICES)}", st)
+        value, spec = st["setting"], st.field_spec("setting")
+        if not spec.accepts(value):
+            self.error(st.loc_of("setting"), f"BIFURCATION: unknown setting '{value}'; "
+                                             f"expected {', '.join(spec.choices)}", st)
             return
-        self.bifurcation = value
+        self.bifurcation = str(value).lower()
 
     def overrides(self, deformations, analysis) -> None:
         """The command line's choices replace the deck's MODE / DEFORMATIONS."""
