@@ -300,10 +300,10 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     result = TransientResult(problem=prob)
     # ---- initial state
     if opts.start == "static":
-        st = solve_static(model, settings, deformations=opts.deformations, problem=prob,
-                          on_step=on_static_step)
-        result.static = st
-        x, mu = st.steps[-1].x.copy(), st.steps[-1].mu.copy()
+        static = solve_static(model, settings, deformations=opts.deformations, problem=prob,
+                              on_step=on_static_step)
+        result.static = static
+        x, mu = static.steps[-1].x.copy(), static.steps[-1].mu.copy()
     else:
         # a mechanism is what dynamics is about; redundant constraints are still an error
         check_initial(prob, allow_mechanism=True)
