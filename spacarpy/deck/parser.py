@@ -9,6 +9,10 @@ HALT / END END / VISUALIZATION). It also implements the spacarpy extensions that
 text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.expressions`), ``1:48``
 ranges and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with
 file, line and column; Lark's own exceptions never escape.
+
+The module is longer than most (about 900 lines) because the Lark path and the fast path must
+give identical statements: both share the field conversion and the module tracking here, and
+splitting them would separate code that has to change together.
 """
 from __future__ import annotations
 
