@@ -39,7 +39,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from spacarpy.deck import model_from_text
+from spacarpy.deck import job_from_text
 
 CASES = ("cantilever", "bend", "eigen", "transient")
 #: shear stiffness GA / EA of the benchmark cantilever (Exudyn's SHEAR_FACTOR)
@@ -104,12 +104,12 @@ def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
             if case == "cantilever"
             else bend_deck(n, n_steps=n_steps, tol=1e-8))
     t0 = time.perf_counter()
-    model = model_from_text(text, f"<{case} {n}>")
+    model, settings = job_from_text(text, f"<{case} {n}>")
     parse = time.perf_counter() - t0
     totals, timings, setups = [], [], []
     for _ in range(max(repeat, 1)):
         t1 = time.perf_counter()
-        prob = StaticProblem(model)
+        prob = StaticProblem(model, deformations=settings.deformations)
         setups.append(time.perf_counter() - t1)
         res = solve_static(model, problem=prob,
                            options=StaticOptions(max_iter=20, tol=1e-8, n_steps=n_steps))
@@ -132,8 +132,8 @@ def _eigen_row(n: int, repeat: int) -> dict:
     from spacarpy.solvers.linearize import MassAssembler, linearize
     from spacarpy.solvers.static import StaticProblem
     t0 = time.perf_counter()
-    model = model_from_text(eigen_cantilever_deck(n), f"<eigen cantilever {n}>")
-    prob = StaticProblem(model)
+    model, settings = job_from_text(eigen_cantilever_deck(n), f"<eigen cantilever {n}>")
+    prob = StaticProblem(model, deformations=settings.deformations)
     mass = MassAssembler(model, prob.num)
     setup = time.perf_counter() - t0
     x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
@@ -154,11 +154,11 @@ def _eigen_row(n: int, repeat: int) -> dict:
 def _transient_row(n: int, n_steps: int) -> dict:
     from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
     t0 = time.perf_counter()
-    model = model_from_text(transient_cantilever_deck(n, n_steps),
-                            f"<transient cantilever {n}>")
+    model, settings = job_from_text(transient_cantilever_deck(n, n_steps),
+                                    f"<transient cantilever {n}>")
     setup = time.perf_counter() - t0
-    opts = TransientOptions(t_end=model.timestep[0], n_steps=n_steps, rho_inf=0.5, tol=1e-8,
-                            phi=TimeFunction(*model.time_function))
+    opts = TransientOptions(t_end=settings.transient.timestep[0], n_steps=n_steps, rho_inf=0.5,
+                            tol=1e-8, phi=TimeFunction(*settings.transient.time_function))
     t1 = time.perf_counter()
     res = solve_transient(model, opts)
     total = time.perf_counter() - t1
@@ -309,6 +309,7 @@ def machine_summary() -> str:
     except OSError:
         pass
     import os
+
     from spacarpy import __version__
     return (f"spacarpy {__version__}, Python {platform.python_version()}, numpy "
             f"{numpy.__version__}, scipy {scipy.__version__}; {cpu}, {os.cpu_count()} cores")

@@ -22,16 +22,10 @@ log = logging.getLogger("spacarpy")
 
 
 def _parse_mode(text: str) -> str:
-    from spacarpy.model import ANALYSES, SPACAR_MODE_NUMBERS
-    t = text.strip().lower()
-    if t in ANALYSES:
-        return t
-    try:
-        num = abs(int(t))
-    except ValueError:
-        num = None
-    if num in SPACAR_MODE_NUMBERS:
-        return SPACAR_MODE_NUMBERS[num]
+    from spacarpy.settings import ANALYSES, SPACAR_MODE_NUMBERS, resolve_analysis
+    name = resolve_analysis(text)
+    if name is not None:
+        return name
     raise argparse.ArgumentTypeError(
         f"unknown mode {text!r}: expected one of {', '.join(ANALYSES)} or a SPACAR mode "
         f"number ({', '.join(str(k) for k in sorted(SPACAR_MODE_NUMBERS))})")
@@ -383,42 +377,42 @@ def cmd_check(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from spacarpy.deck.expect import load_deck_with_expectations
+    from spacarpy.deck.expect import load_with_expectations
     from spacarpy.run import RunOptions, run_model
 
     t0 = time.perf_counter()
-    model, expects = load_deck_with_expectations(
-        args.deck, deformations=args.deformations, analysis=args.mode,
-        overrides=dict(args.overrides) or None)
+    job, expects = load_with_expectations(args.deck, overrides=dict(args.overrides) or None)
+    model = job.model
+    # the command line makes new settings; the deck's stay as they were read
+    settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
+                                     n_modes=args.modes,
+                                     modes_each_step=True if args.modes_per_step else None)
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
     n_elem = model.n_elem
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
-             n_elem, model.analysis, model.deformations)
-    progress = (_ProgressBar(sys.stderr) if model.analysis == "transient" and not args.quiet
+             n_elem, settings.analysis, settings.deformations)
+    progress = (_ProgressBar(sys.stderr) if settings.analysis == "transient" and not args.quiet
                 and sys.stderr.isatty() else None)
     handlers = logging.getLogger().handlers if progress is not None else []
     for handler in handlers:         # a log line first clears the bar's line
         handler.addFilter(progress.clear_line)
-    summary = run_model(model, out, RunOptions(n_modes=args.modes or model.n_modes or 10,
-                                               modes_per_step=(args.modes_per_step
-                                                               or model.modes_each_step),
-                                               compliance_node=args.compliance,
-                                               progress=progress))
+    summary = run_model(model, settings, out, RunOptions(compliance_node=args.compliance,
+                                                         progress=progress))
     if progress is not None:
         progress.close()
     for handler in handlers:
         handler.removeFilter(progress.clear_line)
-    if model.analysis == "check":
+    if settings.analysis == "check":
         print(summary.report)
         return EXIT_OK
-    if model.analysis == "transient":
+    if settings.analysis == "transient":
         log.info("finished transient analysis: %d stored time steps, %d integration steps "
                  "(%d rejected by the error control), %d Newton iterations in %.2f s",
                  summary.n_time, summary.integration_steps, summary.rejected_steps,
                  summary.newton_iterations, time.perf_counter() - t0)
     else:
-        log.info("finished %s analysis: %d steps in %.2f s", model.analysis, summary.n_steps,
+        log.info("finished %s analysis: %d steps in %.2f s", settings.analysis, summary.n_steps,
                  time.perf_counter() - t0)
     if expects:
         changed = bool(args.overrides) or args.mode is not None or \

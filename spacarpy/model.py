@@ -1,9 +1,10 @@
 """The typed, validated model: what a deck means, independent of how it was written.
 
-A :class:`Model` is produced from a parsed deck by :mod:`spacarpy.deck.build` (or built directly
-from Python). It holds deck numbers (the user's node and element numbers) and SI values only;
-turning it into coordinate and degree-of-freedom numbering is the job of
-:mod:`spacarpy.numbering`.
+A :class:`Model` is produced from a parsed deck by :mod:`spacarpy.deck.semantics` (or built directly
+from Python). It is the structure only; what to compute on it (MODE, ITERSTEP, TIMESTEP, ...)
+is a :class:`spacarpy.settings.AnalysisSettings` kept beside it (:class:`spacarpy.job.Job`).
+It holds deck numbers (the user's node and element numbers) and SI values only; turning it
+into coordinate and degree-of-freedom numbering is the job of :mod:`spacarpy.numbering`.
 
 Conventions (see docs/conventions.md)
 -------------------------------------
@@ -23,20 +24,11 @@ from spacarpy.elements.base import FLEXIBLE, RELEASED, RIGID
 from spacarpy.elements.registry import KINDS, kind_of
 from spacarpy.errors import SourceLoc
 
-__all__ = ["ANALYSES", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS", "FLEXIBLE", "RELEASED",
-           "RIGID", "SPACAR_MODE_NUMBERS", "ElementSet", "Fix", "IterStep", "Load", "Model",
-           "NodalMass", "Prescribed", "PrescribedDeformation", "PrescribedRotation"]
+__all__ = ["FLEXIBLE", "RELEASED", "RIGID", "ElementSet", "Fix", "Load", "Model", "NodalMass",
+           "Prescribed", "PrescribedDeformation", "PrescribedRotation"]
 
 # The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) are declared with the element
 # kinds and re-exported here.
-
-DEFORMATION_VARIANTS = ("modified", "basic")
-BIFURCATION_CHOICES = ("off", "warn", "switch")
-
-#: Analysis names and the SPACAR mode numbers that map onto them.
-ANALYSES = ("static", "eigen", "buckling", "transient", "check")
-SPACAR_MODE_NUMBERS = {10: "static", 0: "check", 1: "transient", 8: "buckling", 4: "eigen", 7: "eigen"}
-
 
 def _columns(values, n: int, width: int) -> np.ndarray:
     """``values`` as (n, width) floats: missing trailing columns are 0, extra ones dropped."""
@@ -112,7 +104,7 @@ class ElementSet:
         return int(self.ids.size)
 
     @classmethod
-    def empty(cls, kind: str) -> "ElementSet":
+    def empty(cls, kind: str) -> ElementSet:
         """A set of no elements of a kind (arrays of the kind's widths)."""
         return cls(kind=kind, ids=np.zeros(0, np.int64), nodes=np.zeros(0, np.int64))
 
@@ -191,33 +183,6 @@ class Load:
 
 
 @dataclass(frozen=True)
-class IterStep:
-    """SPACAR's ``ITERSTEP`` line as spacarpy reads it (documented in docs/deck.md).
-
-    ``ITERSTEP max_iter n_steps tol [f4 f5 n_init]``
-
-    max_iter : int
-        Newton iterations allowed per load step before the step is cut (SPACAR's field 1).
-    n_steps : int
-        Number of equal load increments in which DELXF is applied; results are stored after
-        the initial state (XF only, step 0) and after every increment (steps 1..n_steps).
-    tol : float
-        Relative convergence tolerance of the Newton iterations.
-    n_init : int
-        Number of sub-steps used internally to reach the initial load XF (field 6; not stored).
-    extra : tuple
-        Fields 4 and 5, kept but not used (their meaning in SPACAR is not public).
-    """
-
-    max_iter: int = 10
-    n_steps: int = 1
-    tol: float = 5e-7
-    n_init: int = 1
-    extra: tuple = ()
-    loc: SourceLoc | None = None
-
-
-@dataclass(frozen=True)
 class NodalMass:
     """``XM`` line: a point mass on a position node (``values = (m,)``, kg) or an inertia
     tensor on an orientation node (``values = (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)``, kg m^2,
@@ -246,7 +211,6 @@ class Model:
         (:data:`spacarpy.elements.registry.KINDS`), only kinds the model has.
     fixes : list of Fix
     loads : list of Load
-    iterstep : IterStep
     nodal_masses : list of NodalMass
     prescribed : list of Prescribed
         Prescribed (input) coordinates with their initial values and increments.
@@ -260,27 +224,12 @@ class Model:
     cross_sections : spacarpy.deck.visualization.CrossSections or None
         Cross-section shapes and dimensions per element from the deck's VISUALIZATION
         section (BEAMPROPS/CROSSTYPE/CROSSDIM), for stresses and plots.
-    analysis : str
-        One of :data:`ANALYSES`.
-    deformations : str
-        ``"modified"`` (Eq. 48, default) or ``"basic"`` (Eq. 7).
-    bifurcation : str
-        Stability check of the static path: ``"off"``, ``"warn"`` (say when the path turns
-        unstable) or ``"switch"`` (also switch to a stable branch), see
-        :mod:`spacarpy.solvers.stability`.
     planar : bool
         A planar model (PLBEAM, PLTRUSS, PLHINGE): every node stays in the x-y plane (z and
         the Euler parameters lambda1, lambda2 are held at 0; only rotations about z).
     damping, element_damping
         Rayleigh damping ``(alpha, beta)`` (DAMPING: ``alpha M + beta K0``) and the viscous
-        damping of deformation modes per element (EDAMP), for the transient analysis.
-    timestep, rho_inf, substeps, start, time_function
-        Transient analysis: ``(t_end, n_steps)`` of TIMESTEP (None: not given), the spectral
-        radius of RHOINF, integration steps per stored step (SUBSTEPS), START (``"deck"`` or ``"static"``) and TIMEFUNCTION ``(kind,
-        params)`` (see :mod:`spacarpy.solvers.transient`).
-    n_modes, modes_each_step : int or None, bool
-        The deck's ``MODES count [each|last]`` (spacarpy extension): modes per linearization
-        and whether every load step is linearized; the command line overrides them.
+        damping of deformation modes per element (EDAMP), used by the transient analysis.
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
     """
@@ -291,28 +240,15 @@ class Model:
     elements: dict = field(default_factory=dict)
     fixes: list = field(default_factory=list)
     loads: list = field(default_factory=list)
-    iterstep: IterStep = field(default_factory=IterStep)
     nodal_masses: list = field(default_factory=list)
     prescribed: list = field(default_factory=list)
     prescribed_rotations: list = field(default_factory=list)
     prescribed_deformations: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
     cross_sections: object | None = None
-    analysis: str = "static"
-    deformations: str = "modified"
-    bifurcation: str = "off"
     planar: bool = False
-    timestep: tuple | None = None          # (t_end, n_steps) of TIMESTEP
-    rho_inf: float = 0.9
-    substeps: int = 1
-    error_tol: tuple | None = None          # ERROR (abs, rel): adaptive time steps
-    initial_velocities: dict = field(default_factory=dict)  # node -> (3,) VELOCITY
     damping: tuple = (0.0, 0.0)             # Rayleigh (alpha, beta) of DAMPING
     element_damping: dict = field(default_factory=dict)   # element -> EDAMP values per mode
-    start: str = "deck"
-    time_function: tuple = ("constant", ())
-    n_modes: int | None = None
-    modes_each_step: bool = False
     source_path: str = "<model>"
     source_text: str = ""
 
@@ -325,10 +261,6 @@ class Model:
                 raise ValueError(f"elements[{keyword!r}] holds {es.kind} elements")
         self.elements = {k: self.elements[k] for k in KINDS
                          if k in self.elements and self.elements[k].n_elem}
-        if self.analysis not in ANALYSES:
-            raise ValueError(f"unknown analysis {self.analysis!r}; expected one of {ANALYSES}")
-        if self.deformations not in DEFORMATION_VARIANTS:
-            raise ValueError(f"unknown deformation variant {self.deformations!r}")
 
     @property
     def n_elem(self) -> int:
@@ -336,8 +268,9 @@ class Model:
         return sum(es.n_elem for es in self.elements.values())
 
     def to_deck(self, **kw) -> str:
-        """The model as SPACAR deck text (see :func:`spacarpy.deck.writer.model_to_deck`);
-        reading that text back gives an equal model."""
+        """The model as SPACAR deck text (see :func:`spacarpy.deck.writer.model_to_deck`;
+        ``settings=`` writes analysis settings too, else the defaults); reading that text
+        back gives an equal model."""
         from spacarpy.deck.writer import model_to_deck
         if self.cross_sections is not None:
             kw.setdefault("cross_sections", self.cross_sections)
@@ -346,5 +279,4 @@ class Model:
     def __repr__(self) -> str:
         return (f"Model({self.position_ids.size} position nodes, {self.orientation_ids.size} "
                 f"orientation nodes, {self.n_elem} elements, {len(self.fixes)} fixes, "
-                f"{len(self.loads)} loads, analysis={self.analysis!r}, "
-                f"deformations={self.deformations!r})")
+                f"{len(self.loads)} loads)")

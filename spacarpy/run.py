@@ -33,7 +33,9 @@ import numpy as np
 
 from spacarpy import __version__
 from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.job import Job
 from spacarpy.model import Model
+from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.compliance import nodal_compliance
 from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes
@@ -53,12 +55,10 @@ class AnalysisInputError(SpacarError):
 
 @dataclass
 class RunOptions:
-    """``n_modes`` per linearization; ``modes_per_step``: linearize every load step (else the
-    final one); ``compliance_node``: (position node, orientation node) deck numbers whose 6x6
-    compliance is computed at every linearized step."""
+    """How to run, beyond the analysis settings: ``compliance_node``: (position node,
+    orientation node) deck numbers whose 6x6 compliance is computed at every linearized step;
+    ``progress``: a callback of the transient run."""
 
-    n_modes: int = 10
-    modes_per_step: bool = False
     compliance_node: tuple | None = None
     progress: object = None          # transient: progress(t, t_end), e.g. a terminal bar
 
@@ -75,32 +75,41 @@ class RunSummary:
     newton_iterations: int = 0
 
 
-def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummary:
-    """Run ``model.analysis`` and write ``out`` (crash-safe, see :mod:`spacarpy.results`)."""
+def run_job(job: Job, out, options: RunOptions | None = None) -> RunSummary:
+    """Run a job (:func:`spacarpy.deck.load`): ``run_model(job.model, job.settings, ...)``."""
+    return run_model(job.model, job.settings, out, options)
+
+
+def run_model(model: Model, settings: AnalysisSettings, out,
+              options: RunOptions | None = None) -> RunSummary:
+    """Run ``settings.analysis`` on ``model`` and write ``out`` (crash-safe, see
+    :mod:`spacarpy.results`)."""
     from spacarpy.results import ResultsWriter
     from spacarpy.results.model_data import model_datasets
     from spacarpy.results.stress import SurfaceStress
 
-    opts = options or RunOptions(n_modes=model.n_modes or 10,
-                                 modes_per_step=model.modes_each_step)
-    problem = StaticProblem(model)
+    opts = options or RunOptions()
+    n_modes = settings.linearized.count
+    modes_per_step = settings.linearized.modes_each_step
+    analysis = settings.analysis
+    problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
-    if model.analysis == "check":
+    if analysis == "check":
         return RunSummary(report=dof_report(problem))
     mass = MassAssembler(model, num)
-    transient = model.analysis == "transient"
-    if transient and model.timestep is None:
+    transient = analysis == "transient"
+    if transient and settings.transient.timestep is None:
         raise AnalysisInputError("MODE transient needs the time span: TIMESTEP t_end n_steps "
                                  "in the data module")
     if transient and not mass.has_mass:
         raise AnalysisInputError("MODE transient needs mass: give EM lines for the elements "
                                  "(or XM nodal masses)")
-    want_eigen = model.analysis == "eigen" or (opts.modes_per_step and mass.has_mass)
-    want_buckling = model.analysis == "buckling" or (opts.modes_per_step and problem.loads.any)
-    if model.analysis == "eigen" and not mass.has_mass:
+    want_eigen = analysis == "eigen" or (modes_per_step and mass.has_mass)
+    want_buckling = analysis == "buckling" or (modes_per_step and problem.loads.any)
+    if analysis == "eigen" and not mass.has_mass:
         raise AnalysisInputError("MODE eigen needs mass: give EM lines for the beams (or XM "
                                  "nodal masses)")
-    if model.analysis == "buckling" and not problem.loads.any:
+    if analysis == "buckling" and not problem.loads.any:
         raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
                                  "scale the stresses that load causes")
     want_compliance = opts.compliance_node is not None
@@ -113,17 +122,17 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
                 f"--compliance {p_node} {r_node}: expected a position node and an orientation "
                 f"node of the model")
         compliance_rows = (int(pos_hit[0]), int(rot_hit[0]))
-    n_steps = model.iterstep.n_steps
+    n_steps = settings.static.iterstep.n_steps
     summary = RunSummary()
 
     model_data = model_datasets(model, num)
     surface_stress = SurfaceStress(model_data)
     with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
-                       deformations=model.deformations, analysis=model.analysis) as writer:
+                       deformations=settings.deformations, analysis=analysis) as writer:
         writer.begin_static(model.position_ids.size, model.orientation_ids.size,
                             problem.reaction_node, problem.reaction_component,
-                            n_eigen_modes=opts.n_modes if want_eigen else 0,
-                            n_buckling_modes=opts.n_modes if want_buckling else 0,
+                            n_eigen_modes=n_modes if want_eigen else 0,
+                            n_buckling_modes=n_modes if want_buckling else 0,
                             compliance_node=opts.compliance_node, transient=transient)
 
         def on_step(step):
@@ -140,31 +149,25 @@ def run_model(model: Model, out, options: RunOptions | None = None) -> RunSummar
                    f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "
                    f"residual {step.residual:.2e}")
             if (want_eigen or want_buckling or want_compliance) and \
-                    (opts.modes_per_step or k == n_steps):
-                msg += _linearized_step(problem, mass, step, k, writer, opts, want_eigen,
+                    (modes_per_step or k == n_steps):
+                msg += _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen,
                                         want_buckling,
                                         compliance_rows if want_compliance else None, summary)
             log.info(msg)
 
         if transient:
-            _run_transient(model, problem, writer, on_step, opts, summary)
+            _run_transient(model, settings, problem, writer, on_step, opts, summary)
         else:
-            solve_static(model, problem=problem, on_step=on_step)
+            solve_static(model, settings, problem=problem, on_step=on_step)
         writer.finish()
     return summary
 
 
-def _run_transient(model, problem, writer, on_static_step, opts, summary):
-    from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
+def _run_transient(model, settings, problem, writer, on_static_step, opts, summary):
+    from spacarpy.solvers.transient import TransientOptions, solve_transient
     num = problem.num
-    t_end, n_steps = model.timestep
-    topts = TransientOptions(t_end=t_end, n_steps=n_steps, substeps=model.substeps,
-                             error=model.error_tol,
-                             rho_inf=model.rho_inf,
-                             tol=min(model.iterstep.tol, 1e-10),
-                             max_iter=max(model.iterstep.max_iter, 20), start=model.start,
-                             phi=TimeFunction(*model.time_function),
-                             deformations=model.deformations)
+    topts = TransientOptions.from_settings(settings)
+    n_steps = topts.n_steps
     width = len(str(n_steps))
 
     def on_step(step):
@@ -184,13 +187,14 @@ def _run_transient(model, problem, writer, on_static_step, opts, summary):
                      f"{step.energy_balance:.6g} J")
 
     result = solve_transient(model, topts, on_step=on_step, on_static_step=on_static_step,
+                             settings=settings,
                              progress=opts.progress, problem=problem)
     summary.newton_iterations = result.n_newton
     summary.integration_steps = result.n_steps_taken
     summary.rejected_steps = result.n_rejected
 
 
-def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buckling,
+def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_buckling,
                      compliance_rows, summary):
     num = problem.num
     lin = linearize(problem, step.x, step.mu, problem.loads.at(1.0, step.load_factor),
@@ -200,7 +204,7 @@ def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buck
         c_glob, c_loc = nodal_compliance(lin, num, problem.free, *compliance_rows)
         writer.compliance_step(k, c_glob, c_loc)
     if want_eigen:
-        md = eigenmodes(lin, num, problem.free, n_modes=opts.n_modes)
+        md = eigenmodes(lin, num, problem.free, n_modes=n_modes)
         shape_pos, shape_rot = _node_shapes(num, problem.free, md.shape)
         writer.eigen_step(k, md.eigenvalue, md.frequency, md.kind, shape_pos, shape_rot)
         summary.frequencies.append(md.frequency)
@@ -208,7 +212,7 @@ def _linearized_step(problem, mass, step, k, writer, opts, want_eigen, want_buck
                           for f, kd in zip(md.frequency[:4], md.kind[:4]))
         text += f"  f [Hz]: {shown}"
     if want_buckling:
-        bk = buckling_modes(lin, n_modes=opts.n_modes)
+        bk = buckling_modes(lin, n_modes=n_modes)
         shape_pos, shape_rot = _node_shapes(num, problem.free, np.nan_to_num(bk.shape))
         writer.buckling_step(k, bk.multiplier, bk.critical, shape_pos, shape_rot)
         summary.critical.append(bk.critical)

@@ -1,4 +1,5 @@
-"""Tests of deck parsing (spacarpy.deck.parser) and deck -> Model building (spacarpy.deck.build)."""
+"""Tests of deck parsing (spacarpy.deck.parser) and deck -> Model building
+(spacarpy.deck.semantics)."""
 from __future__ import annotations
 
 import logging
@@ -11,10 +12,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from spacarpy.deck import build_model, load_deck, parse_deck
+from spacarpy.deck import build_job, build_model, load, load_deck, parse_deck
 from spacarpy.deck.check import summarize
 from spacarpy.errors import DeckError
-from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Fix, IterStep, Load
+from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Fix, Load
+from spacarpy.settings import IterStep
 
 CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "spacar-decks"
 
@@ -50,6 +52,11 @@ CROSSTYPE RECT
 
 def build(text: str, **kw):
     return build_model(parse_deck(text, "t.dat"), text=text, path="t.dat", **kw)
+
+
+def settings_of(text: str, **kw):
+    """The analysis settings of deck text."""
+    return build_job(parse_deck(text, "t.dat"), text=text, path="t.dat", **kw).settings
 
 
 def deck_error(text: str, **kw) -> DeckError:
@@ -94,10 +101,11 @@ def test_valid_deck_builds_expected_model():
     assert [(ld.node, ld.kind, ld.value) for ld in m.loads] == [
         (5, "XF", (-1.0, 0.0, 0.0)), (6, "DELXF", (0.0, 0.0, 0.5))]
     assert all(isinstance(ld, Load) for ld in m.loads)
-    it = m.iterstep
+    s = settings_of(VALID)
+    it = s.static.iterstep
     assert (it.max_iter, it.n_steps, it.tol, it.n_init, it.extra) == (10, 5, 1e-8, 2, (1.0, 3.0))
     assert it.loc.line == 21
-    assert m.analysis == "static" and m.deformations == "modified"
+    assert s.analysis == "static" and s.deformations == "modified"
     assert m.source_path == "t.dat" and m.source_text == VALID
 
 
@@ -118,7 +126,7 @@ def test_statements_modules_and_locations():
 
 def test_keywords_case_insensitive():
     m = build(VALID.lower())
-    assert m.elements["BEAM"].n_elem == 2 and m.iterstep.n_steps == 5
+    assert m.elements["BEAM"].n_elem == 2 and settings_of(VALID.lower()).iterstep.n_steps == 5
     assert parse_deck("beam 1 1 2 3 4\n")[0].keyword == "BEAM"
 
 
@@ -150,14 +158,14 @@ def test_numbers_in_many_forms_and_int_from_float():
 def test_no_end_is_accepted_and_iterstep_defaults():
     m = build(BASE)
     assert m.elements["BEAM"].n_elem == 1
-    assert m.iterstep == IterStep()
+    assert settings_of(BASE).iterstep == IterStep()
 
 
 def test_iterstep_zero_steps_and_two_fields():
-    m = build(BASE + "ITERSTEP 10 0 5e-7 1 3 0\n")
-    assert (m.iterstep.n_steps, m.iterstep.n_init) == (1, 1)
-    m = build(BASE + "ITERSTEP 5.0 1000.0\n")
-    assert (m.iterstep.max_iter, m.iterstep.n_steps, m.iterstep.tol) == (5, 1000, 5e-7)
+    it = settings_of(BASE + "ITERSTEP 10 0 5e-7 1 3 0\n").iterstep
+    assert (it.n_steps, it.n_init) == (1, 1)
+    it = settings_of(BASE + "ITERSTEP 5.0 1000.0\n").iterstep
+    assert (it.max_iter, it.n_steps, it.tol) == (5, 1000, 5e-7)
 
 
 @pytest.mark.parametrize("value, expected", [
@@ -165,7 +173,7 @@ def test_iterstep_zero_steps_and_two_fields():
     ("0", "check"), ("1", "transient"), ("8", "buckling"), ("4", "eigen"), ("7.0", "eigen"),
     ("-4", "eigen"), ('"buckling"', "buckling")])
 def test_mode_extension(value, expected):
-    assert build(BASE + f"MODE {value}\n").analysis == expected
+    assert settings_of(BASE + f"MODE {value}\n").analysis == expected
 
 
 def test_mode_invalid_lists_valid_values():
@@ -175,11 +183,13 @@ def test_mode_invalid_lists_valid_values():
 
 
 def test_deformations_extension_and_command_line_overrides():
-    m = build(BASE + "DEFORMATIONS basic\nMODE eigen\n")
-    assert (m.deformations, m.analysis) == ("basic", "eigen")
-    m = build(BASE + "DEFORMATIONS basic\nMODE eigen\n", deformations="modified",
-              analysis="buckling")
-    assert (m.deformations, m.analysis) == ("modified", "buckling")
+    s = settings_of(BASE + "DEFORMATIONS basic\nMODE eigen\n")
+    assert (s.deformations, s.analysis) == ("basic", "eigen")
+    s = settings_of(BASE + "DEFORMATIONS basic\nMODE eigen\n", deformations="modified",
+                    analysis="buckling")
+    assert (s.deformations, s.analysis) == ("modified", "buckling")
+    assert s.override(analysis="7", deformations="basic") == settings_of(
+        BASE + "DEFORMATIONS basic\nMODE eigen\n")
     line, col, msg = only_item(deck_error(BASE + "DEFORMATIONS fancy\n"))
     assert (line, col) == (4, 14) and "expected modified or basic" in msg
     err = deck_error(BASE, analysis="nonsense")
@@ -188,7 +198,7 @@ def test_deformations_extension_and_command_line_overrides():
 
 def test_estiff_seventh_value_warns(caplog):
     text = BASE + "DYNE 1 1\nESTIFF 1 1 2 3 4 5 6 7\n"
-    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.build"):
+    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.semantics"):
         m = build(text)
     np.testing.assert_allclose(m.elements["BEAM"].stiffness[0], [1, 2, 3, 4, 5, 6])
     assert any("7th value" in r.getMessage() for r in caplog.records)
@@ -198,7 +208,7 @@ def test_unconnected_position_node_is_an_error_unless_fixed(caplog):
     line, col, msg = only_item(deck_error(BASE + "X 9 5 5 5\n"))
     assert (line, col) == (4, 3)
     assert msg.startswith("position node 9 is not connected to any element: it would float")
-    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.build"):
+    with caplog.at_level(logging.WARNING, logger="spacarpy.deck.semantics"):
         m = build(BASE + "X 9 5 5 5\nFIX 9\n")
     assert 9 in m.position_ids
     assert any("node 9 is not connected" in r.getMessage() for r in caplog.records)
@@ -207,8 +217,9 @@ def test_unconnected_position_node_is_an_error_unless_fixed(caplog):
 def test_load_deck_reads_file_and_reports_missing(tmp_path):
     p = tmp_path / "d.dat"
     p.write_bytes(("# caf\u00e9\n" + BASE).encode("latin-1"))
-    m = load_deck(p, analysis="eigen")
-    assert m.analysis == "eigen" and m.source_path == str(p)
+    m, s = load(p, analysis="eigen")
+    assert s.analysis == "eigen" and m.source_path == str(p)
+    assert load_deck(p).source_text == m.source_text
     with pytest.raises(DeckError, match="no such file"):
         load_deck(tmp_path / "missing.dat")
 
@@ -237,7 +248,7 @@ def corpus_path(name: str) -> Path:
 
 
 def test_corpus_spatools_cantilever_builds():
-    m = load_deck(corpus_path("spatools_cantilever.dat"))
+    m, s = load(corpus_path("spatools_cantilever.dat"))
     np.testing.assert_array_equal(m.position_ids, [1, 3, 5, 7, 9])
     np.testing.assert_array_equal(m.orientation_ids, [2, 4, 6, 8, 10])
     np.testing.assert_array_equal(m.elements["BEAM"].ids, [1, 2, 3, 4])
@@ -247,12 +258,12 @@ def test_corpus_spatools_cantilever_builds():
     np.testing.assert_allclose(m.elements["BEAM"].vector, [[0, 0, 1]] * 4)
     assert [(f.node, f.coords) for f in m.fixes] == [(1, (1, 2, 3)), (2, (1, 2, 3, 4))]
     assert [(ld.node, ld.kind) for ld in m.loads] == [(3, "DELXF"), (3, "XF")]
-    assert (m.iterstep.max_iter, m.iterstep.n_steps, m.iterstep.n_init) == (10, 9, 9)
-    assert m.iterstep.extra == (1.0, 3.0)
+    assert (s.iterstep.max_iter, s.iterstep.n_steps, s.iterstep.n_init) == (10, 9, 9)
+    assert s.iterstep.extra == (1.0, 3.0)
 
 
 def test_corpus_dynastatflex_builds():
-    m = load_deck(corpus_path("dynastatflex_simple_beam.dat"))
+    m, s = load(corpus_path("dynastatflex_simple_beam.dat"))
     np.testing.assert_array_equal(m.position_ids, np.arange(1, 50, 2))
     np.testing.assert_array_equal(m.orientation_ids, np.arange(2, 51, 2))
     assert m.elements["BEAM"].n_elem == 24
@@ -260,7 +271,7 @@ def test_corpus_dynastatflex_builds():
     np.testing.assert_array_equal(m.elements["BEAM"].def_class,
                                   [[RIGID, RIGID, FLEXIBLE, FLEXIBLE, RIGID, RIGID]] * 24)
     assert [(ld.node, ld.kind, ld.value) for ld in m.loads] == [(26, "DELXF", (0.0, 0.0, 0.3))]
-    assert (m.iterstep.n_steps, m.iterstep.n_init) == (4, 1)
+    assert (s.iterstep.n_steps, s.iterstep.n_init) == (4, 1)
 
 
 def test_corpus_slidercrank_refuses_only_what_is_not_supported():

@@ -12,15 +12,17 @@ import pytest
 from spacarpy.cases import BEND, bend_deck
 from spacarpy.deck import (
     ModelBuilder,
+    build_job,
     build_model,
     cross_sections,
+    load,
     load_deck,
     model_to_deck,
     parse_deck,
 )
-from spacarpy.deck.expressions import ExpressionError, evaluate
 from spacarpy.deck.generators import arc_points, line_points
 from spacarpy.errors import DeckError
+from spacarpy.expressions import ExpressionError, evaluate
 from spacarpy.model import FLEXIBLE
 from spacarpy.solvers.static import solve_static
 
@@ -33,11 +35,28 @@ def build(text: str, **kw):
     return build_model(parse_deck(text, "t.dat", **kw), text=text, path="t.dat")
 
 
+def build_both(text: str, **kw):
+    """The job (model and settings) of deck text."""
+    return build_job(parse_deck(text, "t.dat", **kw), text=text, path="t.dat")
+
+
 def errors(text: str, **kw) -> list[tuple[int, int, str]]:
     with pytest.raises(DeckError) as info:
         build(text, **kw)
     return [(loc.line, loc.column, msg) if loc else (0, 0, msg)
             for loc, msg, _ in info.value.items]
+
+
+def assert_jobs_equal(a, b, atol=0.0):
+    """Two jobs: their models (:func:`assert_models_equal`) and their analysis settings."""
+    assert_models_equal(a.model, b.model, atol=atol)
+    sa, sb = a.settings, b.settings
+    ia, ib = sa.iterstep, sb.iterstep
+    assert (ia.max_iter, ia.n_steps, ia.tol, ia.n_init, ia.extra) == \
+        (ib.max_iter, ib.n_steps, ib.tol, ib.n_init, ib.extra)
+    assert (sa.analysis, sa.deformations, sa.bifurcation) == \
+        (sb.analysis, sb.deformations, sb.bifurcation)
+    assert (sa.linearized, sa.transient) == (sb.linearized, sb.transient)
 
 
 def assert_models_equal(a, b, atol=0.0):
@@ -54,10 +73,6 @@ def assert_models_equal(a, b, atol=0.0):
         [(ld.node, ld.kind, ld.value) for ld in b.loads]
     assert [(m.node, m.values) for m in a.nodal_masses] == \
         [(m.node, m.values) for m in b.nodal_masses]
-    ia, ib = a.iterstep, b.iterstep
-    assert (ia.max_iter, ia.n_steps, ia.tol, ia.n_init, ia.extra) == \
-        (ib.max_iter, ib.n_steps, ib.tol, ib.n_init, ib.extra)
-    assert (a.analysis, a.deformations) == (b.analysis, b.deformations)
 
 
 # ------------------------------------------------------------------ SET and expressions
@@ -263,7 +278,7 @@ def test_beams_reproduces_the_spacar_light_subdivision_of_a_real_deck():
             "EM 1:4 19.5 0.008125 0.004063 0.004063 0\n"
             "DELXF 3 -10000000000.000000 0 0\nXF 3 0 10 0\nITERSTEP 10 9 0.0000005 1 3 9\n"
             "END\nEND\n")
-    assert_models_equal(build(text), load_deck(path))
+    assert_jobs_equal(build_both(text), load(path))
 
 
 def test_generator_numbering_rule_and_order():
@@ -310,22 +325,23 @@ def explicit_bend(n: int, numbering: str) -> str:
 
 @pytest.mark.parametrize("n", [8, 48])
 def test_table2_generator_deck_equals_the_explicit_arc(n):
-    generated = build(bend_deck(n))
-    explicit = build(explicit_bend(n, "generator"))
-    assert_models_equal(generated, explicit, atol=1e-12)
-    np.testing.assert_array_equal(generated.elements["BEAM"].def_class, FLEXIBLE)
+    generated = build_both(bend_deck(n))
+    explicit = build_both(explicit_bend(n, "generator"))
+    assert_jobs_equal(generated, explicit, atol=1e-12)
+    np.testing.assert_array_equal(generated.model.elements["BEAM"].def_class, FLEXIBLE)
     assert (ROOT / "decks" / f"table2_bend_{n}el_modified.dat").read_text() == bend_deck(n)
 
 
-def tip_position(model, tip: int) -> np.ndarray:
-    res = solve_static(model)
+def tip_position(job, tip: int) -> np.ndarray:
+    model = job.model
+    res = solve_static(model, job.settings)
     row = list(model.position_ids).index(tip)
     return res.steps[-1].x[res.problem.num.pos_idx[row]]
 
 
 def test_table2_generator_deck_gives_the_results_of_the_old_explicit_deck():
-    new = tip_position(build(bend_deck(8)), tip=3)
-    old = tip_position(build(explicit_bend(8, "paper")), tip=17)
+    new = tip_position(build_both(bend_deck(8)), tip=3)
+    old = tip_position(build_both(explicit_bend(8, "paper")), tip=17)
     np.testing.assert_allclose(new, old, rtol=1e-9)
     assert tuple(np.round(new, 2)) == (46.94, 53.64, 15.64)      # Table 2, 8 elements
 
@@ -382,26 +398,27 @@ def scripted_bend(n: int) -> ModelBuilder:
 
 def test_model_builder_gives_the_model_of_the_deck():
     mb = scripted_bend(8)
-    assert_models_equal(mb.build(), load_deck(ROOT / "decks" / "table2_bend_8el_modified.dat"))
+    assert_jobs_equal(mb.build_job(), load(ROOT / "decks" / "table2_bend_8el_modified.dat"))
     text = mb.to_deck()
     assert "BEAMARC 1 1 2 3 4 8 0 0 100.0 0 1 0" in text
     assert "DYNE 1:8 1 2 3 4 5 6" in text
-    assert_models_equal(build(text), mb.build())
+    assert_jobs_equal(build_both(text), mb.build_job())
 
 
 def test_model_builder_other_keywords():
-    model = (ModelBuilder()
+    job = (ModelBuilder()
              .node(1, 0, 0, 0).node(3, 1, 0, 0).node(5, 2, 0, 0)
              .beam(1, 1, 2, 3, 4, orientation=(0, 0, 1)).beams(2, 3, 4, 5, 6, 2)
              .flexible(1).flexible([2, 3], modes=(1, 3, 4)).released(2, (2,))
              .fix(1).fix(2).fix(5, 2, 3)
              .stiffness(range(1, 4), 1, 2, 3, 4).mass(1, 2.0, 0.1)
              .nodal_mass(5, 0.5).load(5, 1, 0, 0, initial=True).load(6, 0, 0, 1)
-             .iterstep(10, 5, 1e-8, n_init=2).build(deformations="basic"))
-    assert model.deformations == "basic" and model.elements["BEAM"].n_elem == 3
+             .iterstep(10, 5, 1e-8, n_init=2).build_job(deformations="basic"))
+    model, settings = job
+    assert settings.deformations == "basic" and model.elements["BEAM"].n_elem == 3
     assert [(m.node, m.values) for m in model.nodal_masses] == [(5, (0.5,))]
     assert [ld.kind for ld in model.loads] == ["XF", "DELXF"]
-    assert model.iterstep.n_init == 2 and model.iterstep.extra == (1.0, 3.0)
+    assert settings.iterstep.n_init == 2 and settings.iterstep.extra == (1.0, 3.0)
     assert repr(ModelBuilder().node(1, 0, 0, 0)) == "ModelBuilder(1 deck lines)"
 
 
@@ -421,11 +438,11 @@ def test_model_builder_errors_point_at_the_script_line():
 
 # ------------------------------------------------------------------ round trips
 
-def _round_trip(model, **kw):
-    text = model_to_deck(model, **kw)
-    again = build_model(parse_deck(text, "rt.dat"), text=text, path="rt.dat")
-    assert_models_equal(model, again)
-    assert model_to_deck(again, **kw) == text.replace(model.source_path, "rt.dat")
+def _round_trip(job, **kw):
+    text = model_to_deck(job.model, job.settings, **kw)
+    again = build_job(parse_deck(text, "rt.dat"), text=text, path="rt.dat")
+    assert_jobs_equal(job, again)
+    assert model_to_deck(*again, **kw) == text.replace(job.model.source_path, "rt.dat")
     return text
 
 
@@ -440,7 +457,7 @@ def test_deck_model_deck_model_is_identity(name, compact):
     path = ROOT / name
     if not path.is_file():
         pytest.skip(f"{path} is absent")
-    text = _round_trip(load_deck(path), compact=compact)
+    text = _round_trip(load(path), compact=compact)
     assert ("DYNE 1:" in text) == compact
 
 
@@ -451,9 +468,10 @@ def test_round_trip_of_every_model_feature():
             "ESTIFF 2 1e7 1e3 2e3 3e3 1e-4 0.1\nEM 2 2.0 0.1 0.05 0.05 0\nXM 5 0.25\n"
             "XM 4 1e-3 0 0 2e-3 0 3e-3\nXF 5 -1 0 0\nDELXF 4 0 0 0.5\nDELXF 4 0.1 0 0\n"
             "ITERSTEP 10 0 1e-8 1 3 2\nEND\nEND\n")
-    model = build(text)
-    assert np.isnan(model.elements["BEAM"].vector[1]).all() and model.iterstep.n_steps == 1
-    out = _round_trip(model)
+    job = build_both(text)
+    assert np.isnan(job.model.elements["BEAM"].vector[1]).all()
+    assert job.settings.iterstep.n_steps == 1
+    out = _round_trip(job)
     assert "BEAM 2 3 4 5 6\n" in out and "FIX 1\n" in out and "FIX 5 2 3\n" in out
 
 
@@ -511,3 +529,39 @@ def test_an_error_repeated_by_a_range_or_generator_is_reported_once():
             "ESTIFF 1:3 -1 1 1 1\nFIX 1\nFIX 2\n")
     assert errors(text) == [(5, 12, "ESTIFF 1: EA must not be negative, got -1 (and 2 more like "
                                     "it from this line)")]
+
+
+# ------------------------------------------------------------------ named fields, settings
+
+def test_statements_have_named_field_access_with_locations():
+    st = parse_deck("RHOINF 0.7\nITERSTEP 10 4\n", "t.dat")
+    rho, it = st
+    assert rho["rho_inf"] == rho.value("rho_inf") == 0.7
+    assert (rho.loc_of("rho_inf").line, rho.loc_of("rho_inf").column) == (1, 8)
+    assert it.value("tol") is None and it.value("tol", 5e-7) == 5e-7
+    assert it.loc_of("tol") == it.loc                  # left out: the keyword's location
+    with pytest.raises(KeyError):
+        it["tol"]
+    with pytest.raises(KeyError):
+        it.value("nonsense")
+
+
+def test_field_specs_carry_the_choices_and_ranges_the_semantics_check():
+    from spacarpy.deck.keywords import KEYWORDS
+    rho = KEYWORDS["RHOINF"].field("rho_inf")[1]
+    assert (rho.min, rho.max, rho.range_text) == (0.0, 1.0, "[0, 1]")
+    assert rho.accepts(1.0) and not rho.accepts(1.5)
+    assert KEYWORDS["START"].field("start")[1].accepts("STATIC")
+    assert KEYWORDS["BIFURCATION"].field("setting")[1].choices == ("off", "warn", "switch")
+    [(line, col, msg)] = errors(BASE + "RHOINF 1.5\n")
+    assert (line, col) == (4, 8) and msg == "RHOINF: the spectral radius lies in [0, 1], got 1.5"
+
+
+def test_command_line_choices_make_new_settings():
+    job = build_both(BASE + "MODE eigen\nMODES 3\n")
+    new = job.settings.override(analysis="8", n_modes=5, modes_each_step=True)
+    assert (job.settings.analysis, job.settings.linearized.n_modes) == ("eigen", 3)
+    assert (new.analysis, new.linearized.count, new.linearized.modes_each_step) == \
+        ("buckling", 5, True)
+    with pytest.raises(ValueError, match="unknown analysis 'fancy'"):
+        job.settings.override(analysis="fancy")

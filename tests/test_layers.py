@@ -128,7 +128,6 @@ def test_kernels_import_no_model_deck_solver_or_results():
     assert not bad, "element kernels import higher layers:\n" + "\n".join(bad)
 
 
-@BEING_FIXED
 def test_deck_imports_no_solver():
     bad = violations(["deck"], ["solvers"])
     assert not bad, "the deck layer imports solvers:\n" + "\n".join(bad)

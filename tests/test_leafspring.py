@@ -9,7 +9,7 @@ from scipy.optimize import brentq
 from scipy.special import ellipk
 
 from spacarpy.cli import main
-from spacarpy.deck import model_from_text
+from spacarpy.deck import job_from_text
 from spacarpy.results.reader import open_results
 from spacarpy.results.tables import extract
 from spacarpy.solvers.static import solve_static
@@ -39,10 +39,10 @@ def test_a_hinge_driven_by_inpute_equals_turning_the_node_by_inputr():
     """Driving the root hinge angle to 0.4 rad (INPUTE/DELINPE) and turning the root node by
     0.4 rad about the hinge axis (INPUTR/DELINPR) are the same problem: the same equilibrium,
     and the hinge's stress resultant (the driving torque) is the reaction moment."""
-    hinge = model_from_text(hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6",
+    hinge, hinge_settings = job_from_text(hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6",
                                               "DELINPE 9 1 0.4"))
-    turned = model_from_text(hinged_cantilever("INPUTR 2 0 0 1", "DELINPR 2 0.4"))
-    res_h, res_t = solve_static(hinge), solve_static(turned)
+    turned, turned_settings = job_from_text(hinged_cantilever("INPUTR 2 0 0 1", "DELINPR 2 0.4"))
+    res_h, res_t = solve_static(hinge, hinge_settings), solve_static(turned, turned_settings)
     num_h, num_t = res_h.problem.num, res_t.problem.num
     # the generated intermediate nodes are numbered differently (the hinge model has more
     # nodes): compare the positions in order along the beam, the root and the tip triads
@@ -67,7 +67,7 @@ def test_a_hinge_driven_by_inpute_equals_turning_the_node_by_inputr():
 def test_inpute_initial_value_is_reached_at_step_0():
     text = hinged_cantilever("HINGE 9 6 2 0 0 1\nINPUTE 9 1\nFIX 6", "INPUTE 9 1 0.1\n"
                              "DELINPE 9 1 0.2")
-    res = solve_static(model_from_text(text))
+    res = solve_static(*job_from_text(text))
     angles = [s.deformation["HINGE"][0, 0] for s in res.steps]
     np.testing.assert_allclose(angles, 0.1 + 0.2 * np.arange(7) / 6, atol=1e-12)
 
@@ -106,8 +106,8 @@ def elastica_tip_angle(ratio):
 
 
 def tip_angle(n, ratio, bifurcation="switch"):
-    model = model_from_text(column_text(ratio * np.pi**2 / 4, bifurcation, n=n))
-    res = solve_static(model)
+    model, settings = job_from_text(column_text(ratio * np.pi**2 / 4, bifurcation, n=n))
+    res = solve_static(model, settings)
     q = res.steps[-1].x[res.problem.num.rot_idx[list(model.orientation_ids).index(4)]]
     return abs(2 * np.arctan2(q[3], q[0])), res
 

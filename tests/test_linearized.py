@@ -5,7 +5,9 @@ import pytest
 
 from spacarpy.elements.beam import reference_triads
 from spacarpy.elements.beam_mass import beam_mass_matrix
-from spacarpy.model import ElementSet, Fix, IterStep, Load, Model, NodalMass
+from spacarpy.job import Job
+from spacarpy.model import ElementSet, Fix, Load, Model, NodalMass
+from spacarpy.settings import AnalysisSettings, IterStep
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.eigen import ELASTIC, RIGID_BODY, UNSTABLE, eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
@@ -16,7 +18,8 @@ F_TH_CONSTANT = 4.012599344          # NOTES.md: the corrected lateral-buckling 
 
 def straight(n, *, L=1.0, stiffness=(1e6, 1.0, 1.0, 1.0, 0, 0), mass=(1.0, 0, 0, 0, 0),
              def_class=None, fixes="clamped", loads=(), variant="modified", nodal_masses=()):
-    """n equal beams along x; nodes 2i+1 (position) and 2i+2 (orientation)."""
+    """n equal beams along x; nodes 2i+1 (position) and 2i+2 (orientation): the model and
+    its settings (one load step)."""
     pos = np.arange(n + 1) * 2 + 1
     rot = pos + 1
     x0 = np.zeros((n + 1, 3))
@@ -32,21 +35,24 @@ def straight(n, *, L=1.0, stiffness=(1e6, 1.0, 1.0, 1.0, 0, 0), mass=(1.0, 0, 0,
            "free": []}[fixes]
     loads = [Load(int(pos[-1]) if node == "tip" else int(node), "DELXF", tuple(v))
              for node, v in loads]
-    return Model(position_ids=pos, position_x0=x0, orientation_ids=rot,
-                 elements={"BEAM": beams}, fixes=fix,
-                 loads=loads, nodal_masses=list(nodal_masses),
-                 iterstep=IterStep(max_iter=20, n_steps=1, tol=1e-12), deformations=variant)
+    model = Model(position_ids=pos, position_x0=x0, orientation_ids=rot,
+                  elements={"BEAM": beams}, fixes=fix,
+                  loads=loads, nodal_masses=list(nodal_masses))
+    settings = AnalysisSettings(deformations=variant).override(
+        iterstep=IterStep(max_iter=20, n_steps=1, tol=1e-12))
+    return Job(model, settings)
 
 
-def linearized_final_state(model, with_mass=True):
-    res = solve_static(model)
+def linearized_final_state(job, with_mass=True):
+    model = job.model
+    res = solve_static(model, job.settings)
     prob, st = res.problem, res.steps[-1]
     mass = MassAssembler(model, prob.num) if with_mass else None
     return prob, linearize(prob, st.x, st.mu, prob.loads.at(1.0, 1.0), mass=mass)
 
 
-def modes_of(model, n_modes):
-    prob, lin = linearized_final_state(model)
+def modes_of(job, n_modes):
+    prob, lin = linearized_final_state(job)
     return eigenmodes(lin, prob.num, prob.free, n_modes=n_modes)
 
 

@@ -4,12 +4,18 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from spacarpy.model import FLEXIBLE, RIGID, ElementSet, Fix, IterStep, Load, Model, NodalMass
+from spacarpy.model import FLEXIBLE, RIGID, ElementSet, Fix, Load, Model, NodalMass
+from spacarpy.settings import AnalysisSettings, IterStep
 from spacarpy.solvers.eigen import eigenmodes
 from spacarpy.solvers.linearize import MassAssembler, linearize
 from spacarpy.solvers.static import solve_static
 
 NAN3 = (np.nan, np.nan, np.nan)
+
+
+def steps(n_steps: int, tol: float = 1e-12) -> AnalysisSettings:
+    """Static settings of n_steps load steps."""
+    return AnalysisSettings().override(iterstep=IterStep(n_steps=n_steps, tol=tol))
 
 
 def two_bar_truss(P, EA=1e4, h=0.3, half=1.0):
@@ -20,12 +26,12 @@ def two_bar_truss(P, EA=1e4, h=0.3, half=1.0):
     return Model(position_ids=[1, 3, 5], position_x0=[[-half, 0, 0], [0, h, 0], [half, 0, 0]],
                  orientation_ids=[], elements={"TRUSS": trusses},
                  fixes=[Fix(1, (1, 2, 3)), Fix(5, (1, 2, 3)), Fix(3, (3,))],
-                 loads=[Load(3, "DELXF", (0, -P, 0))], iterstep=IterStep(n_steps=4, tol=1e-12))
+                 loads=[Load(3, "DELXF", (0, -P, 0))])
 
 
 def test_two_bar_truss_matches_the_exact_nonlinear_equilibrium():
     EA, h, half, P = 1e4, 0.3, 1.0, 50.0                    # below the snap-through load
-    res = solve_static(two_bar_truss(P, EA, h, half))
+    res = solve_static(two_bar_truss(P, EA, h, half), steps(4))
     apex = res.steps[-1].x[res.problem.num.pos_idx[1]]
     l0 = np.hypot(half, h)
 
@@ -60,15 +66,14 @@ def hinged_rod(F, k=3.0, L=2.0, rod="BEAM", tip_mass=0.0):
     masses = [NodalMass(3, (tip_mass,))] if tip_mass else []
     return Model(position_ids=[1, 3], position_x0=[[0, 0, 0], [L, 0, 0]], orientation_ids=rot,
                  elements=sets, fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
-                 loads=[Load(3, "DELXF", (0, F, 0))] if F else [], nodal_masses=masses,
-                 iterstep=IterStep(n_steps=5, tol=1e-12))
+                 loads=[Load(3, "DELXF", (0, F, 0))] if F else [], nodal_masses=masses)
 
 
 @pytest.mark.parametrize("rod", ["BEAM", "RBEAM"])
 def test_hinge_spring_balances_a_dead_tip_force_at_large_rotation(rod):
     """k theta = F L cos(theta) for a rigid rod on a torsion-spring hinge."""
     F, k, L = 2.5, 3.0, 2.0
-    res = solve_static(hinged_rod(F, k, L, rod))
+    res = solve_static(hinged_rod(F, k, L, rod), steps(5))
     theta = brentq(lambda t: k * t - F * L * np.cos(t), 0, np.pi / 2)
     assert theta > 0.8                                         # a large rotation
     tip = res.steps[-1].x[res.problem.num.pos_idx[1]]
@@ -84,8 +89,7 @@ def test_hinge_angle_is_continuous_beyond_half_a_turn():
     k, L = 3.0, 2.0
     model = hinged_rod(0.0, k, L)
     model.loads = [Load(6, "DELXF", (0, 0, 4.0 * np.pi * k))]  # tip moment: theta = 4 pi
-    model.iterstep = IterStep(n_steps=16, tol=1e-12)
-    res = solve_static(model)
+    res = solve_static(model, steps(16))
     angles = [s.deformation["HINGE"][0, 0] for s in res.steps]
     np.testing.assert_allclose(angles, np.linspace(0, 4 * np.pi, 17), atol=1e-9)
 
@@ -93,7 +97,7 @@ def test_hinge_angle_is_continuous_beyond_half_a_turn():
 def test_hinged_rod_with_tip_mass_oscillates_at_sqrt_k_over_m_l2():
     k, L, m = 3.0, 2.0, 0.7
     model = hinged_rod(0.0, k, L, tip_mass=m)
-    res = solve_static(model)
+    res = solve_static(model, steps(5))
     prob, st = res.problem, res.steps[-1]
     lin = linearize(prob, st.x, st.mu, prob.loads.at(1.0, 1.0),
                     mass=MassAssembler(model, prob.num))
@@ -105,7 +109,7 @@ def test_hinged_rod_with_tip_mass_oscillates_at_sqrt_k_over_m_l2():
 from pathlib import Path  # noqa: E402
 
 from spacarpy.cli import main  # noqa: E402
-from spacarpy.deck import model_from_text  # noqa: E402
+from spacarpy.deck import job_from_text  # noqa: E402
 from spacarpy.results import read_results  # noqa: E402
 
 from helpers import deck_errors, planar_four_bar_equilibrium  # noqa: E402
@@ -181,8 +185,8 @@ def cantilever_text(extra_kin="", extra_data="", n=8):
 
 
 def solve_text(text):
-    model = model_from_text(text, "p.dat")
-    res = solve_static(model)
+    model, settings = job_from_text(text, "p.dat")
+    res = solve_static(model, settings)
     return model, res, res.steps[-1]
 
 
@@ -243,7 +247,7 @@ def test_gravity_on_a_rigid_rod_balances_the_hinge_spring():
     model = hinged_rod(0.0, k=3.0, L=2.0, rod="RBEAM")
     model.elements["RBEAM"].mass[:, 0] = 1.5            # rhoA: m = 3 kg
     model.gravity = (0.0, 2.0, 0.0)
-    res = solve_static(model)
+    res = solve_static(model, steps(5))
     theta = brentq(lambda t: 3.0 * t - 3.0 * 2.0 * 1.0 * np.cos(t), 0, np.pi / 2)
     tip = res.steps[-1].x[res.problem.num.pos_idx[1]]
     np.testing.assert_allclose(tip, [2 * np.cos(theta), 2 * np.sin(theta), 0], atol=1e-10)

@@ -7,7 +7,7 @@ from scipy.optimize import brentq
 
 from spacarpy.cases import TABLE1
 from spacarpy.cli import main
-from spacarpy.deck import model_from_text
+from spacarpy.deck import job_from_text
 from spacarpy.elements.registry import KINDS
 from spacarpy.rotation import from_axis_angle
 from spacarpy.solvers.eigen import eigenmodes
@@ -70,9 +70,9 @@ def test_planar_kernels_have_exact_derivatives(keyword):
 def test_plbeam_cantilever_reproduces_table1(variant):
     """Table 1 of the paper with 8 PLBEAMs: the tip displacement to its six printed digits,
     the same as with the spatial BEAM."""
-    model = model_from_text(planar_cantilever(8, variant))
+    model, settings = job_from_text(planar_cantilever(8, variant))
     assert model.planar
-    res = solve_static(model)
+    res = solve_static(model, settings)
     tip = res.steps[-1].x[res.problem.num.pos_idx[list(model.position_ids).index(17)]]
     ref_u, ref_v = TABLE1[variant][8]
     assert 2.0 - tip[0] == pytest.approx(ref_u, abs=5e-7)
@@ -89,7 +89,7 @@ def test_pltruss_two_bar_truss_matches_the_exact_nonlinear_equilibrium():
                       "PLTRUSS 2 5 3", "DYNE 1 1", "DYNE 2 1", "FIX 1", "FIX 5", "END", "HALT",
                       f"ESTIFF 1:2 {EA}", f"DELXF 3 0 {-P}", "ITERSTEP 20 4 1e-12", "END",
                       "END", ""])
-    res = solve_static(model_from_text(text))
+    res = solve_static(*job_from_text(text))
     apex = res.steps[-1].x[res.problem.num.pos_idx[1]]
     l0 = np.hypot(half, h)
     v = brentq(lambda v: 2 * EA * (np.hypot(half, h - v) - l0) / l0 * (h - v)
@@ -132,8 +132,8 @@ def test_planar_four_bar_has_one_dof_no_redundancy_and_the_loop_closure_equilibr
     assert main(["run", str(deck), "--mode", "check"]) == 0
     out = capsys.readouterr().out
     assert re.search(r"degrees of freedom +1, no free motion", out)
-    model = model_from_text(FOUR_BAR)
-    res = solve_static(model)
+    model, settings = job_from_text(FOUR_BAR)
+    res = solve_static(model, settings)
     phi, c = planar_four_bar_equilibrium()
     x = res.steps[-1].x
     num = res.problem.num
@@ -150,16 +150,16 @@ def test_planar_pendulum_frequency_and_prescribed_angle():
     text = "\n".join(["X 1 0 0", f"X 3 {L} 0", "PLBEAM 1 1 4 3 6", "PLHINGE 10 2 4",
                       "DYNE 10 1", "FIX 1", "FIX 2", "END", "HALT", f"ESTIFF 10 {k}",
                       f"XM 3 {m}", "ITERSTEP 20 1 1e-12", "END", "END", ""])
-    model = model_from_text(text)
-    res = solve_static(model)
+    model, settings = job_from_text(text)
+    res = solve_static(model, settings)
     st = res.steps[-1]
     lin = linearize(res.problem, st.x, st.mu, res.problem.loads.at(1.0, 1.0),
                     MassAssembler(model, res.problem.num))
     modes = eigenmodes(lin, res.problem.num, res.problem.free, n_modes=1)
     assert modes.frequency[0] == pytest.approx(np.sqrt(k / (m * L**2)) / (2 * np.pi), rel=1e-10)
-    turned = model_from_text(text.replace("FIX 2\n", "FIX 2\nINPUTX 4 1\n")
+    turned, turned_settings = job_from_text(text.replace("FIX 2\n", "FIX 2\nINPUTX 4 1\n")
                    .replace("XM 3", "DELINPX 4 1 0.3\nXM 3"))
-    res = solve_static(turned)
+    res = solve_static(turned, turned_settings)
     prob = res.problem
     reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component),
                     res.steps[-1].reaction))

@@ -13,7 +13,7 @@ import scipy.sparse as sp
 import spacarpy.solvers.sparse as sparse_mod
 from spacarpy.batch.compare import _compare
 from spacarpy.cases import cantilever_deck
-from spacarpy.deck import model_from_text
+from spacarpy.deck import job_from_text, model_from_text
 from spacarpy.solvers import kinematic_check
 from spacarpy.solvers.kinematic_correction import NormalEquations, SquareJacobian
 from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
@@ -176,9 +176,9 @@ def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatc
     text = transient_cantilever_deck(6, 30)
 
     def run():
-        model = model_from_text(text, "<t>")
-        opts = TransientOptions(t_end=model.timestep[0], n_steps=30, rho_inf=0.5, tol=1e-10,
-                                phi=TimeFunction(*model.time_function))
+        model, settings = job_from_text(text, "<t>")
+        opts = TransientOptions(t_end=settings.transient.timestep[0], n_steps=30, rho_inf=0.5,
+                                tol=1e-10, phi=TimeFunction(*settings.transient.time_function))
         res = solve_transient(model, opts)
         tip_y = res.steps[-1].x[res.problem.num.pos_idx[-1][1]]
         return res.problem.reduced is not None, res.steps[-1].x, res.n_newton, tip_y
@@ -305,9 +305,9 @@ def test_a_model_far_from_the_origin_converges_like_one_at_the_origin():
                 f[2] = repr(float(f[2]) + offset)
                 ln = " ".join(f)
             lines.append(ln)
-        model = model_from_text("\n".join(lines), "<moved cantilever>")
+        model, settings = job_from_text("\n".join(lines), "<moved cantilever>")
         prob = StaticProblem(model)
-        res = solve_static(model, problem=prob,
+        res = solve_static(model, settings, problem=prob,
                            options=StaticOptions(max_iter=20, tol=1e-9, n_steps=4, max_cuts=0))
         tips.append(res.steps[-1].x[prob.num.pos_idx[-1]] - [offset, 0, 0])
         its.append([s.iterations for s in res.steps])

@@ -5,10 +5,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from spacarpy.deck import load_deck
+from spacarpy.deck import load, load_deck
 from spacarpy.errors import ConvergenceError, ModelError, SolverError
-from spacarpy.model import RIGID, ElementSet, Fix, IterStep, Load, Model
+from spacarpy.model import RIGID, ElementSet, Fix, Load, Model
 from spacarpy.rotation import from_axis_angle, rotation_matrix
+from spacarpy.settings import AnalysisSettings, IterStep
 from spacarpy.solvers.static import StaticOptions, solve_static
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
@@ -34,38 +35,37 @@ def tip_position(res):
                          [("modified", n, v) for n, v in TABLE1_MODIFIED.items()]
                          + [("basic", n, v) for n, v in TABLE1_BASIC.items()])
 def test_table1_cantilever(variant, n, expected):
-    model = load_deck(DECKS / f"table1_cantilever_{n}el_{variant}.dat")
-    assert model.deformations == variant and model.elements["BEAM"].n_elem == n
-    tip = tip_position(solve_static(model))
+    model, settings = load(DECKS / f"table1_cantilever_{n}el_{variant}.dat")
+    assert settings.deformations == variant and model.elements["BEAM"].n_elem == n
+    tip = tip_position(solve_static(model, settings))
     ux, uy = 2.0 - tip[0], tip[1]          # Table 1 prints the shortening and the deflection
     assert round(ux, 6) == pytest.approx(expected[0], abs=1e-12)
     assert round(uy, 6) == pytest.approx(expected[1], abs=1e-12)
 
 
 def test_table1_one_basic_element_is_reported_not_printed():
-    model = load_deck(DECKS / "table1_cantilever_1el_basic.dat")
+    model, settings = load(DECKS / "table1_cantilever_1el_basic.dat")
     steps = []
     with pytest.raises(SolverError, match="spurious equilibrium"):
-        solve_static(model, on_step=steps.append)
+        solve_static(model, settings, on_step=steps.append)
     assert 1 <= len(steps) < 11                     # the valid steps before it were kept
 
 
 @pytest.mark.parametrize("variant,n", list(TABLE2))
 def test_table2_bend(variant, n):
-    model = load_deck(DECKS / f"table2_bend_{n}el_{variant}.dat")
-    tip = tip_position(solve_static(model))
+    tip = tip_position(solve_static(*load(DECKS / f"table2_bend_{n}el_{variant}.dat")))
     assert tuple(np.round(tip, 2)) == pytest.approx(TABLE2[(variant, n)], abs=1e-9)
 
 
 def test_deck_cli_override_of_the_deformation_variant():
-    model = load_deck(DECKS / "table1_cantilever_4el_modified.dat", deformations="basic")
-    tip = tip_position(solve_static(model))
+    job = load(DECKS / "table1_cantilever_4el_modified.dat", deformations="basic")
+    tip = tip_position(solve_static(*job))
     assert round(2.0 - tip[0], 6) == TABLE1_BASIC[4][0]
 
 
 def test_randomly_oriented_cantilever_gives_the_rotated_tip_displacement():
-    base = load_deck(DECKS / "table1_cantilever_8el_modified.dat")
-    tip0 = tip_position(solve_static(base))
+    base, settings = load(DECKS / "table1_cantilever_8el_modified.dat")
+    tip0 = tip_position(solve_static(base, settings))
     rng = np.random.default_rng(3)
     for _ in range(2):
         rot = rotation_matrix(from_axis_angle(rng.normal(size=3), rng.uniform(0.5, 3.0)))
@@ -80,14 +80,14 @@ def test_randomly_oriented_cantilever_gives_the_rotated_tip_displacement():
                       position_x0=base.position_x0 @ rot.T + shift,
                       orientation_ids=base.orientation_ids, elements={"BEAM": beams},
                       fixes=base.fixes,
-                      loads=loads, iterstep=base.iterstep)
-        tip = tip_position(solve_static(model))
+                      loads=loads)
+        tip = tip_position(solve_static(model, settings))
         np.testing.assert_allclose(tip - shift, rot @ tip0, atol=1e-9)
 
 
 def test_reactions_balance_the_tip_load():
-    model = load_deck(DECKS / "table1_cantilever_8el_modified.dat")
-    res = solve_static(model)
+    model, settings = load(DECKS / "table1_cantilever_8el_modified.dat")
+    res = solve_static(model, settings)
     prob = res.problem
     reac = dict(zip(zip(prob.reaction_node.tolist(), prob.reaction_component),
                     res.steps[-1].reaction))
@@ -108,7 +108,7 @@ def two_beam_model(fixes, def_class=None, loads=()):
                      vector=np.tile([0, 1.0, 0], (2, 1)), def_class=dc,
                      stiffness=np.tile([1e6, 1e3, 1e3, 1e3, 0, 0], (2, 1)),
                      has_stiffness=[True, True])},
-                 fixes=fixes, loads=list(loads), iterstep=IterStep(n_steps=1))
+                 fixes=fixes, loads=list(loads))
 
 
 def test_free_floating_model_is_reported_as_a_mechanism_naming_nodes():
@@ -150,6 +150,7 @@ def test_rigid_modes_are_enforced_exactly_and_carry_the_stress_resultant():
 
 
 def moment_cantilever(n, variant, moment, EI=1.0, EA=1e7, L=1.0):
+    """A cantilever of n beams under a tip moment: (model, settings)."""
     pos = np.arange(n + 1) * 2 + 1
     rot = pos + 1
     x0 = np.zeros((n + 1, 3))
@@ -162,8 +163,9 @@ def moment_cantilever(n, variant, moment, EI=1.0, EA=1e7, L=1.0):
     return Model(position_ids=pos, position_x0=x0, orientation_ids=rot,
                  elements={"BEAM": beams},
                  fixes=[Fix(1, (1, 2, 3)), Fix(2, (1, 2, 3, 4))],
-                 loads=[Load(int(rot[-1]), "DELXF", (0, 0, moment))],
-                 iterstep=IterStep(max_iter=20, n_steps=8, tol=1e-10), deformations=variant)
+                 loads=[Load(int(rot[-1]), "DELXF", (0, 0, moment))]), \
+        AnalysisSettings(deformations=variant).override(
+            iterstep=IterStep(max_iter=20, n_steps=8, tol=1e-10))
 
 
 @pytest.mark.parametrize("variant", ["modified", "basic"])
@@ -175,7 +177,7 @@ def test_tip_moment_bends_the_cantilever_into_the_exact_circular_arc(variant):
     exact = np.array([np.sin(theta), 1 - np.cos(theta), 0.0]) / theta
     errors, rot_errors = [], []
     for n in (8, 16, 32):
-        res = solve_static(moment_cantilever(n, variant, theta))
+        res = solve_static(*moment_cantilever(n, variant, theta))
         x = res.steps[-1].x
         errors.append(np.linalg.norm(x[res.problem.num.pos_idx[-1]] - exact))
         q = x[res.problem.num.rot_idx[-1]]
@@ -190,7 +192,7 @@ def test_tip_moment_bends_the_cantilever_into_the_exact_circular_arc(variant):
 def test_newton_matrix_equals_finite_differences_of_the_residual():
     """The tangent K_T (material + geometric + Euler multipliers + moment-load part N0) and
     the constraint gradients, at a deformed state with random multipliers and a moment."""
-    model = moment_cantilever(3, "modified", 0.7, EA=50.0)
+    model, _ = moment_cantilever(3, "modified", 0.7, EA=50.0)
     model.loads.append(Load(5, "DELXF", (0.3, -0.2, 0.4)))
     from spacarpy.solvers.static import StaticProblem
     prob = StaticProblem(model)
@@ -226,7 +228,7 @@ def chain(n, def_class=None, fixes=(), loads=()):
                        has_stiffness=np.ones(n, bool))
     return Model(position_ids=pos, position_x0=x0, orientation_ids=rot,
                  elements={"BEAM": beams},
-                 fixes=list(fixes), loads=list(loads), iterstep=IterStep(n_steps=1))
+                 fixes=list(fixes), loads=list(loads))
 
 
 def test_large_free_floating_model_is_reported_as_a_mechanism():

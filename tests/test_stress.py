@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from spacarpy.deck import load_deck
+from spacarpy.deck import load
 from spacarpy.deck.visualization import CrossSection
 from spacarpy.results import open_results, validate_file
 from spacarpy.results.stress import section_forces, section_properties, surface_stress
-from spacarpy.run import run_model
+from spacarpy.run import run_job
 
 E, G = 2.0e11, 8.0e10
 
@@ -52,9 +52,9 @@ CROSSDIM {' '.join(str(v) for v in dims)}
 
 
 def run(tmp_path, *args, **kw):
-    model = load_deck(cantilever_deck(tmp_path, *args, **kw))
+    job = load(cantilever_deck(tmp_path, *args, **kw))
     out = tmp_path / "cantilever.h5"
-    run_model(model, out)
+    run_job(job, out)
     assert validate_file(out, require_complete=True) == []
     return open_results(out)
 
@@ -146,7 +146,7 @@ def test_no_cross_section_means_no_stress_datasets(tmp_path):
     text = open(deck).read().split("VISUALIZATION")[0]
     open(deck, "w").write(text)
     out = tmp_path / "plain.h5"
-    run_model(load_deck(deck), out)
+    run_job(load(deck), out)
     res = open_results(out)
     assert not res.static.has_stress
     with pytest.raises(ResultsQueryError, match="no element of this model has a known "

@@ -8,7 +8,7 @@ import pytest
 from scipy.special import ellipk
 
 from spacarpy.cli import main
-from spacarpy.deck import load_deck, model_from_text
+from spacarpy.deck import load, model_from_text
 from spacarpy.errors import DeckError
 from spacarpy.numbering import number_model
 from spacarpy.results import validate_file
@@ -264,8 +264,8 @@ def test_transient_deck_errors(tmp_path):
 
 def test_shipped_transient_decks_load():
     for name in ("pendulum_rigid_90deg", "cantilever_free_vibration"):
-        model = load_deck(DECKS / f"{name}.dat")
-        assert model.analysis == "transient" and model.timestep is not None
+        settings = load(DECKS / f"{name}.dat").settings
+        assert settings.analysis == "transient" and settings.transient.timestep is not None
 
 
 @pytest.mark.slow

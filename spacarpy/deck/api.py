@@ -27,10 +27,11 @@ import dataclasses
 import sys
 from collections.abc import Iterable
 
-from spacarpy.deck.build import build_model
 from spacarpy.deck.parser import parse_deck
+from spacarpy.deck.semantics import build_job
 from spacarpy.deck.writer import format_value
 from spacarpy.errors import DeckError, SourceLoc
+from spacarpy.job import Job
 from spacarpy.model import Model
 
 __all__ = ["ModelBuilder"]
@@ -98,77 +99,77 @@ class ModelBuilder:
 
     # ---------------------------------------------------------------- recording
     def _add(self, part: list, keyword: str, *fields, first: str | None = None) \
-            -> "ModelBuilder":
+            -> ModelBuilder:
         words = [keyword] + ([first] if first is not None else []) + [_field(f) for f in fields]
         part.append(_Line(" ".join(words), *_caller()))
         return self
 
-    def _per_elements(self, part: list, keyword: str, elements, *fields) -> "ModelBuilder":
+    def _per_elements(self, part: list, keyword: str, elements, *fields) -> ModelBuilder:
         for spec in _element_spec(elements):
             self._add(part, keyword, *fields, first=spec)
         return self
 
     # ---------------------------------------------------------------- kinematics
-    def node(self, n: int, x: float, y: float, z: float) -> "ModelBuilder":
+    def node(self, n: int, x: float, y: float, z: float) -> ModelBuilder:
         """``X n x y z``: a position node at (x, y, z) (m)."""
         return self._add(self._kinematics, "X", n, x, y, z)
 
-    def beam(self, e: int, p: int, r: int, q: int, s: int, orientation=None) -> "ModelBuilder":
+    def beam(self, e: int, p: int, r: int, q: int, s: int, orientation=None) -> ModelBuilder:
         """``BEAM e p r q s [ox oy oz]``: a beam from position node p to q; r and s are the
         orientation nodes at p and q; ``orientation`` is the initial local y-axis."""
         return self._add(self._kinematics, "BEAM", e, p, r, q, s, *(orientation or ()))
 
     def beams(self, e: int, p: int, r: int, q: int, s: int, count: int,
-              orientation=None) -> "ModelBuilder":
+              orientation=None) -> ModelBuilder:
         """``BEAMS``: the straight line p-q divided into ``count`` equal beams, elements
         e .. e+count-1, intermediate nodes numbered by the rule of docs/deck.md."""
         return self._add(self._kinematics, "BEAMS", e, p, r, q, s, count, *(orientation or ()))
 
     def beam_arc(self, e: int, p: int, r: int, q: int, s: int, count: int, center,
-                 orientation=None) -> "ModelBuilder":
+                 orientation=None) -> ModelBuilder:
         """``BEAMARC``: ``count`` equal beams on the circular arc from p to q about
         ``center`` (the shorter arc)."""
         return self._add(self._kinematics, "BEAMARC", e, p, r, q, s, count, *center,
                          *(orientation or ()))
 
-    def flexible(self, elements, modes=_ALL_MODES) -> "ModelBuilder":
+    def flexible(self, elements, modes=_ALL_MODES) -> ModelBuilder:
         """``DYNE``: deformation modes (1..6) of the elements (a number, a range or a list)
         are flexible."""
         return self._per_elements(self._kinematics, "DYNE", elements, *modes)
 
-    def released(self, elements, modes) -> "ModelBuilder":
+    def released(self, elements, modes) -> ModelBuilder:
         """``RLSE``: deformation modes of the elements are released (free)."""
         return self._per_elements(self._kinematics, "RLSE", elements, *modes)
 
-    def fix(self, node: int, *coords: int) -> "ModelBuilder":
+    def fix(self, node: int, *coords: int) -> ModelBuilder:
         """``FIX node [c ...]``: hold coordinates (all if none are given) of a node."""
         return self._add(self._kinematics, "FIX", node, *coords)
 
     # ---------------------------------------------------------------- data
     def stiffness(self, elements, EA: float, GJ: float, EIy: float, EIz: float,
-                  cy: float = 0.0, cz: float = 0.0) -> "ModelBuilder":
+                  cy: float = 0.0, cz: float = 0.0) -> ModelBuilder:
         """``ESTIFF``: stiffness of the elements (N, N m^2; shear flexibilities cy, cz in m^2)."""
         return self._per_elements(self._data, "ESTIFF", elements, EA, GJ, EIy, EIz, cy, cz)
 
     def mass(self, elements, rhoA: float, rhoIp: float = 0.0, rhoIy: float = 0.0,
-             rhoIz: float = 0.0, rhoIyz: float = 0.0) -> "ModelBuilder":
+             rhoIz: float = 0.0, rhoIyz: float = 0.0) -> ModelBuilder:
         """``EM``: mass per unit length (kg/m) and inertias per unit length (kg m)."""
         return self._per_elements(self._data, "EM", elements, rhoA, rhoIp, rhoIy, rhoIz, rhoIyz)
 
-    def nodal_mass(self, node: int, *values: float) -> "ModelBuilder":
+    def nodal_mass(self, node: int, *values: float) -> ModelBuilder:
         """``XM``: a point mass ``m`` on a position node or the inertia tensor
         ``Ixx Ixy Ixz Iyy Iyz Izz`` on an orientation node."""
         return self._add(self._data, "XM", node, *values)
 
     def load(self, node: int, f1: float, f2: float, f3: float, *,
-             initial: bool = False) -> "ModelBuilder":
+             initial: bool = False) -> ModelBuilder:
         """``DELXF`` (default: applied over the load steps) or, with ``initial=True``, ``XF``
         (present from the start): a force (position node, N) or moment (orientation node,
         N m) in global axes."""
         return self._add(self._data, "XF" if initial else "DELXF", node, f1, f2, f3)
 
     def iterstep(self, max_iter: int = 10, n_steps: int = 1, tol: float = 5e-7, *,
-                 n_init: int | None = None, extra=(1.0, 3.0)) -> "ModelBuilder":
+                 n_init: int | None = None, extra=(1.0, 3.0)) -> ModelBuilder:
         """``ITERSTEP``: Newton iterations per step, load steps, tolerance; ``n_init``
         sub-steps for the initial load (then fields 4 and 5 are ``extra``)."""
         fields = [max_iter, n_steps, tol]
@@ -176,11 +177,11 @@ class ModelBuilder:
             fields += [*extra, n_init]
         return self._add(self._data, "ITERSTEP", *fields)
 
-    def analysis(self, name) -> "ModelBuilder":
+    def analysis(self, name) -> ModelBuilder:
         """``MODE``: static, eigen, buckling, transient, check or a SPACAR mode number."""
         return self._add(self._head, "MODE", name)
 
-    def deformations(self, variant: str) -> "ModelBuilder":
+    def deformations(self, variant: str) -> ModelBuilder:
         """``DEFORMATIONS``: ``modified`` (default) or ``basic``."""
         return self._add(self._head, "DEFORMATIONS", variant)
 
@@ -198,7 +199,13 @@ class ModelBuilder:
 
     def build(self, *, deformations: str | None = None,
               analysis: str | None = None) -> Model:
-        """Validate and build the model.
+        """Validate and build the model (the structure only; :meth:`build_job` also returns
+        the analysis settings). Arguments as :meth:`build_job`."""
+        return self.build_job(deformations=deformations, analysis=analysis).model
+
+    def build_job(self, *, deformations: str | None = None,
+                  analysis: str | None = None) -> Job:
+        """Validate and build the model and the analysis settings.
 
         Parameters
         ----------
@@ -207,8 +214,9 @@ class ModelBuilder:
 
         Returns
         -------
-        Model
-            ``source_text`` is :meth:`to_deck`; locations point at the script lines.
+        Job
+            The model (``source_text`` is :meth:`to_deck`; locations point at the script
+            lines) and the settings of :meth:`iterstep`, :meth:`analysis`, ....
 
         Raises
         ------
@@ -230,11 +238,11 @@ class ModelBuilder:
             statements = [dataclasses.replace(st, loc=remap(st.loc),
                                               field_locs=tuple(remap(f) for f in st.field_locs))
                           for st in statements]
-            model = build_model(statements, text=text, path=_caller()[0],
-                                deformations=deformations, analysis=analysis)
+            job = build_job(statements, text=text, path=_caller()[0],
+                            deformations=deformations, analysis=analysis)
         except DeckError as exc:
             raise DeckError([(remap(loc), msg, src) for loc, msg, src in exc.items]) from None
-        return model
+        return job
 
     def __repr__(self) -> str:
         n = len(self._head) + len(self._kinematics) + len(self._data)

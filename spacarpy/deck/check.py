@@ -17,13 +17,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.deck.build import build_model, resolve_analysis, resolve_deformations
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import GENERATORS, KEYWORDS
 from spacarpy.deck.parser import Statement, parse_deck, read_deck_text
+from spacarpy.deck.semantics import build_job
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError
 from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Model
+from spacarpy.settings import AnalysisSettings, resolve_analysis, resolve_deformations
 
 __all__ = ["DeckSummary", "check_deck", "summarize"]
 
@@ -170,7 +171,8 @@ def _unsupported_lines(items, main: str) -> list[str]:
 
 
 def summarize(statements: list[Statement], model: Model | None = None, *,
-              path: str = "<deck>", problems=()) -> DeckSummary:
+              path: str = "<deck>", problems=(),
+              settings: AnalysisSettings | None = None) -> DeckSummary:
     """Count what a deck contains.
 
     Parameters
@@ -183,6 +185,8 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
         Shown in the summary.
     problems : list of DeckError items
         From building the model; split into "not supported yet" items and other errors.
+    settings : AnalysisSettings, optional
+        The deck's analysis settings (with the model; default: the defaults).
 
     Returns
     -------
@@ -224,7 +228,7 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
         s.cross_sections[cs.shape] = s.cross_sections.get(cs.shape, 0) + 1
 
     if model is not None:
-        _from_model(s, model)
+        _from_model(s, model, settings or AnalysisSettings())
         return s
     listed = {"DYNE": set(), "RLSE": set()}
     for st in kin:
@@ -242,7 +246,7 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
     return s
 
 
-def _from_model(s: DeckSummary, model: Model) -> None:
+def _from_model(s: DeckSummary, model: Model, settings: AnalysisSettings) -> None:
     from spacarpy.numbering import number_model
 
     # the deformation modes of every element kind (the registry sets each kind's count)
@@ -261,8 +265,8 @@ def _from_model(s: DeckSummary, model: Model) -> None:
     positions = set(model.position_ids.tolist())
     s.forces = sum(ld.node in positions for ld in model.loads)
     s.moments = len(model.loads) - s.forces
-    s.analysis, s.deformations = model.analysis, model.deformations
-    it = model.iterstep
+    s.analysis, s.deformations = settings.analysis, settings.deformations
+    it = settings.static.iterstep
     s.iterstep = (it.max_iter, it.n_steps, it.tol)
 
 
@@ -290,10 +294,10 @@ def check_deck(path, *, overrides=None, deformations: str | None = None,
     """
     text = read_deck_text(path)
     statements = parse_deck(text, str(path), overrides=overrides)
-    model, problems = None, []
+    model, settings, problems = None, None, []
     try:
-        model = build_model(statements, text=text, path=str(path), deformations=deformations,
-                            analysis=analysis)
+        model, settings = build_job(statements, text=text, path=str(path),
+                                    deformations=deformations, analysis=analysis)
     except DeckError as exc:
         problems = exc.items
-    return summarize(statements, model, path=str(path), problems=problems)
+    return summarize(statements, model, path=str(path), problems=problems, settings=settings)

@@ -25,7 +25,7 @@ import numpy as np
 from spacarpy.errors import DeckError, SourceLoc
 
 __all__ = ["EXIT_EXPECTATION", "QUANTITIES", "Expect", "ExpectResult", "check_expectations",
-           "expectations", "format_results", "load_deck_with_expectations"]
+           "expectations", "format_results", "load_with_expectations"]
 
 #: Exit code of ``spacarpy run`` when the analysis finished but an EXPECT line failed.
 EXIT_EXPECTATION = 4
@@ -291,23 +291,24 @@ def expectations(statements) -> list[Expect]:
     return out
 
 
-def load_deck_with_expectations(path, *, deformations: str | None = None,
-                                analysis: str | None = None, overrides: dict | None = None):
-    """Like :func:`spacarpy.deck.load_deck`, and also return the deck's expectations.
+def load_with_expectations(path, *, deformations: str | None = None,
+                           analysis: str | None = None, overrides: dict | None = None):
+    """Like :func:`spacarpy.deck.load`, and also return the deck's expectations.
 
     Returns
     -------
-    model : Model
+    job : Job
+        The model and the analysis settings.
     expects : list of Expect
     """
-    from spacarpy.deck.build import build_model
+    from spacarpy.deck.semantics import build_job
     from spacarpy.deck.parser import parse_deck, read_deck_text
 
     text = read_deck_text(path)
     statements = parse_deck(text, str(path), overrides=overrides)
-    model = build_model(statements, text=text, path=str(path), deformations=deformations,
-                        analysis=analysis)
-    return model, expectations(statements)
+    job = build_job(statements, text=text, path=str(path), deformations=deformations,
+                    analysis=analysis)
+    return job, expectations(statements)
 
 
 def _row(ids, number, what):

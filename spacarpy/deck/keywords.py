@@ -2,8 +2,8 @@
 
 This module is data only. :mod:`spacarpy.deck.parser` checks every record of a deck against
 :data:`KEYWORDS` (field count and field types, with the user-facing field names used in error
-messages) and :data:`VISUALIZATION_KEYWORDS`; :mod:`spacarpy.deck.build` gives the records their
-meaning. Every SPACAR keyword has its real field layout here, also the ones spacarpy cannot
+messages) and :data:`VISUALIZATION_KEYWORDS`; :mod:`spacarpy.deck.semantics` gives the records
+their meaning. Every SPACAR keyword has its real field layout here, also the ones spacarpy cannot
 analyse yet (``supported=False``): those are parsed and checked like the others, so that
 field-count errors are meaningful and the typed values are kept, and the model builder refuses
 them with "not supported yet: KEYWORD". The layouts come from ../shared/spacar/README.md and the
@@ -43,12 +43,37 @@ class FieldSpec:
         One of :data:`FIELD_KINDS`.
     positive : bool
         The value must be >= 1 (node and element numbers).
+    choices : tuple of str or None
+        The words a "word" field accepts (compared in lower case).
+    min, max : float or None
+        The range of a number field, inclusive (None: unbounded).
+
+    ``short`` is also the field's name for named access (:meth:`Statement.value
+    <spacarpy.deck.parser.Statement.value>`). The choices and ranges are checked by the deck
+    semantics, each with its own message.
     """
 
     name: str
     short: str
     kind: str = "float"
     positive: bool = False
+    choices: tuple | None = None
+    min: float | None = None
+    max: float | None = None
+
+    def accepts(self, value) -> bool:
+        """Whether ``value`` is among the choices and in the range."""
+        if self.choices is not None:
+            return str(value).lower() in self.choices
+        return ((self.min is None or value >= self.min)
+                and (self.max is None or value <= self.max))
+
+    @property
+    def range_text(self) -> str:
+        """The range as ``[0, 1]``, ``>= 0``."""
+        if self.min is not None and self.max is not None:
+            return f"[{self.min:g}, {self.max:g}]"
+        return f">= {self.min:g}" if self.min is not None else f"<= {self.max:g}"
 
 
 @dataclass(frozen=True)
@@ -121,13 +146,33 @@ class KeywordSpec:
         return usage
 
     @property
+    def fields(self) -> tuple:
+        """The fixed fields in order: required, then the optional groups."""
+        return tuple(self.required) + tuple(f for group in self.optional for f in group)
+
+    def field(self, name: str) -> tuple[int, FieldSpec]:
+        """The index and spec of the field called ``name`` (its ``short``); a variadic field
+        gives the index of its first value.
+
+        Raises
+        ------
+        KeyError
+        """
+        for i, f in enumerate(self.fields):
+            if f.short == name:
+                return i, f
+        if self.variadic is not None and self.variadic.short == name:
+            return len(self.fields), self.variadic
+        raise KeyError(f"{self.name} has no field {name!r}")
+
+    @property
     def is_element(self) -> bool:
         """Whether the keyword defines an element (its first field is an element number)."""
         return bool(self.node_roles)
 
 
-def _f(name, short, kind="float", positive=False) -> FieldSpec:
-    return FieldSpec(name=name, short=short, kind=kind, positive=positive)
+def _f(name, short, kind="float", positive=False, **checks) -> FieldSpec:
+    return FieldSpec(name=name, short=short, kind=kind, positive=positive, **checks)
 
 
 def _each_optional(*fields: FieldSpec) -> tuple:
@@ -306,25 +351,27 @@ _KEYWORD_LIST = (
                 required=(_f("analysis name or SPACAR mode number", "analysis", "value"),)),
     KeywordSpec("DEFORMATIONS", "beam deformation definitions", section="extension",
                 extension=True,
-                required=(_f("deformation variant (basic or modified)", "variant", "word"),)),
+                required=(_f("deformation variant (basic or modified)", "variant", "word",
+                             choices=("modified", "basic")),)),
     KeywordSpec("VELOCITY", "initial velocity of a node in a transient analysis",
                 section="extension", extension=True,
                 required=(NODE, _f("x component (m/s, or rad/s for an orientation node)", "vx"),
                           _f("y component", "vy"), _f("z component", "vz"))),
     KeywordSpec("DAMPING", "Rayleigh damping alpha M + beta K0 of a transient analysis",
                 section="extension", extension=True,
-                required=(_f("mass-proportional coefficient alpha (1/s)", "alpha"),
-                          _f("stiffness-proportional coefficient beta (s)", "beta"))),
+                required=(_f("mass-proportional coefficient alpha (1/s)", "alpha", min=0.0),
+                          _f("stiffness-proportional coefficient beta (s)", "beta", min=0.0))),
     KeywordSpec("SUBSTEPS", "time integration steps per stored time step",
                 section="extension", extension=True,
                 required=(_f("number of integration steps per stored step", "k", "int", True),)),
     KeywordSpec("RHOINF", "numerical dissipation of the time integration (0 to 1)",
                 section="extension", extension=True,
-                required=(_f("spectral radius at infinite frequency", "rho_inf"),)),
+                required=(_f("spectral radius at infinite frequency", "rho_inf", min=0.0,
+                             max=1.0),)),
     KeywordSpec("START", "initial state of a transient analysis (deck or static)",
                 section="extension", extension=True,
                 required=(_f("'deck' (at rest in the deck's configuration) or 'static'",
-                             "start", "word"),)),
+                             "start", "word", choices=("deck", "static")),)),
     KeywordSpec("TIMEFUNCTION", "time function phi(t) of DELXF and the prescribed motions",
                 section="extension", extension=True,
                 required=(_f("constant, zero, linear, ramp, smoothstep, spinup, sine, table or "
@@ -335,10 +382,11 @@ _KEYWORD_LIST = (
                 section="extension", extension=True,
                 required=(_f("number of modes per linearization", "count", "int", True),),
                 optional=((_f("'each' (every load step) or 'last' (the final step)", "where",
-                              "word"),),)),
+                              "word", choices=("each", "last")),),)),
     KeywordSpec("BIFURCATION", "stability check of the static path (off, warn, switch)",
                 section="extension", extension=True,
-                required=(_f("off, warn or switch", "setting", "word"),)),
+                required=(_f("off, warn or switch", "setting", "word",
+                             choices=("off", "warn", "switch")),)),
     KeywordSpec("SET", "define a parameter for {expressions}", section="extension",
                 extension=True,
                 required=(_f("parameter name", "name", "word"),

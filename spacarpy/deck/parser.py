@@ -6,9 +6,13 @@ fast path that gives the same statements: see ``_PLAIN_LINE``). This module then
 record against the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count,
 field types), converts the fields to ints/floats/strings, and tracks the module structure (END /
 HALT / END END / VISUALIZATION). It also implements the spacarpy extensions that act on the
-text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.deck.expressions`), ``1:48``
+text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.expressions`), ``1:48``
 ranges and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with
 file, line and column; Lark's own exceptions never escape.
+
+The module is longer than most (about 900 lines) because the Lark path and the fast path must
+give identical statements: both share the field conversion and the module tracking here, and
+splitting them would separate code that has to change together.
 """
 from __future__ import annotations
 
@@ -28,10 +32,10 @@ from typing import Mapping
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
 
-from spacarpy.deck.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
 from spacarpy.deck.keywords import (KEYWORDS, KIND_DESCRIPTIONS, VISUALIZATION_KEYWORDS,
                                     FieldSpec, KeywordSpec)
 from spacarpy.errors import DeckError, SourceLoc
+from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
 
 __all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"]
 
@@ -104,6 +108,43 @@ class Statement:
     source_line: str
     module: int
     origin: str | None = None
+
+    @property
+    def spec(self) -> KeywordSpec:
+        """The field layout the record was read with (the data-module form where it has
+        one)."""
+        spec = KEYWORDS.get(self.keyword) or VISUALIZATION_KEYWORDS[self.keyword]
+        if self.module > 0 and spec.data_form is not None:
+            return spec.data_form
+        return spec
+
+    def value(self, name: str, default=None):
+        """The value of the field called ``name`` (the ``short`` name of its
+        :class:`~spacarpy.deck.keywords.FieldSpec`, e.g. ``st.value("rho_inf")``), or
+        ``default`` if the record leaves that optional field out. A variadic field gives its
+        first value."""
+        i = self.spec.field(name)[0]
+        return self.fields[i] if i < len(self.fields) else default
+
+    def values(self, name: str) -> tuple:
+        """The values from the field called ``name`` to the end (variadic fields)."""
+        return tuple(self.fields[self.spec.field(name)[0]:])
+
+    def loc_of(self, name: str) -> SourceLoc:
+        """Where the field called ``name`` is (the keyword's location if it is left out)."""
+        i = self.spec.field(name)[0]
+        return self.field_locs[i] if i < len(self.field_locs) else self.loc
+
+    def field_spec(self, name: str) -> FieldSpec:
+        """The :class:`~spacarpy.deck.keywords.FieldSpec` of the field called ``name``."""
+        return self.spec.field(name)[1]
+
+    def __getitem__(self, name: str):
+        """``st["rho_inf"]``: the value of a field by name (KeyError if left out)."""
+        i = self.spec.field(name)[0]
+        if i >= len(self.fields):
+            raise KeyError(f"{self.keyword}: the {name} field is not given")
+        return self.fields[i]
 
 
 def read_text(path) -> str:

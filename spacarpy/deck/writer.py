@@ -1,7 +1,8 @@
-"""Model -> deck text: the inverse of reading a deck.
+"""Model and settings -> deck text: the inverse of reading a deck.
 
-:func:`model_to_deck` writes a :class:`spacarpy.model.Model` as a deck that reads back into an
-equal model (every element kind, every array and setting, floats to the last bit: numbers are
+:func:`model_to_deck` writes a :class:`spacarpy.model.Model` and its
+:class:`spacarpy.settings.AnalysisSettings` as a deck that reads back into an equal model and
+equal settings (every element kind, every array and setting, floats to the last bit: numbers are
 written with Python's shortest round-trip representation). By default the deck uses only SPACAR
 keywords plus the spacarpy lines the model needs (MODE, DEFORMATIONS, and the extensions whose
 settings differ from their defaults); ``compact=True`` also writes element ranges
@@ -18,6 +19,7 @@ import numpy as np
 
 from spacarpy.elements.base import FLEXIBLE, RELEASED
 from spacarpy.elements.registry import KINDS
+from spacarpy.settings import AnalysisSettings
 
 __all__ = ["format_record", "format_value", "model_to_deck"]
 
@@ -93,13 +95,16 @@ def _quoted(value) -> str:
     return f'"{value}"' if isinstance(value, str) else format_value(value)
 
 
-def model_to_deck(model, *, cross_sections=None, compact: bool = False,
-                  title: str | None = None) -> str:
-    """Write a model as deck text that reads back into an equal model.
+def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sections=None,
+                  compact: bool = False, title: str | None = None) -> str:
+    """Write a model and its analysis settings as deck text that reads back into an equal
+    model and equal settings.
 
     Parameters
     ----------
     model : spacarpy.model.Model
+    settings : spacarpy.settings.AnalysisSettings, optional
+        The analysis settings to write (MODE, ITERSTEP, TIMESTEP, ...); default: the defaults.
     cross_sections : CrossSections, optional
         Written as a VISUALIZATION section (BEAMPROPS / CROSSTYPE / CROSSDIM).
     compact : bool
@@ -121,12 +126,14 @@ def model_to_deck(model, *, cross_sections=None, compact: bool = False,
     n_init); fields 4 and 5 are then written as 0.
     """
     planar = bool(model.planar)
+    settings = settings if settings is not None else AnalysisSettings()
+    lin, tr = settings.linearized, settings.transient
     out = [f"# {title if title is not None else 'spacarpy model from ' + model.source_path}",
-           f"DEFORMATIONS {model.deformations}", f"MODE {model.analysis}"]
-    if model.bifurcation != "off":
-        out.append(f"BIFURCATION {model.bifurcation}")
-    if model.n_modes is not None:
-        out.append(f"MODES {int(model.n_modes)} {'each' if model.modes_each_step else 'last'}")
+           f"DEFORMATIONS {settings.deformations}", f"MODE {settings.analysis}"]
+    if settings.bifurcation != "off":
+        out.append(f"BIFURCATION {settings.bifurcation}")
+    if lin.n_modes is not None:
+        out.append(f"MODES {int(lin.n_modes)} {'each' if lin.modes_each_step else 'last'}")
     out.append("")
     # ---------------------------------------------------------------- kinematics module
     out += [format_record("X", int(n), *(x[:2] if planar else x)) for n, x in
@@ -193,28 +200,28 @@ def model_to_deck(model, *, cross_sections=None, compact: bool = False,
             out.append(format_record("DELINPE", d.element, d.mode, float(d.delta)))
     if any(g != 0 for g in model.gravity):
         out.append(format_record("GRAVITY", *[float(g) for g in model.gravity]))
-    it = model.iterstep
+    it = settings.static.iterstep
     fields = [it.max_iter, it.n_steps, float(it.tol)]
     if it.extra or it.n_init != 1:
         extra = tuple(float(v) for v in it.extra) + (0.0,) * (2 - len(it.extra))
         fields += [*extra[:2], it.n_init]
     out.append(format_record("ITERSTEP", *fields))
-    if model.timestep is not None:
-        out.append(format_record("TIMESTEP", float(model.timestep[0]), int(model.timestep[1])))
-    if model.error_tol is not None:
-        out.append(format_record("ERROR", *[float(v) for v in model.error_tol]))
-    if model.substeps != 1:
-        out.append(format_record("SUBSTEPS", int(model.substeps)))
-    if model.rho_inf != 0.9:
-        out.append(format_record("RHOINF", float(model.rho_inf)))
+    if tr.timestep is not None:
+        out.append(format_record("TIMESTEP", float(tr.timestep[0]), int(tr.timestep[1])))
+    if tr.error_tol is not None:
+        out.append(format_record("ERROR", *[float(v) for v in tr.error_tol]))
+    if tr.substeps != 1:
+        out.append(format_record("SUBSTEPS", int(tr.substeps)))
+    if tr.rho_inf != 0.9:
+        out.append(format_record("RHOINF", float(tr.rho_inf)))
     if tuple(model.damping) != (0.0, 0.0):
         out.append(format_record("DAMPING", *[float(v) for v in model.damping]))
-    if model.start != "deck":
-        out.append(f"START {model.start}")
-    kind, params = model.time_function
+    if tr.start != "deck":
+        out.append(f"START {tr.start}")
+    kind, params = tr.time_function
     if (kind, tuple(params)) != ("constant", ()):
         out.append(" ".join(["TIMEFUNCTION", kind] + [_quoted(v) for v in params]))
-    for n, v in model.initial_velocities.items():
+    for n, v in tr.initial_velocities.items():
         out.append(format_record("VELOCITY", int(n), *[float(c) for c in v]))
     out += ["END", "END"]
     if cross_sections is not None and len(cross_sections):

@@ -20,12 +20,12 @@ import re
 import h5py
 import numpy as np
 
-from spacarpy.model import ANALYSES, DEFORMATION_VARIANTS
 from spacarpy.results.h5file import (
     ResultsFormatError, SchemaFile, open_for_reading, python_value, str_list)
 from spacarpy.results.schema import (
     DATASETS, FILETYPE, KIND_NAMES, PROGRAM, REACTION_COMPONENTS, ROOT_ATTRS, SCHEMA_VERSION,
     STEP_GROUPS, LEGACY_OPTIONAL, n_def, n_slots, new_name, slot_roles)
+from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS
 
 log = logging.getLogger(__name__)
 

@@ -23,12 +23,13 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from spacarpy.model import ANALYSES, DEFORMATION_VARIANTS, Model
+from spacarpy.model import Model
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, create_extendable, partial_path_for
 from spacarpy.results.schema import (
     DATASETS, DEFORMATION_CLASS_NAMES, FILETYPE, MODE_KIND_NAMES, PROGRAM, REACTION_COMPONENTS,
     SCHEMA_VERSION, n_def)
+from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS
 
 log = logging.getLogger(__name__)
 

@@ -81,7 +81,7 @@ class StaticProblem:
     def __init__(self, model: Model, num: Numbering | None = None, deformations: str | None = None):
         self.model = model
         self.num = num if num is not None else number_model(model)
-        self.variant = deformations or model.deformations
+        self.variant = deformations or "modified"
         self.loads = Loads(model, self.num)
         self.pattern = BorderedPattern(self.num, self.loads.moment_rot)
         num = self.num

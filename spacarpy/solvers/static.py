@@ -25,6 +25,7 @@ import numpy as np
 
 from spacarpy.errors import ConvergenceError
 from spacarpy.model import Model
+from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.equilibrium import StaticProblem, Timings
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.kinematic_check import check_initial
@@ -61,6 +62,16 @@ class StaticOptions:
     deformations: str = "modified"
     bifurcation: str = "off"        # stability check of the path: off, warn, switch
 
+    @classmethod
+    def from_settings(cls, settings: AnalysisSettings, **kw) -> StaticOptions:
+        """The options of a deck's settings (ITERSTEP, DEFORMATIONS, BIFURCATION); ``kw``
+        replaces fields."""
+        it = settings.static.iterstep
+        fields = dict(max_iter=it.max_iter, tol=it.tol, n_steps=it.n_steps, n_init=it.n_init,
+                      deformations=settings.deformations, bifurcation=settings.bifurcation)
+        fields.update(kw)
+        return cls(**fields)
+
 
 @dataclass
 class StaticResult:
@@ -70,10 +81,14 @@ class StaticResult:
     problem: StaticProblem | None = None
 
 
-def solve_static(model: Model, *, deformations: str | None = None,
-                 options: StaticOptions | None = None,
+def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
+                 deformations: str | None = None, options: StaticOptions | None = None,
                  on_step=None, problem: StaticProblem | None = None) -> StaticResult:
     """Solve the static problem of ``model`` along its load path.
+
+    ``settings`` (default: the defaults) give the load stepping (ITERSTEP), the deformation
+    variant and the stability check; ``options`` replaces them all, ``deformations`` the
+    variant only.
 
     Step 0 is the equilibrium under XF (reached in ``n_init`` internal sub-steps); steps
     1..n_steps add DELXF in equal increments. ``on_step(StaticStep)`` is called after each
@@ -87,11 +102,9 @@ def solve_static(model: Model, *, deformations: str | None = None,
     ModelError
         When the Newton matrix is singular (mechanism, over-constraint).
     """
-    it = model.iterstep
-    opts = options or StaticOptions(max_iter=it.max_iter, tol=it.tol, n_steps=it.n_steps,
-                                    n_init=it.n_init,
-                                    deformations=deformations or model.deformations,
-                                    bifurcation=model.bifurcation)
+    settings = settings if settings is not None else AnalysisSettings()
+    opts = options or StaticOptions.from_settings(
+        settings, deformations=deformations or settings.deformations)
     prob = problem or StaticProblem(model, deformations=opts.deformations)
     t_start = time.perf_counter()
     num = prob.num

@@ -12,7 +12,7 @@ with the inertia forces of :mod:`spacarpy.solvers.inertia` (Eq. 60), the elastic
 constraint forces and the tangent of :class:`~spacarpy.solvers.equilibrium.StaticProblem`,
 and the loads ``XF + phi(t) DELXF`` (prescribed coordinates and deformations likewise
 follow ``phi(t)`` times their increments,
-:class:`~spacarpy.solvers.time_functions.TimeFunction`). The constraints are kept at
+:class:`~spacarpy.time_functions.TimeFunction`). The constraints are kept at
 position level (index 3), which the generalized-alpha method of Arnold & Brüls (2007) integrates
 with second-order accuracy. Its numerical dissipation is set by the spectral radius at
 infinite frequency ``rho_inf`` in [0, 1]: 1 is the undamped trapezoidal rule (energy
@@ -41,6 +41,7 @@ from spacarpy.assembly import scatter_add
 from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import Model
 from spacarpy.rotation import tangent_part
+from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.equilibrium import StaticProblem
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.inertia import Inertia
@@ -48,7 +49,7 @@ from spacarpy.solvers.kinematic_check import check_initial
 from spacarpy.solvers.loads import LoadState
 from spacarpy.solvers.nodal import node_rows
 from spacarpy.solvers.static import solve_static
-from spacarpy.solvers.time_functions import TIME_FUNCTIONS, TimeFunction
+from spacarpy.time_functions import TIME_FUNCTIONS, TimeFunction
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +68,20 @@ class TransientOptions:
     phi: TimeFunction = field(default_factory=TimeFunction)
     error: tuple | None = None               # ERROR (abs, rel): adaptive step size
     deformations: str = "modified"
+    initial_velocities: dict = field(default_factory=dict)   # node -> (3,) VELOCITY
+
+    @classmethod
+    def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:
+        """The options of a deck's settings: TIMESTEP, SUBSTEPS, ERROR, RHOINF, START,
+        TIMEFUNCTION, VELOCITY, and ITERSTEP's tolerance (at most 1e-10) and iteration limit
+        (at least 20)."""
+        tr, it = settings.transient, settings.static.iterstep
+        t_end, n_steps = tr.timestep
+        return cls(t_end=t_end, n_steps=n_steps, substeps=tr.substeps, error=tr.error_tol,
+                   rho_inf=tr.rho_inf, tol=min(it.tol, 1e-10), max_iter=max(it.max_iter, 20),
+                   start=tr.start, phi=TimeFunction(*tr.time_function),
+                   deformations=settings.deformations,
+                   initial_velocities=dict(tr.initial_velocities))
 
 
 @dataclass
@@ -258,8 +273,12 @@ class TransientProblem:
 
 def solve_transient(model: Model, options: TransientOptions | None = None, *, on_step=None,
                     on_static_step=None, progress=None,
-                    problem: StaticProblem | None = None) -> TransientResult:
+                    problem: StaticProblem | None = None,
+                    settings: AnalysisSettings | None = None) -> TransientResult:
     """Integrate the equations of motion from t = 0 to ``t_end`` in ``n_steps`` stored steps.
+
+    ``settings`` give the static load path of START static (ITERSTEP, BIFURCATION; default:
+    the defaults).
 
     ``on_step(TransientStep)`` is called after each stored step (the results writer appends
     it at once), ``on_static_step`` for the steps of the initial static analysis
@@ -281,10 +300,10 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     result = TransientResult(problem=prob)
     # ---- initial state
     if opts.start == "static":
-        st = solve_static(model, deformations=opts.deformations, problem=prob,
-                          on_step=on_static_step)
-        result.static = st
-        x, mu = st.steps[-1].x.copy(), st.steps[-1].mu.copy()
+        static = solve_static(model, settings, deformations=opts.deformations, problem=prob,
+                              on_step=on_static_step)
+        result.static = static
+        x, mu = static.steps[-1].x.copy(), static.steps[-1].mu.copy()
     else:
         # a mechanism is what dynamics is about; redundant constraints are still an error
         check_initial(prob, allow_mechanism=True)
@@ -295,8 +314,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     x[idx] = xp0
     v = np.zeros(num.n_coord)
     v[idx] = vp0
-    if model.initial_velocities:
-        v = _initial_velocities(tp, x, v, model.initial_velocities)
+    if opts.initial_velocities:
+        v = _initial_velocities(tp, x, v, opts.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)
     a_tilde = a.copy()

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Mapping
 from functools import lru_cache
-from typing import Mapping
 
 from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken

@@ -1,0 +1,148 @@
+"""Deck semantics, the driver: checked statements -> a validated :class:`spacarpy.job.Job`.
+
+Runs the parts in order, each ``from_statements(by_kw, ctx, errors, ...)``: the generators
+(BEAMS, BEAMARC) are expanded first (:mod:`spacarpy.deck.generators`) and the cross-sections
+read once (:mod:`spacarpy.deck.visualization`); then :mod:`.topology`,
+:mod:`.element_data`, :mod:`.constraints`, :mod:`.loads` and :mod:`.settings`, and the checks
+that need several of them (unconnected nodes, cross-sections of missing elements). Keywords
+spacarpy recognises but does not implement yet are refused with "not supported yet: KEYWORD",
+one error per occurrence. Every problem is collected (:mod:`.errors`) and they are raised
+together in one :class:`spacarpy.errors.DeckError`, in deck order; if there are none, the
+warnings are logged and the parts are assembled into the model and its settings.
+"""
+from __future__ import annotations
+
+import logging
+
+from spacarpy.deck.generators import expand_generators
+from spacarpy.deck.keywords import UNSUPPORTED
+from spacarpy.deck.parser import Statement, gc_paused, parse_deck
+from spacarpy.deck.semantics import constraints as _constraints
+from spacarpy.deck.semantics import element_data as _element_data
+from spacarpy.deck.semantics import loads as _loads
+from spacarpy.deck.semantics import settings as _settings
+from spacarpy.deck.semantics import topology as _topology
+from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
+from spacarpy.deck.visualization import collect_cross_sections
+from spacarpy.elements.registry import PLANAR_KINDS
+from spacarpy.errors import DeckError
+from spacarpy.job import Job
+from spacarpy.model import ElementSet, Model
+
+__all__ = ["build_job", "build_model"]
+
+logger = logging.getLogger(__name__)
+
+
+def _element_sets(topology: _topology.Topology) -> dict:
+    """The element records as one :class:`ElementSet` per kind, in the registry's order."""
+    by_kind: dict[str, list] = {}
+    for b in topology.elements.values():
+        by_kind.setdefault(b.keyword, []).append(b)
+    sets = {}
+    for kw in _topology.ELEMENT_KEYWORDS:
+        els = by_kind.get(kw)
+        if els:
+            sets[kw] = ElementSet(
+                kind=kw, ids=[b.id for b in els], nodes=[b.nodes for b in els],
+                vector=[b.orientation for b in els], def_class=[b.def_class for b in els],
+                stiffness=[b.stiffness for b in els],
+                has_stiffness=[b.estiff is not None for b in els],
+                mass=[b.mass for b in els], locs=[b.st.loc for b in els])
+    return sets
+
+
+def _semantics(statements: list[Statement], path: str, text: str, deformations, analysis) -> Job:
+    errors = ErrorCollector(statements)
+    statements, gen_errors, quiet_elements, quiet_nodes = expand_generators(statements)
+    errors.extend(gen_errors)
+    sections, vis_errors, vis_warnings = collect_cross_sections(statements)
+    errors.extend(vis_errors)
+    for msg in vis_warnings:
+        errors.warn(msg)
+
+    statements = [st for st in statements if st.module >= 0]
+    by_kw: dict[str, list[Statement]] = {}
+    for st in statements:
+        by_kw.setdefault(st.keyword, []).append(st)
+        if st.keyword in UNSUPPORTED:
+            errors.error(st.loc, f"not supported yet: {st.keyword}", st)
+    # a planar model: PLBEAM/PLTRUSS/PLHINGE only, nodes in the x-y plane
+    ctx = DeckContext(path, statements, planar=any(kw in by_kw for kw in PLANAR_KINDS),
+                      quiet_elements=quiet_elements, quiet_nodes=quiet_nodes)
+
+    topology = _topology.from_statements(by_kw, ctx, errors)
+    element_data = _element_data.from_statements(by_kw, ctx, errors, topology)
+    constraints = _constraints.from_statements(by_kw, ctx, errors, topology)
+    loads = _loads.from_statements(by_kw, ctx, errors, topology, constraints)
+    settings = _settings.from_statements(by_kw, ctx, errors, topology,
+                                         deformations=deformations, analysis=analysis)
+    topology.check_unconnected(constraints.fixes)
+    topology.check_cross_section_elements(sections)
+
+    if errors:
+        raise DeckError(errors.sorted())
+    for msg in errors.warnings:
+        logger.warning(msg)
+    ids = list(topology.positions)
+    prescribed, deformations_in, rotations = constraints.model_prescribed()
+    model = Model(
+        position_ids=ids,
+        position_x0=[topology.positions[k][0] for k in ids] if ids else [],
+        orientation_ids=sorted(topology.orientation_use),
+        elements=_element_sets(topology),
+        fixes=constraints.model_fixes(),
+        loads=loads.loads,
+        nodal_masses=loads.nodal_masses,
+        prescribed=prescribed,
+        prescribed_deformations=deformations_in,
+        prescribed_rotations=rotations,
+        gravity=loads.gravity,
+        cross_sections=sections if len(sections) else None,
+        planar=ctx.planar,
+        damping=element_data.damping,
+        element_damping=element_data.element_damping,
+        source_path=path,
+        source_text=text,
+    )
+    return Job(model, settings)
+
+
+def build_job(statements, *, text: str, path: str, deformations: str | None = None,
+              analysis: str | None = None, overrides: dict | None = None) -> Job:
+    """Build and validate the model and the analysis settings of parsed deck statements.
+
+    Parameters
+    ----------
+    statements : list of Statement
+        From :func:`spacarpy.deck.parse_deck`.
+    text, path : str
+        The deck text and where it came from (stored in the model).
+    deformations, analysis : str, optional
+        Command-line choices; they override the deck's DEFORMATIONS / MODE lines. ``analysis``
+        takes a name or a SPACAR mode number as text.
+    overrides : dict, optional
+        ``--set`` values for the deck's SET parameters. The values of the statements are
+        already evaluated, so with overrides ``text`` is parsed again with them (and
+        ``statements`` is not used).
+
+    Returns
+    -------
+    Job
+        The structure (``job.model``) and the settings (``job.settings``).
+
+    Raises
+    ------
+    DeckError
+        With every problem found, in deck order (problems without a location first).
+    """
+    if overrides:
+        statements = parse_deck(text, path, overrides=overrides)
+    with gc_paused():
+        return _semantics(list(statements), path, text, deformations, analysis)
+
+
+def build_model(statements, **kw) -> Model:
+    """The structural model of parsed deck statements: ``build_job(...).model`` (the analysis
+    settings are checked too, then dropped). Arguments as :func:`build_job`."""
+    return build_job(statements, **kw).model

@@ -1,0 +1,216 @@
+"""Analysis settings: what to compute on a model, kept beside it (never inside it).
+
+A deck holds two things: the structure (:class:`spacarpy.model.Model`) and the choices of
+analysis (MODE, DEFORMATIONS, BIFURCATION, ITERSTEP, MODES, TIMESTEP, RHOINF, SUBSTEPS, ERROR,
+START, TIMEFUNCTION, VELOCITY). The second are frozen dataclasses here, one per concern, after
+ERT's per-concern config objects: :class:`AnalysisSettings` with :class:`StaticSettings`,
+:class:`LinearizedSettings` and :class:`TransientSettings`. Command-line choices make a new
+settings object (:meth:`AnalysisSettings.override`); nothing mutates one. This module also
+holds the one implementation of the MODE and DEFORMATIONS vocabularies
+(:func:`resolve_analysis`, :func:`resolve_deformations`), used by the deck layer and the CLI.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from spacarpy.errors import SourceLoc
+
+__all__ = ["ANALYSES", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS", "SPACAR_MODE_NUMBERS",
+           "START_CHOICES", "AnalysisSettings", "IterStep", "LinearizedSettings",
+           "StaticSettings", "TransientSettings", "resolve_analysis", "resolve_deformations",
+           "valid_modes"]
+
+DEFORMATION_VARIANTS = ("modified", "basic")
+BIFURCATION_CHOICES = ("off", "warn", "switch")
+START_CHOICES = ("deck", "static")
+
+#: Analysis names and the SPACAR mode numbers that map onto them.
+ANALYSES = ("static", "eigen", "buckling", "transient", "check")
+SPACAR_MODE_NUMBERS = {10: "static", 0: "check", 1: "transient", 8: "buckling", 4: "eigen",
+                       7: "eigen"}
+
+
+def resolve_analysis(value) -> str | None:
+    """Map a MODE value (name, SPACAR number, or its text) to an analysis name.
+
+    Returns None if the value is not valid. Negative SPACAR numbers (silent runs) map like
+    their positive counterparts.
+    """
+    if isinstance(value, str):
+        text = value.strip().lower()
+        if text in ANALYSES:
+            return text
+        try:
+            number = float(text)
+        except ValueError:
+            return None
+        if not number.is_integer():
+            return None
+        value = int(number)
+    if isinstance(value, float):
+        if not value.is_integer():
+            return None
+        value = int(value)
+    if isinstance(value, int):
+        return SPACAR_MODE_NUMBERS.get(abs(value))
+    return None
+
+
+def resolve_deformations(value) -> str | None:
+    """Map a DEFORMATIONS value to ``"basic"``/``"modified"``, or None if not valid."""
+    if isinstance(value, str) and value.strip().lower() in DEFORMATION_VARIANTS:
+        return value.strip().lower()
+    return None
+
+
+def valid_modes() -> str:
+    """The MODE values, for messages."""
+    numbers = ", ".join(f"{k}={v}" for k, v in sorted(SPACAR_MODE_NUMBERS.items()))
+    return f"{', '.join(ANALYSES)} or a SPACAR mode number ({numbers}; negative = silent)"
+
+
+@dataclass(frozen=True)
+class IterStep:
+    """SPACAR's ``ITERSTEP`` line as spacarpy reads it (documented in docs/deck.md).
+
+    ``ITERSTEP max_iter n_steps tol [f4 f5 n_init]``
+
+    max_iter : int
+        Newton iterations allowed per load step before the step is cut (SPACAR's field 1).
+    n_steps : int
+        Number of equal load increments in which DELXF is applied; results are stored after
+        the initial state (XF only, step 0) and after every increment (steps 1..n_steps).
+    tol : float
+        Relative convergence tolerance of the Newton iterations.
+    n_init : int
+        Number of sub-steps used internally to reach the initial load XF (field 6; not stored).
+    extra : tuple
+        Fields 4 and 5, kept but not used (their meaning in SPACAR is not public).
+    """
+
+    max_iter: int = 10
+    n_steps: int = 1
+    tol: float = 5e-7
+    n_init: int = 1
+    extra: tuple = ()
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
+class StaticSettings:
+    """The static load path: ``iterstep`` (ITERSTEP)."""
+
+    iterstep: IterStep = field(default_factory=IterStep)
+
+
+@dataclass(frozen=True)
+class LinearizedSettings:
+    """Eigenfrequencies and buckling: the deck's ``MODES count [each|last]`` (spacarpy
+    extension). ``n_modes`` None means the program's default (10); ``modes_each_step``:
+    linearize at every load step, not only the last."""
+
+    n_modes: int | None = None
+    modes_each_step: bool = False
+
+    @property
+    def count(self) -> int:
+        """The number of modes to compute."""
+        return self.n_modes or 10
+
+
+@dataclass(frozen=True)
+class TransientSettings:
+    """The time integration (see docs/transient.md).
+
+    timestep : (t_end, n_steps) or None
+        TIMESTEP (None: not given; MODE transient then refuses to run).
+    rho_inf : float
+        RHOINF, the spectral radius at infinite frequency of the generalized-alpha method.
+    substeps : int
+        SUBSTEPS, integration steps per stored step.
+    error_tol : (abs, rel) or None
+        ERROR: adaptive time steps.
+    start : str
+        START: ``"deck"`` (at rest in the deck's configuration) or ``"static"``.
+    time_function : (kind, params)
+        TIMEFUNCTION (:mod:`spacarpy.time_functions`).
+    initial_velocities : dict of node -> (3,)
+        VELOCITY lines.
+    """
+
+    timestep: tuple | None = None
+    rho_inf: float = 0.9
+    substeps: int = 1
+    error_tol: tuple | None = None
+    start: str = "deck"
+    time_function: tuple = ("constant", ())
+    initial_velocities: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class AnalysisSettings:
+    """What to compute on a model: the analysis, the deformation variant, the stability check
+    of the static path, and the settings of each kind of solution.
+
+    analysis : str
+        One of :data:`ANALYSES`.
+    deformations : str
+        ``"modified"`` (Eq. 48, default) or ``"basic"`` (Eq. 7).
+    bifurcation : str
+        ``"off"``, ``"warn"`` (say when the path turns unstable) or ``"switch"`` (also switch
+        to a stable branch), see :mod:`spacarpy.solvers.stability`.
+    """
+
+    analysis: str = "static"
+    deformations: str = "modified"
+    bifurcation: str = "off"
+    static: StaticSettings = field(default_factory=StaticSettings)
+    linearized: LinearizedSettings = field(default_factory=LinearizedSettings)
+    transient: TransientSettings = field(default_factory=TransientSettings)
+
+    def __post_init__(self):
+        if self.analysis not in ANALYSES:
+            raise ValueError(f"unknown analysis {self.analysis!r}; expected one of {ANALYSES}")
+        if self.deformations not in DEFORMATION_VARIANTS:
+            raise ValueError(f"unknown deformation variant {self.deformations!r}")
+        if self.bifurcation not in BIFURCATION_CHOICES:
+            raise ValueError(f"unknown bifurcation setting {self.bifurcation!r}")
+
+    @property
+    def iterstep(self) -> IterStep:
+        """Short for ``static.iterstep``."""
+        return self.static.iterstep
+
+    def override(self, *, analysis: str | None = None, deformations: str | None = None,
+                 n_modes: int | None = None, modes_each_step: bool | None = None,
+                 iterstep: IterStep | None = None) -> AnalysisSettings:
+        """A copy with the given choices replaced (None: keep); ``analysis`` and
+        ``deformations`` are names as :func:`resolve_analysis` / :func:`resolve_deformations`
+        accept them.
+
+        Raises
+        ------
+        ValueError
+            For an unknown analysis or deformation variant.
+        """
+        new = self
+        if analysis is not None:
+            name = resolve_analysis(analysis)
+            if name is None:
+                raise ValueError(f"unknown analysis '{analysis}'; expected {valid_modes()}")
+            new = replace(new, analysis=name)
+        if deformations is not None:
+            name = resolve_deformations(deformations)
+            if name is None:
+                raise ValueError(f"unknown deformation variant '{deformations}'; expected "
+                                 f"{' or '.join(DEFORMATION_VARIANTS)}")
+            new = replace(new, deformations=name)
+        if n_modes is not None or modes_each_step is not None:
+            lin = new.linearized
+            new = replace(new, linearized=replace(
+                lin, n_modes=lin.n_modes if n_modes is None else n_modes,
+                modes_each_step=(lin.modes_each_step if modes_each_step is None
+                                 else modes_each_step)))
+        if iterstep is not None:
+            new = replace(new, static=replace(new.static, iterstep=iterstep))
+        return new
