@@ -26,10 +26,11 @@ def test_declarations_are_consistent(keyword):
     assert len(kind.estiff.units) == kind.n_estiff and kind.estiff.required <= kind.n_estiff
     if kind.em is not None:
         assert len(kind.em.units) == kind.n_em
-    # the deck keyword's node roles: p position, r orientation
+    # the deck keyword is made from the kind: node roles p position, r orientation
     roles = KEYWORDS[keyword].node_roles
     assert tuple("pos" if r == "p" else "rot" for r in roles) == kind.slots
-    assert len(kind.node_roles) == len(kind.slots)
+    assert len(kind.node_roles) == len(kind.slots) == len(kind.node_fields)
+    assert kind.summary and len(kind.vector_fields) == (3 if kind.vector else 0)
     assert kind.n_ldof == sum(3 if s == "pos" else 4 for s in kind.slots)
     # the trailing vector: the keyword accepts three more fields exactly when one is declared
     assert (len(KEYWORDS[keyword].optional) == 1) == (kind.vector is not None)

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from spacarpy.elements.registry import KINDS
+
 #: Field kinds: "int" (a whole number; ``5.000000`` is accepted as 5), "float" (any number),
 #: "word" (a bare word or a quoted string), "value" (a number or a word, kept as written).
 FIELD_KINDS = ("int", "float", "word", "value")
@@ -203,6 +205,16 @@ def _unsupported(name, summary, section, **kw) -> KeywordSpec:
     return KeywordSpec(name=name, summary=summary, supported=False, section=section, **kw)
 
 
+def element_keyword(kind) -> KeywordSpec:
+    """The deck keyword of an element kind, from what the kind declares (its node fields and
+    the optional trailing vector): ``KEYWORD e nodes... [v1 v2 v3]``."""
+    nodes = tuple(_f(name, short, "int", True) for name, short in kind.node_fields)
+    vector = tuple(_f(name, short) for name, short in kind.vector_fields)
+    return KeywordSpec(kind.keyword, kind.summary, section="element",
+                       required=(ELEMENT, *nodes), optional=(vector,) if vector else (),
+                       node_roles="".join("p" if s == "pos" else "r" for s in kind.slots))
+
+
 _KEYWORD_LIST = (
     # ------------------------------------------------------------------ structure
     KeywordSpec("END", "closes a module; END END closes the deck", section="structure"),
@@ -235,33 +247,11 @@ _KEYWORD_LIST = (
     _unsupported("DYNX", "dynamic (free) nodal coordinates of a transient analysis",
                  "kinematics", required=(NODE,), variadic=_COORD),
     # ------------------------------------------------------------------ elements
-    KeywordSpec("BEAM", "spatial beam element between two position nodes", section="element",
-                required=(ELEMENT, _POS_P, _ROT_P, _POS_Q, _ROT_Q), optional=(_ORIENTATION,),
-                node_roles="prpr"),
+    *(element_keyword(kind) for kind in KINDS.values()),
     _unsupported("BEAMW", "spatial beam with warping nodes", "element",
                  required=(ELEMENT, _POS_P, _ROT_P, _f("warping node at p", "wp", "int", True),
                            _POS_Q, _ROT_Q, _f("warping node at q", "wq", "int", True)),
                  optional=(_ORIENTATION,), node_roles="prwprw"),
-    KeywordSpec("RBEAM", "rigid beam carried by the orientation node of p",
-                section="element", required=(ELEMENT, _POS_P, _ROT_P, _POS_Q),
-                optional=(_ORIENTATION,), node_roles="prp"),
-    KeywordSpec("TRUSS", "truss (rod) element between two position nodes", section="element",
-                required=(ELEMENT, _POS_P, _POS_Q), node_roles="pp"),
-    KeywordSpec("HINGE", "hinge (revolute joint) between two orientation nodes",
-                section="element",
-                required=(ELEMENT, _f("orientation node p", "r", "int", True),
-                          _f("orientation node q", "s", "int", True)),
-                optional=((_f("x component of the hinge axis", "ax"),
-                           _f("y component of the hinge axis", "ay"),
-                           _f("z component of the hinge axis", "az")),),
-                node_roles="rr"),
-    KeywordSpec("PLBEAM", "planar beam element (x-y plane)", section="element",
-                required=(ELEMENT, _POS_P, _ROT_P, _POS_Q, _ROT_Q), node_roles="prpr"),
-    KeywordSpec("PLTRUSS", "planar truss element (x-y plane)", section="element",
-                required=(ELEMENT, _POS_P, _POS_Q), node_roles="pp"),
-    KeywordSpec("PLHINGE", "planar hinge element (axis z)", section="element",
-                required=(ELEMENT, _f("orientation node p", "r", "int", True),
-                          _f("orientation node q", "s", "int", True)), node_roles="rr"),
     # ------------------------------------------------------------------ statics/dynamics data
     # ESTIFF/EM: values optional at the parse level because a HINGE takes 1 value or none;
     # the model builder requires at least EA GJ EIy EIz (ESTIFF) / rhoA (EM) for a BEAM.

@@ -76,6 +76,15 @@ class Fields(NamedTuple):
         return len(self.names)
 
 
+#: Node fields of the element lines, by role.
+POS_P, POS_Q = ("position node p", "p"), ("position node q", "q")
+ROT_AT_P, ROT_AT_Q = ("orientation node at p", "r"), ("orientation node at q", "s")
+ROT_P, ROT_Q = ("orientation node p", "r"), ("orientation node q", "s")
+#: The trailing initial local y-axis of BEAM and RBEAM lines.
+Y_AXIS_FIELDS = (("x component of the initial local y-axis", "ox"),
+                 ("y component of the initial local y-axis", "oy"),
+                 ("z component of the initial local y-axis", "oz"))
+
 #: The EM layout of the kinds with a mass per unit length and a cross-section inertia.
 SECTION_MASS = Fields(("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz", "rhoIyz"),
                       ("kg/m", "kg m", "kg m", "kg m", "kg m"), 1, None,
@@ -111,6 +120,13 @@ class ElementKind:
     vector : str or None
         What the element line's trailing three numbers mean (``"local y-axis"``, ``"axis"``),
         None when the line has none.
+    summary : str
+        One line on what the element is (the deck keyword's summary in messages and docs).
+    node_fields : tuple of (str, str)
+        Per node of the element line: its name in error messages and its short name in the
+        usage line, e.g. ``("position node p", "p")``.
+    vector_fields : tuple of (str, str)
+        The same for the three optional trailing numbers (empty when ``vector`` is None).
     planar : bool
         A planar kind (a model with one is planar and may have planar kinds only).
     """
@@ -128,6 +144,9 @@ class ElementKind:
     em: Fields | None = None
     mode_stiffness: tuple = ()
     vector: str | None = None
+    summary: str = ""
+    node_fields: tuple = ()
+    vector_fields: tuple = ()
     planar: bool = False
 
     # optional kernels: None where the kind has none

@@ -49,7 +49,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from spacarpy.elements.base import SECTION_MASS, ElementKind, Fields
+from spacarpy.elements.base import (POS_P, POS_Q, ROT_AT_P, ROT_AT_Q, SECTION_MASS,
+                                     Y_AXIS_FIELDS, ElementKind, Fields)
 from spacarpy.elements.beam_layout import N_LDOF, QP, QQ, RP, RQ
 from spacarpy.elements.beam_mass import beam_convective, beam_mass_matrix, tangent_gravity
 from spacarpy.elements.chunks import in_chunks
@@ -391,6 +392,9 @@ class Beam(ElementKind):
     mode_stiffness = (0, 1, 2, 2, 3, 3)
     em = SECTION_MASS
     vector = "local y-axis"
+    summary = "spatial beam element between two position nodes"
+    node_fields = (POS_P, ROT_AT_P, POS_Q, ROT_AT_Q)
+    vector_fields = Y_AXIS_FIELDS
 
     def reference(self, x0, vector):
         nx, ny, nz, l0 = reference_triads(x0[0], x0[2], vector)

@@ -67,7 +67,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from spacarpy.elements.base import ElementKind, Fields
+from spacarpy.elements.base import ROT_P, ROT_Q, ElementKind, Fields
 from spacarpy.linalg import batch_matvec, property_columns
 from spacarpy.rotation import hessian_combination, vector_jacobians
 
@@ -236,6 +236,11 @@ class Hinge(ElementKind):
     estiff = Fields(("k", "k2", "k3"), ("N m/rad",) * 3, 0, 3, "k [k2 k3]")
     mode_stiffness = (0, 1, 2)
     vector = "axis"
+    summary = "hinge (revolute joint) between two orientation nodes"
+    node_fields = (ROT_P, ROT_Q)
+    vector_fields = (("x component of the hinge axis", "ax"),
+                     ("y component of the hinge axis", "ay"),
+                     ("z component of the hinge axis", "az"))
 
     def reference(self, x0, vector):
         a, b, c = hinge_reference(vector)

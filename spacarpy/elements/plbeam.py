@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from spacarpy.elements.base import ElementKind, Fields, Selected, expand
+from spacarpy.elements.base import (POS_P, POS_Q, ROT_AT_P, ROT_AT_Q, ElementKind, Fields,
+                                     Selected, expand)
 from spacarpy.elements.beam import Beam, beam_gravity, check_saturation
 
 #: BEAM modes a PLBEAM keeps: 1 elongation, 2 and 3 bending in the x-y plane at p and q.
@@ -49,6 +50,8 @@ class PlBeam(ElementKind):
     mode_stiffness = (0, 1, 1)
     em = Fields(("rhoA", "rhoIz"), ("kg/m", "kg m"), 1, 2, "rhoA [rhoIz]")
     planar = True
+    summary = "planar beam element (x-y plane)"
+    node_fields = (POS_P, ROT_AT_P, POS_Q, ROT_AT_Q)
 
     def reference(self, x0, vector):
         # the local y-axis lies in the plane: z x (element axis)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spacarpy.elements.base import ElementKind, Fields, Selected, expand
+from spacarpy.elements.base import ROT_P, ROT_Q, ElementKind, Fields, Selected, expand
 from spacarpy.elements.hinge import Hinge, hinge_stiffness
 
 _HINGE = Hinge()
@@ -26,6 +26,8 @@ class PlHinge(ElementKind):
     estiff = Fields(("k",), ("N m/rad",), 0, 1, "k")
     mode_stiffness = (0,)
     planar = True
+    summary = "planar hinge element (axis z)"
+    node_fields = (ROT_P, ROT_Q)
 
     def reference(self, x0, vector):
         n = len(vector)

@@ -14,3 +14,4 @@ class PlTruss(Truss):
     stress_meaning = "axial force of each PLTRUSS element"
     em = Fields(("rhoA",), ("kg/m",), 1, 1, "rhoA")
     planar = True
+    summary = "planar truss element (x-y plane)"

@@ -65,7 +65,8 @@ from typing import NamedTuple
 import numpy as np
 
 from spacarpy.elements.beam import reference_triads
-from spacarpy.elements.base import SECTION_MASS, ElementKind, Fields
+from spacarpy.elements.base import (POS_P, POS_Q, ROT_AT_P, SECTION_MASS, Y_AXIS_FIELDS,
+                                     ElementKind, Fields)
 from spacarpy.elements.beam_mass import g_matrix, section_inertia, tangent_gravity
 from spacarpy.linalg import batch_matvec, property_columns
 from spacarpy.rotation import hessian_combination, vector_jacobians
@@ -218,6 +219,9 @@ class RBeam(ElementKind):
     mode_stiffness = (0, 1, 2)
     em = SECTION_MASS
     vector = "local y-axis"
+    summary = "rigid beam carried by the orientation node of p"
+    node_fields = (POS_P, ROT_AT_P, POS_Q)
+    vector_fields = Y_AXIS_FIELDS
 
     def reference(self, x0, vector):
         nx, ny, nz, l0 = rbeam_reference(x0[0], x0[2], vector)

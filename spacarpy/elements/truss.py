@@ -33,7 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from spacarpy.elements.base import ElementKind, Fields
+from spacarpy.elements.base import POS_P, POS_Q, ElementKind, Fields
 from spacarpy.linalg import property_columns
 
 N_LDOF = 6
@@ -132,6 +132,8 @@ class Truss(ElementKind):
     mode_stiffness = (0,)
     #: values after rhoA are accepted and ignored (the BEAM's EM layout)
     em = Fields(("rhoA",), ("kg/m",), 1, None, "rhoA")
+    summary = "truss (rod) element between two position nodes"
+    node_fields = (POS_P, POS_Q)
 
     def reference(self, x0, vector):
         l0 = truss_reference(x0[0], x0[1])
