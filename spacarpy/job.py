@@ -26,11 +26,6 @@ class Job:
         """The same model with other settings."""
         return replace(self, settings=settings)
 
-    def to_deck(self, **kw) -> str:
-        """The job as SPACAR deck text (:func:`spacarpy.deck.writer.model_to_deck`): reading
-        it back gives an equal model and equal settings."""
-        return self.model.to_deck(settings=self.settings, **kw)
-
     def __iter__(self):
         """``model, settings = job``."""
         return iter((self.model, self.settings))

@@ -267,15 +267,6 @@ class Model:
         """The number of elements of all kinds."""
         return sum(es.n_elem for es in self.elements.values())
 
-    def to_deck(self, **kw) -> str:
-        """The model as SPACAR deck text (see :func:`spacarpy.deck.writer.model_to_deck`;
-        ``settings=`` writes analysis settings too, else the defaults); reading that text
-        back gives an equal model."""
-        from spacarpy.deck.writer import model_to_deck
-        if self.cross_sections is not None:
-            kw.setdefault("cross_sections", self.cross_sections)
-        return model_to_deck(self, **kw)
-
     def __repr__(self) -> str:
         return (f"Model({self.position_ids.size} position nodes, {self.orientation_ids.size} "
                 f"orientation nodes, {self.n_elem} elements, {len(self.fixes)} fixes, "

@@ -8,8 +8,7 @@ keywords plus the spacarpy lines the model needs (MODE, DEFORMATIONS, and the ex
 settings differ from their defaults); ``compact=True`` also writes element ranges
 (``DYNE 1:48 1 2 3 4 5 6``), a spacarpy extension. :func:`format_record` writes one record.
 
-The model is only read through its attributes (``spacarpy.model`` is not imported), so that
-``Model.to_deck`` can call this module without an import cycle.
+For a :class:`spacarpy.job.Job`, ``model_to_deck(*job)``.
 """
 from __future__ import annotations
 
@@ -106,7 +105,8 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
     settings : spacarpy.settings.AnalysisSettings, optional
         The analysis settings to write (MODE, ITERSTEP, TIMESTEP, ...); default: the defaults.
     cross_sections : CrossSections, optional
-        Written as a VISUALIZATION section (BEAMPROPS / CROSSTYPE / CROSSDIM).
+        Written as a VISUALIZATION section (BEAMPROPS / CROSSTYPE / CROSSDIM); default: the
+        model's own (``model.cross_sections``).
     compact : bool
         Write element ranges (``ESTIFF 1:48 ...``), a spacarpy extension, instead of one
         line per element.
@@ -126,6 +126,8 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
     n_init); fields 4 and 5 are then written as 0.
     """
     planar = bool(model.planar)
+    if cross_sections is None:
+        cross_sections = model.cross_sections
     settings = settings if settings is not None else AnalysisSettings()
     lin, tr = settings.linearized, settings.transient
     out = [f"# {title if title is not None else 'spacarpy model from ' + model.source_path}",
