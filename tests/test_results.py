@@ -170,7 +170,7 @@ def test_wrong_filetype_and_non_hdf5_are_refused(tmp_path):
         read_results(out)
     junk = tmp_path / "junk.h5"
     junk.write_text("not hdf5")
-    with pytest.raises(ResultsFormatError, match="cannot open"):
+    with pytest.raises(ResultsFormatError, match="not an HDF5 file"):
         read_results(junk)
     assert validate_file(tmp_path / "missing.h5") != []
 

@@ -38,12 +38,10 @@ from typing import NamedTuple
 import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
-from spacarpy.results.h5file import (
-    SchemaFile, open_for_reading, schema_major, str_list)
-from spacarpy.results.schema import (
-    DATASETS, KIND_NAMES, MODE_KIND_NAMES, legacy_name, new_name)
-from spacarpy.results.validate import check_readable
+from spacarpy.results.h5file import SchemaFile, open_for_reading, reading, schema_major, str_list
+from spacarpy.results.schema import DATASETS, KIND_NAMES, MODE_KIND_NAMES, legacy_name, new_name
 from spacarpy.results.stress import section_forces, section_properties, surface_stress
+from spacarpy.results.validate import check_readable
 
 __all__ = ["open_results", "ResultsFile", "ModelView", "StaticView", "TransientView",
            "EigenView", "BucklingView", "ComplianceView", "ModeShape", "ResultsQueryError",
@@ -73,7 +71,7 @@ class ModeShape(NamedTuple):
     euler: np.ndarray
 
 
-def open_results(path) -> "ResultsFile":
+def open_results(path) -> ResultsFile:
     """Open a results file for lazy reading.
 
     Parameters
@@ -157,7 +155,7 @@ class ResultsFile(RootAttributes):
 
     # -- file access --------------------------------------------------------------------------
 
-    def __enter__(self) -> "ResultsFile":
+    def __enter__(self) -> ResultsFile:
         if self._handle is None:
             self._context = open_for_reading(self.path)
             self._handle = self._context.__enter__()
@@ -175,7 +173,8 @@ class ResultsFile(RootAttributes):
     @contextmanager
     def _file(self):
         if self._handle is not None:
-            yield self._handle
+            with reading(self.path):
+                yield self._handle
         else:
             with open_for_reading(self.path) as f:
                 yield f
