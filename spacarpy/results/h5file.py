@@ -30,7 +30,9 @@ import functools
 import logging
 import os
 import re
+import sys
 import time
+import zlib
 from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
@@ -45,7 +47,8 @@ log = logging.getLogger(__name__)
 
 __all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_superblock",
            "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
-           "create_extendable", "append_step", "ascii_array", "SchemaFile", "LIBVER",
+           "create_extendable", "append_step", "ascii_array", "SchemaFile", "LIBVER", "crc32",
+           "checksum_row", "damaged_steps", "fixed_damaged", "checksum_problems", "CRC_ATTR",
            "python_value", "str_list"]
 
 # Lowest file-format version that supports SWMR; readable by every HDF5 >= 1.10. ("latest"
@@ -86,6 +89,11 @@ _FLAG_WRITE, _FLAG_SWMR_WRITE = 0x01, 0x04
 #: How long :func:`open_for_reading` waits for a file that is being written (SWMR mark) to
 #: reach the size its superblock gives, before it reports the file as truncated (s).
 SWMR_WAIT = 2.0
+#: Attribute of a fixed dataset: the CRC-32 of its values (:func:`crc32`).
+CRC_ATTR = "crc32"
+_BIG_ENDIAN = sys.byteorder == "big"
+#: The column of a ``checksum`` dataset that covers the step's scale value.
+SCALE_COLUMN = "(scale)"
 # Errors that h5py raises on a damaged file (with an h5py frame in the traceback).
 _READ_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError,
                 UnicodeDecodeError, AttributeError, MemoryError)
@@ -314,10 +322,85 @@ def set_cf_attrs(ds: h5py.Dataset) -> None:
 
 
 def create(group: h5py.Group, name: str, data, dtype=None) -> h5py.Dataset:
-    """Create a fixed-size dataset with its CF attributes."""
+    """Create a fixed-size dataset with its CF attributes and its ``crc32`` (not for
+    variable-length strings such as ``/deck``, whose SHA-256 is a root attribute)."""
     ds = group.create_dataset(name, data=data, dtype=dtype)
     set_cf_attrs(ds)
+    if ds.dtype.kind != "O":
+        ds.attrs[CRC_ATTR] = np.int64(crc32(ds[()]))
     return ds
+
+
+def crc32(values) -> int:
+    """CRC-32 of the bytes of ``values`` (little-endian, C order): the same on every machine."""
+    a = np.ascontiguousarray(values)
+    if a.dtype.byteorder == ">" or (a.dtype.byteorder == "=" and _BIG_ENDIAN):
+        a = a.astype(a.dtype.newbyteorder("<"))
+    return zlib.crc32(a.reshape(-1).view(np.uint8))
+
+
+def checksum_row(scale_value, rows: dict, columns: list) -> np.ndarray:
+    """The ``checksum`` row of a step: CRC-32 of the scale value and of every row."""
+    return np.array([crc32(scale_value if name == SCALE_COLUMN else rows[name])
+                     for name in columns], dtype=np.int64)
+
+
+def damaged_steps(group: h5py.Group, n: int, only: str | None = None,
+                  block: int = 256) -> dict:
+    """``{dataset path: [steps]}`` of the first ``n`` (committed) steps of a step group whose
+    rows do not match their stored checksum; ``{}`` for a group without checksums. ``only``
+    checks one dataset (its path in the group, or the scale's). The datasets are read in
+    blocks of ``block`` steps."""
+    checksum = group.get("checksum")
+    if not isinstance(checksum, h5py.Dataset):
+        return {}
+    columns = str(python_value(checksum.attrs.get("columns", ""))).split()
+    scale = {"static": "load_factor", "transient": "time"}.get(group.name.lstrip("/"), "step")
+    n = min(n, checksum.shape[0])
+    stored = checksum[:n]
+    bad = {}
+    for j, name in enumerate(columns):
+        if only is not None and only != (scale if name == SCALE_COLUMN else name):
+            continue
+        ds = group.get(scale if name == SCALE_COLUMN else name)
+        if not isinstance(ds, h5py.Dataset) or ds.shape[:1] < (n,) or j >= stored.shape[1]:
+            bad[f"{group.name}/{name}"] = list(range(n))
+            continue
+        steps = []
+        for start in range(0, n, block):
+            data = ds[start:min(start + block, n)]
+            steps += [start + k for k, row in enumerate(data)
+                      if crc32(row) != stored[start + k, j]]
+        if steps:
+            bad[ds.name] = steps
+    return bad
+
+
+def fixed_damaged(ds: h5py.Dataset) -> bool:
+    """Whether a fixed dataset (``/model/...``) does not match its ``crc32`` attribute."""
+    stored = ds.attrs.get(CRC_ATTR)
+    return stored is not None and crc32(ds[()]) != int(stored)
+
+
+def checksum_problems(f: h5py.File, committed: dict) -> list[str]:
+    """Every dataset of an opened file that fails its checksum, one message each;
+    ``committed`` gives the number of committed steps of each step group."""
+    problems = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and CRC_ATTR in obj.attrs and fixed_damaged(obj):
+            problems.append(f"/{name} is damaged (its values do not match its checksum)")
+    f.visititems(visit)
+    for group, n in committed.items():
+        for name, steps in damaged_steps(f[group], n).items():
+            problems.append(f"{name} is damaged at {_steps(steps)} (the values do not match "
+                            "the checksum stored with the step)")
+    return problems
+
+
+def _steps(steps: list) -> str:
+    shown = ", ".join(map(str, steps[:10])) + (", ..." if len(steps) > 10 else "")
+    return f"step{'s' * (len(steps) > 1)} {shown}"
 
 
 def create_extendable(group: h5py.Group, name: str, trailing: tuple, dtype) -> h5py.Dataset:
@@ -335,10 +418,18 @@ def create_extendable(group: h5py.Group, name: str, trailing: tuple, dtype) -> h
 
 
 def append_step(f: h5py.File, datasets: dict, rows: dict, scale: h5py.Dataset, value,
-                k: int) -> None:
+                k: int, checksum: tuple | None = None) -> None:
     """Append row ``k`` of every dataset and make it durable, then commit the step by
     appending its scale value (load factor, time, static step) and flushing again: a reader
-    never sees a scale entry whose rows are not on disk."""
+    never sees a scale entry whose rows are not on disk.
+
+    ``checksum`` is ``(dataset, columns)``: the step's :func:`checksum_row` is appended to it
+    with the rows (schema 2.1)."""
+    if checksum is not None:
+        ds, columns = checksum
+        rows = dict(rows)
+        rows[ds.name] = checksum_row(np.asarray(value, dtype=scale.dtype), rows, columns)
+        datasets = {**datasets, ds.name: ds}
     for name, row in rows.items():
         ds = datasets[name]
         ds.resize(k + 1, axis=0)
