@@ -23,6 +23,8 @@ from spacarpy.cli import main
 from spacarpy.results import ResultsFormatError, open_results
 from spacarpy.results.h5file import read_superblock
 
+from helpers import run_and_kill
+
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 _LIMIT = 20          # seconds any one command may take on any file
 _N_TRUNCATE = 20
@@ -217,3 +219,30 @@ def test_subprocess_commands_end_in_time(originals, tmp_path, cut):
         assert proc.returncode == 2, proc.stderr + proc.stdout
         assert "Traceback" not in proc.stderr + proc.stdout
         assert f"the file is {n} bytes, it should be {len(data)}" in proc.stderr + proc.stdout
+
+
+@pytest.mark.slow
+def test_damaged_file_of_a_killed_writer_ends_in_time(tmp_path, monkeypatch):
+    """A killed writer's file carries the SWMR-write mark and is opened SWMR-read, where HDF5
+    skips its end-of-file check and retries failing checksums: still bounded, still exit 2."""
+    monkeypatch.setattr("spacarpy.results.h5file.SWMR_WAIT", 0.2)   # the wait for a writer
+    run_and_kill(tmp_path, n_elem=2, pause=0.02)
+    killed = tmp_path / "killed.partial.h5"
+    data = killed.read_bytes()
+    assert read_superblock(killed).swmr_write
+    assert _cli(["validate", str(killed)], killed)[0] == 0
+    path = tmp_path / "damaged.h5"
+    rng = np.random.default_rng(11)
+    for k in range(1, 6):
+        cut = len(data) * k // 6
+        path.write_bytes(data[:cut])
+        code, text = _cli(["validate", str(path)], path)
+        assert code == 2 and f"the file is {cut} bytes, it should be {len(data)}" in text
+    for _ in range(6):
+        b = bytearray(data)
+        for i in rng.integers(0, len(b), size=3):
+            b[i] ^= 0x5A
+        path.write_bytes(bytes(b))
+        for argv in (["validate", str(path)], ["show", str(path)]):
+            code, text = _cli(argv, path)
+            assert code in (0, 2) and "Traceback" not in text, (argv, text)

@@ -183,7 +183,7 @@ def damaged(path, reason) -> ResultsFormatError:
         elif isinstance(reason, MemoryError):
             text = "a dataset claims more memory than there is"
         else:
-            text = re.sub(r"^Unable to (synchronously )?", "cannot ", text)
+            text = re.sub(r"^(Unable to|Can't) (synchronously )?", "cannot ", text)
     else:
         text = str(reason)
     return ResultsFormatError(f"{os.fspath(path)}: damaged results file: {text}")
