@@ -354,7 +354,9 @@ def main(argv: list[str] | None = None) -> int:
                       peer=args.peer, markdown=args.markdown)
             return EXIT_OK
         if args.command in _RESULT_COMMANDS:
-            return _RESULT_COMMANDS[args.command](args)
+            from spacarpy.results.h5file import reading
+            with reading(args.file):        # a damaged file: a message and exit 2
+                return _RESULT_COMMANDS[args.command](args)
         if args.command in ("batch", "sweep"):
             return cmd_batch(args) if args.command == "batch" else cmd_sweep(args)
     except SpacarError as exc:

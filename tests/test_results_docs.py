@@ -27,7 +27,8 @@ _DTYPES = {"f8": "float64", "i8": "int64", "i4": "int32", "i1": "int8", "?": "bo
 _SYMBOLS = {"step": "n_step", "time_step": "n_t", "linearized_step": "n_lin",
             "mode": "n_mode", "position_node": "n_pos", "orientation_node": "n_rot",
             "reaction": "n_reac", "coordinate": "3", "euler_parameter": "4",
-            "global_coordinate": "n_coord", "load": "n_load", "input": "n_input"}
+            "global_coordinate": "n_coord", "load": "n_load", "input": "n_input",
+            "checked_dataset": "n_checked"}
 
 
 def _shape(spec) -> str:

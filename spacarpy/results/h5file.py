@@ -14,6 +14,10 @@ This module's one job is the HDF5 file itself, below the schema's meaning:
   unwritten data. A killed writer leaves the "open for SWMR write" mark in the superblock:
   :func:`open_for_reading` then opens the file in SWMR-read mode (other HDF5 tools need
   ``h5clear -s file`` first);
+- opening is bounded in time and never retries: :func:`open_for_reading` reads the
+  superblock itself, reports a truncated file with its size and the size it should have, and
+  every error h5py raises on a damaged file becomes a :class:`ResultsFormatError` through the
+  one function :func:`damaged`;
 - :class:`SchemaFile` reads any supported schema version through the 2.0 dataset names
   (:data:`spacarpy.results.schema.LEGACY_NAMES` for 1.x files).
 
@@ -22,10 +26,16 @@ Every created dataset carries the ``units`` and ``long_name`` of its
 """
 from __future__ import annotations
 
+import functools
 import logging
 import os
+import re
+import sys
+import time
+import zlib
 from contextlib import contextmanager
 from pathlib import Path
+from typing import NamedTuple
 
 import h5py
 import numpy as np
@@ -35,8 +45,10 @@ from spacarpy.results.schema import DATASETS, KIND_NAMES, legacy_name
 
 log = logging.getLogger(__name__)
 
-__all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "fsync", "create",
-           "create_extendable", "append_step", "ascii_array", "SchemaFile", "LIBVER",
+__all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_superblock",
+           "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
+           "create_extendable", "append_step", "ascii_array", "SchemaFile", "LIBVER", "crc32",
+           "checksum_row", "damaged_steps", "fixed_damaged", "checksum_problems", "CRC_ATTR",
            "python_value", "str_list"]
 
 # Lowest file-format version that supports SWMR; readable by every HDF5 >= 1.10. ("latest"
@@ -70,28 +82,219 @@ def partial_path_for(path) -> Path:
     return path.with_name(path.stem + ".partial.h5")
 
 
+_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+# Superblock file-consistency flags (superblock version 3): written by a writer that has the
+# file open, cleared when it closes it.
+_FLAG_WRITE, _FLAG_SWMR_WRITE = 0x01, 0x04
+#: How long :func:`open_for_reading` waits for a file that is being written (SWMR mark) to
+#: reach the size its superblock gives, before it reports the file as truncated (s).
+SWMR_WAIT = 2.0
+#: Attribute of a fixed dataset: the CRC-32 of its values (:func:`crc32`).
+CRC_ATTR = "crc32"
+_BIG_ENDIAN = sys.byteorder == "big"
+#: The column of a ``checksum`` dataset that covers the step's scale value.
+SCALE_COLUMN = "(scale)"
+# Errors that h5py raises on a damaged file (with an h5py frame in the traceback).
+_READ_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError,
+                UnicodeDecodeError, AttributeError, MemoryError)
+
+
+class Superblock(NamedTuple):
+    """What :func:`read_superblock` finds at the start of an HDF5 file."""
+
+    version: int
+    #: Where the file's addresses start (absolute offset of address 0).
+    base: int
+    #: The end-of-file address stored by the writer: the file must have at least
+    #: ``base + stored_eof`` bytes.
+    stored_eof: int
+    #: File-consistency flags (version 3: bit 0 open for writing, bit 2 open for SWMR writing).
+    flags: int
+
+    @property
+    def size_needed(self) -> int:
+        return self.base + self.stored_eof
+
+    @property
+    def swmr_write(self) -> bool:
+        """The "open for SWMR write" mark: the writer is running, or was killed."""
+        return self.version >= 3 and bool(self.flags & _FLAG_SWMR_WRITE)
+
+    @property
+    def open_for_write(self) -> bool:
+        return self.version >= 3 and bool(self.flags & _FLAG_WRITE)
+
+
+def read_superblock(path) -> Superblock | None:
+    """The superblock of the HDF5 file ``path``; ``None`` when it has no HDF5 signature.
+
+    The signature is looked for at offset 0, 512, 1024, 2048 ... (after a user block), as HDF5
+    does. Raises :class:`ResultsFormatError` for a superblock it cannot decode.
+    """
+    size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        where = 0
+        while where + len(_SIGNATURE) <= size:
+            fh.seek(where)
+            head = fh.read(96)
+            if head.startswith(_SIGNATURE):
+                return _decode_superblock(path, head)
+            where = 512 if where == 0 else 2 * where
+    return None
+
+
+def _decode_superblock(path, b: bytes) -> Superblock:
+    def field(at, n):
+        if at + n > len(b):
+            raise damaged(path, "its HDF5 superblock is cut short")
+        return int.from_bytes(b[at:at + n], "little")
+
+    version = b[8] if len(b) > 8 else -1
+    if version in (0, 1):
+        offsets, flags, at = field(13, 1), field(20, 4), 24 + 4 * version
+        base_at, eof_at = at, at + 2 * offsets
+    elif version in (2, 3):
+        offsets, flags = field(9, 1), field(11, 1)
+        base_at, eof_at = 12, 12 + 2 * offsets
+    else:
+        raise damaged(path, f"unknown HDF5 superblock version {version}")
+    if offsets not in (2, 4, 8, 16):
+        raise damaged(path, f"its HDF5 superblock gives {offsets}-byte addresses")
+    return Superblock(version, field(base_at, offsets), field(eof_at, offsets), flags)
+
+
+def damaged(path, reason) -> ResultsFormatError:
+    """The error for a damaged (truncated, corrupt) or unreadable results file.
+
+    ``reason`` is a message or the exception h5py, the OS or a decoder raised; h5py's
+    "truncated file: eof = X, ..., stored_eof = Y" becomes "the file is X bytes, it should be
+    Y". Every reader and command reports a damaged file through this one function.
+    """
+    if isinstance(reason, BaseException):
+        text = str(reason) or type(reason).__name__
+        m = re.search(r"truncated file: eof = (\d+).*?stored_eof = (\d+)", text)
+        if m:
+            text = f"the file is {m.group(1)} bytes, it should be {m.group(2)} (truncated)"
+        elif "already open for write" in text or "file locking flag" in text:
+            text = ("its writer was killed before the first step (the file is still marked "
+                    "as open for writing): nothing can be read")
+        elif isinstance(reason, UnicodeDecodeError):
+            text = f"undecodable text ({text})"
+        elif isinstance(reason, MemoryError):
+            text = "a dataset claims more memory than there is"
+        else:
+            text = re.sub(r"^(Unable to|Can't) (synchronously )?", "cannot ", text)
+    else:
+        text = str(reason)
+    return ResultsFormatError(f"{os.fspath(path)}: damaged results file: {text}")
+
+
+def is_read_error(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised by h5py (HDF5) while reading: a damaged file."""
+    if isinstance(exc, ResultsFormatError) or not isinstance(exc, _READ_ERRORS):
+        return False
+    tb = exc.__traceback__
+    while tb is not None:
+        module = tb.tb_frame.f_globals.get("__name__", "")
+        if module == "h5py" or module.startswith("h5py."):
+            return True
+        tb = tb.tb_next
+    return False
+
+
+@contextmanager
+def reading(path):
+    """Map the errors h5py raises on a damaged file inside the block to
+    :class:`ResultsFormatError` (:func:`damaged`); other errors pass through."""
+    try:
+        yield
+    except _READ_ERRORS as exc:
+        if is_read_error(exc):
+            raise damaged(path, exc) from exc
+        raise
+
+
 @contextmanager
 def open_for_reading(path):
-    """Open a results file read-only; fall back to SWMR-read for a file left open for writing.
+    """Open a results file read-only, in bounded time, or raise :class:`ResultsFormatError`.
 
-    A writer killed in SWMR mode (or one still running) leaves the "open for SWMR write" mark
-    in the superblock, which a plain open refuses but an SWMR-read open accepts.
+    The superblock is read first: a file without the HDF5 signature is not a results file, a
+    file shorter than its stored end of file is truncated ("the file is N bytes, it should be
+    M"). Only a file that carries the "open for SWMR write" mark (its writer is running or was
+    killed) is opened in SWMR-read mode, after waiting up to :data:`SWMR_WAIT` seconds for it to
+    reach its stored size, and with a single metadata read attempt (SWMR readers otherwise
+    retry a failing checksum with back-off for minutes). There is no retry: any error is
+    reported at once. Errors h5py raises while the file is open are mapped by :func:`reading`.
     """
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise ResultsFormatError(f"{p}: no such file")
+    if os.path.isdir(p):
+        raise ResultsFormatError(f"{p}: is a directory, not a results file")
     try:
-        f = h5py.File(path, "r")
-    except FileNotFoundError as exc:
-        raise ResultsFormatError(f"{path}: no such file") from exc
-    except OSError as exc:
-        try:
-            f = h5py.File(path, "r", swmr=True)
-        except OSError:
-            raise ResultsFormatError(f"{path}: cannot open as HDF5 ({exc})") from exc
+        sb = read_superblock(p)
+        if sb is None:
+            raise ResultsFormatError(f"{p}: not an HDF5 file (no HDF5 signature), so not a "
+                                     "spacarpy results file")
+        size = os.path.getsize(p)
+        deadline = time.monotonic() + SWMR_WAIT
+        while sb.swmr_write and size < sb.size_needed and time.monotonic() < deadline:
+            time.sleep(0.05)         # a running writer may be between two flushes
+            sb, size = read_superblock(p) or sb, os.path.getsize(p)
+        if size < sb.size_needed:
+            raise damaged(p, f"the file is {size} bytes, it should be {sb.size_needed} "
+                             "(truncated)")
+        with reading(p):
+            f = _open_swmr_read(p) if sb.swmr_write else h5py.File(p, "r")
+    except PermissionError as exc:
+        raise ResultsFormatError(f"{p}: cannot read: permission denied") from exc
+    except OSError as exc:       # read_superblock's own reads
+        raise damaged(p, exc) from exc
+    if sb.swmr_write:
         log.debug("%s is marked as open for SWMR writing (writer killed or still running); "
-                  "opened in SWMR-read mode", path)
+                  "opened in SWMR-read mode", p)
     try:
-        yield f
+        with reading(p):
+            yield f
     finally:
         f.close()
+
+
+def _open_swmr_read(path: str) -> h5py.File:
+    """SWMR-read open with one metadata read attempt (bounded time on a corrupt file)."""
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    fapl.set_fclose_degree(h5py.h5f.CLOSE_STRONG)
+    setter = _metadata_read_attempts()
+    if setter is None:
+        log.debug("H5Pset_metadata_read_attempts not found; SWMR-read open with HDF5's default")
+        return h5py.File(path, "r", swmr=True)
+    setter(fapl.id, 1)
+    fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ,
+                        fapl=fapl)
+    return h5py.File(fid)
+
+
+@functools.cache
+def _metadata_read_attempts():
+    """``H5Pset_metadata_read_attempts`` of the HDF5 library h5py uses (None if not found):
+    h5py does not expose it."""
+    import ctypes
+    names = []
+    try:
+        with open("/proc/self/maps", encoding="ascii", errors="replace") as maps:
+            names = [line.split()[-1] for line in maps if "/libhdf5" in line]
+    except OSError:
+        pass
+    for name in dict.fromkeys(names):
+        if os.path.basename(name).startswith("libhdf5_"):
+            continue
+        try:
+            fn = ctypes.CDLL(name).H5Pset_metadata_read_attempts
+        except (OSError, AttributeError):
+            continue
+        fn.argtypes, fn.restype = [ctypes.c_int64, ctypes.c_uint], ctypes.c_int
+        return fn
+    return None
 
 
 def fsync(path: Path) -> None:
@@ -119,10 +322,85 @@ def set_cf_attrs(ds: h5py.Dataset) -> None:
 
 
 def create(group: h5py.Group, name: str, data, dtype=None) -> h5py.Dataset:
-    """Create a fixed-size dataset with its CF attributes."""
+    """Create a fixed-size dataset with its CF attributes and its ``crc32`` (not for
+    variable-length strings such as ``/deck``, whose SHA-256 is a root attribute)."""
     ds = group.create_dataset(name, data=data, dtype=dtype)
     set_cf_attrs(ds)
+    if ds.dtype.kind != "O":
+        ds.attrs[CRC_ATTR] = np.int64(crc32(ds[()]))
     return ds
+
+
+def crc32(values) -> int:
+    """CRC-32 of the bytes of ``values`` (little-endian, C order): the same on every machine."""
+    a = np.ascontiguousarray(values)
+    if a.dtype.byteorder == ">" or (a.dtype.byteorder == "=" and _BIG_ENDIAN):
+        a = a.astype(a.dtype.newbyteorder("<"))
+    return zlib.crc32(a.reshape(-1).view(np.uint8))
+
+
+def checksum_row(scale_value, rows: dict, columns: list) -> np.ndarray:
+    """The ``checksum`` row of a step: CRC-32 of the scale value and of every row."""
+    return np.array([crc32(scale_value if name == SCALE_COLUMN else rows[name])
+                     for name in columns], dtype=np.int64)
+
+
+def damaged_steps(group: h5py.Group, n: int, only: str | None = None,
+                  block: int = 256) -> dict:
+    """``{dataset path: [steps]}`` of the first ``n`` (committed) steps of a step group whose
+    rows do not match their stored checksum; ``{}`` for a group without checksums. ``only``
+    checks one dataset (its path in the group, or the scale's). The datasets are read in
+    blocks of ``block`` steps."""
+    checksum = group.get("checksum")
+    if not isinstance(checksum, h5py.Dataset):
+        return {}
+    columns = str(python_value(checksum.attrs.get("columns", ""))).split()
+    scale = {"static": "load_factor", "transient": "time"}.get(group.name.lstrip("/"), "step")
+    n = min(n, checksum.shape[0])
+    stored = checksum[:n]
+    bad = {}
+    for j, name in enumerate(columns):
+        if only is not None and only != (scale if name == SCALE_COLUMN else name):
+            continue
+        ds = group.get(scale if name == SCALE_COLUMN else name)
+        if not isinstance(ds, h5py.Dataset) or ds.shape[:1] < (n,) or j >= stored.shape[1]:
+            bad[f"{group.name}/{name}"] = list(range(n))
+            continue
+        steps = []
+        for start in range(0, n, block):
+            data = ds[start:min(start + block, n)]
+            steps += [start + k for k, row in enumerate(data)
+                      if crc32(row) != stored[start + k, j]]
+        if steps:
+            bad[ds.name] = steps
+    return bad
+
+
+def fixed_damaged(ds: h5py.Dataset) -> bool:
+    """Whether a fixed dataset (``/model/...``) does not match its ``crc32`` attribute."""
+    stored = ds.attrs.get(CRC_ATTR)
+    return stored is not None and crc32(ds[()]) != int(stored)
+
+
+def checksum_problems(f: h5py.File, committed: dict) -> list[str]:
+    """Every dataset of an opened file that fails its checksum, one message each;
+    ``committed`` gives the number of committed steps of each step group."""
+    problems = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and CRC_ATTR in obj.attrs and fixed_damaged(obj):
+            problems.append(f"/{name} is damaged (its values do not match its checksum)")
+    f.visititems(visit)
+    for group, n in committed.items():
+        for name, steps in damaged_steps(f[group], n).items():
+            problems.append(f"{name} is damaged at {_steps(steps)} (the values do not match "
+                            "the checksum stored with the step)")
+    return problems
+
+
+def _steps(steps: list) -> str:
+    shown = ", ".join(map(str, steps[:10])) + (", ..." if len(steps) > 10 else "")
+    return f"step{'s' * (len(steps) > 1)} {shown}"
 
 
 def create_extendable(group: h5py.Group, name: str, trailing: tuple, dtype) -> h5py.Dataset:
@@ -140,10 +418,18 @@ def create_extendable(group: h5py.Group, name: str, trailing: tuple, dtype) -> h
 
 
 def append_step(f: h5py.File, datasets: dict, rows: dict, scale: h5py.Dataset, value,
-                k: int) -> None:
+                k: int, checksum: tuple | None = None) -> None:
     """Append row ``k`` of every dataset and make it durable, then commit the step by
     appending its scale value (load factor, time, static step) and flushing again: a reader
-    never sees a scale entry whose rows are not on disk."""
+    never sees a scale entry whose rows are not on disk.
+
+    ``checksum`` is ``(dataset, columns)``: the step's :func:`checksum_row` is appended to it
+    with the rows (schema 2.1)."""
+    if checksum is not None:
+        ds, columns = checksum
+        rows = dict(rows)
+        rows[ds.name] = checksum_row(np.asarray(value, dtype=scale.dtype), rows, columns)
+        datasets = {**datasets, ds.name: ds}
     for name, row in rows.items():
         ds = datasets[name]
         ds.resize(k + 1, axis=0)

@@ -28,6 +28,7 @@ selectors and the root attributes; splitting them would scatter one interface ov
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 from contextlib import contextmanager
@@ -39,11 +40,26 @@ import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.results.h5file import (
-    SchemaFile, open_for_reading, schema_major, str_list)
+    SchemaFile,
+    checksum_problems,
+    damaged,
+    damaged_steps,
+    fixed_damaged,
+    open_for_reading,
+    reading,
+    schema_major,
+    str_list,
+)
 from spacarpy.results.schema import (
-    DATASETS, KIND_NAMES, MODE_KIND_NAMES, legacy_name, new_name)
-from spacarpy.results.validate import check_readable
+    DATASETS,
+    KIND_NAMES,
+    MODE_KIND_NAMES,
+    STEP_GROUPS,
+    legacy_name,
+    new_name,
+)
 from spacarpy.results.stress import section_forces, section_properties, surface_stress
+from spacarpy.results.validate import check_readable, committed_steps
 
 __all__ = ["open_results", "ResultsFile", "ModelView", "StaticView", "TransientView",
            "EigenView", "BucklingView", "ComplianceView", "ModeShape", "ResultsQueryError",
@@ -73,13 +89,16 @@ class ModeShape(NamedTuple):
     euler: np.ndarray
 
 
-def open_results(path) -> "ResultsFile":
+def open_results(path, *, verify: bool = True) -> ResultsFile:
     """Open a results file for lazy reading.
 
     Parameters
     ----------
     path : str or os.PathLike
         A results file, complete or partial (``*.partial.h5`` of a failed or killed run).
+    verify : bool
+        Check each dataset against its checksums (schema 2.1) the first time it is read:
+        the whole dataset is read once more. ``False`` skips it (very large files).
 
     Returns
     -------
@@ -90,9 +109,10 @@ def open_results(path) -> "ResultsFile":
     ResultsFormatError
         The file cannot be opened, is not a spacarpy results file, has a newer major schema
         version than this spacarpy reads (the message names both versions), or violates the
-        schema.
+        schema; also later, when a dataset read is damaged (truncated, or its values do not
+        match its checksum).
     """
-    return ResultsFile(path)
+    return ResultsFile(path, verify=verify)
 
 
 class RootAttributes:
@@ -140,8 +160,10 @@ class ResultsFile(RootAttributes):
     compliance : ComplianceView or None
     """
 
-    def __init__(self, path):
+    def __init__(self, path, *, verify: bool = True):
         self.path = os.fspath(path)
+        self.verify = verify
+        self._verified: set[str] = set()
         self._handle = None
         self._context = None
         with open_for_reading(self.path) as f:
@@ -157,7 +179,7 @@ class ResultsFile(RootAttributes):
 
     # -- file access --------------------------------------------------------------------------
 
-    def __enter__(self) -> "ResultsFile":
+    def __enter__(self) -> ResultsFile:
         if self._handle is None:
             self._context = open_for_reading(self.path)
             self._handle = self._context.__enter__()
@@ -175,7 +197,8 @@ class ResultsFile(RootAttributes):
     @contextmanager
     def _file(self):
         if self._handle is not None:
-            yield self._handle
+            with reading(self.path):
+                yield self._handle
         else:
             with open_for_reading(self.path) as f:
                 yield f
@@ -191,7 +214,22 @@ class ResultsFile(RootAttributes):
 
     def _read(self, path: str, selection=()) -> np.ndarray:
         with self._file() as f:
-            return f[self._name(path)][selection]
+            ds = f[self._name(path)]
+            if self.verify and ds.name not in self._verified:
+                self._check(f, ds)
+            return ds[selection]
+
+    def _check(self, f, ds) -> None:
+        """Verify a whole dataset against its checksums, once (the first time it is read)."""
+        group, _, inner = ds.name.lstrip("/").partition("/")
+        if fixed_damaged(ds):
+            raise damaged(self.path, f"{ds.name} does not match its checksum")
+        if group in STEP_GROUPS and inner != "checksum":
+            steps = damaged_steps(f[group], f[group][STEP_GROUPS[group]].shape[0], only=inner)
+            for name, bad in steps.items():
+                raise damaged(self.path, f"{name} does not match the checksum stored with "
+                                         f"step{'s' * (len(bad) > 1)} {bad[:10]}")
+        self._verified.add(ds.name)
 
     def _has(self, path: str) -> bool:
         with self._file() as f:
@@ -207,7 +245,12 @@ class ResultsFile(RootAttributes):
     def deck(self) -> str:
         """The deck text, verbatim."""
         with self._file() as f:
-            return f["deck"].asstr()[()]
+            text = f["deck"].asstr()[()]
+        sha = self.attrs.get("deck_sha256")
+        if self.verify and isinstance(sha, str) and \
+                hashlib.sha256(text.encode("utf-8")).hexdigest() != sha:
+            raise damaged(self.path, "/deck does not match the root attribute deck_sha256")
+        return text
 
     def __repr__(self) -> str:
         parts = [f"{self.analysis} analysis",
@@ -928,6 +971,7 @@ def _step_arrays(sf, group: str, n: int) -> tuple[dict, dict]:
     arrays, elements = {}, {}
     for path, spec in DATASETS.items():
         if spec.group != group or path not in sf or not spec.shape \
+                or path.endswith("/checksum") \
                 or spec.shape[0] not in ("step", "time_step", "linearized_step"):
             continue
         data = sf[path][:n]
@@ -990,6 +1034,9 @@ def read_results(path) -> Results:
                 arrays, _ = _step_arrays(sf, group, n)
                 setattr(results, group, LinearizedResults(step=arrays.pop("step"),
                                                           arrays=arrays))
+        problems = checksum_problems(f, committed_steps(f))
+        if problems:
+            raise damaged(path, "; ".join(problems[:5]))
     if not results.completed:
         log.warning("%s is an incomplete run: %s", path,
                     results.error or "the writer did not finish (killed, or still running)")

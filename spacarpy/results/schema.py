@@ -18,7 +18,8 @@ Dimension names: ``step`` (committed load steps), ``time_step`` (committed time 
 ``linearized_step``, ``mode``, ``position_node`` (n_pos), ``orientation_node`` (n_rot),
 ``element`` (elements of the dataset's kind), ``deformation_mode`` (the kind's n_def),
 ``slot`` (the kind's node slots), ``reaction``, ``coordinate`` (3), ``euler_parameter`` (4),
-``global_coordinate`` (n_coord), ``load`` (load lines), ``input`` (prescribed deformations);
+``global_coordinate`` (n_coord), ``load`` (load lines), ``input`` (prescribed deformations),
+``checked_dataset`` (the datasets a ``checksum`` covers: its attribute ``columns``);
 integers are fixed sizes.
 """
 from __future__ import annotations
@@ -38,7 +39,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 0)
+SCHEMA_VERSION = (2, 1)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -305,6 +306,13 @@ def _spec_list() -> list[DatasetSpec]:
           "largest von Mises stress at the surface of each element (NaN: cross-section not "
           "known)", v11, "BEAM", optional=True),
     ]
+    # one CRC-32 per committed step and stored dataset of the group (schema 2.1)
+    for group, axis0 in (("static", "step"), ("transient", "time_step"),
+                         ("eigen", "linearized_step"), ("buckling", "linearized_step"),
+                         ("compliance", "linearized_step")):
+        out.append(S(f"{group}/checksum", "i8", (axis0, "checked_dataset"), "1",
+                     "CRC-32 of each step's row of the group's datasets (columns: attribute "
+                     "columns), stored with the step", (2, 1)))
     return out
 
 

@@ -4,7 +4,9 @@ This module's one job is validation, generated from :data:`spacarpy.results.sche
 every dataset the file should have (by group, element kind, schema version and the run's
 content) is checked for presence, dtype and shape (named dimensions resolved from the file),
 step datasets for their row counts against the group's commit scale, every dataset for its
-CF attributes (``units`` as in the table). A few facts the table cannot say (unique node
+CF attributes (``units`` as in the table), and the values of every dataset against their
+checksums (schema 2.1: ``/<group>/checksum`` per committed step, ``crc32`` of a fixed
+dataset), which names the damaged dataset and step. A few facts the table cannot say (unique node
 numbers, references to known nodes, value ranges) are checked by hand. Files of schema 1.x
 are checked through the same table, by their 1.x names
 (:data:`~spacarpy.results.schema.LEGACY_NAMES`).
@@ -21,15 +23,34 @@ import h5py
 import numpy as np
 
 from spacarpy.results.h5file import (
-    ResultsFormatError, SchemaFile, open_for_reading, python_value, str_list)
+    ResultsFormatError,
+    SchemaFile,
+    checksum_problems,
+    damaged,
+    open_for_reading,
+    python_value,
+    str_list,
+)
 from spacarpy.results.schema import (
-    DATASETS, FILETYPE, KIND_NAMES, PROGRAM, REACTION_COMPONENTS, ROOT_ATTRS, SCHEMA_VERSION,
-    STEP_GROUPS, LEGACY_OPTIONAL, n_def, n_slots, new_name, slot_roles)
+    DATASETS,
+    FILETYPE,
+    KIND_NAMES,
+    LEGACY_OPTIONAL,
+    PROGRAM,
+    REACTION_COMPONENTS,
+    ROOT_ATTRS,
+    SCHEMA_VERSION,
+    STEP_GROUPS,
+    n_def,
+    n_slots,
+    new_name,
+    slot_roles,
+)
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS
 
 log = logging.getLogger(__name__)
 
-__all__ = ["validate_file", "check_readable"]
+__all__ = ["validate_file", "check_readable", "committed_steps"]
 
 _OLDEST_MAJOR = 1
 _STEP_AXES = ("step", "time_step", "linearized_step")
@@ -61,8 +82,11 @@ def validate_file(path, *, require_complete: bool = False) -> list[str]:
                 return problems
             try:
                 problems = _layout_problems(f)
-            except (OSError, RuntimeError, ValueError, KeyError, TypeError) as exc:
-                return [f"cannot read the file: {exc}"]
+                if not problems:
+                    problems = checksum_problems(f, committed_steps(f))
+            except (OSError, RuntimeError, ValueError, KeyError, TypeError, IndexError,
+                    UnicodeDecodeError) as exc:
+                return [str(damaged(path, exc))]
             if require_complete and not python_value(f.attrs.get("completed", False)):
                 error = python_value(f.attrs.get("error"))
                 problems.append("run incomplete: " + (
@@ -70,6 +94,12 @@ def validate_file(path, *, require_complete: bool = False) -> list[str]:
             return problems
     except ResultsFormatError as exc:
         return [str(exc)]
+
+
+def committed_steps(f: h5py.File) -> dict:
+    """``{group: number of committed steps}`` of the step groups of an opened file."""
+    return {group: f[group][scale].shape[0] for group, scale in STEP_GROUPS.items()
+            if isinstance(f.get(f"{group}/{scale}"), h5py.Dataset)}
 
 
 def check_readable(f: h5py.File, path) -> dict:
@@ -138,7 +168,7 @@ def _layout_problems(f: h5py.File) -> list[str]:
             continue
         present = path in sf
         if not present:
-            required = not spec.optional and (version[0] >= 2 or version >= spec.since)
+            required = not spec.optional and version >= spec.since
             if version[0] < 2 and path in LEGACY_OPTIONAL:
                 required = False
             if path.endswith(("max_normal_stress", "max_von_mises_stress")):
@@ -192,6 +222,8 @@ def _dim(dim, spec, sizes, sf):
         return n_def(spec.kind) if spec.kind in KIND_NAMES else None
     if dim == "slot":
         return n_slots(spec.kind) if spec.kind in KIND_NAMES else None
+    if dim == "checked_dataset":
+        return None
     if dim == "mode":
         n_mode = python_value(sf.f[spec.group].attrs.get("n_mode"))
         return n_mode if isinstance(n_mode, int) else None

@@ -1,4 +1,4 @@
-"""Stream an analysis into a crash-safe results file (schema 2.0): :class:`ResultsWriter`.
+"""Stream an analysis into a crash-safe results file (schema 2.1): :class:`ResultsWriter`.
 
 This module's one job is writing: the writer receives arrays (the ``/model`` datasets from
 :func:`spacarpy.results.model_data.model_datasets`, then every step's results) and stores them
@@ -6,7 +6,9 @@ at the paths, dtypes and shapes of :data:`spacarpy.results.schema.DATASETS`; it 
 numbering and no stresses. The file's life cycle (partial file, SWMR, commit by scale,
 fsync) is :mod:`spacarpy.results.h5file`'s.
 
-- Every step is written, flushed, then *committed* by appending its scale value
+- Every step is written with its checksum row (``/<group>/checksum``: the CRC-32 of the
+  step's scale value and of its row of every dataset), flushed, then *committed* by appending
+  its scale value
   (``/static/load_factor``, ``/transient/time``, ``/<group>/step``) and flushing again.
 - A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
   cleanly with ``completed = False`` and the error message; the partial file is kept.
@@ -27,8 +29,15 @@ from spacarpy.model import Model
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, create_extendable, partial_path_for
 from spacarpy.results.schema import (
-    DATASETS, DEFORMATION_CLASS_NAMES, FILETYPE, MODE_KIND_NAMES, PROGRAM, REACTION_COMPONENTS,
-    SCHEMA_VERSION, n_def)
+    DATASETS,
+    DEFORMATION_CLASS_NAMES,
+    FILETYPE,
+    MODE_KIND_NAMES,
+    PROGRAM,
+    REACTION_COMPONENTS,
+    SCHEMA_VERSION,
+    n_def,
+)
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS
 
 log = logging.getLogger(__name__)
@@ -111,7 +120,7 @@ class ResultsWriter:
 
     # -- context manager ----------------------------------------------------------------------
 
-    def __enter__(self) -> "ResultsWriter":
+    def __enter__(self) -> ResultsWriter:
         return self.open()
 
     def __exit__(self, exc_type, exc, tb) -> bool:
@@ -141,7 +150,7 @@ class ResultsWriter:
         types = self.model_data.get("model/elements/BEAM/cross_section_type")
         return types is not None and bool(np.any(types != b""))
 
-    def open(self) -> "ResultsWriter":
+    def open(self) -> ResultsWriter:
         """Create the partial file and write the root attributes, ``/deck`` and ``/model``.
 
         Called by ``__enter__``; call it yourself only when not using ``with`` (and then call
@@ -379,6 +388,8 @@ class ResultsWriter:
             g.attrs["n_mode"] = np.int32(n_mode)
         for path, spec in self._specs(group):
             name = path[len(group) + 1:]
+            if name == "checksum":
+                continue
             trailing = tuple(self._size(d, spec.kind, n_mode) for d in spec.shape[1:])
             parent = g.require_group(name.rsplit("/", 1)[0]) if "/" in name else g
             ds = create_extendable(parent, name.rsplit("/", 1)[-1], trailing,
@@ -395,8 +406,13 @@ class ResultsWriter:
             entry["datasets"][name] = ds
             entry["shapes"][name] = trailing
             entry["dtypes"][name] = np.dtype(spec.dtype)
+        columns = [h5file.SCALE_COLUMN] + list(entry["datasets"])
+        checksum = create_extendable(g, "checksum", (len(columns),), np.dtype("i8"))
+        checksum.attrs["columns"] = " ".join(columns)
+        checksum.dims[0].label = entry["scale"].dims[0].label
+        entry["checksum"] = (checksum, columns)
         if not lin:
-            for name, ds in entry["datasets"].items():
+            for name, ds in [*entry["datasets"].items(), ("checksum", checksum)]:
                 ds.dims[0].attach_scale(entry["scale"])
                 spec = DATASETS[f"{group}/{name}"]
                 for axis, label in enumerate(spec.shape[1:], start=1):
@@ -434,7 +450,8 @@ class ResultsWriter:
                                  f"expected {entry['shapes'][name]}")
             rows[name] = row
         k = entry["n"]
-        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], value, k)
+        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], value, k,
+                           entry["checksum"])
         entry["n"] = k + 1
         if group == "static":
             log.debug("static step %d written (load factor %g)", k, value)
@@ -458,7 +475,8 @@ class ResultsWriter:
                 row[...] = given
             rows[name] = row
         k = entry["n"]
-        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], int(step), k)
+        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], int(step), k,
+                           entry["checksum"])
         entry["n"] = k + 1
 
     def _require_open(self, what: str) -> h5py.File:
