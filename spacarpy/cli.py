@@ -5,6 +5,9 @@ Exit codes (see :mod:`spacarpy.errors`): 0 success, 1 solver failure, 2 input er
 command line), 3 model not analysable (mechanism, over-constraint), 4 (``run``) an EXPECT line
 of the deck failed, 130 interrupted; ``batch``/``sweep``: 1 when a deck changed or failed.
 Progress goes to stderr, silenced by ``-q``; errors are printed without a traceback.
+
+The module is longer than 600 lines because it holds the argument parser of all ten
+subcommands and one short handler each; the work itself is in the modules they call.
 """
 from __future__ import annotations
 

@@ -218,7 +218,8 @@ def test_other_pages_examples(doc, line, kind, body, doc_result_file, tmp_path, 
         except DeckError as exc:
             pytest.fail(f"{where}: the example fragment does not parse:\n{exc}")
         return
-    for name in sorted(set(re.findall(r"[\"']([\w.-]+\.h5)[\"']", body))):
+    written = set(re.findall(r"# writes: ([\w.-]+\.h5)", body))     # files the block makes
+    for name in sorted(set(re.findall(r"[\"']([\w.-]+\.h5)[\"']", body)) - written):
         shutil.copy(doc_result_file(name), tmp_path / name)
     monkeypatch.chdir(tmp_path)
     with contextlib.redirect_stdout(io.StringIO()):

@@ -3,9 +3,11 @@
 Every ``import`` statement counts, deferred ones inside functions included: a deferred import
 hides a dependency from the reader, it does not remove it. Rules: no import cycles among
 spacarpy modules; element kernels (spacarpy.elements.*) import no model, deck, solver or
-results module; the deck layer and the results layer import no solver. A failing rule prints
-the offending edges (importer -> imported, with the line). The rules today's code still
-breaks are strict xfails, to be removed when the branches of issue 16 are merged.
+results module; the structure (model, settings, job) imports no deck, solver or results
+module; the deck layer imports no solver or results module; the solvers import no deck or
+results module; the results layer imports no solver or deck module. docs/architecture.md
+states the same layers. A failing rule prints the offending edges (importer -> imported,
+with the line).
 """
 from __future__ import annotations
 
@@ -19,7 +21,6 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "spacarpy"
-BEING_FIXED = pytest.mark.xfail(strict=True, reason="issue 16: being fixed on another branch")
 
 
 def module_names() -> dict[str, Path]:
@@ -129,13 +130,23 @@ def test_kernels_import_no_model_deck_solver_or_results():
 
 
 def test_deck_imports_no_solver():
-    bad = violations(["deck"], ["solvers"])
-    assert not bad, "the deck layer imports solvers:\n" + "\n".join(bad)
+    bad = violations(["deck"], ["solvers", "results"])
+    assert not bad, "the deck layer imports solvers or results:\n" + "\n".join(bad)
 
 
 def test_results_import_no_solver():
-    bad = violations(["results"], ["solvers"])
-    assert not bad, "the results layer imports solvers:\n" + "\n".join(bad)
+    bad = violations(["results"], ["solvers", "deck"])
+    assert not bad, "the results layer imports solvers or the deck:\n" + "\n".join(bad)
+
+
+def test_structure_imports_no_deck_solver_or_results():
+    bad = violations(["model", "settings", "job"], ["deck", "solvers", "results", "run", "cli"])
+    assert not bad, "the structure imports higher layers:\n" + "\n".join(bad)
+
+
+def test_solvers_import_no_deck_or_results():
+    bad = violations(["solvers"], ["deck", "results", "run", "cli", "batch"])
+    assert not bad, "the solvers import the deck or results layer:\n" + "\n".join(bad)
 
 
 def test_importing_spacarpy_leaves_the_environment_alone():

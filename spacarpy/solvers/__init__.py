@@ -1,0 +1,1 @@
+"""Solvers: equilibrium, load paths, linearized analyses and time integration of a model."""

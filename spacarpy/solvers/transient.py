@@ -24,6 +24,10 @@ Each step is solved by Newton's method on (x, mu) with the iteration matrix
 derivatives of M and of the convective terms are left out of it, which only slows Newton
 down when the velocities are large. A step whose Newton iterations fail is halved (up to
 ``max_cuts`` times) and retried; it is never skipped.
+
+The module is a little longer than 600 lines: the time step, its error control, the
+consistent initial state and the gauge of the Euler-parameter rates work on the same
+state and are kept together.
 """
 from __future__ import annotations
 
