@@ -6,8 +6,14 @@ Run from anywhere: ``python decks/make_paper_decks.py``. The deck text comes fro
 """
 from pathlib import Path
 
-from spacarpy.cases import (bend_deck, cantilever_deck, cantilever_modes_deck, column_deck,
-                            free_free_deck, lateral_buckling_deck)
+from spacarpy.cases import (
+    bend_deck,
+    cantilever_deck,
+    cantilever_modes_deck,
+    column_deck,
+    free_free_deck,
+    lateral_buckling_deck,
+)
 
 HERE = Path(__file__).resolve().parent
 

@@ -9,8 +9,8 @@ scheduler. Results come back to the client, which writes every file itself.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor, as_completed
-from typing import Callable, Iterable, Iterator
 
 __all__ = ["DaskUnavailable", "execute"]
 
@@ -33,7 +33,8 @@ def _local(fn, tasks, jobs) -> Iterator:
 
 def _dask(fn, tasks, jobs, address) -> Iterator:
     try:
-        from distributed import Client, LocalCluster, as_completed as dask_completed
+        from distributed import Client, LocalCluster
+        from distributed import as_completed as dask_completed
     except ImportError as exc:          # pragma: no cover - depends on the environment
         raise DaskUnavailable("--dask needs dask.distributed: pip install 'spacarpy[dask]' "
                               "(or pip install 'dask[distributed]')") from exc

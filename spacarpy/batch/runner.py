@@ -19,7 +19,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from spacarpy.errors import DeckError, SpacarError, EXIT_INPUT
+from spacarpy.errors import EXIT_INPUT, DeckError, SpacarError
 
 __all__ = ["BatchInputError", "DeckOutcome", "Task", "TaskResult", "find_decks", "run_batch",
            "run_task"]

@@ -74,7 +74,8 @@ QUANTITIES: dict[str, tuple[str, tuple[str, ...]]] = {
 _COMPONENTS = {"x": 1, "y": 2, "z": 3}
 _REACTIONS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 _SPECIAL = {"inf": math.inf, "+inf": math.inf, "-inf": -math.inf, "nan": math.nan}
-_LITERAL = re.compile(r"[+-]?(\d+)(?:\.(\d*))?(?:[eEdD]([+-]?\d+))?|[+-]?\.(\d+)(?:[eEdD]([+-]?\d+))?")
+_LITERAL = re.compile(r"[+-]?(\d+)(?:\.(\d*))?(?:[eEdD]([+-]?\d+))?"
+                      r"|[+-]?\.(\d+)(?:[eEdD]([+-]?\d+))?")
 
 
 @dataclass(frozen=True)
@@ -301,8 +302,8 @@ def load_with_expectations(path, *, deformations: str | None = None,
         The model and the analysis settings.
     expects : list of Expect
     """
-    from spacarpy.deck.semantics import build_job
     from spacarpy.deck.parser import parse_deck, read_deck_text
+    from spacarpy.deck.semantics import build_job
 
     text = read_deck_text(path)
     statements = parse_deck(text, str(path), overrides=overrides)

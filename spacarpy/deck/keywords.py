@@ -123,7 +123,7 @@ class KeywordSpec:
     extension: bool = False
     node_roles: str = ""
     range_first: bool = False
-    data_form: "KeywordSpec | None" = None
+    data_form: KeywordSpec | None = None
 
     @property
     def counts(self) -> tuple[int, ...]:

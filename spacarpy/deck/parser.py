@@ -24,16 +24,21 @@ import logging
 import math
 import os
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from itertools import accumulate
 from pathlib import Path
-from typing import Mapping
 
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
 
-from spacarpy.deck.keywords import (KEYWORDS, KIND_DESCRIPTIONS, VISUALIZATION_KEYWORDS,
-                                    FieldSpec, KeywordSpec)
+from spacarpy.deck.keywords import (
+    KEYWORDS,
+    KIND_DESCRIPTIONS,
+    VISUALIZATION_KEYWORDS,
+    FieldSpec,
+    KeywordSpec,
+)
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
 

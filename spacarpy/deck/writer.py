@@ -164,7 +164,7 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         out.append(format_record("INPUTE", d.element, d.mode))
     out += ["END", "HALT", ""]
     # ---------------------------------------------------------------- data module
-    for keyword, es in model.elements.items():
+    for es in model.elements.values():
         data = [tuple(float(v) for v in row) if has else None
                 for row, has in zip(es.stiffness, es.has_stiffness)]
         out += _element_lines("ESTIFF", es.ids, data, compact)

@@ -49,8 +49,16 @@ from typing import NamedTuple
 
 import numpy as np
 
-from spacarpy.elements.base import (POS_P, POS_Q, ROT_AT_P, ROT_AT_Q, SECTION_MASS,
-                                     Y_AXIS_FIELDS, ElementKind, Fields)
+from spacarpy.elements.base import (
+    POS_P,
+    POS_Q,
+    ROT_AT_P,
+    ROT_AT_Q,
+    SECTION_MASS,
+    Y_AXIS_FIELDS,
+    ElementKind,
+    Fields,
+)
 from spacarpy.elements.beam_layout import N_LDOF, QP, QQ, RP, RQ
 from spacarpy.elements.beam_mass import beam_convective, beam_mass_matrix, tangent_gravity
 from spacarpy.elements.chunks import in_chunks
@@ -184,7 +192,7 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     G[:, 1, YNYP] = -0.5 * lc * nzq
     G[:, 1, YNZQ] = -0.5 * lc * nyp
     # bending modes: e_j = s_j l0 (n1 . a_j)
-    for (j, s, sl, a), proj in zip(_BENDING, projections):
+    for (j, s, sl, _), proj in zip(_BENDING, projections):
         av = y[:, sl]
         G[:, j, YD] = s * lc * (av - proj[:, None] * n1) / length[:, None]
         G[:, j, sl] = s * lc * n1
@@ -225,7 +233,7 @@ def _basic(x, ny, nz, l0):
     e_hat[:, 0] = length - l0
     e_hat[:, 1] = 0.5 * l0 * (np.sum(nzp * nyq, 1) - np.sum(nyp * nzq, 1))
     projections = []
-    for j, s, sl, a in _BENDING:                 # bending modes: e_j = s_j l0 (n1 . a_j)
+    for j, s, sl, _ in _BENDING:                 # bending modes: e_j = s_j l0 (n1 . a_j)
         proj = np.sum(n1 * y[:, sl], axis=1)
         e_hat[:, j] = s * l0 * proj
         projections.append(proj)

@@ -9,8 +9,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from spacarpy.elements.base import (POS_P, POS_Q, ROT_AT_P, ROT_AT_Q, ElementKind, Fields,
-                                     Selected, expand)
+from spacarpy.elements.base import (
+    POS_P,
+    POS_Q,
+    ROT_AT_P,
+    ROT_AT_Q,
+    ElementKind,
+    Fields,
+    Selected,
+    expand,
+)
 from spacarpy.elements.beam import Beam, beam_gravity, check_saturation
 
 #: BEAM modes a PLBEAM keeps: 1 elongation, 2 and 3 bending in the x-y plane at p and q.

@@ -64,9 +64,16 @@ from typing import NamedTuple
 
 import numpy as np
 
+from spacarpy.elements.base import (
+    POS_P,
+    POS_Q,
+    ROT_AT_P,
+    SECTION_MASS,
+    Y_AXIS_FIELDS,
+    ElementKind,
+    Fields,
+)
 from spacarpy.elements.beam import reference_triads
-from spacarpy.elements.base import (POS_P, POS_Q, ROT_AT_P, SECTION_MASS, Y_AXIS_FIELDS,
-                                     ElementKind, Fields)
 from spacarpy.elements.beam_mass import g_matrix, section_inertia, tangent_gravity
 from spacarpy.linalg import batch_matvec, property_columns
 from spacarpy.rotation import hessian_combination, vector_jacobians

@@ -196,8 +196,12 @@ def _clamp(mbs, node: int, rotation=None) -> None:
     the global frame). The generic joint locks the relative rotation of its two marker
     frames, so the node's marker is turned back to the global frame in the reference."""
     import exudyn as exu
-    from exudyn.itemInterface import (MarkerBodyRigid, MarkerNodeRigid, ObjectGround,
-                                      ObjectJointGeneric)
+    from exudyn.itemInterface import (
+        MarkerBodyRigid,
+        MarkerNodeRigid,
+        ObjectGround,
+        ObjectJointGeneric,
+    )
     ground = mbs.AddObject(ObjectGround())
     m_ground = mbs.AddMarker(MarkerBodyRigid(bodyNumber=ground, localPosition=[0.0, 0.0, 0.0]))
     if rotation is None:
@@ -313,8 +317,12 @@ def bend(n: int, n_steps: int = 10, tol: float = 1e-6, chords: bool = False) -> 
     if missing:
         return missing
     import exudyn as exu
-    from exudyn.itemInterface import (MarkerNodeRigid, NodeRigidBodyRxyz,
-                                      ObjectBeamGeometricallyExact, ObjectJointGeneric)
+    from exudyn.itemInterface import (
+        MarkerNodeRigid,
+        NodeRigidBodyRxyz,
+        ObjectBeamGeometricallyExact,
+        ObjectJointGeneric,
+    )
     from exudyn.rigidBodyUtilities import RotXYZ2RotationMatrix
     b = BEND
     R = b["R"]

@@ -93,7 +93,8 @@ def classify(lam: np.ndarray, rigid: np.ndarray) -> np.ndarray:
     kind = np.full(lam.shape, ELASTIC, dtype=np.int8)
     scale = np.abs(lam[np.isfinite(lam)]).max(initial=1.0)
     kind[~np.isfinite(lam)] = INFINITE
-    cplx = np.isfinite(lam) & (np.abs(lam.imag) > 1e-8 * np.maximum(np.abs(lam.real), 1e-12 * scale))
+    cplx = np.isfinite(lam) & (np.abs(lam.imag)
+                               > 1e-8 * np.maximum(np.abs(lam.real), 1e-12 * scale))
     kind[cplx] = COMPLEX
     kind[(kind == ELASTIC) & (lam.real < 0)] = UNSTABLE
     kind[rigid & np.isfinite(lam) & ~cplx] = RIGID_BODY

@@ -22,7 +22,8 @@ accelerations) load the free coordinates through the coupling terms.
 """
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp

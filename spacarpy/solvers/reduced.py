@@ -31,8 +31,8 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, scatter_add
-from spacarpy.elements.chunks import in_chunks
 from spacarpy.elements.base import relative_positions
+from spacarpy.elements.chunks import in_chunks
 from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
@@ -214,7 +214,7 @@ class ReducedNewton:
         p = z = solve(r)
         rz = r @ z
         method = "conjugate gradients"
-        for it in range(max_iter):
+        for it in range(max_iter):  # noqa: B007 (it is logged after the loop)
             if np.linalg.norm(r) <= tol:
                 break
             ap = matvec(p)
