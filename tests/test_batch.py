@@ -142,3 +142,28 @@ def test_a_baseline_tolerance_file_loosens_named_datasets_only(tmp_path, capsys)
     from spacarpy.batch.compare import load_tolerances
     for name in ("leafspring_guidance_misalignment", "leafspring_guidance_sweep"):
         assert load_tolerances(BASELINE / f"{name}.tol.json")
+
+
+def test_multipliers_compare_by_classification_not_round_off(tmp_path):
+    """D3: a +mu/-mu pair stored swapped and an infinite multiplier stored as 4.9e16 (another
+    machine's round-off) match the committed baseline; one infinite multiplier more does
+    not."""
+    import h5py
+    import numpy as np
+    base = BASELINE / "table3_lateral_buckling_4el_modified.h5"
+    with h5py.File(base, "r") as f:
+        mult = f["buckling/load_multiplier"][()]
+    assert np.isnan(mult[0, 8:]).all() and mult[0, 0] == pytest.approx(-mult[0, 1], rel=1e-12)
+    other = mult.copy()
+    other[0, :2] = other[0, 1::-1]                    # the pair swapped
+    other[0, 8:] = [4.9e16, -1.96e16]                 # round-off for "infinite"
+    worse = mult.copy()
+    worse[0, 6] = 1.3e17                              # a finite multiplier became infinite
+    for name, data, n_diff in (("same", other, 0), ("worse", worse, 1)):
+        path = tmp_path / f"{name}.h5"
+        shutil.copy(base, path)
+        with h5py.File(path, "r+") as f:
+            f["buckling/load_multiplier"][...] = data
+        diffs = compare_files(path, base)
+        assert len(diffs) == n_diff, [d.message for d in diffs]
+    assert diffs[0].path == "/buckling/load_multiplier"

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from spacarpy.batch.compare import INFINITE_MULTIPLIER, canonical_multipliers
 from spacarpy.solvers import buckling as B
 from spacarpy.solvers import eigen as E
 
@@ -83,6 +84,11 @@ def test_canonical_order_groups_equal_magnitudes_by_sign():
     mu = np.array([2.0 * (1 + 1e-13), -1.0, 1.0 + 3e-15, -2.0, 7.0])
     assert mu[E.canonical_order(np.abs(mu), mu)].tolist() == [-1.0, 1.0 + 3e-15, -2.0,
                                                               2.0 * (1 + 1e-13), 7.0]
+    # the baseline's classification of raw stored values
+    row = np.array([[4.43, -4.43 * (1 + 1e-14), 4.9e16, np.nan, 12.6, -12.6]])
+    got = canonical_multipliers(row)
+    assert got[0, :4].tolist() == [-4.43 * (1 + 1e-14), 4.43, -12.6, 12.6]
+    assert np.isnan(got[0, 4:]).all() and 4.9e16 > INFINITE_MULTIPLIER > 1e13
 
 
 def test_a_massless_coordinate_is_an_infinite_mode_whatever_the_noise():
