@@ -45,9 +45,9 @@ ELASTIC, RIGID_BODY, UNSTABLE, COMPLEX, INFINITE = 0, 1, 2, 3, 4
 KIND_NAMES = {ELASTIC: "elastic", RIGID_BODY: "rigid-body", UNSTABLE: "unstable",
               COMPLEX: "complex", INFINITE: "infinite"}
 
-#: Safety factor of the infinity and zero bounds (module docstring): the backward error of
-#: the eigensolvers and of the assembly is a small multiple of ``n eps`` times the norms.
-SAFETY = 100.0
+#: Safety factor of the infinity bound (module docstring): the backward error of the
+#: eigensolver in M is a small multiple of ``n eps ||M||``.
+SAFETY = 10.0
 #: Relative tolerance within which two eigenvalues' magnitudes count as equal for ordering.
 TIE_RTOL = 1e-9
 
