@@ -53,7 +53,7 @@ def test_changed_failed_and_timeout_are_reported_while_the_others_complete(tmp_p
                                 "ESTIFF 1:200000 1 1 1 1\nDELXF 3 0 1 0\nITERSTEP 20 100 1e-9\n"
                                 "END\nEND\n")
     xml_report, json_report = tmp_path / "r.xml", tmp_path / "r.json"
-    rc = main(["batch", str(d), "--baseline", str(BASELINE), "-j", "2", "--timeout", "8",
+    rc = main(["batch", str(d), "--baseline", str(BASELINE), "-j", "2", "--timeout", "30",
                "-q", "--report", str(xml_report), "--report", str(json_report)])
     assert rc == 1
     out = capsys.readouterr().out
@@ -70,7 +70,7 @@ def test_changed_failed_and_timeout_are_reported_while_the_others_complete(tmp_p
     assert doc["broken.dat"]["status"] == "failed"
     assert "unknown keyword 'BEEM'" in doc["broken.dat"]["message"]
     assert doc["hang.dat"]["status"] == "failed"
-    assert "timed out after 8 s" in doc["hang.dat"]["message"]
+    assert "timed out after 30 s" in doc["hang.dat"]["message"]
     assert "CHANGED  column_clamped_buckling_16el.dat" in out
     suite = ET.parse(xml_report).getroot().find("testsuite")
     assert suite.get("tests") == "4" and suite.get("failures") == "1" \
@@ -142,3 +142,28 @@ def test_a_baseline_tolerance_file_loosens_named_datasets_only(tmp_path, capsys)
     from spacarpy.batch.compare import load_tolerances
     for name in ("leafspring_guidance_misalignment", "leafspring_guidance_sweep"):
         assert load_tolerances(BASELINE / f"{name}.tol.json")
+
+
+def test_multipliers_compare_by_classification_not_round_off(tmp_path):
+    """D3: a +mu/-mu pair stored swapped and an infinite multiplier stored as 4.9e16 (another
+    machine's round-off) match the committed baseline; one infinite multiplier more does
+    not."""
+    import h5py
+    import numpy as np
+    base = BASELINE / "table3_lateral_buckling_4el_modified.h5"
+    with h5py.File(base, "r") as f:
+        mult = f["buckling/load_multiplier"][()]
+    assert np.isnan(mult[0, 8:]).all() and mult[0, 0] == pytest.approx(-mult[0, 1], rel=1e-12)
+    other = mult.copy()
+    other[0, :2] = other[0, 1::-1]                    # the pair swapped
+    other[0, 8:] = [4.9e16, -1.96e16]                 # round-off for "infinite"
+    worse = mult.copy()
+    worse[0, 6] = 1.3e17                              # a finite multiplier became infinite
+    for name, data, n_diff in (("same", other, 0), ("worse", worse, 1)):
+        path = tmp_path / f"{name}.h5"
+        shutil.copy(base, path)
+        with h5py.File(path, "r+") as f:
+            f["buckling/load_multiplier"][...] = data
+        diffs = compare_files(path, base)
+        assert len(diffs) == n_diff, [d.message for d in diffs]
+    assert diffs[0].path == "/buckling/load_multiplier"

@@ -72,3 +72,29 @@ def test_frequency_versus_axial_load_per_step(tmp_path):
     # the buckling multipliers fall as 1 / (P / P_E) along the same path
     crit = res.buckling.critical_load_multiplier
     np.testing.assert_allclose(crit[1:] * -ratio[1:], 1.0, rtol=1e-4)
+
+
+def test_infinite_multipliers_are_shown_and_extracted_as_infinite(tmp_path, capsys):
+    """D3: Table 3 with 4 basic elements has 6 finite multipliers (3 +-mu pairs, negative
+    first) and 4 infinite ones; show and extract say "infinite", never 1e16."""
+    res = run(tmp_path, "table3_lateral_buckling_4el_basic")
+    mult = res.buckling.load_multiplier[-1]
+    assert np.isfinite(mult[:6]).all() and np.isnan(mult[6:]).all()
+    assert (np.sign(mult[:6]) == [-1, 1, -1, 1, -1, 1]).all()
+    np.testing.assert_allclose(np.abs(mult[:6:2]), np.abs(mult[1:6:2]), rtol=1e-12)
+    out = tmp_path / "table3_lateral_buckling_4el_basic.h5"
+    capsys.readouterr()
+    assert main(["extract", str(out), "buckling", "--csv"]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0].endswith(",kind")
+    kinds = [r.rsplit(",", 1)[1] for r in rows[1:]]
+    assert kinds == ["finite"] * 6 + ["infinite"] * 4
+    assert main(["show", str(out)]) == 0
+    res_out = capsys.readouterr().out
+    assert "e+16" not in res_out and "e+17" not in res_out
+    one = tmp_path / "one.h5"
+    assert main(["run", str(DECKS / "table3_lateral_buckling_1el_basic.dat"), "-o", str(one),
+                 "-q"]) == 0
+    capsys.readouterr()
+    assert main(["show", str(one)]) == 0
+    assert "       inf  infinite  infinite  infinite  infinite" in capsys.readouterr().out

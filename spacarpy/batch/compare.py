@@ -10,6 +10,17 @@ change of the solver's iteration path (within its tolerance) and carry no inform
 ``floor`` (1e-9) of the dataset's scale. For each differing
 dataset the worst element is reported: its index and its relative difference ``|a - b| / |b|``.
 Datasets whose values legitimately vary between machines or runs (:data:`IGNORED`) are skipped.
+
+Classified modes compare by their classification first, then by value (round-off must not
+decide a comparison). ``/buckling/load_multiplier``: in each row a value that is NaN, inf or
+larger in magnitude than :data:`INFINITE_MULTIPLIER` is infinite (a 1.x baseline may hold a
+round-off 4.9e16 where the solver now stores NaN); each row of both files is put in the
+solver's canonical order (finite ones by magnitude, ``+mu, -mu`` pairs by signed value, see
+:mod:`spacarpy.solvers.buckling`; then the infinite ones as NaN), so a pair that round-off
+stored swapped compares equal and a different number of infinite multipliers is a
+difference. ``/eigen/eigenvalue_*`` and ``/eigen/frequency`` compare only where both files'
+``/eigen/kind`` agree and the mode is neither infinite nor complex; ``/eigen/kind`` itself
+compares exactly.
 """
 from __future__ import annotations
 
@@ -18,13 +29,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["IGNORED", "DatasetDiff", "compare_files", "load_tolerances"]
+__all__ = ["IGNORED", "INFINITE_MULTIPLIER", "DatasetDiff", "compare_files",
+           "load_tolerances"]
 
 #: Dataset paths (fnmatch patterns) not compared: the Newton residual and iteration counts
 #: of static and transient runs (they depend on round-off), and mode shapes (their sign, and
 #: the basis of repeated eigenvalues, are arbitrary).
 IGNORED = ("/static/residual", "/static/iterations", "/transient/residual",
            "/transient/iterations", "/*/shape_position", "/*/shape_euler")
+
+#: A stored buckling multiplier above this magnitude is infinite: 1 / (SAFETY eps) of the
+#: solver's bound (:mod:`spacarpy.solvers.buckling`) with ``|v^T K v| / ||G||`` taken as 1;
+#: a load 4.5e13 times smaller than the one that buckles the structure is round-off.
+INFINITE_MULTIPLIER = 1.0 / (100.0 * np.finfo(float).eps)
+#: Datasets compared only where ``/eigen/kind`` agrees and is finite (elastic, rigid-body,
+#: unstable).
+_EIGEN_VALUES = ("/eigen/eigenvalue_real", "/eigen/eigenvalue_imag", "/eigen/frequency")
+_EIGEN_NOT_FINITE = (3, 4)          # complex, infinite (spacarpy.solvers.eigen.KIND_NAMES)
 
 
 @dataclass(frozen=True)
@@ -79,7 +100,24 @@ def _numeric_datasets(f) -> dict:
     return out
 
 
-def _compare(path, a, b, rtol, atol, floor=0.0) -> DatasetDiff | None:
+def canonical_multipliers(mult: np.ndarray) -> np.ndarray:
+    """Buckling multipliers (..., n_mode) with every row in the canonical order, infinite
+    ones (NaN, inf, beyond :data:`INFINITE_MULTIPLIER`) as NaN at the end."""
+    from spacarpy.solvers.eigen import canonical_order
+
+    mult = np.asarray(mult, dtype=float)
+    out = np.full(mult.shape, np.nan)
+    for idx in np.ndindex(mult.shape[:-1]):
+        row = mult[idx]
+        with np.errstate(invalid="ignore"):
+            vals = row[np.isfinite(row) & (np.abs(row) <= INFINITE_MULTIPLIER)]
+        out[idx][:vals.size] = vals[canonical_order(np.abs(vals), vals)]
+    return out
+
+
+def _compare(path, a, b, rtol, atol, floor=0.0, mask=None) -> DatasetDiff | None:
+    """The difference of ``a`` from the baseline ``b``, or None; ``mask``: the elements to
+    compare (default all)."""
     if a.shape != b.shape:
         return DatasetDiff(path, None, np.nan, np.nan, np.inf, -1,
                            f"{path}: shape {a.shape} differs from the baseline's {b.shape}")
@@ -88,6 +126,8 @@ def _compare(path, a, b, rtol, atol, floor=0.0) -> DatasetDiff | None:
     a = a.astype(float)
     b = b.astype(float)
     same_special = (np.isnan(a) & np.isnan(b)) | (np.isinf(a) & (a == b))
+    if mask is not None:
+        same_special |= ~mask
     finite = np.abs(b[np.isfinite(b)])
     scale = float(finite.max()) if finite.size else 0.0
     with np.errstate(invalid="ignore", over="ignore"):
@@ -171,6 +211,11 @@ def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
     diffs = []
     with h5py.File(result, "r") as fa, h5py.File(baseline, "r") as fb:
         da, db = _numeric_datasets(fa), _numeric_datasets(fb)
+        eigen_ok = None
+        if "/eigen/kind" in da and "/eigen/kind" in db:
+            ka, kb = da["/eigen/kind"][()], db["/eigen/kind"][()]
+            if ka.shape == kb.shape:
+                eigen_ok = (ka == kb) & ~np.isin(ka, _EIGEN_NOT_FINITE)
         for path in sorted(set(da) & set(db)):
             if any(fnmatch.fnmatchcase(path, pat) for pat in ignore):
                 continue
@@ -179,7 +224,12 @@ def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
                 if fnmatch.fnmatchcase(path, pat):
                     r, a = max(r, pr or 0.0), max(a, pa or 0.0)     # loosen, never tighten
                     break
-            d = _compare(path, da[path][()], db[path][()], r, a, floor)
+            va, vb, mask = da[path][()], db[path][()], None
+            if path == "/buckling/load_multiplier":
+                va, vb = canonical_multipliers(va), canonical_multipliers(vb)
+            elif path in _EIGEN_VALUES and eigen_ok is not None and va.shape == eigen_ok.shape:
+                mask = eigen_ok
+            d = _compare(path, va, vb, r, a, floor, mask)
             if d is not None:
                 diffs.append(d)
     return diffs

@@ -317,11 +317,14 @@ def _x_buckling(res, step, mode, **_):
     mult = view.load_multiplier[np.ix_(rows, modes)]
     n_m = modes.size
     crit = view.critical_load_multiplier[rows]
+    # a multiplier the solver classified infinite is stored as NaN (docs/linearized.md)
+    kind = np.where(np.isnan(mult), "infinite", "finite")
     return Table("buckling load multipliers",
-                 ["step", "load_factor", "mode", "load_multiplier", "critical_load_multiplier"],
-                 ["1"] * 5,
+                 ["step", "load_factor", "mode", "load_multiplier", "critical_load_multiplier",
+                  "kind"], ["1"] * 6,
                  [np.repeat(view.step[rows], n_m), np.repeat(view.load_factor[rows], n_m),
-                  np.tile(modes + 1, rows.size), mult.reshape(-1), np.repeat(crit, n_m)])
+                  np.tile(modes + 1, rows.size), mult.reshape(-1), np.repeat(crit, n_m),
+                  kind.reshape(-1)])
 
 
 def _x_shape(group):
@@ -688,6 +691,6 @@ def _buckling_summary(res) -> list:
     rows = [["step", "load factor", "critical"] + [f"mu{j + 1}" for j in range(n_show)]]
     for r in range(b.n_lin):
         rows.append([str(b.step[r]), f"{b.load_factor[r]:.6g}", f"{crit[r]:.6g}"]
-                    + [f"{v:.6g}" for v in mult[r]])
+                    + [f"{v:.6g}" if not np.isnan(v) else "infinite" for v in mult[r]])
     return [f"Buckling load multipliers at {b.n_lin} linearized step(s) (critical = smallest "
             "positive):"] + _indent(_align(_elided(rows)))

@@ -4,9 +4,28 @@ K0 is the material stiffness at the state; G0 + N0 is the load-proportional part
 tangent (stress resultants including the multipliers of rigid modes, Euler-parameter and
 moment-load terms), so ``mu`` multiplies the *whole* load acting in that state (SPACAR's
 ``eig(-K0, G0)``). Dense reduction to the constraint null space for small models, sparse
-shift-invert about mu = 0 on the bordered pencil for large ones. A state whose stresses
-cannot make the structure unstable (e.g. one basic-deformation element in Table 3) has no
-finite multiplier: :attr:`Buckling.critical` is then ``inf``.
+shift-invert about mu = 0 on the bordered pencil for large ones.
+
+Classification (round-off never decides it). A mode whose load term does not load it has an
+infinite multiplier; computed, it comes out as ``inf``, ``nan`` or, with the round-off of
+another machine's BLAS, as 1e16. A multiplier ``mu`` with unit eigenvector ``v`` is
+**infinite** when ``|v^T G v|`` is within its round-off,
+
+    |v^T G v| <= SAFETY eps (n ||G||_F + |v|^T (|K| + |K0|) |v|),
+
+n the number of coordinates, eps machine epsilon, SAFETY :data:`SAFETY`: the first term is
+the eigensolver's backward error in G, the second the round-off of ``G = K - K0`` itself
+(entry by entry eps times the stiffness: 3.5e-10 beside ||G|| = 639 in the clamped column
+deck). Equivalently, ``|mu|`` exceeds the bound ``|v^T K0 v|`` divided by that right-hand
+side (:func:`infinite_bound`). Such a multiplier has no correct digit; it is reported as
+infinite. A load term that vanishes (``G = 0``) makes every multiplier infinite. A state
+whose stresses cannot make the structure unstable (one basic-deformation element in Table 3)
+has no finite multiplier: :attr:`Buckling.critical` is then ``inf``.
+
+Order (deterministic): the finite multipliers by magnitude; multipliers whose magnitudes agree
+to :data:`TIE_RTOL` (the ``+mu, -mu`` pairs of a load whose reversal is symmetric) form one
+group, ordered by signed value (negative first); then the infinite ones, stored as NaN (the
+schema's "none"). Shapes are scaled so that their largest component is +1.
 """
 from __future__ import annotations
 
@@ -18,63 +37,126 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from spacarpy.solvers.eigen import DENSE_LIMIT, null_space_basis
+from spacarpy.solvers.eigen import DENSE_LIMIT, canonical_sign, null_space_basis
 
 log = logging.getLogger(__name__)
+
+#: Safety factor of the infinity bound. A load term that does not load a mode gives
+#: ``|v^T G v|`` of 0.4 to 8 times ``eps ||G||`` on the Table 3 decks (12 coordinates), so
+#: the bound ``SAFETY n eps ||G||`` is 15 times above it there.
+SAFETY = 10.0
+#: Relative tolerance within which two multipliers' magnitudes count as equal for ordering.
+TIE_RTOL = 1e-9
+#: Codes of :attr:`Buckling.kind` (those of ``MODE_KIND_NAMES``: 0 finite, 4 infinite).
+FINITE, INFINITE = 0, 4
 
 
 @dataclass
 class Buckling:
-    """Finite load multipliers (smallest magnitude first) and buckling shapes.
+    """Finite load multipliers (ordered as in the module docstring) and buckling shapes.
 
     Attributes
     ----------
     multiplier : (n_mode,) float
-        Real multipliers of the load in the linearized state (NaN-padded to the requested
-        number when fewer finite ones exist).
+        Real multipliers of the load in the linearized state, NaN where the multiplier is
+        infinite (and beyond the number of degrees of freedom).
+    kind : (n_mode,) int8
+        :data:`FINITE` or :data:`INFINITE` for each entry of ``multiplier``.
     shape : (n_x, n_mode) float
-        Shapes over the free coordinates, largest component 1.
+        Shapes over the free coordinates, largest component +1 (NaN for infinite ones).
     critical : float
         Smallest positive multiplier, ``inf`` when there is none.
     """
 
     multiplier: np.ndarray
+    kind: np.ndarray
     shape: np.ndarray
     critical: float
 
 
+def _quad(v, A):
+    """|v^H A v| of each column of ``v``."""
+    return np.abs(np.einsum("ij,ij->j", v.conj(), A @ v))
+
+
+def round_off(lin, v, g_norm: float, n: int) -> np.ndarray:
+    """The round-off ``SAFETY eps (n ||G||_F + |v|^T (|K| + |K0|) |v|)`` of ``v^T G v`` for
+    each unit column ``v`` (free coordinates) of ``v``."""
+    a = abs(lin.K) + abs(lin.K_mat)
+    return SAFETY * np.finfo(float).eps * (n * g_norm + _quad(np.abs(v), a))
+
+
+def infinite_bound(lin, v) -> np.ndarray:
+    """The magnitude above which the multiplier of each unit shape ``v`` (free coordinates,
+    one a column) is infinite: ``|v^T K0 v| / round_off``."""
+    G = lin.G
+    r = round_off(lin, v, float(sp.linalg.norm(G)), v.shape[0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(r > 0, _quad(v, lin.K_mat) / r, 0.0)
+
+
+def _infinite(mu, v, vx, lin, G, g_norm, n):
+    """True for the multipliers that are infinite (module docstring); ``v`` the eigenvectors
+    of the pencil (K0, -G) with n coordinates, ``vx`` the same over the free coordinates."""
+    norm = np.linalg.norm(v, axis=0)
+    norm = np.where(norm > 0, norm, 1.0)
+    gv = _quad(v / norm, G)
+    with np.errstate(invalid="ignore"):
+        return ~np.isfinite(mu) | (gv <= round_off(lin, vx / norm, g_norm, n))
+
+
+def canonical_order(mu: np.ndarray) -> np.ndarray:
+    """Indices ordering finite real ``mu`` by magnitude, ties (to :data:`TIE_RTOL`) by
+    signed value."""
+    order = np.argsort(np.abs(mu), kind="stable")
+    mag = np.abs(mu[order])
+    # a new group wherever the magnitude rises by more than TIE_RTOL from the previous one
+    new = np.ones(mag.size, dtype=bool)
+    new[1:] = mag[1:] - mag[:-1] > TIE_RTOL * np.maximum(mag[1:], np.finfo(float).tiny)
+    group = np.cumsum(new)
+    return order[np.lexsort((mu[order], group))]
+
+
 def buckling_modes(lin, n_modes: int = 6, dense_limit: int = DENSE_LIMIT) -> Buckling:
+    """Load multipliers and shapes of the linearization ``lin`` (see the module docstring)."""
     n_x = lin.K.shape[0]
     G = lin.G
+    if G.nnz == 0 or not np.any(G.data):            # no load term: nothing can buckle
+        return Buckling(multiplier=np.full(n_modes, np.nan),
+                        kind=np.full(n_modes, INFINITE, dtype=np.int8),
+                        shape=np.full((n_x, n_modes), np.nan), critical=np.inf)
     if n_x <= dense_limit:
         T = null_space_basis(lin.C, n_x)
         k0 = T.T @ (lin.K_mat @ T)
         g0 = T.T @ (G @ T)
-        mu, v = sla.eig(k0, -g0)
-        v = T @ v
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mu, v = sla.eig(k0, -g0)
+        v_red, v = v, T @ v
+        infinite = _infinite(mu, v_red, v, lin, g0, float(np.linalg.norm(g0)), k0.shape[0])
     else:
         n_c = lin.C.shape[0]
         a = sp.bmat([[lin.K_mat, lin.C.T], [lin.C, None]], format="csc")
         b = sp.block_diag([-G, sp.csc_matrix((n_c, n_c))], format="csc")
         lu = spla.splu(a)
         op = spla.LinearOperator(a.shape, matvec=lambda x: lu.solve(b @ x), dtype=float)
-        nu, v = spla.eigs(op, k=min(n_modes + 4, n_x - 1), which="LM")
+        nu, v = spla.eigs(op, k=min(n_modes + 4, a.shape[0] - 2), which="LM")
         with np.errstate(divide="ignore", invalid="ignore"):
             mu = 1.0 / nu
         v = v[:n_x]
-    finite = np.isfinite(mu) & (np.abs(mu.imag) <= 1e-8 * np.abs(mu))
-    if np.any(np.isfinite(mu) & ~finite):
+        infinite = _infinite(mu, v, v, lin, G, float(sp.linalg.norm(G)), n_x)
+    real = ~infinite & (np.abs(mu.imag) <= 1e-8 * np.abs(mu))
+    if np.any(~infinite & ~real):
         log.warning("complex buckling multipliers ignored (non-symmetric load terms)")
-    mu_f = mu[finite].real
-    v_f = v[:, finite].real
-    order = np.argsort(np.abs(mu_f))
-    mu_f, v_f = mu_f[order][:n_modes], v_f[:, order][:, :n_modes]
-    big = np.abs(v_f).max(axis=0, initial=0.0)
-    v_f = v_f / np.where(big > 0, big, 1.0)
+    mu_f = mu[real].real
+    v_f = canonical_sign(v[:, real])
     positive = mu_f[mu_f > 0]
     critical = float(positive.min()) if positive.size else np.inf
+    order = canonical_order(mu_f)[:n_modes]
+    mu_f, v_f = mu_f[order], v_f[:, order]
+    kind = np.full(n_modes, INFINITE, dtype=np.int8)
+    kind[:mu_f.size] = FINITE
     pad = n_modes - mu_f.size
     if pad > 0:
         mu_f = np.concatenate([mu_f, np.full(pad, np.nan)])
         v_f = np.concatenate([v_f, np.full((n_x, pad), np.nan)], axis=1)
-    return Buckling(multiplier=mu_f, shape=v_f, critical=critical)
+    return Buckling(multiplier=mu_f, kind=kind, shape=v_f, critical=critical)

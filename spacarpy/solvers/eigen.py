@@ -10,6 +10,18 @@ Every mode is classified (:data:`KIND_NAMES`): elastic; rigid-body (no element d
 deformation rates ``D v`` vanish); unstable (real negative w^2: the state has buckled or is a
 maximum of the potential); complex (non-conservative loading, flutter-type); or infinite (a
 coordinate without inertia). Nothing is dropped: unusual modes are reported with a warning.
+
+Round-off never decides a classification or an order. With ``v`` a mode's unit eigenvector,
+``n`` the number of coordinates and eps machine epsilon, a mode is **infinite** when
+``|v^T M v| <= SAFETY n eps ||M||_F`` (a round-off-size change of M could make it infinite:
+LAPACK returns such an eigenvalue as inf, nan or 1e16 depending on the BLAS); it is stored as
+``inf``. The test applies where M is not positive definite (a positive definite M, checked by
+its Cholesky factorization in the dense solve, has no infinite modes). A mode is rigid-body
+when its deformation rates are below 1e-7 of its size (:func:`_rigid_mask`), a bound far
+above round-off. Modes are ordered by ``|w^2|`` (infinite ones last); magnitudes equal to
+:data:`TIE_RTOL` (an unstable/elastic ``-w^2, +w^2`` pair, complex conjugates) by signed real
+part, then by imaginary part, positive first. Each shape's first largest component is
+positive (:func:`canonical_sign`).
 """
 from __future__ import annotations
 
@@ -32,6 +44,12 @@ FEW_MODES_DENSE_LIMIT = 400
 ELASTIC, RIGID_BODY, UNSTABLE, COMPLEX, INFINITE = 0, 1, 2, 3, 4
 KIND_NAMES = {ELASTIC: "elastic", RIGID_BODY: "rigid-body", UNSTABLE: "unstable",
               COMPLEX: "complex", INFINITE: "infinite"}
+
+#: Safety factor of the infinity bound (module docstring): the backward error of the
+#: eigensolver in M is a small multiple of ``n eps ||M||``.
+SAFETY = 10.0
+#: Relative tolerance within which two eigenvalues' magnitudes count as equal for ordering.
+TIE_RTOL = 1e-9
 
 
 @dataclass
@@ -71,6 +89,43 @@ def null_space_basis(C: sp.spmatrix, n_x: int) -> np.ndarray:
         _, sv, vh = sla.svd(a, full_matrices=True, lapack_driver="gesvd")
         rank = int(np.sum(sv > 1e-10 * sv.max(initial=0.0)))
         return vh[rank:].conj().T
+
+
+def canonical_sign(v: np.ndarray) -> np.ndarray:
+    """Real shapes (n, m) from eigenvectors: each column divided by its first largest
+    component (within 1e-6 of the largest magnitude), so that component is exactly +1 and
+    the sign is not decided by round-off or by the eigensolver."""
+    if v.size == 0:
+        return np.real(v).astype(float)
+    mag = np.abs(v)
+    first = np.argmax(mag >= (1.0 - 1e-6) * mag.max(axis=0), axis=0)
+    piv = v[first, np.arange(v.shape[1])]
+    return np.real(v / np.where(piv == 0, 1.0, piv))
+
+
+def canonical_order(key: np.ndarray, *ties: np.ndarray) -> np.ndarray:
+    """Indices ordering ``key`` (non-negative, inf and nan last) ascending, where entries
+    equal to :data:`TIE_RTOL` form one group ordered by ``ties`` (the first one first)."""
+    key = np.where(np.isnan(key), np.inf, key)
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    new = np.ones(k.size, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        new[1:] = ~(k[1:] - k[:-1] <= TIE_RTOL * np.maximum(k[1:], np.finfo(float).tiny))
+    group = np.cumsum(new)
+    return order[np.lexsort(tuple(t[order] for t in reversed(ties)) + (group,))]
+
+
+def _norm(A) -> float:
+    return float(sp.linalg.norm(A)) if sp.issparse(A) else float(np.linalg.norm(A))
+
+
+def infinite_mask(lam, vec, M) -> np.ndarray:
+    """True for the modes that are infinite by the module docstring's bound."""
+    norm = np.linalg.norm(vec, axis=0)
+    v = vec / np.where(norm > 0, norm, 1.0)
+    mv = np.abs(np.einsum("ij,ij->j", v.conj(), M @ v))
+    return ~np.isfinite(lam) | (mv <= SAFETY * vec.shape[0] * np.finfo(float).eps * _norm(M))
 
 
 def _rigid_mask(lin, num, free, shapes: np.ndarray) -> np.ndarray:
@@ -125,13 +180,17 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
         dense_limit = DENSE_LIMIT if 4 * n_modes >= n_x else min(DENSE_LIMIT,
                                                                   FEW_MODES_DENSE_LIMIT)
     if n_x <= dense_limit:
-        lam, vec = _dense(lin, n_x)
+        lam, vec, definite = _dense(lin, n_x)
     else:
+        definite = False
         lam, vec = _sparse(lin, n_x, n_modes)
         lam = _rayleigh(lin, num, free, lam, vec)
-    order = np.lexsort((np.abs(lam.imag), np.where(np.isfinite(lam), np.abs(lam.real), np.inf)))
+    if not definite:
+        lam = np.where(infinite_mask(lam, vec, lin.M), complex(np.inf, 0.0), lam)
+    key = np.where(np.isfinite(lam), np.abs(lam.real), np.inf)
+    order = canonical_order(key, np.where(np.isfinite(lam), lam.real, np.inf), -lam.imag)
     lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
-    vec = _normalize(vec.real, lin.M)
+    vec = _normalize(canonical_sign(vec), lin.M)
     rigid = _rigid_mask(lin, num, free, vec)
     kind = classify(lam, rigid)
     for k, name in ((UNSTABLE, "negative w^2 (unstable or buckled state)"),
@@ -150,11 +209,12 @@ def _dense(lin, n_x):
     if symmetric:
         try:
             lam, v = sla.eigh(0.5 * (k + k.T), 0.5 * (m + m.T))
-            return lam.astype(complex), T @ v
+            return lam.astype(complex), T @ v, True
         except np.linalg.LinAlgError:          # M not positive definite: general solver
             pass
-    lam, v = sla.eig(k, m)
-    return lam, T @ v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam, v = sla.eig(k, m)
+    return lam, T @ v, False
 
 
 def _sparse(lin, n_x, n_modes):
