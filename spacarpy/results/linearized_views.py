@@ -1,0 +1,131 @@
+"""Views of the linearized groups of a results file: ``/eigen``, ``/buckling``, ``/compliance``.
+
+One row per linearized static step; modes numbered from 1. Handed out by
+:class:`spacarpy.results.reader.ResultsFile` like the views of :mod:`spacarpy.results.views`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from spacarpy.results.schema import MODE_KIND_NAMES
+from spacarpy.results.views import ModeShape, ResultsQueryError, _number_list
+
+# --------------------------------------------------------------------------------------------
+# linearized analyses
+# --------------------------------------------------------------------------------------------
+
+class _LinearizedView:
+    """A linearized group: one row per linearized static step."""
+
+    def __init__(self, results, group: str):
+        self._res = results
+        self._group = group
+
+    @property
+    def step(self) -> np.ndarray:
+        """(n_lin,): the static step (row of ``/static``) of each linearization."""
+        return self._res._read(f"{self._group}/step")
+
+    @property
+    def n_lin(self) -> int:
+        return self._res._length(f"{self._group}/step")
+
+    @property
+    def n_mode(self) -> int:
+        with self._res._file() as f:
+            return int(f[self._group].attrs["n_mode"])
+
+    @property
+    def load_factor(self) -> np.ndarray:
+        """(n_lin,): load factor of each linearized step."""
+        if self._res.static is None:
+            return np.full(self.n_lin, np.nan)
+        return self._res.static.load_factor[self.step]
+
+    def _array(self, name: str) -> np.ndarray:
+        return self._res._read(f"{self._group}/{name}", np.s_[:self.n_lin])
+
+    def row(self, step=None) -> int:
+        """Row of the linearization at static step ``step`` (None: the last one)."""
+        steps = self.step
+        if steps.size == 0:
+            raise ResultsQueryError(f"/{self._group} holds no linearized step")
+        if step is None:
+            return steps.size - 1
+        if self._res.static is not None:
+            step = self._res.static.step_index(step)
+        hit = np.flatnonzero(steps == step)
+        if not hit.size:
+            raise ResultsQueryError(f"static step {step} was not linearized ({self._group} "
+                                    f"results exist at steps {_number_list(steps)})")
+        return int(hit[-1])
+
+    def _mode_index(self, mode: int) -> int:
+        n = self.n_mode
+        if not 1 <= int(mode) <= n:
+            raise ResultsQueryError(f"mode {mode} does not exist: modes are numbered 1..{n}")
+        return int(mode) - 1
+
+    def shape(self, mode: int = 1, step=None) -> ModeShape:
+        """Mode shape ``mode`` (1 = first) at static step ``step`` (None: last linearized)."""
+        if self._group == "compliance":
+            raise ResultsQueryError("/compliance has no mode shapes")
+        r, m = self.row(step), self._mode_index(mode)
+        return ModeShape(self._res._read(f"{self._group}/shape_position", (r, m)),
+                         self._res._read(f"{self._group}/shape_euler", (r, m)))
+
+
+class EigenView(_LinearizedView):
+    """``/eigen``: natural frequencies and mass-normalized mode shapes."""
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """(n_lin, n_mode) Hz (negative: unstable, NaN: complex/infinite, 0: rigid-body)."""
+        return self._array("frequency")
+
+    @property
+    def eigenvalue(self) -> np.ndarray:
+        """(n_lin, n_mode) complex: omega^2 (s^-2)."""
+        return self._array("eigenvalue_real") + 1j * self._array("eigenvalue_imag")
+
+    @property
+    def kind(self) -> np.ndarray:
+        """(n_lin, n_mode) int8: 0 elastic, 1 rigid-body, 2 unstable, 3 complex, 4 infinite."""
+        return self._array("kind")
+
+    kind_names = MODE_KIND_NAMES
+
+
+class BucklingView(_LinearizedView):
+    """``/buckling``: load multipliers and buckling shapes."""
+
+    @property
+    def load_multiplier(self) -> np.ndarray:
+        """(n_lin, n_mode): multipliers of the load acting in the step."""
+        return self._array("load_multiplier")
+
+    @property
+    def critical_load_multiplier(self) -> np.ndarray:
+        """(n_lin,): smallest positive multiplier (inf: none)."""
+        return self._array("critical_load_multiplier")
+
+
+class ComplianceView(_LinearizedView):
+    """``/compliance``: 6x6 compliance of one node at each linearized step."""
+
+    @property
+    def global_(self) -> np.ndarray:
+        """(n_lin, 6, 6): compliance in global axes."""
+        return self._array("global")
+
+    @property
+    def local(self) -> np.ndarray:
+        """(n_lin, 6, 6): compliance in the node's current body axes."""
+        return self._array("local")
+
+    @property
+    def node(self) -> tuple[int, int]:
+        """(position node, orientation node) whose compliance is stored."""
+        with self._res._file() as f:
+            a = f[self._group].attrs
+            return int(a["position_node"]), int(a["orientation_node"])
