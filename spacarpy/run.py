@@ -214,7 +214,7 @@ def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_b
     if want_buckling:
         bk = buckling_modes(lin, n_modes=n_modes)
         shape_pos, shape_rot = _node_shapes(num, problem.free, np.nan_to_num(bk.shape))
-        writer.buckling_step(k, bk.multiplier, bk.critical, shape_pos, shape_rot)
+        writer.buckling_step(k, bk.multiplier, bk.critical, shape_pos, shape_rot, kind=bk.kind)
         summary.critical.append(bk.critical)
         text += (f"  critical load multiplier {bk.critical:.6g}" if np.isfinite(bk.critical)
                  else "  no finite buckling multiplier")

@@ -49,7 +49,7 @@ def runs(tmp_path_factory):
 # --- the table and the map ---------------------------------------------------------------------
 
 def test_the_table_declares_every_kind_and_the_map_points_into_it():
-    assert SCHEMA_VERSION == (2, 1)
+    assert SCHEMA_VERSION == (2, 2)
     for kind in KIND_NAMES:
         for group in ("static", "transient"):
             spec = DATASETS[f"{group}/elements/{kind}/deformation"]
@@ -187,3 +187,24 @@ def test_show_extract_and_plot_on_the_command_line(runs, tmp_path, capsys):
         png = tmp_path / f"{argv[0]}_{len(argv)}.png"
         assert main(["plot", str(path), *argv, "-o", str(png)]) == 0
         assert png.stat().st_size > 1000
+
+
+def test_buckling_kind_is_stored_and_derived_for_older_files(tmp_path):
+    """Schema 2.2 stores each buckling multiplier's kind. Table 3's lateral buckling (4
+    elements) has 8 finite multipliers (+-4.435 the critical pair, paper Table 3) and, past
+    them, multipliers the load does not reach: stored as NaN of kind 4 ("infinite"). A file
+    without the dataset (older than 2.2) gets the same kinds from its NaN multipliers."""
+    out = tmp_path / "t3.h5"
+    deck = DECKS / "table3_lateral_buckling_4el_modified.dat"
+    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    with open_results(out) as res:
+        mu, kind = res.buckling.load_multiplier[-1], res.buckling.kind[-1]
+    assert kind.dtype == np.int8
+    np.testing.assert_array_equal(kind, np.where(np.isnan(mu), 4, 0))
+    assert (kind == 0).sum() == 8 and (kind == 4).sum() >= 1
+    np.testing.assert_allclose(np.abs(mu[:2]), 4.4355, rtol=1e-4)
+    with h5py.File(out, "r+") as f:                 # as a 2.1 file was written
+        del f["buckling/kind"]
+        f.attrs["schema_version"] = np.array([2, 1], dtype=np.int32)
+    with open_results(out, verify=False) as res:
+        np.testing.assert_array_equal(res.buckling.kind[-1], kind)

@@ -109,6 +109,16 @@ class BucklingView(_LinearizedView):
         """(n_lin,): smallest positive multiplier (inf: none)."""
         return self._array("critical_load_multiplier")
 
+    @property
+    def kind(self) -> np.ndarray:
+        """(n_lin, n_mode) int8: 0 finite, 4 infinite (a NaN multiplier). Files older than
+        schema 2.2 store no kind: there it is 4 where the multiplier is NaN."""
+        if self._res._has(f"{self._group}/kind"):
+            return self._array("kind")
+        return np.where(np.isnan(self.load_multiplier), 4, 0).astype(np.int8)
+
+    kind_names = MODE_KIND_NAMES
+
 
 class ComplianceView(_LinearizedView):
     """``/compliance``: 6x6 compliance of one node at each linearized step."""

@@ -39,7 +39,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 1)
+SCHEMA_VERSION = (2, 2)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -235,6 +235,9 @@ def _spec_list() -> list[DatasetSpec]:
           "first (NaN: none)"),
         S("buckling/critical_load_multiplier", "f8", ("linearized_step",), "1",
           "smallest positive buckling load multiplier (inf: none)"),
+        S("buckling/kind", "i1", _LIN_SHAPE["mode"], "1",
+          "multiplier kind: 0 finite, 4 infinite (the load does not load the mode; the "
+          "multiplier is NaN), see attribute kind_names", (2, 2)),
         S("buckling/shape_position", "f8", _LIN_SHAPE["position"], "1",
           "buckling mode shape (largest component 1): position perturbation of each "
           "position node"),

@@ -302,11 +302,16 @@ class ResultsWriter:
             "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
 
     def buckling_step(self, step: int, load_multiplier, critical: float, shape_position,
-                      shape_euler) -> None:
-        """Append the buckling multipliers and shapes of one linearized static step."""
+                      shape_euler, kind=None) -> None:
+        """Append the buckling multipliers and shapes of one linearized static step.
+
+        ``kind`` (n_mode,): 0 finite, 4 infinite (default: 4 where the multiplier is NaN);
+        missing modes are NaN of kind 4."""
+        if kind is None:
+            kind = np.where(np.isnan(np.asarray(load_multiplier, dtype=float)), 4, 0)
         self._append_linearized("buckling", step, {
             "load_multiplier": load_multiplier, "critical_load_multiplier": critical,
-            "shape_position": shape_position, "shape_euler": shape_euler})
+            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
 
     def compliance_step(self, step: int, global_, local) -> None:
         """Append the 6x6 nodal compliance (global and body axes) of one linearized step."""
