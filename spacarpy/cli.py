@@ -382,6 +382,14 @@ def cmd_check(args) -> int:
 
 
 def cmd_run(args) -> int:
+    from spacarpy.outputs import OutputLock
+
+    out = args.output if args.output is not None else args.deck.with_suffix(".h5")
+    with OutputLock(out):       # a second run on the same file stops here, before any work
+        return _run_locked(args, out)
+
+
+def _run_locked(args, out) -> int:
     from spacarpy.deck.expect import load_with_expectations
     from spacarpy.run import RunOptions, run_model
 
@@ -392,7 +400,6 @@ def cmd_run(args) -> int:
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
                                      n_modes=args.modes,
                                      modes_each_step=True if args.modes_per_step else None)
-    out = args.output if args.output is not None else args.deck.with_suffix(".h5")
     n_elem = model.n_elem
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,

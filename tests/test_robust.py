@@ -1,0 +1,74 @@
+"""Safe outputs of ``spacarpy run`` (issue 17): the output lock, SIGTERM, output paths
+checked before the work, and refused empty or binary decks."""
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import h5py
+import pytest
+
+from spacarpy.cli import main
+from spacarpy.outputs import OutputError, OutputLock
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
+ROOT = Path(__file__).resolve().parents[1]
+DECK = "table1_cantilever_8el_modified.dat"
+
+
+def copy_deck(tmp_path, name=DECK):
+    dst = tmp_path / name
+    shutil.copy(DECKS / name, dst)
+    return dst
+
+
+def _env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+# -- D4: a lock on the output file ---------------------------------------------------------
+
+def test_output_lock_is_exclusive_and_removed(tmp_path):
+    out = tmp_path / "r.h5"
+    with OutputLock(out) as lock:
+        assert lock.lock_path == tmp_path / "r.h5.lock"
+        assert lock.lock_path.read_text().strip() == str(os.getpid())
+        with pytest.raises(OutputError, match=f"process {os.getpid()}"):
+            OutputLock(out).acquire()
+    assert not (tmp_path / "r.h5.lock").exists()
+    with OutputLock(out):                       # free again
+        pass
+
+
+def test_second_run_on_a_locked_output_stops_at_once(tmp_path, capsys):
+    """Another process holds the lock (as a running ``spacarpy run`` does): the second run
+    exits 2 before any work, names that process, and leaves the first run's file alone."""
+    deck = copy_deck(tmp_path)
+    out = tmp_path / "same.h5"
+    out.write_bytes(b"first run's result")
+    holder = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(f"""
+            import sys, time
+            from spacarpy.outputs import OutputLock
+            with OutputLock({str(out)!r}):
+                print("locked", flush=True)
+                time.sleep(30)
+            """)], stdout=subprocess.PIPE, text=True, env=_env())
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        assert main(["run", str(deck), "-o", str(out), "-q"]) == 2
+        err = capsys.readouterr().err
+        assert f"process {holder.pid}" in err and "another spacarpy run" in err
+        assert out.read_bytes() == b"first run's result"
+        assert not (tmp_path / "same.partial.h5").exists()
+    finally:
+        holder.kill()
+        holder.wait(timeout=10)
+    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0       # lock released
+    with h5py.File(out, "r") as f:
+        assert f.attrs["completed"]
+    assert not (tmp_path / "same.h5.lock").exists()
