@@ -3,7 +3,8 @@ batch | sweep``.
 
 Exit codes (see :mod:`spacarpy.errors`): 0 success, 1 solver failure, 2 input error (deck or
 command line), 3 model not analysable (mechanism, over-constraint), 4 (``run``) an EXPECT line
-of the deck failed, 130 interrupted; ``batch``/``sweep``: 1 when a deck changed or failed.
+of the deck failed, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); ``batch``/``sweep``:
+1 when a deck changed or failed.
 Progress goes to stderr, silenced by ``-q``; errors are printed without a traceback.
 
 The module is longer than 600 lines because it holds the argument parser of all ten
@@ -14,12 +15,20 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 import time
 from pathlib import Path
 
 from spacarpy import __version__
-from spacarpy.errors import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, SpacarError
+from spacarpy.errors import (
+    EXIT_INPUT,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_TERMINATED,
+    SpacarError,
+    Terminated,
+)
 
 log = logging.getLogger("spacarpy")
 
@@ -333,6 +342,26 @@ def _single_blas_thread() -> None:
         os.environ.setdefault(var, "1")
 
 
+def _on_sigterm(signum, frame):
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # a second SIGTERM ends it at once
+    raise Terminated("terminated by SIGTERM")
+
+
+def _terminate_like_interrupt():
+    """SIGTERM (job schedulers, ``kill``) ends a command the way Ctrl-C does: the result file
+    is closed with ``error`` set and without its SWMR mark, then exit 143. Only in the main
+    thread (``signal`` allows no other), and not where SIGTERM is ignored (``nohup``-like).
+    Returns the previous handler (restored when :func:`main` returns), or None."""
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous is signal.SIG_IGN:
+        return None
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    return previous
+
+
 def main(argv: list[str] | None = None) -> int:
     _single_blas_thread()
     parser = build_parser()
@@ -342,6 +371,15 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     from spacarpy.memory import keep_freed_memory
     keep_freed_memory()                 # large models: reuse freed memory (spacarpy.memory)
+    previous = _terminate_like_interrupt()
+    try:
+        return _main(args)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(args) -> int:
     level = logging.WARNING if args.quiet else (logging.DEBUG if args.verbose else logging.INFO)
     logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr, force=True)
     try:
@@ -365,6 +403,9 @@ def main(argv: list[str] | None = None) -> int:
     except SpacarError as exc:
         print(str(exc), file=sys.stderr)
         return exc.exit_code
+    except Terminated:
+        print("terminated (SIGTERM)", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -72,3 +72,51 @@ def test_second_run_on_a_locked_output_stops_at_once(tmp_path, capsys):
     with h5py.File(out, "r") as f:
         assert f.attrs["completed"]
     assert not (tmp_path / "same.h5.lock").exists()
+
+
+# -- D8: SIGTERM handled like Ctrl-C ------------------------------------------------------
+
+SLOW_DECK = """\
+X 1 0 0 0
+BEAMS 1 1 2 3 4 100 0 1 0
+X 3 2 0 0
+DYNE 1:100 1:6
+FIX 1
+FIX 2
+END
+HALT
+ESTIFF 1:100 2.07e9 1.12e6 1.725e6 1.725e6
+DELXF 3 0 1.29375e6 0
+ITERSTEP 20 2000 1e-9
+END
+END
+"""
+
+
+@pytest.mark.slow
+def test_sigterm_closes_the_partial_file_and_exits_143(tmp_path):
+    import signal
+    deck = tmp_path / "slow.dat"
+    deck.write_text(SLOW_DECK)
+    proc = subprocess.Popen([sys.executable, "-m", "spacarpy", "run", str(deck)],
+                            stderr=subprocess.PIPE, text=True, env=_env())
+    try:
+        for line in proc.stderr:               # wait for committed steps
+            if line.startswith("step") and "/2000" in line and " 3/" in line:
+                break
+        proc.send_signal(signal.SIGTERM)
+        rest = proc.stderr.read()
+        assert proc.wait(timeout=60) == 143
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert "terminated (SIGTERM)" in rest and "Traceback" not in rest
+    partial = tmp_path / "slow.partial.h5"
+    assert not (tmp_path / "slow.h5").exists() and not (tmp_path / "slow.h5.lock").exists()
+    with h5py.File(partial, "r") as f:        # plain open: the SWMR mark is cleared
+        assert not f.attrs["completed"]
+        assert f.attrs["error"] == "terminated by SIGTERM"
+        n = f["static/load_factor"].shape[0]
+        assert 4 <= n < 2001
+        assert f["static/position"].shape[0] >= n

@@ -130,8 +130,8 @@ class ResultsWriter:
                             self.partial_path)
                 self.abort(_NOT_FINISHED)
         elif self._state in ("open", "finishing"):
-            if issubclass(exc_type, KeyboardInterrupt):
-                message = _INTERRUPTED
+            if issubclass(exc_type, KeyboardInterrupt):      # Ctrl-C, or SIGTERM's message
+                message = str(exc) or _INTERRUPTED
             else:
                 message = str(exc) or exc_type.__name__
             self.abort(message)
