@@ -53,6 +53,13 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _output_path(text: str) -> Path:
+    """An output file name: not empty (``-o ""`` would mean the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the output file name is empty")
+    return Path(text)
+
+
 def _parse_set(text: str) -> tuple[str, str]:
     name, sep, value = text.partition("=")
     name, value = name.strip(), value.strip()
@@ -79,7 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="analyse a deck and write an HDF5 result file")
     run.add_argument("deck", type=Path, help="SPACAR-style deck (.dat)")
-    run.add_argument("-o", "--output", type=Path, default=None,
+    run.add_argument("-o", "--output", type=_output_path, default=None,
                      help="result file (default: the deck's name with .h5)")
     run.add_argument("--mode", type=_parse_mode, default=None,
                      help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8); "
@@ -261,7 +268,7 @@ def _results_commands(sub) -> None:
                      help="comma-separated values with a header line")
     fmt.add_argument("--json", dest="format", action="store_const", const="json",
                      help="a JSON object with columns, units and data")
-    ext.add_argument("-o", "--output", type=Path, default=None,
+    ext.add_argument("-o", "--output", type=_output_path, default=None,
                      help="write to this file instead of standard output")
     _verbosity(ext)
 
@@ -299,7 +306,7 @@ def _results_commands(sub) -> None:
     plot.add_argument("--view", type=float, nargs=2, default=None, metavar=("ELEV", "AZIM"),
                       help="shape, mode: camera elevation and azimuth in degrees (default "
                            "30 -60)")
-    plot.add_argument("-o", "--output", type=Path, default=None,
+    plot.add_argument("-o", "--output", type=_output_path, default=None,
                       help="image file; the suffix picks the format: .png, .pdf, .svg; "
                            "animate: .gif, .mp4 (default: <file>_<kind>.png, .gif)")
     _verbosity(plot)
@@ -310,7 +317,7 @@ def _results_commands(sub) -> None:
     exp.add_argument("--xdmf", action="store_true", help="write <file>.xdmf (the default)")
     exp.add_argument("--vtk", action="store_true",
                      help="write <file>.pvd and one .vtu per step")
-    exp.add_argument("-o", "--output", type=Path, default=None,
+    exp.add_argument("-o", "--output", type=_output_path, default=None,
                      help="name of the .xdmf or .pvd file (with only one of --xdmf, --vtk)")
     _verbosity(exp)
 
@@ -390,6 +397,9 @@ def _main(args) -> int:
         if args.command == "bench":
             from spacarpy.bench import run_bench
             sizes = _bench_sizes(args)
+            if args.markdown is not None:
+                from spacarpy.outputs import check_output_path
+                check_output_path(args.markdown, "--markdown")
             run_bench(cases=args.cases, sizes=sizes, n_steps=args.steps,
                       repeat=args.repeat, transient_steps=args.transient_steps,
                       peer=args.peer, markdown=args.markdown)
@@ -423,19 +433,25 @@ def cmd_check(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from spacarpy.outputs import OutputLock
+    from spacarpy.outputs import OutputLock, check_output_path
 
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
+    out = check_output_path(out, "-o" if args.output is not None else "result file",
+                            inputs=[args.deck])
     with OutputLock(out):       # a second run on the same file stops here, before any work
         return _run_locked(args, out)
 
 
 def _run_locked(args, out) -> int:
     from spacarpy.deck.expect import load_with_expectations
+    from spacarpy.outputs import check_output_path
     from spacarpy.run import RunOptions, run_model
 
     t0 = time.perf_counter()
-    job, expects = load_with_expectations(args.deck, overrides=dict(args.overrides) or None)
+    inputs = []
+    job, expects = load_with_expectations(args.deck, overrides=dict(args.overrides) or None,
+                                          input_files=inputs)
+    check_output_path(out, "-o", inputs=inputs, warn=False)   # not an INCLUDEd file
     model = job.model
     # the command line makes new settings; the deck's stay as they were read
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
@@ -567,9 +583,12 @@ def cmd_show(args) -> int:
 
 def cmd_extract(args) -> int:
     """``spacarpy extract FILE WHAT``: a table as text, CSV or JSON."""
+    from spacarpy.outputs import check_output_path
     from spacarpy.results import open_results
     from spacarpy.results.tables import extract
 
+    if args.output is not None:
+        check_output_path(args.output, "-o", inputs=[args.file])
     with open_results(args.file) as res:
         table = extract(res, args.what, node=args.node, element=args.element, step=args.step,
                         mode=args.mode)

@@ -1,11 +1,15 @@
 """Output files of the command line: checked before the work, locked while written.
 
-:class:`OutputLock` holds an advisory lock (``fcntl.flock``) on a
-lock file beside the output, ``out.h5.lock``, for the whole run: a second ``spacarpy run``
-writing the same file stops at once with the other run's process id, instead of both writing
-the same partial file. Creating the lock file also proves that the directory is writable.
-The lock is advisory and local: it protects spacarpy runs from each other, not from other
-programs, and on network file systems only as far as they support ``flock``.
+:func:`check_output_path` refuses, before any solve or benchmark, an output path that cannot
+be written (empty, an existing directory, a directory that does not exist or is read-only)
+or that names one of the run's input files, so that a run never ends in a traceback after
+the work is done and never replaces its own deck. :class:`OutputLock` holds an advisory
+lock (``fcntl.flock``) on a lock file beside the output, ``out.h5.lock``, for the whole
+run: a second ``spacarpy run`` writing the same file stops at once with the other run's
+process id, instead of both writing the same partial file. Creating the lock file also
+proves that the directory is writable. The lock is advisory and local: it protects
+spacarpy runs from each other, not from other programs, and on network file systems only
+as far as they support ``flock``.
 """
 from __future__ import annotations
 
@@ -32,6 +36,57 @@ class OutputError(SpacarError):
 
 def _reason(exc: OSError) -> str:
     return exc.strerror or str(exc)
+
+
+def check_output_path(path, what: str = "output file", inputs=(), warn: bool = True) -> Path:
+    """Check that ``path`` can be created as a file before the work that writes it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file given on the command line.
+    what : str
+        How messages name it, e.g. ``"-o"`` or ``"--markdown"``.
+    inputs : iterable of path-like
+        Files the command reads (the deck and its INCLUDEs): the output must not be one.
+    warn : bool
+        Log a warning when ``path`` is a write-protected file (it will be replaced all the
+        same, as by ``mv``: the permission that counts is the directory's).
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OutputError
+        Empty path, an existing directory, a missing or read-only parent directory, a parent
+        that is not a directory, or an input file.
+    """
+    text = os.fspath(path)
+    if not str(text).strip():
+        raise OutputError(f"{what}: the output file name is empty")
+    p = Path(text)
+    if p.is_dir():
+        raise OutputError(f"{what} {p}: is a directory; give a file name, e.g. {p / 'out'}")
+    parent = p.parent
+    if not parent.exists():
+        raise OutputError(f"{what} {p}: the directory {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputError(f"{what} {p}: {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{what} {p}: the directory {parent} is not writable")
+    for inp in inputs:
+        try:
+            same = p.exists() and os.path.samefile(p, inp)
+        except OSError:
+            same = False
+        if same:
+            raise OutputError(f"{what} {p}: is an input file of this run ({inp}); it would "
+                              f"be overwritten. Give another output file")
+    if warn and p.is_file() and not p.stat().st_mode & 0o222:     # by its mode bits, also for root
+        log.warning("%s is write-protected; it will be replaced by the new results", p)
+    return p
 
 
 class OutputLock:

@@ -120,3 +120,79 @@ def test_sigterm_closes_the_partial_file_and_exits_143(tmp_path):
         n = f["static/load_factor"].shape[0]
         assert 4 <= n < 2001
         assert f["static/position"].shape[0] >= n
+
+
+# -- D5/D6: output paths checked before the work -------------------------------------------
+
+@pytest.mark.parametrize("output, message", [
+    ("{tmp}/nonexist/x.h5", "does not exist"),
+    ("{tmp}/adir", "is a directory"),
+    ("{tmp}/" + DECK, "is an input file"),
+    ("{tmp}/model.inc", "is an input file"),
+])
+def test_run_refuses_bad_output_paths_before_the_solve(tmp_path, capsys, output, message):
+    deck = copy_deck(tmp_path)
+    (tmp_path / "adir").mkdir()
+    text = deck.read_text()
+    first_end = text.index("\nEND")
+    (tmp_path / "model.inc").write_text(text[:first_end + 1])
+    deck.write_text('INCLUDE "model.inc"' + text[first_end:])
+    before = deck.read_bytes(), (tmp_path / "model.inc").read_bytes()
+    assert main(["run", str(deck), "-q", "-o", output.format(tmp=tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert (deck.read_bytes(), (tmp_path / "model.inc").read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [DECK, "adir", "model.inc"])                # nothing written, no partial file
+
+
+def test_run_refuses_an_empty_output_name(tmp_path, capsys):
+    deck = copy_deck(tmp_path)
+    assert main(["run", str(deck), "-q", "-o", ""]) == 2
+    assert "the output file name is empty" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write into a read-only directory")
+def test_run_refuses_a_read_only_directory(tmp_path, capsys):
+    deck = copy_deck(tmp_path)
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        assert main(["run", str(deck), "-q", "-o", str(ro / "x.h5")]) == 2
+    finally:
+        ro.chmod(0o755)
+    assert "is not writable" in capsys.readouterr().err
+
+
+def test_an_unwritable_directory_is_refused_whoever_runs(tmp_path, monkeypatch):
+    """The same check as above where the tests run as root (os.access says no)."""
+    import spacarpy.outputs as outputs
+    real = os.access
+    monkeypatch.setattr(outputs.os, "access",
+                        lambda p, mode: False if Path(p) == tmp_path else real(p, mode))
+    with pytest.raises(OutputError, match=f"the directory {tmp_path} is not writable"):
+        outputs.check_output_path(tmp_path / "x.h5", "-o")
+
+
+def test_run_warns_before_replacing_a_write_protected_result(tmp_path, capsys):
+    deck = copy_deck(tmp_path)
+    out = tmp_path / "r.h5"
+    assert main(["run", str(deck), "-q", "-o", str(out)]) == 0
+    out.chmod(0o444)
+    capsys.readouterr()
+    assert main(["run", str(deck), "-q", "-o", str(out)]) == 0
+    warnings = [ln for ln in capsys.readouterr().err.splitlines() if "write-protected" in ln]
+    assert warnings == [f"{out} is write-protected; it will be replaced by the new results"]
+
+
+def test_extract_and_bench_check_their_output_before_the_work(tmp_path, capsys):
+    deck = copy_deck(tmp_path)
+    assert main(["run", str(deck), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["extract", str(deck.with_suffix(".h5")), "position", "-o",
+                 str(tmp_path / "no" / "x.csv")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["bench", "--sizes", "10", "--markdown", str(tmp_path / "no" / "b.md")]) == 2
+    captured = capsys.readouterr()
+    assert "does not exist" in captured.err and "cantilever" not in captured.out

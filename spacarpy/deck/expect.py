@@ -293,8 +293,12 @@ def expectations(statements) -> list[Expect]:
 
 
 def load_with_expectations(path, *, deformations: str | None = None,
-                           analysis: str | None = None, overrides: dict | None = None):
+                           analysis: str | None = None, overrides: dict | None = None,
+                           input_files: list | None = None):
     """Like :func:`spacarpy.deck.load`, and also return the deck's expectations.
+
+    ``input_files``, a list, gets the files the deck was read from (the deck and its
+    INCLUDEs), so that a caller can refuse to overwrite one.
 
     Returns
     -------
@@ -307,6 +311,10 @@ def load_with_expectations(path, *, deformations: str | None = None,
 
     text = read_deck_text(path)
     statements = parse_deck(text, str(path), overrides=overrides)
+    if input_files is not None:
+        input_files.append(str(path))
+        input_files.extend(dict.fromkeys(st.loc.file for st in statements
+                                         if st.loc is not None and st.loc.file != str(path)))
     job = build_job(statements, text=text, path=str(path), deformations=deformations,
                     analysis=analysis)
     return job, expectations(statements)
