@@ -411,7 +411,7 @@ def _main(args) -> int:
         if args.command in ("batch", "sweep"):
             return cmd_batch(args) if args.command == "batch" else cmd_sweep(args)
     except SpacarError as exc:
-        print(str(exc), file=sys.stderr)
+        print(_printable(str(exc)), file=sys.stderr)
         return exc.exit_code
     except Terminated:
         print("terminated (SIGTERM)", file=sys.stderr)
@@ -422,14 +422,37 @@ def _main(args) -> int:
     return EXIT_INPUT
 
 
+def _printable(text: str) -> str:
+    """``text`` with control characters (other than newline and tab) escaped as ``\\xNN``,
+    so that a message quoting a binary or damaged input never drives the terminal."""
+    return "".join(c if c.isprintable() or c in "\n\t" else
+                   (f"\\x{ord(c):02x}" if ord(c) < 256 else f"\\u{ord(c):04x}")
+                   for c in text)
+
+
 def cmd_check(args) -> int:
     """``spacarpy check DECK``: the summary on stdout; exit 0 if the deck is valid and
     supported, 2 otherwise (syntax errors, semantic errors, features not supported yet)."""
     from spacarpy.deck import check_deck
+    from spacarpy.errors import DeckError
 
     summary = check_deck(args.deck, overrides=dict(args.overrides) or None)
+    if summary.model is not None:
+        try:
+            _require_elements(summary.model, args.deck)
+        except DeckError as exc:
+            summary.errors.extend(exc.items)
     print(summary.format())
     return EXIT_OK if summary.ok else EXIT_INPUT
+
+
+def _require_elements(model, deck) -> None:
+    """An empty deck (an empty file, ``END END``, /dev/null) is an input error, not a model
+    with 0 degrees of freedom."""
+    from spacarpy.errors import DeckError
+    if model.n_elem == 0:
+        what = "no elements" if model.position_ids.size else "no nodes and no elements"
+        raise DeckError((None, f"{deck}: the deck defines {what}; nothing to analyse"))
 
 
 def cmd_run(args) -> int:
@@ -453,6 +476,7 @@ def _run_locked(args, out) -> int:
                                           input_files=inputs)
     check_output_path(out, "-o", inputs=inputs, warn=False)   # not an INCLUDEd file
     model = job.model
+    _require_elements(model, args.deck)
     # the command line makes new settings; the deck's stay as they were read
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
                                      n_modes=args.modes,

@@ -196,3 +196,53 @@ def test_extract_and_bench_check_their_output_before_the_work(tmp_path, capsys):
     assert main(["bench", "--sizes", "10", "--markdown", str(tmp_path / "no" / "b.md")]) == 2
     captured = capsys.readouterr()
     assert "does not exist" in captured.err and "cantilever" not in captured.out
+
+
+# -- D10/D12: empty and binary decks -----------------------------------------------------
+
+@pytest.mark.parametrize("text", ["", "END\nEND\n", "\n\n% only a comment\n"])
+def test_an_empty_deck_is_refused(tmp_path, capsys, text):
+    deck = tmp_path / "e.dat"
+    deck.write_text(text)
+    assert main(["run", str(deck), "-q"]) == 2
+    assert "the deck defines no nodes and no elements" in capsys.readouterr().err
+    assert not deck.with_suffix(".h5").exists()
+    assert not (tmp_path / "e.partial.h5").exists()
+    assert main(["check", str(deck)]) == 2
+    out = capsys.readouterr().out
+    assert "no nodes and no elements" in out and "OK" not in out
+
+
+def test_dev_null_is_refused(tmp_path, capsys):
+    assert main(["run", "/dev/null", "-q", "-o", str(tmp_path / "n.h5")]) == 2
+    assert "defines no nodes and no elements" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
+def test_binary_input_is_refused_from_its_first_bytes(tmp_path, capsys):
+    """/dev/zero is endless: it must be refused without reading it all."""
+    assert main(["run", "/dev/zero", "-q", "-o", str(tmp_path / "z.h5")]) == 2
+    assert "binary data" in capsys.readouterr().err
+    deck = copy_deck(tmp_path)
+    assert main(["run", str(deck), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["run", str(deck.with_suffix(".h5")), "-q", "-o", str(tmp_path / "x.h5")]) == 2
+    err = capsys.readouterr().err
+    assert "HDF5 file" in err and "\x89" not in err
+
+
+def test_oversized_deck_is_refused(tmp_path, monkeypatch, capsys):
+    import spacarpy.deck.parser as parser
+    monkeypatch.setattr(parser, "MAX_DECK_BYTES", 10_000)
+    deck = tmp_path / "big.dat"
+    deck.write_text("% padding\n" * 2000)
+    assert main(["run", str(deck), "-q"]) == 2
+    assert "larger than" in capsys.readouterr().err
+
+
+def test_control_characters_in_messages_are_escaped(tmp_path, capsys):
+    deck = tmp_path / "c.dat"
+    deck.write_bytes(b"X 1 0 0 \x1b[31mRED\x07\nEND\nEND\n")
+    assert main(["run", str(deck), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "\x07" not in err and "\\x1b[31mRED\\x07" in err
