@@ -104,6 +104,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--modes-per-step", action="store_true",
                      help="linearize at every load step: frequencies (if the model has mass) "
                           "and buckling multipliers (if it is loaded), as SPACAR's mode 10")
+    run.add_argument("--ignore-memory-limit", action="store_true",
+                     help="run even when the memory estimate exceeds the available memory")
     _set_option(run)
     _verbosity(run)
 
@@ -435,6 +437,7 @@ def cmd_check(args) -> int:
     supported, 2 otherwise (syntax errors, semantic errors, features not supported yet)."""
     from spacarpy.deck import check_deck
     from spacarpy.errors import DeckError
+    from spacarpy.memory import memory_line
 
     summary = check_deck(args.deck, overrides=dict(args.overrides) or None)
     if summary.model is not None:
@@ -442,7 +445,13 @@ def cmd_check(args) -> int:
             _require_elements(summary.model, args.deck)
         except DeckError as exc:
             summary.errors.extend(exc.items)
-    print(summary.format())
+    text = summary.format()
+    if summary.model is not None and summary.model.n_elem:
+        lines = text.split("\n")      # the estimate above the final "OK" line
+        lines.insert(len(lines) - 1,
+                     f"  {'memory estimate':<20}{memory_line(summary.model.n_elem)}")
+        text = "\n".join(lines)
+    print(text)
     return EXIT_OK if summary.ok else EXIT_INPUT
 
 
@@ -477,6 +486,8 @@ def _run_locked(args, out) -> int:
     check_output_path(out, "-o", inputs=inputs, warn=False)   # not an INCLUDEd file
     model = job.model
     _require_elements(model, args.deck)
+    from spacarpy.memory import check_memory
+    check_memory(model.n_elem, ignore=args.ignore_memory_limit)
     # the command line makes new settings; the deck's stay as they were read
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
                                      n_modes=args.modes,

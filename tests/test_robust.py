@@ -246,3 +246,32 @@ def test_control_characters_in_messages_are_escaped(tmp_path, capsys):
     assert main(["run", str(deck), "-q"]) == 2
     err = capsys.readouterr().err
     assert "\x1b" not in err and "\x07" not in err and "\\x1b[31mRED\\x07" in err
+
+
+# -- D7: memory estimate before the solve ----------------------------------------------------
+
+def test_memory_estimate_matches_the_benchmark_measurements():
+    """docs/performance.md: peak 748 MB at 10^4 and 3014 MB at 10^5 cantilever elements."""
+    from spacarpy.memory import estimate_run_bytes
+    assert 0.7 < estimate_run_bytes(10**4) / (748 * 2**20) < 1.1
+    assert 0.9 < estimate_run_bytes(10**5) / (3014 * 2**20) < 1.2
+
+
+def test_run_stops_when_the_estimate_exceeds_the_available_memory(tmp_path, capsys,
+                                                                   monkeypatch):
+    import spacarpy.memory as memory
+    monkeypatch.setattr(memory, "available_bytes", lambda: 100 * 2**20)
+    deck = copy_deck(tmp_path)
+    assert main(["run", str(deck), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "needs about 300 MB of memory, more than the 100 MB available" in err
+    assert "--ignore-memory-limit" in err and not deck.with_suffix(".h5").exists()
+    assert main(["run", str(deck), "-q", "--ignore-memory-limit"]) == 0
+    assert "running anyway" in capsys.readouterr().err
+    assert deck.with_suffix(".h5").exists()
+
+
+def test_check_prints_the_memory_estimate(tmp_path, capsys):
+    assert main(["check", str(copy_deck(tmp_path))]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[-2] == "  memory estimate     about 300 MB at the peak of a run"
