@@ -275,3 +275,25 @@ def test_check_prints_the_memory_estimate(tmp_path, capsys):
     assert main(["check", str(copy_deck(tmp_path))]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[-2] == "  memory estimate     about 300 MB at the peak of a run"
+
+
+# -- D9: an EXPECT line that --set makes unevaluable warns ---------------------------------
+
+def test_unevaluable_expect_under_set_warns(tmp_path, capsys):
+    deck = tmp_path / "s.dat"
+    shutil.copy(DECKS / "sweep_column_load_ratio.dat", deck)
+    assert main(["run", str(deck), "-q", "--set", "ratio=-2", "-o", str(tmp_path / "a.h5")]) == 0
+    err = capsys.readouterr().err
+    assert f"{deck}:26:35: warning: EXPECT line skipped under --set: cannot evaluate " \
+           "sqrt(-1)" in err
+    with h5py.File(tmp_path / "a.h5", "r") as f:     # the deck stored as written
+        assert f["deck"][()].decode() == deck.read_text()
+
+
+def test_unevaluable_expect_without_set_is_an_error(tmp_path, capsys):
+    deck = tmp_path / "s.dat"
+    text = (DECKS / "sweep_column_load_ratio.dat").read_text()
+    deck.write_text(text.replace("SET ratio ", "SET ratio -2 %", 1))
+    assert "SET ratio -2 %" in deck.read_text()
+    assert main(["run", str(deck), "-q"]) == 2
+    assert "26:35: error: cannot evaluate sqrt(-1)" in capsys.readouterr().err
