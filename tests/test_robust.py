@@ -297,3 +297,26 @@ def test_unevaluable_expect_without_set_is_an_error(tmp_path, capsys):
     assert "SET ratio -2 %" in deck.read_text()
     assert main(["run", str(deck), "-q"]) == 2
     assert "26:35: error: cannot evaluate sqrt(-1)" in capsys.readouterr().err
+
+
+# -- D11: sweep tables give the reason of each failure ---------------------------------------
+
+def test_sweep_table_shows_the_reason_of_each_failure():
+    import numpy as np
+
+    from spacarpy.batch.sweep import SweepAxis, SweepResult, failure_reason, format_sweep_table
+    msg = ("exit code 2: d.dat:3:5: error: cannot evaluate sqrt(-1): outside its domain\n"
+           "    BEAM 1 ...\n        ^")
+    result = SweepResult("d.dat", [SweepAxis("n", (0.0, 8.0))],
+                         data={"eigen/frequency": np.array([[np.nan], [1.5]])},
+                         status=np.array([2, 0]), errors=np.array([msg, ""], dtype=object))
+    assert failure_reason(msg) == "d.dat:3:5: error: cannot evaluate sqrt(-1): outside its domain"
+    assert failure_reason("exit code 1: step 3\nno convergence") == "no convergence"
+    text = format_sweep_table(result)
+    assert text.splitlines()[-2:] == [
+        "failed runs:",
+        "  n=0: exit 2: d.dat:3:5: error: cannot evaluate sqrt(-1): outside its domain"]
+    csv = format_sweep_table(result, csv=True).splitlines()
+    assert csv[0] == "n,frequency[1],status,error"
+    assert csv[1] == "0,nan,exit 2,d.dat:3:5: error: cannot evaluate sqrt(-1): outside its domain"
+    assert csv[2] == "8,1.5,ok,"
