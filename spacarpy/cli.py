@@ -89,7 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("-o", "--output", type=_output_path, default=None,
                      help="result file (default: the deck's name with .h5)")
     run.add_argument("--mode", type=_parse_mode, default=None,
-                     help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8); "
+                     help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8), "
+                          "transient (1), check (mechanism and DOF report, no solve); "
                           "overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
@@ -143,8 +144,18 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class UsageError(SpacarError):
+    """A command-line value that argparse cannot check by itself (exit 2)."""
+
+    exit_code = EXIT_INPUT
+
+
 def _bench_sizes(args):
     """--sizes and --case-sizes as run_bench's ``sizes`` (a list, a dict per case or None)."""
+    for n in list(args.sizes or []) + [args.steps, args.repeat, args.transient_steps]:
+        if n < 1:
+            raise UsageError(f"spacarpy bench: sizes, --steps, --repeat and --transient-steps "
+                             f"must be positive whole numbers, not {n}")
     if not args.case_sizes:
         return args.sizes
     from spacarpy.bench import CASES, DEFAULT_SIZES
@@ -155,8 +166,10 @@ def _bench_sizes(args):
             if case not in CASES:
                 raise ValueError
             out[case] = [int(v) for v in values.split(",") if v.strip()]
+            if not out[case] or min(out[case]) < 1:
+                raise ValueError
         except ValueError:
-            raise SystemExit(f"spacarpy bench: --case-sizes {item!r}: expected CASE=N,N,... "
+            raise UsageError(f"spacarpy bench: --case-sizes {item!r}: expected CASE=N,N,... "
                              f"with CASE one of {', '.join(CASES)}") from None
     return out
 
@@ -413,7 +426,7 @@ def _main(args) -> int:
         if args.command in ("batch", "sweep"):
             return cmd_batch(args) if args.command == "batch" else cmd_sweep(args)
     except SpacarError as exc:
-        print(_printable(str(exc)), file=sys.stderr)
+        print(_printable(_capped(exc)), file=sys.stderr)
         return exc.exit_code
     except Terminated:
         print("terminated (SIGTERM)", file=sys.stderr)
@@ -422,6 +435,22 @@ def _main(args) -> int:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_INPUT
+
+
+#: Deck errors printed at most; the rest are counted.
+MAX_PRINTED_ERRORS = 50
+
+
+def _capped(exc: SpacarError) -> str:
+    """The message of ``exc``; of a DeckError with many items only the first
+    :data:`MAX_PRINTED_ERRORS`, then ``... and N more errors``."""
+    from spacarpy.errors import DeckError
+    items = getattr(exc, "items", None)
+    if not isinstance(exc, DeckError) or len(items) <= MAX_PRINTED_ERRORS:
+        return str(exc)
+    head = str(DeckError(items[:MAX_PRINTED_ERRORS])).rsplit("\n", 1)[0]   # no "50 errors"
+    return (f"{head}\n... and {len(items) - MAX_PRINTED_ERRORS} more errors "
+            f"({len(items)} errors)")
 
 
 def _printable(text: str) -> str:

@@ -320,3 +320,80 @@ def test_sweep_table_shows_the_reason_of_each_failure():
     assert csv[0] == "n,frequency[1],status,error"
     assert csv[1] == "0,nan,exit 2,d.dat:3:5: error: cannot evaluate sqrt(-1): outside its domain"
     assert csv[2] == "8,1.5,ok,"
+
+
+# -- D12: messages ---------------------------------------------------------------------------
+
+def test_interrupted_transient_says_how_many_time_steps_were_kept(tmp_path, caplog):
+    from spacarpy.deck import load
+    from spacarpy.run import RunOptions, run_job
+
+    calls = []
+
+    def progress(t, t_end):
+        calls.append(t)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+
+    job = load(DECKS / "cantilever_free_vibration.dat")
+    with pytest.raises(KeyboardInterrupt), caplog.at_level("WARNING"):
+        run_job(job, tmp_path / "t.h5", RunOptions(progress=progress))
+    with h5py.File(tmp_path / "t.partial.h5", "r") as f:
+        n_time = f["transient/time"].shape[0]
+        n_static = f["static/load_factor"].shape[0]
+        assert f.attrs["error"] == "interrupted by user"
+    assert n_time >= 1
+    assert [r.getMessage() for r in caplog.records if "not completed" in r.getMessage()] == [
+        f"run not completed; {n_static} static steps, {n_time} time steps kept in "
+        f"{tmp_path / 't.partial.h5'}"]
+
+
+def test_deck_errors_are_capped(tmp_path, capsys):
+    deck = tmp_path / "many.dat"
+    deck.write_text("X 1 0 0 0\n" + "".join(f"BEAM {i} 1 2 3 4 q\n" for i in range(1, 121))
+                    + "END\nEND\n")
+    assert main(["run", str(deck), "-q"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 50 * 3 + 1
+    assert err[-1] == "... and 70 more errors (120 errors)"
+    assert err[-4].startswith(f"{deck}:51:")
+
+
+def test_a_failure_message_is_printed_once(tmp_path, capsys):
+    deck = copy_deck(tmp_path)
+    deck.write_text(deck.read_text().replace("ITERSTEP 20 10 1e-09", "ITERSTEP 3 10 1e-30"))
+    assert main(["run", str(deck)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("did not converge") == 1
+    assert "run not completed; 1 static steps kept in" in err
+
+
+@pytest.mark.parametrize("args", [["--sizes", "0"], ["--sizes", "-5"], ["--steps", "0"],
+                                  ["--case-sizes", "cantilever=0"]])
+def test_bench_refuses_nonpositive_sizes(capsys, args):
+    assert main(["bench", *args]) == 2
+    err = capsys.readouterr().err
+    assert "spacarpy bench:" in err and "Traceback" not in err
+
+
+def test_extract_compliance_names_the_right_option(tmp_path, capsys):
+    deck = copy_deck(tmp_path)
+    assert main(["run", str(deck), "-q"]) == 0
+    assert main(["extract", str(deck.with_suffix(".h5")), "compliance"]) == 2
+    err = capsys.readouterr().err
+    assert "--compliance POS ROT" in err and "--mode compliance" not in err
+
+
+def test_gravity_without_mass_warns(tmp_path, capsys):
+    deck = copy_deck(tmp_path)
+    text = deck.read_text()
+    i = text.index("\nEND")
+    deck.write_text(text[:i] + "\nGRAVITY 0 -9.81 0" + text[i:])
+    assert main(["run", str(deck), "-q"]) == 0
+    assert "GRAVITY has no effect: the model has no mass" in capsys.readouterr().err
+
+
+def test_run_help_lists_every_mode(capsys):
+    assert main(["run", "--help"]) == 0
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "transient (1), check" in help_text
