@@ -3,7 +3,8 @@ batch | sweep``.
 
 Exit codes (see :mod:`spacarpy.errors`): 0 success, 1 solver failure, 2 input error (deck or
 command line), 3 model not analysable (mechanism, over-constraint), 4 (``run``) an EXPECT line
-of the deck failed, 130 interrupted; ``batch``/``sweep``: 1 when a deck changed or failed.
+of the deck failed, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); ``batch``/``sweep``:
+1 when a deck changed or failed.
 Progress goes to stderr, silenced by ``-q``; errors are printed without a traceback.
 
 The module is longer than 600 lines because it holds the argument parser of all ten
@@ -14,12 +15,20 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 import time
 from pathlib import Path
 
 from spacarpy import __version__
-from spacarpy.errors import EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, SpacarError
+from spacarpy.errors import (
+    EXIT_INPUT,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_TERMINATED,
+    SpacarError,
+    Terminated,
+)
 
 log = logging.getLogger("spacarpy")
 
@@ -42,6 +51,13 @@ def _positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
     return value
+
+
+def _output_path(text: str) -> Path:
+    """An output file name: not empty (``-o ""`` would mean the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the output file name is empty")
+    return Path(text)
 
 
 def _parse_set(text: str) -> tuple[str, str]:
@@ -70,10 +86,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="analyse a deck and write an HDF5 result file")
     run.add_argument("deck", type=Path, help="SPACAR-style deck (.dat)")
-    run.add_argument("-o", "--output", type=Path, default=None,
+    run.add_argument("-o", "--output", type=_output_path, default=None,
                      help="result file (default: the deck's name with .h5)")
     run.add_argument("--mode", type=_parse_mode, default=None,
-                     help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8); "
+                     help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8), "
+                          "transient (1), check (mechanism and DOF report, no solve); "
                           "overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
@@ -88,6 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--modes-per-step", action="store_true",
                      help="linearize at every load step: frequencies (if the model has mass) "
                           "and buckling multipliers (if it is loaded), as SPACAR's mode 10")
+    run.add_argument("--ignore-memory-limit", action="store_true",
+                     help="run even when the memory estimate exceeds the available memory")
     _set_option(run)
     _verbosity(run)
 
@@ -125,8 +144,18 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class UsageError(SpacarError):
+    """A command-line value that argparse cannot check by itself (exit 2)."""
+
+    exit_code = EXIT_INPUT
+
+
 def _bench_sizes(args):
     """--sizes and --case-sizes as run_bench's ``sizes`` (a list, a dict per case or None)."""
+    for n in list(args.sizes or []) + [args.steps, args.repeat, args.transient_steps]:
+        if n < 1:
+            raise UsageError(f"spacarpy bench: sizes, --steps, --repeat and --transient-steps "
+                             f"must be positive whole numbers, not {n}")
     if not args.case_sizes:
         return args.sizes
     from spacarpy.bench import CASES, DEFAULT_SIZES
@@ -137,8 +166,10 @@ def _bench_sizes(args):
             if case not in CASES:
                 raise ValueError
             out[case] = [int(v) for v in values.split(",") if v.strip()]
+            if not out[case] or min(out[case]) < 1:
+                raise ValueError
         except ValueError:
-            raise SystemExit(f"spacarpy bench: --case-sizes {item!r}: expected CASE=N,N,... "
+            raise UsageError(f"spacarpy bench: --case-sizes {item!r}: expected CASE=N,N,... "
                              f"with CASE one of {', '.join(CASES)}") from None
     return out
 
@@ -252,7 +283,7 @@ def _results_commands(sub) -> None:
                      help="comma-separated values with a header line")
     fmt.add_argument("--json", dest="format", action="store_const", const="json",
                      help="a JSON object with columns, units and data")
-    ext.add_argument("-o", "--output", type=Path, default=None,
+    ext.add_argument("-o", "--output", type=_output_path, default=None,
                      help="write to this file instead of standard output")
     _verbosity(ext)
 
@@ -290,7 +321,7 @@ def _results_commands(sub) -> None:
     plot.add_argument("--view", type=float, nargs=2, default=None, metavar=("ELEV", "AZIM"),
                       help="shape, mode: camera elevation and azimuth in degrees (default "
                            "30 -60)")
-    plot.add_argument("-o", "--output", type=Path, default=None,
+    plot.add_argument("-o", "--output", type=_output_path, default=None,
                       help="image file; the suffix picks the format: .png, .pdf, .svg; "
                            "animate: .gif, .mp4 (default: <file>_<kind>.png, .gif)")
     _verbosity(plot)
@@ -301,7 +332,7 @@ def _results_commands(sub) -> None:
     exp.add_argument("--xdmf", action="store_true", help="write <file>.xdmf (the default)")
     exp.add_argument("--vtk", action="store_true",
                      help="write <file>.pvd and one .vtu per step")
-    exp.add_argument("-o", "--output", type=Path, default=None,
+    exp.add_argument("-o", "--output", type=_output_path, default=None,
                      help="name of the .xdmf or .pvd file (with only one of --xdmf, --vtk)")
     _verbosity(exp)
 
@@ -333,6 +364,26 @@ def _single_blas_thread() -> None:
         os.environ.setdefault(var, "1")
 
 
+def _on_sigterm(signum, frame):
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # a second SIGTERM ends it at once
+    raise Terminated("terminated by SIGTERM")
+
+
+def _terminate_like_interrupt():
+    """SIGTERM (job schedulers, ``kill``) ends a command the way Ctrl-C does: the result file
+    is closed with ``error`` set and without its SWMR mark, then exit 143. Only in the main
+    thread (``signal`` allows no other), and not where SIGTERM is ignored (``nohup``-like).
+    Returns the previous handler (restored when :func:`main` returns), or None."""
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous is signal.SIG_IGN:
+        return None
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    return previous
+
+
 def main(argv: list[str] | None = None) -> int:
     _single_blas_thread()
     parser = build_parser()
@@ -342,6 +393,15 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     from spacarpy.memory import keep_freed_memory
     keep_freed_memory()                 # large models: reuse freed memory (spacarpy.memory)
+    previous = _terminate_like_interrupt()
+    try:
+        return _main(args)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(args) -> int:
     level = logging.WARNING if args.quiet else (logging.DEBUG if args.verbose else logging.INFO)
     logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr, force=True)
     try:
@@ -352,6 +412,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "bench":
             from spacarpy.bench import run_bench
             sizes = _bench_sizes(args)
+            if args.markdown is not None:
+                from spacarpy.outputs import check_output_path
+                check_output_path(args.markdown, "--markdown")
             run_bench(cases=args.cases, sizes=sizes, n_steps=args.steps,
                       repeat=args.repeat, transient_steps=args.transient_steps,
                       peer=args.peer, markdown=args.markdown)
@@ -363,36 +426,101 @@ def main(argv: list[str] | None = None) -> int:
         if args.command in ("batch", "sweep"):
             return cmd_batch(args) if args.command == "batch" else cmd_sweep(args)
     except SpacarError as exc:
-        print(str(exc), file=sys.stderr)
+        print(_printable(_capped(exc)), file=sys.stderr)
         return exc.exit_code
+    except Terminated:
+        print("terminated (SIGTERM)", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_INPUT
 
 
+#: Deck errors printed at most; the rest are counted.
+MAX_PRINTED_ERRORS = 50
+
+
+def _capped(exc: SpacarError) -> str:
+    """The message of ``exc``; of a DeckError with many items only the first
+    :data:`MAX_PRINTED_ERRORS`, then ``... and N more errors``."""
+    from spacarpy.errors import DeckError
+    items = getattr(exc, "items", None)
+    if not isinstance(exc, DeckError) or len(items) <= MAX_PRINTED_ERRORS:
+        return str(exc)
+    head = str(DeckError(items[:MAX_PRINTED_ERRORS])).rsplit("\n", 1)[0]   # no "50 errors"
+    return (f"{head}\n... and {len(items) - MAX_PRINTED_ERRORS} more errors "
+            f"({len(items)} errors)")
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters (other than newline and tab) escaped as ``\\xNN``,
+    so that a message quoting a binary or damaged input never drives the terminal."""
+    return "".join(c if c.isprintable() or c in "\n\t" else
+                   (f"\\x{ord(c):02x}" if ord(c) < 256 else f"\\u{ord(c):04x}")
+                   for c in text)
+
+
 def cmd_check(args) -> int:
     """``spacarpy check DECK``: the summary on stdout; exit 0 if the deck is valid and
     supported, 2 otherwise (syntax errors, semantic errors, features not supported yet)."""
     from spacarpy.deck import check_deck
+    from spacarpy.errors import DeckError
+    from spacarpy.memory import memory_line
 
     summary = check_deck(args.deck, overrides=dict(args.overrides) or None)
-    print(summary.format())
+    if summary.model is not None:
+        try:
+            _require_elements(summary.model, args.deck)
+        except DeckError as exc:
+            summary.errors.extend(exc.items)
+    text = summary.format()
+    if summary.model is not None and summary.model.n_elem:
+        lines = text.split("\n")      # the estimate above the final "OK" line
+        lines.insert(len(lines) - 1,
+                     f"  {'memory estimate':<20}{memory_line(summary.model.n_elem)}")
+        text = "\n".join(lines)
+    print(text)
     return EXIT_OK if summary.ok else EXIT_INPUT
 
 
+def _require_elements(model, deck) -> None:
+    """An empty deck (an empty file, ``END END``, /dev/null) is an input error, not a model
+    with 0 degrees of freedom."""
+    from spacarpy.errors import DeckError
+    if model.n_elem == 0:
+        what = "no elements" if model.position_ids.size else "no nodes and no elements"
+        raise DeckError((None, f"{deck}: the deck defines {what}; nothing to analyse"))
+
+
 def cmd_run(args) -> int:
+    from spacarpy.outputs import OutputLock, check_output_path
+
+    out = args.output if args.output is not None else args.deck.with_suffix(".h5")
+    out = check_output_path(out, "-o" if args.output is not None else "result file",
+                            inputs=[args.deck])
+    with OutputLock(out):       # a second run on the same file stops here, before any work
+        return _run_locked(args, out)
+
+
+def _run_locked(args, out) -> int:
     from spacarpy.deck.expect import load_with_expectations
+    from spacarpy.outputs import check_output_path
     from spacarpy.run import RunOptions, run_model
 
     t0 = time.perf_counter()
-    job, expects = load_with_expectations(args.deck, overrides=dict(args.overrides) or None)
+    inputs = []
+    job, expects = load_with_expectations(args.deck, overrides=dict(args.overrides) or None,
+                                          input_files=inputs)
+    check_output_path(out, "-o", inputs=inputs, warn=False)   # not an INCLUDEd file
     model = job.model
+    _require_elements(model, args.deck)
+    from spacarpy.memory import check_memory
+    check_memory(model.n_elem, ignore=args.ignore_memory_limit)
     # the command line makes new settings; the deck's stay as they were read
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
                                      n_modes=args.modes,
                                      modes_each_step=True if args.modes_per_step else None)
-    out = args.output if args.output is not None else args.deck.with_suffix(".h5")
     n_elem = model.n_elem
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
@@ -519,9 +647,12 @@ def cmd_show(args) -> int:
 
 def cmd_extract(args) -> int:
     """``spacarpy extract FILE WHAT``: a table as text, CSV or JSON."""
+    from spacarpy.outputs import check_output_path
     from spacarpy.results import open_results
     from spacarpy.results.tables import extract
 
+    if args.output is not None:
+        check_output_path(args.output, "-o", inputs=[args.file])
     with open_results(args.file) as res:
         table = extract(res, args.what, node=args.node, element=args.element, step=args.step,
                         mode=args.mode)

@@ -14,6 +14,7 @@ EXIT_SOLVER = 1        # the model is valid but the analysis failed (no converge
 EXIT_INPUT = 2         # the deck or the command line is wrong
 EXIT_MODEL = 3         # the deck parses but the model is not analysable (mechanism, ...)
 EXIT_INTERRUPTED = 130  # Ctrl-C
+EXIT_TERMINATED = 143  # SIGTERM (128 + 15), e.g. from a job scheduler
 
 
 @dataclass(frozen=True)
@@ -32,6 +33,11 @@ class SpacarError(Exception):
     """Base class of every error spacarpy reports to a user."""
 
     exit_code = EXIT_SOLVER
+
+
+class Terminated(KeyboardInterrupt):
+    """Raised by the command line's SIGTERM handler: ends a run the way Ctrl-C does (the
+    result file closed with its ``error`` attribute set), then exit 143."""
 
 
 class DeckError(SpacarError):

@@ -1,4 +1,7 @@
-"""Process-wide memory allocator setting for large models (glibc only).
+"""Memory of large models: the allocator setting (glibc only) and the estimate before a run.
+
+:func:`estimate_run_bytes` and :func:`available_bytes` let ``spacarpy run`` stop a model that
+would not fit before it starts (the estimate is also printed by ``spacarpy check``).
 
 Every kernel call at 10^5 elements allocates arrays of tens to hundreds of megabytes. glibc
 serves allocations above 32 MB with fresh ``mmap`` pages and hands them back to the system
@@ -14,7 +17,12 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import logging
 import os
+
+from spacarpy.errors import EXIT_INPUT, SpacarError
+
+log = logging.getLogger(__name__)
 
 _M_TRIM_THRESHOLD, _M_TOP_PAD, _M_MMAP_MAX = -1, -2, -4      # glibc's malloc.h
 _done = False
@@ -38,3 +46,81 @@ def keep_freed_memory() -> bool:
           and mallopt(_M_TOP_PAD, 256 * 2**20) == 1)       # grow it in 256 MB steps
     _done = ok
     return ok
+
+
+# -- memory estimate before a run ------------------------------------------------------------
+
+#: Peak resident memory of ``spacarpy run`` ~ BASE + PER_ELEMENT * elements, fitted to the
+#: static cantilever of ``spacarpy bench`` (docs/performance.md: 748 MB at 10^4 elements,
+#: 3014 MB at 10^5; the estimate gives 580 MB and 3100 MB). Eigen runs measured less (585 MB
+#: at 10^4). The constant term covers Python, numpy/scipy and h5py and glibc's 256 MB heap
+#: steps (:func:`keep_freed_memory`).
+BASE_BYTES = 300 * 2**20
+PER_ELEMENT_BYTES = 28 * 2**10
+
+
+def estimate_run_bytes(n_elem: int) -> int:
+    """An estimate of the peak memory of a run of a model of ``n_elem`` elements, in bytes."""
+    return BASE_BYTES + PER_ELEMENT_BYTES * int(n_elem)
+
+
+def available_bytes() -> int | None:
+    """Memory this process can still use, in bytes: ``MemAvailable`` of /proc/meminfo, lower
+    if a cgroup (v2) limit says so; None where neither can be read (not Linux)."""
+    found = []
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    found.append(int(line.split()[1]) * 1024)
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        with open("/sys/fs/cgroup/memory.max") as fh:
+            limit = fh.read().strip()
+        if limit.isdigit():
+            with open("/sys/fs/cgroup/memory.current") as fh:
+                found.append(int(limit) - int(fh.read().strip()))
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None
+
+
+def format_bytes(n: int) -> str:
+    """``n`` bytes as MB below 10 GB, else GB."""
+    return f"{n / 2**20:.0f} MB" if n < 10 * 2**30 else f"{n / 2**30:.1f} GB"
+
+
+class MemoryLimitError(SpacarError):
+    """The model would need more memory than is available (exit 2)."""
+
+    exit_code = EXIT_INPUT
+
+
+def memory_line(n_elem: int) -> str:
+    """``about 573 MB at the peak of a run``: the estimate as ``spacarpy check`` shows it
+    (without the available memory, which changes from moment to moment)."""
+    return f"about {format_bytes(estimate_run_bytes(n_elem))} at the peak of a run"
+
+
+def check_memory(n_elem: int, ignore: bool = False) -> None:
+    """Stop before the solve when the estimate exceeds the available memory, rather than
+    grow until the OOM killer ends the run; with ``ignore`` only warn.
+
+    Raises
+    ------
+    MemoryLimitError
+        With the estimate and the available memory.
+    """
+    need, have = estimate_run_bytes(n_elem), available_bytes()
+    log.debug("memory estimate: %s", memory_line(n_elem))
+    if have is None or need <= have:
+        return
+    text = (f"the model of {n_elem} elements needs about {format_bytes(need)} of memory, "
+            f"more than the {format_bytes(have)} available")
+    if ignore:
+        log.warning("%s; running anyway (--ignore-memory-limit)", text)
+        return
+    raise MemoryLimitError(f"error: {text}. Reduce the model, free memory, or run anyway "
+                           f"with --ignore-memory-limit")

@@ -97,6 +97,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "check":
         return RunSummary(report=dof_report(problem))
     mass = MassAssembler(model, num)
+    if any(model.gravity) and not mass.has_mass:
+        log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
+                    "XM nodal masses)")
     transient = analysis == "transient"
     if transient and settings.transient.timestep is None:
         raise AnalysisInputError("MODE transient needs the time span: TIMESTEP t_end n_steps "

@@ -8,9 +8,11 @@ into one HDF5 file whose leading axes are the parameters (see docs/batch.md for 
 """
 from __future__ import annotations
 
+import csv as csv_module
 import io
 import itertools
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -242,8 +244,32 @@ def format_sweep_table(result: SweepResult, n_values: int = 3, csv: bool = False
         row.append("ok" if result.status[idx] == 0 else
                    "timeout" if result.status[idx] == -1 else f"exit {result.status[idx]}")
         rows.append(row)
+    reasons = [failure_reason(str(result.errors[idx])) if result.status[idx] != 0 and
+               result.errors is not None else ""
+               for idx in itertools.product(*(range(n) for n in result.shape))]
     if csv:
-        return "\n".join(",".join(r) for r in [head] + rows) + "\n"
+        buf = io.StringIO()
+        writer = csv_module.writer(buf, lineterminator="\n")
+        writer.writerow(head + ["error"])
+        writer.writerows(r + [why] for r, why in zip(rows, reasons))
+        return buf.getvalue()
     widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(head)]
     fmt = "  ".join(f"{{:>{w}}}" for w in widths)
-    return "\n".join(fmt.format(*r) for r in [head] + rows) + "\n"
+    text = "\n".join(fmt.format(*r) for r in [head] + rows) + "\n"
+    failed = [(r, why) for r, why in zip(rows, reasons) if why]
+    if failed:
+        text += "failed runs:\n" + "".join(
+            "  " + ", ".join(f"{a.name}={v}" for a, v in zip(result.axes, r)) +
+            f": {r[-1]}: {why}\n" for r, why in failed)
+    return text
+
+
+def failure_reason(message: str) -> str:
+    """The reason of a failed run in one line: the first ``error:`` line of its message (the
+    message is the tail of the run's stderr, after ``exit code N:``), else its last line."""
+    message = re.sub(r"^exit code -?\d+: ", "", message.strip())
+    lines = [ln.strip() for ln in message.splitlines() if ln.strip()]
+    for ln in lines:
+        if "error:" in ln or ln.startswith("error"):
+            return ln
+    return lines[-1] if lines else "no message"

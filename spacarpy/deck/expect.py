@@ -16,6 +16,7 @@ model builder ignores the lines, so they never change the analysis.
 from __future__ import annotations
 
 import difflib
+import logging
 import math
 import re
 from dataclasses import dataclass
@@ -23,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from spacarpy.errors import DeckError, SourceLoc
+
+log = logging.getLogger(__name__)
 
 __all__ = ["EXIT_EXPECTATION", "QUANTITIES", "Expect", "ExpectResult", "check_expectations",
            "expectations", "format_results", "load_with_expectations"]
@@ -293,8 +296,12 @@ def expectations(statements) -> list[Expect]:
 
 
 def load_with_expectations(path, *, deformations: str | None = None,
-                           analysis: str | None = None, overrides: dict | None = None):
+                           analysis: str | None = None, overrides: dict | None = None,
+                           input_files: list | None = None):
     """Like :func:`spacarpy.deck.load`, and also return the deck's expectations.
+
+    ``input_files``, a list, gets the files the deck was read from (the deck and its
+    INCLUDEs), so that a caller can refuse to overwrite one.
 
     Returns
     -------
@@ -306,10 +313,39 @@ def load_with_expectations(path, *, deformations: str | None = None,
     from spacarpy.deck.semantics import build_job
 
     text = read_deck_text(path)
-    statements = parse_deck(text, str(path), overrides=overrides)
+    try:
+        statements = parse_deck(text, str(path), overrides=overrides)
+    except DeckError as exc:
+        skipped = _unevaluable_expects(exc, str(path)) if overrides else None
+        if skipped is None:
+            raise
+        # --set changed the deck; its EXPECT lines belong to the deck as written: one that
+        # cannot be evaluated now (sqrt of a negative ...) is skipped with a warning
+        for loc, msg, _ in exc.items:
+            log.warning("%s: warning: EXPECT line skipped under --set: %s", loc, msg)
+        lines = text.split("\n")
+        for n in skipped:
+            lines[n - 1] = "%" + lines[n - 1]            # a comment: line numbers stay
+        statements = parse_deck("\n".join(lines), str(path), overrides=overrides)
+    if input_files is not None:
+        input_files.append(str(path))
+        input_files.extend(dict.fromkeys(st.loc.file for st in statements
+                                         if st.loc is not None and st.loc.file != str(path)))
     job = build_job(statements, text=text, path=str(path), deformations=deformations,
                     analysis=analysis)
     return job, expectations(statements)
+
+
+def _unevaluable_expects(exc: DeckError, path: str) -> set | None:
+    """The line numbers of ``exc``'s errors if every one is on an EXPECT line of the deck
+    file ``path`` itself, else None."""
+    lines = set()
+    for loc, _, src in exc.items:
+        if loc is None or loc.file != path or src is None or \
+                not src.lstrip().upper().startswith("EXPECT"):
+            return None
+        lines.add(loc.line)
+    return lines or None
 
 
 def _row(ids, number, what):

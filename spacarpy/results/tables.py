@@ -256,8 +256,9 @@ def _x_reaction(res, node, step, **_):
 def _lin(res, group):
     view = getattr(res, group)
     if view is None or view.n_lin == 0:
-        raise ResultsQueryError(f"{res.path} has no /{group} results (run with "
-                                f"--mode {group} or --modes-per-step)")
+        how = ("spacarpy run --compliance POS ROT" if group == "compliance" else
+               f"--mode {group} or --modes-per-step")
+        raise ResultsQueryError(f"{res.path} has no /{group} results (run with {how})")
     return view
 
 

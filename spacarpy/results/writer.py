@@ -130,8 +130,8 @@ class ResultsWriter:
                             self.partial_path)
                 self.abort(_NOT_FINISHED)
         elif self._state in ("open", "finishing"):
-            if issubclass(exc_type, KeyboardInterrupt):
-                message = _INTERRUPTED
+            if issubclass(exc_type, KeyboardInterrupt):      # Ctrl-C, or SIGTERM's message
+                message = str(exc) or _INTERRUPTED
             else:
                 message = str(exc) or exc_type.__name__
             self.abort(message)
@@ -356,8 +356,11 @@ class ResultsWriter:
         finally:
             self._close()
             self._state = "aborted"
-        log.warning("run not completed (%s); %d static steps kept in %s", error, self.n_step,
-                    self.partial_path)
+        kept = f"{self.n_step} static steps"
+        if "transient" in self._groups:
+            kept += f", {self._groups['transient']['n']} time steps"
+        # the error itself is the caller's to report (the CLI prints it once)
+        log.warning("run not completed; %s kept in %s", kept, self.partial_path)
 
     # -- internals ----------------------------------------------------------------------------
 

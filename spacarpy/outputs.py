@@ -1,0 +1,162 @@
+"""Output files of the command line: checked before the work, locked while written.
+
+:func:`check_output_path` refuses, before any solve or benchmark, an output path that cannot
+be written (empty, an existing directory, a directory that does not exist or is read-only)
+or that names one of the run's input files, so that a run never ends in a traceback after
+the work is done and never replaces its own deck. :class:`OutputLock` holds an advisory
+lock (``fcntl.flock``) on a lock file beside the output, ``out.h5.lock``, for the whole
+run: a second ``spacarpy run`` writing the same file stops at once with the other run's
+process id, instead of both writing the same partial file. Creating the lock file also
+proves that the directory is writable. The lock is advisory and local: it protects
+spacarpy runs from each other, not from other programs, and on network file systems only
+as far as they support ``flock``.
+"""
+from __future__ import annotations
+
+import errno
+import logging
+import os
+from pathlib import Path
+
+from spacarpy.errors import EXIT_INPUT, SpacarError
+
+log = logging.getLogger(__name__)
+
+try:                                   # POSIX only; elsewhere the lock is not taken
+    import fcntl
+except ImportError:                    # pragma: no cover - Windows
+    fcntl = None
+
+
+class OutputError(SpacarError):
+    """An output path that cannot or must not be written (exit 2)."""
+
+    exit_code = EXIT_INPUT
+
+
+def _reason(exc: OSError) -> str:
+    return exc.strerror or str(exc)
+
+
+def check_output_path(path, what: str = "output file", inputs=(), warn: bool = True) -> Path:
+    """Check that ``path`` can be created as a file before the work that writes it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file given on the command line.
+    what : str
+        How messages name it, e.g. ``"-o"`` or ``"--markdown"``.
+    inputs : iterable of path-like
+        Files the command reads (the deck and its INCLUDEs): the output must not be one.
+    warn : bool
+        Log a warning when ``path`` is a write-protected file (it will be replaced all the
+        same, as by ``mv``: the permission that counts is the directory's).
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OutputError
+        Empty path, an existing directory, a missing or read-only parent directory, a parent
+        that is not a directory, or an input file.
+    """
+    text = os.fspath(path)
+    if not str(text).strip():
+        raise OutputError(f"{what}: the output file name is empty")
+    p = Path(text)
+    if p.is_dir():
+        raise OutputError(f"{what} {p}: is a directory; give a file name, e.g. {p / 'out'}")
+    parent = p.parent
+    if not parent.exists():
+        raise OutputError(f"{what} {p}: the directory {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputError(f"{what} {p}: {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{what} {p}: the directory {parent} is not writable")
+    for inp in inputs:
+        try:
+            same = p.exists() and os.path.samefile(p, inp)
+        except OSError:
+            same = False
+        if same:
+            raise OutputError(f"{what} {p}: is an input file of this run ({inp}); it would "
+                              f"be overwritten. Give another output file")
+    if warn and p.is_file() and not p.stat().st_mode & 0o222:     # by its mode bits, also for root
+        log.warning("%s is write-protected; it will be replaced by the new results", p)
+    return p
+
+
+class OutputLock:
+    """An exclusive advisory lock on ``<path>.lock`` for as long as the run writes ``path``.
+
+    Use as a context manager; :meth:`acquire` never blocks: another holder raises
+    :class:`OutputError` naming its process id. The lock file is removed on release.
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.lock_path = self.path.with_name(self.path.name + ".lock")
+        self._fd: int | None = None
+
+    def acquire(self) -> OutputLock:
+        if fcntl is None:              # pragma: no cover - no flock on this platform
+            return self
+        while True:
+            try:
+                fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as exc:
+                raise OutputError(f"cannot write in {self.lock_path.parent or '.'}: "
+                                  f"{_reason(exc)} (creating {self.lock_path})") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                other = _read_pid(fd)
+                os.close(fd)
+                if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                    raise OutputError(f"cannot lock {self.lock_path}: {_reason(exc)}") \
+                        from None
+                who = f"process {other}" if other else "another process"
+                raise OutputError(f"{self.path} is being written by another spacarpy run "
+                                  f"({who}, lock file {self.lock_path}); wait for it to end "
+                                  f"or give another -o") from None
+            # The holder before us may have removed the file after we opened it: lock the
+            # file that is at the path now, or two runs would hold different inodes.
+            try:
+                same = os.path.samestat(os.fstat(fd), os.stat(self.lock_path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            self.lock_path.unlink(missing_ok=True)     # while still holding the lock
+        except OSError:                                # pragma: no cover
+            pass
+        os.close(self._fd)
+        self._fd = None
+
+    def __enter__(self) -> OutputLock:
+        return self.acquire()
+
+    def __exit__(self, *exc) -> bool:
+        self.release()
+        return False
+
+
+def _read_pid(fd: int) -> int | None:
+    try:
+        text = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
+        return int(text) if text.isdigit() else None
+    except OSError:                                    # pragma: no cover
+        return None
