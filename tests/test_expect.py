@@ -73,11 +73,25 @@ def test_unreadable_value_fails_with_reason(tmp_path, capsys):
     deck = tmp_path / "t.dat"
     text = (DECKS / "table1_cantilever_1el_modified.dat").read_text()
     deck.write_text(text.replace("ITERSTEP", "EXPECT eigen.frequency -1 1 1.0 rel 1e-3\n"
-                                             "EXPECT static.position -1 99 x 1.0\nITERSTEP"))
+                                             "EXPECT static.position -1 1 x 99.0\nITERSTEP"))
     assert main(["run", str(deck), "-q"]) == 4
     out = capsys.readouterr().out
     assert "/eigen/frequency is not in the result file" in out
-    assert "position node 99 is not in the model" in out
+    assert "FAIL  static.position[-1 1 1]" in out
+
+
+def test_unknown_node_or_element_is_refused_before_the_run(tmp_path, capsys):
+    deck = tmp_path / "t.dat"
+    text = (DECKS / "table1_cantilever_1el_modified.dat").read_text()
+    deck.write_text(text.replace("ITERSTEP", "EXPECT static.position -1 99 x 1.0\n"
+                                             "EXPECT static.deformation -1 7 1 0.0\nITERSTEP"))
+    line = text[:text.index("ITERSTEP")].count("\n") + 1
+    assert main(["run", str(deck), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert f"t.dat:{line}:27" in err and "position node 99 is not in the model" in err
+    assert f"t.dat:{line + 1}:30" in err and "element 7 is not in the model" in err
+    assert "Traceback" not in err
+    assert not deck.with_suffix(".h5").exists()        # refused before any work
 
 
 @pytest.mark.parametrize("name", ["table2_bend_8el_modified", "table3_lateral_buckling_2el_basic",

@@ -28,6 +28,7 @@ from spacarpy.errors import DeckError, SourceLoc
 log = logging.getLogger(__name__)
 
 __all__ = ["EXIT_EXPECTATION", "QUANTITIES", "Expect", "ExpectResult", "check_expectations",
+           "check_model_references",
            "expectations", "format_results", "load_with_expectations"]
 
 #: Exit code of ``spacarpy run`` when the analysis finished but an EXPECT line failed.
@@ -100,6 +101,9 @@ class Expect:
         The EXPECT keyword.
     text : str
         The line as written (for reports).
+    selector_locs : tuple of SourceLoc
+        Where each selector was written (one per entry of ``selectors``; for ``reac`` the
+        node number), for errors found against the model (:func:`check_model_references`).
     """
 
     quantity: str
@@ -109,6 +113,7 @@ class Expect:
     rel_tol: float
     loc: SourceLoc
     text: str = ""
+    selector_locs: tuple = ()
 
     @property
     def label(self) -> str:
@@ -227,9 +232,10 @@ def _parse_one(st) -> Expect:
              f"{name} takes {n_sel} selector{'s' * (n_sel != 1)} "
              f"({', '.join(_AXIS_HELP[a] for a in axes)}), then the value and an optional "
              f"tolerance; got {len(fields) - 1} fields after the quantity ({usage})")
-    selectors = []
+    selectors, selector_locs = [], []
     i = 1
     for a in axes:
+        selector_locs.append(st.field_locs[i] if i < len(st.field_locs) else st.loc)
         try:
             if a == "reac":
                 _selector("pos", fields[i])
@@ -261,7 +267,7 @@ def _parse_one(st) -> Expect:
         tol = {"abs": abs_tol}
     return Expect(quantity=name, selectors=tuple(selectors), value=value,
                   abs_tol=tol.get("abs", 0.0), rel_tol=tol.get("rel", 0.0), loc=st.loc,
-                  text=st.source_line.strip())
+                  text=st.source_line.strip(), selector_locs=tuple(selector_locs))
 
 
 def expectations(statements) -> list[Expect]:
@@ -333,7 +339,52 @@ def load_with_expectations(path, *, deformations: str | None = None,
                                          if st.loc is not None and st.loc.file != str(path)))
     job = build_job(statements, text=text, path=str(path), deformations=deformations,
                     analysis=analysis)
-    return job, expectations(statements)
+    expects = expectations(statements)
+    check_model_references(expects, job.model, statements)
+    return job, expects
+
+
+def check_model_references(expects, model, statements=()) -> None:
+    """Refuse, before any run, an EXPECT line whose node or element is not in ``model``.
+
+    Parameters
+    ----------
+    expects : list of Expect
+    model : Model
+        The model the deck builds.
+    statements : list of Statement, optional
+        The parsed deck, for the source line of each error.
+
+    Raises
+    ------
+    DeckError
+        With file:line:column of every selector naming a node or element the model lacks.
+    """
+    sources = {id(st.loc): st.source_line for st in statements if st.keyword == "EXPECT"}
+    element_ids = set()
+    for es in model.elements.values():
+        element_ids.update(int(i) for i in es.ids)
+    known = {"pos": (set(model.position_ids.tolist()), "position node"),
+             "rot": (set(model.orientation_ids.tolist()), "orientation node"),
+             "elem": (element_ids, "element")}
+    errors = []
+    for ex in expects:
+        _, axes = QUANTITIES[ex.quantity]
+        for k, (axis, sel) in enumerate(zip(axes, ex.selectors)):
+            if axis == "reac":        # a force at a position node, a moment at an orientation node
+                axis, sel = ("pos" if sel[1].startswith("F") else "rot"), sel[0]
+            if axis not in known:
+                continue
+            ids, what = known[axis]
+            if sel not in ids:
+                loc = ex.selector_locs[k] if k < len(ex.selector_locs) else ex.loc
+                shown = sorted(ids)
+                listed = ", ".join(map(str, shown[:20])) + (", ..." if len(shown) > 20 else "")
+                errors.append((loc, f"EXPECT {ex.quantity}: {what} {sel} is not in the model "
+                                    f"(its {what}s: {listed or 'none'})",
+                               sources.get(id(ex.loc), ex.text)))
+    if errors:
+        raise DeckError(errors)
 
 
 def _unevaluable_expects(exc: DeckError, path: str) -> set | None:
