@@ -23,6 +23,16 @@ def test_parse_axis():
             parse_sweep_axis(bad)
 
 
+def test_a_parameter_the_deck_does_not_set_is_refused_before_any_run(tmp_path, capsys):
+    deck = tmp_path / "d.dat"
+    deck.write_text("SET R 1\nSET F 2\nX 1 0 0 0\nEND\nEND\n")
+    out = tmp_path / "s.h5"
+    assert main(["sweep", str(deck), "--set", "nope=1:2:3", "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "--set nope: the deck has no 'SET nope' line" in err and "R, F" in err
+    assert "Traceback" not in err and not out.exists()    # no point ran, no file written
+
+
 @pytest.mark.slow
 def test_docs_sweep_gives_the_frequency_table_in_one_file(column_sweep):
     with h5py.File(column_sweep) as f:

@@ -140,6 +140,7 @@ def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise BatchInputError(f"sweep: a parameter is swept twice ({', '.join(names)})")
+    _check_parameters(deck, [(a.name, f"{a.values[0]:.17g}") for a in axes] + list(fixed))
     shape = tuple(len(a.values) for a in axes)
     collect = tuple(collect) if collect else DEFAULT_COLLECT
     tasks = []
@@ -174,6 +175,24 @@ def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
                 arr[idx] = r[path]
         result.data[path] = arr
     return result
+
+
+def _check_parameters(deck: Path, overrides) -> None:
+    """Refuse, before any point runs, a ``--set`` name the deck does not SET.
+
+    The deck is parsed once with the first grid point's overrides; only the parser's
+    "no 'SET name' line" errors stop the sweep (they name the parameter and the deck's SET
+    names). Any other deck error is left to the runs, which report it per point.
+    """
+    from spacarpy.deck.parser import parse_deck, read_deck_text
+    from spacarpy.errors import DeckError
+
+    try:
+        parse_deck(read_deck_text(deck), str(deck), overrides=dict(overrides))
+    except DeckError as exc:
+        unknown = [msg for _, msg, *_ in exc.items if msg.startswith("--set ")]
+        if unknown:
+            raise BatchInputError("sweep: " + "; ".join(unknown)) from None
 
 
 def write_sweep(result: SweepResult, out) -> Path:
