@@ -253,3 +253,27 @@ def test_stiff_fine_mesh_is_not_mistaken_for_a_mechanism():
     res = solve_static(model)
     tip = res.steps[-1].x[res.problem.num.pos_idx[-1]]
     assert tip[1] == pytest.approx(1e-3 / 3, rel=1e-4)                 # F L^3 / 3 EI
+
+
+def test_a_tolerance_below_round_off_fails_with_a_hint_and_a_value_that_works(tmp_path,
+                                                                                capsys):
+    from spacarpy.cli import main
+    from spacarpy.solvers.static import ROUNDOFF_TOL, roundoff_hint
+
+    assert ROUNDOFF_TOL == pytest.approx(2.220446e-14)
+    assert roundoff_hint(1e-9, [1.0, 1e-10]) == ""             # a reachable tolerance
+    assert roundoff_hint(3e-14, [1.0]) == ""
+    assert "use a tolerance of 1e-08 or larger" in roundoff_hint(1e-30, [1.0, 1.7e-9, 1.7e-9])
+    assert "use a tolerance of 1e-13 or larger" in roundoff_hint(1e-15, [1.0, 1e-16])
+    assert "use a tolerance of 5e-07 or larger" in roundoff_hint(1e-15, [1.0, np.nan])
+    text = (DECKS / "table1_cantilever_1el_modified.dat").read_text()
+    assert "ITERSTEP 20 10 1e-09" in text
+    deck = tmp_path / "t.dat"
+    deck.write_text(text.replace("ITERSTEP 20 10 1e-09", "ITERSTEP 20 10 1e-30"))
+    assert main(["run", str(deck), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "The ITERSTEP tolerance 1e-30 is below the round-off floor" in err
+    suggested = err.split("use a tolerance of ")[1].split()[0]
+    assert 1e-14 <= float(suggested) <= 1e-7              # stalled near 1.7e-9 here
+    deck.write_text(text.replace("ITERSTEP 20 10 1e-09", f"ITERSTEP 20 10 {suggested}"))
+    assert main(["run", str(deck), "-q"]) == 0             # the suggested value works

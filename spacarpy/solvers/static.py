@@ -178,6 +178,30 @@ def _strain_warnings(num, states, step) -> list:
     return out
 
 
+#: The smallest tolerance the scaled residual and increment can meet in double precision:
+#: 100 machine epsilons (round-off of sums of many terms of the load's size). An ITERSTEP
+#: tolerance below it can never be met, whatever the model.
+ROUNDOFF_TOL = 100 * np.finfo(float).eps
+
+
+def roundoff_hint(tol: float, history) -> str:
+    """A sentence for a failure message when ``tol`` is below :data:`ROUNDOFF_TOL`, else "".
+
+    The suggested tolerance is the power of ten at or above both the floor and the smallest
+    residual the last attempt reached (where the iterations stalled), at most the default
+    tolerance (an attempt that diverged early says nothing about the floor).
+    """
+    if not tol < ROUNDOFF_TOL:
+        return ""
+    finite = [h for h in history if np.isfinite(h) and h > 0]
+    reached = min(finite, default=ROUNDOFF_TOL)
+    suggest = min(10.0 ** np.ceil(np.log10(max(reached, ROUNDOFF_TOL))), StaticOptions.tol)
+    return (f". The ITERSTEP tolerance {tol:.3g} is below the round-off floor of the scaled "
+            f"residual (100 x machine epsilon = {ROUNDOFF_TOL:.1e}; the smallest residual "
+            f"reached was {reached:.2e}): use a tolerance of {suggest:.0e} or larger (the "
+            f"default is {StaticOptions.tol:.0e})")
+
+
 def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
     """Move the load parameters (a, s) from p_from to p_to, cutting steps on failure."""
     p_from, p_to = np.asarray(p_from, float), np.asarray(p_to, float)
@@ -200,7 +224,8 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
                     f"static step {stored_step} did not converge ({fail.reason}) after "
                     f"{opts.max_cuts} step cuts; last converged load: XF factor "
                     f"{p_from[0] + t * (p_to[0] - p_from[0]):.6g}, DELXF factor {lf:.6g}; "
-                    f"residual history of the last attempt: [{hist}]") from None
+                    f"residual history of the last attempt: [{hist}]"
+                    f"{roundoff_hint(opts.tol, fail.history)}") from None
             log.info("step %d: %s at increment %.3g, cutting the step", stored_step,
                      fail.reason, dt)
             dt /= 2
