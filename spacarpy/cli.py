@@ -401,9 +401,15 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, previous)
 
 
+#: Libraries whose debug/info lines (h5py's "Creating converter from 5 to 3") -v hides.
+_QUIET_LIBRARIES = ("h5py", "matplotlib", "PIL")
+
+
 def _main(args) -> int:
     level = logging.WARNING if args.quiet else (logging.DEBUG if args.verbose else logging.INFO)
     logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr, force=True)
+    for name in _QUIET_LIBRARIES:    # -v shows spacarpy's debug lines, not the libraries'
+        logging.getLogger(name).setLevel(logging.WARNING)
     try:
         if args.command == "run":
             return cmd_run(args)

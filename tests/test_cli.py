@@ -114,3 +114,15 @@ def test_python_dash_m_entry_point():
     out = subprocess.run([sys.executable, "-m", "spacarpy", "--version"], capture_output=True,
                          text=True, check=True)
     assert out.stdout.startswith("spacarpy ")
+
+
+def test_verbose_shows_spacarpy_debug_lines_but_not_h5py_ones(tmp_path, capsys):
+    import logging
+
+    deck = DECKS / "table1_cantilever_1el_modified.dat"
+    assert main(["run", str(deck), "-o", str(tmp_path / "o.h5"), "-v"]) == 0
+    logging.getLogger("h5py._conv").debug("Creating converter from 5 to 3")   # as h5py does
+    err = capsys.readouterr().err
+    assert "iteration 0: residual" in err                # spacarpy's own debug lines
+    assert "Creating converter" not in err
+    assert not logging.getLogger("h5py._conv").isEnabledFor(logging.DEBUG)
