@@ -154,7 +154,12 @@ def test_extract_errors_exit_2(files, capsys):
 
 def test_extract_deck(files, capsys):
     assert main(["extract", str(files["bend"]), "deck"]) == 0
-    assert "BEAMARC" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "BEAMARC" in out
+    with h5py.File(files["bend"], "r") as f:
+        text = f["/deck"][()].decode()
+    assert out.splitlines() == text.splitlines()     # verbatim, left-aligned, no header
+    assert any(line.startswith(("X ", "BEAM")) for line in out.splitlines())
 
 
 # --- a real run interrupted or killed --------------------------------------------------------

@@ -65,12 +65,18 @@ QUANTITIES = {
 
 @dataclass
 class Table:
-    """A table of named columns with units; ``columns`` hold 1-d arrays of equal length."""
+    """A table of named columns with units; ``columns`` hold 1-d arrays of equal length.
+
+    ``verbatim`` (a one-column table of text lines, the deck): :meth:`to_text` gives the
+    lines as written, left-aligned and without title or header, so that the output is the
+    text itself.
+    """
 
     title: str
     names: list
     units: list
     columns: list
+    verbatim: bool = False
 
     @property
     def n_row(self) -> int:
@@ -98,7 +104,10 @@ class Table:
                            "data": data}, indent=None) + "\n"
 
     def to_text(self) -> str:
-        """Aligned columns for reading, floats with 7 significant digits."""
+        """Aligned columns for reading, floats with 7 significant digits (a ``verbatim``
+        table: its lines as written)."""
+        if self.verbatim:
+            return "".join(f"{line}\n" for line in self.columns[0])
         head = [_header(n, u) for n, u in zip(self.names, self.units)]
         body = [[_fmt(v) for v in r] for r in self.rows()]
         return self.title + "\n" + _align([head] + body)
@@ -475,7 +484,8 @@ def _x_time_element(what):
 
 
 def _x_deck(res, **_):
-    return Table("deck", ["line"], ["1"], [np.array(res.deck.splitlines(), dtype=object)])
+    return Table("deck", ["line"], ["1"], [np.array(res.deck.splitlines(), dtype=object)],
+                 verbatim=True)
 
 
 _EXTRACTORS = {
