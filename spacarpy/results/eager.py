@@ -73,8 +73,18 @@ class StaticResults:
         return int(self.load_factor.size)
 
 
+class _Arrays:
+    """Attribute access to the group's datasets held in ``arrays`` (``res.eigen.frequency``)."""
+
+    def __getattr__(self, name):
+        try:
+            return self.__dict__["arrays"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
 @dataclass
-class TransientResults:
+class TransientResults(_Arrays):
     """The ``/transient`` group as arrays (axis 0 = stored time step): ``time``, ``position``,
     ``euler``, ``velocity``, ``euler_rate``, the energies, ``iterations``, ``residual`` and
     ``elements`` (per kind, as in :class:`StaticResults`)."""
@@ -83,11 +93,6 @@ class TransientResults:
     arrays: dict
     elements: dict
 
-    def __getattr__(self, name):
-        try:
-            return self.__dict__["arrays"][name]
-        except KeyError:
-            raise AttributeError(name) from None
 
     @property
     def n_step(self) -> int:
@@ -95,7 +100,7 @@ class TransientResults:
 
 
 @dataclass
-class LinearizedResults:
+class LinearizedResults(_Arrays):
     """An ``/eigen``, ``/buckling`` or ``/compliance`` group: one row per linearized step.
 
     ``step`` (n_lin,) gives the row of ``/static`` each linearization belongs to; the other
@@ -106,11 +111,6 @@ class LinearizedResults:
     step: np.ndarray
     arrays: dict
 
-    def __getattr__(self, name):
-        try:
-            return self.__dict__["arrays"][name]
-        except KeyError:
-            raise AttributeError(name) from None
 
     @property
     def n_mode(self) -> int:

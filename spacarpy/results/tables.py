@@ -198,16 +198,20 @@ def _long(title, steps, load_factor, entity_name, entity_ids, values, comp_names
                  ["1", "1", "1"] + list(units), cols)
 
 
+def _node_rows(m, orientation: bool, node):
+    """Deck numbers and rows of the nodes asked for (None: all) among the orientation nodes
+    (``orientation``) or the position nodes of the model view ``m``."""
+    if orientation:
+        ids = m.orientation_nodes if node is None else np.atleast_1d(node)
+        return ids, m.orientation_row(ids)
+    ids = m.position_nodes if node is None else np.atleast_1d(node)
+    return ids, m.position_row(ids)
+
+
 def _nodal(res, name, *, node, step, comps, units, title, **_):
     static = _static(res)
     steps, lf = _steps(static, step)
-    m = res.model
-    if name == "euler":
-        ids = m.orientation_nodes if node is None else np.atleast_1d(node)
-        rows = m.orientation_row(ids)
-    else:
-        ids = m.position_nodes if node is None else np.atleast_1d(node)
-        rows = m.position_row(ids)
+    ids, rows = _node_rows(res.model, name in ("euler",), node)
     values = getattr(static, name)(step=steps)[:, rows]
     return _long(title, steps, lf, "node", ids, values, comps, units)
 
@@ -443,13 +447,7 @@ def _x_time_nodal(name, comps, units, title):
     def get(res, node, step, **_):
         tr = _transient(res)
         steps, t = _time_steps(tr, step)
-        m = res.model
-        if name in ("euler", "euler_rate"):
-            ids = m.orientation_nodes if node is None else np.atleast_1d(node)
-            rows = m.orientation_row(ids)
-        else:
-            ids = m.position_nodes if node is None else np.atleast_1d(node)
-            rows = m.position_row(ids)
+        ids, rows = _node_rows(res.model, name in ("euler", "euler_rate"), node)
         values = getattr(tr, name)(step=steps)[:, rows]
         return _time_long(title, t, steps, "node", ids, values, comps, units)
     return get
