@@ -148,9 +148,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
                 **surface_stress(step.stress.get("BEAM")))
             summary.n_steps += 1
-            msg = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
-                   f"{step.load_factor:.4f}  {step.iterations:2d} iterations  "
-                   f"residual {step.residual:.2e}")
+            msg = step_line(k, n_steps, step, settings.static.iterstep.tol)
             if (want_eigen or want_buckling or want_compliance) and \
                     (modes_per_step or k == n_steps):
                 msg += _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen,
@@ -222,6 +220,19 @@ def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_b
         text += (f"  critical load multiplier {bk.critical:.6g}" if np.isfinite(bk.critical)
                  else "  no finite buckling multiplier")
     return text
+
+
+def step_line(k: int, n_steps: int, step, tol: float) -> str:
+    """The progress line of stored load step ``k``. A step is also accepted when its residual
+    stays above the tolerance at its round-off floor while the increments are below the
+    tolerance (solvers/newton.py); the line then says so, so that a residual of 5e-4 beside a
+    tolerance of 1e-9 is not read as a failed convergence."""
+    line = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor {step.load_factor:.4f}  "
+            f"{step.iterations:2d} iterations  residual {step.residual:.2e}")
+    if step.residual > tol:
+        line += (f" (at its round-off floor, above the tolerance {tol:.0e}: the increments "
+                 "are below it)")
+    return line
 
 
 def _node_shapes(num, free, shapes):

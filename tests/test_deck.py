@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from spacarpy.deck import build_job, build_model, load, load_deck, parse_deck
+from spacarpy.deck import build_job, build_model, load, load_deck, model_from_text, parse_deck
 from spacarpy.deck.check import summarize
 from spacarpy.errors import DeckError
 from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Fix, Load
@@ -536,6 +536,18 @@ def test_zero_length_element():
     line, col, msg = only_item(deck_error("X 1 0 0 0\nX 3 0 0 0\nBEAM 7 1 2 3 4\n"))
     assert (line, col) == (3, 1)
     assert "element 7 has zero length" in msg and "nodes 1 and 3" in msg
+
+
+def test_a_far_node_does_not_make_a_near_element_zero_length():
+    """D12: with one node at 1e20 m, a 1 m element elsewhere is not "at the same position":
+    an element's length is judged against its own end coordinates, not the model's size."""
+    text = ("X 1 1e20 0 0\nX 3 1 0 0\nX 5 2 0 0\nBEAM 1 1 2 3 4\nBEAM 2 3 4 5 6\n"
+            "DYNE 1:2 1:6\nFIX 1\nFIX 2\nEND\nHALT\nESTIFF 1:2 1 1 1 1\nEND\nEND\n")
+    model = model_from_text(text)
+    assert model.elements["BEAM"].n_elem == 2
+    # nodes that do coincide within their own round-off still do
+    _, _, msg = only_item(deck_error("X 1 1e20 0 0\nX 3 1e20 0 0\nBEAM 7 1 2 3 4\n"))
+    assert "element 7 has zero length" in msg
 
 
 def test_parallel_orientation_vector():

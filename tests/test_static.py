@@ -277,3 +277,17 @@ def test_a_tolerance_below_round_off_fails_with_a_hint_and_a_value_that_works(tm
     assert 1e-14 <= float(suggested) <= 1e-7              # stalled near 1.7e-9 here
     deck.write_text(text.replace("ITERSTEP 20 10 1e-09", f"ITERSTEP 20 10 {suggested}"))
     assert main(["run", str(deck), "-q"]) == 0             # the suggested value works
+
+
+def test_a_step_accepted_at_its_round_off_floor_says_so():
+    """D12: a step whose residual stays above the tolerance at its round-off floor (accepted
+    on its increments, solvers/newton.py) says so in the progress line; others do not."""
+    from types import SimpleNamespace
+
+    from spacarpy.run import step_line
+
+    step = SimpleNamespace(load_factor=0.5, iterations=4, residual=5e-4)
+    line = step_line(3, 10, step, 1e-9)
+    assert "residual 5.00e-04" in line and "round-off floor" in line and "1e-09" in line
+    assert "round-off" not in step_line(3, 10, SimpleNamespace(load_factor=0.5, iterations=4,
+                                                               residual=1e-10), 1e-9)

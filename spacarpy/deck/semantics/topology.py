@@ -21,7 +21,8 @@ from spacarpy.model import RIGID
 __all__ = ["ELEMENT_KEYWORDS", "ORIENTATION_TOL", "ZERO_LENGTH_RTOL", "ElementRecord",
            "Topology", "UsesTopology", "from_statements"]
 
-#: Relative length below which an element counts as zero-length (times the model size).
+#: Relative length below which an element counts as zero-length (times the largest
+#: coordinate magnitude of its two end nodes).
 ZERO_LENGTH_RTOL = 1e-12
 #: Orientation vectors shorter than this, or with |n_x x o| < this * |o|, are rejected
 #: (SPACAR's getLocalframe rule).
@@ -155,15 +156,6 @@ class Topology(Part):
                                    f"{first.loc.line}) has planar elements only (PLBEAM, "
                                    "PLTRUSS, PLHINGE); model it in space instead", st)
 
-    def model_size(self) -> float:
-        """The size of the model (for the zero-length check)."""
-        if not self.positions:
-            return 1.0
-        x = np.array([xyz for xyz, _ in self.positions.values()], dtype=float)
-        with np.errstate(over="ignore", invalid="ignore"):
-            size = max(float(np.ptp(x, axis=0).max()), float(np.abs(x).max()))
-        return size if 0 < size < np.inf else 1.0
-
     def element_geometry(self, elements: list[ElementRecord]):
         """Geometry checks of all elements at once: for each, whether it has zero length and
         whether its orientation vector (hinge axis) is (nearly) zero or parallel to the element
@@ -185,7 +177,12 @@ class Topology(Part):
         has_axis = two & found.all(axis=1)
         d = x[rows[:, 1]] - x[rows[:, 0]] if len(ids) else np.zeros((n, 3))
         length = _row_norms(d)
-        zero_length = has_axis & (length <= ZERO_LENGTH_RTOL * self.model_size())
+        # an element is zero-length when its length is below the round-off of its own end
+        # coordinates (not of the whole model: a far node must not shorten a near element)
+        with np.errstate(over="ignore", invalid="ignore"):
+            scale = (np.maximum(np.abs(x[rows[:, 0]]).max(axis=1),
+                                np.abs(x[rows[:, 1]]).max(axis=1)) if len(ids) else np.zeros(n))
+        zero_length = has_axis & (length <= ZERO_LENGTH_RTOL * scale)
         axis = np.divide(d, length[:, None], out=np.full_like(d, np.nan),
                          where=(has_axis & ~zero_length)[:, None])
         vector = np.array([b.orientation for b in elements], dtype=float).reshape(n, 3)
