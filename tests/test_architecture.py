@@ -2,6 +2,7 @@
 worked example of a new element kind works when followed to the letter."""
 from __future__ import annotations
 
+import ast
 import re
 import shutil
 import subprocess
@@ -32,8 +33,6 @@ def test_every_module_is_on_the_map():
 
 
 def test_every_module_says_its_job():
-    import ast
-
     silent = [str(p.relative_to(REPO)) for p in sorted((REPO / "spacarpy").rglob("*.py"))
               if not ast.get_docstring(ast.parse(p.read_text()))]
     assert not silent, "modules without a docstring: " + ", ".join(silent)
@@ -42,8 +41,6 @@ def test_every_module_says_its_job():
 def test_modules_over_600_lines_say_why():
     long = [p for p in (REPO / "spacarpy").rglob("*.py") if len(p.read_text().splitlines()) > 600]
     for p in long:
-        import ast
-
         doc = ast.get_docstring(ast.parse(p.read_text()))
         assert re.search(r"(?i)longer than|over 600|600 lines", doc), \
             f"{p.relative_to(REPO)} has {len(p.read_text().splitlines())} lines and no reason"
