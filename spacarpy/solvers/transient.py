@@ -25,9 +25,9 @@ derivatives of M and of the convective terms are left out of it, which only slow
 down when the velocities are large. A step whose Newton iterations fail is halved (up to
 ``max_cuts`` times) and retried; it is never skipped.
 
-The module is a little longer than 600 lines: the time step, its error control, the
-consistent initial state and the gauge of the Euler-parameter rates work on the same
-state and are kept together.
+The module is longer than 600 lines: the time step, its error control, the consistent
+initial state (with the rates of SPACAR's 5-field inputs and STARTDE) and the gauge of the
+Euler-parameter rates work on the same state and are kept together.
 """
 from __future__ import annotations
 
