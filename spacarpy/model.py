@@ -126,7 +126,10 @@ class Prescribed:
     ``INPUTX node coord value``; None = the initial configuration's value) is reached at
     step 0, then ``delta`` (``DELINPX node coord delta``) is added in the load steps, so the
     value at load factor s is ``initial + s * delta``. Euler parameters are prescribed like
-    any coordinate; the normalization of their node still holds.
+    any coordinate; the normalization of their node still holds. In a transient run the
+    5-field form's ``velocity`` and ``acceleration`` add ``velocity t + acceleration t^2 / 2``
+    (SPACAR's value, rate and second derivative at t = 0, continued at constant
+    acceleration).
     """
 
     node: int
@@ -134,6 +137,8 @@ class Prescribed:
     initial: float | None = None
     delta: float = 0.0
     loc: SourceLoc | None = None
+    velocity: float = 0.0          # INPUTX n c value velocity acceleration: the rate at t = 0
+    acceleration: float = 0.0      # and its constant second derivative (transient runs)
 
 
 @dataclass(frozen=True)
@@ -143,7 +148,8 @@ class PrescribedDeformation:
 
     Like :class:`Prescribed`: ``initial`` (the data module's ``INPUTE element mode value``;
     None = 0, the reference configuration's deformation) is reached at step 0 and ``delta``
-    (``DELINPE element mode delta``) is added over the load steps. The mode is a constraint
+    (``DELINPE element mode delta``) is added over the load steps; a transient run adds
+    ``velocity t + acceleration t^2 / 2`` of the 5-field form. The mode is a constraint
     ``e_k(x) = initial + s * delta`` whose multiplier is the stress resultant that holds it
     (the driving torque of a hinge).
     """
@@ -153,6 +159,8 @@ class PrescribedDeformation:
     initial: float | None = None
     delta: float = 0.0
     loc: SourceLoc | None = None
+    velocity: float = 0.0          # INPUTE e k value velocity acceleration (transient runs)
+    acceleration: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -230,6 +238,11 @@ class Model:
     damping, element_damping
         Rayleigh damping ``(alpha, beta)`` (DAMPING: ``alpha M + beta K0``) and the viscous
         damping of deformation modes per element (EDAMP), used by the transient analysis.
+    element_prestress : dict
+        Element -> initial stress resultants per deformation mode (ESIG): the stress
+        resultant of a flexible or released mode is ``sigma0 + S e``.
+    initial_rates : dict
+        (element, mode) -> initial deformation rate of a transient run (STARTDE).
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
     """
@@ -249,6 +262,8 @@ class Model:
     planar: bool = False
     damping: tuple = (0.0, 0.0)             # Rayleigh (alpha, beta) of DAMPING
     element_damping: dict = field(default_factory=dict)   # element -> EDAMP values per mode
+    element_prestress: dict = field(default_factory=dict)  # element -> ESIG values per mode
+    initial_rates: dict = field(default_factory=dict)      # (element, mode) -> STARTDE rate
     source_path: str = "<model>"
     source_text: str = ""
 

@@ -67,6 +67,7 @@ class ElementGroup:
     rigid_offset: int = 0
     prev: dict = field(default_factory=dict)
     damp: np.ndarray | None = None       # (n, n_def) EDAMP coefficients (None: none)
+    sigma0: np.ndarray | None = None     # (n, n_def) ESIG pre-stress (None: none)
 
     @property
     def n_elem(self) -> int:
@@ -133,6 +134,9 @@ class Numbering:
     rigid_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rigid_delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rigid_prescribed: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    # the transient motion of the 5-field INPUTX/INPUTE: rate and second derivative at t = 0
+    prescribed_rate: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    rigid_rate: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     rotation_idx: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int64))
     rotation_axis: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -164,6 +168,19 @@ class Numbering:
         if not self.rigid_initial.size:
             return np.zeros(self.n_rigid)
         return a * self.rigid_initial + s * self.rigid_delta
+
+    def input_motion(self, t: float, rigid: bool = False):
+        """(value, rate, second derivative) added at time t of a transient run by the 5-field
+        INPUTX (or with ``rigid`` the INPUTE) lines: ``v0 t + a0 t^2/2``, ``v0 + a0 t``,
+        ``a0``; arrays over the prescribed coordinates (or the rigid-mode constraints), zero
+        without such lines."""
+        va = self.rigid_rate if rigid else self.prescribed_rate
+        n = self.n_rigid if rigid else self.prescribed_idx.size
+        if not va.size:
+            z = np.zeros(n)
+            return z, z, z
+        v0, a0 = va[:, 0], va[:, 1]
+        return v0 * t + 0.5 * a0 * t * t, v0 + a0 * t, a0.copy()
 
     @property
     def n_rigid(self) -> int:
@@ -245,11 +262,19 @@ def number_model(model: Model) -> Numbering:
                              for e in e_ids], dtype=float).reshape(-1, kind.n_def)
             # only flexible or released modes move; a rigid mode's rate is zero anyway
             groups[-1].damp = damp if np.any(damp) else None
+        if model.element_prestress:
+            sig0 = np.array([model.element_prestress.get(int(e), (0.0,) * kind.n_def)
+                             for e in e_ids], dtype=float).reshape(-1, kind.n_def)
+            # a rigid mode's stress resultant is its multiplier (the deck refuses a
+            # pre-stress there)
+            sig0[groups[-1].def_class == RIGID] = 0.0
+            groups[-1].sigma0 = sig0 if np.any(sig0) else None
         offset += r_elem.size
 
     n_rigid = offset
     rigid_initial = np.zeros(n_rigid if model.prescribed_deformations else 0)
     rigid_delta, rigid_presc = np.zeros_like(rigid_initial), np.zeros(rigid_initial.size, bool)
+    rigid_rate = np.zeros((rigid_initial.size, 2))
     for pd in model.prescribed_deformations:
         for g in groups:
             hit = np.flatnonzero(g.ids[g.rigid_elem] == int(pd.element))
@@ -259,6 +284,9 @@ def number_model(model: Model) -> Numbering:
                 rigid_initial[k] = 0.0 if pd.initial is None else float(pd.initial)
                 rigid_delta[k] = float(pd.delta)
                 rigid_presc[k] = True
+                rigid_rate[k] = (pd.velocity, pd.acceleration)
+    if not rigid_rate.any():
+        rigid_rate = np.zeros((0, 2))
 
     fixed = np.zeros(n_coord, dtype=bool)
     for fix in model.fixes:
@@ -272,6 +300,10 @@ def number_model(model: Model) -> Numbering:
     presc_initial = np.array([x0[k] if p.initial is None else float(p.initial)
                               for k, p in zip(presc_idx, model.prescribed)], dtype=float)
     presc_delta = np.array([float(p.delta) for p in model.prescribed], dtype=float)
+    presc_rate = np.array([(p.velocity, p.acceleration) for p in model.prescribed],
+                          dtype=float).reshape(-1, 2)
+    if not presc_rate.any():
+        presc_rate = np.zeros((0, 2))
     fixed[presc_idx] = True
     rot_presc_idx = np.array([rot_idx[rot_row[int(r.node)]] for r in model.prescribed_rotations],
                              dtype=np.int64).reshape(-1, 4)
@@ -298,6 +330,7 @@ def number_model(model: Model) -> Numbering:
                      prescribed_idx=presc_idx, prescribed_initial=presc_initial,
                      prescribed_delta=presc_delta, rigid_initial=rigid_initial,
                      rigid_delta=rigid_delta, rigid_prescribed=rigid_presc,
+                     prescribed_rate=presc_rate, rigid_rate=rigid_rate,
                      rotation_idx=rot_presc_idx,
                      rotation_axis=np.array([r.axis for r in model.prescribed_rotations],
                                             dtype=float).reshape(-1, 3),

@@ -37,8 +37,10 @@ def corpus_decks():
 #   DOF = 168 - 120 = 48; DELXF on orientation node 26 (a moment); 4 load steps; 24 RECT.
 # oopspa_slidercrank: X 1 4 7; HINGE 1 (2,10), BEAM 2 (1,10,4,5), HINGE 3 (5,11),
 #   BEAM 4 (4,11,7,8): orientation nodes 2 5 8 10 11; DYNE 2 (5 modes) + DYNE 3 (1) = 6
-#   flexible listed, RLSE 1 1 + RLSE 2 5 = 2 released; 3 XM lines; not supported: OUTLEVEL
-#   (line 4), HINGE (16, 18), ESIG (59); TIMESTEP (88) is supported since the transient issue.
+#   flexible listed, RLSE 1 1 + RLSE 2 5 = 2 released; 3 XM lines; 2 * 3 + 2 * 6 = 18 modes,
+#   so 10 rigid; 9 + 20 = 29 coordinates, FIX 1 (3) + FIX 2 (3) + FIX 7 (2) = 8 fixed; all 5
+#   orientation nodes keep a free Euler parameter: 15 constraints, DOF = 21 - 15 = 6. ESIG
+#   (line 59, a pre-stress) and TIMESTEP (88) are supported (issue 18, the transient issue).
 # fis_rig_cat_s_3d: 13 X lines (1, 5, ..., 49), 12 RBEAM + 33 HINGE, 34 distinct orientation
 #   nodes (RBEAM r, HINGE r and s), 33 RLSE lines, 33 XM lines.
 HAND_COUNTED = {
@@ -54,8 +56,9 @@ HAND_COUNTED = {
         iterstep=(10, 4, 5e-7), cross_sections={"RECT": 24}, unsupported=[]),
     "oopspa_slidercrank.dat": dict(
         position_nodes=3, orientation_nodes=5, elements={"HINGE": 2, "BEAM": 2}, flexible=6,
-        released=2, rigid=None, dof=None, nodal_masses=3, cross_sections={"RECT": 2},
-        unsupported=[("ESIG", 59)]),
+        released=2, rigid=10, n_coord=29, n_fixed=8, n_rigid_constraints=10,
+        n_euler_constraints=5, dof=6, nodal_masses=3, cross_sections={"RECT": 2},
+        unsupported=[]),
     "fis_rig_cat_s_3d.dat": dict(
         position_nodes=13, orientation_nodes=34, elements={"RBEAM": 12, "HINGE": 33},
         flexible=0, released=33, nodal_masses=33, dof=None),

@@ -274,15 +274,13 @@ def test_corpus_dynastatflex_builds():
     assert (s.iterstep.n_steps, s.iterstep.n_init) == (4, 1)
 
 
-def test_corpus_slidercrank_refuses_only_what_is_not_supported():
-    """HINGE, BEAM, OUTLEVEL and TIMESTEP are supported; ESIG is refused."""
+def test_corpus_slidercrank_builds_with_its_esig_pre_stress():
+    """HINGE, BEAM, OUTLEVEL, TIMESTEP and ESIG are supported: ``ESIG 1 1.0`` on the
+    released crank hinge is a constant 1 N m stress resultant (a driving torque)."""
     path = corpus_path("oopspa_slidercrank.dat")
-    with pytest.raises(DeckError) as info:
-        load_deck(path)
-    items = info.value.items
-    assert all(msg.startswith("not supported yet: ") for _, msg, _ in items), str(info.value)
-    assert [(msg[19:], loc.line) for loc, msg, _ in items] == [("ESIG", 59)]
-    assert f"{path}:59:2: error: not supported yet: ESIG" in str(info.value)
+    m = load_deck(path)
+    assert m.element_prestress == {1: (1.0, 0.0, 0.0)}
+    assert m.elements["HINGE"].ids.tolist() == [1, 3]
 
 
 @pytest.mark.parametrize("path", corpus_decks(), ids=lambda p: getattr(p, "name", "none"))
@@ -619,9 +617,11 @@ def test_fix_and_load_on_unknown_node():
 
 def test_unsupported_keyword_one_error_each():
     err = deck_error(BASE + "USERSIG f\nUSERINP g\nUSERINP h\n")
-    assert [(loc.line, msg) for loc, msg, _ in err.items] == [
-        (4, "not supported yet: USERSIG"), (5, "not supported yet: USERINP"),
-        (6, "not supported yet: USERINP")]
+    assert [(loc.line, msg.split(":")[0]) for loc, msg, _ in err.items] == [
+        (4, "SPACAR keyword USERSIG is not supported yet"),
+        (5, "SPACAR keyword USERINP is not supported yet"),
+        (6, "SPACAR keyword USERINP is not supported yet")]
+    assert "user routine" in err.items[0][1] and "nodal loads" in err.items[0][1]
 
 
 def test_several_errors_reported_at_once_ordered_by_line():

@@ -283,11 +283,12 @@ def test_every_corpus_deck_with_only_supported_features_runs_from_the_cli(tmp_pa
     """Every corpus deck that uses only supported features finishes. (spatools_cantilever.dat
     pushes its 1 m cantilever with a dead axial load of -1e10 N, 40000 times its buckling
     load: the equilibrium found has the beam turned over and stretched to 21 m, which the
-    run reports with a strain warning.)"""
+    run reports with a strain warning.) The transient (mode 1) decks, slider cranks driven by
+    an ESIG torque that have no static equilibrium, run in tests/test_spacar_compat.py."""
     from spacarpy.deck.check import check_deck
     ran = []
     for deck in sorted(CORPUS.glob("*.dat")):
-        if not check_deck(deck).ok:
+        if not check_deck(deck).ok or "TIMESTEP" in deck.read_text(encoding="latin-1"):
             continue
         code = main(["run", str(deck), "-o", str(tmp_path / (deck.stem + ".h5")), "-q"])
         ran.append(deck.name)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spacarpy.deck.generators import expand_generators
-from spacarpy.deck.keywords import GENERATORS, KEYWORDS
+from spacarpy.deck.keywords import GENERATORS, KEYWORDS, UNSUPPORTED_PATTERN
 from spacarpy.deck.parser import Statement, parse_deck, read_deck_text
 from spacarpy.deck.semantics import build_job
 from spacarpy.deck.visualization import collect_cross_sections
@@ -28,7 +28,6 @@ from spacarpy.settings import AnalysisSettings, resolve_analysis, resolve_deform
 
 __all__ = ["DeckSummary", "check_deck", "summarize"]
 
-_UNSUPPORTED_PREFIX = "not supported yet: "
 
 
 @dataclass
@@ -196,8 +195,9 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
     kin = [st for st in expanded if st.module >= 0]
     s = DeckSummary(path=path, model=model)
     for loc, msg, src in problems:
-        if msg.startswith(_UNSUPPORTED_PREFIX) and loc is not None:
-            s.unsupported.append((msg[len(_UNSUPPORTED_PREFIX):], loc))
+        refused = UNSUPPORTED_PATTERN.match(msg)
+        if refused and loc is not None:
+            s.unsupported.append((refused.group(1), loc))
         else:
             s.errors.append((loc, msg, src))
 

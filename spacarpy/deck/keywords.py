@@ -6,11 +6,14 @@ messages) and :data:`VISUALIZATION_KEYWORDS`; :mod:`spacarpy.deck.semantics` giv
 their meaning. Every SPACAR keyword has its real field layout here, also the ones spacarpy cannot
 analyse yet (``supported=False``): those are parsed and checked like the others, so that
 field-count errors are meaningful and the typed values are kept, and the model builder refuses
-them with "not supported yet: KEYWORD". The layouts come from ../shared/spacar/README.md and the
-decks of SPACAR's front ends; docs/deck.md documents them.
+them with "SPACAR keyword KEYWORD is not supported yet" (:func:`unsupported_message`). Real
+SPACAR keywords whose layouts are not publicly known (PINBODY, WHEEL, KINX, ...) take any
+fields and are refused the same way, never as "unknown keyword". The layouts come from
+../shared/spacar/README.md and the decks of SPACAR's front ends; docs/deck.md documents them.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from spacarpy.elements.registry import KINDS
@@ -205,6 +208,53 @@ def _unsupported(name, summary, section, **kw) -> KeywordSpec:
     return KeywordSpec(name=name, summary=summary, supported=False, section=section, **kw)
 
 
+#: Real SPACAR keywords spacarpy does not implement and whose field layout is not publicly
+#: documented: (name, summary, section). Their lines take any fields and are refused with
+#: :func:`unsupported_message`; the first field of an element keyword is taken as the element
+#: number and its other whole numbers as nodes (so that DYNE/FIX lines about them do not add
+#: "not defined" errors to the refusal).
+_SPACAR_ONLY = (
+    ("PINBODY", "SPACAR pin-body element (element type 9)", "element"),
+    ("TUBE", "SPACAR tube element (element type 16)", "element"),
+    ("SCREW", "SPACAR screw element (element type 17)", "element"),
+    ("WHEEL", "SPACAR rolling wheel element", "element"),
+    ("KINX", "SPACAR kinematic nodal coordinates (rolling contact)", "kinematics"),
+    ("KINE", "SPACAR kinematic deformation modes (rolling contact)", "kinematics"),
+    ("INPUTS", "SPACAR INPUTS line (layout not publicly documented)", "kinematics"),
+    ("ENHC", "SPACAR ENHC line (layout not publicly documented)", "kinematics"),
+)
+
+#: User routines of SPACAR (code linked into SPACAR): keyword -> what the routine gives.
+USER_ROUTINES = {"USERSIG": ("nodal loads", "XF/DELXF and a TIMEFUNCTION"),
+                 "USERINP": ("prescribed motions",
+                             "INPUTX/INPUTE (value, velocity, acceleration), or DELINPX/"
+                             "DELINPE and a TIMEFUNCTION")}
+
+
+def unsupported_message(keyword: str) -> str:
+    """The one message of a real SPACAR keyword that spacarpy does not implement:
+    ``SPACAR keyword X is not supported yet`` (for USERSIG/USERINP followed by what they
+    are)."""
+    msg = f"SPACAR keyword {keyword} is not supported yet"
+    routine = USER_ROUTINES.get(keyword)
+    if routine is not None:
+        what, instead = routine
+        msg += (f": it names a user routine (a function compiled or linked into SPACAR that "
+                f"computes {what} during the run), which spacarpy cannot call; give the "
+                f"{what} with {instead} instead")
+    return msg
+
+
+#: Matches :func:`unsupported_message`; group 1 is the keyword.
+UNSUPPORTED_PATTERN = re.compile(r"SPACAR keyword (\S+) is not supported yet")
+
+
+def _spacar_only(name, summary, section) -> KeywordSpec:
+    return _unsupported(name, summary, section,
+                        variadic=_f("field of a SPACAR line spacarpy does not read", "v",
+                                    "value"))
+
+
 def element_keyword(kind) -> KeywordSpec:
     """The deck keyword of an element kind, from what the kind declares (its node fields and
     the optional trailing vector): ``KEYWORD e nodes... [v1 v2 v3]``."""
@@ -234,16 +284,26 @@ _KEYWORD_LIST = (
                 required=(ELEMENT,), variadic=_MODE, range_first=True),
     KeywordSpec("INPUTX", "prescribed (input) nodal coordinates", section="kinematics",
                  required=(NODE,), variadic=_COORD,
-                 data_form=KeywordSpec("INPUTX", "initial value of a prescribed coordinate",
+                 data_form=KeywordSpec("INPUTX", "initial value (and rate) of a prescribed "
+                                       "coordinate",
                                        required=(NODE, _COORD,
                                                  _f("initial value of the coordinate",
-                                                    "value")))),
+                                                    "value")),
+                                       optional=_each_optional(
+                                           _f("initial velocity of the coordinate", "velocity"),
+                                           _f("acceleration of the coordinate",
+                                              "acceleration")))),
     KeywordSpec("INPUTE", "prescribed (input) element deformations", section="kinematics",
                 required=(ELEMENT,), variadic=_MODE,
-                data_form=KeywordSpec("INPUTE", "initial value of a prescribed deformation",
+                data_form=KeywordSpec("INPUTE", "initial value (and rate) of a prescribed "
+                                      "deformation",
                                       required=(ELEMENT, _MODE,
                                                 _f("initial value of the deformation",
-                                                   "value")))),
+                                                   "value")),
+                                      optional=_each_optional(
+                                          _f("initial rate of the deformation", "velocity"),
+                                          _f("second time derivative of the deformation",
+                                             "acceleration")))),
     _unsupported("DYNX", "dynamic (free) nodal coordinates of a transient analysis",
                  "kinematics", required=(NODE,), variadic=_COORD),
     # ------------------------------------------------------------------ elements
@@ -252,6 +312,9 @@ _KEYWORD_LIST = (
                  required=(ELEMENT, _POS_P, _ROT_P, _f("warping node at p", "wp", "int", True),
                            _POS_Q, _ROT_Q, _f("warping node at q", "wq", "int", True)),
                  optional=(_ORIENTATION,), node_roles="prwprw"),
+    # SPACAR element and kinematics keywords whose field layouts are not publicly documented
+    # (../shared/spacar/README.md: element type codes; issue 18): any fields, always refused
+    *(_spacar_only(name, summary, section) for name, summary, section in _SPACAR_ONLY),
     # ------------------------------------------------------------------ statics/dynamics data
     # ESTIFF/EM: values optional at the parse level because a HINGE takes 1 value or none;
     # the model builder requires at least EA GJ EIy EIz (ESTIFF) / rhoA (EM) for a BEAM.
@@ -311,9 +374,13 @@ _KEYWORD_LIST = (
                 section="data",
                 required=(_f("absolute error tolerance", "abs"),
                           _f("relative error tolerance", "rel"))),
-    _unsupported("ESIG", "prescribed stress resultants of an element", "data",
-                 required=(ELEMENT, _f("stress resultant", "sigma")),
-                 variadic=_f("stress resultant", "sigma")),
+    KeywordSpec("ESIG", "initial stress resultants (pre-stress) of an element",
+                section="data", range_first=True,
+                required=(ELEMENT, _f("initial stress resultant of mode 1", "sigma")),
+                variadic=_f("initial stress resultant of the next mode", "sigma")),
+    KeywordSpec("STARTDE", "initial rate of a deformation mode in a transient analysis",
+                section="data",
+                required=(ELEMENT, _MODE, _f("initial rate of the deformation", "rate"))),
     _unsupported("USERSIG", "user routine giving nodal loads", "data",
                  required=(_f("name of the user load routine", "name", "word"),)),
     _unsupported("USERINP", "user routine giving prescribed motion", "data",
@@ -410,6 +477,10 @@ UNSUPPORTED = tuple(k.name for k in _KEYWORD_LIST if not k.supported)
 
 #: Unsupported keywords that define elements (their first field is an element number).
 UNSUPPORTED_ELEMENTS = tuple(k.name for k in _KEYWORD_LIST if not k.supported and k.is_element)
+
+#: Unsupported element keywords whose layout is unknown (:data:`_SPACAR_ONLY`).
+UNKNOWN_LAYOUT_ELEMENTS = tuple(name for name, _, section in _SPACAR_ONLY
+                                if section == "element")
 
 #: Keywords that generate BEAM elements (spacarpy extensions).
 GENERATORS = ("BEAMS", "BEAMARC")

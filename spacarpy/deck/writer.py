@@ -175,6 +175,10 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         out += _element_lines("EM", es.ids, data, compact)
     for e, values in model.element_damping.items():
         out.append(format_record("EDAMP", int(e), *[float(v) for v in values]))
+    for e, values in model.element_prestress.items():
+        out.append(format_record("ESIG", int(e), *[float(v) for v in values]))
+    for (e, k), rate in model.initial_rates.items():
+        out.append(format_record("STARTDE", int(e), int(k), float(rate)))
     for xm in model.nodal_masses:
         out.append(format_record("XM", xm.node, *[float(v) for v in xm.values]))
     for load in model.loads:
@@ -183,7 +187,16 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
             value = value[:2] if load.node in position_nodes else value[2:]
         out.append(format_record(load.kind, load.node, *value))
     for p in model.prescribed:
-        if p.initial is not None:
+        if p.velocity or p.acceleration:        # the 5-field form (a transient's motion)
+            value = p.initial
+            if value is None:
+                row = list(model.position_ids).index(p.node) if p.node in position_nodes \
+                    else None
+                value = (model.position_x0[row, p.coord - 1] if row is not None
+                         else float(p.coord == 1))
+            out.append(format_record("INPUTX", p.node, p.coord, float(value),
+                                     float(p.velocity), float(p.acceleration)))
+        elif p.initial is not None:
             out.append(format_record("INPUTX", p.node, p.coord, float(p.initial)))
         if p.delta != 0:
             out.append(format_record("DELINPX", p.node, p.coord, float(p.delta)))
@@ -196,7 +209,10 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         elif r.angle != 0:
             out.append(format_record("DELINPR", r.node, float(r.angle)))
     for d in model.prescribed_deformations:
-        if d.initial is not None:
+        if d.velocity or d.acceleration:
+            out.append(format_record("INPUTE", d.element, d.mode, float(d.initial or 0.0),
+                                     float(d.velocity), float(d.acceleration)))
+        elif d.initial is not None:
             out.append(format_record("INPUTE", d.element, d.mode, float(d.initial)))
         if d.delta != 0:
             out.append(format_record("DELINPE", d.element, d.mode, float(d.delta)))

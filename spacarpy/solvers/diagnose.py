@@ -228,7 +228,9 @@ def mechanism_error(prob, A, states, k: int = 8, lu=None) -> ModelError | None:
     candidates; a candidate is a free motion when it changes no deformation that carries
     stiffness or is rigid (``D v`` ~ 0 relative to its size) and keeps every Euler
     normalization. Those exist only in a mechanism; soft but genuine elastic modes deform
-    elements and are not reported. Returns the error to raise, or None.
+    elements and are not reported, nor are motions held by the geometric stiffness of
+    stress resultants (singular value above 1e-9 of the largest entry of A). Returns the
+    error to raise, or None.
 
     ``lu`` is a factorization of ``A`` the caller already has (the solve of the Newton
     system that preceded this check), used instead of factorizing ``A`` again: the LU is
@@ -249,7 +251,7 @@ def mechanism_error(prob, A, states, k: int = 8, lu=None) -> ModelError | None:
     v = rng.standard_normal((A.shape[0], min(k, A.shape[0])))
     for _ in range(3):
         v, _ = np.linalg.qr(lu.solve(v))
-    _, _, wt = np.linalg.svd(A @ v, full_matrices=False)
+    _, sv, wt = np.linalg.svd(A @ v, full_matrices=False)
     cand = (v @ wt.T)[:n_x]                                     # columns, smallest last
     full = np.zeros((num.n_coord, cand.shape[1]))
     full[prob.free] = cand
@@ -265,7 +267,11 @@ def mechanism_error(prob, A, states, k: int = 8, lu=None) -> ModelError | None:
     q = num.x0[num.rot_idx[num.euler_nodes]]
     euler = np.abs(np.einsum("na,nak->nk", q, full[num.rot_idx[num.euler_nodes]])).max(
         axis=0, initial=0.0)
-    free_motion = (deform <= 1e-8 * size) & (euler <= 1e-8 * size) & (size > 0)
+    # a motion that deforms nothing to first order but that A resists (the geometric
+    # stiffness of a pre-stress, ESIG: a taut string's transverse motion) is no mechanism;
+    # a mechanism's singular value is round-off, 1e7 below this bound
+    held = sv > 1e-9 * float(abs(A).max())
+    free_motion = (deform <= 1e-8 * size) & (euler <= 1e-8 * size) & (size > 0) & ~held
     if not np.any(free_motion):
         return None
     right = np.zeros((int(free_motion.sum()), A.shape[0]))

@@ -7,9 +7,10 @@ models use ARPACK in shift-invert mode on the bordered pencil
 eigenvalues nearest to a small negative shift (the lowest modes, rigid-body modes included).
 
 Every mode is classified (:data:`KIND_NAMES`): elastic; rigid-body (no element deforms: the
-deformation rates ``D v`` vanish); unstable (real negative w^2: the state has buckled or is a
-maximum of the potential); complex (non-conservative loading, flutter-type); or infinite (a
-coordinate without inertia). Nothing is dropped: unusual modes are reported with a warning.
+deformation rates ``D v`` vanish, and no stress resultant holds the motion either); unstable
+(real negative w^2: the state has buckled or is a maximum of the potential); complex
+(non-conservative loading, flutter-type); or infinite (a coordinate without inertia).
+Nothing is dropped: unusual modes are reported with a warning.
 
 Round-off never decides a classification or an order. With ``v`` a mode's unit eigenvector,
 ``n`` the number of coordinates and eps machine epsilon, a mode is **infinite** when
@@ -17,7 +18,8 @@ Round-off never decides a classification or an order. With ``v`` a mode's unit e
 LAPACK returns such an eigenvalue as inf, nan or 1e16 depending on the BLAS); it is stored as
 ``inf``. The test applies where M is not positive definite (a positive definite M, checked by
 its Cholesky factorization in the dense solve, has no infinite modes). A mode is rigid-body
-when its deformation rates are below 1e-7 of its size (:func:`_rigid_mask`), a bound far
+when its deformation rates are below 1e-7 of its size and its eigenvalue below 1e-9 of the
+largest diagonal stiffness-to-mass ratio (:func:`_rigid_mask`), bounds far
 above round-off. Modes are ordered by ``|w^2|`` (infinite ones last); magnitudes equal to
 :data:`TIE_RTOL` (an unstable/elastic ``-w^2, +w^2`` pair, complex conjugates) by signed real
 part, then by imaginary part, positive first. Each shape's first largest component is
@@ -128,8 +130,13 @@ def infinite_mask(lam, vec, M) -> np.ndarray:
     return ~np.isfinite(lam) | (mv <= SAFETY * vec.shape[0] * np.finfo(float).eps * _norm(M))
 
 
-def _rigid_mask(lin, num, free, shapes: np.ndarray) -> np.ndarray:
-    """True for shapes that deform no element (relative to their size)."""
+def _rigid_mask(lin, num, free, shapes: np.ndarray, lam: np.ndarray | None = None
+                ) -> np.ndarray:
+    """True for shapes that deform no element (relative to their size) and, with ``lam``,
+    whose eigenvalue is no larger than 1e-9 of the largest stiffness-to-mass ratio of the
+    diagonals: a shape that deforms nothing to first order but is held by the geometric
+    stiffness of stress resultants (a taut string's transverse modes, ESIG or loads) is
+    elastic. The bound lies 1e7 above the eigenvalues' round-off (eps times that ratio)."""
     n = shapes.shape[1]
     full = np.zeros((num.n_coord, n))
     full[free] = shapes
@@ -141,7 +148,14 @@ def _rigid_mask(lin, num, free, shapes: np.ndarray) -> np.ndarray:
     rot = num.is_rotation_coord[free]
     size = (np.abs(shapes[~rot]).max(axis=0, initial=0.0) / num.length_scale
             + np.abs(shapes[rot]).max(axis=0, initial=0.0))
-    return rel <= 1e-7 * np.maximum(size, 1e-300)
+    rigid = rel <= 1e-7 * np.maximum(size, 1e-300)
+    if lam is not None and rigid.any():
+        diag_k, diag_m = np.abs(lin.K.diagonal()), np.abs(lin.M.diagonal())
+        pos = diag_m > 0
+        ratio = float(np.max(diag_k[pos] / diag_m[pos])) if pos.any() else 0.0
+        held = np.isfinite(lam) & (np.abs(lam) > 1e-9 * ratio)
+        rigid &= ~held
+    return rigid
 
 
 def classify(lam: np.ndarray, rigid: np.ndarray) -> np.ndarray:
@@ -191,7 +205,7 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
     order = canonical_order(key, np.where(np.isfinite(lam), lam.real, np.inf), -lam.imag)
     lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
     vec = _normalize(canonical_sign(vec), lin.M)
-    rigid = _rigid_mask(lin, num, free, vec)
+    rigid = _rigid_mask(lin, num, free, vec, lam)
     kind = classify(lam, rigid)
     for k, name in ((UNSTABLE, "negative w^2 (unstable or buckled state)"),
                     (COMPLEX, "complex w^2 (non-conservative loading)"),

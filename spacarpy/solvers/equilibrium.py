@@ -129,6 +129,8 @@ class StaticProblem:
             st = (known[i] if known is not None
                   else g.kind.state(x[g.idx], g.ref, self.variant, g.prev))
             sigma = batch_matvec(g.S, st.e)
+            if g.sigma0 is not None:            # ESIG pre-stress: sigma = sigma0 + S e
+                sigma += g.sigma0
             sigma[g.rigid_elem, g.rigid_mode] = mu[g.rigid_slice]
             states.append(st)
             sigmas.append(sigma)

@@ -102,6 +102,7 @@ def potential_energy(prob, x, mu, load: LoadState) -> float:
     by which branches at the same load are ranked; moments and gravity are left out)."""
     ev = prob.evaluate(x, mu, load)
     elastic = sum(0.5 * float(np.einsum("ni,nij,nj->", st.e, g.S, st.e))
+                  + (float(np.sum(g.sigma0 * st.e)) if g.sigma0 is not None else 0.0)
                   for g, st in zip(prob.num.groups, ev.states))
     return elastic - float(load.force @ x)
 

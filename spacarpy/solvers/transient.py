@@ -25,15 +25,15 @@ derivatives of M and of the convective terms are left out of it, which only slow
 down when the velocities are large. A step whose Newton iterations fail is halved (up to
 ``max_cuts`` times) and retried; it is never skipped.
 
-The module is a little longer than 600 lines: the time step, its error control, the
-consistent initial state and the gauge of the Euler-parameter rates work on the same
-state and are kept together.
+The module is longer than 600 lines: the time step, its error control, the consistent
+initial state (with the rates of SPACAR's 5-field inputs and STARTDE) and the gauge of the
+Euler-parameter rates work on the same state and are kept together.
 """
 from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import NamedTuple
 
@@ -43,7 +43,7 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import scatter_add
 from spacarpy.errors import ConvergenceError, SpacarError
-from spacarpy.model import Model
+from spacarpy.model import FLEXIBLE, Model
 from spacarpy.rotation import tangent_part
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.equilibrium import StaticProblem
@@ -181,7 +181,8 @@ class TransientProblem:
 
     # ---------------------------------------------------------------- time-dependent data
     def prescribed(self, t: float):
-        """(indices, x, v, a) of the prescribed coordinates at time t."""
+        """(indices, x, v, a) of the prescribed coordinates at time t: the load path's
+        values at ``phi(t)``, plus ``v0 t + a0 t^2/2`` of the 5-field INPUTX lines."""
         phi, dphi, ddphi = self.opts.phi(t)
         idx, x = self.num.prescribed_state(1.0, phi)
         if not idx.size:
@@ -191,12 +192,35 @@ class TransientProblem:
         _, xm = self.num.prescribed_state(1.0, phi - eps)
         d1 = (xp - xm) / (2 * eps)
         d2 = (xp - 2 * x + xm) / eps**2
-        return idx, x, d1 * dphi, d2 * dphi**2 + d1 * ddphi
+        v, a = d1 * dphi, d2 * dphi**2 + d1 * ddphi
+        n = self.num.prescribed_idx.size             # the INPUTX part comes first
+        if n and self.num.prescribed_rate.size:
+            dx, dv, da = self.num.input_motion(t)
+            x[:n] += dx
+            v[:n] += dv
+            a[:n] += da
+        return idx, x, v, a
+
+    def rigid_rates(self, t: float):
+        """(rate, second derivative) of the rigid-mode targets at time t: the prescribed
+        deformations' ``phi'(t) delta`` and ``phi''(t) delta`` plus the 5-field INPUTE
+        motion's; (n_rigid,) each."""
+        _, dphi, ddphi = self.opts.phi(t)
+        num = self.num
+        if not num.rigid_prescribed.size:
+            z = np.zeros(num.n_rigid)
+            return z, z
+        _, dv, da = num.input_motion(t, rigid=True)
+        return num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
 
     def loads(self, t: float) -> LoadState:
         """The load at time t: XF and gravity, ``phi(t)`` times DELXF, and the prescribed
-        deformations at ``phi(t)``."""
-        return self.prob.loads.at(1.0, self.opts.phi(t)[0])
+        deformations at ``phi(t)`` (plus the motion of the 5-field INPUTE lines)."""
+        load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
+        if self.num.rigid_rate.size:                 # 5-field INPUTE: + v0 t + a0 t^2/2
+            load = replace(load, rigid_target=load.rigid_target
+                           + self.num.input_motion(t, rigid=True)[0])
+        return load
 
     # ---------------------------------------------------------------- residual
     def residual(self, t, x, v, a, mu, trial_level: float | None = None) -> Residual:
@@ -261,7 +285,9 @@ class TransientProblem:
         self.level = max(self.level, level)
 
     def elastic_energy(self, states) -> float:
+        """sum of 1/2 e.S.e, plus sigma0.e for the ESIG pre-stress (its potential)."""
         return float(sum(0.5 * np.einsum("ni,nij,nj->", st.e, g.S, st.e)
+                         + (float(np.sum(g.sigma0 * st.e)) if g.sigma0 is not None else 0.0)
                          for g, st in zip(self.num.groups, states)))
 
     def driving_force(self, ev, f_in):
@@ -318,7 +344,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     x[idx] = xp0
     v = np.zeros(num.n_coord)
     v[idx] = vp0
-    if opts.initial_velocities:
+    if opts.initial_velocities or num.prescribed_rate.size or num.rigid_rate.size \
+            or model.initial_rates:
         v = _initial_velocities(tp, x, v, opts.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)
@@ -383,8 +410,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             # multipliers (the stress resultants that impose them)
             presc = num.rigid_prescribed
             if presc.size and presc.any():
-                dt_target = (num.rigid_targets(1.0, opts.phi(t + h)[0])
-                             - num.rigid_targets(1.0, opts.phi(t)[0]))
+                dt_target = (tp.loads(t + h).rigid_target - tp.loads(t).rigid_target)
                 work += 0.5 * float(((mu + mu_new)[:num.n_rigid] * dt_target)[presc].sum())
             p_new = tp.damping_power(x_new, v, f_damp)
             dissipated += 0.5 * (p_damp + p_new) * h
@@ -409,7 +435,12 @@ def _initial_velocities(tp, x, v, given: dict):
     the velocities closest to the given ones (Euler-parameter rates weighted by the length
     scale squared) with ``C v = 0``; the coordinates without a VELOCITY line follow the
     constraints (a weight 1e-6 only keeps the system regular); prescribed velocities are
-    kept."""
+    kept.
+
+    The rigid modes move at the rates of their targets (INPUTE's velocity, DELINPE times
+    phi'(0)). With STARTDE lines every flexible (DYNE) mode is a degree of freedom whose
+    rate is given, as in SPACAR: the STARTDE rate, or zero; the released (RLSE) modes and
+    the other coordinates follow."""
     num, prob, free = tp.num, tp.prob, tp.free
     model = tp.model
     pos_row, rot_row = node_rows(model)
@@ -430,13 +461,58 @@ def _initial_velocities(tp, x, v, given: dict):
     C = tp.constraint_jacobian(ev)
     fixed_part = np.where(free, 0.0, v0)
     rhs_c = -_constraint_rates(prob, x, fixed_part)               # prescribed velocities
+    rhs_c[:num.n_rigid] += tp.rigid_rates(0.0)[0]                 # driven deformations
+    if model.initial_rates:                                       # STARTDE
+        E, rates = _flexible_rows(tp, ev.states, model.initial_rates)
+        rhs_e = rates - _flexible_rows(tp, ev.states, {}, fixed_part)[1]
+        C = sp.vstack([C, E], format="csc")
+        rhs_c = np.concatenate([rhs_c, rhs_e])
     weight = (np.where(prob.rot_mask[free], num.length_scale ** 2, 1.0)
               * np.where(target[free], 1.0, 1e-6))
     big = sp.bmat([[sp.diags(weight), C.T], [C, None]], format="csc")
-    sol = spla.splu(big).solve(np.concatenate([weight * v0[free], rhs_c]))
+    try:
+        sol = spla.splu(big).solve(np.concatenate([weight * v0[free], rhs_c]))
+    except RuntimeError:
+        sol = None
+    if sol is None or not np.all(np.isfinite(sol)):
+        raise SpacarError("the initial velocities (VELOCITY, STARTDE, the rates of INPUTX/"
+                          "INPUTE) cannot be met: the flexible modes and the constraints are "
+                          "not independent (a statically indeterminate model), or they "
+                          "contradict each other")
     out = v0.copy()
     out[free] = sol[:n_x]
     return out
+
+
+def _flexible_rows(tp, states, given: dict, v=None):
+    """The rows ``D_k`` (over the unknowns) of every flexible mode and their target rates
+    (``given[(element, mode)]`` or 0); with ``v`` the rates ``D_k v`` instead of the
+    targets."""
+    num = tp.num
+    rows, cols, vals, targets = [], [], [], []
+    n_row = 0
+    for g, st in zip(num.groups, states):
+        el, mode = np.nonzero(g.def_class == FLEXIBLE)
+        if not el.size:
+            continue
+        d = st.D[el, mode]                                      # (n_f, n_ldof)
+        if v is not None:
+            targets.append(np.einsum("nj,nj->n", d, v[g.idx[el]]))
+        else:
+            targets.append(np.array([given.get((int(g.ids[e]), int(k) + 1), 0.0)
+                                     for e, k in zip(el, mode)]))
+        unk = num.unknown_of[g.idx[el]]                          # (n_f, n_ldof)
+        keep = unk >= 0
+        r = np.broadcast_to(n_row + np.arange(el.size)[:, None], unk.shape)
+        rows.append(r[keep])
+        cols.append(unk[keep])
+        vals.append(d[keep])
+        n_row += el.size
+    if not n_row:
+        return sp.csc_matrix((0, num.n_unknown)), np.zeros(0)
+    E = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(n_row, num.n_unknown)).tocsc()
+    return E, np.concatenate(targets)
 
 
 def _error_norm(tp, h, beta, a_tilde_old, a_tilde_new, x, tol) -> float:
@@ -475,7 +551,7 @@ def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc):
         c_acc += (_constraint_rates(prob, x + eps * v, v)
                   - _constraint_rates(prob, x - eps * v, v)) / (2 * eps)
     if num.rigid_prescribed.size:                                 # driven deformations
-        c_acc[:num.n_rigid] -= num.rigid_delta * tp.opts.phi(0.0)[2]
+        c_acc[:num.n_rigid] -= tp.rigid_rates(0.0)[1]
     big = sp.bmat([[M[free][:, free], C.T], [C, None]], format="csc")
     try:
         sol = spla.splu(big).solve(np.concatenate([rhs_f, -c_acc]))

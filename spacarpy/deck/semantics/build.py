@@ -5,17 +5,17 @@ Runs the parts in order, each ``from_statements(by_kw, ctx, errors, ...)``: the 
 read once (:mod:`spacarpy.deck.visualization`); then :mod:`.topology`,
 :mod:`.element_data`, :mod:`.constraints`, :mod:`.loads` and :mod:`.settings`, and the checks
 that need several of them (unconnected nodes, cross-sections of missing elements). Keywords
-spacarpy recognises but does not implement yet are refused with "not supported yet: KEYWORD",
-one error per occurrence. Every problem is collected (:mod:`.errors`) and they are raised
-together in one :class:`spacarpy.errors.DeckError`, in deck order; if there are none, the
-warnings are logged and the parts are assembled into the model and its settings.
+spacarpy recognises but does not implement yet are refused with "SPACAR keyword KEYWORD is not
+supported yet", one error per occurrence. Every problem is collected (:mod:`.errors`) and
+they are raised together in one :class:`spacarpy.errors.DeckError`, in deck order; if there
+are none, the warnings are logged and the parts are assembled into the model and its settings.
 """
 from __future__ import annotations
 
 import logging
 
 from spacarpy.deck.generators import expand_generators
-from spacarpy.deck.keywords import UNSUPPORTED
+from spacarpy.deck.keywords import UNSUPPORTED, unsupported_message
 from spacarpy.deck.parser import Statement, gc_paused, parse_deck
 from spacarpy.deck.semantics import constraints as _constraints
 from spacarpy.deck.semantics import element_data as _element_data
@@ -66,7 +66,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     for st in statements:
         by_kw.setdefault(st.keyword, []).append(st)
         if st.keyword in UNSUPPORTED:
-            errors.error(st.loc, f"not supported yet: {st.keyword}", st)
+            errors.error(st.loc, unsupported_message(st.keyword), st)
     # a planar model: PLBEAM/PLTRUSS/PLHINGE only, nodes in the x-y plane
     ctx = DeckContext(path, statements, planar=any(kw in by_kw for kw in PLANAR_KINDS),
                       quiet_elements=quiet_elements, quiet_nodes=quiet_nodes)
@@ -102,6 +102,8 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         planar=ctx.planar,
         damping=element_data.damping,
         element_damping=element_data.element_damping,
+        element_prestress=element_data.prestress,
+        initial_rates=element_data.initial_rates,
         source_path=path,
         source_text=text,
     )

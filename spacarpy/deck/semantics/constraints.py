@@ -1,7 +1,9 @@
 """Deck semantics, constraints: fixed and prescribed coordinates and deformations.
 
 FIX holds coordinates; INPUTX/DELINPX prescribe coordinates along the load path, INPUTE/
-DELINPE element deformation modes, INPUTR/DELINPR turn an orientation node about a fixed axis
+DELINPE element deformation modes (the data module's ``INPUTX n c value [velocity
+[acceleration]]`` and ``INPUTE e k ...`` give the value and, for a transient run, the rate and
+second derivative at t = 0), INPUTR/DELINPR turn an orientation node about a fixed axis
 (spacarpy extension; a planar deck's INPUTX on an orientation node means the same). Checked
 here: nodes and elements that do not exist, coordinate and mode numbers out of range, a
 coordinate both fixed and prescribed, a deformation both prescribed and flexible or released,
@@ -56,9 +58,13 @@ class Constraints(UsesTopology):
     def model_prescribed(self) -> tuple[list, list, list]:
         """The prescribed coordinates, deformations and rotations of the model."""
         return ([Prescribed(node=n, coord=c, initial=v["initial"], delta=v["delta"],
-                            loc=v["loc"]) for (n, c), v in self.prescribed.items()],
+                            loc=v["loc"], velocity=v.get("velocity", 0.0),
+                            acceleration=v.get("acceleration", 0.0))
+                 for (n, c), v in self.prescribed.items()],
                 [PrescribedDeformation(element=e, mode=k, initial=v["initial"],
-                                       delta=v["delta"], loc=v["loc"])
+                                       delta=v["delta"], loc=v["loc"],
+                                       velocity=v.get("velocity", 0.0),
+                                       acceleration=v.get("acceleration", 0.0))
                  for (e, k), v in self.input_deformations.items()],
                 [PrescribedRotation(node=n, axis=v["axis"], angle=v["angle"], loc=v["loc"],
                                     initial=v.get("initial", 0.0))
@@ -182,6 +188,7 @@ class Constraints(UsesTopology):
             return
         self._input_value(entry, "delta" if st.keyword == "DELINPE" else "initial", value, st,
                           f"deformation {k} of element {e}")
+        self._rates(entry, st)
 
     def inputr_declare(self, st: Statement) -> None:
         """``INPUTR n ax ay az``: orientation node n turns about the axis (all of its Euler
@@ -234,6 +241,11 @@ class Constraints(UsesTopology):
                 return
             rotation["planar"].add(key)
             rotation[key] = value
+            if any(st.fields[3:]):
+                self.error(st.field_locs[3], f"INPUTX: the velocity and acceleration of the "
+                                             f"angle of planar node {n} are not supported yet; "
+                                             "drive it with INPUTE on a PLHINGE, or DELINPX "
+                                             "and a TIMEFUNCTION", st)
             return
         entry = self.prescribed.get((n, c))
         if entry is None:
@@ -244,6 +256,16 @@ class Constraints(UsesTopology):
             return
         self._input_value(entry, "delta" if st.keyword == "DELINPX" else "initial", value, st,
                           f"coordinate {c} of node {n}")
+        self._rates(entry, st)
+
+    @staticmethod
+    def _rates(entry: dict, st: Statement) -> None:
+        """The velocity and acceleration of the 5-field INPUTX/INPUTE (data module): the
+        motion ``value + velocity t + acceleration t^2 / 2`` of a transient run."""
+        if st.keyword in ("INPUTX", "INPUTE") and len(st.fields) > 3:
+            entry["velocity"] = float(st.fields[3])
+            if len(st.fields) > 4:
+                entry["acceleration"] = float(st.fields[4])
 
     def _input_value(self, entry: dict, key: str, value: float, st: Statement,
                      what: str) -> None:

@@ -2,7 +2,9 @@
 
 DYNE/RLSE set the class of deformation modes, ESTIFF and EM the stiffness and mass of the
 elements of :mod:`spacarpy.deck.semantics.topology` (filled into their records), EDAMP and
-DAMPING the viscous damping (a property of the structure, used by transient runs). Checked
+DAMPING the viscous damping (a property of the structure, used by transient runs), ESIG the
+initial stress resultants (pre-stress) and STARTDE the initial deformation rates of a
+transient run. Checked
 here: modes an element does not have, modes both flexible and released, value counts and
 signs as the element kind declares them, repeated lines, and flexible modes without
 stiffness.
@@ -29,6 +31,8 @@ class ElementData:
 
     damping: tuple = (0.0, 0.0)
     element_damping: dict = field(default_factory=dict)
+    prestress: dict = field(default_factory=dict)        # element -> ESIG values per mode
+    initial_rates: dict = field(default_factory=dict)    # (element, mode) -> STARTDE rate
 
 
 class _ElementDataPass(UsesTopology):
@@ -190,6 +194,56 @@ class _ElementDataPass(UsesTopology):
             return
         self.result.element_damping[el.id] = values + (0.0,) * (n_def - len(values))
 
+    def esig(self, st: Statement) -> None:
+        """``ESIG e s1 [s2 ...]``: initial stress resultants (pre-stress) of the deformation
+        modes 1, 2, ... of element e; a flexible or released mode then carries ``s_k + S e``.
+        On a rigid mode the constraint takes any stress, so a value there has no effect and
+        is refused unless it is zero."""
+        el = self.element_for(st)
+        if el is None:
+            return
+        values = tuple(float(v) for v in st.fields[1:])
+        n_def = el.info["n_def"]
+        if len(values) > n_def:
+            self.error(st.loc, f"ESIG {el.id}: a {el.keyword} has {n_def} deformation mode(s), "
+                               f"so 1 to {n_def} initial stress resultants, got {len(values)}",
+                       st)
+            return
+        for k, v in enumerate(values):
+            if v != 0 and el.def_class[k] == RIGID:
+                self.error(st.field_locs[k + 1],
+                           f"ESIG {el.id}: mode {k + 1} is rigid (neither DYNE nor RLSE), so "
+                           "its stress resultant is the constraint's reaction and a pre-stress "
+                           "has no meaning; list the mode in DYNE or RLSE", st)
+                return
+        if el.id in self.result.prestress:
+            self.error(st.loc, f"ESIG for element {el.id} is given twice", st)
+            return
+        self.result.prestress[el.id] = values + (0.0,) * (n_def - len(values))
+
+    def startde(self, st: Statement) -> None:
+        """``STARTDE e k rate``: the rate of deformation mode k of element e at t = 0 of a
+        transient run (a flexible or released mode)."""
+        el = self.element_for(st)
+        if el is None:
+            return
+        k, rate = st.fields[1], float(st.fields[2])
+        n_def = el.info["n_def"]
+        if not 1 <= k <= n_def:
+            modes = f"modes 1 to {n_def}" if n_def > 1 else "mode 1 only"
+            self.error(st.field_locs[1], f"STARTDE: element {el.id} is a {el.keyword} with "
+                                         f"deformation {modes}, got {k}", st)
+            return
+        if el.def_class[k - 1] == RIGID:
+            self.error(st.field_locs[1], f"STARTDE: mode {k} of element {el.id} is rigid (its "
+                                         "rate is zero, or set by INPUTE); STARTDE gives the "
+                                         "rate of a DYNE or RLSE mode", st)
+            return
+        if (el.id, k) in self.result.initial_rates:
+            self.error(st.loc, f"STARTDE for mode {k} of element {el.id} is given twice", st)
+            return
+        self.result.initial_rates[(el.id, k)] = rate
+
     def damping(self, st: Statement) -> None:
         """``DAMPING alpha beta``: Rayleigh damping alpha M + beta K0."""
         if self.ctx.once(st, self.errors):
@@ -218,4 +272,8 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,
         part.edamp(st)
     for st in by_kw.get("DAMPING", []):
         part.damping(st)
+    for st in by_kw.get("ESIG", []):
+        part.esig(st)
+    for st in by_kw.get("STARTDE", []):
+        part.startde(st)
     return part.result

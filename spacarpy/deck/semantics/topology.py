@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED_ELEMENTS
+from spacarpy.deck.keywords import KEYWORDS, UNKNOWN_LAYOUT_ELEMENTS, UNSUPPORTED_ELEMENTS
 from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector, Part
 from spacarpy.elements.registry import KINDS, PLANAR_KINDS
@@ -289,6 +289,14 @@ class Topology(Part):
     def note_foreign(self, st: Statement) -> None:
         """Remember the element and nodes of an unsupported element keyword."""
         roles = KEYWORDS[st.keyword].node_roles
+        if not st.fields:
+            return
+        if not roles:            # layout unknown (PINBODY, WHEEL, ...): whole numbers only
+            numbers = [f for f in st.fields if isinstance(f, (int, float))
+                       and not isinstance(f, bool) and float(f).is_integer() and f >= 1]
+            self.foreign_elements.update(int(f) for f in numbers[:1])
+            self.foreign_nodes.update(int(f) for f in numbers[1:])
+            return
         self.foreign_elements.add(st.fields[0])
         self.foreign_nodes.update(st.fields[1:1 + len(roles)])
 
@@ -298,7 +306,7 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector) -> To
     ``errors``. Unsupported element keywords are reported here too ("not supported yet"
     comes from the build), their elements and nodes noted in ``ctx``."""
     topology = Topology(ctx, errors)
-    for keyword in UNSUPPORTED_ELEMENTS:
+    for keyword in UNSUPPORTED_ELEMENTS + UNKNOWN_LAYOUT_ELEMENTS:
         for st in by_kw.get(keyword, []):
             topology.note_foreign(st)
     for st in by_kw.get("X", []):
