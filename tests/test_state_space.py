@@ -290,7 +290,7 @@ def _deck(signals="INPUTF 1 5 2\nOUTX 1 5 2", fix="", rot="2e-3 1e-3 1e-3 0"):
 @pytest.mark.parametrize("signals, message", [
     ("INPUTF 1 7 2", "d.dat:19:10: error: INPUTF: node 7 is not defined"),
     ("OUTX 1 5 4", "OUTX: node 5 is a position node: coordinate 1..3 (x y z), got 4"),
-    ("OUTX 1 6 5", "OUTX: node 6 is a orientation node: coordinate 1..4"),
+    ("OUTX 1 6 5", "OUTX: node 6 is an orientation node: coordinate 1..4"),
     ("OUTE 1 3 1", "OUTE: element 3 is not defined"),
     ("OUTEP 1 2 7", "OUTEP: element 2 (BEAM) has deformation modes 1..6, got 7"),
     ("OUTX 1 5 1\nOUTE 1 2 1", "d.dat:20:6: error: OUTE: output 1 is already defined (line 19)"),
@@ -318,3 +318,47 @@ def test_a_degree_of_freedom_without_inertia_is_named(tmp_path, capsys):
     assert main(["run", str(deck), "--mode", "9"]) == EXIT_INPUT
     err = capsys.readouterr().err
     assert "the mass matrix is singular there" in err and "Traceback" not in err
+
+
+_PLANAR = """MODE 9
+X 1 0 0
+X 3 0.5 0
+X 5 1 0
+PLBEAM 1 1 2 3 4
+PLBEAM 2 3 4 5 6
+DYNE 1:2 1 2 3
+FIX 1
+FIX 2
+END
+HALT
+ESTIFF 1:2 1e6 2.0
+EM 1:2 0.5 1e-4
+END
+HALT
+INPUTF 1 5 2
+INPUTF 2 6 1
+OUTX 1 5 2
+OUTX 2 6 1
+OUTXP 3 6 1
+END
+END
+"""
+
+
+def test_planar_orientation_coordinate_is_the_rotation(tmp_path):
+    """In a planar model coordinate 1 of an orientation node is the rotation about z: the
+    static gain of a cantilever (L = 1 m, EI = 2 N m^2) from the tip force and moment to the
+    tip deflection and rotation is [[L^3/3EI, L^2/2EI], [L^2/2EI, L/EI]]."""
+    job = job_from_text(_PLANAR, "planar.dat")
+    out = tmp_path / "p.h5"
+    run_model(job.model, job.settings, out)
+    with open_results(out) as res:
+        m = res.state_space.matrices()
+    gain = m["D"] - m["C"] @ np.linalg.solve(m["A"], m["B"])
+    ei = 2.0
+    np.testing.assert_allclose(gain[:2], [[1 / (3 * ei), 1 / (2 * ei)],
+                                          [1 / (2 * ei), 1 / ei]], rtol=1e-8)
+    np.testing.assert_allclose(gain[2], 0.0, atol=1e-12)
+    with pytest.raises(DeckError, match="OUTX: node 6 is an orientation node: coordinate 1..1 "
+                                        r"\(the rotation about z\), got 2"):
+        job_from_text(_PLANAR.replace("OUTX 2 6 1", "OUTX 2 6 2"), "planar.dat")

@@ -27,8 +27,10 @@ an orientation node the generalized force conjugate to the Euler parameter lambd
 in SPACAR (a moment M acts as ``2 Lambda(q)^T M``; at the identity orientation a unit
 generalized force on lambda_j, j = 1..3, is the moment 1/2 about axis j). ``OUTX`` /
 ``OUTXP`` give that coordinate's change / rate (on an orientation node the Euler parameter:
-about the identity, ``dlambda_j = dphi_j / 2``). ``OUTE`` / ``OUTEP`` give deformation k of
-element e and its rate. Outputs and inputs on fixed coordinates are zero rows / columns.
+about the identity, ``dlambda_j = dphi_j / 2``). In a planar model the orientation node's one
+coordinate is its rotation about z: a moment about z in, the rotation angle out (as INPUTX
+reads it there). ``OUTE`` / ``OUTEP`` give deformation k of element e and its rate. Outputs
+and inputs on fixed coordinates are zero rows / columns.
 """
 from __future__ import annotations
 
@@ -40,6 +42,7 @@ import scipy.sparse as sp
 
 from spacarpy.elements.base import FLEXIBLE, RELEASED
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
+from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.eigen import null_space_basis
 
 __all__ = ["DofLayout", "StateSpace", "StateSpaceError", "dof_layout", "state_space"]
@@ -200,13 +203,22 @@ def damping_matrix(lin, num, free, model, M) -> sp.csc_matrix:
     return out.tocsc()
 
 
-def _coordinate(num, model, node: int, c: int) -> int:
-    """Global index of coordinate c (1-based) of deck node ``node``."""
+def coordinate_row(num, model, x, node: int, c: int) -> np.ndarray:
+    """The row (n_coord,) that takes coordinate c (1-based) of deck node ``node`` out of a
+    change of the coordinates: a unit row, except for the orientation node of a planar model,
+    whose coordinate 1 is the rotation about z, ``dphi_z = 2 Lambda_z(q) dq``. Its transpose
+    is the generalized force of a unit force (moment) on that coordinate."""
+    row = np.zeros(num.n_coord)
     hit = np.flatnonzero(model.position_ids == node)
     if hit.size:
-        return int(num.pos_idx[hit[0], c - 1])
-    hit = np.flatnonzero(model.orientation_ids == node)
-    return int(num.rot_idx[hit[0], c - 1])
+        row[num.pos_idx[hit[0], c - 1]] = 1.0
+        return row
+    ri = num.rot_idx[np.flatnonzero(model.orientation_ids == node)[0]]
+    if model.planar:
+        row[ri] = 2.0 * lambda_matrix(x[ri])[2]
+    else:
+        row[ri[c - 1]] = 1.0
+    return row
 
 
 def _element_at(num, e: int, k: int):
@@ -254,13 +266,9 @@ def state_space(lin, num, free, model, layout: DofLayout, inputs, outputs) -> St
             "the state space needs inertia in every degree of freedom, but the mass matrix "
             f"is singular there ({', '.join(weak[:8])}{' ...' if len(weak) > 8 else ''}): "
             "give the rotary inertia of EM (rhoIp rhoIy rhoIz) or XM masses") from None
-    u = np.full(num.n_coord, -1, dtype=np.int64)
-    u[free] = np.arange(n_x)
     F = np.zeros((n_x, len(inputs)))
     for j, s in enumerate(inputs):
-        col = u[_coordinate(num, model, s.target, s.number)]
-        if col >= 0:
-            F[col, j] = 1.0
+        F[:, j] = coordinate_row(num, model, lin.x, s.target, s.number)[free]
     B0 = phi.T @ F
     n = layout.n_dof
     rows_x = np.zeros((len(outputs), n_x))
@@ -268,10 +276,7 @@ def state_space(lin, num, free, model, layout: DofLayout, inputs, outputs) -> St
     for i, s in enumerate(outputs):
         rate = s.keyword in ("OUTXP", "OUTEP")
         if s.keyword in ("OUTX", "OUTXP"):
-            col = u[_coordinate(num, model, s.target, s.number)]
-            row = np.zeros(n_x)
-            if col >= 0:
-                row[col] = 1.0
+            row = coordinate_row(num, model, lin.x, s.target, s.number)[free]
         else:
             gi, r, c = _element_at(num, s.target, s.number)
             row = deformation_rows(lin, num, free, np.array([gi]), np.array([r]),

@@ -4,7 +4,9 @@ The inputs and outputs of the linearized system of SPACAR mode 9 (docs/deck.md,
 "Linearization output"): ``INPUTF i n c`` (input i is a force on coordinate c of node n),
 ``OUTX i n c`` / ``OUTXP i n c`` (output i is the position / velocity of coordinate c of node
 n) and ``OUTE i e k`` / ``OUTEP i e k`` (output i is deformation k of element e / its rate).
-Checked here: nodes and elements that do not exist, coordinate and mode numbers out of range,
+In a planar model a position node has the coordinates 1, 2 (x, y) and an orientation node
+the one coordinate 1, its rotation about z (as for INPUTX). Checked here: nodes and elements
+that do not exist, coordinate and mode numbers out of range,
 and the numbering: the inputs and the outputs are each numbered 1..n, every number once (the
 four output keywords share one numbering, as in SPACAR's output vector).
 """
@@ -36,12 +38,13 @@ class _SignalsPass(UsesTopology):
                                                  "(no X line and not used by any element)", st)
                 return None
             n_coord = 3 if kind == "position" else 4
-            if self.planar and kind == "position":
-                n_coord = 2
+            if self.planar:
+                n_coord = 2 if kind == "position" else 1
             if not 1 <= number <= n_coord:
                 what = ("x y z"[:2 * n_coord - 1] if kind == "position"
-                        else "lambda0..lambda3")
-                self.error(st.field_locs[2], f"{st.keyword}: node {target} is a {kind} node: "
+                        else "the rotation about z" if self.planar else "lambda0..lambda3")
+                self.error(st.field_locs[2], f"{st.keyword}: node {target} is "
+                                             f"{'a' if kind == 'position' else 'an'} {kind} node: "
                                              f"coordinate 1..{n_coord} ({what}), got {number}",
                            st)
                 return None
