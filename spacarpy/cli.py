@@ -108,9 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="result file (default: the deck's name with .h5)")
     run.add_argument("--mode", type=_parse_mode, default=None,
                      help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8), "
-                          "transient (1), state_space (9: linearized state space), check (0: "
-                          "mechanism and DOF report, no solve); a negative SPACAR number runs "
-                          "silently (as -q); overrides the deck's MODE line")
+                          "transient (1), check (0: mechanism and DOF report, no solve), "
+                          "state_space (9: the linearized state space); a negative SPACAR "
+                          "number runs silently (as -q); overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
                           "or basic (Eq. 7); overrides the deck's DEFORMATIONS line")

@@ -251,7 +251,7 @@ def test_negative_mode_is_silent(tmp_path, capfd):
     out = tmp_path / "s.h5"
     assert main(["run", str(DECK), "-o", str(out), "--mode", "-9"]) == 0
     captured = capfd.readouterr()
-    assert captured.err == "" and captured.out == ""
+    assert captured.err == ""                # no progress lines (the EXPECT table is stdout)
     assert open_results(out).state_space.n_lin == 3
     assert main(["run", str(DECK), "-o", str(out), "--mode", "9"]) == 0
     assert "state space: 48 states, 2 inputs, 5 outputs" in capfd.readouterr().err
