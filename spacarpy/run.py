@@ -121,6 +121,11 @@ def run_model(model: Model, settings: AnalysisSettings, out,
         raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
                                  "scale the stresses that load causes")
     want_ss = analysis == "state_space"
+    signals = settings.linearized.inputs + settings.linearized.outputs
+    if signals and not want_ss:
+        log.warning("the INPUTF/OUT* lines (%s) define the state space of MODE state_space "
+                    "(SPACAR 9); this %s analysis does not use them", signals[0].name,
+                    analysis)
     if want_ss and not mass.has_mass:
         raise AnalysisInputError("MODE state_space (SPACAR 9) needs mass: give EM lines for "
                                  "the elements (or XM nodal masses)")

@@ -362,3 +362,34 @@ def test_planar_orientation_coordinate_is_the_rotation(tmp_path):
     with pytest.raises(DeckError, match="OUTX: node 6 is an orientation node: coordinate 1..1 "
                                         r"\(the rotation about z\), got 2"):
         job_from_text(_PLANAR.replace("OUTX 2 6 1", "OUTX 2 6 2"), "planar.dat")
+
+
+def test_show_summarizes_the_state_space(ss_file, capsys):
+    """The summary names the signals and the lowest pole: at the preloaded step the first
+    bending frequency, 7.183 Hz (the eigen analysis of the same step)."""
+    assert main(["show", str(ss_file)]) == 0
+    out = capsys.readouterr().out
+    assert "State space (SPACAR mode 9) at 3 steps: 48 states (24 degrees of freedom), " \
+           "2 inputs, 5 outputs" in out
+    assert "outputs  OUTX 1 9 2, OUTXP 2 9 2, OUTX 3 9 3, OUTE 4 1 3, OUTX 5 10 4" in out
+    assert "at step 2: the pole of smallest magnitude is 0 +- 45.13i 1/s (7.183 Hz)" in out
+
+
+def test_signals_without_mode_9_draw_a_warning(tmp_path, caplog):
+    job = load(DECK)
+    with caplog.at_level("WARNING"):
+        run_model(job.model, job.settings.override(analysis="static"), tmp_path / "s.h5")
+    assert "the INPUTF/OUT* lines (INPUTF 1 9 2) define the state space of MODE " \
+           "state_space (SPACAR 9); this static analysis does not use them" in caplog.text
+
+
+def test_a_deck_without_signals_stores_the_matrices(tmp_path):
+    """No INPUTF/OUT* lines: M0, C0, K0 and A are stored, B and C are empty."""
+    text = _deck(signals="")
+    out = tmp_path / "n.h5"
+    job = job_from_text(text, "n.dat")
+    run_model(job.model, job.settings.override(analysis="9"), out)
+    with open_results(out) as res:
+        m = res.state_space.matrices()
+        assert m["A"].shape == (24, 24) and m["B"].shape == (24, 0) and m["C"].shape == (0, 24)
+        assert res.state_space.input_name == [] and res.state_space.output_name == []
