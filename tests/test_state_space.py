@@ -21,7 +21,7 @@ import scipy.sparse.linalg as spla
 from spacarpy.cli import main
 from spacarpy.deck import job_from_text, load
 from spacarpy.errors import EXIT_INPUT, EXIT_MODEL, DeckError
-from spacarpy.results import open_results
+from spacarpy.results import open_results, read_results
 from spacarpy.run import RunOptions, run_model
 from spacarpy.settings import resolve_analysis, spacar_mode_refusal
 from spacarpy.solvers.equilibrium import StaticProblem
@@ -71,6 +71,11 @@ def test_mode_9_writes_a_valid_state_space(ss_file):
         np.testing.assert_allclose(m["C"][3, :24], np.eye(24)[2], atol=1e-12)
         sys = v.system(step=2)
         np.testing.assert_array_equal(sys.A, m["A"])
+    full = read_results(ss_file).state_space            # the eager reader: every step
+    assert full.A.shape == (3, 48, 48) and full.step.tolist() == [0, 1, 2]
+    np.testing.assert_array_equal(full.A[2], m["A"])
+    assert full.output_name[1] == "OUTXP 2 9 2" and full.dof_mode.tolist()[:6] == [1, 2, 3,
+                                                                                4, 5, 6]
 
 
 @pytest.mark.parametrize("step", [0, 2])
