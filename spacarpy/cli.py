@@ -33,14 +33,32 @@ from spacarpy.errors import (
 log = logging.getLogger("spacarpy")
 
 
+class _Mode(str):
+    """An analysis name from ``--mode``; ``silent``: given as a negative SPACAR number."""
+
+    silent = False
+
+
 def _parse_mode(text: str) -> str:
-    from spacarpy.settings import ANALYSES, SPACAR_MODE_NUMBERS, resolve_analysis
+    from spacarpy.settings import (
+        ANALYSES,
+        SPACAR_MODE_NUMBERS,
+        is_silent_mode,
+        resolve_analysis,
+        spacar_mode_refusal,
+    )
+    refusal = spacar_mode_refusal(text)
+    if refusal is not None:
+        raise argparse.ArgumentTypeError(refusal)
     name = resolve_analysis(text)
     if name is not None:
-        return name
+        mode = _Mode(name)
+        mode.silent = is_silent_mode(text)
+        return mode
     raise argparse.ArgumentTypeError(
         f"unknown mode {text!r}: expected one of {', '.join(ANALYSES)} or a SPACAR mode "
-        f"number ({', '.join(str(k) for k in sorted(SPACAR_MODE_NUMBERS))})")
+        f"number ({', '.join(str(k) for k in sorted(SPACAR_MODE_NUMBERS))}; negative = "
+        "silent)")
 
 
 def _positive_int(text: str) -> int:
@@ -90,8 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="result file (default: the deck's name with .h5)")
     run.add_argument("--mode", type=_parse_mode, default=None,
                      help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8), "
-                          "transient (1), check (mechanism and DOF report, no solve); "
-                          "overrides the deck's MODE line")
+                          "transient (1), check (0: mechanism and DOF report, no solve), "
+                          "state_space (9: the linearized state space); a negative SPACAR "
+                          "number runs silently (as -q); overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
                           "or basic (Eq. 7); overrides the deck's DEFORMATIONS line")
@@ -334,6 +353,12 @@ def _results_commands(sub) -> None:
                      help="write <file>.pvd and one .vtu per step")
     exp.add_argument("-o", "--output", type=_output_path, default=None,
                      help="name of the .xdmf or .pvd file (with only one of --xdmf, --vtk)")
+    exp.add_argument("--state-space", type=_output_path, default=None, metavar="FILE.mat",
+                     help="write the linearized state space A, B, C, D (SPACAR mode 9) with "
+                          "its names as a MATLAB file, for ss(A, B, C, D)")
+    exp.add_argument("--step", type=int, default=None,
+                     help="--state-space: the static step (0 = initial state; default and -1: "
+                          "the last linearized one)")
     _verbosity(exp)
 
 
@@ -406,6 +431,8 @@ _QUIET_LIBRARIES = ("h5py", "matplotlib", "PIL")
 
 
 def _main(args) -> int:
+    if getattr(getattr(args, "mode", None), "silent", False):
+        args.quiet = True               # a negative SPACAR mode number: SPACAR's silent run
     level = logging.WARNING if args.quiet else (logging.DEBUG if args.verbose else logging.INFO)
     logging.basicConfig(level=level, format="%(message)s", stream=sys.stderr, force=True)
     for name in _QUIET_LIBRARIES:    # -v shows spacarpy's debug lines, not the libraries'
@@ -698,9 +725,20 @@ def cmd_plot(args) -> int:
 
 
 def cmd_export(args) -> int:
-    """``spacarpy export FILE --xdmf | --vtk``: files for ParaView."""
-    from spacarpy.results.export import check_export_output, write_vtk, write_xdmf
+    """``spacarpy export FILE --xdmf | --vtk | --state-space FILE.mat``: files for ParaView,
+    and the state space for MATLAB."""
+    from spacarpy.results.export import (
+        check_export_output,
+        write_state_space_mat,
+        write_vtk,
+        write_xdmf,
+    )
 
+    if args.state_space is not None:
+        check_export_output(args.state_space, ".mat")
+        print(write_state_space_mat(args.file, args.state_space, step=args.step))
+        if not (args.xdmf or args.vtk):
+            return EXIT_OK
     want_xdmf = args.xdmf or not args.vtk
     if args.output is not None and want_xdmf and args.vtk:
         print("export: -o names one file; give only one of --xdmf and --vtk", file=sys.stderr)

@@ -16,6 +16,11 @@ buckling (SPACAR 8)
     The static load path, then the load multipliers about the final state (every step with
     ``modes_per_step``). The multiplier applies to the whole load acting in that state.
 
+state_space (SPACAR 9)
+    The static load path, and at every stored step the linearized equations in the degrees
+    of freedom (M0, C0, K0, B0) and the first-order system A, B, C, D of the deck's INPUTF
+    and OUT* lines (:mod:`spacarpy.solvers.state_space`).
+
 With ``compliance_node`` any of them also stores the 6x6 compliance of that node wherever it
 linearizes (for a static run: the final step, or every step with ``modes_per_step``).
 
@@ -115,6 +120,15 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "buckling" and not problem.loads.any:
         raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
                                  "scale the stresses that load causes")
+    want_ss = analysis == "state_space"
+    signals = settings.linearized.inputs + settings.linearized.outputs
+    if signals and not want_ss:
+        log.warning("the INPUTF/OUT* lines (%s) define the state space of MODE state_space "
+                    "(SPACAR 9); this %s analysis does not use them", signals[0].name,
+                    analysis)
+    if want_ss and not mass.has_mass:
+        raise AnalysisInputError("MODE state_space (SPACAR 9) needs mass: give EM lines for "
+                                 "the elements (or XM nodal masses)")
     want_compliance = opts.compliance_node is not None
     if want_compliance:
         p_node, r_node = (int(v) for v in opts.compliance_node)
@@ -128,6 +142,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     n_steps = settings.static.iterstep.n_steps
     summary = RunSummary()
 
+    ss_setup = _state_space_setup(problem, settings) if want_ss else None
     model_data = model_datasets(model, num)
     surface_stress = SurfaceStress(model_data)
     with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
@@ -136,7 +151,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                             problem.reaction_node, problem.reaction_component,
                             n_eigen_modes=n_modes if want_eigen else 0,
                             n_buckling_modes=n_modes if want_buckling else 0,
-                            compliance_node=opts.compliance_node, transient=transient)
+                            compliance_node=opts.compliance_node, transient=transient,
+                            state_space=ss_setup[1] if want_ss else None)
 
         def on_step(step):
             k = summary.n_steps
@@ -154,6 +170,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 msg += _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen,
                                         want_buckling,
                                         compliance_rows if want_compliance else None, summary)
+            if want_ss:
+                msg += _state_space_step(problem, mass, step, k, writer, settings, ss_setup[0])
             log.info(msg)
 
         if transient:
@@ -220,6 +238,33 @@ def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_b
         text += (f"  critical load multiplier {bk.critical:.6g}" if np.isfinite(bk.critical)
                  else "  no finite buckling multiplier")
     return text
+
+
+def _state_space_setup(problem, settings):
+    """The degrees of freedom of the state space (chosen at the deck's configuration, so a
+    model without SPACAR's degrees of freedom stops before any step) and the names the
+    result file stores."""
+    from spacarpy.solvers.state_space import dof_layout
+    num = problem.num
+    lin = linearize(problem, num.x0.copy(), np.zeros(num.n_constraint),
+                    problem.loads.at(1.0, 0.0))
+    layout = dof_layout(lin, num, problem.free)
+    lin_set = settings.linearized
+    names = dict(dof_element=layout.element, dof_mode=layout.mode,
+                 state_name=layout.state_names,
+                 input_name=[s.name for s in lin_set.inputs],
+                 output_name=[s.name for s in lin_set.outputs])
+    return layout, names
+
+
+def _state_space_step(problem, mass, step, k, writer, settings, layout) -> str:
+    from spacarpy.solvers.state_space import state_space
+    lin = linearize(problem, step.x, step.mu, problem.loads.at(1.0, step.load_factor),
+                    mass=mass)
+    ss = state_space(lin, problem.num, problem.free, problem.model, layout,
+                     settings.linearized.inputs, settings.linearized.outputs)
+    writer.state_space_step(k, ss)
+    return f"  state space: {ss.A.shape[0]} states, {ss.B.shape[1]} inputs, {ss.C.shape[0]} outputs"
 
 
 def step_line(k: int, n_steps: int, step, tol: float) -> str:

@@ -16,18 +16,51 @@ from dataclasses import dataclass, field, replace
 from spacarpy.errors import SourceLoc
 
 __all__ = ["ANALYSES", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS", "SPACAR_MODE_NUMBERS",
-           "START_CHOICES", "AnalysisSettings", "IterStep", "LinearizedSettings",
-           "StaticSettings", "TransientSettings", "resolve_analysis", "resolve_deformations",
+           "START_CHOICES", "UNSUPPORTED_SPACAR_MODES", "AnalysisSettings", "IterStep",
+           "LinearizedSettings", "StaticSettings", "SystemSignal", "TransientSettings",
+           "is_silent_mode", "resolve_analysis", "resolve_deformations", "spacar_mode_refusal",
            "valid_modes"]
 
 DEFORMATION_VARIANTS = ("modified", "basic")
 BIFURCATION_CHOICES = ("off", "warn", "switch")
 START_CHOICES = ("deck", "static")
 
-#: Analysis names and the SPACAR mode numbers that map onto them.
-ANALYSES = ("static", "eigen", "buckling", "transient", "check")
+#: Analysis names and the SPACAR mode numbers that map onto them (docs/deck.md, "SPACAR
+#: mode numbers").
+ANALYSES = ("static", "eigen", "buckling", "transient", "check", "state_space")
 SPACAR_MODE_NUMBERS = {10: "static", 0: "check", 1: "transient", 8: "buckling", 4: "eigen",
-                       7: "eigen"}
+                       7: "eigen", 9: "state_space"}
+#: SPACAR mode numbers spacarpy knows but does not run, with the reason given to the user.
+UNSUPPORTED_SPACAR_MODES = {
+    2: "SPACAR mode 2 (inverse dynamics) is not supported yet",
+    3: "SPACAR mode 3 (linearized equations along a transient trajectory) is not supported "
+       "yet; mode 9 (state_space) linearizes at every static load step",
+}
+
+
+def _mode_number(value) -> int | None:
+    """The whole number of a MODE value (an int, a float or its text), or None."""
+    if isinstance(value, str):
+        try:
+            value = float(value.strip())
+        except ValueError:
+            return None
+    if isinstance(value, float):
+        return int(value) if value.is_integer() else None
+    return value if isinstance(value, int) else None
+
+
+def spacar_mode_refusal(value) -> str | None:
+    """The message refusing a known but unsupported SPACAR mode number (2, 3, also negative),
+    or None for any other value."""
+    number = _mode_number(value)
+    return None if number is None else UNSUPPORTED_SPACAR_MODES.get(abs(number))
+
+
+def is_silent_mode(value) -> bool:
+    """A negative SPACAR mode number: SPACAR's silent run (no progress output)."""
+    number = _mode_number(value)
+    return number is not None and number < 0
 
 
 def resolve_analysis(value) -> str | None:
@@ -36,24 +69,10 @@ def resolve_analysis(value) -> str | None:
     Returns None if the value is not valid. Negative SPACAR numbers (silent runs) map like
     their positive counterparts.
     """
-    if isinstance(value, str):
-        text = value.strip().lower()
-        if text in ANALYSES:
-            return text
-        try:
-            number = float(text)
-        except ValueError:
-            return None
-        if not number.is_integer():
-            return None
-        value = int(number)
-    if isinstance(value, float):
-        if not value.is_integer():
-            return None
-        value = int(value)
-    if isinstance(value, int):
-        return SPACAR_MODE_NUMBERS.get(abs(value))
-    return None
+    if isinstance(value, str) and value.strip().lower() in ANALYSES:
+        return value.strip().lower()
+    number = _mode_number(value)
+    return None if number is None else SPACAR_MODE_NUMBERS.get(abs(number))
 
 
 def resolve_deformations(value) -> str | None:
@@ -104,13 +123,43 @@ class StaticSettings:
 
 
 @dataclass(frozen=True)
+class SystemSignal:
+    """One input or output of the linearized state-space system (SPACAR mode 9), a deck line
+    ``INPUTF i n c``, ``OUTX i n c``, ``OUTXP i n c``, ``OUTE i e k`` or ``OUTEP i e k``.
+
+    keyword : str
+        ``INPUTF``, ``OUTX``, ``OUTXP``, ``OUTE`` or ``OUTEP``.
+    index : int
+        ``i``: the signal's number among the inputs / outputs (1 = first).
+    target : int
+        The deck node (INPUTF, OUTX, OUTXP) or element (OUTE, OUTEP).
+    number : int
+        The node's coordinate (1..3 x y z; 1..4 lambda0..lambda3) or the element's mode.
+    """
+
+    keyword: str
+    index: int
+    target: int
+    number: int
+    loc: SourceLoc | None = field(default=None, compare=False)
+
+    @property
+    def name(self) -> str:
+        """The deck line, ``OUTX 2 31 1``: the signal's name in result and MATLAB files."""
+        return f"{self.keyword} {self.index} {self.target} {self.number}"
+
+
+@dataclass(frozen=True)
 class LinearizedSettings:
     """Eigenfrequencies and buckling: the deck's ``MODES count [each|last]`` (spacarpy
     extension). ``n_modes`` None means the program's default (10); ``modes_each_step``:
-    linearize at every load step, not only the last."""
+    linearize at every load step, not only the last. ``inputs`` and ``outputs``: the
+    :class:`SystemSignal` lines of the state-space system (mode 9), each ordered by index."""
 
     n_modes: int | None = None
     modes_each_step: bool = False
+    inputs: tuple = ()
+    outputs: tuple = ()
 
     @property
     def count(self) -> int:

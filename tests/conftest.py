@@ -65,6 +65,7 @@ def result_files(tmp_path_factory) -> dict:
         "planar": ("planar_four_bar", []),            # PLBEAM, PLHINGE (schema 1.3)
         "pltruss": ("pltruss", []),                   # PLTRUSS (schema 1.3)
         "transient": ("pendulum", []),                # /transient (schema 1.4)
+        "state_space": ("state_space_cantilever", []),  # /state_space (schema 2.3)
     }
     (tmp / "pendulum.dat").write_text((DECKS / "pendulum_rigid_90deg.dat").read_text()
                                       .replace("TIMESTEP 2.2 440", "TIMESTEP 0.1 10"))

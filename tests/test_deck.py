@@ -177,9 +177,9 @@ def test_mode_extension(value, expected):
 
 
 def test_mode_invalid_lists_valid_values():
-    line, col, msg = only_item(deck_error(BASE + "MODE 9\n"))
+    line, col, msg = only_item(deck_error(BASE + "MODE 6\n"))
     assert (line, col) == (4, 6)
-    assert "unknown analysis '9'" in msg and "static" in msg and "10=static" in msg
+    assert "unknown analysis '6'" in msg and "static" in msg and "10=static" in msg
 
 
 def test_deformations_extension_and_command_line_overrides():

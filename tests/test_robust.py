@@ -397,3 +397,4 @@ def test_run_help_lists_every_mode(capsys):
     assert main(["run", "--help"]) == 0
     help_text = " ".join(capsys.readouterr().out.split())
     assert "transient (1), check" in help_text
+    assert "state_space (9" in help_text

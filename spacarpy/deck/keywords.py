@@ -202,6 +202,7 @@ _LOAD_OPTIONAL = _each_optional(_f("y component (N or N m)", "f2"),
                                 _f("z component (N or N m)", "f3"))
 _COUNT = _f("number of elements", "count", "int", positive=True)
 _IO_FIELDS = (_f("input/output index", "i", "int", True), NODE, _COORD)
+_IO_ELEMENT_FIELDS = (_f("output index", "i", "int", True), ELEMENT, _MODE)
 
 
 def _unsupported(name, summary, section, **kw) -> KeywordSpec:
@@ -389,12 +390,16 @@ _KEYWORD_LIST = (
     KeywordSpec("OUTLEVEL", "SPACAR output level (accepted; no effect in spacarpy)",
                 section="output", required=(_f("output level", "level", "int"),),
                 optional=((_f("second output level", "level2", "int"),),)),
-    _unsupported("INPUTF", "input of the linearized system: a force on a coordinate", "output",
-                 required=_IO_FIELDS),
-    _unsupported("OUTX", "output of the linearized system: a position coordinate", "output",
-                 required=_IO_FIELDS),
-    _unsupported("OUTXP", "output of the linearized system: a velocity coordinate", "output",
-                 required=_IO_FIELDS),
+    KeywordSpec("INPUTF", "input of the linearized system: a force on a coordinate",
+                section="output", required=_IO_FIELDS),
+    KeywordSpec("OUTX", "output of the linearized system: a position coordinate",
+                section="output", required=_IO_FIELDS),
+    KeywordSpec("OUTXP", "output of the linearized system: a velocity coordinate",
+                section="output", required=_IO_FIELDS),
+    KeywordSpec("OUTE", "output of the linearized system: an element deformation",
+                section="output", required=_IO_ELEMENT_FIELDS),
+    KeywordSpec("OUTEP", "output of the linearized system: an element deformation rate",
+                section="output", required=_IO_ELEMENT_FIELDS),
     # ------------------------------------------------------------------ spacarpy extensions
     KeywordSpec("INPUTR", "prescribe the rotation of an orientation node about an axis",
                 section="extension", extension=True,

@@ -241,6 +241,10 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         out.append(" ".join(["TIMEFUNCTION", kind] + [_quoted(v) for v in params]))
     for n, v in tr.initial_velocities.items():
         out.append(format_record("VELOCITY", int(n), *[float(c) for c in v]))
+    if lin.inputs or lin.outputs:          # the third module: the state-space signals
+        out += ["END", "HALT", ""]
+        out += [format_record(sg.keyword, sg.index, sg.target, sg.number)
+                for sg in (*lin.inputs, *lin.outputs)]
     out += ["END", "END"]
     if cross_sections is not None and len(cross_sections):
         out += ["", "VISUALIZATION"]

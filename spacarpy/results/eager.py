@@ -140,8 +140,10 @@ class Results(RootAttributes):
         ``"BEAM"`` for each BEAM element.
     element_sets : dict
         ``{kind: {"ids": (n,), "nodes": (n, n_slots)}}`` for every element kind.
-    static, transient, eigen, buckling, compliance
-        The groups, or ``None`` when the file has none.
+    static, transient, eigen, buckling, compliance, state_space
+        The groups, or ``None`` when the file has none (``state_space`` also holds the
+        names: ``dof_element``, ``dof_mode``, ``state_name``, ``input_name``,
+        ``output_name``).
     """
 
     path: str
@@ -159,6 +161,7 @@ class Results(RootAttributes):
     eigen: LinearizedResults | None = None
     buckling: LinearizedResults | None = None
     compliance: LinearizedResults | None = None
+    state_space: LinearizedResults | None = None
 
 
 def _step_arrays(sf, group: str, n: int) -> tuple[dict, dict]:
@@ -224,10 +227,15 @@ def read_results(path) -> Results:
             arrays, elements = _step_arrays(sf, "transient", n)
             results.transient = TransientResults(time=arrays.pop("time"), arrays=arrays,
                                                  elements=elements)
-        for group in ("eigen", "buckling", "compliance"):
+        for group in ("eigen", "buckling", "compliance", "state_space"):
             if group in f:
                 n = f[group]["step"].shape[0]
                 arrays, _ = _step_arrays(sf, group, n)
+                if group == "state_space":
+                    g = f[group]
+                    arrays.update(dof_element=g["dof_element"][()], dof_mode=g["dof_mode"][()],
+                                  **{k: str_list(g[k]) for k in ("state_name", "input_name",
+                                                                 "output_name")})
                 setattr(results, group, LinearizedResults(step=arrays.pop("step"),
                                                           arrays=arrays))
         problems = checksum_problems(f, committed_steps(f))

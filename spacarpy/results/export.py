@@ -31,6 +31,9 @@ the XDMF file points there.
 VTK (:func:`write_vtk`) writes one ``.vtu`` file per step (time step of a transient run) and
 a ``.pvd`` collection with meshio (the optional ``vtk`` extra), with the same cells.
 
+The linearized state space of SPACAR mode 9 (:func:`write_state_space_mat`) goes to a
+MATLAB file for ``ss(A, B, C, D)``.
+
 Output paths are checked before any work (:func:`check_export_output`).
 """
 from __future__ import annotations
@@ -50,8 +53,7 @@ from spacarpy.results.stress import section_forces
 log = logging.getLogger(__name__)
 
 __all__ = ["write_xdmf", "write_vtk", "ExportUnavailableError", "ExportError",
-           "check_export_output",
-           "line_cells"]
+           "check_export_output", "line_cells", "write_state_space_mat"]
 
 _LINE_KINDS = ("BEAM", "TRUSS", "RBEAM", "PLBEAM", "PLTRUSS")
 
@@ -369,4 +371,33 @@ def write_vtk(path, out=None) -> Path:
     tree = ET.ElementTree(root)
     ET.indent(tree, space="  ")
     tree.write(out, encoding="utf-8", xml_declaration=True)
+    return out
+
+
+def write_state_space_mat(path, out, step: int | None = None) -> Path:
+    """The state space of static step ``step`` (None or -1: the last linearized one) of the
+    result file ``path`` as a MATLAB file ``out`` (:func:`scipy.io.savemat`, MATLAB 5
+    format): ``A``, ``B``, ``C``, ``D`` (for ``ss(A, B, C, D)``), the second-order matrices
+    ``M0``, ``C0``, ``K0``, ``B0``, the names ``state_name``, ``input_name``,
+    ``output_name`` (cell arrays of strings), ``dof`` ([element mode] per degree of freedom),
+    ``step`` (the static step) and ``load_factor``."""
+    from scipy.io import savemat
+
+    out = check_export_output(out, ".mat")
+    with open_results(path) as res:
+        view = res.state_space
+        if view is None:
+            raise ExportError(f"export: {path} has no state space (/state_space): run the "
+                              "deck with --mode 9 (state_space) and INPUTF/OUTX lines")
+        row = view.row(None if step in (None, -1) else step)
+        k = int(view.step[row])
+        data = {name: view.matrix(name, k) for name in ("A", "B", "C", "D", "M0", "C0",
+                                                          "K0", "B0")}
+        data.update(
+            state_name=np.array(view.state_name, dtype=object).reshape(-1, 1),
+            input_name=np.array(view.input_name, dtype=object).reshape(-1, 1),
+            output_name=np.array(view.output_name, dtype=object).reshape(-1, 1),
+            dof=view.dof.astype(float), step=float(k),
+            load_factor=float(view.load_factor[row]))
+    savemat(out, data, do_compression=True)
     return out

@@ -139,3 +139,71 @@ class ComplianceView(_LinearizedView):
         with self._res._file() as f:
             a = f[self._group].attrs
             return int(a["position_node"]), int(a["orientation_node"])
+
+
+class StateSpaceView(_LinearizedView):
+    """``/state_space``: the linearized equations in the degrees of freedom and the
+    first-order system ``dz/dt = A z + B u, y = C z + D u`` at each linearized step
+    (SPACAR mode 9, docs/linearized.md)."""
+
+    @property
+    def n_mode(self) -> int:
+        return 0
+
+    def _names(self, name: str) -> list[str]:
+        from spacarpy.results.h5file import str_list
+        with self._res._file() as f:
+            return str_list(f[f"{self._group}/{name}"])
+
+    @property
+    def state_name(self) -> list[str]:
+        """The states: ``BEAM 3 mode 2`` (a deformation), then ``rate of BEAM 3 mode 2``."""
+        return self._names("state_name")
+
+    @property
+    def input_name(self) -> list[str]:
+        """The inputs by their deck line, ``INPUTF 1 9 2``."""
+        return self._names("input_name")
+
+    @property
+    def output_name(self) -> list[str]:
+        """The outputs by their deck line, ``OUTX 1 9 2``."""
+        return self._names("output_name")
+
+    @property
+    def dof(self) -> np.ndarray:
+        """(n_dof, 2): [element, mode] of each degree of freedom."""
+        return np.stack([self._res._read(f"{self._group}/dof_element"),
+                         self._res._read(f"{self._group}/dof_mode")], axis=1)
+
+    def matrix(self, name: str, step=None) -> np.ndarray:
+        """Matrix ``name`` (M0, C0, K0, B0, A, B, C or D) at static step ``step`` (None: the
+        last linearized one)."""
+        if name not in ("M0", "C0", "K0", "B0", "A", "B", "C", "D"):
+            raise ResultsQueryError(f"/state_space has no matrix {name!r}: M0, C0, K0, B0, A, "
+                                    "B, C or D")
+        return self._res._read(f"{self._group}/{name}", self.row(step))
+
+    def matrices(self, step=None) -> dict:
+        """A, B, C, D at static step ``step`` (None: the last linearized one)."""
+        return {k: self.matrix(k, step) for k in ("A", "B", "C", "D")}
+
+    def system(self, step=None):
+        """The system at static step ``step`` (None: the last) as
+        :class:`scipy.signal.StateSpace`."""
+        from scipy.signal import StateSpace
+        m = self.matrices(step)
+        return StateSpace(m["A"], m["B"], m["C"], m["D"])
+
+    def control_system(self, step=None):
+        """The system as a python-control ``StateSpace`` (``pip install control``), with
+        the state, input and output names."""
+        try:
+            import control
+        except ImportError:
+            raise ResultsQueryError("control_system() needs the python-control package "
+                                    "(pip install control); system() gives scipy's "
+                                    "StateSpace") from None
+        m = self.matrices(step)
+        return control.ss(m["A"], m["B"], m["C"], m["D"], states=self.state_name,
+                          inputs=self.input_name, outputs=self.output_name)

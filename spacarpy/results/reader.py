@@ -49,7 +49,12 @@ from spacarpy.results.h5file import (
     reading,
     schema_major,
 )
-from spacarpy.results.linearized_views import BucklingView, ComplianceView, EigenView
+from spacarpy.results.linearized_views import (
+    BucklingView,
+    ComplianceView,
+    EigenView,
+    StateSpaceView,
+)
 from spacarpy.results.schema import (
     STEP_GROUPS,
     legacy_name,
@@ -115,6 +120,8 @@ class ResultsFile(RootAttributes):
     eigen : EigenView or None
     buckling : BucklingView or None
     compliance : ComplianceView or None
+    state_space : StateSpaceView or None
+        The linearized equations and the state space of SPACAR mode 9.
     """
 
     def __init__(self, path, *, verify: bool = True):
@@ -133,6 +140,8 @@ class ResultsFile(RootAttributes):
         self.eigen = EigenView(self, "eigen") if "eigen" in groups else None
         self.buckling = BucklingView(self, "buckling") if "buckling" in groups else None
         self.compliance = ComplianceView(self, "compliance") if "compliance" in groups else None
+        self.state_space = (StateSpaceView(self, "state_space") if "state_space" in groups
+                            else None)
 
     # -- file access --------------------------------------------------------------------------
 
@@ -213,6 +222,7 @@ class ResultsFile(RootAttributes):
         parts = [f"{self.analysis} analysis",
                  "completed" if self.completed else "INCOMPLETE",
                  f"schema {self.schema_version[0]}.{self.schema_version[1]}"]
-        groups = [name for name in ("static", "transient", "eigen", "buckling", "compliance")
+        groups = [name for name in ("static", "transient", "eigen", "buckling", "compliance",
+                                    "state_space")
                   if getattr(self, name) is not None]
         return f"<ResultsFile {self.path!r}: {', '.join(parts)}; groups {', '.join(groups)}>"

@@ -20,7 +20,8 @@ Dimension names: ``step`` (committed load steps), ``time_step`` (committed time 
 ``slot`` (the kind's node slots), ``reaction``, ``coordinate`` (3), ``euler_parameter`` (4),
 ``global_coordinate`` (n_coord), ``load`` (load lines), ``input`` (prescribed deformations),
 ``checked_dataset`` (the datasets a ``checksum`` covers: its attribute ``columns``);
-integers are fixed sizes.
+``dof`` (degrees of freedom of the state space), ``state`` (2 dof), ``system_input`` and
+``system_output`` (its INPUTF and OUT* lines); integers are fixed sizes.
 """
 from __future__ import annotations
 
@@ -32,14 +33,15 @@ import numpy as np
 from spacarpy.elements.registry import KINDS as _KINDS
 
 __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "KIND_NAMES",
-           "LEGACY_NAMES", "legacy_name", "new_name", "spec_for", "STEP_GROUPS",
+           "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
+           "STEP_GROUPS",
            "REACTION_COMPONENTS", "REACTION_UNITS", "MODE_KIND_NAMES",
            "DEFORMATION_CLASS_NAMES", "ROOT_ATTRS", "n_def", "n_slots", "slot_roles"]
 
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 2)
+SCHEMA_VERSION = (2, 3)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -126,7 +128,9 @@ class DatasetSpec:
 
 #: Groups whose datasets grow by one row per step, with their commit (scale) dataset.
 STEP_GROUPS = {"static": "load_factor", "transient": "time", "eigen": "step",
-               "buckling": "step", "compliance": "step"}
+               "buckling": "step", "compliance": "step", "state_space": "step"}
+#: Groups with one row per linearized static step (their scale is ``step``).
+LINEARIZED_GROUPS = ("eigen", "buckling", "compliance", "state_space")
 
 
 def _units(per_mode) -> str:
@@ -253,6 +257,7 @@ def _spec_list() -> list[DatasetSpec]:
           "m/N | rad/(N m) | m/(N m) = rad/N",
           "6x6 compliance of the chosen node in its current body axes"),
     ]
+    out += _state_space_specs()
     for kind in KIND_NAMES:
         facts = _KINDS[kind]
         since = _KIND_SINCE.get(kind, SCHEMA_VERSION)
@@ -312,11 +317,53 @@ def _spec_list() -> list[DatasetSpec]:
     # one CRC-32 per committed step and stored dataset of the group (schema 2.1)
     for group, axis0 in (("static", "step"), ("transient", "time_step"),
                          ("eigen", "linearized_step"), ("buckling", "linearized_step"),
-                         ("compliance", "linearized_step")):
+                         ("compliance", "linearized_step"), ("state_space", "linearized_step")):
         out.append(S(f"{group}/checksum", "i8", (axis0, "checked_dataset"), "1",
                      "CRC-32 of each step's row of the group's datasets (columns: attribute "
-                     "columns), stored with the step", (2, 1)))
+                     "columns), stored with the step", (2, 3) if group == "state_space"
+                     else (2, 1)))
     return out
+
+
+def _state_space_specs() -> list[DatasetSpec]:
+    """``/state_space`` (schema 2.3): the linearized equations in the degrees of freedom and
+    the first-order system of SPACAR mode 9 (docs/linearized.md)."""
+    S, v = DatasetSpec, (2, 3)
+    lin = "linearized_step"
+    per_dof = "kg, m, rad, s (per degree of freedom)"
+    return [
+        S("state_space/step", "i4", (lin,), "1",
+          "index of the static step (row of /static) that was linearized", v),
+        S("state_space/dof_element", "i8", ("dof",), "1",
+          "deck element number of each degree of freedom (a deformation mode)", v),
+        S("state_space/dof_mode", "i4", ("dof",), "1",
+          "deformation mode number (1-based) of each degree of freedom", v),
+        S("state_space/state_name", "ascii", ("state",), "1",
+          "name of each state: 'BEAM 3 mode 2' (the deformation), then 'rate of BEAM 3 mode "
+          "2'", v),
+        S("state_space/input_name", "ascii", ("system_input",), "1",
+          "deck line of each input: 'INPUTF i n c'", v),
+        S("state_space/output_name", "ascii", ("system_output",), "1",
+          "deck line of each output: 'OUTX i n c', 'OUTXP i n c', 'OUTE i e k', 'OUTEP i e k'",
+          v),
+        S("state_space/M0", "f8", (lin, "dof", "dof"), per_dof,
+          "mass matrix in the degrees of freedom", v),
+        S("state_space/C0", "f8", (lin, "dof", "dof"), per_dof,
+          "damping matrix in the degrees of freedom (DAMPING, EDAMP; the velocity-dependent "
+          "terms vanish at a static state)", v),
+        S("state_space/K0", "f8", (lin, "dof", "dof"), per_dof,
+          "tangent stiffness K0 + G0 + N0 in the degrees of freedom", v),
+        S("state_space/B0", "f8", (lin, "dof", "system_input"), per_dof,
+          "input matrix: generalized force on each degree of freedom per unit input", v),
+        S("state_space/A", "f8", (lin, "state", "state"), per_dof,
+          "state matrix of dz/dt = A z + B u, z = [q; dq/dt]", v),
+        S("state_space/B", "f8", (lin, "state", "system_input"), per_dof,
+          "input matrix of dz/dt = A z + B u", v),
+        S("state_space/C", "f8", (lin, "system_output", "state"), per_dof,
+          "output matrix of y = C z + D u", v),
+        S("state_space/D", "f8", (lin, "system_output", "system_input"), per_dof,
+          "feedthrough matrix of y = C z + D u (zero)", v),
+    ]
 
 
 #: Every dataset of the schema, by path relative to the root.

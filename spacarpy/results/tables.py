@@ -578,7 +578,28 @@ def summary(res: ResultsFile) -> str:
         lines += ["", f"Compliance of nodes {c.node[0]}/{c.node[1]} at step {int(c.step[-1])} "
                       "(diagonal, global axes; m/N and rad/(N m)):",
                   "  " + "  ".join(f"{v:.4g}" for v in diag)]
+    if res.state_space is not None and res.state_space.n_lin:
+        lines += [""] + _state_space_summary(res.state_space)
     return "\n".join(lines) + "\n"
+
+
+def _state_space_summary(v) -> list:
+    """The state space's size and signals, and its lowest undamped pole at the last step."""
+    a = v.matrix("A")
+    n_dof = a.shape[0] // 2
+    out = [f"State space (SPACAR mode 9) at {v.n_lin} steps: {a.shape[0]} states "
+           f"({n_dof} degrees of freedom), {len(v.input_name)} inputs, "
+           f"{len(v.output_name)} outputs (spacarpy export --state-space FILE.mat)",
+           "  inputs   " + (", ".join(v.input_name) or "none"),
+           "  outputs  " + (", ".join(v.output_name) or "none")]
+    if n_dof:
+        poles = np.linalg.eigvals(a)
+        low = poles[np.argmin(np.abs(poles))]
+        # a real part at round-off level of the pole (an undamped one) is shown as 0
+        re = low.real if abs(low.real) > 1e-9 * abs(low) else 0.0
+        out.append(f"  at step {int(v.step[-1])}: the pole of smallest magnitude is "
+                   f"{re:.4g} +- {abs(low.imag):.4g}i 1/s ({abs(low) / (2 * np.pi):.4g} Hz)")
+    return out
 
 
 def _elided(rows: list) -> list:

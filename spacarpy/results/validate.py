@@ -36,6 +36,7 @@ from spacarpy.results.schema import (
     FILETYPE,
     KIND_NAMES,
     LEGACY_OPTIONAL,
+    LINEARIZED_GROUPS,
     PROGRAM,
     REACTION_COMPONENTS,
     ROOT_ATTRS,
@@ -207,6 +208,11 @@ def _sizes(sf: SchemaFile, kinds: list) -> dict:
         "global_coordinate": (3 * n_pos + 4 * n_rot if n_pos is not None and n_rot is not None
                               else None),
         "load": rows("model/load_node"), "input": None, "sections": sections,
+        "dof": rows("state_space/dof_element"),
+        "state": (2 * rows("state_space/dof_element")
+                  if rows("state_space/dof_element") is not None else None),
+        "system_input": rows("state_space/input_name"),
+        "system_output": rows("state_space/output_name"),
         "element": {k: rows(f"model/elements/{k}/ids") for k in kinds},
     }
 
@@ -260,7 +266,7 @@ def _check_steps(sf, found, completed, problems) -> None:
         if scale is None:
             if f"{group}/{scale_name}" in sf:
                 continue
-            if group in ("eigen", "buckling", "compliance"):
+            if group in LINEARIZED_GROUPS:
                 n_mode = python_value(sf.f[group].attrs.get("n_mode"))
                 if not isinstance(n_mode, int) or n_mode < 1:
                     problems.append(f"/{group} attribute n_mode missing or not a positive "

@@ -1,4 +1,4 @@
-"""Stream an analysis into a crash-safe results file (schema 2.1): :class:`ResultsWriter`.
+"""Stream an analysis into a crash-safe results file (schema 2.3): :class:`ResultsWriter`.
 
 This module's one job is writing: the writer receives arrays (the ``/model`` datasets from
 :func:`spacarpy.results.model_data.model_datasets`, then every step's results) and stores them
@@ -177,7 +177,7 @@ class ResultsWriter:
     def begin_static(self, n_position_node: int, n_orientation_node: int, reaction_node,
                      reaction_component, *, n_eigen_modes: int = 0,
                      n_buckling_modes: int = 0, compliance_node=None,
-                     transient: bool = False) -> None:
+                     transient: bool = False, state_space: dict | None = None) -> None:
         """Create the ``/static`` group (and the others asked for) with empty step datasets.
 
         After this call the file is switched to SWMR mode: no new datasets or groups can be
@@ -201,6 +201,10 @@ class ResultsWriter:
             per linearized step (:meth:`compliance_step`).
         transient : bool
             Also create the ``/transient`` group for :meth:`transient_step`.
+        state_space : dict or None
+            Also create the ``/state_space`` group (:meth:`state_space_step`): its names,
+            ``dof_element``, ``dof_mode`` (n_dof,), ``state_name`` (2 n_dof),
+            ``input_name`` and ``output_name``.
         """
         f = self._require_open("begin_static")
         if "static" in self._groups:
@@ -237,6 +241,8 @@ class ResultsWriter:
             f["compliance"].attrs["orientation_node"] = np.int64(compliance_node[1])
         if transient:
             self._create_step_group(f, "transient")
+        if state_space is not None:
+            self._begin_state_space(f, state_space)
         f.flush()
         # From here on only appends: SWMR keeps the file consistent on disk at every instant.
         f.swmr_mode = True
@@ -316,6 +322,24 @@ class ResultsWriter:
     def compliance_step(self, step: int, global_, local) -> None:
         """Append the 6x6 nodal compliance (global and body axes) of one linearized step."""
         self._append_linearized("compliance", step, {"global": global_, "local": local})
+
+    def state_space_step(self, step: int, ss) -> None:
+        """Append the linearized equations of one static step: ``ss`` has the attributes M0,
+        C0, K0, B0, A, B, C, D (:class:`spacarpy.solvers.state_space.StateSpace`)."""
+        self._append_linearized("state_space", step, {
+            name: getattr(ss, name) for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")})
+
+    def _begin_state_space(self, f, names: dict) -> None:
+        n_dof = len(names["dof_element"])
+        self._sizes.update(dof=n_dof, state=2 * n_dof, system_input=len(names["input_name"]),
+                           system_output=len(names["output_name"]))
+        self._create_step_group(f, "state_space", n_mode=1)
+        g = f["state_space"]
+        create(g, "dof_element", np.asarray(names["dof_element"], dtype=np.int64))
+        create(g, "dof_mode", np.asarray(names["dof_mode"], dtype=np.int32))
+        for key in ("state_name", "input_name", "output_name"):
+            text = ascii_array(names[key])
+            create(g, key, text, dtype=h5py.string_dtype("ascii", text.itemsize))
 
     def finish(self) -> None:
         """Mark the run complete, close the file and move it atomically to :attr:`final_path`.

@@ -3,7 +3,8 @@
 Runs the parts in order, each ``from_statements(by_kw, ctx, errors, ...)``: the generators
 (BEAMS, BEAMARC) are expanded first (:mod:`spacarpy.deck.generators`) and the cross-sections
 read once (:mod:`spacarpy.deck.visualization`); then :mod:`.topology`,
-:mod:`.element_data`, :mod:`.constraints`, :mod:`.loads` and :mod:`.settings`, and the checks
+:mod:`.element_data`, :mod:`.constraints`, :mod:`.loads`, :mod:`.settings` and
+:mod:`.signals`, and the checks
 that need several of them (unconnected nodes, cross-sections of missing elements). Keywords
 spacarpy recognises but does not implement yet are refused with "SPACAR keyword KEYWORD is not
 supported yet", one error per occurrence. Every problem is collected (:mod:`.errors`) and
@@ -13,6 +14,7 @@ are none, the warnings are logged and the parts are assembled into the model and
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import UNSUPPORTED, unsupported_message
@@ -21,6 +23,7 @@ from spacarpy.deck.semantics import constraints as _constraints
 from spacarpy.deck.semantics import element_data as _element_data
 from spacarpy.deck.semantics import loads as _loads
 from spacarpy.deck.semantics import settings as _settings
+from spacarpy.deck.semantics import signals as _signals
 from spacarpy.deck.semantics import topology as _topology
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.visualization import collect_cross_sections
@@ -77,6 +80,10 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     loads = _loads.from_statements(by_kw, ctx, errors, topology, constraints)
     settings = _settings.from_statements(by_kw, ctx, errors, topology,
                                          deformations=deformations, analysis=analysis)
+    inputs, outputs = _signals.from_statements(by_kw, ctx, errors, topology)
+    if inputs or outputs:
+        settings = replace(settings, linearized=replace(settings.linearized, inputs=inputs,
+                                                        outputs=outputs))
     topology.check_unconnected(constraints.fixes)
     topology.check_cross_section_elements(sections)
 

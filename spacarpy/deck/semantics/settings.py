@@ -23,6 +23,7 @@ from spacarpy.settings import (
     TransientSettings,
     resolve_analysis,
     resolve_deformations,
+    spacar_mode_refusal,
     valid_modes,
 )
 from spacarpy.time_functions import KINDS as TIME_FUNCTION_KINDS
@@ -146,7 +147,10 @@ class _SettingsPass(UsesTopology):
         if not self.ctx.once(st, self.errors):
             return
         value = resolve_analysis(st["analysis"])
-        if value is None:
+        refusal = spacar_mode_refusal(st["analysis"])
+        if refusal is not None:
+            self.error(st.loc_of("analysis"), f"MODE: {refusal}", st)
+        elif value is None:
             self.error(st.loc_of("analysis"), f"MODE: unknown analysis '{st['analysis']}'; "
                                               f"expected {valid_modes()}", st)
         self.analysis = value
@@ -231,7 +235,9 @@ class _SettingsPass(UsesTopology):
         """The command line's choices replace the deck's MODE / DEFORMATIONS."""
         if analysis is not None:
             value = resolve_analysis(analysis)
-            if value is None:
+            if spacar_mode_refusal(analysis) is not None:
+                self.error(None, spacar_mode_refusal(analysis))
+            elif value is None:
                 self.error(None, f"unknown analysis '{analysis}'; expected {valid_modes()}")
             self.analysis = value
         if deformations is not None:
