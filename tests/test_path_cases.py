@@ -201,10 +201,13 @@ def test_displacement_and_load_control_reach_the_same_equilibria(lee, tmp_path):
 
 @ARC
 def test_arclength_traces_lees_frame_through_its_limit_points(lee, tmp_path):
-    text = _with_arclength(_deck("lees_frame_load", **{"DELXF 5 0 -1.8 0": "DELXF 5 0 -2.5 0"}),
-                           "ARCLENGTH 3000 0.5")
+    """decks/lees_frame_load.dat with a reference load of 2.0, above the limit load 1.85, so
+    that the run cannot end before the limit point; at most 600 points (whether the path
+    rises to 2.0 again after the snap-back is not asserted here)."""
+    text = _with_arclength(_deck("lees_frame_load", **{"DELXF 5 0 -1.8 0": "DELXF 5 0 -2 0"}),
+                           "ARCLENGTH 600 0.5")
     s = _run(text, tmp_path, "leearc")
-    P = 2.5 * s.load_factor
+    P = 2.0 * s.load_factor
     v = s.displacement(node=5)[:, 1]
     i = int(np.argmax(P[: int(np.argmin(P)) + 1]))
     scale = LEE_FRAME["L"] ** 2 / (LEE_FRAME["E"] * LEE_FRAME["I"])
@@ -214,11 +217,11 @@ def test_arclength_traces_lees_frame_through_its_limit_points(lee, tmp_path):
     assert lam_disp * (1 - 0.01) < P[i] * scale < lam_disp * (1 + 1e-3)
     limits = _limit_points(tmp_path / "leearc.h5")
     if limits is not None:                               # refined to the solver tolerance
-        assert 2.5 * limits[0] * scale == pytest.approx(lam_disp, rel=1e-3)
+        assert 2.0 * limits[0] * scale == pytest.approx(lam_disp, rel=1e-3)
     after = slice(i, None)
     assert P[after].min() < P[i] - 1.0                   # the load falls past the limit point
     assert np.any(np.diff(v[after]) > 0)                 # the snap-back: the drop reverses
-    assert s.load_factor.max() >= 1 - 1e-6      # and rises to the end load
+    assert v[after].min() < -59.0                        # to the turn near -61 and beyond
 
 
 # --- the curved bistable beam ----------------------------------------------------------------
