@@ -297,6 +297,7 @@ def _results_commands(sub) -> None:
     ext.add_argument("what", choices=list(QUANTITIES), metavar="WHAT",
                      help="quantity to extract (listed below)")
     _selection(ext)
+    _dof(ext)
     fmt = ext.add_mutually_exclusive_group()
     fmt.add_argument("--csv", dest="format", action="store_const", const="csv",
                      help="comma-separated values with a header line")
@@ -314,6 +315,7 @@ def _results_commands(sub) -> None:
     plot.add_argument("kind", choices=list(PLOTS), metavar="KIND", nargs="?", default="shape",
                       help="what to draw (default: shape; listed below)")
     _selection(plot)
+    _dof(plot)
     plot.add_argument("--all-steps", action="store_true",
                       help="shape: draw every step, not only --step (default: the last)")
     plot.add_argument("--quantity", default="displacement",
@@ -369,6 +371,12 @@ def _selection(p) -> None:
                    help="static step (0 = initial state; -1 = the last)")
     p.add_argument("--mode", type=_positive_int, default=None,
                    help="mode number (1 = the first)")
+
+
+def _dof(p) -> None:
+    p.add_argument("--dof", choices=("x", "y", "z"), default=None,
+                   help="path: the displacement component of --node (default: the one that "
+                        "moves most)")
 
 
 def _verbosity(p):
@@ -688,7 +696,7 @@ def cmd_extract(args) -> int:
         check_output_path(args.output, "-o", inputs=[args.file])
     with open_results(args.file) as res:
         table = extract(res, args.what, node=args.node, element=args.element, step=args.step,
-                        mode=args.mode)
+                        mode=args.mode, dof=args.dof)
     text = {"csv": table.to_csv, "json": table.to_json}.get(args.format, table.to_text)()
     if args.output is not None:
         args.output.write_text(text, encoding="utf-8")
@@ -718,7 +726,7 @@ def cmd_plot(args) -> int:
             fig = make_figure(res, args.kind, node=args.node, element=args.element,
                               step=step, mode=args.mode, quantity=args.quantity,
                               scale=args.scale, view=args.view, time=args.time,
-                              x=args.x_axis)
+                              x=args.x_axis, dof=args.dof)
             save(fig, out)
     print(out)
     return EXIT_OK

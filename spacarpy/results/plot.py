@@ -26,8 +26,8 @@ from spacarpy.results.plot_shapes import (
 from spacarpy.results.reader import ResultsFile, ResultsQueryError
 
 __all__ = ["PlotUnavailableError", "PLOTS", "make_figure", "shape_figure",
-           "load_displacement_figure", "frequency_figure", "buckling_figure", "history_figure",
-           "mode_figure", "animate", "save", "centre_lines", "straight_lines"]
+           "load_displacement_figure", "path_figure", "frequency_figure", "buckling_figure",
+           "history_figure", "mode_figure", "animate", "save", "centre_lines", "straight_lines"]
 
 _X = ("; x axis: the quantity the run prescribes (a DELINPE angle in mrad, a DELXF force in "
       "N) where it has one, else the load factor (--x)")
@@ -38,6 +38,9 @@ PLOTS = {
              "transient run; displacements magnified automatically when small (--scale); "
              "coloured by the von Mises stress when cross-sections are known",
     "load-displacement": "load against the displacement of --node" + _X,
+    "path": "the equilibrium path: the load (the reaction of a prescribed coordinate, a DELXF "
+            "force or the load factor) against the displacement --dof (x, y, z) of --node, "
+            "critical points marked where the file has them (docs/path.md)",
     "frequency": "natural frequencies against the load (--modes-per-step runs)" + _X,
     "buckling": "buckling load multipliers against the load" + _X,
     "history": "a quantity against the step: --quantity (displacement, position, reaction, "
@@ -56,7 +59,7 @@ def make_figure(res: ResultsFile, kind: str, **options):
     options it takes."""
     builders = {"shape": shape_figure, "load-displacement": load_displacement_figure,
                 "frequency": frequency_figure, "buckling": buckling_figure,
-                "history": history_figure, "mode": mode_figure,
+                "history": history_figure, "mode": mode_figure, "path": path_figure,
                 "buckling-mode": lambda r, **kw: mode_figure(r, group="buckling", **kw)}
     if kind not in builders:
         raise ResultsQueryError(f"unknown plot {kind!r}; choose one of "
@@ -86,6 +89,35 @@ def load_displacement_figure(res: ResultsFile, node=None, x="auto", **_):
     ax.grid(True, alpha=0.3)
     ax.legend()
     ax.set_title(title(res, f"load-displacement curve, node {node}"), fontsize=10)
+    return fig
+
+
+def path_figure(res: ResultsFile, node=None, dof=None, x="auto", **_):
+    """The equilibrium path of :func:`~spacarpy.results.path.path_curve`: the load against
+    the displacement ``dof`` of ``node``, its points in step order (an arc-length path may
+    turn back), the critical points of ``/static/critical_points`` marked and labelled."""
+    from spacarpy.results.path import path_curve
+
+    _, Figure = _mpl()
+    c = path_curve(res, node=node, dof=dof, x=x)
+    fig = Figure(figsize=(6.4, 4.4))
+    ax = fig.add_subplot()
+    ax.plot(c.displacement, c.load, "o-", ms=2.5, lw=1.2, label="stored steps")
+    ax.plot(c.displacement[:1], c.load[:1], "ks", ms=5, label="step 0")
+    markers = {"limit": "v", "bifurcation": "D"}
+    for kind in dict.fromkeys(c.critical_kind):
+        sel = np.array([k == kind for k in c.critical_kind])
+        steps = c.critical_step[sel]
+        ok = (steps >= 0) & (steps < c.step.size)
+        if ok.any():
+            ax.plot(c.displacement[steps[ok]], c.load[steps[ok]], markers.get(kind, "*"),
+                    ms=8, mfc="none", mew=1.5, label=f"{kind} point")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_xlabel(f"displacement u{c.dof} of node {c.node} [m]")
+    ax.set_ylabel(c.load_label)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title(res, f"equilibrium path, node {c.node}, u{c.dof}"), fontsize=10)
     return fig
 
 

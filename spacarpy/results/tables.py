@@ -40,6 +40,9 @@ QUANTITIES = {
     "stress": "largest normal and von Mises stress at the surface (Pa); --element, --step",
     "strain_energy": "elastic energy of the elements (J); --element, --step",
     "reaction": "support reactions (N, N m); --node, --step",
+    "path": "the equilibrium path of --node: its displacement --dof (x, y, z) and the load "
+            "(the reaction of a prescribed coordinate, a DELXF force or the load factor), "
+            "critical points named (docs/path.md); plot-ready",
     "frequency": "natural frequencies (Hz) per linearized step; --mode, --step",
     "frequency_table": "one row per linearized step: load factor, prescribed deformations "
                        "(INPUTE), f1..fn (Hz; negative: unstable); plot-ready",
@@ -137,7 +140,7 @@ def _align(rows: list) -> str:
 # --------------------------------------------------------------------------------------------
 
 def extract(res: ResultsFile, what: str, *, node=None, element=None, step=None,
-            mode=None) -> Table:
+            mode=None, dof=None) -> Table:
     """Extract one quantity as a long table.
 
     Parameters
@@ -151,6 +154,8 @@ def extract(res: ResultsFile, what: str, *, node=None, element=None, step=None,
         Static step filter (0 = initial state; negative counts from the end).
     mode : int, optional
         Mode number (1-based) for frequencies, buckling multipliers and mode shapes.
+    dof : str, optional
+        ``x``, ``y`` or ``z``: the displacement component of ``path``.
 
     Returns
     -------
@@ -168,6 +173,8 @@ def extract(res: ResultsFile, what: str, *, node=None, element=None, step=None,
     if (no_static and f"time_{what}" in QUANTITIES and res.transient is not None
             and res.transient.n_step):
         what = f"time_{what}"          # a transient run: its time history
+    if what == "path":
+        return _x_path(res, node=node, dof=dof, step=step)
     return _EXTRACTORS[what](res, node=node, element=element, step=step, mode=mode)
 
 
@@ -264,6 +271,19 @@ def _x_reaction(res, node, step, **_):
                  [np.repeat(steps, n_r), np.repeat(lf, n_r), np.tile(nodes[keep], steps.size),
                   np.tile(comps[keep], steps.size), values.reshape(-1),
                   np.tile(units, steps.size)])
+
+
+def _x_path(res, node, dof, step):
+    from spacarpy.results.path import path_curve
+
+    c = path_curve(res, node=node, dof=dof)
+    kind = dict(zip(c.critical_step.tolist(), c.critical_kind))
+    rows = np.atleast_1d(np.arange(c.step.size)[_static(res).step_index(step)])
+    return Table(f"equilibrium path of node {c.node}, u{c.dof}",
+                 ["step", "load_factor", f"u{c.dof}", c.load_name, "critical"],
+                 ["1", "1", "m", c.load_unit, "1"],
+                 [c.step[rows], c.load_factor[rows], c.displacement[rows], c.load[rows],
+                  np.array([kind.get(int(k), "") for k in c.step[rows]], dtype=object)])
 
 
 def _lin(res, group):

@@ -1,0 +1,110 @@
+"""``spacarpy plot FILE path`` and ``spacarpy extract FILE path`` (docs/path.md): the numbers
+of the table are the file's, the load axis is the reaction of a prescribed coordinate or the
+DELXF force, critical points are named and marked where the file has them, and requests the
+file cannot answer exit with 2."""
+from __future__ import annotations
+
+import csv
+import io
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from spacarpy.cli import main
+from spacarpy.deck import job_from_text
+from spacarpy.errors import EXIT_INPUT
+from spacarpy.results import open_results
+from spacarpy.run import run_job
+
+from helpers import REPO
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("path")
+    out = {}
+    for name in ("lees_frame_load", "lees_frame"):
+        out[name] = d / f"{name}.h5"
+        text = (REPO / "decks" / f"{name}.dat").read_text().replace("SET m 2", "SET m 1")
+        run_job(job_from_text(text, f"{name}.dat"), out[name])   # 20 elements: quicker
+    # a copy with the critical points the arc-length solver stores (/static/critical_points)
+    crit = d / "critical.h5"
+    shutil.copy(out["lees_frame"], crit)
+    with h5py.File(crit, "a") as f:
+        g = f.create_group("static/critical_points")
+        for name, value, unit in (("step", np.array([24], dtype=np.int64), "1"),
+                                  ("kind", np.array([b"limit"]), "1"),
+                                  ("load_factor", np.array([24 / 29]), "1")):
+            g[name] = value
+            g[name].attrs["units"] = unit
+            g[name].attrs["long_name"] = f"{name} of each critical point"
+    out["critical"] = crit
+    return out
+
+
+def _csv(capsys, *argv):
+    assert main(["extract", *map(str, argv), "--csv"]) == 0
+    rows = list(csv.reader(io.StringIO(capsys.readouterr().out)))
+    return rows[0], rows[1:]
+
+
+def test_extract_path_of_a_displacement_controlled_run_gives_the_reaction(runs, capsys):
+    head, rows = _csv(capsys, runs["lees_frame"], "path", "--node", "5", "--dof", "y")
+    assert head == ["step", "load_factor", "uy [m]", "reaction_Fy [N]", "critical"]
+    with open_results(runs["lees_frame"]) as res:
+        s = res.static
+        u, r = s.displacement(node=5)[:, 1], s.reaction(node=5)[:, 1]
+        assert len(rows) == s.n_step == 30
+        np.testing.assert_array_equal([float(x[2]) for x in rows], u)     # bit for bit
+        np.testing.assert_array_equal([float(x[3]) for x in rows], r)
+        np.testing.assert_array_equal([float(x[1]) for x in rows], s.load_factor)
+    assert {x[4] for x in rows} == {""}                  # no critical points in this file
+    assert float(rows[-1][2]) == pytest.approx(-58.0, abs=1e-9)   # the prescribed drop
+
+
+def test_extract_path_of_a_load_controlled_run_gives_the_delxf_force(runs, capsys):
+    head, rows = _csv(capsys, runs["lees_frame_load"], "path", "--node", "5", "--dof", "y",
+                      "--step", "-1")
+    assert head == ["step", "load_factor", "uy [m]", "load [N]", "critical"]
+    assert len(rows) == 1 and float(rows[0][3]) == pytest.approx(1.8, rel=1e-12)
+
+
+def test_path_names_and_marks_the_stored_critical_points(runs, capsys, tmp_path):
+    _, rows = _csv(capsys, runs["critical"], "path", "--node", "5", "--dof", "y")
+    assert [(x[0], x[4]) for x in rows if x[4]] == [("24", "limit")]
+    from spacarpy.results.plot import make_figure
+    with open_results(runs["critical"]) as res:
+        fig = make_figure(res, "path", node=5, dof="y")
+        marked = [ln for ln in fig.axes[0].lines if ln.get_label() == "limit point"]
+        assert len(marked) == 1
+        np.testing.assert_array_equal(marked[0].get_xdata(),
+                                      res.static.displacement(node=5)[[24], 1])
+
+
+def test_plot_path_writes_a_png(runs, tmp_path, capsys):
+    pytest.importorskip("matplotlib", reason="plots need the optional matplotlib")
+    out = tmp_path / "path.png"
+    assert main(["plot", str(runs["lees_frame"]), "path", "--node", "5", "--dof", "y", "-o",
+                 str(out)]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+    assert out.read_bytes()[:8] == PNG and out.stat().st_size > 10_000
+
+
+def test_path_defaults_and_refusals(runs, capsys):
+    # default node: the one that moves most; default dof: its component that moves most
+    head, rows = _csv(capsys, runs["lees_frame_load"], "path")
+    with open_results(runs["lees_frame_load"]) as res:
+        u = res.static.displacement()                      # (step, node, 3)
+        node = np.argmax(np.linalg.norm(u[-1], axis=-1))
+        dof = int(np.argmax(np.ptp(u[:, node], axis=0)))
+        assert head[2] == f"u{'xyz'[dof]} [m]"
+        np.testing.assert_array_equal([float(x[2]) for x in rows], u[:, node, dof])
+    assert main(["extract", str(runs["lees_frame"]), "path", "--node", "6"]) == EXIT_INPUT
+    assert "orientation node" in capsys.readouterr().err
+    assert main(["extract", str(runs["lees_frame"]), "path", "--node", "99"]) == EXIT_INPUT
+    assert main(["extract", str(runs["lees_frame"]), "path", "--dof", "w"]) == EXIT_INPUT
+    assert "--dof" in capsys.readouterr().err
