@@ -15,8 +15,8 @@ from dataclasses import dataclass, field, replace
 
 from spacarpy.errors import SourceLoc
 
-__all__ = ["ANALYSES", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS", "SPACAR_MODE_NUMBERS",
-           "START_CHOICES", "AnalysisSettings", "IterStep", "LinearizedSettings",
+__all__ = ["ANALYSES", "ArcLength", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS",
+           "SPACAR_MODE_NUMBERS", "START_CHOICES", "AnalysisSettings", "IterStep", "LinearizedSettings",
            "StaticSettings", "TransientSettings", "resolve_analysis", "resolve_deformations",
            "valid_modes"]
 
@@ -97,10 +97,39 @@ class IterStep:
 
 
 @dataclass(frozen=True)
+class ArcLength:
+    """The deck's ``ARCLENGTH n_max ds0 [ds_min [ds_max]]`` (spacarpy extension): follow the
+    equilibrium path by arc-length continuation instead of load stepping (docs/path_method.md).
+
+    n_max : int
+        At most this many points after the initial state (critical points included).
+    ds0 : float
+        The first arc length, in the scaled norm of :mod:`spacarpy.solvers.arclength`.
+    ds_min, ds_max : float or None
+        Bounds of the adaptive arc length (None: ``ds0 / 1000`` and ``10 ds0``).
+    """
+
+    n_max: int
+    ds0: float
+    ds_min: float | None = None
+    ds_max: float | None = None
+    loc: SourceLoc | None = field(default=None, compare=False)
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """(ds_min, ds_max) with the defaults filled in."""
+        lo = self.ds_min if self.ds_min is not None else self.ds0 / 1000.0
+        hi = self.ds_max if self.ds_max is not None else 10.0 * self.ds0
+        return lo, hi
+
+
+@dataclass(frozen=True)
 class StaticSettings:
-    """The static load path: ``iterstep`` (ITERSTEP)."""
+    """The static load path: ``iterstep`` (ITERSTEP) and ``arclength`` (ARCLENGTH, None:
+    load stepping)."""
 
     iterstep: IterStep = field(default_factory=IterStep)
+    arclength: ArcLength | None = None
 
 
 @dataclass(frozen=True)
