@@ -16,9 +16,9 @@ from dataclasses import dataclass, field, replace
 from spacarpy.errors import SourceLoc
 
 __all__ = ["ANALYSES", "ArcLength", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS",
-           "SPACAR_MODE_NUMBERS", "START_CHOICES", "AnalysisSettings", "IterStep", "LinearizedSettings",
-           "StaticSettings", "TransientSettings", "resolve_analysis", "resolve_deformations",
-           "valid_modes"]
+           "SPACAR_MODE_NUMBERS", "START_CHOICES", "AnalysisSettings", "IterStep",
+           "LinearizedSettings", "StaticSettings", "TransientSettings", "resolve_analysis",
+           "resolve_deformations", "valid_modes"]
 
 DEFORMATION_VARIANTS = ("modified", "basic")
 BIFURCATION_CHOICES = ("off", "warn", "switch")

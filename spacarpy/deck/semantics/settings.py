@@ -150,6 +150,12 @@ class _SettingsPass(UsesTopology):
             return
         n_max, ds0 = int(st["n_max"]), float(st["ds0"])
         ds_min, ds_max = st.value("ds_min"), st.value("ds_max")
+        for name in ("ds0", "ds_min", "ds_max"):
+            value = st.value(name)
+            if value is not None and not value > 0:
+                self.error(st.loc_of(name), f"ARCLENGTH: {name} must be positive, got "
+                                            f"{value:g}", st)
+                return
         lo = float(ds_min) if ds_min is not None else ds0 / 1000.0
         hi = float(ds_max) if ds_max is not None else 10.0 * ds0
         if not lo <= ds0 <= hi:
