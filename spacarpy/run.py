@@ -252,7 +252,7 @@ def step_line(k: int, n_steps: int, step, tol: float) -> str:
     stays above the tolerance at its round-off floor while the increments are below the
     tolerance (solvers/newton.py); the line then says so, so that a residual of 5e-4 beside a
     tolerance of 1e-9 is not read as a failed convergence."""
-    if step.arc_length is not None:          # ARCLENGTH: points, not load steps
+    if getattr(step, "arc_length", None) is not None:     # ARCLENGTH: points, not steps
         line = (f"point {k:>3}  arc length {step.arc_length:.4g}  load factor "
                 f"{step.load_factor:.6f}  {step.iterations:2d} iterations  residual "
                 f"{step.residual:.2e}")

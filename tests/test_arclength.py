@@ -228,6 +228,7 @@ def test_the_corrector_converges_quadratically_past_buckling():
     floor = prob.residual_norm(ev.r, ev.c, ev.f_int, ev.f_ext)[1]
     assert len([h for h in history if h > 10 * floor]) >= 3
     assert 1.7 < convergence_order(history, floor) < 2.6
+    assert 1.7 < convergence_order(path.increments) < 2.6
 
 
 def _elastica_tip_deflection(load_ratio: float) -> float:

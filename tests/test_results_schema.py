@@ -32,6 +32,15 @@ from spacarpy.results.tables import extract
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 BASELINES = sorted((DECKS / "baseline").glob("*.h5"))
+
+
+def _major(path) -> int:
+    with h5py.File(path, "r") as f:
+        return int(f.attrs["schema_version"][0])
+
+
+#: the baselines written by schema 1.x (decks added later have baselines of their schema)
+BASELINES_1X = [p for p in BASELINES if _major(p) == 1]
 TRANSIENT = ("pendulum_rigid_90deg", "slider_crank_flexible")
 
 
@@ -68,7 +77,7 @@ def test_the_table_declares_every_kind_and_the_map_points_into_it():
         assert spec.units and spec.long_name and spec.since <= SCHEMA_VERSION
 
 
-@pytest.mark.parametrize("baseline", BASELINES, ids=lambda p: p.stem)
+@pytest.mark.parametrize("baseline", BASELINES_1X, ids=lambda p: p.stem)
 def test_every_1x_baseline_validates_and_reads(baseline):
     with h5py.File(baseline, "r") as f:
         assert tuple(f.attrs["schema_version"])[0] == 1

@@ -46,6 +46,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.rotation import moment_matrix
@@ -98,7 +99,7 @@ class _Point:
     ts: float = 0.0
     det: int = 0
     index: int = -1        # negative eigenvalues of the reduced tangent (-1: not computed)
-    lu: object = None
+    lu: object = None      # (LU factors of the scaled bordered matrix, the scaling)
 
     def stability_key(self) -> tuple:
         """What changes at a critical point: the determinant's sign and the index."""
@@ -174,6 +175,7 @@ class ArcLengthPath:
         # applies: it also sees eigenvalues that cross zero in pairs (a symmetric structure's
         # double buckling mode), which leave the determinant's sign unchanged
         self.dense = self.n_x <= DENSE_LIMIT
+        self.increments: list = []
 
     # ------------------------------------------------------------------ small pieces
     def inner(self, ux, us, vx, vs) -> float:
@@ -202,6 +204,13 @@ class ArcLengthPath:
         rhs[: self.n_x, 0] = -ev.r
         rhs[self.n_x:, 0] = -prob.scale * ev.c
         rhs[: self.n_x, 1] = self.load_vector(x)
+        # symmetric diagonal scaling (the stiffness diagonal of a slender model spans many
+        # decades: axial against bending), a congruence that keeps the determinant's sign
+        d = np.abs(A.diagonal())
+        d = 1.0 / np.sqrt(np.where(d > 0, d, prob.scale))
+        D = sp.diags(d)
+        A = (D @ A @ D).tocsc()
+        rhs = rhs * d[:, None]
         z, lu = bordered_solve(prob, A, rhs)
         if z is None:
             return None
@@ -214,8 +223,9 @@ class ArcLengthPath:
             if not np.all(np.isfinite(dz)):
                 break
             z = z + dz
+        z = z * d[:, None]
         return (z[: self.n_x, 0], z[self.n_x:, 0] * prob.scale,
-                z[: self.n_x, 1], z[self.n_x:, 1] * prob.scale, lu)
+                z[: self.n_x, 1], z[self.n_x:, 1] * prob.scale, (lu, d))
 
     def tangent(self, p: _Point, ref=None) -> None:
         """The unit tangent at a converged point, oriented by ``ref`` = (rx, rs) (acute
@@ -229,7 +239,7 @@ class ArcLengthPath:
         tx, ts = b / norm, 1.0 / norm
         if ref is not None and self.inner(tx, ts, *ref) < 0:
             tx, ts = -tx, -ts
-        p.tx, p.ts, p.det, p.lu = tx, ts, determinant_sign(lu), lu
+        p.tx, p.ts, p.det, p.lu = tx, ts, determinant_sign(lu[0]), lu
         if self.dense:
             p.index = stability(self.prob, p.x, p.mu, self.load(p.s)).index
 
@@ -249,6 +259,7 @@ class ArcLengthPath:
                 x = prob.correct_kinematics(x, dx, states)
             s = p.s + ds * ts
         history = []
+        self.increments = []        # the scaled increments of this correction, for checks
         dx_norm = np.inf
         states = None
         for it in range(opts.max_iter + 1):
@@ -281,6 +292,7 @@ class ArcLengthPath:
             if not (np.all(np.isfinite(dx)) and np.isfinite(dlam)):
                 raise StepFailed("non-finite increment", history)
             dx_norm = max(prob.increment_norm(dx), abs(dlam))
+            self.increments.append(dx_norm)
             if dx_norm > 0.5 and np.abs(dx[prob.rot_mask[self.free]]).max(initial=0.0) > 0.5:
                 raise StepFailed("increment too large", history)
             x_lin = x.copy()
@@ -344,11 +356,12 @@ class ArcLengthPath:
     def critical_shape(self, q: _Point) -> np.ndarray:
         """The critical eigenvector at a refined critical point: inverse iteration with the
         bordered matrix factored there, from a fixed start vector (deterministic)."""
+        lu, d = q.lu
         v = np.random.default_rng(1).standard_normal(self.n_x)
-        rhs = np.zeros(q.lu.shape[0])
+        rhs = np.zeros(lu.shape[0])
         for _ in range(4):
             rhs[: self.n_x] = v / np.abs(v).max()
-            z = q.lu.solve(rhs)[: self.n_x]
+            z = (d * lu.solve(d * rhs))[: self.n_x]
             if not np.all(np.isfinite(z)) or not np.any(z):
                 break
             v = z
