@@ -15,6 +15,14 @@ Cases (all in :mod:`spacarpy.cases` terms, modified deformations):
 ``transient``
     The same cantilever at rest, a tenth of the Table 1 force raised smoothly in 20 ms,
     1000 generalized-alpha steps of 1 ms (rho_inf = 0.5).
+``arclength``
+    The clamped unit column past buckling by arc-length continuation
+    (:func:`spacarpy.cases.arclength_column_deck`: 1.5 times the Euler load with a lateral
+    imperfection of 1e-2, EA = 1e4 EI, ``ARCLENGTH 400 0.02 1e-4 0.02``, Newton to 1e-6):
+    the points, the Newton iterations per point, and the order of convergence measured on
+    the residual history (above 10 times its round-off floor, which grows with the stiffest
+    element's stiffness) and on the increments of one post-buckling point (an arc length of
+    0.1 from the point at load factor 0.7; 2 is quadratic).
 
 Every (case, size) runs in a fresh process, so that its peak memory (the process's maximum
 resident set) is its own; inside it the solve is repeated and the minimum and median are
@@ -41,18 +49,29 @@ import numpy as np
 
 from spacarpy.deck import job_from_text
 
-CASES = ("cantilever", "bend", "eigen", "transient")
+CASES = ("cantilever", "bend", "eigen", "transient", "arclength")
 #: shear stiffness GA / EA of the benchmark cantilever (Exudyn's SHEAR_FACTOR)
 SHEAR = 10.0
 DEFAULT_SIZES = {"cantilever": (10, 100, 1000, 10000), "bend": (10, 100, 1000, 10000),
-                 "eigen": (10, 100, 1000, 10000), "transient": (10, 100)}
+                 "eigen": (10, 100, 1000, 10000), "transient": (10, 100),
+                 "arclength": (1000, 10000)}
 TITLES = {
     "cantilever": "Static cantilever (Table 1 load, GA = 10 EA, 10 load steps, Newton to 1e-8)",
     "bend": "Static 45-degree bend (Table 2 load, 10 load steps, Newton to 1e-8)",
     "eigen": "10 lowest eigenfrequencies of the unloaded steel cantilever",
     "transient": "Transient cantilever (load raised in 20 ms, {steps} steps of 1 ms, "
                  "rho_inf = 0.5)",
+    "arclength": "Clamped column past buckling by arc length (1.5 P_E, imperfection 1e-2, "
+                 "EA = 1e4 EI, Newton to 1e-6)",
 }
+#: ARCLENGTH line of the bench column: n_max ds0 ds_min ds_max
+ARCLENGTH_LINE = "ARCLENGTH 400 0.02 0.0001 0.02"
+#: Axial stiffness of the bench column (slenderness 100): the residual's round-off floor grows
+#: with the stiffest element's EA/l, and with the unit beam's EA = 1e6 it is 5e-6 at 10^4
+#: elements, above any tolerance that tells quadratic convergence apart
+ARCLENGTH_EA = 1e4
+#: Lateral tip force of the bench column, relative to the axial one
+ARCLENGTH_IMPERFECTION = 1e-2
 
 
 # ----------------------------------------------------------------------------------------
@@ -171,6 +190,53 @@ def _transient_row(n: int, n_steps: int) -> dict:
                 peak_mb=_peak_mb())
 
 
+def arclength_deck(n: int) -> str:
+    """The bench column of the arc-length case (see the module docstring)."""
+    from spacarpy.cases import arclength_column_deck
+    return arclength_column_deck(n, ds0=0.02, tol=1e-6, ea=ARCLENGTH_EA,
+                                 imperfection=ARCLENGTH_IMPERFECTION).replace(
+        "ARCLENGTH 200 0.02", ARCLENGTH_LINE)
+
+
+def convergence_order(history, floor: float = 0.0) -> float:
+    """The order of convergence from the last three residuals (or increments) of a Newton
+    history above ``10 * floor`` (round-off): ``log(r2/r1) / log(r1/r0)``; NaN with fewer
+    than three."""
+    h = [r for r in history if r > 10 * floor]
+    if len(h) < 3:
+        return float("nan")
+    r0, r1, r2 = h[-3:]
+    return float(np.log(r2 / r1) / np.log(r1 / r0))
+
+
+def _arclength_row(n: int) -> dict:
+    from spacarpy.solvers.arclength import ArcLengthPath, point_at
+    from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+    t0 = time.perf_counter()
+    model, settings = job_from_text(arclength_deck(n), f"<arclength column {n}>")
+    prob = StaticProblem(model, deformations=settings.deformations)
+    setup = time.perf_counter() - t0
+    res = solve_static(model, settings, problem=prob)
+    total = prob.timings.total
+    points = len(res.steps) - 1
+    its = sum(st.iterations for st in res.steps[1:])
+    # one post-buckling point again, with a longer arc: the residual history's order
+    opts = StaticOptions.from_settings(settings)
+    path = ArcLengthPath(prob, opts, settings.static.arclength)
+    k = min(range(len(res.steps)), key=lambda i: abs(res.steps[i].load_factor - 0.7))
+    _, history = path.correct(point_at(path, res.steps[k]), 0.1)
+    ev = prob.evaluate(res.steps[k].x, res.steps[k].mu, path.load(res.steps[k].load_factor))
+    floor = prob.residual_norm(ev.r, ev.c, ev.f_int, ev.f_ext)[1]
+    increments = list(path.increments)
+    tip = res.steps[-1].x[prob.num.pos_idx[-1]]
+    return dict(case="arclength", n=n, unknowns=prob.pattern.n, setup=setup, total=total,
+                median=total, points=points, iterations=its,
+                iters_per_point=its / max(points, 1), per_iter=total / max(its, 1),
+                order=convergence_order(history, floor),
+                order_dx=convergence_order(increments), floor=floor, result=float(tip[1]),
+                peak_mb=_peak_mb())
+
+
 def _peer_row(case: str, n: int, n_steps: int, transient_steps: int) -> dict:
     from spacarpy.peers import exudyn_cantilever as exu
     if case == "cantilever":
@@ -199,6 +265,8 @@ def _run_row(case: str, n: int, repeat: int, n_steps: int, transient_steps: int)
         return _static_row(case, n, repeat, n_steps)
     if case == "eigen":
         return _eigen_row(n, repeat)
+    if case == "arclength":
+        return _arclength_row(n)
     return _transient_row(n, transient_steps)
 
 
@@ -237,6 +305,12 @@ def _columns(case: str, peer: bool):
                   f("result", ".6f" if case == "cantilever" else ".4f"))]
     elif case == "eigen":
         cols += [("f1 (Hz)", 9, f("f1", ".4f")), ("f10 (Hz)", 9, f("f10", ".3f"))]
+    elif case == "arclength":
+        cols += [("points", 7, f("points", "d")), ("iters", 6, f("iterations", "d")),
+                 ("iters/point", 11, f("iters_per_point", ".2f")),
+                 ("ms/iter", 8, f("per_iter", ".2f", 1e3)), ("order r", 7, f("order", ".2f")),
+                 ("order dx", 8, f("order_dx", ".2f")), ("r floor", 8, f("floor", ".0e")),
+                 ("tip y (m)", 10, f("result", ".4f"))]
     else:
         cols += [("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
                  ("ms/step", 8, f("per_step", ".2f", 1e3)),
@@ -315,7 +389,7 @@ def machine_summary() -> str:
             f"{numpy.__version__}, scipy {scipy.__version__}; {cpu}, {os.cpu_count()} cores")
 
 
-def run_bench(cases=("cantilever", "bend", "eigen", "transient"), sizes=None, n_steps: int = 10,
+def run_bench(cases=CASES, sizes=None, n_steps: int = 10,
               repeat: int = 3, transient_steps: int = 1000, peer: str | None = None,
               markdown: str | None = None, out=None) -> dict:
     """Run the benchmark; print one table per case to ``out`` (default: the current
@@ -346,7 +420,7 @@ def run_bench(cases=("cantilever", "bend", "eigen", "transient"), sizes=None, n_
                             transient_steps)
             row.setdefault("n", n)
             row.setdefault("case", case)
-            if peer:
+            if peer and case != "arclength":        # no Exudyn counterpart
                 row["peer"] = _in_child(_peer_row, case, n, n_steps, transient_steps)
                 if "error" in row["peer"]:
                     row["peer"] = dict(ok=False, reason=row["peer"]["error"])

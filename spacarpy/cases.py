@@ -291,3 +291,25 @@ def column_deck(n_elem: int, support: str, mode: str = "buckling", load_ratio: f
         n_elem, b["L"], mode=mode, dyne="1 2 3 4 5 6", fixes=fixes,
         stiffness=(b["EA"], b["GJ"], b["EI"], b["EI"]), mass=(b["rhoA"],),
         loads=[("DELXF", tip, (force, 0.0, 0.0))], n_steps=n_steps)
+
+
+def arclength_column_deck(n_elem: int, load_ratio: float = 1.5, imperfection: float = 1e-3,
+                          n_max: int = 200, ds0: float = 0.05, tol: float = 1e-8,
+                          ea: float | None = None) -> str:
+    """The clamped-free unit column (:func:`column_deck`) past buckling, by arc length: an
+    axial tip force ``load_ratio * P_E`` (compression) with a lateral tip force
+    ``imperfection`` times it, followed from 0 to the full load with ``ARCLENGTH n_max ds0``
+    (the arc-length case of ``spacarpy bench``). The lateral force makes the bifurcation a
+    smooth path; at the full load the column is far into its post-buckling range. ``ea``
+    replaces the axial stiffness EA (default the unit beam's 1e6 N)."""
+    b = dict(UNIT_BEAM, **({} if ea is None else {"EA": ea}))
+    p_e = np.pi**2 * b["EI"] / (4 * b["L"]**2)
+    force = -load_ratio * p_e
+    text = _line_deck(
+        [f"clamped column, {n_elem} elements, L = EI = 1, axial tip force {force:.6g} N "
+         f"(P_E = {p_e:.6g} N) with a lateral force {imperfection:g} times it, by arc length"],
+        n_elem, b["L"], mode="static", dyne="1 2 3 4 5 6", fixes=("FIX 1", "FIX 2"),
+        stiffness=(b["EA"], b["GJ"], b["EI"], b["EI"]),
+        loads=[("DELXF", 2 * n_elem + 1, (force, -imperfection * force, 0.0))], tol=tol)
+    return text.replace(f"ITERSTEP 20 1 {tol:g}",
+                        f"ITERSTEP 20 1 {tol:g}\nARCLENGTH {n_max} {_fmt(ds0)}")

@@ -138,9 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="time the solvers on cantilevers and a bend of "
                                          "growing size (optionally beside Exudyn)")
     bench.add_argument("--cases", nargs="+", choices=["cantilever", "bend", "eigen",
-                                                      "transient"],
-                       default=["cantilever", "bend", "eigen", "transient"],
-                       help="which cases (default: all four)")
+                                                      "transient", "arclength"],
+                       default=["cantilever", "bend", "eigen", "transient", "arclength"],
+                       help="which cases (default: all five)")
     bench.add_argument("--sizes", type=int, nargs="+", default=None,
                        help="numbers of elements for every case (default: 10 100 1000 10000; "
                             "transient 10 100)")

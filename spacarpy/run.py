@@ -140,6 +140,10 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 f"node of the model")
         compliance_rows = (int(pos_hit[0]), int(rot_hit[0]))
     n_steps = settings.static.iterstep.n_steps
+    arc = settings.static.arclength if not transient else None
+    if transient and settings.static.arclength is not None:
+        raise AnalysisInputError("ARCLENGTH follows a static path: it cannot start a "
+                                 "transient analysis (remove it, or use MODE static)")
     summary = RunSummary()
 
     ss_setup = _state_space_setup(problem, settings) if want_ss else None
@@ -152,7 +156,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                             n_eigen_modes=n_modes if want_eigen else 0,
                             n_buckling_modes=n_modes if want_buckling else 0,
                             compliance_node=opts.compliance_node, transient=transient,
-                            state_space=ss_setup[1] if want_ss else None)
+                            state_space=ss_setup[1] if want_ss else None,
+                            arclength=arc is not None)
 
         def on_step(step):
             k = summary.n_steps
@@ -162,11 +167,15 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 deformation=step.deformation,
                 stress_resultant=step.stress,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
-                **surface_stress(step.stress.get("BEAM")))
+                arc_length=step.arc_length, **surface_stress(step.stress.get("BEAM")))
             summary.n_steps += 1
+            if step.warning:
+                writer.add_warning(step.warning)
             msg = step_line(k, n_steps, step, settings.static.iterstep.tol)
+            if step.critical is not None:
+                msg += _critical_point(num, problem.free, step, k, writer)
             if (want_eigen or want_buckling or want_compliance) and \
-                    (modes_per_step or k == n_steps):
+                    (modes_per_step or (k == n_steps and arc is None)):
                 msg += _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen,
                                         want_buckling,
                                         compliance_rows if want_compliance else None, summary)
@@ -177,7 +186,14 @@ def run_model(model: Model, settings: AnalysisSettings, out,
         if transient:
             _run_transient(model, settings, problem, writer, on_step, opts, summary)
         else:
-            solve_static(model, settings, problem=problem, on_step=on_step)
+            result = solve_static(model, settings, problem=problem, on_step=on_step)
+            if arc is not None and not modes_per_step and result.steps and (
+                    want_eigen or want_buckling or want_compliance):
+                # an arc-length path ends where it ends: linearize about its last point
+                k = summary.n_steps - 1
+                log.info(f"point {k}:" + _linearized_step(
+                    problem, mass, result.steps[-1], k, writer, n_modes, want_eigen,
+                    want_buckling, compliance_rows if want_compliance else None, summary))
         writer.finish()
     return summary
 
@@ -265,6 +281,13 @@ def _state_space_step(problem, mass, step, k, writer, settings, layout) -> str:
                      settings.linearized.inputs, settings.linearized.outputs)
     writer.state_space_step(k, ss)
     return f"  state space: {ss.A.shape[0]} states, {ss.B.shape[1]} inputs, {ss.C.shape[0]} outputs"
+def _critical_point(num, free, step, k, writer) -> str:
+    """Store the critical point refined at stored step ``k`` and describe it."""
+    from spacarpy.solvers.arclength import CRITICAL_KINDS
+    cp = step.critical
+    shape_pos, shape_rot = _node_shapes(num, free, cp.shape[:, None])
+    writer.critical_step(k, cp.kind, cp.load_factor, cp.arc_length, shape_pos[0], shape_rot[0])
+    return f"  <- {CRITICAL_KINDS[cp.kind]} at load factor {cp.load_factor:.10g}"
 
 
 def step_line(k: int, n_steps: int, step, tol: float) -> str:
@@ -272,8 +295,14 @@ def step_line(k: int, n_steps: int, step, tol: float) -> str:
     stays above the tolerance at its round-off floor while the increments are below the
     tolerance (solvers/newton.py); the line then says so, so that a residual of 5e-4 beside a
     tolerance of 1e-9 is not read as a failed convergence."""
-    line = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor {step.load_factor:.4f}  "
-            f"{step.iterations:2d} iterations  residual {step.residual:.2e}")
+    if getattr(step, "arc_length", None) is not None:     # ARCLENGTH: points, not steps
+        line = (f"point {k:>3}  arc length {step.arc_length:.4g}  load factor "
+                f"{step.load_factor:.6f}  {step.iterations:2d} iterations  residual "
+                f"{step.residual:.2e}")
+    else:
+        line = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
+                f"{step.load_factor:.4f}  {step.iterations:2d} iterations  residual "
+                f"{step.residual:.2e}")
     if step.residual > tol:
         line += (f" (at its round-off floor, above the tolerance {tol:.0e}: the increments "
                  "are below it)")

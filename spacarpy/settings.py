@@ -15,8 +15,9 @@ from dataclasses import dataclass, field, replace
 
 from spacarpy.errors import SourceLoc
 
-__all__ = ["ANALYSES", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS", "SPACAR_MODE_NUMBERS",
-           "START_CHOICES", "UNSUPPORTED_SPACAR_MODES", "AnalysisSettings", "IterStep",
+__all__ = ["ANALYSES", "ArcLength", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS",
+           "SPACAR_MODE_NUMBERS", "START_CHOICES", "UNSUPPORTED_SPACAR_MODES",
+           "AnalysisSettings", "IterStep",
            "LinearizedSettings", "StaticSettings", "SystemSignal", "TransientSettings",
            "is_silent_mode", "resolve_analysis", "resolve_deformations", "spacar_mode_refusal",
            "valid_modes"]
@@ -116,10 +117,39 @@ class IterStep:
 
 
 @dataclass(frozen=True)
+class ArcLength:
+    """The deck's ``ARCLENGTH n_max ds0 [ds_min [ds_max]]`` (spacarpy extension): follow the
+    equilibrium path by arc-length continuation instead of load stepping (docs/path_method.md).
+
+    n_max : int
+        At most this many points after the initial state (critical points included).
+    ds0 : float
+        The first arc length, in the scaled norm of :mod:`spacarpy.solvers.arclength`.
+    ds_min, ds_max : float or None
+        Bounds of the adaptive arc length (None: ``ds0 / 1000`` and ``10 ds0``).
+    """
+
+    n_max: int
+    ds0: float
+    ds_min: float | None = None
+    ds_max: float | None = None
+    loc: SourceLoc | None = field(default=None, compare=False)
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """(ds_min, ds_max) with the defaults filled in."""
+        lo = self.ds_min if self.ds_min is not None else self.ds0 / 1000.0
+        hi = self.ds_max if self.ds_max is not None else 10.0 * self.ds0
+        return lo, hi
+
+
+@dataclass(frozen=True)
 class StaticSettings:
-    """The static load path: ``iterstep`` (ITERSTEP)."""
+    """The static load path: ``iterstep`` (ITERSTEP) and ``arclength`` (ARCLENGTH, None:
+    load stepping)."""
 
     iterstep: IterStep = field(default_factory=IterStep)
+    arclength: ArcLength | None = None
 
 
 @dataclass(frozen=True)

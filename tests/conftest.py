@@ -52,7 +52,8 @@ def result_files(tmp_path_factory) -> dict:
 
     ``bend``: Table 2 (static, 8 elements); ``frame``: the portal frame with cross-sections
     (surface stresses); ``column``: eigen analysis with frequencies and buckling multipliers at
-    every step and a compliance; ``failed``: a run that stopped with an error (partial file).
+    every step and a compliance; ``arclength``: the two-bar truss followed by arc length (its
+    critical points); ``failed``: a run that stopped with an error (partial file).
     """
     tmp = tmp_path_factory.mktemp("results")
     runs = {
@@ -66,6 +67,7 @@ def result_files(tmp_path_factory) -> dict:
         "pltruss": ("pltruss", []),                   # PLTRUSS (schema 1.3)
         "transient": ("pendulum", []),                # /transient (schema 1.4)
         "state_space": ("state_space_cantilever", []),  # /state_space (schema 2.3)
+        "arclength": ("two_bar_truss_arclength", []),  # /critical, arc_length (schema 2.4)
     }
     (tmp / "pendulum.dat").write_text((DECKS / "pendulum_rigid_90deg.dat").read_text()
                                       .replace("TIMESTEP 2.2 440", "TIMESTEP 0.1 10"))

@@ -42,17 +42,17 @@ def _run(text: str, tmp_path, name: str):
 
 
 def _limit_points(path) -> np.ndarray | None:
-    """Load factors of the limit points the arc-length solver stored in
-    ``/static/critical_points`` (None: the file has no such group)."""
+    """Load factors of the limit points the arc-length solver stored in ``/critical``
+    (point types 0 and 1; None: the file has no such group)."""
     import h5py
 
     with h5py.File(path, "r") as f:
-        if "static/critical_points/step" not in f:
+        if "critical/step" not in f:
             return None
-        g = f["static/critical_points"]
-        kinds = [k.decode() if isinstance(k, bytes) else str(k) for k in g["kind"][()]]
+        g = f["critical"]
+        kinds = np.asarray(g["point_type"][()], dtype=int)
         lf = np.asarray(g["load_factor"][()], dtype=float)
-    return lf[["limit" in k for k in kinds]]
+    return lf[kinds <= 1]
 
 
 def _with_arclength(text: str, line: str) -> str:

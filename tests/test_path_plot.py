@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import csv
 import io
-import shutil
 
 import h5py
 import numpy as np
@@ -16,6 +15,7 @@ from spacarpy.cli import main
 from spacarpy.deck import job_from_text
 from spacarpy.errors import EXIT_INPUT
 from spacarpy.results import open_results
+from spacarpy.results.schema import CRITICAL_POINT_NAMES
 from spacarpy.run import run_job
 
 from helpers import REPO
@@ -31,18 +31,10 @@ def runs(tmp_path_factory):
         out[name] = d / f"{name}.h5"
         text = (REPO / "decks" / f"{name}.dat").read_text().replace("SET m 2", "SET m 1")
         run_job(job_from_text(text, f"{name}.dat"), out[name])   # 20 elements: quicker
-    # a copy with the critical points the arc-length solver stores (/static/critical_points)
-    crit = d / "critical.h5"
-    shutil.copy(out["lees_frame"], crit)
-    with h5py.File(crit, "a") as f:
-        g = f.create_group("static/critical_points")
-        for name, value, unit in (("step", np.array([24], dtype=np.int64), "1"),
-                                  ("kind", np.array([b"limit"]), "1"),
-                                  ("load_factor", np.array([24 / 29]), "1")):
-            g[name] = value
-            g[name].attrs["units"] = unit
-            g[name].attrs["long_name"] = f"{name} of each critical point"
-    out["critical"] = crit
+    # an arc-length run: its critical points are stored in /critical
+    out["critical"] = d / "critical.h5"
+    run_job(job_from_text((REPO / "decks" / "two_bar_truss_arclength.dat").read_text(),
+                          "two_bar_truss_arclength.dat"), out["critical"])
     return out
 
 
@@ -74,15 +66,21 @@ def test_extract_path_of_a_load_controlled_run_gives_the_delxf_force(runs, capsy
 
 
 def test_path_names_and_marks_the_stored_critical_points(runs, capsys, tmp_path):
-    _, rows = _csv(capsys, runs["critical"], "path", "--node", "5", "--dof", "y")
-    assert [(x[0], x[4]) for x in rows if x[4]] == [("24", "limit")]
+    with h5py.File(runs["critical"], "r") as f:
+        steps = f["critical/step"][()].tolist()
+        names = [CRITICAL_POINT_NAMES[c] for c in f["critical/point_type"][()]]
+    # the two limit points of the von Mises truss, a maximum then a minimum of the load
+    assert names == ["limit point (load maximum)", "limit point (load minimum)"]
+    _, rows = _csv(capsys, runs["critical"], "path", "--node", "3", "--dof", "y")
+    assert [(int(x[0]), x[4]) for x in rows if x[4]] == list(zip(steps, names))
     from spacarpy.results.plot import make_figure
     with open_results(runs["critical"]) as res:
-        fig = make_figure(res, "path", node=5, dof="y")
-        marked = [ln for ln in fig.axes[0].lines if ln.get_label() == "limit point"]
-        assert len(marked) == 1
-        np.testing.assert_array_equal(marked[0].get_xdata(),
-                                      res.static.displacement(node=5)[[24], 1])
+        fig = make_figure(res, "path", node=3, dof="y")
+        for step, name in zip(steps, names):
+            marked = [ln for ln in fig.axes[0].lines if ln.get_label() == name]
+            assert len(marked) == 1
+            np.testing.assert_array_equal(marked[0].get_xdata(),
+                                          res.static.displacement(node=3)[[step], 1])
 
 
 def test_plot_path_writes_a_png(runs, tmp_path, capsys):

@@ -353,6 +353,13 @@ _KEYWORD_LIST = (
             _f("fifth ITERSTEP value", "f5"),
             _f("number of initial-load steps", "n_init", "int"))),
     KeywordSpec(
+        "ARCLENGTH", "arc-length continuation of the static path instead of load steps",
+        section="data", extension=True,
+        required=(_f("maximum number of path points", "n_max", "int", True),
+                  _f("first arc length", "ds0", positive=True)),
+        optional=_each_optional(_f("smallest arc length", "ds_min", positive=True),
+                                _f("largest arc length", "ds_max", positive=True))),
+    KeywordSpec(
         "XM", "nodal mass (position node) or inertia tensor (orientation node)", section="data",
         required=(NODE, _f("mass m (kg) or inertia Ixx (kg m^2)", "m")),
         optional=((_f("inertia Ixy (kg m^2)", "Ixy"), _f("inertia Ixz (kg m^2)", "Ixz"),

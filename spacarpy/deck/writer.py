@@ -224,6 +224,12 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         extra = tuple(float(v) for v in it.extra) + (0.0,) * (2 - len(it.extra))
         fields += [*extra[:2], it.n_init]
     out.append(format_record("ITERSTEP", *fields))
+    arc = settings.static.arclength
+    if arc is not None:
+        bounds = [float(v) for v in (arc.ds_min, arc.ds_max) if v is not None]
+        if arc.ds_min is None and arc.ds_max is not None:
+            bounds = [float(v) for v in arc.bounds]
+        out.append(format_record("ARCLENGTH", int(arc.n_max), float(arc.ds0), *bounds))
     if tr.timestep is not None:
         out.append(format_record("TIMESTEP", float(tr.timestep[0]), int(tr.timestep[1])))
     if tr.error_tol is not None:

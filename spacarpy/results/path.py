@@ -9,8 +9,9 @@ This module's one job is to choose the two axes of that curve from a results fil
   control) or supported, its reaction (the force that imposes the displacement, N), read from
   ``/static/reaction``; otherwise the quantity the run prescribes (a DELXF force in N, see
   :func:`~spacarpy.results.plot_base.x_axis`) or the load factor;
-- the critical points, where the file has them: ``/static/critical_points/step``, ``kind``
-  and ``load_factor`` (written by the arc-length solver); a file without them has none.
+- the critical points, where the file has them: ``/critical/step``, ``point_type`` (named by
+  :data:`~spacarpy.results.schema.CRITICAL_POINT_NAMES`) and ``load_factor``, written by the
+  arc-length solver (schema 2.4); a file without them has none.
 
 Arc-length runs store their points as ordinary static steps, so the load factor of
 ``/static/load_factor`` may go down and up again; nothing here assumes it grows.
@@ -23,6 +24,7 @@ import numpy as np
 
 from spacarpy.results.plot_base import x_axis
 from spacarpy.results.reader import ResultsFile, ResultsQueryError
+from spacarpy.results.schema import CRITICAL_POINT_NAMES
 
 __all__ = ["DOFS", "PathCurve", "path_curve", "critical_points"]
 
@@ -30,7 +32,7 @@ __all__ = ["DOFS", "PathCurve", "path_curve", "critical_points"]
 DOFS = ("x", "y", "z")
 
 #: where the arc-length solver stores the critical points it found (optional)
-CRITICAL = "static/critical_points"
+CRITICAL = "critical"
 
 
 @dataclass(frozen=True)
@@ -52,16 +54,18 @@ class PathCurve:
 
 
 def critical_points(res: ResultsFile):
-    """(step, kind, load_factor) of the critical points stored in ``/static/critical_points``,
-    or three empty sequences when the file has none."""
+    """(step, kind, load_factor) of the critical points stored in ``/critical``, or three
+    empty sequences when the file has none. ``kind`` is the name of each point's type."""
     empty = (np.zeros(0, dtype=int), [], np.zeros(0))
     if not res._has(f"{CRITICAL}/step"):
         return empty
     with res._file() as f:
         g = f[res._name(CRITICAL)]
         step = np.asarray(g["step"][()], dtype=int).reshape(-1)
-        kind = ([k.decode() if isinstance(k, bytes) else str(k) for k in g["kind"][()]]
-                if "kind" in g else ["critical"] * step.size)
+        codes = (np.asarray(g["point_type"][()], dtype=int).reshape(-1)
+                 if "point_type" in g else np.full(step.size, -1))
+        kind = [CRITICAL_POINT_NAMES[c] if 0 <= c < len(CRITICAL_POINT_NAMES) else "critical"
+                for c in codes.tolist()]
         lf = (np.asarray(g["load_factor"][()], dtype=float).reshape(-1)
               if "load_factor" in g else np.full(step.size, np.nan))
     return step, kind, lf

@@ -95,7 +95,7 @@ def load_displacement_figure(res: ResultsFile, node=None, x="auto", **_):
 def path_figure(res: ResultsFile, node=None, dof=None, x="auto", **_):
     """The equilibrium path of :func:`~spacarpy.results.path.path_curve`: the load against
     the displacement ``dof`` of ``node``, its points in step order (an arc-length path may
-    turn back), the critical points of ``/static/critical_points`` marked and labelled."""
+    turn back), the critical points of ``/critical`` marked and labelled."""
     from spacarpy.results.path import path_curve
 
     _, Figure = _mpl()
@@ -110,8 +110,8 @@ def path_figure(res: ResultsFile, node=None, dof=None, x="auto", **_):
         steps = c.critical_step[sel]
         ok = (steps >= 0) & (steps < c.step.size)
         if ok.any():
-            ax.plot(c.displacement[steps[ok]], c.load[steps[ok]], markers.get(kind, "*"),
-                    ms=8, mfc="none", mew=1.5, label=f"{kind} point")
+            ax.plot(c.displacement[steps[ok]], c.load[steps[ok]],
+                    markers.get(kind.split()[0], "*"), ms=8, mfc="none", mew=1.5, label=kind)
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_xlabel(f"displacement u{c.dof} of node {c.node} [m]")
     ax.set_ylabel(c.load_label)

@@ -34,14 +34,14 @@ from spacarpy.elements.registry import KINDS as _KINDS
 
 __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "KIND_NAMES",
            "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
-           "STEP_GROUPS",
+           "STEP_GROUPS", "CRITICAL_POINT_NAMES",
            "REACTION_COMPONENTS", "REACTION_UNITS", "MODE_KIND_NAMES",
            "DEFORMATION_CLASS_NAMES", "ROOT_ATTRS", "n_def", "n_slots", "slot_roles"]
 
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 3)
+SCHEMA_VERSION = (2, 4)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -128,9 +128,13 @@ class DatasetSpec:
 
 #: Groups whose datasets grow by one row per step, with their commit (scale) dataset.
 STEP_GROUPS = {"static": "load_factor", "transient": "time", "eigen": "step",
-               "buckling": "step", "compliance": "step", "state_space": "step"}
+               "buckling": "step", "compliance": "step", "state_space": "step",
+               "critical": "step"}
 #: Groups with one row per linearized static step (their scale is ``step``).
 LINEARIZED_GROUPS = ("eigen", "buckling", "compliance", "state_space")
+#: Names of the ``/critical/point_type`` codes (arc-length runs).
+CRITICAL_POINT_NAMES = ("limit point (load maximum)", "limit point (load minimum)",
+                        "bifurcation")
 
 
 def _units(per_mode) -> str:
@@ -185,6 +189,9 @@ def _spec_list() -> list[DatasetSpec]:
           "reaction force or moment of each reaction component"),
         S("static/iterations", "i4", ("step",), "1", "Newton iterations used in the load step"),
         S("static/residual", "f8", ("step",), "1", "final relative residual of the load step"),
+        S("static/arc_length", "f8", ("step",), "1",
+          "arc length from step 0 in the scaled norm of the arc-length method (present in "
+          "ARCLENGTH runs)", (2, 4), optional=True),
         S("static/reaction_node", "i8", ("reaction",), "1",
           "deck node number of each reaction component"),
         S("static/reaction_component", "ascii", ("reaction",), "1",
@@ -248,6 +255,21 @@ def _spec_list() -> list[DatasetSpec]:
         S("buckling/shape_euler", "f8", _LIN_SHAPE["euler"], "1",
           "buckling mode shape (largest component 1): Euler-parameter perturbation of each "
           "orientation node"),
+        S("critical/step", "i4", ("linearized_step",), "1",
+          "row of /static holding the refined critical point (ARCLENGTH runs)", (2, 4)),
+        S("critical/point_type", "i1", ("linearized_step",), "1",
+          "0 limit point (load maximum), 1 limit point (load minimum), 2 bifurcation (see "
+          "attribute type_names)", (2, 4)),
+        S("critical/load_factor", "f8", ("linearized_step",), "1",
+          "load factor on DELXF at the critical point", (2, 4)),
+        S("critical/arc_length", "f8", ("linearized_step",), "1",
+          "arc length of the critical point from step 0", (2, 4)),
+        S("critical/shape_position", "f8", _LIN_SHAPE["position"], "1",
+          "critical eigenvector (largest component 1): position perturbation of each "
+          "position node", (2, 4)),
+        S("critical/shape_euler", "f8", _LIN_SHAPE["euler"], "1",
+          "critical eigenvector (largest component 1): Euler-parameter perturbation of each "
+          "orientation node", (2, 4)),
         S("compliance/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),
         S("compliance/global", "f8", ("linearized_step", 6, 6),
@@ -317,11 +339,12 @@ def _spec_list() -> list[DatasetSpec]:
     # one CRC-32 per committed step and stored dataset of the group (schema 2.1)
     for group, axis0 in (("static", "step"), ("transient", "time_step"),
                          ("eigen", "linearized_step"), ("buckling", "linearized_step"),
-                         ("compliance", "linearized_step"), ("state_space", "linearized_step")):
+                         ("compliance", "linearized_step"), ("state_space", "linearized_step"),
+                         ("critical", "linearized_step")):
         out.append(S(f"{group}/checksum", "i8", (axis0, "checked_dataset"), "1",
                      "CRC-32 of each step's row of the group's datasets (columns: attribute "
-                     "columns), stored with the step", (2, 3) if group == "state_space"
-                     else (2, 1)))
+                     "columns), stored with the step",
+                     {"state_space": (2, 3), "critical": (2, 4)}.get(group, (2, 1))))
     return out
 
 

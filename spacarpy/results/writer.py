@@ -29,6 +29,7 @@ from spacarpy.model import Model
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, create_extendable, partial_path_for
 from spacarpy.results.schema import (
+    CRITICAL_POINT_NAMES,
     DATASETS,
     DEFORMATION_CLASS_NAMES,
     FILETYPE,
@@ -117,6 +118,8 @@ class ResultsWriter:
         self._swmr = False
         self._state = "new"        # new -> open -> (finishing -> finished | aborted)
         self._groups: dict[str, dict] = {}     # group -> {"scale", "datasets", "shapes", "n"}
+        self._arclength = False
+        self._warnings: list[str] = []
 
     # -- context manager ----------------------------------------------------------------------
 
@@ -177,7 +180,8 @@ class ResultsWriter:
     def begin_static(self, n_position_node: int, n_orientation_node: int, reaction_node,
                      reaction_component, *, n_eigen_modes: int = 0,
                      n_buckling_modes: int = 0, compliance_node=None,
-                     transient: bool = False, state_space: dict | None = None) -> None:
+                     transient: bool = False, state_space: dict | None = None,
+                     arclength: bool = False) -> None:
         """Create the ``/static`` group (and the others asked for) with empty step datasets.
 
         After this call the file is switched to SWMR mode: no new datasets or groups can be
@@ -205,6 +209,9 @@ class ResultsWriter:
             Also create the ``/state_space`` group (:meth:`state_space_step`): its names,
             ``dof_element``, ``dof_mode`` (n_dof,), ``state_name`` (2 n_dof),
             ``input_name`` and ``output_name``.
+        arclength : bool
+            An arc-length run: ``/static/arc_length`` per step and the ``/critical`` group
+            (:meth:`critical_step`).
         """
         f = self._require_open("begin_static")
         if "static" in self._groups:
@@ -227,6 +234,7 @@ class ResultsWriter:
         self._sizes = {"position_node": int(n_position_node),
                        "orientation_node": int(n_orientation_node),
                        "reaction": reaction_node.size, "coordinate": 3, "euler_parameter": 4}
+        self._arclength = bool(arclength)
         self._create_step_group(f, "static")
         g = f["static"]
         create(g, "reaction_node", reaction_node)
@@ -243,6 +251,8 @@ class ResultsWriter:
             self._create_step_group(f, "transient")
         if state_space is not None:
             self._begin_state_space(f, state_space)
+        if arclength:
+            self._create_step_group(f, "critical", n_mode=1)
         f.flush()
         # From here on only appends: SWMR keeps the file consistent on disk at every instant.
         f.swmr_mode = True
@@ -250,7 +260,8 @@ class ResultsWriter:
 
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
-                    max_normal_stress=None, max_von_mises_stress=None) -> None:
+                    max_normal_stress=None, max_von_mises_stress=None,
+                    arc_length: float | None = None) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
@@ -273,8 +284,11 @@ class ResultsWriter:
         max_normal_stress, max_von_mises_stress : array_like, shape (n_beam,), optional
             Largest surface stresses of the BEAM elements (Pa); required when the model has
             cross-sections (:class:`spacarpy.results.stress.SurfaceStress` computes them).
+        arc_length : float, optional
+            The arc length from step 0 (required in an arc-length run).
         """
         given = {"position": position, "euler": euler, "reaction": reaction,
+                 "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "elements/BEAM/max_normal_stress": max_normal_stress,
                  "elements/BEAM/max_von_mises_stress": max_von_mises_stress}
@@ -318,6 +332,22 @@ class ResultsWriter:
         self._append_linearized("buckling", step, {
             "load_multiplier": load_multiplier, "critical_load_multiplier": critical,
             "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
+
+    def critical_step(self, step: int, point_type: int, load_factor: float, arc_length: float,
+                      shape_position, shape_euler) -> None:
+        """Append a critical point of an arc-length run: ``step`` is the row of /static
+        holding it, ``point_type`` a code of :data:`CRITICAL_POINT_NAMES`, the shapes
+        (n_pos, 3) and (n_rot, 4)."""
+        self._append_linearized("critical", step, {
+            "point_type": np.int8(point_type), "load_factor": float(load_factor),
+            "arc_length": float(arc_length),
+            "shape_position": np.asarray(shape_position, float)[None],
+            "shape_euler": np.asarray(shape_euler, float)[None]})
+
+    def add_warning(self, message: str) -> None:
+        """A warning about the run (e.g. a load step that jumped between branches), stored
+        in the root attribute ``warnings`` (one per line) when the file is closed."""
+        self._warnings.append(str(message))
 
     def compliance_step(self, step: int, global_, local) -> None:
         """Append the 6x6 nodal compliance (global and body axes) of one linearized step."""
@@ -398,6 +428,8 @@ class ResultsWriter:
                 continue
             if path.endswith(_STRESS) and not self.has_stress:
                 continue
+            if path == "static/arc_length" and not self._arclength:
+                continue
             yield path, spec
 
     def _size(self, dim, kind, n_mode):
@@ -435,6 +467,8 @@ class ResultsWriter:
             ds.dims[0].label = spec.shape[0]
             if name == "kind":
                 ds.attrs["kind_names"] = ", ".join(MODE_KIND_NAMES)
+            if name == "point_type":
+                ds.attrs["type_names"] = ", ".join(CRITICAL_POINT_NAMES)
             entry["datasets"][name] = ds
             entry["shapes"][name] = trailing
             entry["dtypes"][name] = np.dtype(spec.dtype)
@@ -497,7 +531,7 @@ class ResultsWriter:
         rows = {}
         for name, value in values.items():
             trailing, dtype = entry["shapes"][name], entry["dtypes"][name]
-            fill = 4 if name == "kind" else np.nan
+            fill = 4 if name == "kind" else 0 if dtype.kind in "iu" else np.nan
             row = np.full(trailing, fill, dtype=dtype)
             given = np.asarray(value, dtype=dtype)
             if given.ndim:
@@ -534,6 +568,8 @@ class ResultsWriter:
                 self._file = h5py.File(self.partial_path, "r+", libver=h5file.LIBVER)
             attrs = self._file.attrs
             attrs["completed"] = np.bool_(completed)
+            if self._warnings:
+                attrs["warnings"] = "\n".join(self._warnings)
             if error is not None:
                 attrs["error"] = str(error)
             elif "error" in attrs:

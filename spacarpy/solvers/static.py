@@ -26,6 +26,7 @@ import numpy as np
 from spacarpy.errors import ConvergenceError
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
+from spacarpy.solvers.arclength import ArcLengthPath
 from spacarpy.solvers.equilibrium import StaticProblem, Timings
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.kinematic_check import check_initial
@@ -48,6 +49,9 @@ class StaticStep:
     iterations: int
     residual: float
     mu: np.ndarray | None = None   # (n_constraint,) constraint multipliers
+    arc_length: float | None = None   # ARCLENGTH: the scaled arc length from step 0
+    critical: object = None           # ARCLENGTH: a CriticalPoint refined at this step
+    warning: str | None = None        # load stepping: the step jumped (snap-through)
 
 
 @dataclass
@@ -61,6 +65,7 @@ class StaticOptions:
     max_cuts: int = 12
     deformations: str = "modified"
     bifurcation: str = "off"        # stability check of the path: off, warn, switch
+    arclength: object = None        # settings.ArcLength: arc-length continuation
 
     @classmethod
     def from_settings(cls, settings: AnalysisSettings, **kw) -> StaticOptions:
@@ -68,7 +73,8 @@ class StaticOptions:
         replaces fields."""
         it = settings.static.iterstep
         fields = dict(max_iter=it.max_iter, tol=it.tol, n_steps=it.n_steps, n_init=it.n_init,
-                      deformations=settings.deformations, bifurcation=settings.bifurcation)
+                      deformations=settings.deformations, bifurcation=settings.bifurcation,
+                      arclength=settings.static.arclength)
         fields.update(kw)
         return cls(**fields)
 
@@ -124,14 +130,15 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
 
     warned = []
 
-    def store(load_factor, x, mu, its, res):
+    def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None):
         ev = prob.evaluate(x, mu, prob.loads.at(1.0, load_factor))
         if not warned:
             warned.extend(_strain_warnings(num, ev.states, len(result.steps)))
         deformation, stress = prob.element_results(ev)
         step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=deformation,
                           stress=stress, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
-                          iterations=its, residual=res, mu=mu.copy())
+                          iterations=its, residual=res, mu=mu.copy(), arc_length=arc,
+                          critical=critical, warning=warning)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -146,15 +153,50 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
     x, mu, its, res = advance(x, mu, (0.0, 0.0), (1.0, 0.0),
                               opts.n_init if prob.loads.has_xf else 1, stored_step=0)
     x, mu = path.check(prob.normalize(x), mu, (1.0, 0.0), 0)
+    if opts.arclength is not None:
+        store(0.0, x, mu, its, res, arc=0.0)
+        ArcLengthPath(prob, opts, opts.arclength).follow(x, mu, store)
+        prob.timings.total = time.perf_counter() - t_start
+        return result
     store(0.0, x, mu, its, res)
     # phase B: DELXF in n_steps stored increments
+    jumps = JumpCheck(prob)
     for k in range(1, opts.n_steps + 1):
         s0, s1 = (k - 1) / opts.n_steps, k / opts.n_steps
+        x_old = x
         x, mu, its, res = advance(x, mu, (1.0, s0), (1.0, s1), 1, stored_step=k)
         x, mu = path.check(prob.normalize(x), mu, (1.0, s1), k)
-        store(s1, x, mu, its, res)
+        store(s1, x, mu, its, res, warning=jumps(x_old, x, k, s1))
     prob.timings.total = time.perf_counter() - t_start
     return result
+
+
+#: A load step whose scaled increment exceeds this many times the largest one before it
+#: has jumped (to another branch of the path: a snap-through).
+JUMP_RATIO = 5.0
+
+
+class JumpCheck:
+    """Load stepping warns when a step jumps between branches: its increment (the largest
+    position change relative to the length scale, rotations as they are) is more than
+    :data:`JUMP_RATIO` times the largest increment of the steps before it. Equal load steps
+    on a smooth path change by comparable amounts; a snap-through moves many times
+    further in one step."""
+
+    def __init__(self, prob):
+        self.prob, self.largest = prob, 0.0
+
+    def __call__(self, x_old, x_new, step: int, load_factor: float) -> str | None:
+        d = self.prob.increment_norm((x_new - x_old)[self.prob.free])
+        before, self.largest = self.largest, max(self.largest, d)
+        if not (before > 0 and d > JUMP_RATIO * before):
+            return None
+        msg = (f"step {step} (load factor {load_factor:.4g}) jumped: its increment is "
+               f"{d / before:.3g} times the largest before it; the path passed a limit point "
+               f"(snap-through) and the step landed on another branch. Use ARCLENGTH (or "
+               f"displacement control, INPUTX/DELINPX) to follow the path through it")
+        log.warning(msg)
+        return msg
 
 
 #: Axial strain beyond which a warning says the linear material law is being stretched.

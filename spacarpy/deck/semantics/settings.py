@@ -1,7 +1,7 @@
 """Deck semantics, analysis settings: what to compute, not what the structure is.
 
-MODE, DEFORMATIONS, BIFURCATION, ITERSTEP, MODES, TIMESTEP, ERROR, SUBSTEPS, RHOINF, START,
-TIMEFUNCTION and VELOCITY become one :class:`spacarpy.settings.AnalysisSettings`; OUTLEVEL is
+MODE, DEFORMATIONS, BIFURCATION, ITERSTEP, ARCLENGTH, MODES, TIMESTEP, ERROR, SUBSTEPS, RHOINF,
+START, TIMEFUNCTION and VELOCITY become one :class:`spacarpy.settings.AnalysisSettings`; OUTLEVEL is
 read and has no effect (a warning). Checked here: values out of their range or not among the
 choices, keywords given twice, time functions against :mod:`spacarpy.time_functions`,
 initial velocities of nodes that do not exist.
@@ -17,6 +17,7 @@ from spacarpy.expressions import ExpressionError, evaluate
 from spacarpy.settings import (
     DEFORMATION_VARIANTS,
     AnalysisSettings,
+    ArcLength,
     IterStep,
     LinearizedSettings,
     StaticSettings,
@@ -39,6 +40,7 @@ class _SettingsPass(UsesTopology):
         self.deformations: str | None = None
         self.bifurcation = "off"
         self.iterstep: IterStep | None = None
+        self.arclength: ArcLength | None = None
         self.n_modes: int | None = None
         self.modes_each_step = False
         self.timestep = None
@@ -54,7 +56,8 @@ class _SettingsPass(UsesTopology):
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",
             bifurcation=self.bifurcation,
-            static=StaticSettings(iterstep=self.iterstep or IterStep()),
+            static=StaticSettings(iterstep=self.iterstep or IterStep(),
+                                  arclength=self.arclength),
             linearized=LinearizedSettings(n_modes=self.n_modes,
                                           modes_each_step=self.modes_each_step),
             transient=TransientSettings(
@@ -141,6 +144,29 @@ class _SettingsPass(UsesTopology):
         if ok:
             self.iterstep = IterStep(max_iter=max_iter, n_steps=max(n_steps, 1), tol=float(tol),
                                      n_init=max(n_init, 1), extra=extra, loc=st.loc)
+
+    def arclength_line(self, st: Statement) -> None:
+        """``ARCLENGTH n_max ds0 [ds_min [ds_max]]``: arc-length continuation."""
+        if not self.ctx.once(st, self.errors):
+            return
+        n_max, ds0 = int(st["n_max"]), float(st["ds0"])
+        ds_min, ds_max = st.value("ds_min"), st.value("ds_max")
+        for name in ("ds0", "ds_min", "ds_max"):
+            value = st.value(name)
+            if value is not None and not value > 0:
+                self.error(st.loc_of(name), f"ARCLENGTH: {name} must be positive, got "
+                                            f"{value:g}", st)
+                return
+        lo = float(ds_min) if ds_min is not None else ds0 / 1000.0
+        hi = float(ds_max) if ds_max is not None else 10.0 * ds0
+        if not lo <= ds0 <= hi:
+            self.error(st.loc, f"ARCLENGTH: expected ds_min <= ds0 <= ds_max, got "
+                               f"{lo:g} <= {ds0:g} <= {hi:g}", st)
+            return
+        self.arclength = ArcLength(n_max=n_max, ds0=ds0,
+                                   ds_min=None if ds_min is None else float(ds_min),
+                                   ds_max=None if ds_max is None else float(ds_max),
+                                   loc=st.loc)
 
     def mode_line(self, st: Statement) -> None:
         """``MODE analysis``."""
@@ -258,6 +284,7 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
         errors.warn(f"{st.loc}: OUTLEVEL has no effect in spacarpy: the result file always "
                     "holds every quantity")
     for keyword, line in (("ITERSTEP", part.iterstep_line), ("MODE", part.mode_line),
+                          ("ARCLENGTH", part.arclength_line),
                           ("DEFORMATIONS", part.deformations_line),
                           ("BIFURCATION", part.bifurcation_line), ("MODES", part.modes_line)):
         for st in by_kw.get(keyword, []):

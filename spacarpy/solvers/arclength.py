@@ -1,0 +1,469 @@
+"""Arc-length continuation of the static equilibrium path (``ARCLENGTH``): through limit
+points, snap-through and snap-back, with the critical points on the path located and refined.
+
+The unknowns are the free coordinates x, the constraint multipliers and the load factor s on
+DELXF (the XF load, gravity and the initial prescribed values are reached first, at s = 0,
+by the static solver's phase A). The method is the Riks normal-plane method with a
+linearized constraint and a bordered solve (documented in docs/path_method.md):
+
+- **Scaled norm.** ``|(dx, ds)|^2 = (1/n) sum_i (w_i dx_i)^2 + psi^2 ds^2`` over the n free
+  coordinates, with ``w = 1/L`` on positions (L: the model's length scale) and ``w = 1`` on
+  rotation coordinates (Euler parameters, planar angles), and ``psi = 1``: a mean square,
+  so that one arc length means the same path step on a coarse and on a fine mesh.
+- **Predictor.** The unit tangent ``T = (t, 1) / |(t, 1)|`` with ``K t = q`` (q: the
+  derivative of the external forces by s), oriented so that it makes an acute angle with
+  the last converged increment (the secant; the first step increases s). The predicted
+  configuration is moved onto its linearly predicted deformations (kinematic correction).
+- **Corrector.** Newton on equilibrium plus ``<T, (x - x_k, s - s_k)> = ds`` (the
+  hyperplane normal to the predictor). Each iteration factors the bordered Newton matrix
+  once and back-substitutes twice, ``K a = -r`` and ``K b = q``; the load factor increment
+  follows from the linear constraint, so there is no quadratic root to choose.
+- **Step control.** A point whose chord from the last point is longer than
+  ``MAX_CHORD ds`` (the corrector moved far along the hyperplane: another branch) is
+  rejected like a failed one. After a point converged in ``its`` iterations the next arc length is
+  ``ds * clip(sqrt(TARGET_ITERATIONS / its), 1/2, 2)`` within ``[ds_min, ds_max]``; a
+  failed point is retried with half the arc length down to ``ds_min``.
+- **Critical points.** The sign of the determinant of the bordered Newton matrix (from the
+  LU factors of the tangent solve) changes where the tangent stiffness reduced to the
+  degrees of freedom becomes singular; for models small enough for the dense reduction
+  (``eigen.DENSE_LIMIT`` free coordinates) its index, the number of negative eigenvalues,
+  is compared too (it also sees two eigenvalues crossing zero together, a double buckling
+  mode, which leaves the determinant's sign alone). If the tangent's load component changed
+  sign too, the point is a limit point (a maximum or a minimum of s), else a bifurcation
+  point. Limit points are refined by the Illinois method on the tangent's load component,
+  bifurcation points by bisection on the determinant's sign and the index, both on the arc
+  length from the last point before, until the bracket is below the solver tolerance; the
+  refined point is stored as a path point, with its critical eigenvector (inverse iteration
+  on the bordered matrix there). With ``BIFURCATION switch`` the path leaves a bifurcation
+  point along that eigenvector (the tangent of the crossing branch of a symmetric
+  bifurcation).
+- **End.** When s reaches 1 the last point is solved at s = 1 exactly (load control from
+  the interpolated state); after ``n_max`` points the run stops with a warning.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from spacarpy.errors import ConvergenceError, ModelError
+from spacarpy.rotation import moment_matrix
+from spacarpy.solvers.eigen import DENSE_LIMIT
+from spacarpy.solvers.errors import StepFailed
+from spacarpy.solvers.newton import bordered_solve, newton
+from spacarpy.solvers.stability import canonical_sign, stability
+
+log = logging.getLogger(__name__)
+
+#: Newton iterations per point the step control aims at.
+TARGET_ITERATIONS = 4
+#: Iterative refinement steps of each bordered solve.
+REFINEMENTS = 2
+#: Weight of the load factor in the scaled norm.
+PSI = 1.0
+#: Largest chord of a point (scaled norm, from the last point) per unit arc length: a longer
+#: one means the corrector left the predictor's neighbourhood (jumped to another branch),
+#: and the point is retried with half the arc length.
+MAX_CHORD = 1.25
+#: Largest number of refinement iterations of one critical point.
+MAX_REFINE = 60
+#: Kinds of critical points (codes stored in /critical/point_type).
+CRITICAL_KINDS = ("limit point (load maximum)", "limit point (load minimum)", "bifurcation")
+
+
+@dataclass
+class CriticalPoint:
+    """A refined critical point of the path: ``kind`` indexes :data:`CRITICAL_KINDS`;
+    ``shape`` is the critical eigenvector over the free coordinates (largest entry 1)."""
+
+    kind: int
+    load_factor: float
+    arc_length: float
+    shape: np.ndarray
+
+
+@dataclass
+class _Point:
+    """A converged point: state, load factor, cumulative arc length, Newton data, the
+    oriented unit tangent (tx, ts) and the determinant sign there."""
+
+    x: np.ndarray
+    mu: np.ndarray
+    s: float
+    arc: float
+    its: int = 0
+    res: float = 0.0
+    tx: np.ndarray | None = None
+    ts: float = 0.0
+    det: int = 0
+    index: int = -1        # negative eigenvalues of the reduced tangent (-1: not computed)
+    lu: object = None      # (LU factors of the scaled bordered matrix, the scaling)
+
+    def stability_key(self) -> tuple:
+        """What changes at a critical point: the determinant's sign and the index."""
+        return self.det, self.index
+
+
+def _permutation_sign(perm) -> int:
+    """(-1)^(number of transpositions) of a permutation array."""
+    perm = np.asarray(perm)
+    seen = np.zeros(perm.size, bool)
+    sign = 1
+    for i in range(perm.size):
+        if seen[i]:
+            continue
+        j, length = i, 0
+        while not seen[j]:
+            seen[j] = True
+            j = perm[j]
+            length += 1
+        if length % 2 == 0:
+            sign = -sign
+    return sign
+
+
+def determinant_sign(lu) -> int:
+    """Sign of the determinant of a matrix from its SuperLU factors (L has a unit diagonal)."""
+    d = lu.U.diagonal()
+    neg = int(np.sum(d < 0))
+    return (-1) ** neg * _permutation_sign(lu.perm_r) * _permutation_sign(lu.perm_c)
+
+
+def check_applies(prob) -> None:
+    """ARCLENGTH needs a load increment (DELXF) and no prescribed motion that changes with
+    the load factor (those are displacement control, the other way of tracing a path)."""
+    num, loads = prob.num, prob.loads
+    if not (np.any(loads.force["DELXF"]) or np.any(loads.moment["DELXF"])):
+        raise ModelError("ARCLENGTH follows the path of the DELXF load: the model has no "
+                         "DELXF line")
+    moving = (not np.array_equal(num.prescribed_values(1.0, 1.0), num.prescribed_values(1.0, 0.0))
+              or bool(np.any(num.rotation_angle))
+              or not np.array_equal(num.rigid_targets(1.0, 1.0), num.rigid_targets(1.0, 0.0)))
+    if moving:
+        raise ModelError("ARCLENGTH cannot be combined with DELINPX, DELINPR or DELINPE: a "
+                         "prescribed motion that grows over the path is displacement "
+                         "control; use load steps (ITERSTEP) for it, or ARCLENGTH with DELXF")
+
+
+def point_at(path, step) -> _Point:
+    """A stored :class:`~spacarpy.solvers.static.StaticStep` of an arc-length run as a
+    path point with its tangent (to take one more step from it, e.g. in the benchmark)."""
+    p = _Point(x=step.x, mu=step.mu, s=step.load_factor, arc=step.arc_length or 0.0)
+    path.tangent(p)
+    return p
+
+
+class ArcLengthPath:
+    """The continuation of one problem (see the module docstring). ``opts``: a
+    :class:`~spacarpy.solvers.static.StaticOptions` (max_iter, tol, bifurcation);
+    ``arc``: the deck's :class:`~spacarpy.settings.ArcLength`."""
+
+    def __init__(self, prob, opts, arc):
+        check_applies(prob)
+        self.prob, self.opts, self.arc = prob, opts, arc
+        num = prob.num
+        self.free = prob.free
+        rot = prob.rot_mask[self.free]
+        self.w = np.where(rot, 1.0, 1.0 / num.length_scale)
+        self.n = max(int(self.free.sum()), 1)
+        self.n_x = prob.pattern.n_x
+        self.ds_min, self.ds_max = arc.bounds
+        self.switch = opts.bifurcation == "switch"
+        # the index (Sylvester's inertia of the reduced tangent) where the dense reduction
+        # applies: it also sees eigenvalues that cross zero in pairs (a symmetric structure's
+        # double buckling mode), which leave the determinant's sign unchanged
+        self.dense = self.n_x <= DENSE_LIMIT
+        self.increments: list = []
+
+    # ------------------------------------------------------------------ small pieces
+    def inner(self, ux, us, vx, vs) -> float:
+        """The scaled inner product of (ux, us) and (vx, vs)."""
+        return float(np.dot(self.w * ux, self.w * vx)) / self.n + PSI ** 2 * us * vs
+
+    def load(self, s):
+        return self.prob.loads.at(1.0, s)
+
+    def load_vector(self, x) -> np.ndarray:
+        """q = d f_ext / ds at x over the free coordinates (DELXF forces and the generalized
+        forces of the DELXF moments)."""
+        prob, num = self.prob, self.prob.num
+        q = prob.loads.force["DELXF"].copy()
+        rot = prob.loads.moment_rot
+        if rot.size:
+            idx = num.rot_idx[rot]
+            q[idx] += 2.0 * np.einsum("nab,nb->na", moment_matrix(prob.loads.moment["DELXF"]),
+                                      x[idx])
+        return q[self.free]
+
+    def _solve(self, ev, mu, x):
+        prob = self.prob
+        A = prob.matrix(ev, mu)
+        rhs = np.zeros((A.shape[0], 2))
+        rhs[: self.n_x, 0] = -ev.r
+        rhs[self.n_x:, 0] = -prob.scale * ev.c
+        rhs[: self.n_x, 1] = self.load_vector(x)
+        # symmetric diagonal scaling (the stiffness diagonal of a slender model spans many
+        # decades: axial against bending), a congruence that keeps the determinant's sign
+        d = np.abs(A.diagonal())
+        d = 1.0 / np.sqrt(np.where(d > 0, d, prob.scale))
+        D = sp.diags(d)
+        A = (D @ A @ D).tocsc()
+        rhs = rhs * d[:, None]
+        z, lu = bordered_solve(prob, A, rhs)
+        if z is None:
+            return None
+        z = z.reshape(A.shape[0], 2)
+        # iterative refinement: the bordered matrix of a long, slender model is
+        # ill-conditioned (axial against bending stiffness), and the load column's solution
+        # enters every update; a refined step keeps Newton's quadratic convergence there
+        for _ in range(REFINEMENTS):
+            dz = lu.solve(rhs - A @ z)
+            if not np.all(np.isfinite(dz)):
+                break
+            z = z + dz
+        z = z * d[:, None]
+        return (z[: self.n_x, 0], z[self.n_x:, 0] * prob.scale,
+                z[: self.n_x, 1], z[self.n_x:, 1] * prob.scale, (lu, d))
+
+    def tangent(self, p: _Point, ref=None) -> None:
+        """The unit tangent at a converged point, oriented by ``ref`` = (rx, rs) (acute
+        angle; None: increasing s), and the determinant sign there."""
+        ev = self.prob.evaluate(p.x, p.mu, self.load(p.s))
+        out = self._solve(ev, p.mu, p.x)
+        if out is None:
+            raise StepFailed("singular Newton matrix at a converged point", [])
+        _, _, b, _, lu = out
+        norm = np.sqrt(self.inner(b, 1.0, b, 1.0))
+        tx, ts = b / norm, 1.0 / norm
+        if ref is not None and self.inner(tx, ts, *ref) < 0:
+            tx, ts = -tx, -ts
+        p.tx, p.ts, p.det, p.lu = tx, ts, determinant_sign(lu[0]), lu
+        if self.dense:
+            p.index = stability(self.prob, p.x, p.mu, self.load(p.s)).index
+
+    # ------------------------------------------------------------------ one point
+    def correct(self, p: _Point, ds: float, direction=None, fixed_s: float | None = None):
+        """A new point at arc length ``ds`` from ``p`` along ``direction`` (default: p's
+        tangent), or (``fixed_s``) at that load factor from ``p`` as it is. Raises
+        StepFailed."""
+        prob, opts = self.prob, self.opts
+        tx, ts = direction if direction is not None else (p.tx, p.ts)
+        x, mu, s = p.x.copy(), p.mu.copy(), p.s
+        if fixed_s is None:
+            dx = ds * tx
+            x[self.free] += dx
+            if prob.kinematic_correction:
+                states = prob.evaluate(p.x, p.mu, self.load(p.s)).states
+                x = prob.correct_kinematics(x, dx, states)
+            s = p.s + ds * ts
+        history = []
+        self.increments = []        # the scaled increments of this correction, for checks
+        dx_norm = np.inf
+        states = None
+        for it in range(opts.max_iter + 1):
+            ev = prob.evaluate(x, mu, self.load(s), states)
+            res, floor = prob.residual_norm(ev.r, ev.c, ev.f_int, ev.f_ext)
+            history.append(res)
+            if not np.isfinite(res):
+                raise StepFailed("non-finite residual", history)
+            if (res <= opts.tol or (it > 0 and res <= floor)) and (
+                    it > 0 and dx_norm <= opts.tol):
+                prob.check_element_range(ev.states)
+                return _Point(x=prob.normalize(x), mu=mu, s=s, arc=p.arc + ds, its=it,
+                              res=res), history
+            if it == opts.max_iter:
+                break
+            if it >= 3 and res > 1e3 * history[1] and res > 1e3 * opts.tol:
+                raise StepFailed("diverging", history)
+            prob.timings.iterations += 1
+            out = self._solve(ev, mu, x)
+            if out is None:
+                raise StepFailed("singular Newton matrix", history)
+            a, a_mu, b, b_mu, _ = out
+            if fixed_s is not None:
+                dlam = fixed_s - s
+            else:
+                dxk = (x - p.x)[self.free]
+                g = self.inner(dxk, s - p.s, tx, ts) - ds
+                dlam = (-g - self.inner(a, 0.0, tx, 0.0)) / self.inner(b, 1.0, tx, ts)
+            dx = a + dlam * b
+            if not (np.all(np.isfinite(dx)) and np.isfinite(dlam)):
+                raise StepFailed("non-finite increment", history)
+            dx_norm = max(prob.increment_norm(dx), abs(dlam))
+            self.increments.append(dx_norm)
+            if dx_norm > 0.5 and np.abs(dx[prob.rot_mask[self.free]]).max(initial=0.0) > 0.5:
+                raise StepFailed("increment too large", history)
+            x_lin = x.copy()
+            x_lin[self.free] += dx
+            states = None
+            if prob.kinematic_correction:
+                x_lin, states = prob.corrector.correct(x_lin, dx, ev.states,
+                                                       prob.increment_norm(dx),
+                                                       return_states=True)
+            x, mu, s = x_lin, mu + a_mu + dlam * b_mu, s + dlam
+        raise StepFailed(f"no convergence in {opts.max_iter} iterations", history)
+
+    # ------------------------------------------------------------------ critical points
+    def _at(self, p, sigma, direction):
+        q, _ = self.correct(p, sigma, direction)
+        self.tangent(q, ref=direction)
+        return q
+
+    def refine(self, p: _Point, ds: float, new: _Point, direction, kind: int) -> _Point:
+        """The critical point between ``p`` and ``new`` (arc lengths 0 and ds from p along
+        ``direction``), to the solver tolerance in arc length (limit points: Illinois on
+        the tangent's load component; bifurcations: bisection on the determinant sign)."""
+        lo, hi = 0.0, ds
+        f_lo, f_hi = p.ts, new.ts
+        best, side = new, 0
+        tol = max(self.opts.tol, 1e-14) * max(ds, 1e-300)
+        for _ in range(MAX_REFINE):
+            if hi - lo <= tol:
+                break
+            if kind < 2 and f_lo != f_hi:
+                sigma = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+                if not lo < sigma < hi:
+                    sigma = 0.5 * (lo + hi)
+            else:
+                sigma = 0.5 * (lo + hi)
+            try:
+                q = self._at(p, sigma, direction)
+            except StepFailed:
+                sigma = 0.5 * (lo + hi)
+                try:
+                    q = self._at(p, sigma, direction)
+                except StepFailed:
+                    break
+            before = (q.stability_key() == p.stability_key() if kind == 2
+                      else np.sign(q.ts) == np.sign(p.ts))
+            if before:
+                lo, f_lo = sigma, q.ts
+                if side == -1:
+                    f_hi *= 0.5                  # Illinois: halve the retained end
+                side = -1
+            else:
+                hi, f_hi, best = sigma, q.ts, q
+                if side == 1:
+                    f_lo *= 0.5
+                side = 1
+            if kind < 2 and abs(q.ts) <= self.opts.tol * 1e-3:
+                best = q
+                break
+        return best
+
+    def critical_shape(self, q: _Point) -> np.ndarray:
+        """The critical eigenvector at a refined critical point: inverse iteration with the
+        bordered matrix factored there, from a fixed start vector (deterministic)."""
+        lu, d = q.lu
+        v = np.random.default_rng(1).standard_normal(self.n_x)
+        rhs = np.zeros(lu.shape[0])
+        for _ in range(4):
+            rhs[: self.n_x] = v / np.abs(v).max()
+            z = (d * lu.solve(d * rhs))[: self.n_x]
+            if not np.all(np.isfinite(z)) or not np.any(z):
+                break
+            v = z
+        v = canonical_sign(v[:, None])[:, 0]
+        return v / np.abs(v).max()
+
+    # ------------------------------------------------------------------ the path
+    def follow(self, x0, mu0, store) -> None:
+        """Follow the path from the converged state (x0, mu0) at s = 0 (stored already).
+        ``store(s, x, mu, its, res, arc, critical)`` stores a point (critical: a
+        :class:`CriticalPoint` or None)."""
+        arc = self.arc
+        p = _Point(x=x0, mu=mu0, s=0.0, arc=0.0)
+        self.tangent(p)
+        direction = (p.tx, p.ts)
+        ds = arc.ds0
+        n_stored = 0
+        switched = False
+        while n_stored < arc.n_max:
+            try:
+                new, _ = self.correct(p, ds, direction)
+                chord = (new.x - p.x)[self.free], new.s - p.s
+                if self.inner(*chord, *chord) > (MAX_CHORD * ds) ** 2:
+                    raise StepFailed("the corrector left the predictor's neighbourhood",
+                                     [new.res])
+                self.tangent(new, ref=chord)
+            except StepFailed as fail:
+                if ds / 2 < self.ds_min:
+                    hist = ", ".join(f"{h:.3e}" for h in fail.history)
+                    raise ConvergenceError(
+                        f"arc-length point {n_stored + 1} did not converge ({fail.reason}) "
+                        f"with the smallest arc length {self.ds_min:.3g}; last converged "
+                        f"load factor {p.s:.6g} at arc length {p.arc:.6g}; residual history "
+                        f"of the last attempt: [{hist}]") from None
+                log.info("arc-length point %d: %s at arc length %.3g, halving it",
+                         n_stored + 1, fail.reason, ds)
+                ds /= 2
+                continue
+            crossed = (p.s - 1.0) * (new.s - 1.0) <= 0 and new.s != p.s
+            # (at a bifurcation point just left, the stability is that of neither branch)
+            if new.stability_key() != p.stability_key() and not switched:
+                kind = (2 if np.sign(new.ts) == np.sign(p.ts)
+                        else 0 if p.ts > 0 else 1)
+                crit = self.refine(p, ds, new, direction, kind)
+                if crit is not new and (not crossed or (p.s - 1.0) * (crit.s - 1.0) > 0):
+                    cp = CriticalPoint(kind=kind, load_factor=crit.s, arc_length=crit.arc,
+                                       shape=self.critical_shape(crit))
+                    store(crit.s, crit.x, crit.mu, crit.its, crit.res, crit.arc, cp)
+                    n_stored += 1
+                    self._commit(crit)
+                    if kind == 2 and self.switch:
+                        p = self._leave_along(crit, cp.shape)
+                        direction = (p.tx, p.ts)
+                        ds = max(min(ds, self.ds_max), self.ds_min)
+                        switched = True
+                        continue
+                    if n_stored >= arc.n_max:
+                        break
+            if crossed:
+                last = self._land(p, new)
+                store(last.s, last.x, last.mu, last.its, last.res, last.arc, None)
+                self._commit(last)
+                return
+            store(new.s, new.x, new.mu, new.its, new.res, new.arc, None)
+            n_stored += 1
+            switched = False
+            self._commit(new)
+            factor = np.clip(np.sqrt(TARGET_ITERATIONS / max(new.its, 1)), 0.5, 2.0)
+            ds = float(np.clip(ds * factor, self.ds_min, self.ds_max))
+            p = new
+            direction = (p.tx, p.ts)
+        log.warning("ARCLENGTH: %d points stored and the load factor is %.6g, not 1: raise "
+                    "n_max (or ds0) to follow the path further", n_stored, p.s)
+
+    def _leave_along(self, crit: _Point, shape) -> _Point:
+        """At a bifurcation point (BIFURCATION switch): the next predictor is the critical
+        eigenvector, the tangent of the crossing branch, with no load change."""
+        norm = np.sqrt(self.inner(shape, 0.0, shape, 0.0))
+        crit.tx, crit.ts = shape / norm, 0.0
+        log.info("BIFURCATION switch: leaving the bifurcation point at load factor %.6g along "
+                 "the critical eigenvector", crit.s)
+        return crit
+
+    def _land(self, p: _Point, new: _Point) -> _Point:
+        """The point at s = 1 exactly, between p and new (load control from the
+        interpolated state)."""
+        t = (1.0 - p.s) / (new.s - p.s)
+        x = self.prob.normalize(p.x + t * (new.x - p.x))
+        mu = p.mu + t * (new.mu - p.mu)
+        try:
+            xs, mus, its, res, _ = newton(self.prob, x, mu, self.load(1.0), self.opts)
+        except StepFailed:
+            q, _ = self.correct(_Point(x=x, mu=mu, s=1.0, arc=0.0), 0.0, fixed_s=1.0)
+            xs, mus, its, res = q.x, q.mu, q.its, q.res
+        xs = self.prob.normalize(xs)
+        d = self.inner((xs - p.x)[self.free], 1.0 - p.s, (xs - p.x)[self.free], 1.0 - p.s)
+        return _Point(x=xs, mu=mus, s=1.0, arc=p.arc + np.sqrt(d), its=its, res=res)
+
+    def _commit(self, p: _Point) -> None:
+        if self.prob.has_commit:
+            self.prob.commit(p.x, p.mu, self.load(p.s))
+
+
+__all__ = ["ArcLengthPath", "CriticalPoint", "CRITICAL_KINDS", "determinant_sign",
+           "check_applies", "point_at"]
