@@ -96,7 +96,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     num = problem.num
     if analysis == "check":
         return RunSummary(report=dof_report(problem))
-    mass = MassAssembler(model, num)
+    mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     if any(model.gravity) and not mass.has_mass:
         log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
                     "XM nodal masses)")
@@ -131,7 +131,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     model_data = model_datasets(model, num)
     surface_stress = SurfaceStress(model_data)
     with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
-                       deformations=settings.deformations, analysis=analysis) as writer:
+                       deformations=settings.deformations, analysis=analysis,
+                       rotary_inertia=settings.rotary_inertia) as writer:
         writer.begin_static(model.position_ids.size, model.orientation_ids.size,
                             problem.reaction_node, problem.reaction_component,
                             n_eigen_modes=n_modes if want_eigen else 0,

@@ -38,7 +38,7 @@ from spacarpy.results.schema import (
     SCHEMA_VERSION,
     n_def,
 )
-from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS
+from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +94,11 @@ class ResultsWriter:
     """
 
     def __init__(self, path, model: Model, *, program_version: str, deformations: str,
-                 analysis: str, model_data: dict | None = None):
+                 analysis: str, model_data: dict | None = None,
+                 rotary_inertia: str | None = None):
+        if rotary_inertia is not None and rotary_inertia not in ROTARY_CHOICES:
+            raise ValueError(f"unknown rotary inertia {rotary_inertia!r}; "
+                             f"expected one of {ROTARY_CHOICES}")
         if deformations not in DEFORMATION_VARIANTS:
             raise ValueError(f"unknown deformation variant {deformations!r}; "
                              f"expected one of {DEFORMATION_VARIANTS}")
@@ -109,6 +113,7 @@ class ResultsWriter:
         self.model_data = model_data
         self.program_version = str(program_version)
         self.deformations = deformations
+        self.rotary_inertia = rotary_inertia
         self.analysis = analysis
         #: element kinds of the file and their element counts
         self.kinds = {p.split("/")[2]: v.shape[0] for p, v in model_data.items()
@@ -532,6 +537,8 @@ class ResultsWriter:
         a["deck_text"] = text    # also here, so the run is identified from the root alone
         a["analysis"] = self.analysis
         a["deformations"] = self.deformations
+        if self.rotary_inertia is not None:
+            a["rotary_inertia"] = self.rotary_inertia
         create(f, "deck", text, dtype=h5py.string_dtype("utf-8"))
         for path, value in self.model_data.items():
             if path not in DATASETS:
