@@ -294,17 +294,21 @@ class ResultsWriter:
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
-                   shape_euler) -> None:
+                   shape_euler, n_available: int | None = None) -> None:
         """Append the modes of one linearized static step (``step`` = its row in /static).
 
         Arrays may hold fewer modes than the group was created for; missing ones are NaN
         (kind 4). ``eigenvalue`` is complex (omega^2), ``shape_*`` (n_mode, n_pos, 3) and
-        (n_mode, n_rot, 4).
+        (n_mode, n_rot, 4). ``n_available``: the number of finite modes the linearization
+        has (``/eigen/n_modes_available``; -1: not known; default: the finite modes given).
         """
         lam = np.asarray(eigenvalue, dtype=complex)
+        if n_available is None:
+            n_available = int(np.sum(np.asarray(kind) != 4))
         self._append_linearized("eigen", step, {
             "frequency": frequency, "eigenvalue_real": lam.real, "eigenvalue_imag": lam.imag,
-            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
+            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler,
+            "n_modes_available": n_available})
 
     def buckling_step(self, step: int, load_multiplier, critical: float, shape_position,
                       shape_euler, kind=None) -> None:
@@ -478,7 +482,7 @@ class ResultsWriter:
         rows = {}
         for name, value in values.items():
             trailing, dtype = entry["shapes"][name], entry["dtypes"][name]
-            fill = 4 if name == "kind" else np.nan
+            fill = 4 if name == "kind" else np.nan if dtype.kind in "fc" else -1
             row = np.full(trailing, fill, dtype=dtype)
             given = np.asarray(value, dtype=dtype)
             if given.ndim:
