@@ -230,7 +230,8 @@ def _spec_list() -> list[DatasetSpec]:
           "mass-normalized mode shape: Euler-parameter perturbation of each orientation node"),
         S("eigen/n_modes_available", "i4", ("linearized_step",), "1",
           "number of finite modes the linearization has: degrees of freedom minus the motions "
-          "without inertia (-1: not counted, large model); the lowest of them are stored",
+          "without inertia (-1: not counted, where the sparse solver found only the lowest); the "
+          "lowest of them are stored",
           (2, 3)),
         S("buckling/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),

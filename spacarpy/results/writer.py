@@ -300,7 +300,7 @@ class ResultsWriter:
         Arrays may hold fewer modes than the group was created for; missing ones are NaN
         (kind 4). ``eigenvalue`` is complex (omega^2), ``shape_*`` (n_mode, n_pos, 3) and
         (n_mode, n_rot, 4). ``n_available``: the number of finite modes the linearization
-        has (``/eigen/n_modes_available``; -1: not known; default: the finite modes given).
+        has (``/eigen/n_modes_available``; -1: not counted; default: the finite modes given).
         """
         lam = np.asarray(eigenvalue, dtype=complex)
         if n_available is None:

@@ -81,7 +81,7 @@ class Modes:
         modal mass is positive, else scaled to a largest component of 1.
     n_available : int or None
         The number of finite modes the linearization has (module docstring); None where
-        the sparse solver computed only some of them.
+        the sparse solver computed only the lowest ones.
     """
 
     eigenvalue: np.ndarray
