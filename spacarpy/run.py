@@ -38,7 +38,12 @@ from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.compliance import nodal_compliance
-from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes, finite_mode_count
+from spacarpy.solvers.eigen import (
+    KIND_NAMES,
+    default_dense_limit,
+    eigenmodes,
+    finite_mode_count,
+)
 from spacarpy.solvers.equilibrium import StaticProblem
 from spacarpy.solvers.kinematic_check import dof_report
 from spacarpy.solvers.linearize import MassAssembler, linearize
@@ -200,11 +205,14 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
 def _eigen_columns(problem, mass, n_modes: int) -> int:
     """The modes stored per linearized step: ``n_modes``, or fewer when the model has fewer
     (:func:`spacarpy.solvers.eigen.finite_mode_count` in the initial configuration; the
-    number at each step is stored in /eigen/n_modes_available)."""
+    number at each step is stored in /eigen/n_modes_available). Not counted where the
+    eigen solver is the sparse one (a few modes of a larger model)."""
     num = problem.num
+    if num.n_unknown > default_dense_limit(num.n_unknown, n_modes):
+        return n_modes
     lin = linearize(problem, num.x0.copy(), np.zeros(num.n_constraint),
                     problem.loads.unloaded(), mass=mass)
-    count = finite_mode_count(lin)
+    count = finite_mode_count(lin, n_modes)
     if count is None:
         return n_modes
     n_available, n_dof = count
