@@ -153,7 +153,7 @@ def _eigen_row(n: int, repeat: int) -> dict:
     t0 = time.perf_counter()
     model, settings = job_from_text(eigen_cantilever_deck(n), f"<eigen cantilever {n}>")
     prob = StaticProblem(model, deformations=settings.deformations)
-    mass = MassAssembler(model, prob.num)
+    mass = MassAssembler(model, prob.num, rotary=settings.rotary_inertia)
     setup = time.perf_counter() - t0
     x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
     load = prob.loads.at(0.0, 0.0)

@@ -114,6 +114,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
                           "or basic (Eq. 7); overrides the deck's DEFORMATIONS line")
+    run.add_argument("--rotary-inertia", choices=("lumped", "consistent"), default=None,
+                     help="the beams' section rotary inertia: lumped at the end orientation "
+                          "nodes (SPACAR's, default) or consistent (linearly interpolated "
+                          "angular velocity); overrides the deck's ROTARYINERTIA line")
     run.add_argument("--modes", type=_positive_int, default=None, metavar="N",
                      help="number of eigenmodes / buckling modes per linearization (default: "
                           "the deck's MODES line, else 10)")
@@ -561,7 +565,8 @@ def _run_locked(args, out) -> int:
     # the command line makes new settings; the deck's stay as they were read
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
                                      n_modes=args.modes,
-                                     modes_each_step=True if args.modes_per_step else None)
+                                     modes_each_step=True if args.modes_per_step else None,
+                                     rotary_inertia=args.rotary_inertia)
     n_elem = model.n_elem
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
@@ -590,7 +595,7 @@ def _run_locked(args, out) -> int:
                  time.perf_counter() - t0)
     if expects:
         changed = bool(args.overrides) or args.mode is not None or \
-            args.deformations is not None
+            args.deformations is not None or args.rotary_inertia is not None
         return _check_expectations(expects, out, fatal=not changed)
     return EXIT_OK
 
@@ -638,7 +643,8 @@ class _ProgressBar:
 def _check_expectations(expects, out, fatal: bool = True) -> int:
     """The deck's EXPECT lines against the result file: a PASS/FAIL table on stdout; exit 4
     (:data:`spacarpy.deck.expect.EXIT_EXPECTATION`) when any fails, unless not ``fatal``
-    (the command line changed the deck: --set, --mode, --deformations), then a warning."""
+    (the command line changed the deck: --set, --mode, --deformations, --rotary-inertia),
+    then a warning."""
     from spacarpy.deck.expect import EXIT_EXPECTATION, check_expectations, format_results
 
     expects = [e for e in expects if e.quantity != "run.exit_code"]      # for batch only
@@ -649,7 +655,8 @@ def _check_expectations(expects, out, fatal: bool = True) -> int:
     if all(r.passed for r in results):
         return EXIT_OK
     if not fatal:
-        log.warning("expectations failed, but --set/--mode/--deformations changed the deck, "
+        log.warning("expectations failed, but --set/--mode/--deformations/--rotary-inertia "
+                    "changed the deck, "
                     "and the EXPECT lines belong to the deck as written: not an error")
         return EXIT_OK
     return EXIT_EXPECTATION

@@ -43,7 +43,12 @@ from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.buckling import buckling_modes
 from spacarpy.solvers.compliance import nodal_compliance
-from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes
+from spacarpy.solvers.eigen import (
+    KIND_NAMES,
+    default_dense_limit,
+    eigenmodes,
+    finite_mode_count,
+)
 from spacarpy.solvers.equilibrium import StaticProblem
 from spacarpy.solvers.kinematic_check import dof_report
 from spacarpy.solvers.linearize import MassAssembler, linearize
@@ -101,7 +106,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     num = problem.num
     if analysis == "check":
         return RunSummary(report=dof_report(problem))
-    mass = MassAssembler(model, num)
+    mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     if any(model.gravity) and not mass.has_mass:
         log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
                     "XM nodal masses)")
@@ -139,6 +144,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 f"--compliance {p_node} {r_node}: expected a position node and an orientation "
                 f"node of the model")
         compliance_rows = (int(pos_hit[0]), int(rot_hit[0]))
+    n_eigen = _eigen_columns(problem, mass, n_modes) if want_eigen else 0
     n_steps = settings.static.iterstep.n_steps
     arc = settings.static.arclength if not transient else None
     if transient and settings.static.arclength is not None:
@@ -150,10 +156,11 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     model_data = model_datasets(model, num)
     surface_stress = SurfaceStress(model_data)
     with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
-                       deformations=settings.deformations, analysis=analysis) as writer:
+                       deformations=settings.deformations, analysis=analysis,
+                       rotary_inertia=settings.rotary_inertia) as writer:
         writer.begin_static(model.position_ids.size, model.orientation_ids.size,
                             problem.reaction_node, problem.reaction_component,
-                            n_eigen_modes=n_modes if want_eigen else 0,
+                            n_eigen_modes=n_eigen,
                             n_buckling_modes=n_modes if want_buckling else 0,
                             compliance_node=opts.compliance_node, transient=transient,
                             state_space=ss_setup[1] if want_ss else None,
@@ -229,6 +236,31 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
     summary.rejected_steps = result.n_rejected
 
 
+def _eigen_columns(problem, mass, n_modes: int) -> int:
+    """The modes stored per linearized step: ``n_modes``, or fewer when the model has fewer
+    (:func:`spacarpy.solvers.eigen.finite_mode_count` in the initial configuration; the
+    number at each step is stored in /eigen/n_modes_available). Not counted where the
+    eigen solver is the sparse one (a few modes of a larger model)."""
+    num = problem.num
+    if num.n_unknown > default_dense_limit(num.n_unknown, n_modes):
+        return n_modes
+    lin = linearize(problem, num.x0.copy(), np.zeros(num.n_constraint),
+                    problem.loads.unloaded(), mass=mass)
+    count = finite_mode_count(lin, n_modes)
+    if count is None:
+        return n_modes
+    n_available, n_dof = count
+    if n_available < n_modes:
+        without = n_dof - n_available
+        log.info("the model has %d mode(s): %d degree(s) of freedom%s; %d asked for, %d stored "
+                 "per step", n_available, n_dof,
+                 f", {without} of them without inertia" if without else "", n_modes,
+                 max(n_available, 1))
+    if n_available == 0:
+        log.warning("no mode: every degree of freedom of the model is without inertia")
+    return max(min(n_modes, n_available), 1)
+
+
 def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_buckling,
                      compliance_rows, summary):
     num = problem.num
@@ -241,7 +273,8 @@ def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_b
     if want_eigen:
         md = eigenmodes(lin, num, problem.free, n_modes=n_modes)
         shape_pos, shape_rot = _node_shapes(num, problem.free, md.shape)
-        writer.eigen_step(k, md.eigenvalue, md.frequency, md.kind, shape_pos, shape_rot)
+        writer.eigen_step(k, md.eigenvalue, md.frequency, md.kind, shape_pos, shape_rot,
+                          n_available=-1 if md.n_available is None else md.n_available)
         summary.frequencies.append(md.frequency)
         shown = ", ".join(f"{f:.4g}" if kd in (0, 2) else KIND_NAMES[int(kd)]
                           for f, kd in zip(md.frequency[:4], md.kind[:4]))

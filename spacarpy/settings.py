@@ -1,22 +1,24 @@
 """Analysis settings: what to compute on a model, kept beside it (never inside it).
 
 A deck holds two things: the structure (:class:`spacarpy.model.Model`) and the choices of
-analysis (MODE, DEFORMATIONS, BIFURCATION, ITERSTEP, MODES, TIMESTEP, RHOINF, SUBSTEPS, ERROR,
-START, TIMEFUNCTION, VELOCITY). The second are frozen dataclasses here, one per concern, after
-ERT's per-concern config objects: :class:`AnalysisSettings` with :class:`StaticSettings`,
-:class:`LinearizedSettings` and :class:`TransientSettings`. Command-line choices make a new
-settings object (:meth:`AnalysisSettings.override`); nothing mutates one. This module also
-holds the one implementation of the MODE and DEFORMATIONS vocabularies
-(:func:`resolve_analysis`, :func:`resolve_deformations`), used by the deck layer and the CLI.
+analysis (MODE, DEFORMATIONS, ROTARYINERTIA, BIFURCATION, ITERSTEP, MODES, TIMESTEP, RHOINF,
+SUBSTEPS, ERROR, START, TIMEFUNCTION, VELOCITY). The second are frozen dataclasses here, one
+per concern, after ERT's per-concern config objects: :class:`AnalysisSettings` with
+:class:`StaticSettings`, :class:`LinearizedSettings` and :class:`TransientSettings`.
+Command-line choices make a new settings object (:meth:`AnalysisSettings.override`); nothing
+mutates one. This module also holds the one implementation of the MODE and DEFORMATIONS
+vocabularies (:func:`resolve_analysis`, :func:`resolve_deformations`), used by the deck layer
+and the CLI.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from spacarpy.elements.beam_mass import ROTARY_CHOICES
 from spacarpy.errors import SourceLoc
 
 __all__ = ["ANALYSES", "ArcLength", "BIFURCATION_CHOICES", "DEFORMATION_VARIANTS",
-           "SPACAR_MODE_NUMBERS", "START_CHOICES", "UNSUPPORTED_SPACAR_MODES",
+           "ROTARY_CHOICES", "SPACAR_MODE_NUMBERS", "START_CHOICES", "UNSUPPORTED_SPACAR_MODES",
            "AnalysisSettings", "IterStep",
            "LinearizedSettings", "StaticSettings", "SystemSignal", "TransientSettings",
            "is_silent_mode", "resolve_analysis", "resolve_deformations", "spacar_mode_refusal",
@@ -238,11 +240,16 @@ class AnalysisSettings:
     bifurcation : str
         ``"off"``, ``"warn"`` (say when the path turns unstable) or ``"switch"`` (also switch
         to a stable branch), see :mod:`spacarpy.solvers.stability`.
+    rotary_inertia : str
+        ``"lumped"`` (SPACAR's, default) or ``"consistent"``: how the beams' section rotary
+        inertia enters the mass (:mod:`spacarpy.elements.beam_mass`); used by every analysis
+        with mass (eigen, transient).
     """
 
     analysis: str = "static"
     deformations: str = "modified"
     bifurcation: str = "off"
+    rotary_inertia: str = "lumped"
     static: StaticSettings = field(default_factory=StaticSettings)
     linearized: LinearizedSettings = field(default_factory=LinearizedSettings)
     transient: TransientSettings = field(default_factory=TransientSettings)
@@ -254,6 +261,9 @@ class AnalysisSettings:
             raise ValueError(f"unknown deformation variant {self.deformations!r}")
         if self.bifurcation not in BIFURCATION_CHOICES:
             raise ValueError(f"unknown bifurcation setting {self.bifurcation!r}")
+        if self.rotary_inertia not in ROTARY_CHOICES:
+            raise ValueError(f"unknown rotary inertia {self.rotary_inertia!r}; expected one of "
+                             f"{ROTARY_CHOICES}")
 
     @property
     def iterstep(self) -> IterStep:
@@ -262,7 +272,8 @@ class AnalysisSettings:
 
     def override(self, *, analysis: str | None = None, deformations: str | None = None,
                  n_modes: int | None = None, modes_each_step: bool | None = None,
-                 iterstep: IterStep | None = None) -> AnalysisSettings:
+                 iterstep: IterStep | None = None,
+                 rotary_inertia: str | None = None) -> AnalysisSettings:
         """A copy with the given choices replaced (None: keep); ``analysis`` and
         ``deformations`` are names as :func:`resolve_analysis` / :func:`resolve_deformations`
         accept them.
@@ -292,4 +303,6 @@ class AnalysisSettings:
                                  else modes_each_step)))
         if iterstep is not None:
             new = replace(new, static=replace(new.static, iterstep=iterstep))
+        if rotary_inertia is not None:
+            new = replace(new, rotary_inertia=str(rotary_inertia).strip().lower())
         return new

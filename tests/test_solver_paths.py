@@ -128,10 +128,12 @@ def test_baseline_comparison_floor_ignores_round_off_of_vanishing_values_only():
     assert _compare("/r", real, base, 1e-6, 1e-9, floor=1e-9) is not None
 
 
-def test_analytic_convective_terms_equal_the_differenced_ones():
+@pytest.mark.parametrize("rotary", ["lumped", "consistent"])
+def test_analytic_convective_terms_equal_the_differenced_ones(rotary):
     """The BEAM's dM/dt v and d(v^T M v)/dx (beam_convective) against unit central
     differences of its mass matrix, which are exact (M is quadratic in the Euler
-    parameters), and the transient inertia forces with and without them."""
+    parameters), and the transient inertia forces with and without them, for either
+    rotary inertia (lumped: the gyroscopic term of each end node's rigid body)."""
     import copy
 
     from spacarpy.elements import beam, beam_mass
@@ -142,15 +144,15 @@ def test_analytic_convective_terms_equal_the_differenced_ones():
     nx, ny, nz, l0 = beam.reference_triads(rng.standard_normal((n, 3)),
                                            rng.standard_normal((n, 3)), np.full((n, 3), np.nan))
     mass = np.abs(rng.standard_normal((n, 5)))
-    mdot_v, grad = beam_mass.beam_convective(x, v, nx, ny, nz, l0, mass)
+    mdot_v, grad = beam_mass.beam_convective(x, v, nx, ny, nz, l0, mass, rotary)
 
     def f(xx):
         return np.einsum("ni,nij,nj->n", v, beam_mass.beam_mass_matrix(xx, nx, ny, nz, l0,
-                                                                       mass), v)
+                                                                       mass, rotary), v)
     fd = np.stack([(f(x + e) - f(x - e)) / 2 for e in np.eye(14)], axis=1)
     assert np.allclose(grad, fd, rtol=1e-12, atol=1e-12 * np.abs(fd).max())
-    dm = (beam_mass.beam_mass_matrix(x + v, nx, ny, nz, l0, mass)
-          - beam_mass.beam_mass_matrix(x - v, nx, ny, nz, l0, mass)) / 2
+    dm = (beam_mass.beam_mass_matrix(x + v, nx, ny, nz, l0, mass, rotary)
+          - beam_mass.beam_mass_matrix(x - v, nx, ny, nz, l0, mass, rotary)) / 2
     md = np.einsum("nij,nj->ni", dm, v)
     assert np.allclose(mdot_v, md, rtol=1e-12, atol=1e-12 * np.abs(md).max())
 
@@ -160,12 +162,12 @@ def test_analytic_convective_terms_equal_the_differenced_ones():
     prob = StaticProblem(model)
     xg = prob.num.x0 + 0.05 * rng.standard_normal(prob.num.n_coord)
     vg, ag = rng.standard_normal((2, prob.num.n_coord))
-    fast = Inertia(model, prob.num)
+    fast = Inertia(model, prob.num, rotary)
     _, f_fast = fast.forces(xg, vg, ag)
     for g in prob.num.groups:                       # the same model without the gradient
         g.kind = copy.copy(g.kind)
         g.kind.convective = None
-    _, f_diff = Inertia(model, prob.num).forces(xg, vg, ag)
+    _, f_diff = Inertia(model, prob.num, rotary).forces(xg, vg, ag)
     assert np.allclose(f_fast, f_diff, rtol=1e-11, atol=1e-11 * np.abs(f_diff).max())
 
 
@@ -204,7 +206,12 @@ def test_few_modes_of_a_mid_size_model_come_from_the_sparse_solver_unchanged():
     assert lin.K.shape[0] > eigen.FEW_MODES_DENSE_LIMIT
     sparse = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10)
     dense = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10, dense_limit=10**6)
-    assert np.allclose(sparse.frequency, dense.frequency, rtol=1e-9)
+    # the dense solve's round-off on this pencil is 0.4e-9 to 1.7e-9 (measured; it depends
+    # on the BLAS threads); the sparse one's Rayleigh quotients are sharper: the y/z bending
+    # pairs agree to round-off
+    assert np.allclose(sparse.frequency, dense.frequency, rtol=1e-8)
+    f = sparse.frequency
+    assert np.allclose(f[[0, 2]], f[[1, 3]], rtol=1e-12)
     assert np.array_equal(sparse.kind, dense.kind)
     assert abs(dense.frequency[0] - 20.727) < 0.01       # first bending mode (Hz)
 

@@ -134,6 +134,8 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
            f"DEFORMATIONS {settings.deformations}", f"MODE {settings.analysis}"]
     if settings.bifurcation != "off":
         out.append(f"BIFURCATION {settings.bifurcation}")
+    if settings.rotary_inertia != "lumped":
+        out.append(f"ROTARYINERTIA {settings.rotary_inertia}")
     if lin.n_modes is not None:
         out.append(f"MODES {int(lin.n_modes)} {'each' if lin.modes_each_step else 'last'}")
     out.append("")

@@ -20,9 +20,12 @@ tangent(state, S, w) -> (n, n_ldof, n_ldof), optional
     adds the two.
 stiffness(props, ref) -> (n, n_def, n_def)
     From the ESTIFF values (n, len(estiff.names)).
-mass(x_local, ref, mass) -> (n, n_ldof, n_ldof), optional
-    From the EM values (n, len(em.names)).
-convective(x_local, v_local, ref, mass) -> (dM/dt v, d(v^T M v)/dx), each (n, n_ldof), optional
+mass(x_local, ref, mass, rotary="lumped") -> (n, n_ldof, n_ldof), optional
+    From the EM values (n, len(em.names)); ``rotary`` (``"lumped"`` or ``"consistent"``,
+    :mod:`spacarpy.elements.beam_mass`) is how a beam distributes its section rotary inertia
+    (a kind without one ignores it).
+convective(x_local, v_local, ref, mass, rotary="lumped") -> (dM/dt v, d(v^T M v)/dx), each
+    (n, n_ldof), optional
     The two parts of the convective terms; without it the transient solver differences the
     mass matrix.
 commit(state, prev) -> None, optional

@@ -379,7 +379,8 @@ def beam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
 
 class Beam(ElementKind):
     """``BEAM e p r q s [oy_x oy_y oy_z]``: the spatial DDM beam (kernels above; its
-    consistent mass in :mod:`spacarpy.elements.beam_mass`). Large kernels run chunk by
+    mass, with the section rotary inertia lumped or consistent, in
+    :mod:`spacarpy.elements.beam_mass`). Large kernels run chunk by
     chunk (:func:`spacarpy.elements.chunks.in_chunks`)."""
 
     keyword = "BEAM"
@@ -423,13 +424,13 @@ class Beam(ElementKind):
     def stiffness(self, props, ref):
         return stiffness_matrix(props, ref["l0"])
 
-    def mass(self, x, ref, m):
+    def mass(self, x, ref, m, rotary="lumped"):
         return in_chunks(beam_mass_matrix, len(x), x, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m)
+                         ref["l0"], m, rotary)
 
-    def convective(self, x, v, ref, m):
+    def convective(self, x, v, ref, m, rotary="lumped"):
         return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m)
+                         ref["l0"], m, rotary)
 
     def check(self, st, ref):
         return check_saturation(st, ref)

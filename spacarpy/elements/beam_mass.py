@@ -15,10 +15,21 @@ section has the inertia tensor, in the element axes (n_x, n_y, n_z),
     J = [[rho Ip, 0, 0], [0, rho Iy, -rho Iyz], [0, -rho Iyz, rho Iz]],
 
 from ``EM e rhoA rho(Iy+Iz) rhoIy rhoIz rhoIyz`` (Ip = Iy + Iz, the product term enters the
-tensor with a minus sign). The angular velocity is interpolated linearly between the nodes,
-with the body-frame angular velocity ``omega = 2 G(q) q_dot`` (G = [-lambda, lambda0 I -
-lambda~]), which gives the 4x4 blocks ``4 l0 c_ab G_a^T E J E^T G_b`` with
-c = [[1/3, 1/6], [1/6, 1/3]] and E = [n_x n_y n_z].
+tensor with a minus sign). With the body-frame angular velocity of an orientation node
+``omega = 2 G(q) q_dot`` (G = [-lambda, lambda0 I - lambda~]) the rotary kinetic energy is
+``1/2 sum_ab l0 c_ab omega_a^T E J E^T omega_b`` (E = [n_x n_y n_z], the element's initial
+axes, carried along by each node's rotation), i.e. the 4x4 blocks ``4 l0 c_ab G_a^T E J E^T
+G_b``, with the weights c of the choice ``rotary`` (:data:`ROTARY_WEIGHTS`):
+
+- ``"lumped"`` (SPACAR's, the default): c = [[1/2, 0], [0, 1/2]]. Each end orientation node
+  carries the rigid-body rotary inertia ``l0/2 E J E^T``; its convective term is the
+  gyroscopic ``omega x (J omega)`` of that body.
+- ``"consistent"``: c = [[1/3, 1/6], [1/6, 1/3]], the angular velocity interpolated linearly
+  along the element.
+
+Both give the same total rotary inertia ``l0 J`` of a rigid motion; they differ in how the
+inertia of a deforming element is distributed (docs/linearized.md compares their
+convergence).
 
 Local coordinates as in :mod:`spacarpy.elements.beam`: ``[r^p, q^p, r^q, q^q]`` (14).
 """
@@ -36,6 +47,19 @@ HERMITE_MASS = np.array([[156.0, 22.0, 54.0, -13.0],
                          [-13.0, -3.0, -22.0, 4.0]]) / 420.0
 #: int_0^1 N_a N_b dxi for linear interpolation.
 LINEAR_MASS = np.array([[1.0 / 3.0, 1.0 / 6.0], [1.0 / 6.0, 1.0 / 3.0]])
+#: The choices of the section rotary inertia (module docstring), the default first.
+ROTARY_CHOICES = ("lumped", "consistent")
+#: Weights c_ab (a, b = node p, q) of the section rotary inertia per choice.
+ROTARY_WEIGHTS = {"lumped": np.diag([0.5, 0.5]), "consistent": LINEAR_MASS}
+
+
+def rotary_weights(rotary: str) -> np.ndarray:
+    """The weights c_ab of :data:`ROTARY_WEIGHTS` for the choice ``rotary``."""
+    try:
+        return ROTARY_WEIGHTS[rotary]
+    except KeyError:
+        raise ValueError(f"unknown rotary inertia {rotary!r}; expected one of "
+                         f"{ROTARY_CHOICES}") from None
 
 
 def g_matrix(q: np.ndarray) -> np.ndarray:
@@ -78,8 +102,9 @@ def section_inertia(mass: np.ndarray) -> np.ndarray:
 
 
 def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
-                     l0: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """Consistent mass matrices (n_elem, 14, 14) at configurations x (n_elem, 14).
+                     l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped") -> np.ndarray:
+    """Mass matrices (n_elem, 14, 14) at configurations x (n_elem, 14): the consistent
+    translational mass and the section rotary inertia of the choice ``rotary``.
 
     Parameters
     ----------
@@ -88,7 +113,10 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     l0 : (n_elem,)
     mass : (n_elem, 5)
         EM data ``rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz`` (kg/m, kg m).
+    rotary : str
+        ``"lumped"`` or ``"consistent"`` (:data:`ROTARY_WEIGHTS`).
     """
+    c_ab = rotary_weights(rotary)
     n = x.shape[0]
     qp, qq = x[:, QP], x[:, QQ]
     hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
@@ -107,18 +135,21 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     if np.any(mass[:, 1:]):
         jg = _global_section_inertia(nx, ny, nz, mass)
         gp, gq = g_matrix(qp), g_matrix(qq)
-        for (sa, ga), (sb, gb), c in (((QP, gp), (QP, gp), LINEAR_MASS[0, 0]),
-                                      ((QP, gp), (QQ, gq), LINEAR_MASS[0, 1]),
-                                      ((QQ, gq), (QP, gp), LINEAR_MASS[1, 0]),
-                                      ((QQ, gq), (QQ, gq), LINEAR_MASS[1, 1])):
+        for (sa, ga), (sb, gb), c in (((QP, gp), (QP, gp), c_ab[0, 0]),
+                                      ((QP, gp), (QQ, gq), c_ab[0, 1]),
+                                      ((QQ, gq), (QP, gp), c_ab[1, 0]),
+                                      ((QQ, gq), (QQ, gq), c_ab[1, 1])):
+            if c == 0.0:                         # lumped: no coupling of p and q
+                continue
             m[:, sa, sb] += (4.0 * c * l0)[:, None, None] * (ga.transpose(0, 2, 1) @ jg @ gb)
     return m
 
 
 def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray,
-                    nz: np.ndarray, l0: np.ndarray, mass: np.ndarray):
-    """``(dM/dt v, d(v^T M v)/dx)``, both (n_elem, 14), of :func:`beam_mass_matrix` at
-    velocities v: the two parts of the convective term ``h = dM/dt v - grad/2`` of Eq. 60.
+                    nz: np.ndarray, l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped"):
+    """``(dM/dt v, d(v^T M v)/dx)``, both (n_elem, 14), of :func:`beam_mass_matrix` (with the
+    same ``rotary``) at velocities v: the two parts of the convective term
+    ``h = dM/dt v - grad/2`` of Eq. 60.
 
     Differencing M would cost 2 mass-matrix evaluations per Euler parameter. Analytically
     (M depends on the Euler parameters only):
@@ -131,8 +162,11 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
       ``dM/dt v = rho A l0 ((dN/dt)^T w + N^T w')``;
     - rotation: ``omega_a = G(q_a) v_a``, ``G(q) p = -G(p) q`` and ``G(p) p = 0``, so the
       q-gradient of ``sum_ab 4 l0 c_ab omega_a^T J omega_b`` is
-      ``-8 l0 sum_b c_ab G(v_a)^T J omega_b`` and ``dM/dt v`` is minus half of it.
+      ``-8 l0 sum_b c_ab G(v_a)^T J omega_b`` and ``dM/dt v`` is minus half of it. For the
+      lumped weights that is, node by node, the gyroscopic term ``omega x (J omega)`` of a
+      rigid body mapped onto the Euler parameters.
     """
+    c_ab = rotary_weights(rotary)
     n = x.shape[0]
     qp, qq = x[:, QP], x[:, QQ]
     vqp, vqq = v[:, QP], v[:, QQ]
@@ -159,7 +193,8 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
         jg = _global_section_inertia(nx, ny, nz, mass)
         om = [(g_matrix(q) @ vq[:, :, None])[..., 0] for q, vq in ((qp, vqp), (qq, vqq))]
         for a, (sl, vq) in enumerate(((QP, vqp), (QQ, vqq))):
-            jw = sum(LINEAR_MASS[a, b] * (jg @ om[b][:, :, None])[..., 0] for b in range(2))
+            jw = sum(c_ab[a, b] * (jg @ om[b][:, :, None])[..., 0] for b in range(2)
+                     if c_ab[a, b] != 0.0)
             rot = (8.0 * l0)[:, None] * (
                 g_matrix(vq).transpose(0, 2, 1) @ jw[:, :, None])[..., 0]
             grad[:, sl] -= rot

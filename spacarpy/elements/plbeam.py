@@ -4,6 +4,8 @@ A planar model holds z and the Euler parameters lambda1, lambda2 of every node a
 (:mod:`spacarpy.numbering`), so a BEAM in the plane has no torsion and no bending about its
 local y-axis; the PLBEAM keeps the in-plane modes 1 (elongation), 5 and 6 (bending in the x-y
 plane at p and q; rigidity EIz, shear flexibility cz) of :mod:`spacarpy.elements.beam`.
+Its section rotary inertia rhoIz (about the plane's normal) is the BEAM's, lumped or
+consistent as the BEAM's is (:mod:`spacarpy.elements.beam_mass`).
 """
 from __future__ import annotations
 
@@ -80,11 +82,11 @@ class PlBeam(ElementKind):
     def stiffness(self, props, ref):
         return _BEAM.stiffness(plbeam_props(props), ref)[:, PLBEAM_MODES[:, None], PLBEAM_MODES]
 
-    def mass(self, x, ref, m):
-        return _BEAM.mass(x, ref, plbeam_mass(m))
+    def mass(self, x, ref, m, rotary="lumped"):
+        return _BEAM.mass(x, ref, plbeam_mass(m), rotary)
 
-    def convective(self, x, v, ref, m):
-        return _BEAM.convective(x, v, ref, plbeam_mass(m))
+    def convective(self, x, v, ref, m, rotary="lumped"):
+        return _BEAM.convective(x, v, ref, plbeam_mass(m), rotary)
 
     def check(self, st, ref):
         return check_saturation(st.full, ref)

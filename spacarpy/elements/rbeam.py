@@ -56,7 +56,10 @@ with ``J_section`` the per-unit-length rotary inertia of the cross-section as in
     M = m N^T N + 4 G^T J_c G (q^p block),   N = [I, (l0/2) dn_x^p/dq^p, 0],
 
 whose r^q rows and columns are zero (q is a dependent point). It equals the kinetic energy of
-a rigid BEAM with the same EM data, and is exact for unit Euler parameters.
+a rigid BEAM with the same EM data, and is exact for unit Euler parameters. The section
+rotary inertia ``l0 J_section`` is that of the one rigid body of node p: the BEAM's choice
+of lumped or consistent rotary inertia (which differ only where the two end nodes rotate
+differently) does not apply, and both give this matrix for a rigid motion.
 """
 from __future__ import annotations
 
@@ -243,7 +246,7 @@ class RBeam(ElementKind):
     def stiffness(self, props, ref):
         return rbeam_stiffness(props[:, :3])
 
-    def mass(self, x, ref, m):
+    def mass(self, x, ref, m, rotary="lumped"):    # one rigid body: exact for either choice
         return rbeam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m)
 
     def gravity(self, x, ref, mass, g):

@@ -148,7 +148,7 @@ class Truss(ElementKind):
     def stiffness(self, props, ref):
         return truss_stiffness(props[:, :1], ref["l0"])
 
-    def mass(self, x, ref, m):
+    def mass(self, x, ref, m, rotary="lumped"):       # rotary: no section inertia
         return truss_mass_matrix(m[:, :1], ref["l0"])
 
     def gravity(self, x, ref, mass, g):

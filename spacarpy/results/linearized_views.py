@@ -95,6 +95,17 @@ class EigenView(_LinearizedView):
 
     kind_names = MODE_KIND_NAMES
 
+    @property
+    def n_modes_available(self) -> np.ndarray:
+        """(n_lin,) int: the number of finite modes each linearization has (degrees of
+        freedom minus the motions without inertia; -1: not counted). A file older than
+        schema 2.3 has no such dataset: its columns of kind 4 (infinite) were the surplus,
+        so the count of the other columns is returned (a lower bound where every column
+        was finite)."""
+        if self._res._has("eigen/n_modes_available"):
+            return self._array("n_modes_available").astype(np.int64)
+        return np.sum(self.kind != 4, axis=1).astype(np.int64)
+
 
 class BucklingView(_LinearizedView):
     """``/buckling``: load multipliers and buckling shapes."""

@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 4)
+SCHEMA_VERSION = (2, 5)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -239,6 +239,11 @@ def _spec_list() -> list[DatasetSpec]:
           "mass-normalized mode shape: position perturbation of each position node"),
         S("eigen/shape_euler", "f8", _LIN_SHAPE["euler"], "kg-1/2",
           "mass-normalized mode shape: Euler-parameter perturbation of each orientation node"),
+        S("eigen/n_modes_available", "i4", ("linearized_step",), "1",
+          "number of finite modes the linearization has: degrees of freedom minus the motions "
+          "without inertia (-1: not counted, where the sparse solver found only the lowest); the "
+          "lowest of them are stored",
+          (2, 5)),
         S("buckling/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),
         S("buckling/load_multiplier", "f8", _LIN_SHAPE["mode"], "1",

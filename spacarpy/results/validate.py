@@ -47,7 +47,7 @@ from spacarpy.results.schema import (
     new_name,
     slot_roles,
 )
-from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS
+from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
 
@@ -390,6 +390,9 @@ def _check_root_attrs(f: h5py.File, problems: list[str]) -> bool:
     if isinstance(a.get("deformations"), str) and a["deformations"] not in DEFORMATION_VARIANTS:
         problems.append(f"root attribute deformations is {a['deformations']!r}, expected one "
                         f"of {DEFORMATION_VARIANTS}")
+    if "rotary_inertia" in a and a["rotary_inertia"] not in ROTARY_CHOICES:
+        problems.append(f"root attribute rotary_inertia is {a['rotary_inertia']!r}, expected "
+                        f"one of {ROTARY_CHOICES}")
     completed = a.get("completed")
     if "completed" in a and not isinstance(completed, bool):
         problems.append(f"root attribute completed must be a boolean, not {completed!r}")

@@ -70,6 +70,13 @@ class RootAttributes:
     def deformations(self) -> str:
         return self.attrs["deformations"]
 
+    @property
+    def rotary_inertia(self) -> str:
+        """``"lumped"`` or ``"consistent"``: how the beams' section rotary inertia entered the
+        mass; ``"consistent"`` for a file without the attribute (spacarpy before schema 2.3
+        had only that)."""
+        return self.attrs.get("rotary_inertia", "consistent")
+
 
 # --------------------------------------------------------------------------------------------
 # model

@@ -39,7 +39,7 @@ from spacarpy.results.schema import (
     SCHEMA_VERSION,
     n_def,
 )
-from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS
+from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
 
@@ -95,7 +95,11 @@ class ResultsWriter:
     """
 
     def __init__(self, path, model: Model, *, program_version: str, deformations: str,
-                 analysis: str, model_data: dict | None = None):
+                 analysis: str, model_data: dict | None = None,
+                 rotary_inertia: str | None = None):
+        if rotary_inertia is not None and rotary_inertia not in ROTARY_CHOICES:
+            raise ValueError(f"unknown rotary inertia {rotary_inertia!r}; "
+                             f"expected one of {ROTARY_CHOICES}")
         if deformations not in DEFORMATION_VARIANTS:
             raise ValueError(f"unknown deformation variant {deformations!r}; "
                              f"expected one of {DEFORMATION_VARIANTS}")
@@ -110,6 +114,7 @@ class ResultsWriter:
         self.model_data = model_data
         self.program_version = str(program_version)
         self.deformations = deformations
+        self.rotary_inertia = rotary_inertia
         self.analysis = analysis
         #: element kinds of the file and their element counts
         self.kinds = {p.split("/")[2]: v.shape[0] for p, v in model_data.items()
@@ -309,17 +314,21 @@ class ResultsWriter:
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
-                   shape_euler) -> None:
+                   shape_euler, n_available: int | None = None) -> None:
         """Append the modes of one linearized static step (``step`` = its row in /static).
 
         Arrays may hold fewer modes than the group was created for; missing ones are NaN
         (kind 4). ``eigenvalue`` is complex (omega^2), ``shape_*`` (n_mode, n_pos, 3) and
-        (n_mode, n_rot, 4).
+        (n_mode, n_rot, 4). ``n_available``: the number of finite modes the linearization
+        has (``/eigen/n_modes_available``; -1: not counted; default: the finite modes given).
         """
         lam = np.asarray(eigenvalue, dtype=complex)
+        if n_available is None:
+            n_available = int(np.sum(np.asarray(kind) != 4))
         self._append_linearized("eigen", step, {
             "frequency": frequency, "eigenvalue_real": lam.real, "eigenvalue_imag": lam.imag,
-            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
+            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler,
+            "n_modes_available": n_available})
 
     def buckling_step(self, step: int, load_multiplier, critical: float, shape_position,
                       shape_euler, kind=None) -> None:
@@ -531,7 +540,7 @@ class ResultsWriter:
         rows = {}
         for name, value in values.items():
             trailing, dtype = entry["shapes"][name], entry["dtypes"][name]
-            fill = 4 if name == "kind" else 0 if dtype.kind in "iu" else np.nan
+            fill = 4 if name == "kind" else np.nan if dtype.kind in "fc" else -1
             row = np.full(trailing, fill, dtype=dtype)
             given = np.asarray(value, dtype=dtype)
             if given.ndim:
@@ -592,6 +601,8 @@ class ResultsWriter:
         a["deck_text"] = text    # also here, so the run is identified from the root alone
         a["analysis"] = self.analysis
         a["deformations"] = self.deformations
+        if self.rotary_inertia is not None:
+            a["rotary_inertia"] = self.rotary_inertia
         create(f, "deck", text, dtype=h5py.string_dtype("utf-8"))
         for path, value in self.model_data.items():
             if path not in DATASETS:

@@ -9,18 +9,29 @@ eigenvalues nearest to a small negative shift (the lowest modes, rigid-body mode
 Every mode is classified (:data:`KIND_NAMES`): elastic; rigid-body (no element deforms: the
 deformation rates ``D v`` vanish, and no stress resultant holds the motion either); unstable
 (real negative w^2: the state has buckled or is a maximum of the potential); complex
-(non-conservative loading, flutter-type); or infinite (a coordinate without inertia).
-Nothing is dropped: unusual modes are reported with a warning.
+(non-conservative loading, flutter-type). Unusual modes are reported with a warning. An
+infinite eigenvalue (a motion without inertia) is not a mode and is not returned (below); the
+kind code INFINITE is kept for the padding of a results file whose step has fewer modes than
+its columns, and for files written before.
+
+**The modes a model has.** A model with ``n_dof`` degrees of freedom (the dimension of the
+null space of C) has ``n_dof`` eigenvalues, of which the motions without inertia (the null
+space of the reduced mass ``T^T M0 T``) are infinite: they are constraints in disguise, not
+vibrations. The finite ones, ``n_dof`` minus the motions without inertia (the rank of the
+reduced mass, for a stiffness that is regular on those motions), are the modes the model
+has (:attr:`Modes.n_available`). :func:`eigenmodes` returns the lowest ``n_modes`` of them,
+fewer when the model has fewer, and never an infinite mode as if it were one;
+:func:`finite_mode_count` counts them beforehand (the results file is sized with it).
 
 Round-off never decides a classification or an order. With ``v`` a mode's unit eigenvector,
 ``n`` the number of coordinates and eps machine epsilon, a mode is **infinite** when
 ``|v^T M v| <= SAFETY n eps ||M||_F`` (a round-off-size change of M could make it infinite:
-LAPACK returns such an eigenvalue as inf, nan or 1e16 depending on the BLAS); it is stored as
-``inf``. The test applies where M is not positive definite (a positive definite M, checked by
-its Cholesky factorization in the dense solve, has no infinite modes). A mode is rigid-body
+LAPACK returns such an eigenvalue as inf, nan or 1e16 depending on the BLAS); it is dropped.
+The test applies where M is not positive definite (a positive definite M, checked by its
+Cholesky factorization in the dense solve, has no infinite modes). A mode is rigid-body
 when its deformation rates are below 1e-7 of its size and its eigenvalue below 1e-9 of the
-largest diagonal stiffness-to-mass ratio (:func:`_rigid_mask`), bounds far
-above round-off. Modes are ordered by ``|w^2|`` (infinite ones last); magnitudes equal to
+largest diagonal stiffness-to-mass ratio (:func:`_rigid_mask`), bounds far above round-off.
+Modes are ordered by ``|w^2|``; magnitudes equal to
 :data:`TIE_RTOL` (an unstable/elastic ``-w^2, +w^2`` pair, complex conjugates) by signed real
 part, then by imaginary part, positive first. Each shape's first largest component is
 positive (:func:`canonical_sign`).
@@ -70,12 +81,16 @@ class Modes:
     shape : (n_x, n_mode) float
         Mode shapes over the free coordinates (real part), mass-normalized where the
         modal mass is positive, else scaled to a largest component of 1.
+    n_available : int or None
+        The number of finite modes the linearization has (module docstring); None where
+        the sparse solver computed only the lowest ones.
     """
 
     eigenvalue: np.ndarray
     frequency: np.ndarray
     kind: np.ndarray
     shape: np.ndarray
+    n_available: int | None = None
 
 
 def null_space_basis(C: sp.spmatrix, n_x: int) -> np.ndarray:
@@ -191,9 +206,9 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
         raise ValueError("no mass: an eigenfrequency analysis needs EM or XM data")
     n_x = lin.K.shape[0]
     if dense_limit is None:
-        dense_limit = DENSE_LIMIT if 4 * n_modes >= n_x else min(DENSE_LIMIT,
-                                                                  FEW_MODES_DENSE_LIMIT)
-    if n_x <= dense_limit:
+        dense_limit = default_dense_limit(n_x, n_modes)
+    dense = n_x <= dense_limit
+    if dense:
         lam, vec, definite = _dense(lin, n_x)
     else:
         definite = False
@@ -201,18 +216,44 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
         lam = _rayleigh(lin, num, free, lam, vec)
     if not definite:
         lam = np.where(infinite_mask(lam, vec, lin.M), complex(np.inf, 0.0), lam)
-    key = np.where(np.isfinite(lam), np.abs(lam.real), np.inf)
-    order = canonical_order(key, np.where(np.isfinite(lam), lam.real, np.inf), -lam.imag)
+    finite = np.isfinite(lam)
+    n_available = int(finite.sum()) if dense else None
+    lam, vec = lam[finite], vec[:, finite]             # infinite: not modes of the model
+    key = np.abs(lam.real)
+    order = canonical_order(key, lam.real, -lam.imag)
     lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
     vec = _normalize(canonical_sign(vec), lin.M)
     rigid = _rigid_mask(lin, num, free, vec, lam)
     kind = classify(lam, rigid)
     for k, name in ((UNSTABLE, "negative w^2 (unstable or buckled state)"),
-                    (COMPLEX, "complex w^2 (non-conservative loading)"),
-                    (INFINITE, "infinite (coordinates without inertia)")):
+                    (COMPLEX, "complex w^2 (non-conservative loading)")):
         if np.any(kind == k):
             log.warning("%d mode(s) with %s", int(np.sum(kind == k)), name)
-    return Modes(eigenvalue=lam, frequency=frequencies(lam, kind), kind=kind, shape=vec)
+    return Modes(eigenvalue=lam, frequency=frequencies(lam, kind), kind=kind, shape=vec,
+                 n_available=n_available)
+
+
+def default_dense_limit(n_x: int, n_modes: int) -> int:
+    """The size up to which :func:`eigenmodes` solves densely when asked for ``n_modes`` of
+    ``n_x`` free coordinates (see there)."""
+    return DENSE_LIMIT if 4 * n_modes >= n_x else min(DENSE_LIMIT, FEW_MODES_DENSE_LIMIT)
+
+
+def finite_mode_count(lin, n_modes: int) -> tuple[int, int] | None:
+    """``(n_available, n_dof)`` of a linearization: its degrees of freedom (the null space of
+    C) and, of them, the finite modes (module docstring): ``n_dof`` minus the motions without
+    inertia, the eigenvalues of the reduced mass ``T^T M T`` (T orthonormal) at most
+    ``SAFETY n eps ||M||_F``, the bound of :func:`infinite_mask`. None where
+    :func:`eigenmodes` would take the sparse solver for ``n_modes`` modes: the dense count
+    would cost more than the solve (for a few modes of 2450 coordinates, 4 times the run)."""
+    n_x = lin.K.shape[0]
+    if lin.M is None or n_x > default_dense_limit(n_x, n_modes):
+        return None
+    T = null_space_basis(lin.C, n_x)
+    m = T.T @ (lin.M @ T)
+    mu = sla.eigvalsh(0.5 * (m + m.T)) if m.size else np.zeros(0)
+    bound = SAFETY * n_x * np.finfo(float).eps * _norm(lin.M)
+    return int(np.sum(mu > bound)), int(T.shape[1])
 
 
 def _dense(lin, n_x):

@@ -1,8 +1,9 @@
 """Inertia forces of the whole model over all nodal coordinates: ``M(x) a + h(x, v)``.
 
-The kinetic energy is ``T = 1/2 v^T M(x) v`` with the consistent element mass matrices of the
-kernels (beam: Hermite centre line and rotary inertia, Eq. 57-59; truss; rigid rod) and the
-nodal masses (XM). Lagrange's equations give the generalized inertia force
+The kinetic energy is ``T = 1/2 v^T M(x) v`` with the element mass matrices of the kernels
+(beam: Hermite centre line, Eq. 57-59, and the section rotary inertia lumped at the end
+orientation nodes or consistent, the choice ``rotary``; truss; rigid rod) and the nodal
+masses (XM). Lagrange's equations give the generalized inertia force
 
     d/dt (dT/dv) - dT/dx = M a + h,   h = (dM/dt) v - 1/2 d(v^T M v)/dx        (Eq. 60)
 
@@ -46,8 +47,11 @@ class _Batch(NamedTuple):
 class Inertia:
     """Mass matrix and inertia forces of a model over all ``n_coord`` coordinates."""
 
-    def __init__(self, model, num):
+    def __init__(self, model, num, rotary: str = "lumped"):
         self.num = num
+        #: the beams' section rotary inertia, ``"lumped"`` or ``"consistent"``
+        #: (:mod:`spacarpy.elements.beam_mass`)
+        self.rotary = rotary
         point = nodal_masses(model, num)
         self.point_idx, self.point_mass = point.point_idx, point.point_mass
         self.rot_idx = num.rot_idx[point.rot_nodes].reshape(-1, 4)
@@ -95,7 +99,7 @@ class Inertia:
             def mass_of(xl, reps, g=g):
                 ref = {k: np.concatenate([v] * reps) if isinstance(v, np.ndarray) else v
                        for k, v in g.ref.items()}
-                return g.kind.mass(xl, ref, np.concatenate([g.mass] * reps))
+                return g.kind.mass(xl, ref, np.concatenate([g.mass] * reps), self.rotary)
             # local Euler-parameter coordinates: the only ones the mass matrix depends on
             rot = np.concatenate([np.arange(4) + sum(3 if t == "pos" else 4
                                                      for t in g.kind.slots[:j])
@@ -104,7 +108,7 @@ class Inertia:
             conv_of = None
             if g.kind.convective is not None:
                 def conv_of(xl, vl, g=g):
-                    return g.kind.convective(xl, vl, g.ref, g.mass)
+                    return g.kind.convective(xl, vl, g.ref, g.mass, self.rotary)
             out.append(_Batch(mass_of, g.idx, rot, conv_of))
         pm, jr = self.point_mass, self.rot_inertia
         out.append(_Batch((lambda xl, reps: np.tile(pm, reps)[:, None, None] * np.eye(3)),

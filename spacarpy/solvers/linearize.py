@@ -8,7 +8,9 @@ subject to the linearized constraints ``C dx = 0``, are
 with K0 = D^T S D (material), G0 = sum sigma_i d2e_i/dx2 + the second derivatives of the
 other constraints times their multipliers (geometric), N0 = -d f_ext/dx (moments), M0 the
 consistent mass. spacarpy keeps them in full free coordinates with the constraint Jacobian
-C beside them; the degrees of freedom are the null space of C. The eigen solvers either
+C beside them; the degrees of freedom are the null space of C. M0 takes the beams' section
+rotary inertia lumped (SPACAR's) or consistent, the choice ``rotary`` of
+:class:`MassAssembler`. The eigen solvers either
 reduce to an orthonormal null-space basis T (dense, small models: ``T^T K T`` etc.) or work
 on the bordered pencil ``[[K, C^T], [C, 0]] - lambda [[M, 0], [0, 0]]`` (sparse
 shift-invert, large models): both give the same eigenvalues.
@@ -60,8 +62,10 @@ class Linearization:
 class MassAssembler:
     """Assembles the mass matrix over the free coordinates of a model on a fixed pattern."""
 
-    def __init__(self, model, num):
+    def __init__(self, model, num, rotary: str = "lumped"):
         self.model, self.num = model, num
+        #: the beams' section rotary inertia (:mod:`spacarpy.elements.beam_mass`)
+        self.rotary = rotary
         u = num.unknown_of
         point = nodal_masses(model, num)
         self.point_idx, self.point_mass = point.point_idx, point.point_mass
@@ -78,7 +82,7 @@ class MassAssembler:
 
     def matrix(self, x: np.ndarray) -> sp.csc_matrix:
         num = self.num
-        blocks = [g.kind.mass(x[g.idx], g.ref, g.mass) for g in self.groups]
+        blocks = [g.kind.mass(x[g.idx], g.ref, g.mass, self.rotary) for g in self.groups]
         m_pt = self.point_mass[:, None, None] * np.eye(3)
         m_rot = nodal_rotary_mass(x[num.rot_idx[self.rot_nodes]], self.rot_inertia)
         return self.pattern.assemble(blocks + [m_pt, m_rot])

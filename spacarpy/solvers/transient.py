@@ -72,6 +72,7 @@ class TransientOptions:
     phi: TimeFunction = field(default_factory=TimeFunction)
     error: tuple | None = None               # ERROR (abs, rel): adaptive step size
     deformations: str = "modified"
+    rotary_inertia: str = "lumped"           # ROTARYINERTIA: the beams' section inertia
     initial_velocities: dict = field(default_factory=dict)   # node -> (3,) VELOCITY
 
     @classmethod
@@ -85,6 +86,7 @@ class TransientOptions:
                    rho_inf=tr.rho_inf, tol=min(it.tol, 1e-10), max_iter=max(it.max_iter, 20),
                    start=tr.start, phi=TimeFunction(*tr.time_function),
                    deformations=settings.deformations,
+                   rotary_inertia=settings.rotary_inertia,
                    initial_velocities=dict(tr.initial_velocities))
 
 
@@ -160,7 +162,7 @@ class TransientProblem:
         self.model, self.opts = model, opts
         self.prob = prob or StaticProblem(model, deformations=opts.deformations)
         self.num = self.prob.num
-        self.inertia = Inertia(model, self.num)
+        self.inertia = Inertia(model, self.num, rotary=opts.rotary_inertia)
         self.free = self.prob.free
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
         self.level = 0.0                 # largest force level of the accepted states

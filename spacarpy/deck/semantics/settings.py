@@ -1,10 +1,11 @@
 """Deck semantics, analysis settings: what to compute, not what the structure is.
 
-MODE, DEFORMATIONS, BIFURCATION, ITERSTEP, ARCLENGTH, MODES, TIMESTEP, ERROR, SUBSTEPS, RHOINF,
-START, TIMEFUNCTION and VELOCITY become one :class:`spacarpy.settings.AnalysisSettings`; OUTLEVEL is
-read and has no effect (a warning). Checked here: values out of their range or not among the
-choices, keywords given twice, time functions against :mod:`spacarpy.time_functions`,
-initial velocities of nodes that do not exist.
+MODE, DEFORMATIONS, ROTARYINERTIA, BIFURCATION, ITERSTEP, ARCLENGTH, MODES, TIMESTEP, ERROR,
+SUBSTEPS, RHOINF, START, TIMEFUNCTION and VELOCITY become one
+:class:`spacarpy.settings.AnalysisSettings`; OUTLEVEL is read and has no effect (a warning).
+Checked here: values out of their range or not among the choices, keywords given twice, time
+functions against :mod:`spacarpy.time_functions`, initial velocities of nodes that do not
+exist.
 """
 from __future__ import annotations
 
@@ -38,6 +39,7 @@ class _SettingsPass(UsesTopology):
         self.ctx, self.errors, self.topology = ctx, errors, topology
         self.analysis: str | None = None
         self.deformations: str | None = None
+        self.rotary_inertia = "lumped"
         self.bifurcation = "off"
         self.iterstep: IterStep | None = None
         self.arclength: ArcLength | None = None
@@ -55,6 +57,7 @@ class _SettingsPass(UsesTopology):
         return AnalysisSettings(
             analysis=self.analysis or "static",
             deformations=self.deformations or "modified",
+            rotary_inertia=self.rotary_inertia,
             bifurcation=self.bifurcation,
             static=StaticSettings(iterstep=self.iterstep or IterStep(),
                                   arclength=self.arclength),
@@ -191,6 +194,17 @@ class _SettingsPass(UsesTopology):
                                              f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
         self.deformations = value
 
+    def rotary_inertia_line(self, st: Statement) -> None:
+        """``ROTARYINERTIA lumped|consistent`` (the choices of its field)."""
+        if not self.ctx.once(st, self.errors):
+            return
+        value, spec = st["choice"], st.field_spec("choice")
+        if not spec.accepts(value):
+            self.error(st.loc_of("choice"), f"ROTARYINERTIA: unknown choice '{value}'; "
+                                            f"expected {' or '.join(spec.choices)}", st)
+            return
+        self.rotary_inertia = str(value).lower()
+
     def time_function_line(self, st: Statement) -> None:
         """``TIMEFUNCTION kind p...``, checked against :mod:`spacarpy.time_functions`."""
         kind = str(st["kind"]).lower()
@@ -286,6 +300,7 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
     for keyword, line in (("ITERSTEP", part.iterstep_line), ("MODE", part.mode_line),
                           ("ARCLENGTH", part.arclength_line),
                           ("DEFORMATIONS", part.deformations_line),
+                          ("ROTARYINERTIA", part.rotary_inertia_line),
                           ("BIFURCATION", part.bifurcation_line), ("MODES", part.modes_line)):
         for st in by_kw.get(keyword, []):
             line(st)
