@@ -1,4 +1,4 @@
-"""Stream an analysis into a crash-safe results file (schema 2.3): :class:`ResultsWriter`.
+"""Stream an analysis into a crash-safe results file: :class:`ResultsWriter`.
 
 This module's one job is writing: the writer receives arrays (the ``/model`` datasets from
 :func:`spacarpy.results.model_data.model_datasets`, then every step's results) and stores them
@@ -12,6 +12,10 @@ fsync) is :mod:`spacarpy.results.h5file`'s.
   (``/static/load_factor``, ``/transient/time``, ``/<group>/step``) and flushing again.
 - A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
   cleanly with ``completed = False`` and the error message; the partial file is kept.
+
+The module is longer than 600 lines because it is one class with one method per step group
+(static, transient, eigen, buckling, compliance, state space, critical points), all sharing
+the commit protocol above; split over modules, that protocol would have to be shared too.
 """
 from __future__ import annotations
 
