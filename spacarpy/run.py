@@ -6,9 +6,14 @@ appended to the results file as soon as it is computed.
 
 Analyses
 --------
-static (SPACAR 10)
+static
     Load steps of ITERSTEP; with ``modes_per_step`` also frequencies (if the model has mass)
-    and buckling multipliers (if it is loaded) at every step, as SPACAR's mode 10 does.
+    and buckling multipliers (if it is loaded) at every step.
+static_linearized (SPACAR 10)
+    The static path with, at every step, the frequencies and buckling multipliers (as
+    ``modes_per_step``) and the linearized equations of state_space below (M0, C0, K0, B0 and
+    A, B, C, D; with no INPUTF/OUT* lines B0, B, C, D have no columns/rows). A model without
+    mass, or without SPACAR's degrees of freedom, stores no /state_space (a warning says why).
 eigen (SPACAR 4/7)
     The static load path (if any), then natural frequencies and mode shapes about the final
     state (about every step with ``modes_per_step``).
@@ -37,7 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spacarpy import __version__
-from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
@@ -95,8 +100,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
 
     opts = options or RunOptions()
     n_modes = settings.linearized.count
-    modes_per_step = settings.linearized.modes_each_step
     analysis = settings.analysis
+    static_lin = analysis == "static_linearized"          # SPACAR mode 10
+    modes_per_step = settings.linearized.modes_each_step or static_lin
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
     if analysis == "check":
@@ -120,7 +126,11 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "buckling" and not problem.loads.any:
         raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
                                  "scale the stresses that load causes")
-    want_ss = analysis == "state_space"
+    want_ss = analysis == "state_space" or (static_lin and mass.has_mass)
+    if static_lin and not mass.has_mass:
+        log.warning("SPACAR mode 10 stores the linearized equations (/state_space) only for "
+                    "a model with mass (EM lines, XM masses); this one has none, so it stores "
+                    "the static path with buckling multipliers at every step")
     signals = settings.linearized.inputs + settings.linearized.outputs
     if signals and not want_ss:
         log.warning("the INPUTF/OUT* lines (%s) define the state space of MODE state_space "
@@ -142,7 +152,16 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     n_steps = settings.static.iterstep.n_steps
     summary = RunSummary()
 
-    ss_setup = _state_space_setup(problem, settings) if want_ss else None
+    ss_setup = None
+    if want_ss:
+        try:
+            ss_setup = _state_space_setup(problem, settings)
+        except ModelError as exc:
+            if not static_lin:
+                raise
+            log.warning("SPACAR mode 10: no linearized equations (/state_space) are stored: "
+                        "%s", exc)
+            want_ss = False
     model_data = model_datasets(model, num)
     surface_stress = SurfaceStress(model_data)
     with ResultsWriter(out, model, program_version=__version__, model_data=model_data,

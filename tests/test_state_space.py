@@ -228,7 +228,8 @@ def test_export_state_space_errors(ss_file, eigen_file, tmp_path, capsys):
 
 @pytest.mark.parametrize("number, name", [(0, "check"), (1, "transient"), (4, "eigen"),
                                           (7, "eigen"), (8, "buckling"), (9, "state_space"),
-                                          (10, "static"), (-9, "state_space"), ("-10", "static")])
+                                          (10, "static_linearized"), (-9, "state_space"),
+                                          ("-10", "static_linearized"), ("static", "static")])
 def test_spacar_mode_numbers(number, name):
     assert resolve_analysis(number) == name
 
