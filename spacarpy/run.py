@@ -33,6 +33,10 @@ transient (SPACAR 1)
     With START static the static load path first (stored in /static), then the time
     integration of TIMESTEP (:mod:`spacarpy.solvers.transient`), every time step appended to
     /transient as it is computed.
+transient_linearized (SPACAR 3)
+    The transient, and at every stored time step the linearized equations about the state
+    of the trajectory (:mod:`spacarpy.solvers.trajectory`) in /state_space, whose ``step``
+    is the row of /transient and ``time`` its time.
 """
 from __future__ import annotations
 
@@ -111,7 +115,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if any(model.gravity) and not mass.has_mass:
         log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
                     "XM nodal masses)")
-    transient = analysis == "transient"
+    transient = analysis in ("transient", "transient_linearized")
     if transient and settings.transient.timestep is None:
         raise AnalysisInputError("MODE transient needs the time span: TIMESTEP t_end n_steps "
                                  "in the data module")
@@ -126,7 +130,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "buckling" and not problem.loads.any:
         raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
                                  "scale the stresses that load causes")
-    want_ss = analysis == "state_space" or (static_lin and mass.has_mass)
+    want_ss = analysis in ("state_space", "transient_linearized") or (static_lin
+                                                                      and mass.has_mass)
     if static_lin and not mass.has_mass:
         log.warning("SPACAR mode 10 stores the linearized equations (/state_space) only for "
                     "a model with mass (EM lines, XM masses); this one has none, so it stores "
@@ -137,7 +142,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                     "(SPACAR 9); this %s analysis does not use them", signals[0].name,
                     analysis)
     if want_ss and not mass.has_mass:
-        raise AnalysisInputError("MODE state_space (SPACAR 9) needs mass: give EM lines for "
+        raise AnalysisInputError(f"MODE {analysis} needs mass: give EM lines for "
                                  "the elements (or XM nodal masses)")
     want_compliance = opts.compliance_node is not None
     if want_compliance:
@@ -189,22 +194,29 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 msg += _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen,
                                         want_buckling,
                                         compliance_rows if want_compliance else None, summary)
-            if want_ss:
+            if want_ss and not transient:
                 msg += _state_space_step(problem, mass, step, k, writer, settings, ss_setup[0])
             log.info(msg)
 
         if transient:
-            _run_transient(model, settings, problem, writer, on_step, opts, summary)
+            _run_transient(model, settings, problem, writer, on_step, opts, summary,
+                           ss_setup[0] if want_ss else None)
         else:
             solve_static(model, settings, problem=problem, on_step=on_step)
         writer.finish()
     return summary
 
 
-def _run_transient(model, settings, problem, writer, on_static_step, opts, summary):
-    from spacarpy.solvers.transient import TransientOptions, solve_transient
+def _run_transient(model, settings, problem, writer, on_static_step, opts, summary,
+                   ss_layout=None):
+    from spacarpy.solvers.transient import TransientOptions, TransientProblem, solve_transient
     num = problem.num
     topts = TransientOptions.from_settings(settings)
+    along = None
+    if ss_layout is not None:                   # SPACAR 3: linearize every stored time step
+        from spacarpy.solvers.trajectory import TrajectoryLinearizer
+        along = TrajectoryLinearizer(TransientProblem(model, topts, problem), ss_layout,
+                                     settings.linearized.inputs, settings.linearized.outputs)
     n_steps = topts.n_steps
     width = len(str(n_steps))
 
@@ -218,6 +230,8 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
             external_work=step.external_work, iterations=step.iterations,
             residual=step.residual, dissipated_energy=step.dissipated_energy)
         k = summary.n_time
+        if along is not None:
+            writer.state_space_step(k, along(step), time=step.time)
         summary.n_time += 1
         if k % max(n_steps // 20, 1) == 0 or k == n_steps:
             log.info(f"time step {k:>{width}}/{n_steps}  t = {step.time:.6g} s  "
