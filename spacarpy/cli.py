@@ -111,7 +111,8 @@ def build_parser() -> argparse.ArgumentParser:
                           "linearized equations, frequencies and buckling at every step), "
                           "eigen (4, 7), buckling (8), transient (1), check (0: mechanism "
                           "and DOF report, no solve), state_space (9: the linearized state "
-                          "space); a negative SPACAR "
+                          "space), transient_linearized (3: the linearized equations at "
+                          "every time step); a negative SPACAR "
                           "number runs silently (as -q); overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "

@@ -117,10 +117,10 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                     "XM nodal masses)")
     transient = analysis in ("transient", "transient_linearized")
     if transient and settings.transient.timestep is None:
-        raise AnalysisInputError("MODE transient needs the time span: TIMESTEP t_end n_steps "
+        raise AnalysisInputError(f"MODE {analysis} needs the time span: TIMESTEP t_end n_steps "
                                  "in the data module")
     if transient and not mass.has_mass:
-        raise AnalysisInputError("MODE transient needs mass: give EM lines for the elements "
+        raise AnalysisInputError(f"MODE {analysis} needs mass: give EM lines for the elements "
                                  "(or XM nodal masses)")
     want_eigen = analysis == "eigen" or (modes_per_step and mass.has_mass)
     want_buckling = analysis == "buckling" or (modes_per_step and problem.loads.any)

@@ -64,6 +64,52 @@ def test_pendulum_along_the_swing(pendulum):
     np.testing.assert_allclose(A[:, 1, 0], -K0 / M0, rtol=1e-12)
 
 
+GYRO = """MODE 3
+RHOINF 1
+HINGE 10 2 4 1 0 0
+HINGE 20 4 6 0 1 0
+HINGE 30 6 8 0 0 1
+RLSE 10 1
+RLSE 20 1
+INPUTE 30 1
+FIX 2
+END
+HALT
+XM 8 {jt} 0 0 {jt} 0 {jp}
+INPUTE 30 1 0.0 {omega} 0.0
+TIMESTEP 0.1 4
+END
+END
+"""
+
+
+def test_spinning_disc_gyroscopic_damping(tmp_path):
+    """(b) A symmetric disc (J_t = 0.3, J_p = 0.5 kg m^2) in a Cardan suspension: tilt hinges
+    about x (alpha) and then y (beta), free; the spin hinge about the disc's axis driven at
+    Omega = 7 rad/s. T = J_t (alpha'^2 cos^2 beta + beta'^2)/2 + J_p (gamma' + alpha' sin
+    beta)^2/2 gives, about alpha = beta = 0, M0 = J_t I, K0 = 0 and the gyroscopic
+    C0 = J_p w [[0, 1], [-1, 0]] with w the spin rate of the stored state (the integrator's,
+    within 2e-3 of Omega with RHOINF 1)."""
+    jt, jp, omega = 0.3, 0.5, 7.0
+    job = job_from_text(GYRO.format(jt=jt, jp=jp, omega=omega), "gyro.dat")
+    out = tmp_path / "gyro.h5"
+    run_model(job.model, job.settings, out)
+    assert validate_file(out, require_complete=True) == []
+    import h5py
+    with h5py.File(out) as f:
+        q, qd = f["transient/euler"][:, -1], f["transient/euler_rate"][:, -1]
+        M0, C0, K0 = (f[f"state_space/{n}"][()] for n in ("M0", "C0", "K0"))
+        names = [s.decode() for s in f["state_space/state_name"][()]]
+    assert names[:2] == ["HINGE 10 mode 1", "HINGE 20 mode 1"]
+    w = 2 * (q[:, 0] * qd[:, 3] - q[:, 3] * qd[:, 0])        # spin rate about z
+    np.testing.assert_allclose(w, omega, rtol=2e-3)
+    skew = np.array([[0.0, 1.0], [-1.0, 0.0]])
+    np.testing.assert_allclose(M0, np.broadcast_to(jt * np.eye(2), M0.shape), rtol=0,
+                               atol=1e-9 * jt)
+    np.testing.assert_allclose(C0, jp * w[:, None, None] * skew, rtol=0, atol=1e-7 * jp * omega)
+    np.testing.assert_allclose(K0, 0.0, atol=1e-7 * jp * omega**2)
+
+
 def _rest_deck():
     text = (DECKS / "state_space_cantilever.dat").read_text()
     text = re.sub(r"^DELXF .*$", "", text, flags=re.M)

@@ -19,7 +19,10 @@ Phi^T (which removes the constraint forces) gives ``M0 dq'' + C0 dq' + K0 dq = B
 where ``M = dr/da``, ``C_v = dr/dv`` (damping, and the gyroscopic / convective inertia
 terms) and ``K_x = dr/dx`` (stiffness, geometric and constraint-force terms, and the
 derivative of the inertia forces with respect to the coordinates), each at the state.
-At rest (v = a = 0) Phi' = Phi'' = 0 and the matrices are mode 9's.
+At rest (v = a = 0) Phi' = Phi'' = 0 and the matrices are mode 9's. The state is the stored
+(t, x, v) with the accelerations and multipliers of the equations of motion there, not the
+integrator's (its recurrences leave an error in the acceleration of driven coordinates,
+undamped with RHOINF 1, and in the multipliers, whose tension enters K_x).
 
 How they are computed (documented approximation): r is evaluated by
 :meth:`spacarpy.solvers.transient.TransientProblem.residual`; ``M Phi`` exactly (r is
@@ -30,7 +33,7 @@ Taylor path, whose first and second derivatives at s = 0 are Phi' and Phi'' exac
 1e-3 of the length scale). The cost is about 6 n_dof + 3 residual evaluations and three
 linearizations per stored step. Outputs: ``OUTX``/``OUTE`` rows ``R Phi`` on q; the rates
 ``OUTXP``/``OUTEP`` are ``R v``, so ``R Phi`` on q' and ``(R Phi)'`` on q.
-tests/test_mode3.py checks a swinging pendulum against its closed form.
+tests/test_mode3.py checks a swinging pendulum and a spinning disc against closed forms.
 """
 from __future__ import annotations
 
@@ -90,15 +93,15 @@ class TrajectoryLinearizer:
     def _r(self, t, x, v, a, mu) -> np.ndarray:
         return self.tp.residual(t, x, v, a, mu).r
 
-    def consistent_multipliers(self, t, x, v, a, mu) -> np.ndarray:
-        """The multipliers that make r(x, v, a, mu) vanish at the stored (x, v, a): r is
-        affine in mu, ``r(mu + dmu) = r(mu) + C^T dmu``, solved for dmu in least squares.
-        (The stored multipliers are those of the integrator's step, not exactly the
-        constraint forces of the stored acceleration; the tension they carry enters K_x.)"""
-        res = self.tp.residual(t, x, v, a, mu)
-        G = self.tp.constraint_jacobian(res.ev).T.toarray()
-        dmu = np.linalg.lstsq(G, -res.r, rcond=None)[0]
-        return mu + dmu
+    def consistent_state(self, t, x, v, mu):
+        """The accelerations and multipliers of the equations of motion at the stored
+        (t, x, v) (:func:`spacarpy.solvers.transient._initial_acceleration` at time t). The
+        stored ones are the integrator's: its recurrences leave an error in the acceleration
+        of constraint-driven coordinates (undamped with RHOINF 1) and in the multipliers,
+        whose tension enters K_x."""
+        from spacarpy.solvers.transient import _initial_acceleration
+        a_presc = self.tp.prescribed(t)[3]
+        return _initial_acceleration(self.tp, x, v, mu, a_presc, t=t)
 
     def _directional(self, t, x, v, a, mu, wrt: str, d: np.ndarray) -> np.ndarray:
         """Central difference of r along the free-coordinate direction d of x or v."""
@@ -120,7 +123,7 @@ class TrajectoryLinearizer:
         tp = self.tp
         t, x, v, a, mu = step.time, step.x, step.v, step.a, step.mu
         load = tp.loads(t)
-        mu = self.consistent_multipliers(t, x, v, a, mu)
+        a, mu = self.consistent_state(t, x, v, mu)
         lin, phi, rows, rate = self._map(x, mu, load)
         n = phi.shape[1]
         # Phi' and Phi'' (and the output rows' rate) along the Taylor path x + s v + s^2 a/2
