@@ -153,3 +153,24 @@ def test_dynx_is_still_refused():
     with pytest.raises(Exception) as err:
         job_from_text(text, "d.dat")
     assert "SPACAR keyword DYNX is not supported yet" in str(err.value)
+
+
+def test_show_export_and_reader_along_the_trajectory(pendulum, tmp_path, capsys):
+    import scipy.io
+
+    from spacarpy.results import read_results
+    assert main(["show", str(pendulum)]) == 0
+    assert "State space (SPACAR mode 3, along the transient) at 61 time steps" in \
+        capsys.readouterr().out
+    mat = tmp_path / "p.mat"
+    assert main(["export", str(pendulum), "--state-space", str(mat), "--step", "30"]) == 0
+    m = scipy.io.loadmat(mat)
+    with open_results(pendulum) as res:
+        ss = res.state_space
+        assert ss.time[30] == pytest.approx(0.3, abs=1e-12)
+        np.testing.assert_array_equal(m["K0"], ss.matrix("K0", 30))
+        assert np.isnan(ss.load_factor).all()
+    assert float(m["time"][0, 0]) == pytest.approx(0.3, abs=1e-12) and m["step"][0, 0] == 30
+    full = read_results(pendulum).state_space
+    assert full.K0.shape == (61, 1, 1)
+    np.testing.assert_array_equal(full.K0[30], m["K0"])

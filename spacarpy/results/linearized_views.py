@@ -156,6 +156,13 @@ class StateSpaceView(_LinearizedView):
         return self._res.analysis == "transient_linearized"
 
     @property
+    def load_factor(self) -> np.ndarray:
+        """(n_lin,): load factor of each linearized static step (NaN along a trajectory)."""
+        if self.along_trajectory:
+            return np.full(self.n_lin, np.nan)
+        return super().load_factor
+
+    @property
     def time(self) -> np.ndarray:
         """(n_lin,) time of each linearized state (SPACAR 3); NaN for static steps (and
         for a file older than schema 2.4)."""
