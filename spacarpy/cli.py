@@ -107,9 +107,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("-o", "--output", type=_output_path, default=None,
                      help="result file (default: the deck's name with .h5)")
     run.add_argument("--mode", type=_parse_mode, default=None,
-                     help="analysis: static (SPACAR 10), eigen (4, 7), buckling (8), "
-                          "transient (1), check (0: mechanism and DOF report, no solve), "
-                          "state_space (9: the linearized state space); a negative SPACAR "
+                     help="analysis: static, static_linearized (SPACAR 10: with the "
+                          "linearized equations, frequencies and buckling at every step), "
+                          "eigen (4, 7), buckling (8), transient (1), check (0: mechanism "
+                          "and DOF report, no solve), state_space (9: the linearized state "
+                          "space), transient_linearized (3: the linearized equations at "
+                          "every time step); a negative SPACAR "
                           "number runs silently (as -q); overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
@@ -127,7 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "node ROT at the linearized steps (global and body axes)")
     run.add_argument("--modes-per-step", action="store_true",
                      help="linearize at every load step: frequencies (if the model has mass) "
-                          "and buckling multipliers (if it is loaded), as SPACAR's mode 10")
+                          "and buckling multipliers (if it is loaded), as SPACAR's mode 10 does")
     run.add_argument("--ignore-memory-limit", action="store_true",
                      help="run even when the memory estimate exceeds the available memory")
     _set_option(run)

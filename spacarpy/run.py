@@ -6,9 +6,14 @@ appended to the results file as soon as it is computed.
 
 Analyses
 --------
-static (SPACAR 10)
+static
     Load steps of ITERSTEP; with ``modes_per_step`` also frequencies (if the model has mass)
-    and buckling multipliers (if it is loaded) at every step, as SPACAR's mode 10 does.
+    and buckling multipliers (if it is loaded) at every step.
+static_linearized (SPACAR 10)
+    The static path with, at every step, the frequencies and buckling multipliers (as
+    ``modes_per_step``) and the linearized equations of state_space below (M0, C0, K0, B0 and
+    A, B, C, D; with no INPUTF/OUT* lines B0, B, C, D have no columns/rows). A model without
+    mass, or without SPACAR's degrees of freedom, stores no /state_space (a warning says why).
 eigen (SPACAR 4/7)
     The static load path (if any), then natural frequencies and mode shapes about the final
     state (about every step with ``modes_per_step``).
@@ -28,6 +33,10 @@ transient (SPACAR 1)
     With START static the static load path first (stored in /static), then the time
     integration of TIMESTEP (:mod:`spacarpy.solvers.transient`), every time step appended to
     /transient as it is computed.
+transient_linearized (SPACAR 3)
+    The transient, and at every stored time step the linearized equations about the state
+    of the trajectory (:mod:`spacarpy.solvers.trajectory`) in /state_space, whose ``step``
+    is the row of /transient and ``time`` its time.
 """
 from __future__ import annotations
 
@@ -37,7 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spacarpy import __version__
-from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
@@ -100,8 +109,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
 
     opts = options or RunOptions()
     n_modes = settings.linearized.count
-    modes_per_step = settings.linearized.modes_each_step
     analysis = settings.analysis
+    static_lin = analysis == "static_linearized"          # SPACAR mode 10
+    modes_per_step = settings.linearized.modes_each_step or static_lin
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
     if analysis == "check":
@@ -110,12 +120,12 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if any(model.gravity) and not mass.has_mass:
         log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
                     "XM nodal masses)")
-    transient = analysis == "transient"
+    transient = analysis in ("transient", "transient_linearized")
     if transient and settings.transient.timestep is None:
-        raise AnalysisInputError("MODE transient needs the time span: TIMESTEP t_end n_steps "
+        raise AnalysisInputError(f"MODE {analysis} needs the time span: TIMESTEP t_end n_steps "
                                  "in the data module")
     if transient and not mass.has_mass:
-        raise AnalysisInputError("MODE transient needs mass: give EM lines for the elements "
+        raise AnalysisInputError(f"MODE {analysis} needs mass: give EM lines for the elements "
                                  "(or XM nodal masses)")
     want_eigen = analysis == "eigen" or (modes_per_step and mass.has_mass)
     want_buckling = analysis == "buckling" or (modes_per_step and problem.loads.any)
@@ -125,14 +135,19 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "buckling" and not problem.loads.any:
         raise AnalysisInputError("MODE buckling needs a load (XF/DELXF): the multipliers "
                                  "scale the stresses that load causes")
-    want_ss = analysis == "state_space"
+    want_ss = analysis in ("state_space", "transient_linearized") or (static_lin
+                                                                      and mass.has_mass)
+    if static_lin and not mass.has_mass:
+        log.warning("SPACAR mode 10 stores the linearized equations (/state_space) only for "
+                    "a model with mass (EM lines, XM masses); this one has none, so it stores "
+                    "the static path with buckling multipliers at every step")
     signals = settings.linearized.inputs + settings.linearized.outputs
     if signals and not want_ss:
         log.warning("the INPUTF/OUT* lines (%s) define the state space of MODE state_space "
                     "(SPACAR 9); this %s analysis does not use them", signals[0].name,
                     analysis)
     if want_ss and not mass.has_mass:
-        raise AnalysisInputError("MODE state_space (SPACAR 9) needs mass: give EM lines for "
+        raise AnalysisInputError(f"MODE {analysis} needs mass: give EM lines for "
                                  "the elements (or XM nodal masses)")
     want_compliance = opts.compliance_node is not None
     if want_compliance:
@@ -152,7 +167,16 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                                  "transient analysis (remove it, or use MODE static)")
     summary = RunSummary()
 
-    ss_setup = _state_space_setup(problem, settings) if want_ss else None
+    ss_setup = None
+    if want_ss:
+        try:
+            ss_setup = _state_space_setup(problem, settings)
+        except ModelError as exc:
+            if not static_lin:
+                raise
+            log.warning("SPACAR mode 10: no linearized equations (/state_space) are stored: "
+                        "%s", exc)
+            want_ss = False
     model_data = model_datasets(model, num)
     surface_stress = SurfaceStress(model_data)
     with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
@@ -186,12 +210,13 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 msg += _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen,
                                         want_buckling,
                                         compliance_rows if want_compliance else None, summary)
-            if want_ss:
+            if want_ss and not transient:
                 msg += _state_space_step(problem, mass, step, k, writer, settings, ss_setup[0])
             log.info(msg)
 
         if transient:
-            _run_transient(model, settings, problem, writer, on_step, opts, summary)
+            _run_transient(model, settings, problem, writer, on_step, opts, summary,
+                           ss_setup[0] if want_ss else None)
         else:
             result = solve_static(model, settings, problem=problem, on_step=on_step)
             if arc is not None and not modes_per_step and result.steps and (
@@ -205,10 +230,16 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     return summary
 
 
-def _run_transient(model, settings, problem, writer, on_static_step, opts, summary):
-    from spacarpy.solvers.transient import TransientOptions, solve_transient
+def _run_transient(model, settings, problem, writer, on_static_step, opts, summary,
+                   ss_layout=None):
+    from spacarpy.solvers.transient import TransientOptions, TransientProblem, solve_transient
     num = problem.num
     topts = TransientOptions.from_settings(settings)
+    along = None
+    if ss_layout is not None:                   # SPACAR 3: linearize every stored time step
+        from spacarpy.solvers.trajectory import TrajectoryLinearizer
+        along = TrajectoryLinearizer(TransientProblem(model, topts, problem), ss_layout,
+                                     settings.linearized.inputs, settings.linearized.outputs)
     n_steps = topts.n_steps
     width = len(str(n_steps))
 
@@ -222,6 +253,8 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
             external_work=step.external_work, iterations=step.iterations,
             residual=step.residual, dissipated_energy=step.dissipated_energy)
         k = summary.n_time
+        if along is not None:
+            writer.state_space_step(k, along(step), time=step.time)
         summary.n_time += 1
         if k % max(n_steps // 20, 1) == 0 or k == n_steps:
             log.info(f"time step {k:>{width}}/{n_steps}  t = {step.time:.6g} s  "

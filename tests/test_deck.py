@@ -169,7 +169,8 @@ def test_iterstep_zero_steps_and_two_fields():
 
 
 @pytest.mark.parametrize("value, expected", [
-    ("static", "static"), ("EIGEN", "eigen"), ("10", "static"), ("-10", "static"),
+    ("static", "static"), ("EIGEN", "eigen"), ("10", "static_linearized"),
+    ("-10", "static_linearized"), ("3", "transient_linearized"),
     ("0", "check"), ("1", "transient"), ("8", "buckling"), ("4", "eigen"), ("7.0", "eigen"),
     ("-4", "eigen"), ('"buckling"', "buckling")])
 def test_mode_extension(value, expected):

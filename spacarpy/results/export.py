@@ -380,7 +380,8 @@ def write_state_space_mat(path, out, step: int | None = None) -> Path:
     format): ``A``, ``B``, ``C``, ``D`` (for ``ss(A, B, C, D)``), the second-order matrices
     ``M0``, ``C0``, ``K0``, ``B0``, the names ``state_name``, ``input_name``,
     ``output_name`` (cell arrays of strings), ``dof`` ([element mode] per degree of freedom),
-    ``step`` (the static step) and ``load_factor``."""
+    ``step`` (the static step; along a trajectory, SPACAR mode 3: the time step),
+    ``load_factor`` and ``time`` (NaN where they do not apply)."""
     from scipy.io import savemat
 
     out = check_export_output(out, ".mat")
@@ -398,6 +399,6 @@ def write_state_space_mat(path, out, step: int | None = None) -> Path:
             input_name=np.array(view.input_name, dtype=object).reshape(-1, 1),
             output_name=np.array(view.output_name, dtype=object).reshape(-1, 1),
             dof=view.dof.astype(float), step=float(k),
-            load_factor=float(view.load_factor[row]))
+            load_factor=float(view.load_factor[row]), time=float(view.time[row]))
     savemat(out, data, do_compression=True)
     return out

@@ -161,6 +161,40 @@ class StateSpaceView(_LinearizedView):
     def n_mode(self) -> int:
         return 0
 
+    @property
+    def along_trajectory(self) -> bool:
+        """True in a transient_linearized file (SPACAR 3): ``step`` is a row of /transient."""
+        return self._res.analysis == "transient_linearized"
+
+    @property
+    def load_factor(self) -> np.ndarray:
+        """(n_lin,): load factor of each linearized static step (NaN along a trajectory)."""
+        if self.along_trajectory:
+            return np.full(self.n_lin, np.nan)
+        return super().load_factor
+
+    @property
+    def time(self) -> np.ndarray:
+        """(n_lin,) time of each linearized state (SPACAR 3); NaN for static steps (and
+        for a file older than schema 2.4)."""
+        with self._res._file() as f:
+            if f"{self._group}/time" not in f:
+                return np.full(self.n_lin, np.nan)
+        return self._array("time")
+
+    def row(self, step=None) -> int:
+        """Row of the linearization at static step ``step`` (in a transient_linearized file:
+        time step ``step``, a row of /transient; None: the last one)."""
+        if not self.along_trajectory or step is None or self._res.transient is None:
+            return super().row(step)
+        steps = self.step
+        step = self._res.transient.step_index(step)
+        hit = np.flatnonzero(steps == step)
+        if not hit.size:
+            raise ResultsQueryError(f"time step {step} was not linearized (/state_space "
+                                    f"holds steps {_number_list(steps)})")
+        return int(hit[-1])
+
     def _names(self, name: str) -> list[str]:
         from spacarpy.results.h5file import str_list
         with self._res._file() as f:

@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 5)
+SCHEMA_VERSION = (2, 6)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -361,7 +361,11 @@ def _state_space_specs() -> list[DatasetSpec]:
     per_dof = "kg, m, rad, s (per degree of freedom)"
     return [
         S("state_space/step", "i4", (lin,), "1",
-          "index of the static step (row of /static) that was linearized", v),
+          "index of the static step (row of /static) that was linearized; in a "
+          "transient_linearized file (SPACAR 3) the row of /transient", v),
+        S("state_space/time", "f8", (lin,), "s",
+          "time of the linearized state (transient_linearized, SPACAR 3); NaN for a static "
+          "step", (2, 6), optional=True),
         S("state_space/dof_element", "i8", ("dof",), "1",
           "deck element number of each degree of freedom (a deformation mode)", v),
         S("state_space/dof_mode", "i4", ("dof",), "1",

@@ -607,7 +607,9 @@ def _state_space_summary(v) -> list:
     """The state space's size and signals, and its lowest undamped pole at the last step."""
     a = v.matrix("A")
     n_dof = a.shape[0] // 2
-    out = [f"State space (SPACAR mode 9) at {v.n_lin} steps: {a.shape[0]} states "
+    where = ("SPACAR mode 3, along the transient) at {} time" if v.along_trajectory
+             else "SPACAR mode 9) at {}").format(v.n_lin)
+    out = [f"State space ({where} steps: {a.shape[0]} states "
            f"({n_dof} degrees of freedom), {len(v.input_name)} inputs, "
            f"{len(v.output_name)} outputs (spacarpy export --state-space FILE.mat)",
            "  inputs   " + (", ".join(v.input_name) or "none"),

@@ -281,9 +281,14 @@ def _check_steps(sf, found, completed, problems) -> None:
             if not isinstance(n_mode, int) or n_mode < 1:
                 problems.append(f"/{group} attribute n_mode missing or not a positive integer")
             n_static = sf["static/load_factor"].shape[0] if "static/load_factor" in sf else 0
+            what = "static steps"
+            if group == "state_space" and python_value(
+                    sf.f.attrs.get("analysis")) == "transient_linearized":
+                n_static = sf["transient/time"].shape[0] if "transient/time" in sf else 0
+                what = "time steps"
             values = scale[()]
             if values.size and (values.min() < 0 or values.max() >= n_static):
-                problems.append(f"/{group}/step refers to static steps outside "
+                problems.append(f"/{group}/step refers to {what} outside "
                                 f"0..{n_static - 1}")
         for path, ds in found.items():
             spec = DATASETS[path]

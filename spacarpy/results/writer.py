@@ -366,11 +366,14 @@ class ResultsWriter:
         """Append the 6x6 nodal compliance (global and body axes) of one linearized step."""
         self._append_linearized("compliance", step, {"global": global_, "local": local})
 
-    def state_space_step(self, step: int, ss) -> None:
-        """Append the linearized equations of one static step: ``ss`` has the attributes M0,
-        C0, K0, B0, A, B, C, D (:class:`spacarpy.solvers.state_space.StateSpace`)."""
-        self._append_linearized("state_space", step, {
-            name: getattr(ss, name) for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")})
+    def state_space_step(self, step: int, ss, time: float = np.nan) -> None:
+        """Append the linearized equations of one static step (or, with ``time``, of row
+        ``step`` of /transient, SPACAR mode 3): ``ss`` has the attributes M0, C0, K0, B0, A,
+        B, C, D (:class:`spacarpy.solvers.state_space.StateSpace`)."""
+        values = {name: getattr(ss, name)
+                  for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")}
+        values["time"] = time
+        self._append_linearized("state_space", step, values)
 
     def _begin_state_space(self, f, names: dict) -> None:
         n_dof = len(names["dof_element"])

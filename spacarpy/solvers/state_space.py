@@ -45,7 +45,8 @@ from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.eigen import null_space_basis
 
-__all__ = ["DofLayout", "StateSpace", "StateSpaceError", "dof_layout", "state_space"]
+__all__ = ["DofLayout", "StateSpace", "StateSpaceError", "dof_layout", "dof_map", "first_order",
+           "input_columns", "output_rows", "state_space"]
 
 #: Smallest singular value, relative to the largest, of the scaled map from the degrees of
 #: freedom to the chosen deformations for which they count as independent: far above
@@ -229,14 +230,12 @@ def _element_at(num, e: int, k: int):
     raise KeyError(e)
 
 
-def state_space(lin, num, free, model, layout: DofLayout, inputs, outputs) -> StateSpace:
-    """The matrices of the module docstring at the linearization ``lin`` (with mass).
+def dof_map(lin, num, free, layout: DofLayout) -> np.ndarray:
+    """Phi (n_x, n_dof): the free-coordinate change ``dx = Phi q`` of the degrees of freedom
+    at the linearization ``lin`` (``C Phi = 0``, ``E Phi = I``).
 
     Raises
     ------
-    StateSpaceError
-        When M0 is not positive definite (a degree of freedom without inertia), naming the
-        degrees of freedom concerned.
     ModelError
         When the chosen deformations are no longer independent at this state.
     """
@@ -251,43 +250,77 @@ def state_space(lin, num, free, model, layout: DofLayout, inputs, outputs) -> St
         if W.shape[0] != W.shape[1] or sv.min() <= INDEPENDENCE_RTOL * sv.max():
             raise ModelError("the degrees of freedom of the state space (the flexible "
                              "deformation modes) are not independent at this state")
-    phi = T @ np.linalg.solve(W, np.eye(layout.n_dof)) if layout.n_dof else T
-    M, K = lin.M, lin.K
-    M0 = phi.T @ (M @ phi)
-    K0 = phi.T @ (K @ phi)
-    C0 = phi.T @ (damping_matrix(lin, num, free, model, M) @ phi)
+    return T @ np.linalg.solve(W, np.eye(layout.n_dof)) if layout.n_dof else T
+
+
+def input_columns(lin, num, free, model, inputs) -> np.ndarray:
+    """F (n_x, n_in): the generalized forces of the unit inputs at the state of ``lin``."""
+    n_x = int(np.count_nonzero(free))
+    F = np.zeros((n_x, len(inputs)))
+    for j, s in enumerate(inputs):
+        F[:, j] = coordinate_row(num, model, lin.x, s.target, s.number)[free]
+    return F
+
+
+def output_rows(lin, num, free, model, outputs) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, is_rate): the row (n_out, n_x) of each output's coordinate or deformation at
+    the state of ``lin`` and whether the output is its rate (OUTXP, OUTEP)."""
+    n_x = int(np.count_nonzero(free))
+    rows = np.zeros((len(outputs), n_x))
+    rate = np.zeros(len(outputs), bool)
+    for i, s in enumerate(outputs):
+        rate[i] = s.keyword in ("OUTXP", "OUTEP")
+        if s.keyword in ("OUTX", "OUTXP"):
+            rows[i] = coordinate_row(num, model, lin.x, s.target, s.number)[free]
+        else:
+            gi, r, c = _element_at(num, s.target, s.number)
+            rows[i] = deformation_rows(lin, num, free, np.array([gi]), np.array([r]),
+                                       np.array([c]))[0]
+    return rows, rate
+
+
+def first_order(M0, C0, K0, B0, out_q, out_dq, names) -> StateSpace:
+    """The state space of ``M0 q'' + C0 q' + K0 q = B0 u``, ``y = out_q q + out_dq q'``
+    (``names``: the degrees of freedom, for the message when M0 is singular)."""
     M0 = 0.5 * (M0 + M0.T)
     try:
         chol = sla.cho_factor(M0)
     except np.linalg.LinAlgError:
         diag = np.diag(M0)
-        weak = [n for n, m in zip(layout.names, diag) if not m > 0] or layout.names
+        weak = [n for n, m in zip(names, diag) if not m > 0] or names
         raise StateSpaceError(
             "the state space needs inertia in every degree of freedom, but the mass matrix "
             f"is singular there ({', '.join(weak[:8])}{' ...' if len(weak) > 8 else ''}): "
             "give the rotary inertia of EM (rhoIp rhoIy rhoIz) or XM masses") from None
-    F = np.zeros((n_x, len(inputs)))
-    for j, s in enumerate(inputs):
-        F[:, j] = coordinate_row(num, model, lin.x, s.target, s.number)[free]
-    B0 = phi.T @ F
-    n = layout.n_dof
-    rows_x = np.zeros((len(outputs), n_x))
-    rows_v = np.zeros((len(outputs), n_x))
-    for i, s in enumerate(outputs):
-        rate = s.keyword in ("OUTXP", "OUTEP")
-        if s.keyword in ("OUTX", "OUTXP"):
-            row = coordinate_row(num, model, lin.x, s.target, s.number)[free]
-        else:
-            gi, r, c = _element_at(num, s.target, s.number)
-            row = deformation_rows(lin, num, free, np.array([gi]), np.array([r]),
-                                   np.array([c]))[0]
-        (rows_v if rate else rows_x)[i] = row
+    n = M0.shape[0]
     A = np.zeros((2 * n, 2 * n))
     A[:n, n:] = np.eye(n)
     A[n:, :n] = -sla.cho_solve(chol, K0)
     A[n:, n:] = -sla.cho_solve(chol, C0)
-    B = np.zeros((2 * n, len(inputs)))
+    B = np.zeros((2 * n, B0.shape[1]))
     B[n:] = sla.cho_solve(chol, B0)
-    C = np.hstack([rows_x @ phi, rows_v @ phi])
-    D = np.zeros((len(outputs), len(inputs)))
+    C = np.hstack([out_q, out_dq])
+    D = np.zeros((C.shape[0], B0.shape[1]))
     return StateSpace(M0=M0, C0=C0, K0=K0, B0=B0, A=A, B=B, C=C, D=D)
+
+
+def state_space(lin, num, free, model, layout: DofLayout, inputs, outputs) -> StateSpace:
+    """The matrices of the module docstring at the linearization ``lin`` (with mass).
+
+    Raises
+    ------
+    StateSpaceError
+        When M0 is not positive definite (a degree of freedom without inertia), naming the
+        degrees of freedom concerned.
+    ModelError
+        When the chosen deformations are no longer independent at this state.
+    """
+    phi = dof_map(lin, num, free, layout)
+    M0 = phi.T @ (lin.M @ phi)
+    K0 = phi.T @ (lin.K @ phi)
+    C0 = phi.T @ (damping_matrix(lin, num, free, model, lin.M) @ phi)
+    B0 = phi.T @ input_columns(lin, num, free, model, inputs)
+    rows, rate = output_rows(lin, num, free, model, outputs)
+    out_q = np.where(rate[:, None], 0.0, rows) @ phi
+    out_dq = np.where(rate[:, None], rows, 0.0) @ phi
+    return first_order(M0, C0, K0, B0, out_q, out_dq, layout.names)

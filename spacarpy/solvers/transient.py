@@ -533,15 +533,15 @@ def _error_norm(tp, h, beta, a_tilde_old, a_tilde_new, x, tol) -> float:
     return float(np.abs(e / scale)[massive].max(initial=0.0))
 
 
-def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc):
-    """Consistent accelerations and multipliers at t = 0 from
+def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc, t: float = 0.0):
+    """Consistent accelerations and multipliers at time t (default 0) from
     ``[M C^T; C 0] [a; mu] = [f - f_el - h - M_fp a_p; -(C_p a_p + (dC/dt) v - c_tt)]``;
     zero accelerations (and the given multipliers) when the mass matrix is singular on the
     constraint null space (massless coordinates)."""
     num, free, prob = tp.num, tp.free, tp.prob
     a = np.zeros(num.n_coord)
     a[tp.presc_idx] = a_presc
-    ev = prob.evaluate(x, np.zeros_like(mu), tp.loads(0.0))     # no constraint forces
+    ev = prob.evaluate(x, np.zeros_like(mu), tp.loads(t))       # no constraint forces
     blocks, f_in = tp.inertia.forces(x, v, a)                     # h + M_fp a_p
     M = tp.inertia.assemble(blocks)
     rhs_f = -(ev.f_int - ev.f_ext + f_in)[free]
@@ -553,7 +553,7 @@ def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc):
         c_acc += (_constraint_rates(prob, x + eps * v, v)
                   - _constraint_rates(prob, x - eps * v, v)) / (2 * eps)
     if num.rigid_prescribed.size:                                 # driven deformations
-        c_acc[:num.n_rigid] -= tp.rigid_rates(0.0)[1]
+        c_acc[:num.n_rigid] -= tp.rigid_rates(t)[1]
     big = sp.bmat([[M[free][:, free], C.T], [C, None]], format="csc")
     try:
         sol = spla.splu(big).solve(np.concatenate([rhs_f, -c_acc]))
