@@ -176,7 +176,7 @@ class StateSpaceView(_LinearizedView):
     @property
     def time(self) -> np.ndarray:
         """(n_lin,) time of each linearized state (SPACAR 3); NaN for static steps (and
-        for a file older than schema 2.4)."""
+        for a file older than schema 2.6)."""
         with self._res._file() as f:
             if f"{self._group}/time" not in f:
                 return np.full(self.n_lin, np.nan)
