@@ -36,7 +36,8 @@ linearized constraint and a bordered solve (documented in docs/path_method.md):
   refined point is stored as a path point, with its critical eigenvector (inverse iteration
   on the bordered matrix there). With ``BIFURCATION switch`` the path leaves a bifurcation
   point along that eigenvector (the tangent of the crossing branch of a symmetric
-  bifurcation).
+  bifurcation), or, where it arrived along the eigenvector (on a crossing branch), back
+  onto the fundamental branch (the bistable beam's return force).
 - **End.** When s reaches 1 the last point is solved at s = 1 exactly (load control from
   the interpolated state); after ``n_max`` points the run stops with a warning.
 """
