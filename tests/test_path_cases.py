@@ -288,8 +288,14 @@ def test_bistable_beam_has_two_stable_states(bistable):
 @ARC
 def test_arclength_traces_the_bistable_snap_through(bistable, tmp_path):
     """Load control on the midpoint with ARCLENGTH: the same S-curve, through the switching
-    force (a load maximum) and the return force (a minimum) to 1.5 times the switching force
-    on the far side."""
+    force and the return force to 1.5 times the switching force on the far side. Both are
+    bifurcation points, not limit points (Qiu: the third mode is zero at the midpoint, so the
+    force does not drive it until the axial force reaches its buckling load; the straight
+    stretch between them is the branch with that mode): the fundamental (one-mode) path
+    rises on to 1.32 times the switching force. So the deck has ``BIFURCATION switch``: the
+    path leaves the first bifurcation along the critical eigenvector (down the straight
+    stretch) and the second one back onto the fundamental path (to the second stable
+    state); without it the path stays, rightly, on the fundamental branch."""
     d, F = bistable
     _, top = _corner(d, F, int(np.argmax(np.where(d < 1, F, -np.inf))), +1)
     _, bot = _corner(d, F, int(np.argmin(F)), -1)
@@ -298,15 +304,27 @@ def test_arclength_traces_the_bistable_snap_through(bistable, tmp_path):
     text = _deck("bistable_curved_beam", **{"INPUTX 33 2                  # the midpoint's y "
                                             "is prescribed\n": "",
                                             "DELINPX 33 2 {-2.04*h}": load})
-    s = _run(_with_arclength(text, "ARCLENGTH 2000 0.01"), tmp_path, "biarc")
+    s = _run(_with_arclength(text, "BIFURCATION switch\nARCLENGTH 2000 0.01"), tmp_path,
+             "biarc")
     f = 1.5 * top * s.load_factor                         # in EI h / L^3, the whole beam
     travel = -s.displacement(node=33)[:, 1] / 0.05
     i = int(np.argmax(f[: int(np.argmin(f)) + 1]))
-    # stored points lie on the path: at most the extreme forces, and near them
+    # stored points lie on the path: at most the extreme forces, and near them. The return
+    # force from the fixture's corner fit (-371.5, steps of h/50) is 0.25 % short of the
+    # path's: displacement control to a travel of 1.925 h, just before the corner, gives
+    # -372.34 on the straight stretch (the refined bifurcation point: -372.42), hence 5e-3
     assert top * (1 - 0.02) < f[i] < top * (1 + 1e-3)
-    assert bot * (1 + 1e-3) < f.min() < bot * (1 - 0.02)
-    limits = _limit_points(tmp_path / "biarc.h5")
-    if limits is not None:                               # refined to the solver tolerance
-        assert sorted(1.5 * top * limits) == pytest.approx([bot, top], rel=5e-3)
+    assert bot * (1 + 5e-3) < f.min() < bot * (1 - 0.02)
+    # the failure mode of the first version: the fundamental branch past the switching
+    # force, to 1.32 times it, and then points whose load factor alone moved
+    assert f.max() <= 1.5 * top * (1 + 1e-6)
+    assert np.all(np.abs(np.diff(travel)) > 1e-9)
+    import h5py
+
+    with h5py.File(tmp_path / "biarc.h5", "r") as g:     # refined to the solver tolerance
+        kinds = np.asarray(g["critical/point_type"][()], dtype=int)
+        lf = np.asarray(g["critical/load_factor"][()], dtype=float)
+    assert kinds.tolist() == [2, 2]                      # bifurcations, no limit point
+    assert sorted(1.5 * top * lf) == pytest.approx([bot, top], rel=5e-3)
     assert travel.max() > 2.0
     assert s.load_factor.max() >= 1 - 1e-6            # it stops at the full load

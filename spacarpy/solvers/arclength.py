@@ -36,7 +36,8 @@ linearized constraint and a bordered solve (documented in docs/path_method.md):
   refined point is stored as a path point, with its critical eigenvector (inverse iteration
   on the bordered matrix there). With ``BIFURCATION switch`` the path leaves a bifurcation
   point along that eigenvector (the tangent of the crossing branch of a symmetric
-  bifurcation).
+  bifurcation), or, where it arrived along the eigenvector (on a crossing branch), back
+  onto the fundamental branch (the bistable beam's return force).
 - **End.** When s reaches 1 the last point is solved at s = 1 exactly (load control from
   the interpolated state); after ``n_max`` points the run stops with a warning.
 """
@@ -67,6 +68,10 @@ PSI = 1.0
 #: one means the corrector left the predictor's neighbourhood (jumped to another branch),
 #: and the point is retried with half the arc length.
 MAX_CHORD = 1.25
+#: At a bifurcation point (BIFURCATION switch): the path arrived along the critical
+#: eigenvector (on a crossing branch) when the cosine of the angle between the arrival
+#: direction and the eigenvector (scaled inner product) exceeds this.
+ALONG_EIGENVECTOR = 0.5
 #: Largest number of refinement iterations of one critical point.
 MAX_REFINE = 60
 #: Kinds of critical points (codes stored in /critical/point_type).
@@ -413,9 +418,12 @@ class ArcLengthPath:
                     n_stored += 1
                     self._commit(crit)
                     if kind == 2 and self.switch:
-                        p = self._leave_along(crit, cp.shape)
+                        p = self._leave_along(crit, cp.shape, direction)
                         direction = (p.tx, p.ts)
-                        ds = max(min(ds, self.ds_max), self.ds_min)
+                        # not less than ds0: from a tiny step the corrector starts where
+                        # the tangent is nearly singular and slides along the eigenvector
+                        # back onto the branch it arrived on
+                        ds = max(min(ds, self.ds_max), self.arc.ds0)
                         switched = True
                         continue
                     if n_stored >= arc.n_max:
@@ -436,11 +444,33 @@ class ArcLengthPath:
         log.warning("ARCLENGTH: %d points stored and the load factor is %.6g, not 1: raise "
                     "n_max (or ds0) to follow the path further", n_stored, p.s)
 
-    def _leave_along(self, crit: _Point, shape) -> _Point:
-        """At a bifurcation point (BIFURCATION switch): the next predictor is the critical
-        eigenvector, the tangent of the crossing branch, with no load change."""
+    def _leave_along(self, crit: _Point, shape, arrival) -> _Point:
+        """At a bifurcation point (BIFURCATION switch): leave along the other branch. Arrived
+        on the fundamental branch (the arrival direction has little of the critical
+        eigenvector), the next predictor is the eigenvector, the tangent of the crossing
+        branch of a symmetric bifurcation, with no load change. Arrived along the eigenvector
+        (on a branch switched to before, returning to the fundamental branch, as on the
+        bistable beam's second stage), the next predictor is the fundamental branch's
+        tangent: the load tangent ``K b = q`` with its eigenvector component removed (K is
+        singular there, b is that component plus the regular part), oriented towards the
+        target load factor 1."""
         norm = np.sqrt(self.inner(shape, 0.0, shape, 0.0))
-        crit.tx, crit.ts = shape / norm, 0.0
+        phi = shape / norm
+        ax, as_ = arrival
+        along = abs(self.inner(ax, as_, phi, 0.0)) / np.sqrt(self.inner(ax, as_, ax, as_))
+        if along > ALONG_EIGENVECTOR:
+            ev = self.prob.evaluate(crit.x, crit.mu, self.load(crit.s))
+            out = self._solve(ev, crit.mu, crit.x)
+            if out is not None:
+                b = out[2]
+                b = b - self.inner(b, 0.0, phi, 0.0) * phi
+                nb = np.sqrt(self.inner(b, 1.0, b, 1.0))
+                sign = 1.0 if crit.s <= 1.0 else -1.0
+                crit.tx, crit.ts = sign * b / nb, sign / nb
+                log.info("BIFURCATION switch: back onto the fundamental branch at the "
+                         "bifurcation point at load factor %.6g", crit.s)
+                return crit
+        crit.tx, crit.ts = phi, 0.0
         log.info("BIFURCATION switch: leaving the bifurcation point at load factor %.6g along "
                  "the critical eigenvector", crit.s)
         return crit
