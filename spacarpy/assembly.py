@@ -22,6 +22,10 @@ import scipy.sparse as sp
 
 from spacarpy.numbering import Numbering
 
+#: Largest pattern (entries) whose symmetric product is two bincounts (measured: equal
+#: times at about 5 600 entries, see BlockPattern.symmetric_matvec).
+SYMV_BINCOUNT_MAX = 4000
+
 
 def csc_with_data(template: sp.csc_matrix, data: np.ndarray) -> sp.csc_matrix:
     """A CSC matrix with the structure of ``template`` (shared, not copied) and ``data``,
@@ -231,8 +235,14 @@ class BlockPattern:
 
     def symmetric_matvec(self, data: np.ndarray, y: np.ndarray) -> np.ndarray:
         """``A y`` for the symmetric A whose upper triangle has the entries ``data`` (a
-        pattern made with ``upper=True``), without forming A's transpose."""
-        out = np.bincount(self.indices, weights=data * y[self.col], minlength=self.n)
-        out += np.bincount(self.col, weights=data * y[self.indices], minlength=self.n)
+        pattern made with ``upper=True``). Small patterns: two ``np.bincount`` without
+        forming A's transpose (16 against 40 us at 534 entries); from SYMV_BINCOUNT_MAX
+        entries on scipy's products are faster (144 against 401 us at 57 000 entries)."""
+        if self.nnz > SYMV_BINCOUNT_MAX:
+            a = csc_with_data(self._template, data)
+            out = a @ y + a.T @ y
+        else:
+            out = np.bincount(self.indices, weights=data * y[self.col], minlength=self.n)
+            out += np.bincount(self.col, weights=data * y[self.indices], minlength=self.n)
         out[self.indices[self.diag]] -= data[self.diag] * y[self.indices[self.diag]]
         return out

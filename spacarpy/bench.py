@@ -473,11 +473,11 @@ What changed: the Newton loop no longer calls scipy's sparse-matrix constructor,
 index checks, at every assembly (`BlockPattern` makes its matrices from a template,
 `spacarpy.assembly.csc_with_data`; the scaled matrix for QDLDL shares that structure), the
 reduced step's residual check multiplies by the symmetric matrix from its upper triangle
-without forming the transpose, and the kinematic correction's block forward substitution
-solves with a dense triangular L (LAPACK `dtrtrs`) up to 800 unknowns, where scipy's
-`spsolve_triangular` spent about 100 us per call on checks (thresholds and measurements in
-docs/solver.md). A dense Cholesky of the reduced tangent was measured and is not used:
-QDLDL is faster from 60 unknowns on.
+without forming the transpose (below 4000 entries; scipy's products above), and the
+kinematic correction's block forward substitution solves with a dense triangular L (LAPACK
+`dtrtrs`) up to 800 unknowns, where scipy's `spsolve_triangular` spent about 100 us per
+call on checks (thresholds and measurements in docs/solver.md). A dense Cholesky of the
+reduced tangent was measured and is not used: QDLDL is faster from 60 unknowns on.
 
 The targets of issue 20 (a ratio of at most 1.0 at 10 and 100 elements) are not reached:
 what remains at 10 elements is the element kernels' numpy calls (the BEAM's mass matrix,

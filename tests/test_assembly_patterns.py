@@ -151,11 +151,15 @@ def test_model_patterns_match_reference(deck):
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_assembled_matrices_are_independent_and_valid(seed):
+@pytest.mark.parametrize("bincount", [True, False])
+def test_assembled_matrices_are_independent_and_valid(seed, bincount, monkeypatch):
     """BlockPattern makes its matrices from one template (no constructor checks): each is
     a valid CSC matrix of its own data, equal to the constructor's, unchanged by later
     assemblies; the symmetric product of an upper pattern is A y of the full matrix."""
     import scipy.sparse as sp
+
+    import spacarpy.assembly as assembly
+    monkeypatch.setattr(assembly, "SYMV_BINCOUNT_MAX", 10**9 if bincount else -1)
     rng = np.random.default_rng(seed)
     n = int(rng.integers(2, 30))
     index_blocks = [r for r, _ in random_blocks(rng, n)]
