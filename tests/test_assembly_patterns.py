@@ -148,3 +148,32 @@ def test_model_patterns_match_reference(deck):
     flat = flat_entries([(b, b) for b in index_blocks])
     assert_same((kin.indices, kin.indptr, kin.scatter),
                 reference_pattern(num.n_unknown, *flat, upper=True))
+
+
+@pytest.mark.parametrize("seed", range(5))
+@pytest.mark.parametrize("bincount", [True, False])
+def test_assembled_matrices_are_independent_and_valid(seed, bincount, monkeypatch):
+    """BlockPattern makes its matrices from one template (no constructor checks): each is
+    a valid CSC matrix of its own data, equal to the constructor's, unchanged by later
+    assemblies; the symmetric product of an upper pattern is A y of the full matrix."""
+    import scipy.sparse as sp
+
+    import spacarpy.assembly as assembly
+    monkeypatch.setattr(assembly, "SYMV_BINCOUNT_MAX", 10**9 if bincount else -1)
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 30))
+    index_blocks = [r for r, _ in random_blocks(rng, n)]
+    pat = BlockPattern(n, index_blocks, upper=True)
+    vals = [rng.standard_normal((b.shape[0], b.shape[1], b.shape[1])) for b in index_blocks]
+    vals = [v + v.transpose(0, 2, 1) for v in vals]
+    a = pat.assemble(vals)
+    a.check_format(full_check=True)
+    ref = sp.csc_matrix((a.data.copy(), pat.indices, pat.indptr), shape=(n, n))
+    before = a.toarray()
+    pat.assemble([2.0 * v for v in vals], diag_shift=1.0)          # a second assembly
+    np.testing.assert_array_equal(a.toarray(), before)
+    np.testing.assert_array_equal(ref.toarray(), before)
+    y = rng.standard_normal(n)
+    full = before + np.triu(before, 1).T
+    np.testing.assert_allclose(pat.symmetric_matvec(a.data, y), full @ y,
+                               rtol=1e-13, atol=1e-13 * max(1.0, np.abs(full).max()))

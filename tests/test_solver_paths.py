@@ -17,7 +17,7 @@ from spacarpy.deck import job_from_text, model_from_text
 from spacarpy.solvers import kinematic_check
 from spacarpy.solvers.kinematic_correction import NormalEquations, SquareJacobian
 from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
-from spacarpy.solvers.triangular import BlockTriangular
+from spacarpy.solvers.triangular import DENSE_MAX, BlockTriangular
 
 
 def cantilever(n, **kw):
@@ -349,3 +349,25 @@ def test_initial_check_of_a_determinate_tree_needs_no_lu(monkeypatch):
     assert kinematic_check.determinate(prob, prob.evaluate(x, mu, load).states, x)
     x[prob.num.rot_idx[prob.num.euler_nodes[0]]] = 0.0
     assert not kinematic_check.determinate(prob, prob.evaluate(x, mu, load).states, x)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_elem", [DENSE_MAX // 7, DENSE_MAX // 7 + 1])
+def test_dense_and_sparse_kinematic_substitution_give_the_same_path(n_elem, monkeypatch):
+    """The kinematic correction's block forward substitution solves with a dense L up to
+    DENSE_MAX unknowns (7 per cantilever element) and a sparse one above: just below and
+    just above the threshold, each path forced, the static solve takes the same Newton
+    iterations in every load step and reaches the same states to round-off."""
+    import spacarpy.solvers.triangular as tri
+    model = cantilever(n_elem, n_steps=3)
+    runs = []
+    for limit in (10**9, 0):                              # dense, then sparse
+        monkeypatch.setattr(tri, "DENSE_MAX", limit)
+        prob = StaticProblem(model)
+        res = solve_static(model, problem=prob, options=StaticOptions(n_steps=3, tol=1e-9))
+        assert prob.corrector.system.solver.dense == (limit > 0)
+        runs.append(res)
+    dense, sparse = runs
+    assert [s.iterations for s in dense.steps] == [s.iterations for s in sparse.steps]
+    for a, b in zip(dense.steps, sparse.steps):
+        assert np.abs(a.x - b.x).max() <= 1e-12 * np.abs(b.x).max()

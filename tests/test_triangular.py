@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from spacarpy.solvers.sparse import FactorizationError
-from spacarpy.solvers.triangular import BlockTriangular
+from spacarpy.solvers.triangular import DENSE_MAX, BlockTriangular
 
 
 def _block_triangular(rng, n_blocks, max_size=5, density=0.3):
@@ -23,11 +23,12 @@ def _block_triangular(rng, n_blocks, max_size=5, density=0.3):
 
 
 @pytest.mark.parametrize("seed", range(8))
-def test_solves_shuffled_block_triangular_matrices_like_a_dense_solver(seed):
+@pytest.mark.parametrize("dense", [True, False])
+def test_solves_shuffled_block_triangular_matrices_like_a_dense_solver(seed, dense):
     rng = np.random.default_rng(seed)
     a = _block_triangular(rng, n_blocks=int(rng.integers(1, 40)))
     rows, cols = np.nonzero(a)
-    bt = BlockTriangular(rows, cols, a.shape[0])
+    bt = BlockTriangular(rows, cols, a.shape[0], dense=dense)
     assert bt.shape[1] <= 5                    # the structure was found, not one big block
     solve = bt.factorize(a[rows, cols])
     for _ in range(2):                         # a factorization serves several solves
@@ -73,3 +74,35 @@ def test_patterns_without_small_blocks_or_without_a_matching_are_refused():
     assert BlockTriangular(rows, cols, n, max_block=40).shape == (1, 40, 40)
     with pytest.raises(ValueError, match="structurally singular"):
         BlockTriangular([0, 1], [0, 0], 2)          # column 1 is empty
+
+
+def _chain(rng, n_nodes, s=7):
+    """The kinematic correction's pattern for a chain of beams (rows, cols, data, n)."""
+    rows, cols = [], []
+    for k in range(n_nodes):
+        r = np.arange(k * s, (k + 1) * s)
+        for c in ([r] if k == 0 else [r, r - s]):
+            rr, cc = np.meshgrid(r, c, indexing="ij")
+            rows.append(rr.ravel())
+            cols.append(cc.ravel())
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    return rows, cols, rng.standard_normal(rows.size) + 4.0 * (rows == cols), n_nodes * s
+
+
+@pytest.mark.parametrize("n_nodes", [DENSE_MAX // 7, DENSE_MAX // 7 + 1])
+def test_dense_and_sparse_substitution_agree_at_the_threshold(n_nodes):
+    """Just below and just above DENSE_MAX unknowns the default takes the dense and the
+    sparse triangular solve in turn; forced either way, both give the dense solver's
+    solution and agree with each other to round-off."""
+    rng = np.random.default_rng(n_nodes)
+    rows, cols, data, n = _chain(rng, n_nodes)
+    assert BlockTriangular(rows, cols, n).dense == (n <= DENSE_MAX)
+    b = rng.standard_normal(n)
+    x_dense = BlockTriangular(rows, cols, n, dense=True).factorize(data)(b)
+    x_sparse = BlockTriangular(rows, cols, n, dense=False).factorize(data)(b)
+    a = np.zeros((n, n))
+    a[rows, cols] = data
+    x_ref = np.linalg.solve(a, b)
+    scale = np.abs(x_ref).max()
+    assert np.abs(x_dense - x_sparse).max() < 1e-12 * scale
+    assert np.abs(x_dense - x_ref).max() < 1e-10 * scale

@@ -40,11 +40,6 @@ from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
 log = logging.getLogger(__name__)
 
 
-def _symmetric_matvec(upper, y):
-    """``A y`` for a symmetric A given by its upper triangle (CSC)."""
-    return upper @ y + upper.T @ y - upper.diagonal() * y
-
-
 def _rotate_blocks(k, *bases, starts):
     """``B_e^T k B_e`` for blocks k (n, n_ldof, n_ldof) whose Euler quadruples start at the
     local slots ``starts``, with the bases (n, 4, 4) of those nodes (k is overwritten)."""
@@ -276,7 +271,7 @@ class ReducedNewton:
             timings.factorizations += 1
             y = self._refine(solve, lambda v: self._reduced_times(k_rot, euler_diag, v,
                                                                   invariant), rhs,
-                             quick_matvec=lambda v: _symmetric_matvec(a, v))
+                             quick_matvec=partial(self.pattern.symmetric_matvec, a.data))
             if y is None:
                 return None
         except FactorizationError:
