@@ -22,7 +22,10 @@ shown. Set-up (deck parsing, numbering, sparsity pattern) is timed apart from th
 static tables split the time per Newton iteration into element kernels, assembly, sparse
 factorizations and solves, and the rest (norms, bookkeeping). With ``--peer exudyn`` the same
 problems are solved by Exudyn (:mod:`spacarpy.peers.exudyn_cantilever`) in the same run, and the
-ratio of the solve times (spacarpy / Exudyn) is shown with the result each code reaches.
+ratio of the solve times (spacarpy / Exudyn) is shown with the result each code reaches. The
+cantilever rows up to :data:`WHOLE_PROCESS_MAX` elements also time the whole process
+(:func:`whole_process`): ``spacarpy run`` as a subprocess against the Exudyn script as a
+subprocess, best of ``repeat``.
 ``--markdown FILE`` writes the tables as docs/performance.md is made. Nothing else is written;
 numbers are never asserted in tests.
 """
@@ -202,6 +205,51 @@ def _run_row(case: str, n: int, repeat: int, n_steps: int, transient_steps: int)
     return _transient_row(n, transient_steps)
 
 
+#: Largest cantilever whose whole-process time is measured (a fresh process per repetition).
+WHOLE_PROCESS_MAX = 1000
+#: The peer's whole process: Python, numpy, Exudyn, the model and the solve, nothing else.
+_PEER_SCRIPT = ("import sys\n"
+                "from spacarpy.peers.exudyn_cantilever import cantilever\n"
+                "r = cantilever(int(sys.argv[1]), n_steps=int(sys.argv[2]))\n"
+                "sys.exit(0 if r['ok'] else 1)\n")
+
+
+def _best_wall(cmd, repeat: int, cwd: str) -> float | None:
+    """Best wall seconds of ``repeat`` runs of ``cmd`` (each a fresh process); None if one
+    fails."""
+    import subprocess
+    best = None
+    for _ in range(max(repeat, 1)):
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, cwd=cwd, stdin=subprocess.DEVNULL,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0:
+            return None
+        best = wall if best is None else min(best, wall)
+    return best
+
+
+def whole_process(n: int, n_steps: int, repeat: int = 3, peer: bool = False) -> dict:
+    """Whole-process wall time of the cantilever case: ``spacarpy run`` on its deck as a
+    subprocess (start-up, parsing, solve, result file), best of ``repeat``; with ``peer``
+    also the Exudyn script solving the same problem as a subprocess. Keys ``spacarpy`` and
+    ``peer`` (seconds, or None when the run failed or was not asked for)."""
+    import tempfile
+    from pathlib import Path
+
+    from spacarpy.cases import cantilever_deck
+    text = cantilever_deck(n, n_steps=n_steps, tol=1e-8, compact=True, shear=SHEAR)
+    with tempfile.TemporaryDirectory(prefix="spacarpy-bench-") as tmp:
+        deck = Path(tmp) / f"cantilever_{n}.dat"
+        deck.write_text(text)
+        ours = _best_wall([sys.executable, "-m", "spacarpy", "run", str(deck), "-q", "-o",
+                           str(Path(tmp) / "out.h5")], repeat, tmp)
+        theirs = _best_wall([sys.executable, "-c", _PEER_SCRIPT, str(n), str(n_steps)],
+                            repeat, tmp) if peer else None
+    return {"spacarpy": ours, "peer": theirs}
+
+
 def _in_child(fn, *args):
     """Run ``fn(*args)`` in a fresh process (its own peak memory); exceptions become rows."""
     ctx = multiprocessing.get_context("spawn")
@@ -243,6 +291,8 @@ def _columns(case: str, peer: bool):
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
                  ("tip u_y (m)", 11, f("result", ".6f"))]
     cols += [("peak MB", 8, f("peak_mb", ".0f"))]
+    if case == "cantilever":
+        cols += [("whole s", 8, f("whole", ".3f"))]
     if peer:
         unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)"}.get(case, "tip u_y (m)")
         cols += [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
@@ -250,6 +300,9 @@ def _columns(case: str, peer: bool):
                  (f"Exudyn {unit}", 16, lambda r: _peer_get(
                      r, "result", ".4f" if case in ("eigen", "bend") else ".6f")),
                  ("ratio", 6, _ratio)]
+        if case == "cantilever":
+            cols += [("Exudyn whole s", 14, lambda r: _peer_get(r, "whole", ".3f")),
+                     ("whole ratio", 11, _whole_ratio)]
     return cols
 
 
@@ -261,6 +314,14 @@ def _peer_get(row, key, fmt):
         return "n/a"
     v = p.get(key)
     return "-" if v is None or (isinstance(v, float) and np.isnan(v)) else format(v, fmt)
+
+
+def _whole_ratio(row):
+    """spacarpy's whole-process time over the peer's."""
+    p = row.get("peer") or {}
+    if row.get("whole") is None or not p.get("whole"):
+        return "-"
+    return f"{row['whole'] / p['whole']:.2f}"
 
 
 def _ratio(row):
@@ -350,6 +411,11 @@ def run_bench(cases=("cantilever", "bend", "eigen", "transient"), sizes=None, n_
                 row["peer"] = _in_child(_peer_row, case, n, n_steps, transient_steps)
                 if "error" in row["peer"]:
                     row["peer"] = dict(ok=False, reason=row["peer"]["error"])
+            if case == "cantilever" and n <= WHOLE_PROCESS_MAX:
+                whole = whole_process(n, n_steps, repeat, bool(peer))
+                row["whole"] = whole["spacarpy"]
+                if peer:
+                    row["peer"]["whole"] = whole["peer"]
             rows.append(row)
             lines = _text_table(case, [row], bool(peer))
             if not head_printed:
@@ -391,7 +457,11 @@ fixed sparsity pattern, residual vectors), solve (sparse factorizations and
 back-substitutions, the Newton matrix's and the kinematic correction's) and other (norms,
 bookkeeping). `LU` counts the factorizations. The Exudyn columns solve the same problem with
 Exudyn's geometrically exact beam (see `spacarpy/peers/exudyn_cantilever.py` for its
-settings); `ratio` is spacarpy's solve time divided by Exudyn's.
+settings); `ratio` is spacarpy's solve time divided by Exudyn's. `whole s` (cantilever, up to
+1000 elements) is the whole process: `spacarpy run` on the case's deck as a subprocess
+(start-up, deck, solve, result file), best of `--repeat` fresh processes; `Exudyn whole s`
+the same for a Python script that solves the problem with Exudyn, and `whole ratio` the
+quotient of the two.
 """
 
 _MARKDOWN_NOTES = """## How to read it
