@@ -94,6 +94,10 @@ def _set_option(p):
                         "repeat for several parameters)")
 
 
+#: spacarpy.bench.CASES and its DECK_CASES (spelled out: the parser does not import bench).
+_BENCH_CASES = ("cantilever", "bend", "eigen", "transient", "pendulum", "sweep")
+
+
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The argument parser of every subcommand. ``command``: the subcommand about to be
     parsed, when known; the result-file subcommands then skip importing the plot and table
@@ -141,10 +145,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="time the solvers on cantilevers and a bend of "
                                          "growing size (optionally beside Exudyn)")
-    bench.add_argument("--cases", nargs="+", choices=["cantilever", "bend", "eigen",
-                                                      "transient"],
-                       default=["cantilever", "bend", "eigen", "transient"],
-                       help="which cases (default: all four)")
+    bench.add_argument("--cases", nargs="+", choices=_BENCH_CASES, default=list(_BENCH_CASES),
+                       help="which cases (default: all six; pendulum and sweep time whole "
+                            "processes on shipped decks)")
     bench.add_argument("--sizes", type=int, nargs="+", default=None,
                        help="numbers of elements for every case (default: 10 100 1000 10000; "
                             "transient 10 100)")
