@@ -121,5 +121,11 @@ def test_batch_tasks_reuse_one_worker_per_thread_and_replace_a_killed_one(tmp_pa
         assert c.status == "ok" and worker().proc.pid != pid
         bad = run_task(Task("d", str(tmp_path / "missing.dat")))
         assert bad.status == "error" and bad.returncode == 2
+        # the local backend ends the worker processes of its threads with the pool
+        from spacarpy.batch import workers
+        from spacarpy.batch.backends import execute
+        close_workers()
+        done = list(execute(run_task, [Task("e", str(DECK)), Task("f", str(DECK))], jobs=2))
+        assert [r.status for r in done] == ["ok", "ok"] and not workers._ALL
     finally:
         close_workers()
