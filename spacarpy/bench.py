@@ -23,6 +23,10 @@ Cases (all in :mod:`spacarpy.cases` terms, modified deformations):
     the residual history (above 10 times its round-off floor, which grows with the stiffest
     element's stiffness) and on the increments of one post-buckling point (an arc length of
     0.1 from the point at load factor 0.7; 2 is quadratic).
+``pendulum``, ``sweep``
+    Whole processes on shipped decks (:data:`DECK_CASES`): ``spacarpy run
+    decks/pendulum_rigid_90deg.dat`` (a rigid pendulum, 440 transient steps) and ``spacarpy
+    sweep decks/leafspring_guidance_sweep.dat --set phi=0:0.002:21 -j 2`` (21 points).
 
 Every (case, size) runs in a fresh process, so that its peak memory (the process's maximum
 resident set) is its own; inside it the solve is repeated and the minimum and median are
@@ -30,7 +34,10 @@ shown. Set-up (deck parsing, numbering, sparsity pattern) is timed apart from th
 static tables split the time per Newton iteration into element kernels, assembly, sparse
 factorizations and solves, and the rest (norms, bookkeeping). With ``--peer exudyn`` the same
 problems are solved by Exudyn (:mod:`spacarpy.peers.exudyn_cantilever`) in the same run, and the
-ratio of the solve times (spacarpy / Exudyn) is shown with the result each code reaches.
+ratio of the solve times (spacarpy / Exudyn) is shown with the result each code reaches. The
+cantilever rows up to :data:`WHOLE_PROCESS_MAX` elements also time the whole process
+(:func:`whole_process`): ``spacarpy run`` as a subprocess against the Exudyn script as a
+subprocess, best of ``repeat``.
 ``--markdown FILE`` writes the tables as docs/performance.md is made. Nothing else is written;
 numbers are never asserted in tests.
 """
@@ -50,6 +57,13 @@ import numpy as np
 from spacarpy.deck import job_from_text
 
 CASES = ("cantilever", "bend", "eigen", "transient", "arclength")
+#: Cases timed as whole processes only, on shipped decks: the ``spacarpy`` command (after the
+#: word ``spacarpy``) with the deck in the place of ``{deck}``.
+DECK_CASES = {
+    "pendulum": ("run", "{deck}/pendulum_rigid_90deg.dat"),
+    "sweep": ("sweep", "{deck}/leafspring_guidance_sweep.dat", "--set", "phi=0:0.002:21",
+              "-j", "2"),
+}
 #: shear stiffness GA / EA of the benchmark cantilever (Exudyn's SHEAR_FACTOR)
 SHEAR = 10.0
 DEFAULT_SIZES = {"cantilever": (10, 100, 1000, 10000), "bend": (10, 100, 1000, 10000),
@@ -63,6 +77,8 @@ TITLES = {
                  "rho_inf = 0.5)",
     "arclength": "Clamped column past buckling by arc length (1.5 P_E, imperfection 1e-2, "
                  "EA = 1e4 EI, Newton to 1e-6)",
+    "pendulum": "Rigid pendulum released from 90 degrees, 440 transient steps (whole process)",
+    "sweep": "Leaf-spring guidance sweep, 21 points on 2 jobs (whole process)",
 }
 #: ARCLENGTH line of the bench column: n_max ds0 ds_min ds_max
 ARCLENGTH_LINE = "ARCLENGTH 400 0.02 0.0001 0.02"
@@ -270,6 +286,85 @@ def _run_row(case: str, n: int, repeat: int, n_steps: int, transient_steps: int)
     return _transient_row(n, transient_steps)
 
 
+#: Largest cantilever whose whole-process time is measured (a fresh process per repetition).
+WHOLE_PROCESS_MAX = 1000
+#: The peer's whole process: Python, numpy, Exudyn, the model and the solve, nothing else.
+_PEER_SCRIPT = ("import sys\n"
+                "from spacarpy.peers.exudyn_cantilever import cantilever\n"
+                "r = cantilever(int(sys.argv[1]), n_steps=int(sys.argv[2]))\n"
+                "sys.exit(0 if r['ok'] else 1)\n")
+
+
+def _best_wall(cmd, repeat: int, cwd: str) -> float | None:
+    """Best wall seconds of ``repeat`` runs of ``cmd`` (each a fresh process); None if one
+    fails."""
+    import subprocess
+    best = None
+    for _ in range(max(repeat, 1)):
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, cwd=cwd, stdin=subprocess.DEVNULL,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0:
+            return None
+        best = wall if best is None else min(best, wall)
+    return best
+
+
+def whole_process(n: int, n_steps: int, repeat: int = 3, peer: bool = False) -> dict:
+    """Whole-process wall time of the cantilever case: ``spacarpy run`` on its deck as a
+    subprocess (start-up, parsing, solve, result file), best of ``repeat``; with ``peer``
+    also the Exudyn script solving the same problem as a subprocess. Keys ``spacarpy`` and
+    ``peer`` (seconds, or None when the run failed or was not asked for)."""
+    import tempfile
+    from pathlib import Path
+
+    from spacarpy.cases import cantilever_deck
+    text = cantilever_deck(n, n_steps=n_steps, tol=1e-8, compact=True, shear=SHEAR)
+    # its EXPECT lines hold the shear-rigid Table 1 tip, which GA = 10 EA misses (exit 4)
+    text = "\n".join(line for line in text.splitlines()
+                     if not line.lstrip().upper().startswith("EXPECT")) + "\n"
+    with tempfile.TemporaryDirectory(prefix="spacarpy-bench-") as tmp:
+        deck = Path(tmp) / f"cantilever_{n}.dat"
+        deck.write_text(text)
+        ours = _best_wall([sys.executable, "-m", "spacarpy", "run", str(deck), "-q", "-o",
+                           str(Path(tmp) / "out.h5")], repeat, tmp)
+        theirs = _best_wall([sys.executable, "-c", _PEER_SCRIPT, str(n), str(n_steps)],
+                            repeat, tmp) if peer else None
+    return {"spacarpy": ours, "peer": theirs}
+
+
+def deck_case(case: str, repeat: int) -> dict:
+    """Whole-process wall time of a :data:`DECK_CASES` case: its ``spacarpy`` command as a
+    subprocess, ``repeat`` times (the sweep once: it is 21 runs itself); minimum and median.
+    The decks are those of a source checkout (``decks/`` beside the package)."""
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    decks = Path(__file__).resolve().parents[1] / "decks"
+    words = [w.format(deck=decks) for w in DECK_CASES[case]]
+    command = "spacarpy " + " ".join(w.replace(str(decks), "decks") for w in words)
+    if not Path(words[1]).is_file():
+        return dict(case=case, n=0, command=command,
+                    error=f"no deck {words[1]} (the decks of a source checkout)")
+    times = []
+    with tempfile.TemporaryDirectory(prefix="spacarpy-bench-") as tmp:
+        for _ in range(1 if case == "sweep" else max(repeat, 1)):
+            t0 = time.perf_counter()
+            proc = subprocess.run([sys.executable, "-m", "spacarpy", *words, "-q", "-o",
+                                   str(Path(tmp) / "out.h5")], cwd=tmp,
+                                  stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.PIPE, text=True)
+            if proc.returncode != 0:
+                return dict(case=case, n=0, command=command,
+                            error=f"exit code {proc.returncode}: "
+                                  f"{proc.stderr.strip().splitlines()[-1:]}")
+            times.append(time.perf_counter() - t0)
+    return dict(case=case, n=0, command=command, whole=min(times),
+                median=statistics.median(times))
+
+
 def _in_child(fn, *args):
     """Run ``fn(*args)`` in a fresh process (its own peak memory); exceptions become rows."""
     ctx = multiprocessing.get_context("spawn")
@@ -292,6 +387,9 @@ def _columns(case: str, peer: bool):
                 return "-"
             return format(v, fmt) if fmt == "d" else format(v * scale, fmt)
         return get
+    if case in DECK_CASES:
+        return [("command", 72, lambda r: r.get("command", "-")),
+                ("whole min s", 11, f("whole", ".3f")), ("median s", 9, f("median", ".3f"))]
     cols = [("elements", 9, f("n", "d")), ("unknowns", 9, f("unknowns", "d")),
             ("setup s", 8, f("setup", ".2f")), ("solve min s", 11, f("total", ".3f")),
             ("median s", 9, f("median", ".3f"))]
@@ -317,6 +415,8 @@ def _columns(case: str, peer: bool):
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
                  ("tip u_y (m)", 11, f("result", ".6f"))]
     cols += [("peak MB", 8, f("peak_mb", ".0f"))]
+    if case == "cantilever":
+        cols += [("whole s", 8, f("whole", ".3f"))]
     if peer:
         unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)"}.get(case, "tip u_y (m)")
         cols += [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
@@ -324,6 +424,9 @@ def _columns(case: str, peer: bool):
                  (f"Exudyn {unit}", 16, lambda r: _peer_get(
                      r, "result", ".4f" if case in ("eigen", "bend") else ".6f")),
                  ("ratio", 6, _ratio)]
+        if case == "cantilever":
+            cols += [("Exudyn whole s", 14, lambda r: _peer_get(r, "whole", ".3f")),
+                     ("whole ratio", 11, _whole_ratio)]
     return cols
 
 
@@ -335,6 +438,14 @@ def _peer_get(row, key, fmt):
         return "n/a"
     v = p.get(key)
     return "-" if v is None or (isinstance(v, float) and np.isnan(v)) else format(v, fmt)
+
+
+def _whole_ratio(row):
+    """spacarpy's whole-process time over the peer's."""
+    p = row.get("peer") or {}
+    if row.get("whole") is None or not p.get("whole"):
+        return "-"
+    return f"{row['whole'] / p['whole']:.2f}"
 
 
 def _ratio(row):
@@ -350,7 +461,7 @@ def _text_table(case: str, rows: list[dict], peer: bool) -> list[str]:
     lines = [header, "-" * len(header)]
     for r in rows:
         if "error" in r:
-            lines.append(f"{r['n']:>9d}  failed: {r['error']}")
+            lines.append(f"{r.get('command') or r['n']:>9}  failed: {r['error']}")
             continue
         lines.append(" ".join(f"{get(r):>{w}}" for _, w, get in cols))
     return lines
@@ -362,7 +473,8 @@ def _markdown_table(case: str, rows: list[dict], peer: bool) -> list[str]:
              "|" + "|".join("---:" for _ in cols) + "|"]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['n']} | failed: {r['error']} |" + " |" * (len(cols) - 2))
+            lines.append(f"| {r.get('command') or r['n']} | failed: {r['error']} |"
+                         + " |" * (len(cols) - 2))
             continue
         lines.append("| " + " | ".join(get(r) for _, _, get in cols) + " |")
     notes = [f"- {r['n']} elements, Exudyn: {r['peer']['reason']}" for r in rows
@@ -389,7 +501,7 @@ def machine_summary() -> str:
             f"{numpy.__version__}, scipy {scipy.__version__}; {cpu}, {os.cpu_count()} cores")
 
 
-def run_bench(cases=CASES, sizes=None, n_steps: int = 10,
+def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
               repeat: int = 3, transient_steps: int = 1000, peer: str | None = None,
               markdown: str | None = None, out=None) -> dict:
     """Run the benchmark; print one table per case to ``out`` (default: the current
@@ -409,9 +521,15 @@ def run_bench(cases=CASES, sizes=None, n_steps: int = 10,
     print(machine_summary(), file=out)
     results = {}
     for case in cases:
+        print("\n" + TITLES[case].format(steps=transient_steps), file=out)
+        if case in DECK_CASES:
+            rows = [deck_case(case, repeat)]
+            print("\n".join(_text_table(case, rows, False)), file=out)
+            out.flush()
+            results[case] = rows
+            continue
         case_sizes = sizes.get(case, DEFAULT_SIZES[case]) if isinstance(sizes, dict) \
             else (sizes or DEFAULT_SIZES[case])
-        print("\n" + TITLES[case].format(steps=transient_steps), file=out)
         rows = []
         head_printed = False
         for n in case_sizes:
@@ -424,6 +542,11 @@ def run_bench(cases=CASES, sizes=None, n_steps: int = 10,
                 row["peer"] = _in_child(_peer_row, case, n, n_steps, transient_steps)
                 if "error" in row["peer"]:
                     row["peer"] = dict(ok=False, reason=row["peer"]["error"])
+            if case == "cantilever" and n <= WHOLE_PROCESS_MAX:
+                whole = whole_process(n, n_steps, repeat, bool(peer))
+                row["whole"] = whole["spacarpy"]
+                if peer:
+                    row["peer"]["whole"] = whole["peer"]
             rows.append(row)
             lines = _text_table(case, [row], bool(peer))
             if not head_printed:
@@ -465,7 +588,13 @@ fixed sparsity pattern, residual vectors), solve (sparse factorizations and
 back-substitutions, the Newton matrix's and the kinematic correction's) and other (norms,
 bookkeeping). `LU` counts the factorizations. The Exudyn columns solve the same problem with
 Exudyn's geometrically exact beam (see `spacarpy/peers/exudyn_cantilever.py` for its
-settings); `ratio` is spacarpy's solve time divided by Exudyn's.
+settings); `ratio` is spacarpy's solve time divided by Exudyn's. `whole s` (cantilever, up to
+1000 elements) is the whole process: `spacarpy run` on the case's deck as a subprocess
+(start-up, deck, solve, result file), best of `--repeat` fresh processes; `Exudyn whole s`
+the same for a Python script that solves the problem with Exudyn, and `whole ratio` the
+quotient of the two. The pendulum and sweep tables time whole `spacarpy` commands on shipped
+decks (a rigid pendulum of 440 transient steps; the 21-point leaf-spring sweep on 2 jobs,
+run once), each a fresh process; they have no Exudyn counterpart yet.
 """
 
 _MARKDOWN_NOTES = """## How to read it

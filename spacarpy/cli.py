@@ -94,7 +94,15 @@ def _set_option(p):
                         "repeat for several parameters)")
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: spacarpy.bench.CASES and its DECK_CASES (spelled out: the parser does not import bench).
+_BENCH_CASES = ("cantilever", "bend", "eigen", "transient", "arclength", "pendulum", "sweep")
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser of every subcommand. ``command``: the subcommand about to be
+    parsed, when known; the result-file subcommands then skip importing the plot and table
+    vocabularies (only their names and help are needed), which keeps ``spacarpy run``'s
+    start-up free of the plotting modules."""
     p = argparse.ArgumentParser(
         prog="spacarpy",
         description="Large-deflection analysis of flexible multibody systems and slender "
@@ -144,10 +152,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="time the solvers on cantilevers and a bend of "
                                          "growing size (optionally beside Exudyn)")
-    bench.add_argument("--cases", nargs="+", choices=["cantilever", "bend", "eigen",
-                                                      "transient", "arclength"],
-                       default=["cantilever", "bend", "eigen", "transient", "arclength"],
-                       help="which cases (default: all five)")
+    bench.add_argument("--cases", nargs="+", choices=_BENCH_CASES, default=list(_BENCH_CASES),
+                       help="which cases (default: all seven; pendulum and sweep time whole "
+                            "processes on shipped decks)")
     bench.add_argument("--sizes", type=int, nargs="+", default=None,
                        help="numbers of elements for every case (default: 10 100 1000 10000; "
                             "transient 10 100)")
@@ -165,9 +172,23 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--markdown", metavar="FILE", default=None,
                        help="also write the tables as Markdown (docs/performance.md)")
     _verbosity(bench)
-    _results_commands(sub)
+    _results_commands(sub, vocabularies=command is None or command in _VOCABULARY_COMMANDS)
     _batch_commands(sub)
     return p
+
+
+#: Subcommands whose arguments list the plot kinds or the extractable quantities.
+_VOCABULARY_COMMANDS = frozenset({"extract", "plot"})
+
+
+def _command_name(argv: list[str] | None) -> str | None:
+    """The subcommand named on the command line (the first word that is not an option), or
+    None when there is none; only a hint for :func:`build_parser`."""
+    words = sys.argv[1:] if argv is None else argv
+    for word in words:
+        if not word.startswith("-"):
+            return word
+    return None
 
 
 class UsageError(SpacarError):
@@ -278,10 +299,15 @@ def _batch_commands(sub) -> None:
     _verbosity(swp)
 
 
-def _results_commands(sub) -> None:
-    """Subcommands that read a result file (validate, show, extract, plot, export)."""
-    from spacarpy.results.plot import PLOTS
-    from spacarpy.results.tables import QUANTITIES
+def _results_commands(sub, vocabularies: bool = True) -> None:
+    """Subcommands that read a result file (validate, show, extract, plot, export).
+    ``vocabularies``: False when another subcommand is being parsed; extract and plot are
+    then listed with their help but without their (imported) lists of choices."""
+    if vocabularies:
+        from spacarpy.results.plot import PLOTS
+        from spacarpy.results.tables import QUANTITIES
+    else:
+        PLOTS = QUANTITIES = {}
 
     val = sub.add_parser("validate", help="check a result file against the schema "
                                           "(docs/results.md)")
@@ -426,7 +452,7 @@ def _terminate_like_interrupt():
 
 def main(argv: list[str] | None = None) -> int:
     _single_blas_thread()
-    parser = build_parser()
+    parser = build_parser(_command_name(argv))
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:           # argparse: 2 for usage errors, 0 for --help

@@ -15,9 +15,12 @@ import difflib
 import math
 from collections.abc import Mapping
 from functools import lru_cache
+from pathlib import Path
 
-from lark import Lark, Token, Tree
+from lark import Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from spacarpy.grammars import lalr_parser
 
 __all__ = ["CONSTANTS", "FUNCTIONS", "RESERVED_NAMES", "ExpressionError", "evaluate",
            "parse_expression", "whole_number"]
@@ -44,8 +47,8 @@ CONSTANTS: dict[str, float] = {"pi": math.pi}
 #: Names a SET may not use.
 RESERVED_NAMES = frozenset(FUNCTIONS) | frozenset(CONSTANTS)
 
-_PARSER = Lark.open("expr.lark", rel_to=__file__, parser="lalr", propagate_positions=True,
-                    maybe_placeholders=False)
+_PARSER = lalr_parser(Path(__file__).with_name("expr.lark"), propagate_positions=True,
+                      maybe_placeholders=False)
 
 
 class ExpressionError(Exception):

@@ -1,7 +1,9 @@
-"""Batch regression and parameter sweeps: many deck runs, each in its own process.
+"""Batch regression and parameter sweeps: many deck runs, isolated in worker processes.
 
-- :mod:`~spacarpy.batch.runner` finds decks and runs one deck per process, with a timeout
-  (:func:`run_task`), and runs a whole batch against baselines (:func:`run_batch`);
+- :mod:`~spacarpy.batch.runner` finds decks and runs one deck in a worker process, with a
+  timeout (:func:`run_task`), and runs a whole batch against baselines (:func:`run_batch`);
+- :mod:`~spacarpy.batch.workers` keeps the long-lived worker processes (one per job) that
+  import spacarpy once (:mod:`~spacarpy.batch.serve` is their loop);
 - :mod:`~spacarpy.batch.backends` executes the tasks: local processes, or a Dask cluster;
 - :mod:`~spacarpy.batch.compare` compares a result file with its baseline;
 - :mod:`~spacarpy.batch.report` writes the outcome as a table, JUnit XML or JSON;

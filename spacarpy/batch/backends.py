@@ -1,11 +1,12 @@
 """Execution backends: run many tasks and hand each result back as soon as it is done.
 
-``local`` runs each task in a thread that starts and waits for its own child process (the
-task itself isolates the deck in a process, see :func:`spacarpy.batch.runner.run_task`), so it
-needs nothing beyond the standard library. ``dask`` submits the same tasks to a Dask
-distributed cluster (the optional extra ``spacarpy[dask]``): ``"local"`` starts a
-``LocalCluster`` on this machine, any other address (``tcp://host:8786``) connects to a running
-scheduler. Results come back to the client, which writes every file itself.
+``local`` runs each task in a thread that hands it to the thread's worker process (the task
+itself isolates the deck in a process, see :func:`spacarpy.batch.runner.run_task`), so it
+needs nothing beyond the standard library; the workers end with the pool. ``dask`` submits
+the same tasks to a Dask distributed cluster (the optional extra ``spacarpy[dask]``):
+``"local"`` starts a ``LocalCluster`` on this machine, any other address
+(``tcp://host:8786``) connects to a running scheduler; each Dask worker keeps its worker
+process between tasks. Results come back to the client, which writes every file itself.
 """
 from __future__ import annotations
 
@@ -20,15 +21,19 @@ class DaskUnavailable(RuntimeError):
 
 
 def _local(fn, tasks, jobs) -> Iterator:
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        futures = [pool.submit(fn, t) for t in tasks]
-        try:
-            for fut in as_completed(futures):
-                yield fut.result()
-        except BaseException:
-            for fut in futures:
-                fut.cancel()
-            raise
+    from spacarpy.batch.workers import close_workers
+    try:
+        with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+            futures = [pool.submit(fn, t) for t in tasks]
+            try:
+                for fut in as_completed(futures):
+                    yield fut.result()
+            except BaseException:
+                for fut in futures:
+                    fut.cancel()
+                raise
+    finally:
+        close_workers()         # the worker processes of this pool's threads (batch.workers)
 
 
 def _dask(fn, tasks, jobs, address) -> Iterator:

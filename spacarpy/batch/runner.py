@@ -12,8 +12,6 @@ from __future__ import annotations
 import glob
 import io
 import os
-import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -103,13 +101,30 @@ def _expected_exit_code(deck: str, overrides) -> int | None:
     return None
 
 
+@dataclass(frozen=True)
+class _Answer:
+    """A worker's answer, shaped like ``subprocess.CompletedProcess``."""
+
+    rc: int
+    stdout: str
+    stderr: str
+
+    @property
+    def returncode(self) -> int:
+        return self.rc
+
+
 def _tail(text: str, n: int = 6) -> str:
     lines = [ln for ln in text.strip().splitlines() if ln.strip()]
     return "\n".join(lines[-n:])
 
 
 def run_task(task: Task) -> TaskResult:
-    """Run one deck in a child process (``python -m spacarpy run``) and collect its result.
+    """Run one deck (``spacarpy run``) in a worker process and collect its result.
+
+    The worker (:mod:`spacarpy.batch.workers`) is this thread's long-lived child process,
+    which has imported spacarpy already; a run that hangs is killed at the timeout, and a
+    crashed or killed worker is replaced for the next task.
 
     Parameters
     ----------
@@ -121,20 +136,23 @@ def run_task(task: Task) -> TaskResult:
         Never raises for a failing deck: errors, timeouts and failed expectations are
         statuses.
     """
+    from spacarpy.batch.workers import WorkerDied, worker
+
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="spacarpy-batch-") as tmp:
         out = Path(tmp) / "result.h5"
-        cmd = [sys.executable, "-m", "spacarpy", "run", task.deck, "-o", str(out), "-q",
-               *task.args]
+        argv = ["run", task.deck, "-o", str(out), "-q", *task.args]
         for name, value in task.overrides:
-            cmd += ["--set", f"{name}={value}"]
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
+            argv += ["--set", f"{name}={value}"]
+        w = worker()
         try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=task.timeout,
-                                  cwd=tmp, env=env, stdin=subprocess.DEVNULL)
-        except subprocess.TimeoutExpired:
-            return TaskResult(task.key, "timeout", None,
-                              f"timed out after {task.timeout:g} s (killed)",
+            proc = _Answer(**w.call(argv, tmp, task.timeout))
+        except WorkerDied as exc:
+            if w.timed_out:
+                return TaskResult(task.key, "timeout", None,
+                                  f"timed out after {task.timeout:g} s (killed)",
+                                  time.perf_counter() - t0)
+            return TaskResult(task.key, "error", None, f"the run crashed: {exc}",
                               time.perf_counter() - t0)
         seconds = time.perf_counter() - t0
         data = out.read_bytes() if out.exists() else None

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from itertools import accumulate
 from pathlib import Path
 
-from lark import Lark, Token
+from lark import Token
 from lark.exceptions import UnexpectedInput
 
 from spacarpy.deck.keywords import (
@@ -41,6 +41,7 @@ from spacarpy.deck.keywords import (
 )
 from spacarpy.errors import DeckError, SourceLoc
 from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
+from spacarpy.grammars import lalr_parser
 
 __all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"]
 
@@ -49,7 +50,7 @@ logger = logging.getLogger(__name__)
 # The grammar accepts every sequence of tokens, so lexing is all the parsing a deck needs: a
 # record is the tokens of one line (no token spans a line end). Lexing alone is twice as fast as
 # building the parse tree.
-_LARK = Lark.open("grammar.lark", rel_to=__file__, parser="lalr", lexer="basic")
+_LARK = lalr_parser(Path(__file__).with_name("grammar.lark"), lexer="basic")
 
 # Lark lexes a few ten thousand tokens a second: most of the time of reading a deck of 10^5
 # elements, nearly all of whose lines are a keyword and plain numbers ("BEAM 7 13 14 15 16 0 1 0").

@@ -1,0 +1,131 @@
+"""Start-up of issue 20: ``spacarpy run`` imports only what the analysis needs, the compiled
+grammars are cached between processes, and batch/sweep runs reuse worker processes.
+
+The import guard asserts on ``sys.modules`` of a real ``spacarpy run`` in a fresh process, not
+on time, so it holds on any machine and under any load.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DECK = ROOT / "decks" / "table1_cantilever_8el_modified.dat"
+
+#: Modules a static ``spacarpy run`` must not import (plotting, Dask, the batch machinery, the
+#: peers, scipy submodules a static solve does not use).
+NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.signal",
+               "scipy.io", "scipy.optimize", "scipy.integrate", "scipy.interpolate",
+               "spacarpy.batch", "spacarpy.bench", "spacarpy.peers", "spacarpy.cases",
+               "spacarpy.results.plot", "spacarpy.results.plot_base",
+               "spacarpy.results.plot_shapes", "spacarpy.results.export",
+               "spacarpy.results.tables")
+
+_RUN_AND_LIST = """
+import json, sys
+from spacarpy.cli import main
+rc = main(sys.argv[1:])
+print(json.dumps({"rc": rc, "modules": sorted(sys.modules)}))
+"""
+
+
+def _run_in_fresh_process(args, env=None) -> dict:
+    proc = subprocess.run([sys.executable, "-c", _RUN_AND_LIST, *args], capture_output=True,
+                          text=True, cwd=ROOT, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def _cache_env(tmp_path) -> dict:
+    return dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"),
+                PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+
+def test_spacarpy_run_imports_no_plotting_batch_peers_or_unused_scipy(tmp_path):
+    got = _run_in_fresh_process(["run", str(DECK), "-q", "-o", str(tmp_path / "t.h5")],
+                                env=_cache_env(tmp_path))
+    assert got["rc"] == 0
+    loaded = set(got["modules"])
+    bad = sorted(m for m in loaded for banned in NOT_FOR_RUN
+                 if m == banned or m.startswith(banned + "."))
+    assert not bad, f"spacarpy run imported {bad}"
+    # the guard is not vacuous: the run did load what a static solve needs
+    assert {"spacarpy.run", "spacarpy.solvers.static", "h5py", "spacarpy.deck.parser"} <= loaded
+
+
+def test_plot_and_extract_still_list_their_choices(capsys):
+    from spacarpy.cli import build_parser, main
+    assert main(["plot", "--help"]) == 0
+    assert "load-displacement" in capsys.readouterr().out
+    assert main(["extract", "--help"]) == 0
+    assert "strain_energy" in capsys.readouterr().out
+    # a run's parser lists the result subcommands without importing their vocabularies
+    assert "extract" in build_parser("run").format_help()
+
+
+def test_compiled_grammars_are_cached_and_parse_as_a_fresh_compile(tmp_path, monkeypatch):
+    from lark import Lark
+
+    from spacarpy import grammars
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    grammar = ROOT / "spacarpy" / "expr.lark"
+    options = {"propagate_positions": True, "maybe_placeholders": False}
+    first = grammars.lalr_parser(grammar, **options)        # compiled, then saved
+    files = list((tmp_path / "spacarpy").glob("expr-*.lark"))
+    assert len(files) == 1
+    cached = grammars.lalr_parser(grammar, **options)       # loaded from the file
+    fresh = Lark(grammar.read_text(), parser="lalr", **options)
+    text = "2*sin(pi/4) - x + (1e-3)"
+    assert cached.parse(text) == fresh.parse(text) == first.parse(text)
+    tree = cached.parse("1 + 2*x")
+    assert tree.meta.column == 1 and tree.meta.end_column == 8    # positions kept
+    # other options: another file; a damaged file is ignored and replaced
+    grammars.lalr_parser(grammar, propagate_positions=False, maybe_placeholders=False)
+    assert len(list((tmp_path / "spacarpy").glob("expr-*.lark"))) == 2
+    files[0].write_bytes(b"not a parser")
+    again = grammars.lalr_parser(grammar, **options)
+    assert again.parse(text) == fresh.parse(text)
+    assert files[0].read_bytes() != b"not a parser"
+
+
+def test_unwritable_cache_still_gives_the_parser(tmp_path, monkeypatch):
+    from spacarpy import grammars
+
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))      # a file, not a folder
+    parser = grammars.lalr_parser(ROOT / "spacarpy" / "deck" / "grammar.lark", lexer="basic")
+    assert [t.type for t in parser.lex("BEAM 1 2")][0] == "WORD"
+
+
+@pytest.mark.slow
+def test_batch_tasks_reuse_one_worker_per_thread_and_replace_a_killed_one(tmp_path):
+    from spacarpy.batch.runner import Task, run_task
+    from spacarpy.batch.workers import close_workers, worker
+
+    try:
+        a = run_task(Task("a", str(DECK)))
+        pid = worker().proc.pid
+        b = run_task(Task("b", str(DECK)))
+        assert a.status == b.status == "ok" and worker().proc.pid == pid
+        assert a.data[:8] == b"\x89HDF\r\n\x1a\n"
+        worker().proc.kill()
+        worker().proc.wait()
+        c = run_task(Task("c", str(DECK)))
+        assert c.status == "ok" and worker().proc.pid != pid
+        bad = run_task(Task("d", str(tmp_path / "missing.dat")))
+        assert bad.status == "error" and bad.returncode == 2
+        # the local backend ends the worker processes of its threads with the pool
+        from spacarpy.batch import workers
+        from spacarpy.batch.backends import execute
+        close_workers()
+        done = list(execute(run_task, [Task("e", str(DECK)), Task("f", str(DECK))], jobs=2))
+        assert [r.status for r in done] == ["ok", "ok"] and not workers._ALL
+    finally:
+        close_workers()
