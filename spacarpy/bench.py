@@ -40,6 +40,10 @@ cantilever rows up to :data:`WHOLE_PROCESS_MAX` elements also time the whole pro
 subprocess, best of ``repeat``.
 ``--markdown FILE`` writes the tables as docs/performance.md is made. Nothing else is written;
 numbers are never asserted in tests.
+
+The module is longer than 600 lines because the notes printed with every table (what each
+case measures, and the small-model measurements) live here, beside the cases they describe,
+so that ``--markdown`` regenerates docs/performance.md whole.
 """
 from __future__ import annotations
 

@@ -2,8 +2,7 @@
 
 Fixtures live in conftest.py; this module holds what is called, not injected: deck-error
 collection, finite differences, an independent planar four-bar solution, the arguments of the
-documented sweep, a results writer process killed with SIGKILL, and capability checks for
-work that lands on other branches (``has_arclength``). No test module imports
+documented sweep and a results writer process killed with SIGKILL. No test module imports
 another test module.
 """
 from __future__ import annotations
@@ -29,14 +28,6 @@ TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent
 DECK_TEXT = "# tiny test deck, ünïcödé\nBEAM 1 1 2 3 4\nBEAM 2 3 4 5 6\nEND\n"
 REACTION_COMPONENT = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-
-
-def has_arclength() -> bool:
-    """Whether the deck knows ``ARCLENGTH n_max ds0`` (the arc-length solver of issue 19); the
-    arc-length tests of tests/test_path_cases.py skip until it does."""
-    from spacarpy.deck.keywords import KEYWORDS
-
-    return "ARCLENGTH" in KEYWORDS
 
 
 def deck_errors(text: str, name: str = "t.dat") -> list[tuple[int, str]]:

@@ -24,7 +24,9 @@ def test_every_shipped_deck_has_a_baseline_and_they_are_small():
     for _, rel in decks:
         assert (BASELINE / Path(rel).with_suffix(".h5")).exists() or \
             "run.exit_code" in (DECKS / rel).read_text(), rel
-    assert sum(p.stat().st_size for p in BASELINE.glob("*.h5")) < 8e6
+    # 9 MB: the 50 baselines, the path-following ones (hundreds of points) included; a
+    # new deck that needs more should store fewer points, not raise the bound again
+    assert sum(p.stat().st_size for p in BASELINE.glob("*.h5")) < 9e6
 
 
 @pytest.mark.slow

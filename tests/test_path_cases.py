@@ -1,8 +1,7 @@
 """The path-following reference cases of docs/path.md against their references: the elastica
 (exact elliptic integrals, order of convergence measured), Lee's frame (published limit load),
 the curved bistable beam (Qiu, Lang & Slocum 2004), and displacement control against load
-control on one case. The arc-length runs of the same decks skip until the deck knows
-``ARCLENGTH`` (``helpers.has_arclength``); they assume the solver stores its points as
+control on one case; and the arc-length runs of the same cases (``@ARC``), whose points are
 ordinary static steps (``/static/load_factor`` may then go down and up again).
 """
 from __future__ import annotations
@@ -17,14 +16,14 @@ import spacarpy
 from spacarpy.deck import job_from_text
 from spacarpy.run import run_job
 
-from helpers import REPO, has_arclength
+from helpers import REPO
 
 DECKS = REPO / "decks"
 P_CR = np.pi**2 / 4                       # the decks' column: L = EI = 1
 BETA = 0.01                               # the tilt of its tip force (rad)
 P_END = 3.6 * P_CR                        # its DELXF force along -x
-ARC = pytest.mark.skipif(not has_arclength(), reason="the deck has no ARCLENGTH keyword yet "
-                                                     "(the arc-length solver of issue 19)")
+#: the arc-length runs (slow: hundreds of points each)
+ARC = pytest.mark.slow
 
 
 def _deck(name: str, **replace) -> str:
@@ -201,11 +200,10 @@ def test_displacement_and_load_control_reach_the_same_equilibria(lee, tmp_path):
 
 @ARC
 def test_arclength_traces_lees_frame_through_its_limit_points(lee, tmp_path):
-    """decks/lees_frame_load.dat with a reference load of 2.0, above the limit load 1.85, so
-    that the run cannot end before the limit point; at most 600 points (whether the path
-    rises to 2.0 again after the snap-back is not asserted here)."""
-    text = _with_arclength(_deck("lees_frame_load", **{"DELXF 5 0 -1.8 0": "DELXF 5 0 -2 0"}),
-                           "ARCLENGTH 600 0.5")
+    """decks/lees_frame_arclength.dat: a reference load of 2.0, above the limit load 1.85, so
+    that the run cannot end before the limit point; through the snap-back and the load
+    minimum, back up to the full load on the far branch."""
+    text = _deck("lees_frame_arclength")
     s = _run(text, tmp_path, "leearc")
     P = 2.0 * s.load_factor
     v = s.displacement(node=5)[:, 1]
@@ -216,8 +214,11 @@ def test_arclength_traces_lees_frame_through_its_limit_points(lee, tmp_path):
     # points lie on the path, so their largest load is at most the limit load
     assert lam_disp * (1 - 0.01) < P[i] * scale < lam_disp * (1 + 1e-3)
     limits = _limit_points(tmp_path / "leearc.h5")
-    if limits is not None:                               # refined to the solver tolerance
-        assert 2.0 * limits[0] * scale == pytest.approx(lam_disp, rel=1e-3)
+    assert limits is not None and limits.size == 2       # the load maximum and minimum
+    assert 2.0 * limits[0] * scale == pytest.approx(lam_disp, rel=1e-3)
+    assert limits[1] < 0 < limits[0]
+    assert s.load_factor[-1] == pytest.approx(1.0, abs=1e-9)   # the full load, far branch
+    assert v[-1] < v[i] - 30.0
     after = slice(i, None)
     assert P[after].min() < P[i] - 1.0                   # the load falls past the limit point
     assert np.any(np.diff(v[after]) > 0)                 # the snap-back: the drop reverses
