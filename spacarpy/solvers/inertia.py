@@ -200,16 +200,25 @@ class Inertia:
             ex = np.zeros((r, k))
             ex[np.arange(r), rot] = 1.0
             ev_ = np.eye(k)
-            dx = np.concatenate([ex, -ex, np.zeros((2 * k, k))])
-            dv = np.concatenate([np.zeros((2 * r, k)), ev_, -ev_])
-            reps = 2 * r + 2 * k
+            # with analytic convective terms the velocity copies need those only (M a does
+            # not depend on v): the mass matrices of 2 r copies instead of 2 r + 2 k
+            conv = b.conv_of is not None
+            dx = np.concatenate([ex, -ex] + ([] if conv else [np.zeros((2 * k, k))]))
+            dv = np.concatenate([np.zeros((2 * r, k))] + ([] if conv else [ev_, -ev_]))
+            reps = len(dx)
             xs = (xl[None] + dx[:, None, :]).reshape(-1, k)
             vs = (vl[None] + dv[:, None, :]).reshape(-1, k)
             as_ = np.broadcast_to(al[None], (reps, n_b, k)).reshape(-1, k)
             f = self._local(b, xs, vs, as_, reps)[1].reshape(reps, n_b, k)
             jx = np.zeros((n_b, k, k))
             jx[:, :, rot] = (0.5 * (f[:r] - f[r:2 * r])).transpose(1, 2, 0)
-            jv = (0.5 * (f[2 * r:2 * r + k] - f[2 * r + k:])).transpose(1, 2, 0)
+            if conv:
+                vs = (vl[None] + np.concatenate([ev_, -ev_])[:, None, :]).reshape(-1, k)
+                mdot, grad = b.conv_of(np.tile(xl, (2 * k, 1)), vs, 2 * k)
+                f = (mdot - 0.5 * grad).reshape(2 * k, n_b, k)
+                jv = (0.5 * (f[:k] - f[k:])).transpose(1, 2, 0)
+            else:
+                jv = (0.5 * (f[2 * r:2 * r + k] - f[2 * r + k:])).transpose(1, 2, 0)
             # the projection onto the physical velocities, node by node (slots of four)
             p = np.broadcast_to(np.eye(k), (n_b, k, k)).copy()
             dpv = np.zeros((n_b, k, k))
