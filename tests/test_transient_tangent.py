@@ -199,3 +199,35 @@ def test_newton_converges_quadratically_at_steady_spin():
         assert len(r) >= 3, h
         order = np.log(r[-1] / r[-2]) / np.log(r[-2] / r[-3])
         assert order >= 1.8, h
+
+
+# ------------------------------------------------------------------ messages (issue 21, point 2)
+def test_a_failed_transient_names_the_time_steps_kept_and_the_time_reached(
+        tmp_path, capsys, monkeypatch):
+    """A transient whose step 31 fails: the error and the log say how many time steps the
+    partial file holds and the time they reach (not "0 static steps"), and the file agrees."""
+    import h5py
+
+    from spacarpy.cli import main
+    from spacarpy.solvers.errors import StepFailed
+
+    step, calls = transient._step, []
+
+    def failing_step(*args, **kw):
+        calls.append(args[1])
+        if len(calls) > 30:
+            raise StepFailed("no convergence (forced by the test)", [1.0])
+        return step(*args, **kw)
+
+    monkeypatch.setattr(transient, "_step", failing_step)
+    deck = tmp_path / "c.dat"
+    deck.write_text((DECKS / "cantilever_free_vibration.dat").read_text()
+                    .replace("START static\n", ""))
+    assert main(["run", str(deck), "-o", str(tmp_path / "c.h5")]) == 1
+    err = capsys.readouterr().err
+    with h5py.File(tmp_path / "c.partial.h5") as f:
+        t = f["transient/time"][()]
+    assert len(t) == 31 and t[-1] == pytest.approx(calls[-1])
+    assert f"run not completed; 31 time steps (to t = {t[-1]:.6g} s) kept in" in err
+    assert "static steps" not in err
+    assert f"the 31 time steps stored before it (to t = {t[-1]:.6g} s) are kept" in err

@@ -392,7 +392,9 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 if h / 2 < h_int / 2 ** opts.max_cuts:
                     raise ConvergenceError(
                         f"transient step at t = {t:.6g} s (step {k}) did not converge after "
-                        f"{opts.max_cuts} halvings of the time step: {fail}") from None
+                        f"{opts.max_cuts} halvings of the time step: {fail}; the "
+                        f"{len(result.steps)} time steps stored before it (to t = "
+                        f"{result.steps[-1].time:.6g} s) are kept") from None
                 log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
                 h /= 2
                 continue
