@@ -340,11 +340,13 @@ def test_interrupted_transient_says_how_many_time_steps_were_kept(tmp_path, capl
         run_job(job, tmp_path / "t.h5", RunOptions(progress=progress))
     with h5py.File(tmp_path / "t.partial.h5", "r") as f:
         n_time = f["transient/time"].shape[0]
+        t_end = f["transient/time"][-1]
         n_static = f["static/load_factor"].shape[0]
         assert f.attrs["error"] == "interrupted by user"
     assert n_time >= 1
     assert [r.getMessage() for r in caplog.records if "not completed" in r.getMessage()] == [
-        f"run not completed; {n_static} static steps, {n_time} time steps kept in "
+        f"run not completed; {n_static} static steps, {n_time} time steps (to t = "
+        f"{t_end:.6g} s) kept in "
         f"{tmp_path / 't.partial.h5'}"]
 
 

@@ -399,9 +399,7 @@ class ResultsWriter:
         os.replace(self.partial_path, self.final_path)
         h5file.fsync(self.final_path.parent)
         self._state = "finished"
-        what = f"{self.n_step} static steps"
-        if "transient" in self._groups:
-            what += f", {self._groups['transient']['n']} time steps"
+        what = self._steps_held()
         log.info("results written to %s (%s)", self.final_path, what)
 
     def abort(self, error: str) -> None:
@@ -426,9 +424,7 @@ class ResultsWriter:
         finally:
             self._close()
             self._state = "aborted"
-        kept = f"{self.n_step} static steps"
-        if "transient" in self._groups:
-            kept += f", {self._groups['transient']['n']} time steps"
+        kept = self._steps_held()
         # the error itself is the caller's to report (the CLI prints it once)
         log.warning("run not completed; %s kept in %s", kept, self.partial_path)
 
@@ -535,8 +531,18 @@ class ResultsWriter:
         h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], value, k,
                            entry["checksum"])
         entry["n"] = k + 1
+        entry["last"] = value
         if group == "static":
             log.debug("static step %d written (load factor %g)", k, value)
+
+    def _steps_held(self) -> str:
+        """What the file holds, for the log: the static steps, and the time steps with the
+        time they reach (a transient without START static has no static steps to name)."""
+        if "transient" not in self._groups:
+            return f"{self.n_step} static steps"
+        tr = self._groups["transient"]
+        held = f"{tr['n']} time steps" + (f" (to t = {tr['last']:.6g} s)" if tr["n"] else "")
+        return f"{self.n_step} static steps, {held}" if self.n_step else held
 
     def _append_linearized(self, group, step, values) -> None:
         self._require_open(f"{group}_step")

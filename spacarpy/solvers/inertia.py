@@ -41,7 +41,7 @@ class _Batch(NamedTuple):
     mass_of: Callable             # (x_local, reps) -> (reps * n, k, k) mass blocks
     idx: np.ndarray               # (n, k) global coordinate indices
     rot: np.ndarray               # local Euler-parameter slots (M depends on them only)
-    conv_of: Callable | None      # (x_local, v_local) -> (dM/dt v, d(v^T M v)/dx), or None
+    conv_of: Callable | None      # (x_local, v_local, reps) -> (dM/dt v, d(v^T M v)/dx)
 
 
 class Inertia:
@@ -107,8 +107,12 @@ class Inertia:
                                  + [np.zeros(0, np.int64)]).astype(np.int64)
             conv_of = None
             if g.kind.convective is not None:
-                def conv_of(xl, vl, g=g):
-                    return g.kind.convective(xl, vl, g.ref, g.mass, self.rotary)
+                def conv_of(xl, vl, reps, g=g):
+                    ref = g.ref if reps == 1 else {
+                        k: np.concatenate([v] * reps) if isinstance(v, np.ndarray) else v
+                        for k, v in g.ref.items()}
+                    return g.kind.convective(xl, vl, ref, np.concatenate([g.mass] * reps),
+                                             self.rotary)
             out.append(_Batch(mass_of, g.idx, rot, conv_of))
         pm, jr = self.point_mass, self.rot_inertia
         out.append(_Batch((lambda xl, reps: np.tile(pm, reps)[:, None, None] * np.eye(3)),
@@ -121,6 +125,37 @@ class Inertia:
         """The mass matrix (n_coord, n_coord) at x."""
         return self.pattern.assemble([b.mass_of(x[b.idx], 1) for b in self.batches])
 
+    def _local(self, b: _Batch, xl, vl, al, reps: int):
+        """``(M, M a + h)`` of one batch at ``reps`` stacked configurations ``xl, vl, al``
+        ((reps * n, k) each, physical velocities): the mass blocks (reps * n, k, k) and the
+        local inertia forces (reps * n, k)."""
+        mass_of, _, rot, conv_of = b
+        n_b, k = xl.shape
+        if not np.any(vl) or not rot.size:
+            m = mass_of(xl, reps)
+            return m, np.einsum("nij,nj->ni", m, al)
+        if conv_of is not None:                      # analytic convective terms
+            m = mass_of(xl, reps)
+            mdot_v, grad = conv_of(xl, vl, reps)
+            return m, np.einsum("nij,nj->ni", m, al) + mdot_v - 0.5 * grad
+        # M at x, at x +- v and at x +- e_j for the r local Euler parameters (positions
+        # do not enter M) in one call: the central differences give dM/dt v and
+        # d(v^T M v)/dx exactly (M is quadratic in the Euler parameters)
+        r = rot.size
+        unit = np.zeros((r, k))
+        unit[np.arange(r), rot] = 1.0
+        steps = np.concatenate([np.zeros((1, k)), unit, -unit])
+        shifted = np.concatenate([xl[None] + steps[:, None, :],
+                                  (xl + vl)[None], (xl - vl)[None]])
+        ms = mass_of(shifted.reshape(-1, k), (2 * r + 3) * reps).reshape(2 * r + 3, n_b, k, k)
+        m = ms[0]
+        dm_v = 0.5 * (ms[-2] - ms[-1])
+        vmv = np.einsum("ni,jnik,nk->jn", vl, ms[1:2 * r + 1], vl)
+        grad = np.zeros((n_b, k))
+        grad[:, rot] = 0.5 * (vmv[:r] - vmv[r:]).T
+        return m, (np.einsum("nij,nj->ni", m, al) + np.einsum("nij,nj->ni", dm_v, vl)
+                   - 0.5 * grad)
+
     def forces(self, x: np.ndarray, v: np.ndarray, a: np.ndarray):
         """``(blocks, M a + h)`` at (x, v, a): the mass blocks of every batch (element
         groups, point masses, rotary nodes; :meth:`assemble` makes M of them) and the inertia
@@ -128,56 +163,92 @@ class Inertia:
         v = self.physical(x, v)
         n = self.num.n_coord
         blocks, force = [], np.zeros(n)
-        for mass_of, idx, rot, conv_of in self.batches:
-            xl, vl, al = x[idx], v[idx], a[idx]
-            n_b, k = xl.shape
-            if not n_b:
-                blocks.append(np.zeros((0, k, k)))
+        for b in self.batches:
+            xl, vl, al = x[b.idx], v[b.idx], a[b.idx]
+            if not xl.shape[0]:
+                blocks.append(np.zeros((0, xl.shape[1], xl.shape[1])))
                 continue
-            if not np.any(vl) or not rot.size:
-                m = mass_of(xl, 1)
-                blocks.append(m)
-                force += scatter_add(n, idx, np.einsum("nij,nj->ni", m, al))
-                continue
-            if conv_of is not None:                  # analytic convective terms
-                m = mass_of(xl, 1)
-                blocks.append(m)
-                mdot_v, grad = conv_of(xl, vl)
-                force += scatter_add(n, idx, np.einsum("nij,nj->ni", m, al) + mdot_v
-                                     - 0.5 * grad)
-                continue
-            # M at x, at x +- v and at x +- e_j for the r local Euler parameters (positions
-            # do not enter M) in one call: the central differences give dM/dt v and
-            # d(v^T M v)/dx exactly (M is quadratic in the Euler parameters)
-            r = rot.size
-            unit = np.zeros((r, k))
-            unit[np.arange(r), rot] = 1.0
-            steps = np.concatenate([np.zeros((1, k)), unit, -unit])
-            shifted = np.concatenate([xl[None] + steps[:, None, :],
-                                      (xl + vl)[None], (xl - vl)[None]])
-            ms = mass_of(shifted.reshape(-1, k), 2 * r + 3).reshape(2 * r + 3, n_b, k, k)
-            m = ms[0]
+            m, f = self._local(b, xl, vl, al, 1)
             blocks.append(m)
-            dm_v = 0.5 * (ms[-2] - ms[-1])
-            vmv = np.einsum("ni,jnik,nk->jn", vl, ms[1:2 * r + 1], vl)
-            grad = np.zeros((n_b, k))
-            grad[:, rot] = 0.5 * (vmv[:r] - vmv[r:]).T
-            f = np.einsum("nij,nj->ni", m, al) + np.einsum("nij,nj->ni", dm_v, vl) - 0.5 * grad
-            force += scatter_add(n, idx, f)
+            force += scatter_add(n, b.idx, f)
         return blocks, force
+
+    def tangent(self, x: np.ndarray, v: np.ndarray, a: np.ndarray, gamma_p: float):
+        """The derivatives of the inertia force ``M(x) a + h(x, P(x) v)`` other than its
+        ``M da``: ``d/dx + gamma_p d/dv`` per batch, local blocks (n, k, k) in the layout of
+        :meth:`forces`' blocks (None for a batch whose force does not depend on x or v: no
+        Euler parameters).
+
+        The local force is a polynomial of degree two in each Euler parameter (M is
+        quadratic in them, the convective terms linear; module docstring) and in the
+        velocities, and positions do not enter it, so central differences with unit steps
+        in the Euler parameters and in every velocity are its exact partial derivatives
+        (to round-off), all configurations of a batch in one vectorized kernel call. The
+        physical velocities ``P(q) v = v - q (q.v)/(q.q)`` (:meth:`physical`) add the
+        chain-rule terms ``J_v P`` and ``J_v d(P v)/dq``.
+        """
+        vp = self.physical(x, v)
+        out = []
+        for b in self.batches:
+            xl, vl, al = x[b.idx], vp[b.idx], a[b.idx]
+            n_b, k = xl.shape
+            rot = b.rot
+            if not n_b or not rot.size:
+                out.append(None)
+                continue
+            r = rot.size
+            ex = np.zeros((r, k))
+            ex[np.arange(r), rot] = 1.0
+            ev_ = np.eye(k)
+            # with analytic convective terms the velocity copies need those only (M a does
+            # not depend on v): the mass matrices of 2 r copies instead of 2 r + 2 k
+            conv = b.conv_of is not None
+            dx = np.concatenate([ex, -ex] + ([] if conv else [np.zeros((2 * k, k))]))
+            dv = np.concatenate([np.zeros((2 * r, k))] + ([] if conv else [ev_, -ev_]))
+            reps = len(dx)
+            xs = (xl[None] + dx[:, None, :]).reshape(-1, k)
+            vs = (vl[None] + dv[:, None, :]).reshape(-1, k)
+            as_ = np.broadcast_to(al[None], (reps, n_b, k)).reshape(-1, k)
+            f = self._local(b, xs, vs, as_, reps)[1].reshape(reps, n_b, k)
+            jx = np.zeros((n_b, k, k))
+            jx[:, :, rot] = (0.5 * (f[:r] - f[r:2 * r])).transpose(1, 2, 0)
+            if conv:
+                vs = (vl[None] + np.concatenate([ev_, -ev_])[:, None, :]).reshape(-1, k)
+                mdot, grad = b.conv_of(np.tile(xl, (2 * k, 1)), vs, 2 * k)
+                f = (mdot - 0.5 * grad).reshape(2 * k, n_b, k)
+                jv = (0.5 * (f[:k] - f[k:])).transpose(1, 2, 0)
+            else:
+                jv = (0.5 * (f[2 * r:2 * r + k] - f[2 * r + k:])).transpose(1, 2, 0)
+            # the projection onto the physical velocities, node by node (slots of four)
+            p = np.broadcast_to(np.eye(k), (n_b, k, k)).copy()
+            dpv = np.zeros((n_b, k, k))
+            raw = v[b.idx]
+            for s in rot.reshape(-1, 4)[:, 0]:
+                sl = slice(s, s + 4)
+                q, w = xl[:, sl], raw[:, sl]
+                qq = np.sum(q * q, axis=1)[:, None, None]
+                qw = np.sum(q * w, axis=1)[:, None, None]
+                p[:, sl, sl] -= q[:, :, None] * q[:, None, :] / qq
+                dpv[:, sl, sl] = (-qw * np.eye(4) - q[:, :, None] * w[:, None, :]
+                                  + 2.0 * qw * q[:, :, None] * q[:, None, :] / qq) / qq
+            out.append(jx + jv @ dpv + gamma_p * (jv @ p))
+        return out
 
     def assemble(self, blocks) -> sp.csc_matrix:
         """M (n_coord, n_coord) from the blocks of :meth:`forces`."""
         return self.pattern.assemble(blocks)
 
-    def iteration_parts(self, blocks, factor: float):
-        """``factor * M`` for the Newton matrix: a dict of element-group blocks (keyed by
-        the group's position in ``num.groups``) and the nodal masses over the unknowns
-        (sparse, or None)."""
+    def iteration_parts(self, blocks, factor: float, tangent=None):
+        """``factor * M`` for the Newton matrix, plus the blocks ``tangent`` of
+        :meth:`tangent` where given: a dict of element-group blocks (keyed by the group's
+        position in ``num.groups``) and the nodal masses over the unknowns (sparse, or
+        None)."""
         n_g = len(self.groups)
-        extra = {p: factor * b for p, b in zip(self.group_pos, blocks[:n_g])}
-        nodal = (factor * self.nodal_pattern.assemble(blocks[n_g:]) if self.has_nodal
-                 else None)
+        parts = [factor * b for b in blocks]
+        if tangent is not None:
+            parts = [p if t is None else p + t for p, t in zip(parts, tangent)]
+        extra = dict(zip(self.group_pos, parts[:n_g]))
+        nodal = self.nodal_pattern.assemble(parts[n_g:]) if self.has_nodal else None
         return extra, nodal
 
     def kinetic_energy(self, x: np.ndarray, v: np.ndarray) -> float:

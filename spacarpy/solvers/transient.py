@@ -20,10 +20,11 @@ conserving for linear systems), smaller values damp the highest frequencies (the
 and shear modes of beams) while keeping the low ones.
 
 Each step is solved by Newton's method on (x, mu) with the iteration matrix
-``[K_t + beta' M, C^T; C, 0]`` (K_t the static tangent including geometric terms); the
-derivatives of M and of the convective terms are left out of it, which only slows Newton
-down when the velocities are large. A step whose Newton iterations fail is halved (up to
-``max_cuts`` times) and retried; it is never skipped.
+``[K_t + beta' M + K_h + gamma' C_h, C^T; C, 0]`` (K_t the static tangent including
+geometric terms, ``K_h = d(M a + h)/dx`` and ``C_h = dh/dv`` the exact derivatives of the
+inertia forces, :meth:`~spacarpy.solvers.inertia.Inertia.tangent`): Newton converges
+quadratically at any angular velocity (docs/transient.md). A step whose Newton iterations
+fail is halved (up to ``max_cuts`` times) and retried; it is never skipped.
 
 The module is longer than 600 lines: the time step, its error control, the consistent
 initial state (with the rates of SPACAR's 5-field inputs and STARTDE) and the gauge of the
@@ -74,6 +75,10 @@ class TransientOptions:
     deformations: str = "modified"
     rotary_inertia: str = "lumped"           # ROTARYINERTIA: the beams' section inertia
     initial_velocities: dict = field(default_factory=dict)   # node -> (3,) VELOCITY
+    #: the derivatives of the inertia forces (convective terms, dM/dx a) in the Newton
+    #: matrix; False leaves them out (the former iteration matrix: linear convergence at
+    #: high angular velocity, kept to measure the difference)
+    exact_tangent: bool = True
 
     @classmethod
     def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:
@@ -387,7 +392,9 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 if h / 2 < h_int / 2 ** opts.max_cuts:
                     raise ConvergenceError(
                         f"transient step at t = {t:.6g} s (step {k}) did not converge after "
-                        f"{opts.max_cuts} halvings of the time step: {fail}") from None
+                        f"{opts.max_cuts} halvings of the time step: {fail}; the "
+                        f"{len(result.steps)} time steps stored before it (to t = "
+                        f"{result.steps[-1].time:.6g} s) are kept") from None
                 log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
                 h /= 2
                 continue
@@ -654,11 +661,17 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         # 1/h^2), which keeps the saddle-point system well conditioned
         # beta' M + gamma' C: the Rayleigh alpha M rides on the mass blocks, the stiffness-
         # proportional and deformation-rate damping are element blocks
-        extra, nodal = tp.inertia.iteration_parts(blocks, beta_p + gamma_p * tp.model.damping[0])
+        # with the exact tangent: + d(M a + h)/dx + gamma' d h/dv (solvers/inertia.py), not
+        # symmetric, so the bordered system below takes it (the reduced step's LDL^T needs
+        # a symmetric matrix)
+        tangent = (tp.inertia.tangent(x1, v1, a1, gamma_p) if opts.exact_tangent else None)
+        exact = tangent is not None and any(t is not None for t in tangent)
+        extra, nodal = tp.inertia.iteration_parts(
+            blocks, beta_p + gamma_p * tp.model.damping[0], tangent)
         for i, cb in damp_blocks.items():
             extra[i] = extra.get(i, 0.0) + gamma_p * cb
         step = None
-        if prob.reduced is not None and nodal is None:
+        if prob.reduced is not None and nodal is None and not exact:
             # the static solver's tangent-space step (solvers/reduced.py) with the inertia
             # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
             k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
