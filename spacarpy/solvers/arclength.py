@@ -15,29 +15,34 @@ linearized constraint and a bordered solve (documented in docs/path_method.md):
   the last converged increment (the secant; the first step increases s). The predicted
   configuration is moved onto its linearly predicted deformations (kinematic correction).
 - **Corrector.** Newton on equilibrium plus ``<T, (x - x_k, s - s_k)> = ds`` (the
-  hyperplane normal to the predictor). Each iteration factors the bordered Newton matrix
-  once and back-substitutes twice, ``K a = -r`` and ``K b = q``; the load factor increment
-  follows from the linear constraint, so there is no quadratic root to choose.
+  hyperplane normal to the predictor). Each iteration factors the Newton matrix once and
+  back-substitutes twice, ``K a = -r`` and ``K b = q``; the load factor increment follows
+  from the linear constraint, so there is no quadratic root to choose. Where the only
+  constraints are Euler normalizations the tangent-space LDL^T of
+  :mod:`spacarpy.solvers.reduced` solves both (accurate on slender models with 10^4
+  elements); elsewhere, or where its refined solution is inaccurate, SuperLU solves the
+  bordered matrix.
 - **Step control.** A point whose chord from the last point is longer than
   ``MAX_CHORD ds`` (the corrector moved far along the hyperplane: another branch) is
   rejected like a failed one. After a point converged in ``its`` iterations the next arc length is
   ``ds * clip(sqrt(TARGET_ITERATIONS / its), 1/2, 2)`` within ``[ds_min, ds_max]``; a
   failed point is retried with half the arc length down to ``ds_min``.
 - **Critical points.** The sign of the determinant of the bordered Newton matrix (from the
-  LU factors of the tangent solve) changes where the tangent stiffness reduced to the
-  degrees of freedom becomes singular; for models small enough for the dense reduction
-  (``eigen.DENSE_LIMIT`` free coordinates) its index, the number of negative eigenvalues,
-  is compared too (it also sees two eigenvalues crossing zero together, a double buckling
-  mode, which leaves the determinant's sign alone). If the tangent's load component changed
-  sign too, the point is a limit point (a maximum or a minimum of s), else a bifurcation
-  point. Limit points are refined by the Illinois method on the tangent's load component,
-  bifurcation points by bisection on the determinant's sign and the index, both on the arc
-  length from the last point before, until the bracket is below the solver tolerance; the
-  refined point is stored as a path point, with its critical eigenvector (inverse iteration
-  on the bordered matrix there). With ``BIFURCATION switch`` the path leaves a bifurcation
-  point along that eigenvector (the tangent of the crossing branch of a symmetric
-  bifurcation), or, where it arrived along the eigenvector (on a crossing branch), back
-  onto the fundamental branch (the bistable beam's return force).
+  LU factors of the tangent solve, or ``(-1)^(m + index)`` from the LDL^T's negative pivots,
+  the index, with m constraint rows) changes where the tangent stiffness reduced to the
+  degrees of freedom becomes singular; its index, the number of negative eigenvalues, is
+  compared too where it is known (the dense reduction for at most ``eigen.DENSE_LIMIT`` free
+  coordinates, else the LDL^T's pivots): it also sees two eigenvalues crossing zero
+  together, a double buckling mode, which leaves the determinant's sign alone. If the
+  tangent's load component changed sign too, the point is a limit point (a maximum or a
+  minimum of s), else a bifurcation point. Limit points are refined by the Illinois method
+  on the tangent's load component, bifurcation points by bisection on the determinant's sign
+  and the index, both on the arc length from the last point before, until the bracket is
+  below the solver tolerance; the refined point is stored as a path point, with its critical
+  eigenvector (inverse iteration on the bordered matrix there). With ``BIFURCATION switch``
+  the path leaves a bifurcation point along that eigenvector (the tangent of the crossing
+  branch of a symmetric bifurcation), or, where it arrived along the eigenvector (on a
+  crossing branch), back onto the fundamental branch (the bistable beam's return force).
 - **End.** When s reaches 1 the last point is solved at s = 1 exactly (load control from
   the interpolated state); after ``n_max`` points the run stops with a warning.
 """
