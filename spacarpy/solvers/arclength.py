@@ -4,7 +4,7 @@ points, snap-through and snap-back, with the critical points on the path located
 The unknowns are the free coordinates x, the constraint multipliers and the load factor s on
 DELXF (the XF load, gravity and the initial prescribed values are reached first, at s = 0,
 by the static solver's phase A). The method is the Riks normal-plane method with a
-linearized constraint and a bordered solve (documented in docs/path_method.md):
+linearized constraint, one factorization per iteration (docs/path.md, "Method"):
 
 - **Scaled norm.** ``|(dx, ds)|^2 = (1/n) sum_i (w_i dx_i)^2 + psi^2 ds^2`` over the n free
   coordinates, with ``w = 1/L`` on positions (L: the model's length scale) and ``w = 1`` on
