@@ -124,7 +124,7 @@ class IterStep:
 @dataclass(frozen=True)
 class ArcLength:
     """The deck's ``ARCLENGTH n_max ds0 [ds_min [ds_max]]`` (spacarpy extension): follow the
-    equilibrium path by arc-length continuation instead of load stepping (docs/path_method.md).
+    equilibrium path by arc-length continuation instead of load stepping (docs/path.md, "Method").
 
     n_max : int
         At most this many points after the initial state (critical points included).

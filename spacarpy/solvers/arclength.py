@@ -4,7 +4,7 @@ points, snap-through and snap-back, with the critical points on the path located
 The unknowns are the free coordinates x, the constraint multipliers and the load factor s on
 DELXF (the XF load, gravity and the initial prescribed values are reached first, at s = 0,
 by the static solver's phase A). The method is the Riks normal-plane method with a
-linearized constraint and a bordered solve (documented in docs/path_method.md):
+linearized constraint, one factorization per iteration (docs/path.md, "Method"):
 
 - **Scaled norm.** ``|(dx, ds)|^2 = (1/n) sum_i (w_i dx_i)^2 + psi^2 ds^2`` over the n free
   coordinates, with ``w = 1/L`` on positions (L: the model's length scale) and ``w = 1`` on
@@ -15,29 +15,34 @@ linearized constraint and a bordered solve (documented in docs/path_method.md):
   the last converged increment (the secant; the first step increases s). The predicted
   configuration is moved onto its linearly predicted deformations (kinematic correction).
 - **Corrector.** Newton on equilibrium plus ``<T, (x - x_k, s - s_k)> = ds`` (the
-  hyperplane normal to the predictor). Each iteration factors the bordered Newton matrix
-  once and back-substitutes twice, ``K a = -r`` and ``K b = q``; the load factor increment
-  follows from the linear constraint, so there is no quadratic root to choose.
+  hyperplane normal to the predictor). Each iteration factors the Newton matrix once and
+  back-substitutes twice, ``K a = -r`` and ``K b = q``; the load factor increment follows
+  from the linear constraint, so there is no quadratic root to choose. Where the only
+  constraints are Euler normalizations the tangent-space LDL^T of
+  :mod:`spacarpy.solvers.reduced` solves both (accurate on slender models with 10^4
+  elements); elsewhere, or where its refined solution is inaccurate, SuperLU solves the
+  bordered matrix.
 - **Step control.** A point whose chord from the last point is longer than
   ``MAX_CHORD ds`` (the corrector moved far along the hyperplane: another branch) is
   rejected like a failed one. After a point converged in ``its`` iterations the next arc length is
   ``ds * clip(sqrt(TARGET_ITERATIONS / its), 1/2, 2)`` within ``[ds_min, ds_max]``; a
   failed point is retried with half the arc length down to ``ds_min``.
 - **Critical points.** The sign of the determinant of the bordered Newton matrix (from the
-  LU factors of the tangent solve) changes where the tangent stiffness reduced to the
-  degrees of freedom becomes singular; for models small enough for the dense reduction
-  (``eigen.DENSE_LIMIT`` free coordinates) its index, the number of negative eigenvalues,
-  is compared too (it also sees two eigenvalues crossing zero together, a double buckling
-  mode, which leaves the determinant's sign alone). If the tangent's load component changed
-  sign too, the point is a limit point (a maximum or a minimum of s), else a bifurcation
-  point. Limit points are refined by the Illinois method on the tangent's load component,
-  bifurcation points by bisection on the determinant's sign and the index, both on the arc
-  length from the last point before, until the bracket is below the solver tolerance; the
-  refined point is stored as a path point, with its critical eigenvector (inverse iteration
-  on the bordered matrix there). With ``BIFURCATION switch`` the path leaves a bifurcation
-  point along that eigenvector (the tangent of the crossing branch of a symmetric
-  bifurcation), or, where it arrived along the eigenvector (on a crossing branch), back
-  onto the fundamental branch (the bistable beam's return force).
+  LU factors of the tangent solve, or ``(-1)^(m + index)`` from the LDL^T's negative pivots,
+  the index, with m constraint rows) changes where the tangent stiffness reduced to the
+  degrees of freedom becomes singular; its index, the number of negative eigenvalues, is
+  compared too where it is known (the dense reduction for at most ``eigen.DENSE_LIMIT`` free
+  coordinates, else the LDL^T's pivots): it also sees two eigenvalues crossing zero
+  together, a double buckling mode, which leaves the determinant's sign alone. If the
+  tangent's load component changed sign too, the point is a limit point (a maximum or a
+  minimum of s), else a bifurcation point. Limit points are refined by the Illinois method
+  on the tangent's load component, bifurcation points by bisection on the determinant's sign
+  and the index, both on the arc length from the last point before, until the bracket is
+  below the solver tolerance; the refined point is stored as a path point, with its critical
+  eigenvector (inverse iteration on the bordered matrix there). With ``BIFURCATION switch``
+  the path leaves a bifurcation point along that eigenvector (the tangent of the crossing
+  branch of a symmetric bifurcation), or, where it arrived along the eigenvector (on a
+  crossing branch), back onto the fundamental branch (the bistable beam's return force).
 - **End.** When s reaches 1 the last point is solved at s = 1 exactly (load control from
   the interpolated state); after ``n_max`` points the run stops with a warning.
 """
@@ -74,6 +79,9 @@ MAX_CHORD = 1.25
 ALONG_EIGENVECTOR = 0.5
 #: Largest number of refinement iterations of one critical point.
 MAX_REFINE = 60
+#: Solve with the tangent-space LDL^T of :mod:`spacarpy.solvers.reduced` where it applies
+#: (False: always the bordered system by SuperLU; the tests compare the two).
+USE_REDUCED = True
 #: Kinds of critical points (codes stored in /critical/point_type).
 CRITICAL_KINDS = ("limit point (load maximum)", "limit point (load minimum)", "bifurcation")
 
@@ -106,9 +114,11 @@ class _Point:
     index: int = -1        # negative eigenvalues of the reduced tangent (-1: not computed)
     lu: object = None      # (LU factors of the scaled bordered matrix, the scaling)
 
-    def stability_key(self) -> tuple:
-        """What changes at a critical point: the determinant's sign and the index."""
-        return self.det, self.index
+    def same_stability(self, other: _Point) -> bool:
+        """No critical point between the two: the same determinant sign and, where both are
+        known, the same index."""
+        return self.det == other.det and (self.index < 0 or other.index < 0
+                                          or self.index == other.index)
 
 
 def _permutation_sign(perm) -> int:
@@ -180,6 +190,10 @@ class ArcLengthPath:
         # applies: it also sees eigenvalues that cross zero in pairs (a symmetric structure's
         # double buckling mode), which leave the determinant's sign unchanged
         self.dense = self.n_x <= DENSE_LIMIT
+        # the tangent-space LDL^T (reduced.py) where it applies: its solves stay accurate on
+        # slender models (10^4 elements), and its pivots give the index at any size
+        self.reduced = prob.reduced if USE_REDUCED else None
+        self.m = prob.pattern.n - self.n_x                 # constraint rows
         self.increments: list = []
 
     # ------------------------------------------------------------------ small pieces
@@ -202,8 +216,21 @@ class ArcLengthPath:
                                       x[idx])
         return q[self.free]
 
-    def _solve(self, ev, mu, x):
+    def _solve(self, ev, mu, x, bordered: bool = False):
+        """``K a = -r`` and ``K b = q`` with one factorization, bordered by the linearized
+        constraints: ``(a, a_mu, b, b_mu, factors)``, or None where the matrix is singular.
+        Where the reduced solver applies (the only constraints are Euler normalizations) the
+        tangent-space LDL^T solves both (``factors``: ``("ldl", negative pivots)``), else,
+        where that is inaccurate, or with ``bordered``, SuperLU on the bordered matrix
+        (``factors``: the LU factors of the scaled bordered matrix and the scaling)."""
         prob = self.prob
+        if self.reduced is not None and not bordered:
+            k_el, euler_diag, _ = prob.element_blocks(ev, mu)
+            load = np.zeros(prob.num.n_coord)
+            load[self.free] = self.load_vector(x)
+            out = self.reduced.step(ev, x, mu, k_el, euler_diag, load=load)
+            if out is not None:
+                return out + (("ldl", self.reduced.negative_pivots),)
         A = prob.matrix(ev, mu)
         rhs = np.zeros((A.shape[0], 2))
         rhs[: self.n_x, 0] = -ev.r
@@ -244,7 +271,16 @@ class ArcLengthPath:
         tx, ts = b / norm, 1.0 / norm
         if ref is not None and self.inner(tx, ts, *ref) < 0:
             tx, ts = -tx, -ts
-        p.tx, p.ts, p.det, p.lu = tx, ts, determinant_sign(lu[0]), lu
+        p.tx, p.ts = tx, ts
+        neg = self.reduced.negative_pivots if self.reduced is not None else None
+        if neg is not None:
+            # the bordered matrix has m more positive and m more negative eigenvalues than
+            # the reduced tangent (m constraint rows; Haynsworth/Gould), so its determinant
+            # has the sign (-1)^(m + index)
+            p.det, p.lu = (-1) ** ((self.m + neg) % 2), None
+            p.index = neg
+        else:
+            p.det, p.lu = determinant_sign(lu[0]), lu
         if self.dense:
             p.index = stability(self.prob, p.x, p.mu, self.load(p.s)).index
 
@@ -341,7 +377,7 @@ class ArcLengthPath:
                     q = self._at(p, sigma, direction)
                 except StepFailed:
                     break
-            before = (q.stability_key() == p.stability_key() if kind == 2
+            before = (q.same_stability(p) if kind == 2
                       else np.sign(q.ts) == np.sign(p.ts))
             if before:
                 lo, f_lo = sigma, q.ts
@@ -361,6 +397,12 @@ class ArcLengthPath:
     def critical_shape(self, q: _Point) -> np.ndarray:
         """The critical eigenvector at a refined critical point: inverse iteration with the
         bordered matrix factored there, from a fixed start vector (deterministic)."""
+        if q.lu is None:              # solved by the LDL^T: factor the bordered matrix here
+            ev = self.prob.evaluate(q.x, q.mu, self.load(q.s))
+            out = self._solve(ev, q.mu, q.x, bordered=True)
+            if out is None:
+                raise StepFailed("singular Newton matrix at a critical point", [])
+            q.lu = out[4]
         lu, d = q.lu
         v = np.random.default_rng(1).standard_normal(self.n_x)
         rhs = np.zeros(lu.shape[0])
@@ -407,7 +449,7 @@ class ArcLengthPath:
                 continue
             crossed = (p.s - 1.0) * (new.s - 1.0) <= 0 and new.s != p.s
             # (at a bifurcation point just left, the stability is that of neither branch)
-            if new.stability_key() != p.stability_key() and not switched:
+            if not new.same_stability(p) and not switched:
                 kind = (2 if np.sign(new.ts) == np.sign(p.ts)
                         else 0 if p.ts > 0 else 1)
                 crit = self.refine(p, ds, new, direction, kind)

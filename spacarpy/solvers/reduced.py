@@ -122,6 +122,7 @@ class ReducedNewton:
                                     + [self.unknown_of[self.eu]], upper=True)
         self.factor = SPDFactorization()
         self._quick_misses = 0                  # see _refine
+        self.negative_pivots = None             # see step
 
     def basis(self, q: np.ndarray) -> np.ndarray:
         """B(q) = [q/|q|, Lambda(q)^T/|q|], (n, 4, 4) orthonormal for every q != 0."""
@@ -236,13 +237,21 @@ class ReducedNewton:
             return None
         return y
 
-    def step(self, ev, x, mu, k_el, euler_diag, residual=None, invariant: bool = True):
+    def step(self, ev, x, mu, k_el, euler_diag, residual=None, invariant: bool = True,
+             load=None):
         """The Newton increment ``(dx over the free coordinates, dmu)``, or None when the
         factorization fails or its solution is inaccurate (the caller then solves the
         bordered system). ``residual`` (n_coord,) replaces the static force residual
         ``f_int - f_ext`` of ``ev`` (the transient solver adds the inertia forces; its
         ``k_el`` carry ``beta' M + gamma' C``, and it passes ``invariant=False``: blocks
-        with mass are not invariant to translations, see :meth:`_k_times`)."""
+        with mass are not invariant to translations, see :meth:`_k_times`).
+
+        ``load`` (n_coord,), a generalized force: also solve ``K b = load`` with the
+        linearized constraints homogeneous (``C b = 0``), with the same factorization (the
+        arc-length corrector's load column), and return ``(dx, dmu, b, b_mu)``. After the
+        call :attr:`negative_pivots` is the number of negative pivots of the factorized
+        reduced tangent (its index, by Sylvester's law of inertia), or None where it was
+        not factorized."""
         prob, num = self.prob, self.prob.num
         timings = prob.timings
         t0 = time.perf_counter()
@@ -266,24 +275,46 @@ class ReducedNewton:
         t2 = time.perf_counter()
         timings.kernels += t1 - t0
         timings.assembly += t2 - t1
+        self.negative_pivots = None
+        radial = self.eu[:, 0]
         try:
             solve = self.factor.factorize(a)
             timings.factorizations += 1
-            y = self._refine(solve, lambda v: self._reduced_times(k_rot, euler_diag, v,
-                                                                  invariant), rhs,
-                             quick_matvec=partial(self.pattern.symmetric_matvec, a.data))
+            if load is not None:
+                self.negative_pivots = self.factor.negative_pivots()
+
+            def refined(right):
+                return self._refine(solve, lambda v: self._reduced_times(
+                    k_rot, euler_diag, v, invariant), right,
+                    quick_matvec=partial(self.pattern.symmetric_matvec, a.data))
+            y = refined(rhs)
             if y is None:
                 return None
+            if load is not None:
+                # K b = load with C b = 0: no radial particular part (z = 0)
+                l_full = np.asarray(load, dtype=float).copy()
+                l_full[self.eu] = np.einsum("nab,na->nb", b, l_full[self.eu])
+                yb = refined(l_full[self.keep])
+                if yb is None:
+                    return None
         except FactorizationError:
             return None
         finally:
             timings.solve += time.perf_counter() - t2
+        if load is not None:
+            zb = np.zeros(num.n_coord)
+            zb[self.keep] = yb
+            b_mu = (l_full[radial] - self._k_times(k_rot, euler_diag, zb,
+                                                   invariant=invariant)[radial]) / (2.0 * nq)
+            zb[self.eu] = np.einsum("nab,nb->na", b, zb[self.eu])
         z[self.keep] = y
         # back to the Euler parameters, and the multiplier increments from the radial rows:
         # (K z)_radial + 2 |q| dmu = -r_radial
-        radial = self.eu[:, 0]
         dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
             radial]) / (2.0 * nq)
         dq = np.einsum("nab,nb->na", b, z[self.eu])
         z[self.eu] = dq
-        return z[self.free], np.concatenate([np.zeros(num.n_rigid), dmu])
+        step = z[self.free], np.concatenate([np.zeros(num.n_rigid), dmu])
+        if load is None:
+            return step
+        return step + (zb[self.free], np.concatenate([np.zeros(num.n_rigid), b_mu]))

@@ -52,6 +52,7 @@ class SPDFactorization:
         self._solver = None
         self._pattern = None            # (indptr, indices) of the last matrix
         self._col = self._diag = None
+        self._factored = False
 
     def _scaling(self, upper: sp.csc_matrix) -> np.ndarray:
         if self._pattern is None or self._pattern[0] is not upper.indptr:
@@ -64,7 +65,16 @@ class SPDFactorization:
             raise FactorizationError("a diagonal entry is not positive")
         return 1.0 / np.sqrt(d)
 
+    def negative_pivots(self) -> int | None:
+        """The number of negative pivots of the last LDL^T factorization: by Sylvester's law
+        of inertia (the scaling is a congruence) the number of negative eigenvalues of the
+        matrix. None without qdldl or before a factorization."""
+        if _qdldl is None or self._solver is None or not self._factored:
+            return None
+        return int(np.sum(self._solver.factors()[1] < 0))
+
     def factorize(self, upper: sp.csc_matrix):
+        self._factored = False
         s = self._scaling(upper)
         scaled = csc_with_data(upper, upper.data * s[upper.indices] * s[self._col])
         if _qdldl is None:
@@ -83,6 +93,7 @@ class SPDFactorization:
             self._solver = None
             raise FactorizationError(str(exc)) from None
         solver = self._solver
+        self._factored = True
 
         def solve(rhs):
             x = s * solver.solve(np.ascontiguousarray(s * np.asarray(rhs, dtype=float)))

@@ -1,0 +1,77 @@
+"""The arc-length corrector's two linear solvers (spacarpy/solvers/arclength.py): the
+tangent-space LDL^T of spacarpy/solvers/reduced.py, used where the only constraints are Euler
+normalizations, and the bordered system by SuperLU (the fallback). Both solve the same Newton
+equations exactly, so on a small column they must give the same path points and the same
+critical points; the determinant sign taken from the LDL^T's negative pivots,
+``(-1)^(m + index)`` (m constraint rows), must equal the bordered LU determinant's sign, and
+the pivot count must equal the dense reduced tangent's index."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import spacarpy.solvers.arclength as arclength
+from spacarpy.cases import arclength_column_deck
+from spacarpy.deck import job_from_text
+from spacarpy.solvers.arclength import ArcLengthPath, determinant_sign, point_at
+from spacarpy.solvers.stability import stability
+from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+
+
+def _perfect_column(n: int = 10, setting: str = "switch"):
+    """The straight clamped column at 1.5 times its Euler load with EIy = 2 EIz (one
+    buckling mode, a bifurcation at the load factor 1/1.5), BIFURCATION switch."""
+    text = arclength_column_deck(n, imperfection=0.0, ds0=0.02).replace(
+        "ARCLENGTH 200 0.02", "ARCLENGTH 200 0.02 0.0001 0.02").replace(
+        "MODE static", f"MODE static\nBIFURCATION {setting}").replace(
+        "1000000 1 1 1", "1000000 1 2 1")
+    return job_from_text(text, "<column>")
+
+
+def _run(monkeypatch, use_reduced: bool):
+    monkeypatch.setattr(arclength, "USE_REDUCED", use_reduced)
+    model, settings = _perfect_column()
+    prob = StaticProblem(model)
+    assert prob.reduced is not None          # the case where the two solvers differ
+    return prob, settings, solve_static(model, settings, problem=prob)
+
+
+@pytest.mark.slow
+def test_both_solvers_give_the_same_path_and_critical_points(monkeypatch):
+    _, _, red = _run(monkeypatch, True)
+    _, _, lu = _run(monkeypatch, False)
+    assert len(red.steps) == len(lu.steps)
+    for a, b in zip(red.steps, lu.steps):
+        assert a.load_factor == pytest.approx(b.load_factor, abs=1e-8)
+        assert np.max(np.abs(a.x - b.x)) < 1e-8
+    crit_red = [(k, st.critical) for k, st in enumerate(red.steps) if st.critical is not None]
+    crit_lu = [(k, st.critical) for k, st in enumerate(lu.steps) if st.critical is not None]
+    assert [k for k, _ in crit_red] == [k for k, _ in crit_lu] and len(crit_red) == 1
+    (_, a), (_, b) = crit_red[0], crit_lu[0]
+    assert a.kind == b.kind == 2
+    assert a.load_factor == pytest.approx(b.load_factor, abs=1e-8)
+    assert a.load_factor == pytest.approx(1 / 1.5, rel=1e-5)
+    assert np.max(np.abs(a.shape - b.shape)) < 1e-6
+
+
+@pytest.mark.slow
+def test_ldl_pivots_give_the_determinant_sign_and_the_index(monkeypatch):
+    """Along the perfect column without switching (it stays straight: index 0 before the
+    bifurcation, 1 after it)."""
+    monkeypatch.setattr(arclength, "USE_REDUCED", True)
+    model, settings = _perfect_column(setting="warn")
+    prob = StaticProblem(model)
+    res = solve_static(model, settings, problem=prob)
+    path = ArcLengthPath(prob, StaticOptions.from_settings(settings), settings.static.arclength)
+    seen = set()
+    for step in res.steps[1::4]:
+        p = point_at(path, step)
+        neg = path.reduced.negative_pivots
+        assert p.lu is None and neg is not None       # the LDL^T gave the sign
+        ev = prob.evaluate(p.x, p.mu, path.load(p.s))
+        lu = path._solve(ev, p.mu, p.x, bordered=True)[4][0]
+        assert (-1) ** ((path.m + neg) % 2) == determinant_sign(lu) == p.det
+        assert neg == stability(prob, p.x, p.mu, path.load(p.s)).index
+        assert neg == (0 if p.s < 1 / 1.5 else 1)
+        seen.add(neg)
+    assert seen == {0, 1}
