@@ -58,6 +58,11 @@ from spacarpy.time_functions import TIME_FUNCTIONS, TimeFunction
 
 log = logging.getLogger(__name__)
 
+#: A Newton iteration whose residual falls by less than this factor switches the exact
+#: inertia tangent on for the rest of the run (see _step).
+SLOW_CONTRACTION = 0.1
+
+
 @dataclass
 class TransientOptions:
     """Settings of a transient run (deck: TIMESTEP, RHOINF, START, TIMEFUNCTION, ITERSTEP)."""
@@ -171,6 +176,9 @@ class TransientProblem:
         self.free = self.prob.free
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
         self.level = 0.0                 # largest force level of the accepted states
+        # the exact inertia tangent, switched on for the rest of the run at the first
+        # iteration whose residual fell by less than a factor 10 (see _newton_step)
+        self.exact_tangent_on = False
 
     @cached_property
     def mass_diagonal(self) -> np.ndarray:
@@ -664,7 +672,17 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         # with the exact tangent: + d(M a + h)/dx + gamma' d h/dv (solvers/inertia.py), not
         # symmetric, so the bordered system below takes it (the reduced step's LDL^T needs
         # a symmetric matrix)
-        tangent = (tp.inertia.tangent(x1, v1, a1, gamma_p) if opts.exact_tangent else None)
+        # The tangent costs kernel evaluations and the LDL^T path; where the former matrix
+        # converges quadratically anyway (no fast rotation) it brings nothing. So it is taken
+        # from the first iteration whose residual fell by less than SLOW_CONTRACTION on
+        # (Newton without it converges linearly there), and then for the rest of the run.
+        if (opts.exact_tangent and not tp.exact_tangent_on and it >= 2
+                and history[-1] > SLOW_CONTRACTION * history[-2] > 0.0):
+            tp.exact_tangent_on = True
+            log.info("the convective inertia terms slow Newton down at t = %.6g s: the "
+                     "exact iteration matrix is used from here on", t1)
+        tangent = (tp.inertia.tangent(x1, v1, a1, gamma_p)
+                   if opts.exact_tangent and tp.exact_tangent_on else None)
         exact = tangent is not None and any(t is not None for t in tangent)
         extra, nodal = tp.inertia.iteration_parts(
             blocks, beta_p + gamma_p * tp.model.damping[0], tangent)
