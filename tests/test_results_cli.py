@@ -184,9 +184,16 @@ END
 def start_run(tmp_path, out):
     deck = tmp_path / "slow.dat"
     deck.write_text(SLOW_DECK)
+    # SIGINT at its default in the run: a suite started as a background job of a shell
+    # without job control inherits SIGINT ignored, hands that on, and the run would then
+    # never see the Ctrl-C this test sends (it would finish and replace the old output)
     return subprocess.Popen([sys.executable, "-m", "spacarpy", "run", str(deck), "-o", str(out)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            cwd=REPO)
+                            cwd=REPO, preexec_fn=_default_sigint)
+
+
+def _default_sigint():
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def wait_for_steps(proc, n: int) -> None:
