@@ -29,6 +29,32 @@ REPO = TESTS.parent
 DECK_TEXT = "# tiny test deck, ünïcödé\nBEAM 1 1 2 3 4\nBEAM 2 3 4 5 6\nEND\n"
 REACTION_COMPONENT = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
 
+#: a spatial deck with mass of every kind: beams, a rigid rod, a truss, point masses and a
+#: nodal rotary inertia
+MIXED_MASS_DECK = """\
+X 1 0 0 0
+X 3 1 0.2 0.1
+X 5 1.5 0.6 0
+BEAM 1 1 2 3 4 0 0 1
+RBEAM 2 3 4 5 0 0 1
+TRUSS 3 1 5
+DYNE 1 1 2 3 4 5 6
+DYNE 3 1
+FIX 1
+FIX 2
+END
+HALT
+ESTIFF 1 100 1 1 1
+ESTIFF 3 10
+EM 1 2.0 0.1 0.04 0.06 0.01
+EM 2 1.5 0.02 0.01 0.01 0
+EM 3 0.5
+XM 5 0.3
+XM 4 0.1 0 0 0.2 0 0.3
+END
+END
+"""
+
 
 def deck_errors(text: str, name: str = "t.dat") -> list[tuple[int, str]]:
     """(line, message) of every problem building the deck text must report."""

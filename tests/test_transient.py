@@ -16,6 +16,8 @@ from spacarpy.rotation import from_axis_angle
 from spacarpy.solvers.inertia import Inertia
 from spacarpy.solvers.transient import TIME_FUNCTIONS, TimeFunction, alpha_parameters
 
+from helpers import MIXED_MASS_DECK
+
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 G = 9.81
 
@@ -55,36 +57,13 @@ def test_generalized_alpha_parameters():
         alpha_parameters(1.2)
 
 
-MIXED = """\
-X 1 0 0 0
-X 3 1 0.2 0.1
-X 5 1.5 0.6 0
-BEAM 1 1 2 3 4 0 0 1
-RBEAM 2 3 4 5 0 0 1
-TRUSS 3 1 5
-DYNE 1 1 2 3 4 5 6
-DYNE 3 1
-FIX 1
-FIX 2
-END
-HALT
-ESTIFF 1 100 1 1 1
-ESTIFF 3 10
-EM 1 2.0 0.1 0.04 0.06 0.01
-EM 2 1.5 0.02 0.01 0.01 0
-EM 3 0.5
-XM 5 0.3
-XM 4 0.1 0 0 0.2 0 0.3
-END
-END
-"""
 
 
 def test_inertia_forces_have_the_power_of_the_kinetic_energy():
     """v . (M a + h) = dT/dt along any motion that keeps |q| = 1 (checked by a central
     difference of T along x(t) = x + v t + a t^2/2), for beams, rigid rods, trusses, point
     masses and rotary inertias together; and h vanishes at rest."""
-    model = model_from_text(MIXED)
+    model = model_from_text(MIXED_MASS_DECK)
     num = number_model(model)
     inertia = Inertia(model, num)
     rng = np.random.default_rng(3)

@@ -25,32 +25,10 @@ from spacarpy.rotation import from_axis_angle
 from spacarpy.solvers.inertia import Inertia
 from spacarpy.solvers.transient import TransientOptions, TransientProblem, solve_transient
 
+from helpers import MIXED_MASS_DECK
+
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
-# beams, a rigid rod, a truss, point masses and a rotary inertia (as in test_transient.py)
-MIXED = """\
-X 1 0 0 0
-X 3 1 0.2 0.1
-X 5 1.5 0.6 0
-BEAM 1 1 2 3 4 0 0 1
-RBEAM 2 3 4 5 0 0 1
-TRUSS 3 1 5
-DYNE 1 1 2 3 4 5 6
-DYNE 3 1
-FIX 1
-FIX 2
-END
-HALT
-ESTIFF 1 100 1 1 1
-ESTIFF 3 10
-EM 1 2.0 0.1 0.04 0.06 0.01
-EM 2 1.5 0.02 0.01 0.01 0
-EM 3 0.5
-XM 5 0.3
-XM 4 0.1 0 0 0.2 0 0.3
-END
-END
-"""
 
 PLANAR = """X 1 0 0
 X 3 1 0.2
@@ -81,7 +59,7 @@ def _random_state(num, rng):
     return x, 3.0 * rng.normal(size=num.n_coord), rng.normal(size=num.n_coord)
 
 
-@pytest.mark.parametrize("text", [MIXED, PLANAR], ids=["spatial", "planar"])
+@pytest.mark.parametrize("text", [MIXED_MASS_DECK, PLANAR], ids=["spatial", "planar"])
 @pytest.mark.parametrize("rotary", ["lumped", "consistent"])
 def test_inertia_tangent_matches_finite_differences(text, rotary):
     model = model_from_text(text)

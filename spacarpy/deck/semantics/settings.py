@@ -194,16 +194,23 @@ class _SettingsPass(UsesTopology):
                                              f"expected {' or '.join(DEFORMATION_VARIANTS)}", st)
         self.deformations = value
 
+    def _choice(self, st: Statement, field: str, joiner: str) -> str | None:
+        """The lower-cased value of a keyword whose one field is a choice, given once; None
+        (with the error reported) otherwise."""
+        if not self.ctx.once(st, self.errors):
+            return None
+        value, spec = st[field], st.field_spec(field)
+        if not spec.accepts(value):
+            self.error(st.loc_of(field), f"{st.keyword}: unknown {field} '{value}'; "
+                                         f"expected {joiner.join(spec.choices)}", st)
+            return None
+        return str(value).lower()
+
     def rotary_inertia_line(self, st: Statement) -> None:
         """``ROTARYINERTIA lumped|consistent`` (the choices of its field)."""
-        if not self.ctx.once(st, self.errors):
-            return
-        value, spec = st["choice"], st.field_spec("choice")
-        if not spec.accepts(value):
-            self.error(st.loc_of("choice"), f"ROTARYINERTIA: unknown choice '{value}'; "
-                                            f"expected {' or '.join(spec.choices)}", st)
-            return
-        self.rotary_inertia = str(value).lower()
+        value = self._choice(st, "choice", " or ")
+        if value is not None:
+            self.rotary_inertia = value
 
     def time_function_line(self, st: Statement) -> None:
         """``TIMEFUNCTION kind p...``, checked against :mod:`spacarpy.time_functions`."""
@@ -262,14 +269,9 @@ class _SettingsPass(UsesTopology):
 
     def bifurcation_line(self, st: Statement) -> None:
         """``BIFURCATION off|warn|switch`` (the choices of its field)."""
-        if not self.ctx.once(st, self.errors):
-            return
-        value, spec = st["setting"], st.field_spec("setting")
-        if not spec.accepts(value):
-            self.error(st.loc_of("setting"), f"BIFURCATION: unknown setting '{value}'; "
-                                             f"expected {', '.join(spec.choices)}", st)
-            return
-        self.bifurcation = str(value).lower()
+        value = self._choice(st, "setting", ", ")
+        if value is not None:
+            self.bifurcation = value
 
     def overrides(self, deformations, analysis) -> None:
         """The command line's choices replace the deck's MODE / DEFORMATIONS."""
