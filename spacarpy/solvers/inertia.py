@@ -173,7 +173,8 @@ class Inertia:
             force += scatter_add(n, b.idx, f)
         return blocks, force
 
-    def tangent(self, x: np.ndarray, v: np.ndarray, a: np.ndarray, gamma_p: float):
+    def tangent(self, x: np.ndarray, v: np.ndarray, a: np.ndarray, gamma_p: float,
+                velocity_part: list | None = None):
         """The derivatives of the inertia force ``M(x) a + h(x, P(x) v)`` other than its
         ``M da``: ``d/dx + gamma_p d/dv`` per batch, local blocks (n, k, k) in the layout of
         :meth:`forces`' blocks (None for a batch whose force does not depend on x or v: no
@@ -186,6 +187,10 @@ class Inertia:
         (to round-off), all configurations of a batch in one vectorized kernel call. The
         physical velocities ``P(q) v = v - q (q.v)/(q.q)`` (:meth:`physical`) add the
         chain-rule terms ``J_v P`` and ``J_v d(P v)/dq``.
+
+        ``velocity_part``, a list, receives the blocks of ``d/dv`` alone per batch (zero
+        blocks where the force does not depend on v; the rotating frame of a step needs
+        them, solvers/frame.py).
         """
         vp = self.physical(x, v)
         out = []
@@ -195,6 +200,8 @@ class Inertia:
             rot = b.rot
             if not n_b or not rot.size:
                 out.append(None)
+                if velocity_part is not None:
+                    velocity_part.append(np.zeros((n_b, k, k)))
                 continue
             r = rot.size
             ex = np.zeros((r, k))
@@ -231,7 +238,10 @@ class Inertia:
                 p[:, sl, sl] -= q[:, :, None] * q[:, None, :] / qq
                 dpv[:, sl, sl] = (-qw * np.eye(4) - q[:, :, None] * w[:, None, :]
                                   + 2.0 * qw * q[:, :, None] * q[:, None, :] / qq) / qq
-            out.append(jx + jv @ dpv + gamma_p * (jv @ p))
+            jvp = jv @ p
+            out.append(jx + jv @ dpv + gamma_p * jvp)
+            if velocity_part is not None:
+                velocity_part.append(jvp)
         return out
 
     def assemble(self, blocks) -> sp.csc_matrix:

@@ -49,6 +49,7 @@ from spacarpy.rotation import tangent_part
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.equilibrium import StaticProblem
 from spacarpy.solvers.errors import StepFailed
+from spacarpy.solvers.frame import FRAME_MIN_TURN, RotatingFrame
 from spacarpy.solvers.inertia import Inertia
 from spacarpy.solvers.kinematic_check import check_initial
 from spacarpy.solvers.loads import LoadState
@@ -84,6 +85,10 @@ class TransientOptions:
     #: matrix; False leaves them out (the former iteration matrix: linear convergence at
     #: high angular velocity, kept to measure the difference)
     exact_tangent: bool = True
+    #: take each step in a frame turning with the model once it rotates by more than
+    #: FRAME_MIN_TURN per step (solvers/frame.py); False: always in the global frame (the
+    #: former scheme, unstable with little numerical damping at fast rotation)
+    rotating_frame: bool = True
 
     @classmethod
     def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:
@@ -179,6 +184,33 @@ class TransientProblem:
         # the exact inertia tangent, switched on for the rest of the run at the first
         # iteration whose residual fell by less than a factor 10 (see _newton_step)
         self.exact_tangent_on = False
+        self.frame_on = False            # the step's rotating frame (frame_rate)
+
+    @cached_property
+    def frame(self) -> RotatingFrame:
+        """The nodes that may turn with a step's rotating frame (solvers/frame.py)."""
+        return RotatingFrame.of(self.num, self.free, self.model.planar)
+
+    def frame_rate(self, x, v, h: float):
+        """The motion of the step's frame (a frame.Motion), or None (the global frame).
+
+        The frame follows the model's fitted rotation once it turns by more than
+        ``FRAME_MIN_TURN`` per step, at a rate that rises smoothly from zero there to the
+        fitted rate at ten times that turn: any rate is an exact change of variables, and
+        a frame switched on at once would change the scheme from one step to the next and
+        kick the stiff axial modes, which nothing damps at ``RHOINF 1``."""
+        if not self.opts.rotating_frame or not self.frame.usable:
+            return None
+        motion = self.frame.rate(x, v)
+        turn = float(np.linalg.norm(motion.omega)) * h
+        if turn <= FRAME_MIN_TURN:
+            return None
+        if not self.frame_on:
+            log.info("the model turns by %.3g rad per step: the steps are taken in a "
+                     "frame turning with it", turn)
+            self.frame_on = True
+        s = min((turn - FRAME_MIN_TURN) / (9 * FRAME_MIN_TURN), 1.0)
+        return self.frame.rate(x, v, scale=s * s * (3 - 2 * s))
 
     @cached_property
     def mass_diagonal(self) -> np.ndarray:
@@ -193,6 +225,20 @@ class TransientProblem:
         mu0 = np.zeros(self.num.n_constraint)
         A = self.prob.matrix(ev, mu0, material_only=True)
         return (A[n_x:, :n_x] / self.prob.scale).tocsc()
+
+    def frame_terms(self, mass_blocks, velocity_blocks, W, gamma_p: float):
+        """The rotating frame's part of the Newton matrix over the free coordinates: with
+        ``dv = (gamma' + W) d`` and ``da = (beta' + 2 gamma' W + W^2) d`` the inertia forces
+        add ``M (2 gamma' W + W^2) + C_h W`` (``C_h = dh/dv``, ``velocity_blocks`` from
+        :meth:`Inertia.tangent`, or None) and the Rayleigh mass damping ``alpha M W``. The
+        stiffness-proportional and EDAMP damping's ``W`` terms are left out (Newton then
+        converges linearly at their small rate)."""
+        free = self.free
+        M_ff = self.inertia.assemble(mass_blocks)[free][:, free]
+        out = M_ff @ ((2 * gamma_p + self.model.damping[0]) * W + W @ W)
+        if velocity_blocks:
+            out = out + self.inertia.assemble(velocity_blocks)[free][:, free] @ W
+        return out
 
     # ---------------------------------------------------------------- time-dependent data
     def prescribed(self, t: float):
@@ -621,10 +667,19 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     am, af, gamma, beta = params
     num, free, prob = tp.num, tp.free, tp.prob
     t1 = t + h
-    at_new = (af * a - am * a_tilde) / (1 - am)          # a_tilde with a_{n+1} = 0
-    x1 = x + h * v + h * h * (0.5 - beta) * a_tilde + h * h * beta * at_new
-    v1 = v + h * (1 - gamma) * a_tilde + h * gamma * at_new
+    motion = tp.frame_rate(x, v, h)
+    if motion is None:
+        yd, ydd, aty = v, a, a_tilde
+    else:
+        # the step in the frame turning with the model (solvers/frame.py): y = x at its start
+        yd, ydd, aty = tp.frame.to_frame(motion, x, v, a, a_tilde)
+    at_new = (af * ydd - am * aty) / (1 - am)          # a_tilde with a_{n+1} = 0
+    x1 = x + h * yd + h * h * (0.5 - beta) * aty + h * h * beta * at_new
+    v1 = yd + h * (1 - gamma) * aty + h * gamma * at_new
     a1 = np.zeros_like(a)
+    if motion is not None:
+        x1, v1, a1 = tp.frame.from_frame(motion, h, x1, v1, a1)
+        W = tp.frame.matrix(motion.omega, free)
     idx, xp, vp, ap = tp.prescribed(t1)
     x1[idx], v1[idx], a1[idx] = xp, vp, ap
     # (no normalization of the predicted Euler parameters: Newton's correction of q.q = 1
@@ -658,7 +713,12 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         # stall above the tolerance without meaning anything)
         if it > 0 and res <= max(opts.tol, floor) and (dx_norm <= max(opts.tol, 1e-13)
                                                        or res <= 1e-3 * opts.tol):
-            a_tilde_new = at_new + (1 - af) / (1 - am) * a1
+            if motion is None:
+                a_tilde_new = at_new + (1 - af) / (1 - am) * a1
+            else:
+                y1, yd1, ydd1 = tp.frame.back(motion, h, x1, v1, a1)
+                a_tilde_new = tp.frame.from_frame(
+                    motion, h, y1, yd1, at_new + (1 - af) / (1 - am) * ydd1)[2]
             _gauge(num, x1, v1, a1, a_tilde_new)
             tp.accept_level(level)
             return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp
@@ -681,7 +741,10 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             tp.exact_tangent_on = True
             log.info("the convective inertia terms slow Newton down at t = %.6g s: the "
                      "exact iteration matrix is used from here on", t1)
-        tangent = (tp.inertia.tangent(x1, v1, a1, gamma_p)
+        if motion is not None and opts.exact_tangent:
+            tp.exact_tangent_on = True   # the frame's W terms are not symmetric anyway
+        c_h = [] if motion is not None else None
+        tangent = (tp.inertia.tangent(x1, v1, a1, gamma_p, velocity_part=c_h)
                    if opts.exact_tangent and tp.exact_tangent_on else None)
         exact = tangent is not None and any(t is not None for t in tangent)
         extra, nodal = tp.inertia.iteration_parts(
@@ -689,7 +752,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         for i, cb in damp_blocks.items():
             extra[i] = extra.get(i, 0.0) + gamma_p * cb
         step = None
-        if prob.reduced is not None and nodal is None and not exact:
+        if prob.reduced is not None and nodal is None and not exact and motion is None:
             # the static solver's tangent-space step (solvers/reduced.py) with the inertia
             # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
             k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
@@ -702,6 +765,9 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         else:
             scale = max(prob.scale, beta_p * m_max)
             S = prob.matrix(ev, mu1, extra=extra, scale=scale)
+            if motion is not None:
+                coriolis = tp.frame_terms(blocks, c_h, W, gamma_p)
+                nodal = coriolis if nodal is None else nodal + coriolis
             if nodal is not None:
                 S = S + sp.block_diag([nodal, sp.csc_matrix((S.shape[0] - n_x,) * 2)],
                                       format="csc")
@@ -719,6 +785,10 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         x1[free] += dx
         v1[free] += gamma_p * dx
         a1[free] += beta_p * dx
+        if motion is not None:
+            wd = W @ dx
+            v1[free] += wd
+            a1[free] += 2 * gamma_p * wd + W @ wd
         mu1 = mu1 + dmu
     hist = ", ".join(f"{v:.2e}" for v in history)
     raise StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})",

@@ -1,0 +1,238 @@
+"""The rotating frame of a generalized-alpha step: the change of variables that lets the
+transient solver (:mod:`spacarpy.solvers.transient`) represent a rigid rotation exactly.
+
+Generalized-alpha updates the coordinates linearly, ``x1 = x + h v + h^2 (...)``. For nodes
+that turn fast about an axis (a spinning beam) that update moves them along the chord of
+their circle, and the stiff axial modes of the beams between them take the difference as
+strain: with little numerical damping (``rho_inf`` near 1) the discrete solution then
+turns unstable after some revolutions (the nonlinear instability of Newmark-type schemes
+on stiff rotating systems; docs/transient.md shows it on a mass on a stiff spring). In
+polar coordinates the same scheme is stable, because a rotation is a constant-rate change
+of one coordinate there.
+
+Each step is therefore integrated in a frame that coincides with the global one at the
+start of the step and moves rigidly at the best rigid fit of the model's nodal velocities at the
+start of the step: ``x = c + s u + T(s) (y - c)`` with
+``T(s) = exp(s W)``, ``W`` the rate operator (``omega x`` on a position, ``1/2 (0, omega) q``
+on Euler parameters, both skew). The step's unknowns are the rotating-frame coordinates
+``y``; the equations of motion are unchanged (the residual is evaluated in ``x``), so the
+change of variables is exact, and a rigid rotation at ``omega`` costs the linear update
+nothing. The frame's origin c and velocity u: for a model whose position nodes all turn (a
+free-floating body), the nodes' centroid and its velocity; for a model with held nodes
+(fixed or driven), the fitted motion's instantaneous screw axis (rotation about it,
+sliding along it), so that a model turning about a pinned axis, such as a beam on a
+driven hub, has its held nodes where the frame has them. Newton's correction
+``d = T dy`` then updates
+
+    x += d,    v += (gamma' + W) d,    a += (beta' + 2 gamma' W + W^2) d,
+
+and the iteration matrix gets ``M (2 gamma' W + W^2) + alpha_R M W`` (alpha_R the Rayleigh
+mass damping). Only nodes whose coordinates are all free turn with the frame (a planar
+model: x, y and lambda0, lambda3 about z), so prescribed and fixed coordinates keep their
+values; the others keep ``T = I``, which is also a valid change of variables.
+
+This is the generalized-alpha method of Arnold & Brüls (2007) written in a moving frame,
+the simplest member of the Lie-group family (Brüls & Cardona 2010) that covers the case
+here: one rotation shared by the model.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+
+#: The frame turns once the model's rotation per step |omega| h exceeds this (rad), at a
+#: rate rising smoothly to the model's at ten times this turn.
+FRAME_MIN_TURN = 0.002
+
+
+def _cross(w: np.ndarray, p: np.ndarray) -> np.ndarray:
+    return np.cross(w, p)
+
+
+def _quat_rate(w: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``1/2 (0, w) q`` for rows q of Euler parameters (lambda0, lambda1..3)."""
+    out = np.empty_like(q)
+    out[:, 0] = -0.5 * (q[:, 1:] @ w)
+    out[:, 1:] = 0.5 * (q[:, :1] * w + np.cross(w, q[:, 1:]))
+    return out
+
+
+class Motion(NamedTuple):
+    """The rigid motion a step's frame follows: rate (3,), centre (3,) and its velocity."""
+
+    omega: np.ndarray
+    centre: np.ndarray
+    velocity: np.ndarray
+
+
+@dataclass
+class RotatingFrame:
+    """The nodes that turn with the frame and the fit of its rate.
+
+    ``pos`` (n_p, 3) and ``rot`` (n_r, 4) are the coordinate indices of the turning
+    position and orientation nodes; ``weight`` (n_p,) their weights in the fit;
+    ``planar``: the rate is about z only; ``floating``: every position node turns (no
+    held nodes)."""
+
+    pos: np.ndarray
+    rot: np.ndarray
+    weight: np.ndarray
+    planar: bool
+    n_coord: int
+    floating: bool = True
+
+    @classmethod
+    def of(cls, num, free: np.ndarray, planar: bool):
+        pos_all, rot_all = num.pos_idx, num.rot_idx[num.euler_nodes]
+        if planar:                     # x, y (z is fixed) and lambda0, lambda3
+            pos_ok = free[pos_all[:, 0]] & free[pos_all[:, 1]]
+            rot_ok = free[rot_all[:, 0]] & free[rot_all[:, 3]]
+        else:
+            pos_ok = free[pos_all].all(axis=1)
+            rot_ok = free[rot_all].all(axis=1)
+        pos, rot = pos_all[pos_ok], rot_all[rot_ok]
+        # a kinematic fit: every node counts alike (nodal masses need not be where the
+        # mass is: a rigid rod's sits on one end node and its orientation)
+        return cls(pos=pos, rot=rot, weight=np.ones(len(pos)), planar=planar,
+                   n_coord=num.n_coord, floating=bool(pos_ok.all()))
+
+    @property
+    def usable(self) -> bool:
+        """At least two turning position nodes: a rate can be fitted."""
+        return len(self.pos) >= 2
+
+    def rate(self, x: np.ndarray, v: np.ndarray, scale: float = 1.0) -> Motion:
+        """The rigid motion that fits the turning nodes' velocities best (least squares:
+        the velocity ``u`` of their centroid ``c`` and the rate ``omega`` about it,
+        ``I omega = H`` with the nodes' second moment I); a straight line of nodes has no
+        rate about its own axis (the least-norm solution), nodes that all coincide none at
+        all. ``scale`` multiplies the rate (the frame's smooth start; the axis stays)."""
+        w = self.weight
+        m = float(w.sum())
+        p, vel = x[self.pos], v[self.pos]
+        c, u = (w @ p) / m, (w @ vel) / m
+        r, du = p - c, vel - u
+        H = np.sum(w[:, None] * np.cross(r, du), axis=0)
+        rr = np.sum(r * r, axis=1)
+        # the nodes' spread against their distance from the origin: below round-off
+        # they coincide and show no rotation
+        tiny = 1e-20 * (m * float(np.max(np.sum(p * p, axis=1))) + 1e-300)
+        if self.planar:
+            izz = float(w @ (r[:, 0] ** 2 + r[:, 1] ** 2))
+            omega = np.array([0.0, 0.0, H[2] / izz if izz > tiny else 0.0])
+        else:
+            inertia = np.eye(3) * float(w @ rr) - np.einsum("n,ni,nj->ij", w, r, r)
+            lam, vec = np.linalg.eigh(inertia)
+            keep = lam > max(1e-10 * float(lam[-1]), tiny)
+            omega = vec[:, keep] @ ((vec[:, keep].T @ H) / lam[keep])
+        w2 = float(omega @ omega)
+        if self.floating or w2 == 0.0:
+            return Motion(scale * omega, c, u)
+        # held nodes (fixed or driven) do not turn with the frame: turn about the fitted
+        # motion's instantaneous screw axis (its point nearest to c, sliding along it), so
+        # that a model pinned on that axis keeps its held nodes where the frame has them
+        return Motion(scale * omega, c + np.cross(omega, u) / w2, (u @ omega) / w2 * omega)
+
+    def _shift(self, z: np.ndarray, offset: np.ndarray) -> np.ndarray:
+        """z with ``offset`` (3,) subtracted from the turning positions."""
+        out = z.copy()
+        if self.pos.size:
+            out[self.pos] -= offset
+        return out
+
+    # ------------------------------------------------------------------ the operators
+    def apply_w(self, omega: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """``W z`` over all coordinates (zero on the coordinates that do not turn)."""
+        out = np.zeros_like(z)
+        if self.pos.size:
+            out[self.pos] = _cross(omega, z[self.pos])
+        if self.rot.size:
+            out[self.rot] = _quat_rate(omega, z[self.rot])
+        return out
+
+    def apply_t(self, omega: np.ndarray, s: float, z: np.ndarray, transpose=False) -> np.ndarray:
+        """``T(s) z`` (or ``T(s)^T z``) over all coordinates: the rotation by ``s omega``
+        of the turning positions, the left product with its Euler parameters of the
+        turning orientations."""
+        out = z.copy()
+        angle = s * float(np.linalg.norm(omega))
+        if angle == 0.0:
+            return out
+        if transpose:
+            angle = -angle
+        axis = omega / np.linalg.norm(omega)
+        if self.pos.size:
+            p = z[self.pos]
+            c, sn = np.cos(angle), np.sin(angle)
+            out[self.pos] = (c * p + sn * np.cross(axis, p)
+                             + (1 - c) * (p @ axis)[:, None] * axis)
+        if self.rot.size:
+            q = z[self.rot]
+            r0, rv = np.cos(angle / 2), np.sin(angle / 2) * axis
+            res = np.empty_like(q)
+            res[:, 0] = r0 * q[:, 0] - q[:, 1:] @ rv
+            res[:, 1:] = r0 * q[:, 1:] + q[:, :1] * rv + np.cross(rv, q[:, 1:])
+            out[self.rot] = res
+        return out
+
+    def matrix(self, omega: np.ndarray, free: np.ndarray) -> sp.csc_matrix:
+        """``W`` as a sparse matrix over the free coordinates."""
+        n = self.n_coord
+        rows, cols, vals = [], [], []
+        for idx, size, op in ((self.pos, 3, _cross), (self.rot, 4, _quat_rate)):
+            if not idx.size:
+                continue
+            for j in range(size):                       # column j of the node block
+                e = np.zeros((len(idx), size))
+                e[:, j] = 1.0
+                col = op(omega, e)                      # (n_nodes, size)
+                for i in range(size):
+                    nz = col[:, i] != 0.0
+                    rows.append(idx[nz, i])
+                    cols.append(idx[nz, j])
+                    vals.append(col[nz, i])
+        if not rows:
+            return sp.csc_matrix((int(free.sum()),) * 2)
+        W = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(n, n))
+        return W[free][:, free].tocsc()
+
+    # ------------------------------------------------------------------ the step
+    # With the motion (omega, c, u) of the step's start: positions
+    # x = c + s u + T(s) (y - c), Euler parameters q = T(s) q_y.
+    def to_frame(self, motion: Motion, x, v, a, a_tilde):
+        """Rates of the frame's coordinates at the start of a step (where y = x):
+        ``(y', y'', y~)``, y~ the integrator's acceleration variable, converted as an
+        acceleration."""
+        om = motion.omega
+        rel = self._shift(x, motion.centre)
+        yd = self._shift(v, motion.velocity) - self.apply_w(om, rel)
+        centre = 2 * self.apply_w(om, yd) + self.apply_w(om, self.apply_w(om, rel))
+        return yd, a - centre, a_tilde - centre
+
+    def from_frame(self, motion: Motion, h, y, yd, ydd):
+        """``(x, v, a)`` at the end of a step of length h from the frame's coordinates."""
+        om = motion.omega
+        rel = self._shift(y, motion.centre)
+        w_y = self.apply_w(om, rel)
+        x = self._shift(self.apply_t(om, h, rel), -(motion.centre + h * motion.velocity))
+        v = self._shift(self.apply_t(om, h, yd + w_y), -motion.velocity)
+        a = self.apply_t(om, h, ydd + 2 * self.apply_w(om, yd) + self.apply_w(om, w_y))
+        return x, v, a
+
+    def back(self, motion: Motion, h, x, v, a):
+        """The inverse of :meth:`from_frame`: ``(y, y', y'')``."""
+        om = motion.omega
+        rel = self.apply_t(om, h, self._shift(x, motion.centre + h * motion.velocity),
+                           transpose=True)
+        yd = (self.apply_t(om, h, self._shift(v, motion.velocity), transpose=True)
+              - self.apply_w(om, rel))
+        ydd = (self.apply_t(om, h, a, transpose=True) - 2 * self.apply_w(om, yd)
+               - self.apply_w(om, self.apply_w(om, rel)))
+        return self._shift(rel, -motion.centre), yd, ydd
+
+
+__all__ = ["FRAME_MIN_TURN", "Motion", "RotatingFrame"]
