@@ -43,6 +43,10 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
+#: Axes about which the nodes' second moment is below this fraction of the largest are
+#: left out of the fitted rate (their radius of gyration below 1 % of the largest).
+SPREAD = 1e-4
+
 #: The frame turns once the model's rotation per step |omega| h exceeds this (rad), at a
 #: rate rising smoothly to the model's at ten times this turn.
 FRAME_MIN_TURN = 0.002
@@ -126,7 +130,10 @@ class RotatingFrame:
         else:
             inertia = np.eye(3) * float(w @ rr) - np.einsum("n,ni,nj->ij", w, r, r)
             lam, vec = np.linalg.eigh(inertia)
-            keep = lam > max(1e-10 * float(lam[-1]), tiny)
+            # a rate about an axis the nodes hardly spread across (a nearly straight beam's
+            # own axis) is not seen by their velocities: the fit leaves it out rather
+            # than divide a small moment by a small spread
+            keep = lam > max(SPREAD * float(lam[-1]), tiny)
             omega = vec[:, keep] @ ((vec[:, keep].T @ H) / lam[keep])
         w2 = float(omega @ omega)
         if self.floating or w2 == 0.0:
