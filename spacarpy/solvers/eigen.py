@@ -47,6 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.elements.base import relative_positions
+from spacarpy.solvers.eigen_tangent import lowest_modes
 
 log = logging.getLogger(__name__)
 
@@ -212,8 +213,12 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
         lam, vec, definite = _dense(lin, n_x)
     else:
         definite = False
-        lam, vec = _sparse(lin, n_x, n_modes)
-        lam = _rayleigh(lin, num, free, lam, vec)
+        found = lowest_modes(lin, num, n_modes)
+        if found is not None:
+            lam, vec = found                       # Rayleigh quotients already
+        else:
+            lam, vec = _sparse(lin, n_x, n_modes)
+            lam = _rayleigh(lin, num, free, lam, vec)
     if not definite:
         lam = np.where(infinite_mask(lam, vec, lin.M), complex(np.inf, 0.0), lam)
     finite = np.isfinite(lam)

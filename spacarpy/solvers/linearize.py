@@ -44,6 +44,15 @@ class Linearization:
         Per element group, the kernel state at x (its ``D`` classifies rigid-body modes).
     x : (n_coord,)
         The state.
+    reduced : ReducedNewton or None
+        The static problem's tangent-space Newton solver, where it applies and a mass is
+        given (:mod:`spacarpy.solvers.eigen_tangent` solves the lowest modes with it).
+    blocks : (list, ndarray) or None
+        With ``reduced``: per element group ``(D, S, H)``, the deformation derivatives, the
+        stiffness and the load-dependent block ``H`` (the stress resultants' Hessian, less
+        the gravity stiffness; None where it vanishes), so that K's element block is
+        ``D^T S D + H``; and the Euler-node diagonal ``2 mu``. For products of K element by
+        element.
     """
 
     K: sp.csc_matrix
@@ -52,6 +61,8 @@ class Linearization:
     M: sp.csc_matrix | None
     states: list
     x: np.ndarray
+    reduced: object = None
+    blocks: tuple | None = None
 
     @property
     def G(self):
@@ -100,4 +111,15 @@ def linearize(prob, x, mu, load, mass: MassAssembler | None = None) -> Lineariza
     K_mat = a0[:n_x, :n_x].tocsc()
     C = (a[n_x:, :n_x] / prob.scale).tocsr()
     M = mass.matrix(x) if mass is not None else None
-    return Linearization(K=K, K_mat=K_mat, C=C, M=M, states=ev.states, x=x)
+    reduced = blocks = None
+    if M is not None and prob.reduced is not None:
+        reduced = prob.reduced
+        parts = []
+        for i, (g, st, sig) in enumerate(zip(prob.num.groups, ev.states, ev.sigmas)):
+            h = g.kind.hessian(st, sig)
+            if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
+                h = h - ev.gravity_stiffness[i]
+            parts.append((st.D, g.S, h if np.any(h) else None))   # None: unstressed
+        blocks = (parts, 2.0 * mu[prob.num.n_rigid:])
+    return Linearization(K=K, K_mat=K_mat, C=C, M=M, states=ev.states, x=x,
+                         reduced=reduced, blocks=blocks)
