@@ -335,13 +335,8 @@ def _rayleigh(lin, num, free, lam, vec):
 
 
 def _normalize(vec, M):
-    out = vec.copy()
-    for j in range(vec.shape[1]):
-        v = vec[:, j]
-        mm = float(v @ (M @ v))
-        if mm > 0:
-            out[:, j] = v / np.sqrt(mm)
-        else:
-            big = np.abs(v).max(initial=0.0)
-            out[:, j] = v / big if big > 0 else v
-    return out
+    mv = M @ vec
+    mm = np.einsum("ij,ij->j", vec, mv)
+    big = np.abs(vec).max(axis=0, initial=0.0)
+    div = np.where(mm > 0, np.sqrt(np.where(mm > 0, mm, 1.0)), np.where(big > 0, big, 1.0))
+    return vec / div

@@ -15,19 +15,20 @@ solver's reduced tangent, symmetric and, at a stable state, positive definite.
    operator application one pair of triangular solves;
 2. refines the Ritz vectors by Rayleigh-Ritz steps on ``[V, K_r^-1 R]`` (R the residuals
    ``K_r V - M_r V Theta``), every product with ``K_r`` taken element by element with each
-   element's positions relative to its first node (the static solver's accurate product,
-   :meth:`ReducedNewton._k_times`), until the wanted eigenvalues change by less than
-   :data:`RTOL` (at most :data:`MAX_REFINE` steps).
+   element's positions relative to its first node and the material part as
+   ``D^T (S (D v))`` (:meth:`_Tangent.products`), until the estimated error of the wanted
+   eigenvalues is below :data:`EST_RTOL` or a step changes them by less than :data:`RTOL`
+   (at most :data:`MAX_REFINE` steps).
 
 Why the shift is 0 and why step 2: the bordered solver shifted by ``-1e-6`` times the median
 stiffness-to-mass ratio of the diagonal, which grows with the square of the number of
 elements while the lowest eigenvalues do not: at 10^5 elements the shift was 3000 times the
-tenth eigenvalue, the shifted eigenvalues lay within 2e-4 of each other, and ARPACK needed
-minutes. A stable clamped model needs no shift. But the assembled ``K_r`` of a finely meshed
-structure is inaccurate in its soft directions (their stiffness is 1e-15 of the axial one at
-10^5 elements, below the round-off of the axial entries), so ARPACK's eigenvalues of the
-factorized matrix are 1e-3 off there; the factorization remains an excellent
-preconditioner, and the element-wise products make the Rayleigh quotients accurate.
+tenth eigenvalue, the wanted shifted eigenvalues lay within 2e-3 of each other, and ARPACK
+needed minutes (267 s). A stable clamped model needs no shift. But the assembled ``K_r`` of
+a finely meshed structure is inaccurate in its soft directions (their stiffness is 1e-15 of
+the axial one at 10^5 elements, below the round-off of the axial entries), so the
+eigenvalues of the factorized matrix are about 1e-3 off there; the factorization remains an
+excellent preconditioner, and the element-wise products make the Rayleigh quotients accurate.
 
 Returns None where this does not apply or the factorized ``K_r`` is not positive definite
 (rigid-body modes, an unstable state), and the caller takes the bordered solver.
@@ -47,8 +48,14 @@ from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
 
 log = logging.getLogger(__name__)
 
-#: Relative change of the wanted eigenvalues below which the refinement stops.
+#: Relative change of the wanted eigenvalues between two steps below which the refinement
+#: stops.
 RTOL = 1e-12
+#: Estimated relative error of the wanted eigenvalues (``r^T K^-1 r / theta``) below which
+#: the refinement stops: 5e-9 in the frequencies. The estimate's round-off floor is 1e-14
+#: at 10^4 elements and 1.5e-9 at 10^5, where the eigenvalues it accepts agree with the
+#: fully converged ones to 3e-13.
+EST_RTOL = 1e-8
 #: Most Rayleigh-Ritz refinement steps (two suffice on the bench cantilever up to 10^5
 #: elements; the third confirms).
 MAX_REFINE = 6
@@ -110,31 +117,39 @@ class _Tangent:
         self.T = sp.csr_matrix((vals, (rows, cols)), shape=(num.n_unknown, rn.n))
         self.Tt = self.T.T.tocsr()
         self.M = (self.Tt @ lin.M @ self.T).tocsr()
-        # per group and chunk of elements: the scatter of element vectors onto coordinates
-        self.scatter = []
+        # per group and chunk of elements: the reduced unknown of every local slot (-1:
+        # fixed, or an Euler node's radial slot) and the scatter of the element vectors
+        # onto the rows lo..hi of the reduced unknowns that the chunk touches
+        self.chunks = []
         for g in num.groups:
-            mats = []
+            parts = []
             for a in range(0, g.n_elem, CHUNK):
-                idx = g.idx[a:a + CHUNK].ravel()
-                mats.append(sp.csr_matrix((np.ones(idx.size), (idx, np.arange(idx.size))),
-                                          shape=(num.n_coord, idx.size)))
-            self.scatter.append(mats)
+                ridx = red[g.idx[a:a + CHUNK]]
+                flat = ridx.ravel()
+                ok = flat >= 0
+                lo = int(flat[ok].min()) if ok.any() else 0
+                hi = int(flat[ok].max()) + 1 if ok.any() else 0
+                scat = sp.csr_matrix((np.ones(int(ok.sum())),
+                                      (flat[ok] - lo, np.flatnonzero(ok))),
+                                     shape=(hi - lo, flat.size))
+                parts.append((slice(a, a + CHUNK), ridx, ridx < 0, lo, hi, scat))
+            self.chunks.append(parts)
+        self.tangent_slots = red[rn.eu[:, 1:]]                     # (n_eu, 3)
 
     def products(self, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(K_r Y, Y^T K_r Y)`` element by element: each element's positions relative
         to its first node (exact: the blocks are invariant to translations), the material
         part as ``D^T (S (D y))`` and the quadratic form as ``sum (D y)^T S (D y)`` (the
         assembled ``D^T S D`` loses the soft part to the round-off of its entries)."""
-        num, rn = self.num, self.rn
+        num = self.num
         p = Y.shape[1]
-        z = np.zeros((num.n_coord, p))
-        z[rn.keep] = Y
-        kz = np.zeros((num.n_coord, p))
+        out = np.zeros((self.n, p))
         gram = np.zeros((p, p))
-        for g, (d, dt, s, h), scatter in zip(num.groups, self.parts, self.scatter):
-            for a, scat in zip(range(0, g.n_elem, CHUNK), scatter):
-                sl = slice(a, a + CHUNK)
-                ze = relative_positions(z[g.idx[sl]], g.kind.position_starts)  # (n, ldof, p)
+        for g, (d, dt, s, h), chunks in zip(num.groups, self.parts, self.chunks):
+            for sl, ridx, void, lo, hi, scat in chunks:
+                ze = Y[ridx]                                   # (n, n_ldof, p)
+                ze[void] = 0.0                                 # fixed and radial slots
+                ze = relative_positions(ze, g.kind.position_starts)
                 rates = d[sl] @ ze
                 sr = s[sl] @ rates
                 gram += rates.reshape(-1, p).T @ sr.reshape(-1, p)
@@ -143,11 +158,14 @@ class _Tangent:
                     hz = h[sl] @ ze
                     gram += ze.reshape(-1, p).T @ hz.reshape(-1, p)
                     f += hz
-                kz += scat @ f.reshape(-1, p)
-        ze = z[rn.eu]
-        kz[rn.eu] += self.euler_diag[:, None, None] * ze
-        gram += np.einsum("n,nap,naq->pq", self.euler_diag, ze, ze)
-        return kz[rn.keep], 0.5 * (gram + gram.T)
+                out[lo:hi] += scat @ f.reshape(-1, p)
+        # the Euler nodes' 2 mu on their tangent slots
+        t = self.tangent_slots
+        yt = Y[t]                                                  # (n_eu, 3, p)
+        dyt = self.euler_diag[:, None, None] * yt
+        out[t] += dyt
+        gram += dyt.reshape(-1, p).T @ yt.reshape(-1, p)
+        return out, 0.5 * (gram + gram.T)
 
 
 def applies(lin) -> bool:
@@ -179,10 +197,11 @@ def lowest_modes(lin, num, n_modes: int):
     dimension less one), or None (module docstring)."""
     if not applies(lin):
         return None
-    K = lin.K
-    scale = abs(K).max() if K.nnz else 0.0
-    if scale == 0 or abs(K - K.T).max() > 1e-12 * scale:
-        return None
+    # K's element blocks D^T S D + H: symmetric where every H is (no follower-type terms)
+    for _, _, h in lin.blocks[0]:
+        if h is not None and np.abs(h - h.transpose(0, 2, 1)).max() > \
+                1e-12 * np.abs(h).max():
+            return None
     t0 = time.perf_counter()
     tan = _Tangent(lin, num)
     t1 = time.perf_counter()
@@ -213,19 +232,19 @@ def lowest_modes(lin, num, n_modes: int):
     change = np.inf
     for it in range(MAX_REFINE + 1):  # noqa: B007 (logged below)
         R = KV - (tan.M @ V) * theta
+        W = np.empty(R.shape, order="F")
         try:
-            W = np.column_stack([solve(r) for r in R.T])
+            for j in range(R.shape[1]):
+                W[:, j] = solve(R[:, j])
         except FactorizationError:
             return None
         # the Rayleigh quotient's error, about r^T K^-1 r relative to theta (V is
-        # M-orthonormal): below RTOL, the Ritz pairs are the answer. Its round-off floor
-        # (that of R) is 1.5e-9 at 10^5 elements; there the refinement stops when a step
-        # changes the wanted eigenvalues by less than RTOL
+        # M-orthonormal): below EST_RTOL, the Ritz pairs are the answer
         est = (np.abs(np.einsum("ij,ij->j", R, W))[:n_modes]
                / np.maximum(np.abs(theta[:n_modes]), np.finfo(float).tiny))
         log.debug("tangent eigen solver: refinement %d, estimated error %.1e, change %.1e",
                   it, est.max(initial=0.0), change)
-        if est.max(initial=0.0) <= RTOL or change <= RTOL or it == MAX_REFINE:
+        if est.max(initial=0.0) <= EST_RTOL or change <= RTOL or it == MAX_REFINE:
             break
         old = theta[:n_modes]
         theta, V, KV = _ritz(tan, np.hstack([V, W]), k)
