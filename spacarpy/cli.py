@@ -25,6 +25,7 @@ from spacarpy.errors import (
     EXIT_INPUT,
     EXIT_INTERRUPTED,
     EXIT_OK,
+    EXIT_SOLVER,
     EXIT_TERMINATED,
     SpacarError,
     Terminated,
@@ -141,6 +142,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                           "and buckling multipliers (if it is loaded), as SPACAR's mode 10 does")
     run.add_argument("--ignore-memory-limit", action="store_true",
                      help="run even when the memory estimate exceeds the available memory")
+    run.add_argument("--ignore-conditioning-limit", action="store_true",
+                     help="run even when the beams are too finely meshed for double "
+                          "precision (spacarpy.solvers.conditioning)")
     _set_option(run)
     _verbosity(run)
 
@@ -502,6 +506,13 @@ def _main(args) -> int:
     except SpacarError as exc:
         print(_printable(_capped(exc)), file=sys.stderr)
         return exc.exit_code
+    except MemoryError:
+        # past the estimate of spacarpy.memory (a factorization's fill, another process's
+        # memory): a message, never a traceback; a result file keeps its completed steps
+        print("error: out of memory: the analysis needed more memory than the system could "
+              "give (see docs/performance.md, 'Memory estimate before a run')",
+              file=sys.stderr)
+        return EXIT_SOLVER
     except Terminated:
         print("terminated (SIGTERM)", file=sys.stderr)
         return EXIT_TERMINATED
@@ -591,6 +602,8 @@ def _run_locked(args, out) -> int:
     _require_elements(model, args.deck)
     from spacarpy.memory import check_memory
     check_memory(model.n_elem, ignore=args.ignore_memory_limit)
+    from spacarpy.solvers.conditioning import check_conditioning
+    check_conditioning(model, ignore=args.ignore_conditioning_limit)
     # the command line makes new settings; the deck's stay as they were read
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,
                                      n_modes=args.modes,

@@ -47,6 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.elements.base import relative_positions
+from spacarpy.solvers.eigen_tangent import lowest_modes
 
 log = logging.getLogger(__name__)
 
@@ -212,8 +213,12 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
         lam, vec, definite = _dense(lin, n_x)
     else:
         definite = False
-        lam, vec = _sparse(lin, n_x, n_modes)
-        lam = _rayleigh(lin, num, free, lam, vec)
+        found = lowest_modes(lin, num, n_modes)
+        if found is not None:
+            lam, vec = found                       # Rayleigh quotients already
+        else:
+            lam, vec = _sparse(lin, n_x, n_modes)
+            lam = _rayleigh(lin, num, free, lam, vec)
     if not definite:
         lam = np.where(infinite_mask(lam, vec, lin.M), complex(np.inf, 0.0), lam)
     finite = np.isfinite(lam)
@@ -330,13 +335,8 @@ def _rayleigh(lin, num, free, lam, vec):
 
 
 def _normalize(vec, M):
-    out = vec.copy()
-    for j in range(vec.shape[1]):
-        v = vec[:, j]
-        mm = float(v @ (M @ v))
-        if mm > 0:
-            out[:, j] = v / np.sqrt(mm)
-        else:
-            big = np.abs(v).max(initial=0.0)
-            out[:, j] = v / big if big > 0 else v
-    return out
+    mv = M @ vec
+    mm = np.einsum("ij,ij->j", vec, mv)
+    big = np.abs(vec).max(axis=0, initial=0.0)
+    div = np.where(mm > 0, np.sqrt(np.where(mm > 0, mm, 1.0)), np.where(big > 0, big, 1.0))
+    return vec / div

@@ -17,7 +17,8 @@ shift-invert, large models): both give the same eigenvalues.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -36,7 +37,9 @@ class Linearization:
     K : (n_x, n_x) sparse
         Tangent stiffness K0 + G0 + N0 (non-symmetric when dead moments act).
     K_mat : (n_x, n_x) sparse
-        Material stiffness K0 = D^T S D.
+        Material stiffness K0 = D^T S D, assembled on first use (``material``: the
+        function that assembles it; the sparse eigen solver does not need it, and at 10^5
+        elements its assembly costs a second).
     C : (n_con, n_x) sparse
         Constraint Jacobian (rigid modes, Euler normalizations).
     M : (n_x, n_x) sparse or None
@@ -44,14 +47,32 @@ class Linearization:
         Per element group, the kernel state at x (its ``D`` classifies rigid-body modes).
     x : (n_coord,)
         The state.
+    reduced : ReducedNewton or None
+        The static problem's tangent-space Newton solver, where it applies and a mass is
+        given (:mod:`spacarpy.solvers.eigen_tangent` solves the lowest modes with it).
+    blocks : (list, ndarray) or None
+        With ``reduced``: per element group ``(D, S, H)``, the deformation derivatives, the
+        stiffness and the load-dependent block ``H`` (the stress resultants' Hessian, less
+        the gravity stiffness; None where it vanishes), so that K's element block is
+        ``D^T S D + H``; and the Euler-node diagonal ``2 mu``. For products of K element by
+        element.
     """
 
     K: sp.csc_matrix
-    K_mat: sp.csc_matrix
     C: sp.csr_matrix
     M: sp.csc_matrix | None
     states: list
     x: np.ndarray
+    reduced: object = None
+    blocks: tuple | None = None
+    material: Callable[[], sp.csc_matrix] | None = field(default=None, repr=False)
+    _k_mat: sp.csc_matrix | None = field(default=None, init=False, repr=False)
+
+    @property
+    def K_mat(self) -> sp.csc_matrix:
+        if self._k_mat is None:
+            self._k_mat = self.material()
+        return self._k_mat
 
     @property
     def G(self):
@@ -95,9 +116,21 @@ def linearize(prob, x, mu, load, mass: MassAssembler | None = None) -> Lineariza
     ev = prob.evaluate(x, mu, load)
     n_x = prob.pattern.n_x
     a = prob.matrix(ev, mu)
-    a0 = prob.matrix(ev, mu, material_only=True)
     K = a[:n_x, :n_x].tocsc()
-    K_mat = a0[:n_x, :n_x].tocsc()
+
+    def material():
+        return prob.matrix(ev, mu, material_only=True)[:n_x, :n_x].tocsc()
     C = (a[n_x:, :n_x] / prob.scale).tocsr()
     M = mass.matrix(x) if mass is not None else None
-    return Linearization(K=K, K_mat=K_mat, C=C, M=M, states=ev.states, x=x)
+    reduced = blocks = None
+    if M is not None and prob.reduced is not None:
+        reduced = prob.reduced
+        parts = []
+        for i, (g, st, sig) in enumerate(zip(prob.num.groups, ev.states, ev.sigmas)):
+            h = g.kind.hessian(st, sig)
+            if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
+                h = h - ev.gravity_stiffness[i]
+            parts.append((st.D, g.S, h if np.any(h) else None))   # None: unstressed
+        blocks = (parts, 2.0 * mu[prob.num.n_rigid:])
+    return Linearization(K=K, C=C, M=M, states=ev.states, x=x, reduced=reduced,
+                         blocks=blocks, material=material)
