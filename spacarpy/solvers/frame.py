@@ -48,8 +48,11 @@ import scipy.sparse as sp
 SPREAD = 1e-4
 
 #: The frame turns once the model's rotation per step |omega| h exceeds this (rad), at a
-#: rate rising smoothly to the model's at ten times this turn.
-FRAME_MIN_TURN = 0.002
+#: rate rising smoothly to the model's at FRAME_FULL_TURN times this turn. Below it (a
+#: vibrating structure: the cantilever decks turn by at most 0.012 rad per step) the
+#: steps keep the global frame and its cheaper symmetric Newton matrix.
+FRAME_MIN_TURN = 0.015
+FRAME_FULL_TURN = 3.0
 
 
 def _cross(w: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -242,4 +245,4 @@ class RotatingFrame:
         return self._shift(rel, -motion.centre), yd, ydd
 
 
-__all__ = ["FRAME_MIN_TURN", "Motion", "RotatingFrame"]
+__all__ = ["FRAME_FULL_TURN", "FRAME_MIN_TURN", "Motion", "RotatingFrame"]

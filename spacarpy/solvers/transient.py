@@ -49,7 +49,7 @@ from spacarpy.rotation import tangent_part
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.equilibrium import StaticProblem
 from spacarpy.solvers.errors import StepFailed
-from spacarpy.solvers.frame import FRAME_MIN_TURN, RotatingFrame
+from spacarpy.solvers.frame import FRAME_FULL_TURN, FRAME_MIN_TURN, RotatingFrame
 from spacarpy.solvers.inertia import Inertia
 from spacarpy.solvers.kinematic_check import check_initial
 from spacarpy.solvers.loads import LoadState
@@ -196,9 +196,9 @@ class TransientProblem:
 
         The frame follows the model's fitted rotation once it turns by more than
         ``FRAME_MIN_TURN`` per step, at a rate that rises smoothly from zero there to the
-        fitted rate at ten times that turn: any rate is an exact change of variables, and
-        a frame switched on at once would change the scheme from one step to the next and
-        kick the stiff axial modes, which nothing damps at ``RHOINF 1``."""
+        fitted rate at ``FRAME_FULL_TURN`` times that turn: any rate is an exact change of
+        variables, and a frame switched on at once would change the scheme from one step
+        to the next and kick the stiff axial modes, which nothing damps at ``RHOINF 1``."""
         if not self.opts.rotating_frame or not self.frame.usable:
             return None
         motion = self.frame.rate(x, v)
@@ -209,7 +209,7 @@ class TransientProblem:
             log.info("the model turns by %.3g rad per step: the steps are taken in a "
                      "frame turning with it", turn)
             self.frame_on = True
-        s = min((turn - FRAME_MIN_TURN) / (9 * FRAME_MIN_TURN), 1.0)
+        s = min((turn - FRAME_MIN_TURN) / ((FRAME_FULL_TURN - 1) * FRAME_MIN_TURN), 1.0)
         return self.frame.rate(x, v, scale=s * s * (3 - 2 * s))
 
     @cached_property
