@@ -414,6 +414,20 @@ def _columns(case: str, peer: bool):
     if case in DECK_CASES:
         return [("command", 72, lambda r: r.get("command", "-")),
                 ("whole min s", 11, f("whole", ".3f")), ("median s", 9, f("median", ".3f"))]
+    if case == "spinup":                        # one whole run: solve and results file
+        cols = [("elements", 9, f("n", "d")), ("run s", 8, f("total", ".2f")),
+                ("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
+                ("its t>16s", 9, f("its_constant", ".2f")),
+                ("ms/step", 8, f("per_step", ".2f", 1e3)),
+                ("peak lag (m)", 12, f("result", ".4f")), ("t peak (s)", 10, f("t_peak", ".2f"))]
+        if not peer:
+            return cols
+        return cols + [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
+                       ("Exudyn its/step", 15, lambda r: _peer_get(r, "iters_per_step", ".2f")),
+                       ("Exudyn its t>16s", 16, lambda r: _peer_get(r, "its_constant", ".2f")),
+                       ("Exudyn peak (m)", 15, lambda r: _peer_get(r, "result", ".4f")),
+                       ("Exudyn t peak (s)", 17, lambda r: _peer_get(r, "t_peak", ".2f")),
+                       ("ratio", 6, _ratio)]
     cols = [("elements", 9, f("n", "d")), ("unknowns", 9, f("unknowns", "d")),
             ("setup s", 8, f("setup", ".2f")), ("solve min s", 11, f("total", ".3f")),
             ("median s", 9, f("median", ".3f"))]
@@ -433,27 +447,14 @@ def _columns(case: str, peer: bool):
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)), ("order r", 7, f("order", ".2f")),
                  ("order dx", 8, f("order_dx", ".2f")), ("r floor", 8, f("floor", ".0e")),
                  ("tip y (m)", 10, f("result", ".4f"))]
-    elif case == "spinup":
-        cols += [("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
-                 ("its t>16s", 9, f("its_constant", ".2f")),
-                 ("ms/step", 8, f("per_step", ".2f", 1e3)),
-                 ("peak lag (m)", 12, f("result", ".4f")), ("t peak (s)", 10, f("t_peak", ".2f"))]
     else:
         cols += [("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
                  ("ms/step", 8, f("per_step", ".2f", 1e3)),
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
                  ("tip u_y (m)", 11, f("result", ".6f"))]
-    if case != "spinup":
-        cols += [("peak MB", 8, f("peak_mb", ".0f"))]
+    cols += [("peak MB", 8, f("peak_mb", ".0f"))]
     if case == "cantilever":
         cols += [("whole s", 8, f("whole", ".3f"))]
-    if peer and case == "spinup":
-        return cols + [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
-                       ("Exudyn its/step", 15, lambda r: _peer_get(r, "iters_per_step", ".2f")),
-                       ("Exudyn its t>16s", 16, lambda r: _peer_get(r, "its_constant", ".2f")),
-                       ("Exudyn peak (m)", 15, lambda r: _peer_get(r, "result", ".4f")),
-                       ("Exudyn t peak (s)", 17, lambda r: _peer_get(r, "t_peak", ".2f")),
-                       ("ratio", 6, _ratio)]
     if peer:
         unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)"}.get(case, "tip u_y (m)")
         cols += [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
@@ -643,7 +644,11 @@ settings); `ratio` is spacarpy's solve time divided by Exudyn's. `whole s` (cant
 the same for a Python script that solves the problem with Exudyn, and `whole ratio` the
 quotient of the two. The pendulum and sweep tables time whole `spacarpy` commands on shipped
 decks (a rigid pendulum of 440 transient steps; the 21-point leaf-spring sweep on 2 jobs,
-run once), each a fresh process; they have no Exudyn counterpart yet.
+run once), each a fresh process; they have no Exudyn counterpart yet. The spin-up table times
+one whole run (`run s`: solve and result file, every step stored) of `spacarpy.spinup`'s
+deck and gives the Newton iterations per step over all steps and at constant speed
+(t > 16 s) and the tip's peak lag in the rotating frame; Exudyn solves it with its 2D beam
+(`spacarpy/peers/exudyn_spinup.py`; docs/transient.md compares the two).
 """
 
 _MARKDOWN_NOTES = """## How to read it

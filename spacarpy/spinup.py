@@ -96,8 +96,9 @@ def iteration_stats(t, its) -> dict:
 
 def run_spacarpy(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float = 4.0,
                  t_end: float = 30.0, out: str | Path | None = None) -> dict:
-    """Run :func:`spinup_deck` (a results file ``out``, else a temporary one): ``t`` and
-    ``lag`` (m) at every step, t = 0 included; ``its`` (Newton iterations of each step),
+    """Run :func:`spinup_deck` (a results file ``out``, else a temporary one): ``t``, ``lag``
+    and ``radial`` (the tip's displacement across and along the hub's x axis, m) at every
+    step, t = 0 included; ``its`` (Newton iterations of each step),
     ``total`` (wall s of the run: solve and results file), ``steps``, ``iterations``,
     ``ok``, ``reason`` (the error of a failed run, whose completed steps are still read),
     :func:`lag_summary` and :func:`iteration_stats`."""
@@ -122,7 +123,7 @@ def run_spacarpy(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float
             its = np.asarray(res.transient.iterations, dtype=float)[1:]
     lag = d[:, 1]
     return dict(ok=not reason, reason=reason, total=total, steps=int(its.size),
-                iterations=int(its.sum()), t=t, lag=lag, its=its, n=n, h=h,
+                iterations=int(its.sum()), t=t, lag=lag, radial=d[:, 0], its=its, n=n, h=h,
                 rho_inf=rho_inf, rate=rate, **lag_summary(t, lag, t_end=t_end),
                 **iteration_stats(t[1:], its))
 

@@ -63,10 +63,11 @@ TOL = 1e-8
 def spinup(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float = 4.0,
            t_end: float = 30.0, shear_factor: float = SHEAR_FACTOR) -> dict:
     """The spin-up with ``n`` elements, step ``h`` (s), spectral radius ``rho_inf``, final
-    hub rate ``rate`` (rad/s), to ``t_end``: ``t`` and ``lag`` (m) at every step (t = 0
-    included), ``its`` (Newton iterations per step), ``total`` (wall s of the solve),
-    ``setup``, ``iterations``, ``steps``, ``ok``, ``reason`` and :func:`lag_summary`'s
-    peak, t_peak, amplitude (NaN where the run did not get there)."""
+    hub rate ``rate`` (rad/s), to ``t_end``: ``t``, ``lag`` and ``radial`` (the tip's
+    displacement across and along the hub's x axis, m) at every step (t = 0 included),
+    ``its`` (Newton iterations per step), ``total`` (wall s of the solve), ``setup``,
+    ``iterations``, ``steps``, ``ok``, ``reason`` and :func:`lag_summary`'s peak, t_peak,
+    amplitude (NaN where the run did not get there)."""
     missing = _not_available()
     if missing:
         return missing
@@ -145,6 +146,7 @@ def spinup(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float = 4.0
     t = data[:, 0]
     theta = rate * np.array([phi(x)[0] for x in t])
     lag = -np.sin(theta) * data[:, 1] + np.cos(theta) * data[:, 2]
+    radial = np.cos(theta) * data[:, 1] + np.sin(theta) * data[:, 2] - L
     its = np.diff(np.append(counts, iterations if iterations is not None else counts[-1]))
     reason = ""
     if not ok:
@@ -152,6 +154,6 @@ def spinup(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float = 4.0
         reason = f"Newton failed{where}: " + _failure_reason(exc, log)
     del SC
     return _result(total=total, setup=setup, iterations=iterations, ok=ok, reason=reason,
-                   steps=len(its), t=t, lag=lag, its=its, n=n, h=h, rho_inf=rho_inf,
+                   steps=len(its), t=t, lag=lag, radial=radial, its=its, n=n, h=h, rho_inf=rho_inf,
                    rate=rate, **lag_summary(t, lag, t_end=t_end))
 
