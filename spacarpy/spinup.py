@@ -43,7 +43,7 @@ def spinup_phi() -> TimeFunction:
 def spinup_deck(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float = 4.0,
                 t_end: float = 30.0) -> str:
     """decks/spinup_beam.dat with ``n`` elements, step ``h``, ``RHOINF rho_inf``, final rate
-    ``rate`` (rad/s), to ``t_end``, every step stored."""
+    ``rate`` (rad/s), to ``t_end``, every step stored (``round(t_end / h)`` equal steps)."""
     n_steps = int(round(t_end / h))
     b = BEAM
     return "\n".join([
@@ -54,7 +54,7 @@ def spinup_deck(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float 
         "END", "HALT",
         f"ESTIFF 1:{{n}} {b['EA']:g} {b['GJ']:g} {b['EI']:g} {b['EI']:g}",
         f"EM 1:{{n}} {b['rhoA']:g} {b['rhoIp']:g} {b['rhoIy']:g} {b['rhoIz']:g} 0",
-        f"DELINPR 2 {rate!r}", f"TIMESTEP {n_steps * h!r} {n_steps}", "SUBSTEPS 1",
+        f"DELINPR 2 {rate!r}", f"TIMESTEP {float(t_end)!r} {n_steps}", "SUBSTEPS 1",
         "END", "END", ""])
 
 
@@ -89,6 +89,8 @@ def iteration_stats(t, its) -> dict:
     """``its_mean`` over all steps and ``its_constant`` over the steps ending after
     :data:`T_CONSTANT` (NaN if none); ``t`` the end time of each step."""
     t, its = np.asarray(t, dtype=float), np.asarray(its, dtype=float)
+    n = min(t.size, its.size)                 # a failed run: its may hold the failed step
+    t, its = t[:n], its[:n]
     late = its[t > T_CONSTANT]
     return dict(its_mean=float(its.mean()) if its.size else np.nan,
                 its_constant=float(late.mean()) if late.size else np.nan)
@@ -105,6 +107,7 @@ def run_spacarpy(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float
     from spacarpy.deck import job_from_text
     from spacarpy.errors import SpacarError
     from spacarpy.results import open_results
+    from spacarpy.results.h5file import partial_path_for
     from spacarpy.results.rotating import displacement_in_frame
     from spacarpy.run import run_job
 
@@ -118,6 +121,8 @@ def run_spacarpy(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float
         except SpacarError as exc:
             reason = str(exc).splitlines()[0]
         total = time.perf_counter() - t0
+        if reason and not path.exists():        # a failed run keeps its steps here
+            path = partial_path_for(path)
         with open_results(path) as res:
             t, d = displacement_in_frame(res, TIP, HUB_FRAME, HUB)
             its = np.asarray(res.transient.iterations, dtype=float)[1:]

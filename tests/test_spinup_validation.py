@@ -134,6 +134,28 @@ def test_the_lag_is_the_tip_s_offset_along_the_hub_s_y_axis(tmp_path):
     assert r["lag"].min() < -0.05                         # the tip lags behind by then
 
 
+def test_a_failed_spin_up_returns_the_steps_it_kept(monkeypatch):
+    """run_spacarpy on a run whose 11th step fails: ok is False, the reason is the solver's,
+    and the lag of the 10 completed steps (read from the partial file) is returned."""
+    import spacarpy.solvers.transient as transient
+    from spacarpy.solvers.errors import StepFailed
+
+    step, calls = transient._step, []
+
+    def failing_step(*args, **kw):
+        calls.append(args[1])
+        if len(calls) > 10:
+            raise StepFailed("no convergence (forced by the test)", [1.0])
+        return step(*args, **kw)
+
+    monkeypatch.setattr(transient, "_step", failing_step)
+    r = run_spacarpy(2, 0.05, 0.5, 4.0, t_end=1.0)
+    assert not r["ok"] and "forced by the test" in r["reason"]
+    assert r["t"].size == 11 and r["t"][-1] == pytest.approx(0.5)
+    assert r["steps"] == 10 and r["lag"].shape == (11,)
+    assert r["t_reached"] == pytest.approx(0.5) and np.isnan(r["amplitude"])
+
+
 @pytest.mark.slow
 def test_mesh_spread_is_within_the_tolerance():
     """The tolerance's premise: halving the element length moves each code's peak lag by less
