@@ -23,6 +23,13 @@ Cases (all in :mod:`spacarpy.cases` terms, modified deformations):
     the residual history (above 10 times its round-off floor, which grows with the stiffest
     element's stiffness) and on the increments of one post-buckling point (an arc length of
     0.1 from the point at load factor 0.7; 2 is quadratic).
+``spinup``
+    Simo & Vu-Quoc's spin-up (:mod:`spacarpy.spinup`: ``decks/spinup_beam.dat`` with ``n``
+    elements, h = 0.05 s, rho_inf = 0.5, final rate 4 rad/s, to ``spinup_t_end`` = 30 s, every
+    step stored): wall time of the whole run (solve and results file), time steps, Newton
+    iterations per step (mean over all steps and over t > 16 s at constant speed), and the
+    tip's peak lag in the rotating frame; with ``--peer exudyn`` Exudyn's 2D geometrically
+    exact beam on the same problem (:mod:`spacarpy.peers.exudyn_spinup`).
 ``pendulum``, ``sweep``
     Whole processes on shipped decks (:data:`DECK_CASES`): ``spacarpy run
     decks/pendulum_rigid_90deg.dat`` (a rigid pendulum, 440 transient steps) and ``spacarpy
@@ -60,7 +67,7 @@ import numpy as np
 
 from spacarpy.deck import job_from_text
 
-CASES = ("cantilever", "bend", "eigen", "transient", "arclength")
+CASES = ("cantilever", "bend", "eigen", "transient", "arclength", "spinup")
 #: Cases timed as whole processes only, on shipped decks: the ``spacarpy`` command (after the
 #: word ``spacarpy``) with the deck in the place of ``{deck}``.
 DECK_CASES = {
@@ -72,7 +79,7 @@ DECK_CASES = {
 SHEAR = 10.0
 DEFAULT_SIZES = {"cantilever": (10, 100, 1000, 10000), "bend": (10, 100, 1000, 10000),
                  "eigen": (10, 100, 1000, 10000), "transient": (10, 100),
-                 "arclength": (1000, 10000)}
+                 "arclength": (1000, 10000), "spinup": (10,)}
 TITLES = {
     "cantilever": "Static cantilever (Table 1 load, GA = 10 EA, 10 load steps, Newton to 1e-8)",
     "bend": "Static 45-degree bend (Table 2 load, 10 load steps, Newton to 1e-8)",
@@ -81,6 +88,8 @@ TITLES = {
                  "rho_inf = 0.5)",
     "arclength": "Clamped column past buckling by arc length (1.5 P_E, imperfection 1e-2, "
                  "EA = 1e4 EI, Newton to 1e-6)",
+    "spinup": "Spin-up of a flexible beam (Simo & Vu-Quoc; to 4 rad/s in 15 s, h = 0.05 s, "
+              "rho_inf = 0.5, t_end = {t_end:g} s)",
     "pendulum": "Rigid pendulum released from 90 degrees, 440 transient steps (whole process)",
     "sweep": "Leaf-spring guidance sweep, 21 points on 2 jobs (whole process)",
 }
@@ -278,6 +287,17 @@ def _peer_row(case: str, n: int, n_steps: int, transient_steps: int) -> dict:
                 peak_mb=r.get("peak_mb"))
 
 
+def _spinup_peer_row(n: int, t_end: float) -> dict:
+    """The spin-up's row from Exudyn (:func:`spacarpy.peers.exudyn_spinup.spinup`)."""
+    from spacarpy.peers.exudyn_spinup import spinup
+    from spacarpy.spinup import iteration_stats, summary_row
+    r = spinup(n, t_end=t_end)
+    if r.get("t") is None:                             # Exudyn missing
+        return dict(ok=False, reason=r["reason"])
+    r.update(iteration_stats(r["t"][1:], r["its"]))
+    return summary_row(r)
+
+
 def _run_row(case: str, n: int, repeat: int, n_steps: int, transient_steps: int) -> dict:
     from spacarpy.memory import keep_freed_memory
     keep_freed_memory()                 # as `spacarpy run` does (spacarpy.memory)
@@ -394,6 +414,20 @@ def _columns(case: str, peer: bool):
     if case in DECK_CASES:
         return [("command", 72, lambda r: r.get("command", "-")),
                 ("whole min s", 11, f("whole", ".3f")), ("median s", 9, f("median", ".3f"))]
+    if case == "spinup":                        # one whole run: solve and results file
+        cols = [("elements", 9, f("n", "d")), ("run s", 8, f("total", ".2f")),
+                ("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
+                ("its t>16s", 9, f("its_constant", ".2f")),
+                ("ms/step", 8, f("per_step", ".2f", 1e3)),
+                ("peak lag (m)", 12, f("result", ".4f")), ("t peak (s)", 10, f("t_peak", ".2f"))]
+        if not peer:
+            return cols
+        return cols + [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
+                       ("Exudyn its/step", 15, lambda r: _peer_get(r, "iters_per_step", ".2f")),
+                       ("Exudyn its t>16s", 16, lambda r: _peer_get(r, "its_constant", ".2f")),
+                       ("Exudyn peak (m)", 15, lambda r: _peer_get(r, "result", ".4f")),
+                       ("Exudyn t peak (s)", 17, lambda r: _peer_get(r, "t_peak", ".2f")),
+                       ("ratio", 6, _ratio)]
     cols = [("elements", 9, f("n", "d")), ("unknowns", 9, f("unknowns", "d")),
             ("setup s", 8, f("setup", ".2f")), ("solve min s", 11, f("total", ".3f")),
             ("median s", 9, f("median", ".3f"))]
@@ -507,9 +541,9 @@ def machine_summary() -> str:
 
 def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
               repeat: int = 3, transient_steps: int = 1000, peer: str | None = None,
-              markdown: str | None = None, out=None) -> dict:
+              markdown: str | None = None, out=None, spinup_t_end: float = 30.0) -> dict:
     """Run the benchmark; print one table per case to ``out`` (default: the current
-    sys.stdout) and write them as Markdown."""
+    sys.stdout) and write them as Markdown. ``spinup_t_end``: the spin-up's end time (s)."""
     out = sys.stdout if out is None else out
     if peer not in (None, "exudyn"):
         raise ValueError(f"unknown peer {peer!r} (known: exudyn)")
@@ -525,7 +559,7 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
     print(machine_summary(), file=out)
     results = {}
     for case in cases:
-        print("\n" + TITLES[case].format(steps=transient_steps), file=out)
+        print("\n" + _title(case, transient_steps, spinup_t_end), file=out)
         if case in DECK_CASES:
             rows = [deck_case(case, repeat)]
             print("\n".join(_text_table(case, rows, False)), file=out)
@@ -537,15 +571,22 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
         rows = []
         head_printed = False
         for n in case_sizes:
-            # one repetition from 10^5 elements on: a solve takes minutes there
-            row = _in_child(_run_row, case, n, repeat if n < 100000 else 1, n_steps,
-                            transient_steps)
+            if case == "spinup":                    # one run: it takes seconds
+                from spacarpy import spinup
+                row = _in_child(spinup.bench_row, n, spinup_t_end)
+                if peer:
+                    row["peer"] = _in_child(_spinup_peer_row, n, spinup_t_end)
+            else:
+                # one repetition from 10^5 elements on: a solve takes minutes there
+                row = _in_child(_run_row, case, n, repeat if n < 100000 else 1, n_steps,
+                                transient_steps)
             row.setdefault("n", n)
             row.setdefault("case", case)
-            if peer and case != "arclength":        # no Exudyn counterpart
+            # arclength: no Exudyn counterpart; spinup: its peer row above
+            if peer and case not in ("arclength", "spinup"):
                 row["peer"] = _in_child(_peer_row, case, n, n_steps, transient_steps)
-                if "error" in row["peer"]:
-                    row["peer"] = dict(ok=False, reason=row["peer"]["error"])
+            if "error" in row.get("peer", {}):
+                row["peer"] = dict(ok=False, reason=row["peer"]["error"])
             if case == "cantilever" and n <= WHOLE_PROCESS_MAX:
                 whole = whole_process(n, n_steps, repeat, bool(peer))
                 row["whole"] = whole["spacarpy"]
@@ -560,19 +601,24 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
             out.flush()
         results[case] = rows
     if markdown:
-        write_markdown(markdown, results, bool(peer), n_steps, transient_steps)
+        write_markdown(markdown, results, bool(peer), n_steps, transient_steps, spinup_t_end)
         print(f"\nwrote {markdown}", file=out)
     return results
 
 
-def write_markdown(path: str, results: dict, peer: bool, n_steps: int, transient_steps: int):
+def _title(case: str, transient_steps: int, spinup_t_end: float = 30.0) -> str:
+    return TITLES[case].format(steps=transient_steps, t_end=spinup_t_end)
+
+
+def write_markdown(path: str, results: dict, peer: bool, n_steps: int, transient_steps: int,
+                   spinup_t_end: float = 30.0):
     """docs/performance.md: the generated tables between a fixed introduction and notes."""
     from pathlib import Path
     intro = _MARKDOWN_INTRO.format(date=datetime.date.today().isoformat(),
                                    machine=machine_summary())
     parts = [intro]
     for case, rows in results.items():
-        parts.append(f"## {TITLES[case].format(steps=transient_steps)}\n")
+        parts.append(f"## {_title(case, transient_steps, spinup_t_end)}\n")
         parts.append("\n".join(_markdown_table(case, rows, peer)) + "\n")
     parts.append(_MARKDOWN_NOTES)
     Path(path).write_text("\n".join(parts))
@@ -599,7 +645,11 @@ settings); `ratio` is spacarpy's solve time divided by Exudyn's. `whole s` (cant
 the same for a Python script that solves the problem with Exudyn, and `whole ratio` the
 quotient of the two. The pendulum and sweep tables time whole `spacarpy` commands on shipped
 decks (a rigid pendulum of 440 transient steps; the 21-point leaf-spring sweep on 2 jobs,
-run once), each a fresh process; they have no Exudyn counterpart yet.
+run once), each a fresh process; they have no Exudyn counterpart yet. The spin-up table times
+one whole run (`run s`: solve and result file, every step stored) of `spacarpy.spinup`'s
+deck and gives the Newton iterations per step over all steps and at constant speed
+(t > 16 s) and the tip's peak lag in the rotating frame; Exudyn solves it with its 2D beam
+(`spacarpy/peers/exudyn_spinup.py`; docs/transient.md compares the two).
 """
 
 _MARKDOWN_NOTES = """## How to read it

@@ -96,7 +96,8 @@ def _set_option(p):
 
 
 #: spacarpy.bench.CASES and its DECK_CASES (spelled out: the parser does not import bench).
-_BENCH_CASES = ("cantilever", "bend", "eigen", "transient", "arclength", "pendulum", "sweep")
+_BENCH_CASES = ("cantilever", "bend", "eigen", "transient", "arclength", "spinup", "pendulum",
+                "sweep")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -157,7 +158,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="time the solvers on cantilevers and a bend of "
                                          "growing size (optionally beside Exudyn)")
     bench.add_argument("--cases", nargs="+", choices=_BENCH_CASES, default=list(_BENCH_CASES),
-                       help="which cases (default: all seven; pendulum and sweep time whole "
+                       help="which cases (default: all eight; pendulum and sweep time whole "
                             "processes on shipped decks)")
     bench.add_argument("--sizes", type=int, nargs="+", default=None,
                        help="numbers of elements for every case (default: 10 100 1000 10000; "
@@ -168,6 +169,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     bench.add_argument("--steps", type=int, default=10, help="static load steps (default 10)")
     bench.add_argument("--transient-steps", type=int, default=1000,
                        help="time steps of the transient case (default 1000)")
+    bench.add_argument("--spinup-t-end", type=float, default=30.0, metavar="SECONDS",
+                       help="end time of the spinup case (default 30 s)")
     bench.add_argument("--repeat", type=int, default=3,
                        help="repetitions per size; min and median are shown (default 3)")
     bench.add_argument("--peer", choices=["exudyn"], default=None,
@@ -495,7 +498,8 @@ def _main(args) -> int:
                 check_output_path(args.markdown, "--markdown")
             run_bench(cases=args.cases, sizes=sizes, n_steps=args.steps,
                       repeat=args.repeat, transient_steps=args.transient_steps,
-                      peer=args.peer, markdown=args.markdown)
+                      peer=args.peer, markdown=args.markdown,
+                      spinup_t_end=args.spinup_t_end)
             return EXIT_OK
         if args.command in _RESULT_COMMANDS:
             from spacarpy.results.h5file import reading

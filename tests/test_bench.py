@@ -1,5 +1,6 @@
 """``spacarpy bench``: it runs its cases in child processes and writes the Markdown tables
 (times are never asserted; the results each row reaches are)."""
+import numpy as np
 import pytest
 
 from spacarpy.cli import main
@@ -38,3 +39,25 @@ def test_bench_pendulum_case_times_the_whole_spacarpy_run(capsys):
     assert rows[0]["command"] == "spacarpy run decks/pendulum_rigid_90deg.dat"
     assert rows[0]["whole"] == rows[0]["median"] > 0
     assert "spacarpy run decks/pendulum_rigid_90deg.dat" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_bench_spinup_case_reports_steps_iterations_and_the_peer(capsys):
+    """The spinup case to t = 1 s (20 steps of 0.05 s) on 4 elements, beside Exudyn when it is
+    installed: steps, Newton iterations per step, and the lag both codes reach by then."""
+    from spacarpy.bench import run_bench
+    from spacarpy.peers.exudyn_cantilever import available
+    peer = "exudyn" if available()[0] else None
+    rows = run_bench(cases=("spinup",), sizes={"spinup": (4,)}, peer=peer,
+                     spinup_t_end=1.0)["spinup"]
+    assert len(rows) == 1 and "error" not in rows[0], rows
+    row = rows[0]
+    assert row["steps"] == 20 and row["iterations"] >= 20
+    assert row["iters_per_step"] == pytest.approx(row["iterations"] / 20)
+    assert np.isnan(row["its_constant"])        # t = 1 s: no step at constant speed
+    assert "Spin-up of a flexible beam" in capsys.readouterr().out
+    if peer:
+        p = row["peer"]
+        assert p["ok"] and p["steps"] == 20, p
+        # t = 1 s: the tip barely lags (the rate is 0.17 rad/s); the codes agree to 1e-4 m
+        assert abs(p["result"] - row["result"]) < 1e-4 + 1e-2 * abs(row["result"])
