@@ -138,16 +138,16 @@ def free_spinning_beam(n_el: int, h: float, revolutions: float, rate: float = 4.
 @pytest.mark.slow
 def test_a_free_spinning_beam_keeps_its_energy_and_angular_momentum():
     """RHOINF 1, no damping, 4 elements, h = 0.02 s (0.08 rad per step), 5 revolutions of
-    a free beam spinning at 4 rad/s with a slow precession: T + U drifts by less than 1e-5
-    of itself per revolution and stays within 1e-4 of its start (measured over 10
-    revolutions: 2.4e-6 per revolution, 2.5e-5 at most); the angular momentum stays within
-    3e-4 of its start (measured 8.6e-5). In the global frame the same run fails after 1.6
-    revolutions (the instability of docs/transient.md, "Fast rotation")."""
+    a free beam spinning at 4 rad/s with a slow precession: T + U drifts by less than 2e-5
+    of itself per revolution and stays within 2e-4 of its start (measured: 8.4e-6 per
+    revolution and 4.3e-5 at most over 5 revolutions, 7.4e-5 over 10); the angular momentum
+    stays within 3e-4 of its start (measured 8.6e-5). In the global frame the same run
+    fails after 1.6 revolutions (the instability of docs/transient.md, "Fast rotation")."""
     t, energy, momentum = free_spinning_beam(4, 0.02, 5.0)
     assert t[-1] == pytest.approx(5 * 2 * np.pi / 4)
     assert energy[0] == pytest.approx(800.3, rel=1e-3)          # 1/2 I w^2 + the wobble
-    assert abs(energy[-1] - energy[0]) / energy[0] / 5 < 1e-5
-    assert np.abs(energy - energy[0]).max() < 1e-4 * energy[0]
+    assert abs(energy[-1] - energy[0]) / energy[0] / 5 < 2e-5
+    assert np.abs(energy - energy[0]).max() < 2e-4 * energy[0]
     h0 = momentum[0]
     assert h0[2] == pytest.approx(1.2 * 10**3 / 12 * 4 + 6e-4 * 10 * 4, rel=1e-3)
     assert np.abs(momentum - h0).max() < 3e-4 * np.linalg.norm(h0)
