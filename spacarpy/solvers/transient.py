@@ -23,7 +23,9 @@ Each step is solved by Newton's method on (x, mu) with the iteration matrix
 ``[K_t + beta' M + K_h + gamma' C_h, C^T; C, 0]`` (K_t the static tangent including
 geometric terms, ``K_h = d(M a + h)/dx`` and ``C_h = dh/dv`` the exact derivatives of the
 inertia forces, :meth:`~spacarpy.solvers.inertia.Inertia.tangent`): Newton converges
-quadratically at any angular velocity (docs/transient.md). A step whose Newton iterations
+quadratically at any angular velocity (docs/transient.md). A step of a model that turns
+fast is taken in a frame turning with it (:mod:`spacarpy.solvers.frame`: exact for a rigid
+rotation, which keeps the scheme stable at any ``rho_inf``). A step whose Newton iterations
 fail is halved (up to ``max_cuts`` times) and retried; it is never skipped.
 
 The module is longer than 600 lines: the time step, its error control, the consistent
