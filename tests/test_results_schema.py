@@ -42,6 +42,9 @@ def _major(path) -> int:
 #: The baselines written before schema 2.0; decks added later have 2.x baselines
 #: (state_space_cantilever: schema 2.3).
 BASELINES_1X = [p for p in BASELINES if _major(p) == 1]
+#: Transient decks run once for the reader tests below; the pendulum's baseline is a 1.x file,
+#: the slider-crank's was rewritten in schema 2.6 when the turning frame of issue 21 changed
+#: its results.
 TRANSIENT = ("pendulum_rigid_90deg", "slider_crank_flexible")
 
 
@@ -109,12 +112,16 @@ def _close(a, b):
 
 
 def test_a_2_0_run_equals_its_1x_baseline_through_both_readers(runs):
+    checked = 0
     for deck, path in runs.items():
         base = DECKS / "baseline" / f"{deck}.h5"
         assert validate_file(path) == [] and validate_file(base) == []
         assert compare_files(path, base) == []
         new, old = open_results(path), open_results(base)
-        assert new.schema_version == SCHEMA_VERSION and old.schema_version[0] == 1
+        assert new.schema_version == SCHEMA_VERSION
+        if old.schema_version[0] != 1:
+            continue                          # a 2.x baseline: compare_files above
+        checked += 1
         assert new.model.element_kinds == old.model.element_kinds
         for kind in new.model.element_kinds:
             np.testing.assert_array_equal(new.model.element_ids(kind),
@@ -129,6 +136,7 @@ def test_a_2_0_run_equals_its_1x_baseline_through_both_readers(runs):
             for what, values in arrays.items():
                 _close(values, b.transient.elements[kind][what])
         _close(a.transient.euler_rate, b.transient.euler_rate)
+    assert checked >= 1
 
 
 def test_old_names_read_a_2_0_file_and_new_names_a_1x_file(runs):
