@@ -434,6 +434,44 @@ def eigenfrequencies(n: int, n_modes: int = 10) -> dict:
                    reason="" if ok else _failure_reason(exc, log))
 
 
+def _solve_dynamic(exu, mbs, n_steps: int, h: float, rho_inf: float, tol: float,
+                   verbose: int = 0, sensors: bool = False):
+    """``SolveDynamic`` with Exudyn's generalized-alpha in ``n_steps`` fixed steps of ``h``
+    (spectral radius ``rho_inf``, consistent initial accelerations, full Newton to
+    ``tol``): ``(ok, wall time, Newton iterations or None, failure reason or "")``.
+    ``sensors``: keep the in-memory sensors active."""
+    exc = None
+    with tempfile.TemporaryDirectory(prefix="exudyn_peer_") as tmp, _quiet() as log:
+        s = _settings(exu, tmp)
+        if sensors:
+            s.solution.sensors.active = True
+        ti = s.timeIntegration
+        ti.startTime = 0.0
+        ti.endTime = n_steps * h
+        ti.numberOfSteps = int(n_steps)
+        ti.automaticStepSize = False
+        ti.adaptiveStep = False
+        ti.verboseMode = verbose
+        ti.verboseModeFile = 0
+        ti.generalizedAlpha.spectralRadius = float(rho_inf)
+        ti.generalizedAlpha.computeInitialAccelerations = True
+        _newton(ti.newton, tol)
+        t0 = time.perf_counter()
+        try:
+            ok = bool(mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.GeneralizedAlpha,
+                                       storeSolver=True, showHints=False))
+        except Exception as e:
+            ok, exc = False, e
+        total = time.perf_counter() - t0
+    solver = mbs.sys.get("dynamicSolver")
+    iterations = int(solver.it.newtonStepsCount) if solver is not None else None
+    reason = ""
+    if not ok:
+        where = f" at t = {solver.it.currentTime:.4g} s" if solver is not None else ""
+        reason = f"Newton failed{where}: " + _failure_reason(exc, log)
+    return ok, total, iterations, reason
+
+
 def transient(n: int, n_steps: int = 1000, dt: float = 1e-3) -> dict:
     """Cantilever with mass, tenth of the Table 1 force raised in 20 ms; ``tip`` at the end."""
     missing = _not_available()
@@ -453,34 +491,9 @@ def transient(n: int, n_steps: int = 1000, dt: float = 1e-3) -> dict:
         _tip_load(mbs, nodes[-1], (0.0, force, 0.0), user_function=load)
         mbs.Assemble()
         setup = time.perf_counter() - t0
-    exc = None
-    with tempfile.TemporaryDirectory(prefix="exudyn_peer_") as tmp, _quiet() as log:
-        s = _settings(exu, tmp)
-        ti = s.timeIntegration
-        ti.startTime = 0.0
-        ti.endTime = n_steps * dt
-        ti.numberOfSteps = int(n_steps)
-        ti.automaticStepSize = False
-        ti.adaptiveStep = False
-        ti.verboseMode = VERBOSE
-        ti.verboseModeFile = 0
-        ti.generalizedAlpha.spectralRadius = 0.5
-        ti.generalizedAlpha.computeInitialAccelerations = True
-        _newton(ti.newton, 1e-8)
-        t0 = time.perf_counter()
-        try:
-            ok = bool(mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.GeneralizedAlpha,
-                                       storeSolver=True, showHints=False))
-        except Exception as e:
-            ok, exc = False, e
-        total = time.perf_counter() - t0
-    solver = mbs.sys.get("dynamicSolver")
-    iterations = int(solver.it.newtonStepsCount) if solver is not None else None
+    ok, total, iterations, reason = _solve_dynamic(exu, mbs, int(n_steps), dt, 0.5, 1e-8,
+                                                   verbose=VERBOSE)
     tip = _displacement(exu, mbs, nodes[-1]) if ok else np.full(3, np.nan)
-    reason = ""
-    if not ok:
-        where = f" at t = {solver.it.currentTime:.4g} s" if solver is not None else ""
-        reason = f"Newton failed{where}: " + _failure_reason(exc, log)
     del SC
     return _result(total=total, setup=setup, iterations=iterations, tip=tip, ok=ok,
                    steps=int(n_steps), reason=reason)

@@ -39,19 +39,11 @@ shaped as :func:`spacarpy.spinup.run_spacarpy`'s.
 """
 from __future__ import annotations
 
-import tempfile
 import time
 
 import numpy as np
 
-from spacarpy.peers.exudyn_cantilever import (
-    _failure_reason,
-    _newton,
-    _not_available,
-    _quiet,
-    _result,
-    _settings,
-)
+from spacarpy.peers.exudyn_cantilever import _not_available, _quiet, _result, _solve_dynamic
 from spacarpy.spinup import BEAM, lag_summary, spinup_phi
 
 #: Exudyn's beam is shear deformable: GA = SHEAR_FACTOR * EA stands in for "shear rigid"
@@ -118,40 +110,14 @@ def spinup(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float = 4.0
         mbs.SetPreStepUserFunction(count)
         mbs.Assemble()
         setup = time.perf_counter() - t0
-    exc = None
-    with tempfile.TemporaryDirectory(prefix="exudyn_peer_") as tmp, _quiet() as log:
-        s = _settings(exu, tmp)
-        s.solution.sensors.active = True           # the in-memory sensor (no file)
-        ti = s.timeIntegration
-        ti.startTime = 0.0
-        ti.endTime = n_steps * h
-        ti.numberOfSteps = n_steps
-        ti.automaticStepSize = False
-        ti.adaptiveStep = False
-        ti.verboseMode = 0
-        ti.verboseModeFile = 0
-        ti.generalizedAlpha.spectralRadius = float(rho_inf)
-        ti.generalizedAlpha.computeInitialAccelerations = True
-        _newton(ti.newton, TOL)
-        t0 = time.perf_counter()
-        try:
-            ok = bool(mbs.SolveDynamic(s, solverType=exu.DynamicSolverType.GeneralizedAlpha,
-                                       storeSolver=True, showHints=False))
-        except Exception as e:
-            ok, exc = False, e
-        total = time.perf_counter() - t0
-    solver = mbs.sys.get("dynamicSolver")
-    iterations = int(solver.it.newtonStepsCount) if solver is not None else None
+    ok, total, iterations, reason = _solve_dynamic(exu, mbs, n_steps, h, rho_inf, TOL,
+                                                   sensors=True)
     data = np.asarray(mbs.GetSensorStoredData(sensor), dtype=float)
     t = data[:, 0]
     theta = rate * np.array([phi(x)[0] for x in t])
     lag = -np.sin(theta) * data[:, 1] + np.cos(theta) * data[:, 2]
     radial = np.cos(theta) * data[:, 1] + np.sin(theta) * data[:, 2] - L
     its = np.diff(np.append(counts, iterations if iterations is not None else counts[-1]))
-    reason = ""
-    if not ok:
-        where = f" at t = {solver.it.currentTime:.4g} s" if solver is not None else ""
-        reason = f"Newton failed{where}: " + _failure_reason(exc, log)
     del SC
     return _result(total=total, setup=setup, iterations=iterations, ok=ok, reason=reason,
                    steps=len(its), t=t, lag=lag, radial=radial, its=its, n=n, h=h, rho_inf=rho_inf,
