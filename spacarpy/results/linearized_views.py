@@ -14,6 +14,15 @@ from spacarpy.results.views import ModeShape, ResultsQueryError, _number_list
 # linearized analyses
 # --------------------------------------------------------------------------------------------
 
+def _row_of(steps: np.ndarray, step: int, missing: str) -> int:
+    """The last row of ``steps`` that holds ``step``; a ResultsQueryError ``missing`` plus
+    the steps there are where there is none."""
+    hit = np.flatnonzero(steps == step)
+    if not hit.size:
+        raise ResultsQueryError(f"{missing} {_number_list(steps)})")
+    return int(hit[-1])
+
+
 class _LinearizedView:
     """A linearized group: one row per linearized static step."""
 
@@ -54,11 +63,8 @@ class _LinearizedView:
             return steps.size - 1
         if self._res.static is not None:
             step = self._res.static.step_index(step)
-        hit = np.flatnonzero(steps == step)
-        if not hit.size:
-            raise ResultsQueryError(f"static step {step} was not linearized ({self._group} "
-                                    f"results exist at steps {_number_list(steps)})")
-        return int(hit[-1])
+        return _row_of(steps, step, f"static step {step} was not linearized ({self._group} "
+                                    f"results exist at steps")
 
     def _mode_index(self, mode: int) -> int:
         n = self.n_mode
@@ -187,13 +193,9 @@ class StateSpaceView(_LinearizedView):
         time step ``step``, a row of /transient; None: the last one)."""
         if not self.along_trajectory or step is None or self._res.transient is None:
             return super().row(step)
-        steps = self.step
         step = self._res.transient.step_index(step)
-        hit = np.flatnonzero(steps == step)
-        if not hit.size:
-            raise ResultsQueryError(f"time step {step} was not linearized (/state_space "
-                                    f"holds steps {_number_list(steps)})")
-        return int(hit[-1])
+        return _row_of(self.step, step,
+                       f"time step {step} was not linearized (/state_space holds steps")
 
     def _names(self, name: str) -> list[str]:
         from spacarpy.results.h5file import str_list
