@@ -100,29 +100,52 @@ def _newton_matrix(tp, t, x, v, a, mu, beta_p, gamma_p, exact):
     return S[:n_x, :n_x].toarray()
 
 
-def test_transient_newton_matrix_matches_finite_differences():
-    """The spin-up model at a random state: d r / d x along (dx, gamma' dx, beta' dx) with the
-    inertia tangent is the assembled matrix; without it (the former iteration matrix) it is
-    not."""
+def _spinup_state(seed: int, v_scale: float = 1.0):
+    """The spin-up model at a random state at t = 16 s (positions 1 cm off the reference,
+    velocities times ``v_scale``, the hub's prescribed motion): (tp, t, x, v, a, mu)."""
     job = load(DECKS / "spinup_beam.dat")
     tp = TransientProblem(job.model, TransientOptions.from_settings(job.settings))
-    num, free = tp.num, tp.free
-    rng = np.random.default_rng(1)
+    num = tp.num
+    rng = np.random.default_rng(seed)
     x, v, a = _random_state(num, rng)
     x[num.pos_idx] = num.x0[num.pos_idx] + 0.01 * rng.normal(size=num.pos_idx.shape)
-    v *= 4.0 / 3.0
+    v *= v_scale
     mu = rng.normal(size=num.n_constraint)
     t = 16.0
     idx, xp, vp, ap = tp.prescribed(t)
     x[idx], v[idx], a[idx] = xp, vp, ap
-    beta_p, gamma_p, eps = 1600.0, 40.0, 1e-6
-    fd = np.zeros((free.sum(),) * 2)
-    for j, c in enumerate(np.flatnonzero(free)):
-        e = np.zeros(num.n_coord)
-        e[c] = eps
-        rp = tp.residual(t, x + e, v + gamma_p * e, a + beta_p * e, mu).r
-        rm = tp.residual(t, x - e, v - gamma_p * e, a - beta_p * e, mu).r
+    return tp, t, x, v, a, mu
+
+
+def _residual_differences(tp, t, x, v, a, mu, beta_p, gamma_p, W=None, eps=1e-6):
+    """Central differences of the force residual over the free coordinates along a Newton
+    correction d: (d, (gamma' + W) d, (beta' + 2 gamma' W + W^2) d), W the rotating frame's
+    rate operator (None: the global frame)."""
+    num, free = tp.num, tp.free
+    n = int(free.sum())
+    Wd = np.zeros((n, n)) if W is None else W.toarray()
+    mv = gamma_p * np.eye(n) + Wd
+    ma = beta_p * np.eye(n) + 2 * gamma_p * Wd + Wd @ Wd
+    fd = np.zeros((n, n))
+    for j in range(n):
+        d = np.zeros(n)
+        d[j] = eps
+        e = [np.zeros(num.n_coord) for _ in range(3)]
+        for k, vec in enumerate((d, mv @ d, ma @ d)):
+            e[k][free] = vec
+        rp = tp.residual(t, x + e[0], v + e[1], a + e[2], mu).r
+        rm = tp.residual(t, x - e[0], v - e[1], a - e[2], mu).r
         fd[:, j] = (rp - rm) / (2 * eps)
+    return fd
+
+
+def test_transient_newton_matrix_matches_finite_differences():
+    """The spin-up model at a random state: d r / d x along (dx, gamma' dx, beta' dx) with the
+    inertia tangent is the assembled matrix; without it (the former iteration matrix) it is
+    not."""
+    tp, t, x, v, a, mu = _spinup_state(1, v_scale=4.0 / 3.0)
+    beta_p, gamma_p = 1600.0, 40.0
+    fd = _residual_differences(tp, t, x, v, a, mu, beta_p, gamma_p)
     scale = np.abs(fd).max()
     exact = _newton_matrix(tp, t, x, v, a, mu, beta_p, gamma_p, True)
     former = _newton_matrix(tp, t, x, v, a, mu, beta_p, gamma_p, False)
