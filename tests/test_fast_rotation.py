@@ -124,8 +124,7 @@ def free_spinning_beam(n_el: int, h: float, revolutions: float, rate: float = 4.
     num = result.problem.num
     inertia = Inertia(job.model, num)
     # Noether's momentum of the rotations: H . e = p . (d/ds of the state turned by s e)
-    turn = RotatingFrame(pos=num.pos_idx, rot=num.rot_idx, weight=np.ones(len(num.pos_idx)),
-                         planar=False, n_coord=num.n_coord)
+    turn = RotatingFrame(pos=num.pos_idx, rot=num.rot_idx, planar=False, n_coord=num.n_coord)
     t, energy, momentum = [], [], []
     for s in result.steps:
         p = inertia.matrix(s.x) @ inertia.physical(s.x, s.v)

@@ -55,10 +55,6 @@ FRAME_MIN_TURN = 0.015
 FRAME_FULL_TURN = 3.0
 
 
-def _cross(w: np.ndarray, p: np.ndarray) -> np.ndarray:
-    return np.cross(w, p)
-
-
 def _quat_rate(w: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``1/2 (0, w) q`` for rows q of Euler parameters (lambda0, lambda1..3)."""
     out = np.empty_like(q)
@@ -80,13 +76,11 @@ class RotatingFrame:
     """The nodes that turn with the frame and the fit of its rate.
 
     ``pos`` (n_p, 3) and ``rot`` (n_r, 4) are the coordinate indices of the turning
-    position and orientation nodes; ``weight`` (n_p,) their weights in the fit;
-    ``planar``: the rate is about z only; ``floating``: every position node turns (no
-    held nodes)."""
+    position and orientation nodes; ``planar``: the rate is about z only; ``floating``:
+    every position node turns (no held nodes)."""
 
     pos: np.ndarray
     rot: np.ndarray
-    weight: np.ndarray
     planar: bool
     n_coord: int
     floating: bool = True
@@ -101,37 +95,34 @@ class RotatingFrame:
             pos_ok = free[pos_all].all(axis=1)
             rot_ok = free[rot_all].all(axis=1)
         pos, rot = pos_all[pos_ok], rot_all[rot_ok]
-        # a kinematic fit: every node counts alike (nodal masses need not be where the
-        # mass is: a rigid rod's sits on one end node and its orientation)
-        return cls(pos=pos, rot=rot, weight=np.ones(len(pos)), planar=planar,
-                   n_coord=num.n_coord, floating=bool(pos_ok.all()))
+        return cls(pos=pos, rot=rot, planar=planar, n_coord=num.n_coord,
+                   floating=bool(pos_ok.all()))
 
     @property
     def usable(self) -> bool:
         """At least two turning position nodes: a rate can be fitted."""
         return len(self.pos) >= 2
 
-    def rate(self, x: np.ndarray, v: np.ndarray, scale: float = 1.0) -> Motion:
+    def rate(self, x: np.ndarray, v: np.ndarray) -> Motion:
         """The rigid motion that fits the turning nodes' velocities best (least squares:
         the velocity ``u`` of their centroid ``c`` and the rate ``omega`` about it,
         ``I omega = H`` with the nodes' second moment I); a straight line of nodes has no
         rate about its own axis (the least-norm solution), nodes that all coincide none at
-        all. ``scale`` multiplies the rate (the frame's smooth start; the axis stays)."""
-        w = self.weight
-        m = float(w.sum())
+        all. A kinematic fit, every node counting alike: nodal masses need not be where the
+        mass is (a rigid rod's sits on one end node and its orientation)."""
         p, vel = x[self.pos], v[self.pos]
-        c, u = (w @ p) / m, (w @ vel) / m
+        c, u = p.mean(axis=0), vel.mean(axis=0)
         r, du = p - c, vel - u
-        H = np.sum(w[:, None] * np.cross(r, du), axis=0)
+        H = np.cross(r, du).sum(axis=0)
         rr = np.sum(r * r, axis=1)
         # the nodes' spread against their distance from the origin: below round-off
         # they coincide and show no rotation
-        tiny = 1e-20 * (m * float(np.max(np.sum(p * p, axis=1))) + 1e-300)
+        tiny = 1e-20 * (len(p) * float(np.max(np.sum(p * p, axis=1))) + 1e-300)
         if self.planar:
-            izz = float(w @ (r[:, 0] ** 2 + r[:, 1] ** 2))
+            izz = float(np.sum(r[:, 0] ** 2 + r[:, 1] ** 2))
             omega = np.array([0.0, 0.0, H[2] / izz if izz > tiny else 0.0])
         else:
-            inertia = np.eye(3) * float(w @ rr) - np.einsum("n,ni,nj->ij", w, r, r)
+            inertia = np.eye(3) * float(rr.sum()) - r.T @ r
             lam, vec = np.linalg.eigh(inertia)
             # a rate about an axis the nodes hardly spread across (a nearly straight beam's
             # own axis) is not seen by their velocities: the fit leaves it out rather
@@ -140,11 +131,11 @@ class RotatingFrame:
             omega = vec[:, keep] @ ((vec[:, keep].T @ H) / lam[keep])
         w2 = float(omega @ omega)
         if self.floating or w2 == 0.0:
-            return Motion(scale * omega, c, u)
+            return Motion(omega, c, u)
         # held nodes (fixed or driven) do not turn with the frame: turn about the fitted
         # motion's instantaneous screw axis (its point nearest to c, sliding along it), so
         # that a model pinned on that axis keeps its held nodes where the frame has them
-        return Motion(scale * omega, c + np.cross(omega, u) / w2, (u @ omega) / w2 * omega)
+        return Motion(omega, c + np.cross(omega, u) / w2, (u @ omega) / w2 * omega)
 
     def _shift(self, z: np.ndarray, offset: np.ndarray) -> np.ndarray:
         """z with ``offset`` (3,) subtracted from the turning positions."""
@@ -158,7 +149,7 @@ class RotatingFrame:
         """``W z`` over all coordinates (zero on the coordinates that do not turn)."""
         out = np.zeros_like(z)
         if self.pos.size:
-            out[self.pos] = _cross(omega, z[self.pos])
+            out[self.pos] = np.cross(omega, z[self.pos])
         if self.rot.size:
             out[self.rot] = _quat_rate(omega, z[self.rot])
         return out
@@ -192,7 +183,7 @@ class RotatingFrame:
         """``W`` as a sparse matrix over the free coordinates."""
         n = self.n_coord
         rows, cols, vals = [], [], []
-        for idx, size, op in ((self.pos, 3, _cross), (self.rot, 4, _quat_rate)):
+        for idx, size, op in ((self.pos, 3, np.cross), (self.rot, 4, _quat_rate)):
             if not idx.size:
                 continue
             for j in range(size):                       # column j of the node block

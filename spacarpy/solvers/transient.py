@@ -212,7 +212,8 @@ class TransientProblem:
                      "frame turning with it", turn)
             self.frame_on = True
         s = min((turn - FRAME_MIN_TURN) / ((FRAME_FULL_TURN - 1) * FRAME_MIN_TURN), 1.0)
-        return self.frame.rate(x, v, scale=s * s * (3 - 2 * s))
+        # the rate scaled, the axis kept (the screw axis' point and slide do not change)
+        return motion._replace(omega=s * s * (3 - 2 * s) * motion.omega)
 
     @cached_property
     def mass_diagonal(self) -> np.ndarray:
