@@ -132,8 +132,10 @@ def test_baseline_comparison_floor_ignores_round_off_of_vanishing_values_only():
 def test_analytic_convective_terms_equal_the_differenced_ones(rotary):
     """The BEAM's dM/dt v and d(v^T M v)/dx (beam_convective) against unit central
     differences of its mass matrix, which are exact (M is quadratic in the Euler
-    parameters), and the transient inertia forces with and without them, for either
-    rotary inertia (lumped: the gyroscopic term of each end node's rigid body)."""
+    parameters), and the transient inertia forces with and without them (and with the
+    kernel that skips the mass matrix, beam_inertia_force, and the kinetic energy from
+    it), for either rotary inertia (lumped: the gyroscopic term of each end node's rigid
+    body)."""
     import copy
 
     from spacarpy.elements import beam, beam_mass
@@ -163,10 +165,18 @@ def test_analytic_convective_terms_equal_the_differenced_ones(rotary):
     xg = prob.num.x0 + 0.05 * rng.standard_normal(prob.num.n_coord)
     vg, ag = rng.standard_normal((2, prob.num.n_coord))
     fast = Inertia(model, prob.num, rotary)
-    _, f_fast = fast.forces(xg, vg, ag)
+    blocks, f_fast = fast.forces(xg, vg, ag)
+    # the force without the mass matrix (beam_inertia_force) and the one from it agree
+    lazy, f_lazy = fast.forces(xg, vg, ag, blocks=False)
+    assert any(b is None for b in lazy)
+    assert np.allclose(f_lazy, f_fast, rtol=1e-12, atol=1e-12 * np.abs(f_fast).max())
+    assert all(np.array_equal(b, c) for b, c in zip(fast.complete(xg, lazy), blocks))
+    vp = fast.physical(xg, vg)
+    t_matrix = 0.5 * vp @ (fast.matrix(xg) @ vp)
+    assert fast.kinetic_energy(xg, vg) == pytest.approx(t_matrix, rel=1e-12)
     for g in prob.num.groups:                       # the same model without the gradient
         g.kind = copy.copy(g.kind)
-        g.kind.convective = None
+        g.kind.convective = g.kind.inertia_force = None
     _, f_diff = Inertia(model, prob.num, rotary).forces(xg, vg, ag)
     assert np.allclose(f_fast, f_diff, rtol=1e-11, atol=1e-11 * np.abs(f_diff).max())
 

@@ -60,7 +60,12 @@ from spacarpy.elements.base import (
     Fields,
 )
 from spacarpy.elements.beam_layout import N_LDOF, QP, QQ, RP, RQ
-from spacarpy.elements.beam_mass import beam_convective, beam_mass_matrix, tangent_gravity
+from spacarpy.elements.beam_mass import (
+    beam_convective,
+    beam_inertia_force,
+    beam_mass_matrix,
+    tangent_gravity,
+)
 from spacarpy.elements.chunks import in_chunks
 from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import hessian_combination, vector_jacobians
@@ -430,6 +435,10 @@ class Beam(ElementKind):
 
     def convective(self, x, v, ref, m, rotary="lumped"):
         return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
+                         ref["l0"], m, rotary)
+
+    def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
+        return in_chunks(beam_inertia_force, len(x), x, v, a, ref["nx"], ref["ny"], ref["nz"],
                          ref["l0"], m, rotary)
 
     def check(self, st, ref):

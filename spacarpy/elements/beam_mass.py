@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from spacarpy.elements.beam_layout import QP, QQ, RP, RQ
-from spacarpy.rotation import quadratic_form
+from spacarpy.rotation import quadratic_form, vector_jacobians
 
 #: int_0^1 h_i h_j dxi for the Hermite functions h1..h4 (Eq. 59, times 420).
 HERMITE_MASS = np.array([[156.0, 22.0, 54.0, -13.0],
@@ -78,6 +78,10 @@ def g_matrix(q: np.ndarray) -> np.ndarray:
     return out
 
 
+#: ``G(q) = (q @ _G_TENSOR).reshape(3, 4)`` (G is linear in q).
+_G_TENSOR = np.stack([g_matrix(e).ravel() for e in np.eye(4)])
+
+
 def _twice_h_times(hx: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``2 H_k(n_x) q`` (n, 3, 4) for the quadratic forms hx (n, 3, 4, 4): the derivative
     ``d n_x / d q`` at q, or ``d/dt`` of it for q a velocity."""
@@ -101,10 +105,56 @@ def section_inertia(mass: np.ndarray) -> np.ndarray:
     return j
 
 
+#: The Euler-parameter slots [q^p, q^q] of the 14 local coordinates.
+_Q8 = np.r_[QP, QQ]
+#: The constant translational blocks (positions with positions) of the mass matrix per
+#: unit rho A l0: ``C_ij I`` for the Hermite functions 1 and 3.
+_M_POS = np.zeros((14, 14))
+for _i, _si in ((0, RP), (2, RQ)):
+    for _j, _sj in ((0, RP), (2, RQ)):
+        _M_POS[_si, _sj] = HERMITE_MASS[_i, _j] * np.eye(3)
+#: Weights of the position-tangent blocks per unit rho A l0: rows (p, q) of the positions,
+#: columns the eight Euler-parameter slots (``C_12``, ``C_14`` for p; ``C_32``, ``C_34`` for q).
+_W_CROSS = np.repeat(HERMITE_MASS[np.ix_([0, 2], [1, 3])], 4, axis=1)          # (2, 8)
+#: Weights of the tangent-tangent blocks per unit rho A l0^3 (``C_22, C_24, C_44``).
+_W_TANGENT = np.kron(HERMITE_MASS[np.ix_([1, 3], [1, 3])], np.ones((4, 4)))    # (8, 8)
+
+
+def _tangent_jacobians(q8: np.ndarray, nx: np.ndarray) -> np.ndarray:
+    """``B = d n_x / d q = 2 H(n_x) q`` of both nodes side by side, (n, 3, 8), for the
+    Euler parameters q8 = [q^p, q^q] (n, 8): B is linear in q, so at a velocity it is
+    ``dB/dt``."""
+    n = q8.shape[0]
+    b = vector_jacobians(q8.reshape(2 * n, 4), np.repeat(nx, 2, axis=0)[:, None, :])
+    return b.reshape(n, 2, 3, 4).transpose(0, 2, 1, 3).reshape(n, 3, 8)
+
+
+def _g_pair(q8: np.ndarray) -> np.ndarray:
+    """``[G(q^p) | G(q^q)]`` (n, 3, 8) of :func:`g_matrix`, for q8 (n, 8)."""
+    n = q8.shape[0]
+    return (q8.reshape(2 * n, 4) @ _G_TENSOR).reshape(n, 2, 3, 4).transpose(
+        0, 2, 1, 3).reshape(n, 3, 8)
+
+
+#: The weights c_ab of each choice over the eight Euler-parameter slots.
+_ROTARY_WEIGHTS8 = {k: np.kron(w, np.ones((4, 4))) for k, w in ROTARY_WEIGHTS.items()}
+
+
+def _rotary_weights8(rotary: str) -> np.ndarray:
+    """The weights c_ab of the choice ``rotary`` over the eight Euler-parameter slots."""
+    rotary_weights(rotary)                                      # (the error of a bad choice)
+    return _ROTARY_WEIGHTS8[rotary]
+
+
 def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
                      l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped") -> np.ndarray:
     """Mass matrices (n_elem, 14, 14) at configurations x (n_elem, 14): the consistent
     translational mass and the section rotary inertia of the choice ``rotary``.
+
+    With ``N = [h1 I, l0 h2 B^p, h3 I, l0 h4 B^q]`` the translational mass ``rho A l0 N^T C
+    N`` has constant position blocks ``C_ij I``, position-tangent blocks ``C_ij l0 B`` and
+    tangent blocks ``C_ij l0^2 B_a^T B_b``: those are formed directly, the tangent ones and
+    the rotary blocks ``4 l0 c_ab G_a^T J G_b`` as one 8x8 product over both nodes.
 
     Parameters
     ----------
@@ -116,33 +166,65 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     rotary : str
         ``"lumped"`` or ``"consistent"`` (:data:`ROTARY_WEIGHTS`).
     """
-    c_ab = rotary_weights(rotary)
-    n = x.shape[0]
-    qp, qq = x[:, QP], x[:, QQ]
-    hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
-    bp, bq = _twice_h_times(hx, qp), _twice_h_times(hx, qq)   # (n, 3, 4) d n_x / d q
-    # N = sum_i h_i P_i with P_i (n, 3, 14)
-    p = np.zeros((n, 4, 3, 14))
-    p[:, 0, :, RP] = np.eye(3)
-    p[:, 1, :, QP] = l0[:, None, None] * bp
-    p[:, 2, :, RQ] = np.eye(3)
-    p[:, 3, :, QQ] = l0[:, None, None] * bq
-    flat = p.transpose(0, 2, 1, 3).reshape(n, 12, 14)           # rows (component, i)
-    cmat = np.kron(np.eye(3), HERMITE_MASS)                     # (12, 12)
-    m = flat.transpose(0, 2, 1) @ (cmat @ flat)
-    m *= (mass[:, 0] * l0)[:, None, None]
-
+    wr = _rotary_weights8(rotary)
+    q8 = x[:, _Q8]
+    ra = mass[:, 0] * l0                                        # rho A l0
+    lb = _tangent_jacobians(q8, nx) * l0[:, None, None]         # (n, 3, 8): l0 B
+    m = ra[:, None, None] * _M_POS
+    cross = ra[:, None, None, None] * (_W_CROSS[:, None, :] * lb[:, None])   # (n, 2, 3, 8)
+    m[:, RP, _Q8] = cross[:, 0]
+    m[:, RQ, _Q8] = cross[:, 1]
+    m[:, _Q8, RP] = cross[:, 0].transpose(0, 2, 1)
+    m[:, _Q8, RQ] = cross[:, 1].transpose(0, 2, 1)
+    qq = ra[:, None, None] * _W_TANGENT * (lb.transpose(0, 2, 1) @ lb)
     if np.any(mass[:, 1:]):
+        g = _g_pair(q8)
         jg = _global_section_inertia(nx, ny, nz, mass)
-        gp, gq = g_matrix(qp), g_matrix(qq)
-        for (sa, ga), (sb, gb), c in (((QP, gp), (QP, gp), c_ab[0, 0]),
-                                      ((QP, gp), (QQ, gq), c_ab[0, 1]),
-                                      ((QQ, gq), (QP, gp), c_ab[1, 0]),
-                                      ((QQ, gq), (QQ, gq), c_ab[1, 1])):
-            if c == 0.0:                         # lumped: no coupling of p and q
-                continue
-            m[:, sa, sb] += (4.0 * c * l0)[:, None, None] * (ga.transpose(0, 2, 1) @ jg @ gb)
+        qq += (4.0 * l0)[:, None, None] * wr * (g.transpose(0, 2, 1) @ (jg @ g))
+    m[:, _Q8[:, None], _Q8] = qq
     return m
+
+
+def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarray,
+                       ny: np.ndarray, nz: np.ndarray, l0: np.ndarray, mass: np.ndarray,
+                       rotary: str = "lumped") -> np.ndarray:
+    """The inertia force ``M a + h`` (n_elem, 14) of Eq. 60 at (x, v, a), without forming M.
+
+    Translation: with ``N`` as in :func:`beam_mass_matrix`, ``dN/dt`` has the tangent rows
+    ``l0 B(v_q)`` (B is linear in q), and Lagrange's equations of ``T = 1/2 rho A l0 (N
+    v)^T C (N v)`` give ``rho A l0 N^T C (N a + (dN/dt) v)``: the gradient part of h cancels
+    the ``(dN/dt)^T C N v`` of ``d/dt (dT/dv)`` (so the two parts of
+    :func:`beam_convective` are not needed for the force). Rotation: with ``omega_b = G(q_b)
+    v_b`` and ``G(q) dq = -G(dq) q``, node a receives ``4 l0 sum_b c_ab (G_a^T J G_b a_b +
+    2 G(v_a)^T J omega_b)`` (for the lumped weights the rigid body's ``J alpha + omega x J
+    omega`` mapped onto its Euler parameters)."""
+    n = x.shape[0]
+    q8, v8, a8 = x[:, _Q8], v[:, _Q8], a[:, _Q8]
+    ra = mass[:, 0] * l0
+    lc = l0[:, None]
+    b = _tangent_jacobians(np.concatenate([q8, v8]), np.concatenate([nx, nx]))
+    bq, bv = b[:n], b[n:]                                       # B, dB/dt (n, 3, 8)
+    # N a + (dN/dt) v per Hermite function (n, 3, 4), then C times it
+    tang = (bq * a8[:, None, :] + bv * v8[:, None, :]).reshape(n, 3, 2, 4).sum(axis=3)
+    z = np.stack([a[:, RP], lc * tang[:, :, 0], a[:, RQ], lc * tang[:, :, 1]], axis=2)
+    w = (z @ HERMITE_MASS) * ra[:, None, None]
+    f = np.empty((n, 14))
+    f[:, RP] = w[:, :, 0]
+    f[:, RQ] = w[:, :, 2]
+    f[:, _Q8] = lc * np.einsum("nkj,nkj->nj", bq,
+                               np.repeat(w[:, :, [1, 3]], 4, axis=2))
+    if np.any(mass[:, 1:]):
+        c_ab = rotary_weights(rotary)
+        jg = _global_section_inertia(nx, ny, nz, mass)
+        g = _g_pair(np.concatenate([q8, v8]))
+        gq, gv = g[:n].reshape(n, 3, 2, 4), g[n:].reshape(n, 3, 2, 4)
+        # body angular velocity and acceleration of both nodes (n, 3, 2)
+        om = np.einsum("nkbj,nbj->nkb", gq, v8.reshape(n, 2, 4))
+        al = np.einsum("nkbj,nbj->nkb", gq, a8.reshape(n, 2, 4))
+        jom, jal = jg @ (om @ c_ab.T), jg @ (al @ c_ab.T)       # sum_b c_ab J (.)_b
+        f[:, _Q8] += (4.0 * lc) * (np.einsum("nkaj,nka->naj", gq, jal)
+                                   + 2.0 * np.einsum("nkaj,nka->naj", gv, jom)).reshape(n, 8)
+    return f
 
 
 def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray,

@@ -42,6 +42,18 @@ class _Batch(NamedTuple):
     idx: np.ndarray               # (n, k) global coordinate indices
     rot: np.ndarray               # local Euler-parameter slots (M depends on them only)
     conv_of: Callable | None      # (x_local, v_local, reps) -> (dM/dt v, d(v^T M v)/dx)
+    force_of: Callable | None     # (x_local, v_local, a_local, reps) -> M a + h, or None
+
+
+def _tiled(data, reps: int):
+    """Per-element data (an array, or a dict of arrays and other values) for ``reps``
+    stacked copies of the elements."""
+    if reps == 1:
+        return data
+    if isinstance(data, dict):
+        return {k: _tiled(v, reps) if isinstance(v, np.ndarray) else v
+                for k, v in data.items()}
+    return np.concatenate([data] * reps)
 
 
 class Inertia:
@@ -97,28 +109,27 @@ class Inertia:
         out = []
         for g in self.groups:
             def mass_of(xl, reps, g=g):
-                ref = {k: np.concatenate([v] * reps) if isinstance(v, np.ndarray) else v
-                       for k, v in g.ref.items()}
-                return g.kind.mass(xl, ref, np.concatenate([g.mass] * reps), self.rotary)
+                return g.kind.mass(xl, _tiled(g.ref, reps), _tiled(g.mass, reps), self.rotary)
             # local Euler-parameter coordinates: the only ones the mass matrix depends on
             rot = np.concatenate([np.arange(4) + sum(3 if t == "pos" else 4
                                                      for t in g.kind.slots[:j])
                                   for j, s in enumerate(g.kind.slots) if s == "rot"]
                                  + [np.zeros(0, np.int64)]).astype(np.int64)
-            conv_of = None
+            conv_of = force_of = None
             if g.kind.convective is not None:
                 def conv_of(xl, vl, reps, g=g):
-                    ref = g.ref if reps == 1 else {
-                        k: np.concatenate([v] * reps) if isinstance(v, np.ndarray) else v
-                        for k, v in g.ref.items()}
-                    return g.kind.convective(xl, vl, ref, np.concatenate([g.mass] * reps),
+                    return g.kind.convective(xl, vl, _tiled(g.ref, reps), _tiled(g.mass, reps),
                                              self.rotary)
-            out.append(_Batch(mass_of, g.idx, rot, conv_of))
+            if g.kind.inertia_force is not None:
+                def force_of(xl, vl, al, reps, g=g):
+                    return g.kind.inertia_force(xl, vl, al, _tiled(g.ref, reps),
+                                                _tiled(g.mass, reps), self.rotary)
+            out.append(_Batch(mass_of, g.idx, rot, conv_of, force_of))
         pm, jr = self.point_mass, self.rot_inertia
         out.append(_Batch((lambda xl, reps: np.tile(pm, reps)[:, None, None] * np.eye(3)),
-                          self.point_idx, np.zeros(0, np.int64), None))
+                          self.point_idx, np.zeros(0, np.int64), None, None))
         out.append(_Batch((lambda xl, reps: nodal_rotary_mass(xl, np.concatenate([jr] * reps))),
-                          self.rot_idx, np.arange(4), None))
+                          self.rot_idx, np.arange(4), None, None))
         return out
 
     def matrix(self, x: np.ndarray) -> sp.csc_matrix:
@@ -129,8 +140,10 @@ class Inertia:
         """``(M, M a + h)`` of one batch at ``reps`` stacked configurations ``xl, vl, al``
         ((reps * n, k) each, physical velocities): the mass blocks (reps * n, k, k) and the
         local inertia forces (reps * n, k)."""
-        mass_of, _, rot, conv_of = b
+        mass_of, _, rot, conv_of, force_of = b
         n_b, k = xl.shape
+        if force_of is not None:                     # the kind's own M a + h
+            return mass_of(xl, reps), force_of(xl, vl, al, reps)
         if not np.any(vl) or not rot.size:
             m = mass_of(xl, reps)
             return m, np.einsum("nij,nj->ni", m, al)
@@ -156,22 +169,34 @@ class Inertia:
         return m, (np.einsum("nij,nj->ni", m, al) + np.einsum("nij,nj->ni", dm_v, vl)
                    - 0.5 * grad)
 
-    def forces(self, x: np.ndarray, v: np.ndarray, a: np.ndarray):
+    def forces(self, x: np.ndarray, v: np.ndarray, a: np.ndarray, blocks: bool = True):
         """``(blocks, M a + h)`` at (x, v, a): the mass blocks of every batch (element
         groups, point masses, rotary nodes; :meth:`assemble` makes M of them) and the inertia
-        force (n_coord,), with the physical Euler-parameter velocities (:meth:`physical`)."""
+        force (n_coord,), with the physical Euler-parameter velocities (:meth:`physical`).
+
+        ``blocks=False``: a batch whose kind computes ``M a + h`` without its mass matrix
+        (``inertia_force``) leaves its block None (:meth:`complete` fills it in when the
+        Newton matrix needs it)."""
         v = self.physical(x, v)
         n = self.num.n_coord
-        blocks, force = [], np.zeros(n)
+        out, force = [], np.zeros(n)
         for b in self.batches:
             xl, vl, al = x[b.idx], v[b.idx], a[b.idx]
             if not xl.shape[0]:
-                blocks.append(np.zeros((0, xl.shape[1], xl.shape[1])))
+                out.append(np.zeros((0, xl.shape[1], xl.shape[1])))
                 continue
-            m, f = self._local(b, xl, vl, al, 1)
-            blocks.append(m)
+            if not blocks and b.force_of is not None:
+                m, f = None, b.force_of(xl, vl, al, 1)
+            else:
+                m, f = self._local(b, xl, vl, al, 1)
+            out.append(m)
             force += scatter_add(n, b.idx, f)
-        return blocks, force
+        return out, force
+
+    def complete(self, x: np.ndarray, blocks: list) -> list:
+        """The mass blocks of :meth:`forces` with those it left out (None) evaluated at x."""
+        return [b.mass_of(x[b.idx], 1) if m is None else m
+                for b, m in zip(self.batches, blocks)]
 
     def tangent(self, x: np.ndarray, v: np.ndarray, a: np.ndarray, gamma_p: float,
                 velocity_part: list | None = None):
@@ -262,8 +287,21 @@ class Inertia:
         return extra, nodal
 
     def kinetic_energy(self, x: np.ndarray, v: np.ndarray) -> float:
+        """``1/2 v^T M(x) v`` (physical velocities), batch by batch: ``M v`` is the inertia
+        force at zero velocity and acceleration v, which a kind with ``inertia_force``
+        evaluates without its mass matrix."""
         v = self.physical(x, v)
-        return 0.5 * float(v @ (self.matrix(x) @ v))
+        total = 0.0
+        for b in self.batches:
+            xl, vl = x[b.idx], v[b.idx]
+            if not xl.shape[0]:
+                continue
+            if b.force_of is not None:
+                mv = b.force_of(xl, np.zeros_like(vl), vl, 1)
+            else:
+                mv = np.einsum("nij,nj->ni", b.mass_of(xl, 1), vl)
+            total += float(np.sum(vl * mv))
+        return 0.5 * total
 
 
 __all__ = ["Inertia"]

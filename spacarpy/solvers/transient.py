@@ -287,7 +287,8 @@ class TransientProblem:
         return load
 
     # ---------------------------------------------------------------- residual
-    def residual(self, t, x, v, a, mu, trial_level: float | None = None) -> Residual:
+    def residual(self, t, x, v, a, mu, trial_level: float | None = None,
+                 mass_blocks: bool = True) -> Residual:
         """Evaluate the equations at (t, x, v, a, mu). The force residual is measured
         against the largest force level met so far in the run (``self.level``: external,
         internal and inertia forces, moments divided by the length scale), not the current
@@ -296,10 +297,15 @@ class TransientProblem:
         ``trial_level`` is the force level of the step's first evaluation (the predictor;
         None: this is it): the reference grows only with accepted states
         (:meth:`accept_level`) and the predictor, so that a wild Newton iterate cannot
-        inflate it and so pass as converged."""
+        inflate it and so pass as converged.
+
+        ``mass_blocks=False`` may leave mass blocks out (None) where the force needs no mass
+        matrix (:meth:`Inertia.forces`): a step's Newton iterations complete them only when
+        they build an iteration matrix, not for the check that ends the step."""
         load = self.loads(t)
         ev = self.prob.evaluate(x, mu, load)
-        blocks, f_in = self.inertia.forces(x, v, a)
+        blocks, f_in = self.inertia.forces(x, v, a,
+                                           blocks=mass_blocks or bool(self.model.damping[0]))
         f_damp, damp_blocks = self.damping_forces(x, v, ev.states, blocks)
         if f_damp is not None:
             f_in = f_in + f_damp                   # (damping counted with the inertia)
@@ -695,27 +701,20 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     dx_norm = np.inf
     history = []
     trial_level = None               # the force level of the step's predictor
+    m_max = floor_dyn = 0.0          # largest mass entry, round-off floor (iteration 0)
     for it in range(opts.max_iter + 1):
         ev, blocks, f_in, r, res, floor, _, f_damp, damp_blocks, level = tp.residual(
-            t1, x1, v1, a1, mu1, trial_level)
+            t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
         trial_level = level if trial_level is None else trial_level
         history.append(res)
         if not np.isfinite(res):
             raise StepFailed("non-finite residual", history)
-        if it == 0:
-            # round-off floor of the force residual: the inertia term beta' M of the
-            # iteration matrix times the round-off of the coordinates (as the static
-            # solver's floor with its stiffness)
-            m_max = max([float(np.abs(b).max(initial=0.0)) for b in blocks] + [0.0])
-            floor_dyn = (100 * np.finfo(float).eps * beta_p * m_max * num.length_scale
-                         / max(tp.level, 1e-300))
-        floor = max(floor, floor_dyn)
         # converged: residual and last increment below the tolerance, or a residual so far
         # below it that the equations hold to round-off (the increments of directions the
         # residual hardly sees, such as Euler parameters of nearly massless nodes, may then
         # stall above the tolerance without meaning anything)
-        if it > 0 and res <= max(opts.tol, floor) and (dx_norm <= max(opts.tol, 1e-13)
-                                                       or res <= 1e-3 * opts.tol):
+        if it > 0 and res <= max(opts.tol, floor, floor_dyn) and (
+                dx_norm <= max(opts.tol, 1e-13) or res <= 1e-3 * opts.tol):
             if motion is None:
                 a_tilde_new = at_new + (1 - af) / (1 - am) * a1
             else:
@@ -727,6 +726,14 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp
         if it == opts.max_iter:
             break
+        blocks = tp.inertia.complete(x1, blocks)         # for the iteration matrix
+        if it == 0:
+            # round-off floor of the force residual: the inertia term beta' M of the
+            # iteration matrix times the round-off of the coordinates (as the static
+            # solver's floor with its stiffness)
+            m_max = max([float(np.abs(b).max(initial=0.0)) for b in blocks] + [0.0])
+            floor_dyn = (100 * np.finfo(float).eps * beta_p * m_max * num.length_scale
+                         / max(tp.level, 1e-300))
         # iteration matrix [K_t + beta' M, C^T; C, 0] on the Newton matrix's fixed pattern;
         # the constraint rows scaled like its largest entry (the inertia term grows as
         # 1/h^2), which keeps the saddle-point system well conditioned
