@@ -113,7 +113,8 @@ class RotatingFrame:
         p, vel = x[self.pos], v[self.pos]
         c, u = p.mean(axis=0), vel.mean(axis=0)
         r, du = p - c, vel - u
-        H = np.cross(r, du).sum(axis=0)
+        rtu = r.T @ du                               # H = sum of r x du, from its skew part
+        H = np.array([rtu[1, 2] - rtu[2, 1], rtu[2, 0] - rtu[0, 2], rtu[0, 1] - rtu[1, 0]])
         rr = np.sum(r * r, axis=1)
         # the nodes' spread against their distance from the origin: below round-off
         # they coincide and show no rotation

@@ -122,6 +122,7 @@ class ReducedNewton:
                                     + [self.unknown_of[self.eu]], upper=True)
         self.factor = SPDFactorization()
         self._quick_misses = 0                  # see _refine
+        self._last = None                       # see simplified_increment
         self.negative_pivots = None             # see step
 
     def basis(self, q: np.ndarray) -> np.ndarray:
@@ -237,6 +238,41 @@ class ReducedNewton:
             return None
         return y
 
+    def _right_side(self, ev, nq, b, residual, k_rot, euler_diag, invariant):
+        """The rotated residual over all coordinates, the radial particular solution z of
+        the Euler constraints (``2 q.dq = -c``) and the reduced right-hand side."""
+        num = self.prob.num
+        r_full = (ev.f_int - ev.f_ext) if residual is None else residual.copy()
+        r_full[self.eu] = np.einsum("nab,na->nb", b, r_full[self.eu])
+        z = np.zeros(num.n_coord)
+        c_eu = ev.c[num.n_rigid:]
+        z[self.eu[:, 0]] = -c_eu / (2.0 * nq)
+        # K z for that particular solution, element by element (only radial entries of z
+        # are nonzero), plus the Euler-node diagonal 2 mu
+        rhs = -(r_full + self._k_times(k_rot, euler_diag, z, invariant=invariant))[self.keep]
+        return r_full, z, rhs
+
+    def simplified_increment(self, ev, x, residual=None):
+        """The simplified Newton increment at a new state (x, ``ev``): the last
+        :meth:`step`'s factorization and element blocks applied to the new residual, over
+        the free coordinates, without refinement; None when no step was taken since (or its
+        factorization failed). Its size estimates the Newton increment that state still
+        needs (Deuflhard's simplified Newton correction): a convergence test that costs
+        one solve instead of a new tangent and factorization."""
+        if self._last is None:
+            return None
+        k_rot, euler_diag, invariant, solve = self._last
+        q = x[self.eu]
+        nq = np.linalg.norm(q, axis=1)
+        b = self.basis(q)
+        _, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
+        try:
+            z[self.keep] = solve(rhs)
+        except FactorizationError:
+            return None
+        z[self.eu] = np.einsum("nab,nb->na", b, z[self.eu])
+        return z[self.free]
+
     def step(self, ev, x, mu, k_el, euler_diag, residual=None, invariant: bool = True,
              load=None):
         """The Newton increment ``(dx over the free coordinates, dmu)``, or None when the
@@ -259,16 +295,8 @@ class ReducedNewton:
         nq = np.linalg.norm(q, axis=1)
         b = self.basis(q)
         k_rot = self._rotate(k_el, b)
-        # the rotated residual over all coordinates
-        r_full = (ev.f_int - ev.f_ext) if residual is None else residual.copy()
-        r_full[self.eu] = np.einsum("nab,na->nb", b, r_full[self.eu])
-        # the radial component of each Euler increment, from its constraint 2 q.dq = -c
-        z = np.zeros(num.n_coord)
-        c_eu = ev.c[num.n_rigid:]
-        z[self.eu[:, 0]] = -c_eu / (2.0 * nq)
-        # K z for that particular solution, element by element (only radial entries of z
-        # are nonzero), plus the Euler-node diagonal 2 mu
-        rhs = -(r_full + self._k_times(k_rot, euler_diag, z, invariant=invariant))[self.keep]
+        r_full, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
+        self._last = None
         diag = np.broadcast_to(euler_diag[:, None, None] * np.eye(4), (self.nodes.size, 4, 4))
         t1 = time.perf_counter()
         a = self.pattern.assemble(k_rot + [diag])
@@ -290,6 +318,7 @@ class ReducedNewton:
             y = refined(rhs)
             if y is None:
                 return None
+            self._last = (k_rot, euler_diag, invariant, solve)
             if load is not None:
                 # K b = load with C b = 0: no radial particular part (z = 0)
                 l_full = np.asarray(load, dtype=float).copy()

@@ -671,6 +671,29 @@ def _gauge(num, x, v, a, a_tilde):
         acc[ri] += (centripetal - np.sum(q * acc[ri], axis=1, keepdims=True) / qq) * q
 
 
+def _simplified_norm(prob, simplified, ev, x, r) -> float:
+    """Size (:meth:`StaticProblem.increment_norm`) of the simplified Newton increment at the
+    state (x, ``ev``) with the force residual r (over the free coordinates): the last
+    iteration matrix's factorization applied to the new residual (Deuflhard's simplified
+    Newton correction), an estimate of the increment that state still needs, for one solve
+    instead of a new tangent, factorization and residual. ``simplified`` says how the last
+    increment was solved: "reduced" (the tangent-space LDL^T,
+    :meth:`ReducedNewton.simplified_increment`), ``(lu, scale)`` (the bordered SuperLU and
+    its constraint-row scale), or None (inf: no estimate)."""
+    if simplified is None:
+        return np.inf
+    if isinstance(simplified, str):
+        full = np.zeros(prob.num.n_coord)
+        full[prob.free] = r
+        dx = prob.reduced.simplified_increment(ev, x, residual=full)
+        if dx is None:
+            return np.inf
+    else:
+        lu, scale = simplified
+        dx = lu.solve(-np.concatenate([r, scale * ev.c]))[:prob.pattern.n_x]
+    return prob.increment_norm(dx) if np.all(np.isfinite(dx)) else np.inf
+
+
 def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     """One generalized-alpha step from t to t + h (Arnold & Brüls 2007)."""
     am, af, gamma, beta = params
@@ -702,6 +725,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     history = []
     trial_level = None               # the force level of the step's predictor
     m_max = floor_dyn = 0.0          # largest mass entry, round-off floor (iteration 0)
+    simplified = None                # how the last increment was solved (_simplified_norm)
     for it in range(opts.max_iter + 1):
         ev, blocks, f_in, r, res, floor, _, f_damp, damp_blocks, level = tp.residual(
             t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
@@ -713,8 +737,13 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         # below it that the equations hold to round-off (the increments of directions the
         # residual hardly sees, such as Euler parameters of nearly massless nodes, may then
         # stall above the tolerance without meaning anything)
+        # A residual below the tolerance whose last increment was not yet is tested by the
+        # simplified Newton increment (the last factorization applied to this residual:
+        # one solve, where a full iteration costs a tangent, a factorization and another
+        # residual), which estimates the increment this state still needs
         if it > 0 and res <= max(opts.tol, floor, floor_dyn) and (
-                dx_norm <= max(opts.tol, 1e-13) or res <= 1e-3 * opts.tol):
+                dx_norm <= max(opts.tol, 1e-13) or res <= 1e-3 * opts.tol
+                or _simplified_norm(prob, simplified, ev, x1, r) <= max(opts.tol, 1e-13)):
             if motion is None:
                 a_tilde_new = at_new + (1 - af) / (1 - am) * a1
             else:
@@ -761,7 +790,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             blocks, beta_p + gamma_p * tp.model.damping[0], tangent)
         for i, cb in damp_blocks.items():
             extra[i] = extra.get(i, 0.0) + gamma_p * cb
-        step = None
+        step = simplified = None
         if prob.reduced is not None and nodal is None and not exact and motion is None:
             # the static solver's tangent-space step (solvers/reduced.py) with the inertia
             # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
@@ -772,6 +801,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
                                       invariant=False)
         if step is not None:
             dx, dmu = step
+            simplified = "reduced"
         else:
             scale = max(prob.scale, beta_p * m_max)
             S = prob.matrix(ev, mu1, extra=extra, scale=scale)
@@ -783,10 +813,12 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
                                       format="csc")
             rhs = -np.concatenate([r, scale * ev.c])
             try:
-                dz = spla.splu(S, permc_spec="COLAMD").solve(rhs)
+                lu = spla.splu(S, permc_spec="COLAMD")
             except RuntimeError:
                 raise StepFailed("singular iteration matrix", history) from None
+            dz = lu.solve(rhs)
             dx, dmu = dz[:n_x], dz[n_x:] * scale
+            simplified = (lu, scale)
         if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
             raise StepFailed("non-finite Newton increment", history)
         dx_norm = prob.increment_norm(dx)
