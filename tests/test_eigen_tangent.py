@@ -66,9 +66,10 @@ def test_tangent_modes_equal_the_dense_and_the_bordered_ones(loaded, monkeypatch
     # the dense solve's round-off on this pencil is about 1e-9 (test_solver_paths)
     np.testing.assert_allclose(md.frequency, dense.frequency, rtol=1e-8)
     # the bordered solver's Rayleigh quotients take the load part as assembled, and its
-    # vectors from the shifted LU: 8e-9 apart in the loaded state (the tangent solver's
-    # are within 1.2e-9 of the dense eigenvalues there)
-    np.testing.assert_allclose(md.eigenvalue.real, bordered, rtol=2e-8)
+    # vectors from the shifted LU: in the loaded state they are up to 2.9e-8 off the dense
+    # eigenvalues (the 8th mode; 3.7e-9 with other round-off of the same state's last
+    # bits), the tangent solver's within 3e-9; a wrong load term would be 1e-3 off
+    np.testing.assert_allclose(md.eigenvalue.real, bordered, rtol=1e-7)
     assert np.array_equal(md.kind, dense.kind)
     assert np.all(md.kind == E.ELASTIC)
     # mass-normalized shapes, K-orthogonal to the eigenvalues

@@ -187,7 +187,7 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     variant : {"modified", "basic"}
     """
     n = x.shape[0]
-    u, Yp, Yq, y, length, n1, e_hat, projections = _basic(x, ny, nz, l0)
+    u, Yp, Yq, y, length, n1, e_hat, proj = _basic(x, ny, nz, l0)
     nyp, nzp, nyq, nzq = y[:, YNYP], y[:, YNZP], y[:, YNYQ], y[:, YNZQ]
     lc = l0[:, None]
     G = np.zeros((n, 6, 15))
@@ -196,11 +196,11 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     G[:, 1, YNYQ] = 0.5 * lc * nzp
     G[:, 1, YNYP] = -0.5 * lc * nzq
     G[:, 1, YNZQ] = -0.5 * lc * nyp
-    # bending modes: e_j = s_j l0 (n1 . a_j)
-    for (j, s, sl, _), proj in zip(_BENDING, projections):
-        av = y[:, sl]
-        G[:, j, YD] = s * lc * (av - proj[:, None] * n1) / length[:, None]
-        G[:, j, sl] = s * lc * n1
+    # bending modes: e_j = s_j l0 (n1 . a_j), all four at once
+    sl0 = _BEND_SIGN * lc                                           # (n, 4) s_j l0
+    a = _bending_vectors(y)
+    G[:, 2:6, YD] = (sl0 / length[:, None])[:, :, None] * (a - proj[:, :, None] * n1[:, None])
+    G[:, _BEND_ROWS, _BEND_COLS] = (sl0[:, :, None] * n1[:, None]).reshape(n, 12)
     D_hat = np.empty((n, 6, N_LDOF))
     D_hat[:, :, RP] = -G[:, :, YD]
     D_hat[:, :, RQ] = G[:, :, YD]
@@ -237,12 +237,10 @@ def _basic(x, ny, nz, l0):
     e_hat = np.empty((n, 6))
     e_hat[:, 0] = length - l0
     e_hat[:, 1] = 0.5 * l0 * (np.sum(nzp * nyq, 1) - np.sum(nyp * nzq, 1))
-    projections = []
-    for j, s, sl, _ in _BENDING:                 # bending modes: e_j = s_j l0 (n1 . a_j)
-        proj = np.sum(n1 * y[:, sl], axis=1)
-        e_hat[:, j] = s * l0 * proj
-        projections.append(proj)
-    return u, Yp, Yq, y, length, n1, e_hat, projections
+    # bending modes: e_j = s_j l0 (n1 . a_j)
+    proj = np.einsum("nk,njk->nj", n1, _bending_vectors(y))           # (n, 4)
+    e_hat[:, 2:6] = (_BEND_SIGN * l0[:, None]) * proj
+    return u, Yp, Yq, y, length, n1, e_hat, proj
 
 
 def _modified(e_hat, l0, variant):
@@ -265,6 +263,19 @@ def beam_deformations(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndar
 # (mode index, sign, slice of the nodal vector in y, name) for e3..e6 of Eq. (7).
 _BENDING = ((2, -1.0, YNZP, "nzp"), (3, 1.0, YNZQ, "nzq"), (4, 1.0, YNYP, "nyp"),
             (5, -1.0, YNYQ, "nyq"))
+#: The same as arrays: signs of e3..e6, the nodal vector of each among y's four
+#: [n_y^p, n_z^p, n_y^q, n_z^q], and the (row, column) of G where its n1 goes.
+_BEND_SIGN = np.array([b[1] for b in _BENDING])
+_BEND_VEC = np.array([(b[2].start - 3) // 3 for b in _BENDING])
+_BEND_ROWS = np.repeat([b[0] for b in _BENDING], 3)
+_BEND_COLS = np.concatenate([np.arange(b[2].start, b[2].stop) for b in _BENDING])
+#: The bending modes' nodal vectors in the order [n_y^p, n_z^p, n_y^q, n_z^q].
+_VEC_MODE = np.argsort(_BEND_VEC)
+
+
+def _bending_vectors(y: np.ndarray) -> np.ndarray:
+    """The nodal vectors a_j of the bending modes e3..e6 (n, 4, 3), from y (n, 15)."""
+    return y[:, 3:15].reshape(-1, 4, 3)[:, _BEND_VEC]
 
 
 def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
@@ -309,19 +320,21 @@ def _basic_hessian(st: BeamState, w_hat: np.ndarray) -> np.ndarray:
     length, n1, y = st.length, st.n1, st.y
     outer = n1[:, :, None] * n1[:, None, :]
     proj_op = np.eye(3) - outer                                       # (n,3,3)
-    hdd = (w_hat[:, 0] / length)[:, None, None] * proj_op
-    hdp = np.zeros((n, 3, 6))
-    hdq = np.zeros((n, 3, 6))
-    for j, s, sl, _ in _BENDING:
-        coef = s * st.l0 * w_hat[:, j]
-        a = y[:, sl]
-        pa = np.sum(n1 * a, axis=1)[:, None, None]
-        an1 = a[:, :, None] * n1[:, None, :]
-        dd = -(an1 + an1.transpose(0, 2, 1)) - pa * np.eye(3) + 3.0 * pa * outer
-        hdd += (coef / length**2)[:, None, None] * dd
-        block = hdp if sl.start < 9 else hdq
-        col = (sl.start - 3) % 6                                      # 0: n_y, 3: n_z
-        block[:, :, col:col + 3] = (coef / length)[:, None, None] * proj_op
+    # the bending modes e_j = s_j l0 (n1 . a_j) with weights c_j = s_j l0 w_j: their
+    # second derivatives in d are linear in a_j, so the four sum to one term in
+    # b = sum_j c_j a_j and p = sum_j c_j (n1 . a_j)
+    coef = (_BEND_SIGN * st.l0[:, None]) * w_hat[:, 2:6]              # (n, 4)
+    a = _bending_vectors(y)
+    b = np.einsum("nj,njk->nk", coef, a)
+    p = np.einsum("nj,nk,njk->n", coef, n1, a)[:, None, None]
+    bn1 = b[:, :, None] * n1[:, None, :]
+    dd = -(bn1 + bn1.transpose(0, 2, 1)) - p * np.eye(3) + 3.0 * p * outer
+    hdd = ((w_hat[:, 0] / length)[:, None, None] * proj_op
+           + (1.0 / length**2)[:, None, None] * dd)
+    # (d, nodal vector) blocks: c_j / length times the projector, in y's vector order
+    cl = (coef / length[:, None])[:, _VEC_MODE]                       # [nyp nzp nyq nzq]
+    hdpq = (proj_op[:, :, None, :] * cl[:, None, :, None]).reshape(n, 3, 12)
+    hdp, hdq = hdpq[:, :, :6], hdpq[:, :, 6:]
     c2 = (0.5 * st.l0 * w_hat[:, 1])[:, None, None] * np.eye(3)
     hpq = np.zeros((n, 6, 6))
     hpq[:, 3:6, 0:3] = c2                                             # n_z^p . n_y^q
