@@ -16,7 +16,6 @@ C libraries it does nothing.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import logging
 import os
 
@@ -36,8 +35,7 @@ def keep_freed_memory() -> bool:
     if os.environ.get("SPACARPY_KEEP_MEMORY", "1") == "0":
         return False
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
+        mallopt = _libc().mallopt
     except (OSError, AttributeError):
         return False
     mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
@@ -46,6 +44,16 @@ def keep_freed_memory() -> bool:
           and mallopt(_M_TOP_PAD, 256 * 2**20) == 1)       # grow it in 256 MB steps
     _done = ok
     return ok
+
+
+def _libc():
+    """glibc by its usual name; else the name ``ctypes.util`` finds (which costs 20 ms of
+    start-up: it imports more modules and runs ``ldconfig``)."""
+    try:
+        return ctypes.CDLL("libc.so.6")
+    except OSError:
+        from ctypes.util import find_library
+        return ctypes.CDLL(find_library("c") or "libc.so.6")
 
 
 # -- memory estimate before a run ------------------------------------------------------------

@@ -50,16 +50,7 @@ from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
-from spacarpy.solvers.buckling import buckling_modes
-from spacarpy.solvers.compliance import nodal_compliance
-from spacarpy.solvers.eigen import (
-    KIND_NAMES,
-    default_dense_limit,
-    eigenmodes,
-    finite_mode_count,
-)
 from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.kinematic_check import dof_report
 from spacarpy.solvers.linearize import MassAssembler, linearize
 from spacarpy.solvers.static import solve_static
 
@@ -115,6 +106,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
     if analysis == "check":
+        from spacarpy.solvers.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
     mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     if any(model.gravity) and not mass.has_mass:
@@ -274,6 +266,7 @@ def _eigen_columns(problem, mass, n_modes: int) -> int:
     (:func:`spacarpy.solvers.eigen.finite_mode_count` in the initial configuration; the
     number at each step is stored in /eigen/n_modes_available). Not counted where the
     eigen solver is the sparse one (a few modes of a larger model)."""
+    from spacarpy.solvers.eigen import default_dense_limit, finite_mode_count
     num = problem.num
     if num.n_unknown > default_dense_limit(num.n_unknown, n_modes):
         return n_modes
@@ -296,6 +289,10 @@ def _eigen_columns(problem, mass, n_modes: int) -> int:
 
 def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_buckling,
                      compliance_rows, summary):
+    # imported here: a run without linearized steps does not need them (start-up)
+    from spacarpy.solvers.buckling import buckling_modes
+    from spacarpy.solvers.compliance import nodal_compliance
+    from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes
     num = problem.num
     lin = linearize(problem, step.x, step.mu, problem.loads.at(1.0, step.load_factor),
                     mass=mass if want_eigen else None)

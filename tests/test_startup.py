@@ -24,7 +24,17 @@ NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.s
                "spacarpy.batch", "spacarpy.bench", "spacarpy.peers", "spacarpy.cases",
                "spacarpy.results.plot", "spacarpy.results.plot_base",
                "spacarpy.results.plot_shapes", "spacarpy.results.export",
-               "spacarpy.results.tables")
+               "spacarpy.results.tables",
+               # the readers and the validator: a run writes its file, its EXPECT lines
+               # read it with h5py
+               "spacarpy.results.reader", "spacarpy.results.eager",
+               "spacarpy.results.views", "spacarpy.results.validate",
+               # the linearized analyses of run.py's branches a static run does not take
+               "spacarpy.solvers.buckling", "spacarpy.solvers.compliance",
+               "spacarpy.solvers.state_space", "spacarpy.solvers.trajectory",
+               "spacarpy.solvers.transient",
+               # ldconfig's search for the C library (spacarpy.memory loads libc.so.6)
+               "ctypes.util")
 
 _RUN_AND_LIST = """
 import json, sys
@@ -129,3 +139,18 @@ def test_batch_tasks_reuse_one_worker_per_thread_and_replace_a_killed_one(tmp_pa
         assert [r.status for r in done] == ["ok", "ok"] and not workers._ALL
     finally:
         close_workers()
+
+
+def test_the_results_package_gives_every_public_name_on_first_use():
+    """``spacarpy.results`` imports its modules lazily (so a run does not import the
+    readers); every name of ``__all__`` still resolves, to the object of its module."""
+    import spacarpy.results as results
+    from spacarpy.results import reader, writer
+
+    for name in results.__all__:
+        assert getattr(results, name) is not None, name
+        assert name in dir(results)
+    assert results.open_results is reader.open_results
+    assert results.ResultsWriter is writer.ResultsWriter
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        results.nothing  # noqa: B018

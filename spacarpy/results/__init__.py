@@ -9,21 +9,18 @@ one table of datasets, schema 2.0, and the map of 1.x names), :mod:`~spacarpy.re
 :mod:`~spacarpy.results.stress` (section forces and surface stresses),
 :mod:`~spacarpy.results.tables` (``show`` and ``extract``), :mod:`~spacarpy.results.plot`
 (matplotlib figures) and :mod:`~spacarpy.results.export` (XDMF and VTK files for ParaView).
+The names below are imported from their modules on first use.
 """
-from spacarpy.results.h5file import ResultsFormatError, partial_path_for
-from spacarpy.results.reader import (
-    LinearizedResults,
-    Results,
-    ResultsFile,
-    ResultsQueryError,
-    StaticResults,
-    TransientResults,
-    open_results,
-    read_results,
-)
-from spacarpy.results.schema import FILETYPE, SCHEMA_VERSION
-from spacarpy.results.validate import validate_file
-from spacarpy.results.writer import ResultsWriter
+#: Where each public name lives: imported on first use (PEP 562), so that writing a file
+#: (``spacarpy run``) does not import the readers and the validator.
+_HOME = {
+    "FILETYPE": "schema", "SCHEMA_VERSION": "schema",
+    "ResultsFormatError": "h5file", "partial_path_for": "h5file",
+    "ResultsWriter": "writer", "validate_file": "validate",
+    **{name: "reader" for name in (
+        "LinearizedResults", "Results", "ResultsFile", "ResultsQueryError", "StaticResults",
+        "TransientResults", "open_results", "read_results")},
+}
 
 __all__ = [
     "FILETYPE",
@@ -41,3 +38,17 @@ __all__ = [
     "ResultsFile",
     "ResultsQueryError",
 ]
+
+
+def __getattr__(name):
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module 'spacarpy.results' has no attribute {name!r}")
+    import importlib
+    value = getattr(importlib.import_module(f"spacarpy.results.{home}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -489,6 +489,8 @@ class ResultsWriter:
         checksum.attrs["columns"] = " ".join(columns)
         checksum.dims[0].label = entry["scale"].dims[0].label
         entry["checksum"] = (checksum, columns)
+        entry["appender"] = h5file.StepAppender(f, entry["datasets"], entry["scale"],
+                                                entry["checksum"])
         if not lin:
             for name, ds in [*entry["datasets"].items(), ("checksum", checksum)]:
                 ds.dims[0].attach_scale(entry["scale"])
@@ -528,8 +530,7 @@ class ResultsWriter:
                                  f"expected {entry['shapes'][name]}")
             rows[name] = row
         k = entry["n"]
-        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], value, k,
-                           entry["checksum"])
+        entry["appender"].append(rows, value, k)
         entry["n"] = k + 1
         entry["last"] = value
         if group == "static":
@@ -563,8 +564,7 @@ class ResultsWriter:
                 row[...] = given
             rows[name] = row
         k = entry["n"]
-        h5file.append_step(self._file, entry["datasets"], rows, entry["scale"], int(step), k,
-                           entry["checksum"])
+        entry["appender"].append(rows, int(step), k)
         entry["n"] = k + 1
 
     def _require_open(self, what: str) -> h5py.File:
