@@ -20,7 +20,7 @@ the static solver's load path.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
@@ -57,11 +57,14 @@ class Stability:
     modes : (n_x, max(index, 1)) float
         Eigenvectors of the negative eigenvalues (the lowest one when there is none) over the
         free coordinates, lowest first.
+    states : list or None
+        The kernel states at the state (per element group), for :func:`potential_energy`.
     """
 
     index: int
     lowest: float
     modes: np.ndarray
+    states: list | None = field(default=None, repr=False)
 
 
 def stability(prob, x, mu, load: LoadState) -> Stability | None:
@@ -73,7 +76,7 @@ def stability(prob, x, mu, load: LoadState) -> Stability | None:
     lin = linearize(prob, x, mu, load)
     T = null_space_basis(lin.C, n_x)
     if T.shape[1] == 0:
-        return Stability(index=0, lowest=np.inf, modes=np.zeros((n_x, 1)))
+        return Stability(index=0, lowest=np.inf, modes=np.zeros((n_x, 1)), states=lin.states)
     k = T.T @ (lin.K @ T)
     k = 0.5 * (k + k.T)
     # Jacobi scaling (a congruence: the index is unchanged) so that the tolerance for "zero"
@@ -84,7 +87,8 @@ def stability(prob, x, mu, load: LoadState) -> Stability | None:
     big = np.abs(lam).max(initial=0.0)
     index = int(np.sum(lam < -ZERO_TOL * big))
     return Stability(index=index, lowest=float(lam[0]),
-                     modes=canonical_sign(T @ (v[:, :max(index, 1)] / d[:, None])))
+                     modes=canonical_sign(T @ (v[:, :max(index, 1)] / d[:, None])),
+                     states=lin.states)
 
 
 def canonical_sign(modes: np.ndarray) -> np.ndarray:
@@ -97,13 +101,15 @@ def canonical_sign(modes: np.ndarray) -> np.ndarray:
     return modes * np.where(sign == 0, 1.0, sign)
 
 
-def potential_energy(prob, x, mu, load: LoadState) -> float:
+def potential_energy(prob, x, mu, load: LoadState, states=None) -> float:
     """Elastic energy of the flexible modes minus the work of the dead forces (the measure
-    by which branches at the same load are ranked; moments and gravity are left out)."""
-    ev = prob.evaluate(x, mu, load)
+    by which branches at the same load are ranked; moments and gravity are left out).
+    ``states``: the kernel states at x where the caller has them (:attr:`Stability.states`)."""
+    if states is None:
+        states = prob.evaluate(x, mu, load).states
     elastic = sum(0.5 * float(np.einsum("ni,nij,nj->", st.e, g.S, st.e))
                   + (float(np.sum(g.sigma0 * st.e)) if g.sigma0 is not None else 0.0)
-                  for g, st in zip(prob.num.groups, ev.states))
+                  for g, st in zip(prob.num.groups, states))
     return elastic - float(load.force @ x)
 
 
@@ -139,7 +145,7 @@ def switch_branch(prob, x, mu, load: LoadState, opts, stab: Stability, step: int
                 xn = prob.normalize(xn)
                 sn = stability(prob, xn, mun, load)
                 if sn is not None and sn.index < stab.index:
-                    found.append((sn.index, potential_energy(prob, xn, mun, load),
+                    found.append((sn.index, potential_energy(prob, xn, mun, load, sn.states),
                                   xn, mun, sn))
                     break
     if not found:
@@ -185,7 +191,8 @@ class PathStability:
     def _solve_at(self, x, mu, params):
         prob = self.prob
         load = prob.loads.at(*params)
-        x1, mu1, *_ = newton(prob, self.predictor(x, mu, load), mu, load, self.opts)
+        start, states = self.predictor.with_states(x, mu, load)
+        x1, mu1, *_ = newton(prob, start, mu, load, self.opts, states)
         return prob.normalize(x1), mu1
 
     def _bisect(self, lo, hi):
