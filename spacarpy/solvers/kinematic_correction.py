@@ -231,13 +231,16 @@ class KinematicCorrector:
 
         def mismatch(x, full):
             # the deformations alone where the Jacobian is not needed (a chord iteration
-            # with the kept square factorization): a third of the kernel's work
-            if full or any(g.kind.deformations is None for g in num.groups):
+            # with the kept square factorization): a third of the kernel's work; a kind
+            # without a deformations kernel (HINGE) gives its full state's
+            if full:
                 states = full_states(x)
                 e = [st.e for st in states]
             else:
                 states = None
-                e = [g.kind.deformations(x[g.idx], g.ref, self.variant, g.prev)
+                e = [g.kind.state(x[g.idx], g.ref, self.variant, g.prev).e
+                     if g.kind.deformations is None else
+                     g.kind.deformations(x[g.idx], g.ref, self.variant, g.prev)
                      for g in num.groups]
             g_e = [(t - ei) * w for t, ei, w in zip(targets, e, inv_scale)]
             g_q = 1.0 - np.sum(x[eu] ** 2, axis=1)

@@ -38,13 +38,14 @@ def bordered_solve(prob, A, rhs):
     return dz, lu
 
 
-def newton(prob, x, mu, load: LoadState, opts):
+def newton(prob, x, mu, load: LoadState, opts, states=None):
     """Newton iterations from (x, mu) under ``load`` (``opts``: max_iter, tol; a
-    :class:`~spacarpy.solvers.static.StaticOptions`). Returns (x, mu, its, res, history) on
-    success, raises :class:`~spacarpy.solvers.errors.StepFailed` otherwise."""
+    :class:`~spacarpy.solvers.static.StaticOptions`). ``states`` are the kernel states at
+    exactly this x where the caller has them (:meth:`Predictor.with_states`). Returns (x,
+    mu, its, res, history) on success, raises :class:`~spacarpy.solvers.errors.StepFailed`
+    otherwise."""
     history = []
     dx_norm = np.inf
-    states = None
     for it in range(opts.max_iter + 1):
         ev = prob.evaluate(x, mu, load, states)
         r, c = ev.r, ev.c
@@ -120,12 +121,18 @@ class Predictor:
         self.rigid_target = np.zeros(prob.num.n_rigid)
 
     def __call__(self, x, mu, load: LoadState):
+        return self.with_states(x, mu, load)[0]
+
+    def with_states(self, x, mu, load: LoadState):
+        """The start at ``load`` and the kernel states there: ``(x, states)``, states None
+        where they were not computed at that x (give them to :func:`newton`, whose first
+        residual then does not evaluate the kernels again)."""
         prob = self.prob
         num = prob.num
         idx, target = num.prescribed_state(load.a, load.s)
         same_e = np.array_equal(load.rigid_target, self.rigid_target)
         if (not idx.size or np.array_equal(target, x[idx])) and same_e:
-            return x
+            return x, None
         unloaded = dataclasses.replace(load, force=np.zeros(num.n_coord),
                                        moment=np.zeros((prob.loads.moment_rot.size, 3)))
         states = prob.evaluate(x, mu, unloaded).states
@@ -133,7 +140,8 @@ class Predictor:
         moved = x.copy()
         moved[idx] = target
         return prob.correct_kinematics(moved, np.zeros(num.n_unknown), states, max_iter=8,
-                                       rigid_target=None if same_e else load.rigid_target)
+                                       rigid_target=None if same_e else load.rigid_target,
+                                       return_states=True)
 
 
 __all__ = ["Predictor", "bordered_solve", "newton"]

@@ -257,7 +257,8 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
         p = p_from + (t + dt) * (p_to - p_from)
         try:
             load = prob.loads.at(*p)
-            x_new, mu_new, its, res, _ = newton(prob, predictor(x, mu, load), mu, load, opts)
+            x_start, states = predictor.with_states(x, mu, load)
+            x_new, mu_new, its, res, _ = newton(prob, x_start, mu, load, opts, states)
         except StepFailed as fail:
             if dt / 2 < min_dt:
                 lf = p_from[1] + t * (p_to[1] - p_from[1])
