@@ -28,9 +28,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from itertools import accumulate
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from lark import Token
-from lark.exceptions import UnexpectedInput
+import numpy as np
 
 from spacarpy.deck.keywords import (
     KEYWORDS,
@@ -40,8 +40,9 @@ from spacarpy.deck.keywords import (
     KeywordSpec,
 )
 from spacarpy.errors import DeckError, SourceLoc
-from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
-from spacarpy.grammars import lalr_parser
+
+if TYPE_CHECKING:                      # Lark is imported only when a line needs it
+    from lark import Token
 
 __all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"]
 
@@ -50,7 +51,30 @@ logger = logging.getLogger(__name__)
 # The grammar accepts every sequence of tokens, so lexing is all the parsing a deck needs: a
 # record is the tokens of one line (no token spans a line end). Lexing alone is twice as fast as
 # building the parse tree.
-_LARK = lalr_parser(Path(__file__).with_name("grammar.lark"), lexer="basic")
+_GRAMMAR = Path(__file__).with_name("grammar.lark")
+
+
+def _expr():
+    """:mod:`spacarpy.expressions` (and with it Lark), imported at the first line that needs
+    it: a deck of plain lines is read without either."""
+    import spacarpy.expressions
+    return spacarpy.expressions
+
+
+@functools.lru_cache(maxsize=1)
+def _lark():
+    """The compiled grammar, loaded (with Lark) at the first line that is not plain."""
+    from spacarpy.grammars import lalr_parser
+    return lalr_parser(_GRAMMAR, lexer="basic")
+
+
+def _grammar_terminals(names) -> dict:
+    """The regular expressions of some terminals, read from the grammar's text (the fast path
+    needs no Lark; tests/test_deck_fast.py checks them against Lark's compiled ones)."""
+    text = _GRAMMAR.read_text(encoding="utf-8")
+    return {name: re.search(rf"^{name}(?:\.\d+)?:\s*/(.*)/\s*$", text, re.M).group(1)
+            for name in names}
+
 
 # Lark lexes a few ten thousand tokens a second: most of the time of reading a deck of 10^5
 # elements, nearly all of whose lines are a keyword and plain numbers ("BEAM 7 13 14 15 16 0 1 0").
@@ -59,11 +83,20 @@ _LARK = lalr_parser(Path(__file__).with_name("grammar.lark"), lexer="basic")
 # _Reader.plain_record converts the numbers directly. Every other line (words, strings,
 # {expressions}, ranges, unreadable fields, ...) and every plain line that is not simply correct
 # is lexed by Lark and checked by the general code, which reports all errors.
-_TERMINALS = {t.name: t.pattern.to_regexp() for t in _LARK.terminals}
+_TERMINALS = _grammar_terminals(("WORD", "NUMBER", "STRING", "COMMENT"))
 _PLAIN_LINE = re.compile(r"{ws}*(?P<data>{word}(?:{ws}+{number})*){ws}*(?:{comment})?".format(
     ws=r"[^\S\n]", word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"],
     comment=_TERMINALS["COMMENT"]))
 _PLAIN_FIELD = re.compile(r"[^\s#%]+")
+#: The start of every line that is not plain (one scan of a whole text, see _Reader.read).
+_NOT_PLAIN = re.compile(rf"^(?!{_PLAIN_LINE.pattern}$)", re.M)
+_COMMENT_START = re.compile(r"[#%]")
+#: A line of words, numbers and strings (see _simple_tokens), and one such token.
+_SIMPLE_TOKEN = re.compile("(?P<STRING>{string})|(?P<WORD>{word})|(?P<NUMBER>{number})".format(
+    string=_TERMINALS["STRING"], word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"]))
+_ANY_SIMPLE = "(?:{})|(?:{})|(?:{})".format(*(_TERMINALS[k] for k in ("STRING", "WORD", "NUMBER")))
+_SIMPLE_LINE = re.compile(r"{ws}*(?P<data>(?:{tok})(?:{ws}+(?:{tok}))*)?{ws}*(?:{comment})?".format(
+    ws=r"[^\S\n]", tok=_ANY_SIMPLE, comment=_TERMINALS["COMMENT"]))
 _BLANK_LINE = re.compile(r"{ws}*(?:{comment})?".format(ws=r"[^\S\n]",
                                                        comment=_TERMINALS["COMMENT"]))
 #: Keywords whose records always take the general path (module structure, parameters, files).
@@ -82,9 +115,9 @@ _RANGE_PART = re.compile(r"\{[^}]*\}|\d+")
 _GLUED = re.compile(r"([A-Z]+)([+-]?\d[\d.eE+-]*)")
 
 
-@dataclass(frozen=True)
 class Statement:
-    """One checked keyword record of a deck.
+    """One checked keyword record of a deck (read-only by convention; compared and hashed by
+    value).
 
     Attributes
     ----------
@@ -105,15 +138,81 @@ class Statement:
         section.
     origin : str or None
         For statements made by a generator (BEAMS, BEAMARC): its keyword; None otherwise.
+    file, line : str, int
+        ``loc.file`` and ``loc.line``, without making ``loc``.
+
+    The statements of plain lines (a keyword and numbers, the fast path) make ``loc``,
+    ``field_locs`` and ``source_line`` only when asked for (an error, ``spacarpy check``):
+    a deck of 10^5 elements then needs no location objects at all.
     """
 
-    keyword: str
-    fields: tuple
-    loc: SourceLoc
-    field_locs: tuple
-    source_line: str
-    module: int
-    origin: str | None = None
+    __slots__ = ("keyword", "fields", "module", "origin", "file", "line", "_loc",
+                 "_field_locs", "_source_line", "_src")
+
+    def __init__(self, keyword: str, fields: tuple, loc: SourceLoc, field_locs: tuple,
+                 source_line: str, module: int, origin: str | None = None):
+        self.keyword = keyword
+        self.fields = fields
+        self.module = module
+        self.origin = origin
+        self.file = getattr(loc, "file", None)
+        self.line = getattr(loc, "line", None)
+        self._loc = loc
+        self._field_locs = field_locs
+        self._source_line = source_line
+        self._src = None
+
+    @property
+    def loc(self) -> SourceLoc:
+        if self._src is not None:
+            self._locate()
+        return self._loc
+
+    @property
+    def field_locs(self) -> tuple:
+        if self._src is not None:
+            self._locate()
+        return self._field_locs
+
+    @property
+    def source_line(self) -> str:
+        if self._src is not None:
+            self._locate()
+        return self._source_line
+
+    def _locate(self) -> None:
+        """The locations of a fast-path statement, from its line (lexed as the fast path
+        lexed it)."""
+        src, line = self._src, self.line
+        _, columns = _plain_fields(src.raw[line - 1])
+        self._loc = SourceLoc(src.name, line, columns[0])
+        self._field_locs = tuple(SourceLoc(src.name, line, column) for column in columns[1:])
+        self._source_line = src.line(line)
+        self._src = None
+
+    def _key(self) -> tuple:
+        return (self.keyword, self.fields, self.loc, self.field_locs, self.source_line,
+                self.module, self.origin)
+
+    def __eq__(self, other):
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    def __repr__(self) -> str:
+        return ("Statement(" + ", ".join(f"{name}={value!r}" for name, value in zip(
+            ("keyword", "fields", "loc", "field_locs", "source_line", "module", "origin"),
+            self._key())) + ")")
+
+    def replace(self, **changes) -> Statement:
+        """A copy with some attributes changed (as ``dataclasses.replace``)."""
+        values = dict(zip(("keyword", "fields", "loc", "field_locs", "source_line", "module",
+                           "origin"), self._key()))
+        values.update(changes)
+        return Statement(**values)
 
     @property
     def spec(self) -> KeywordSpec:
@@ -251,6 +350,7 @@ def parse_deck(text: str, filename: str = "<deck>", *,
     path = None if filename.startswith("<") else Path(filename)
     with gc_paused():
         reader.read(text, filename, path)
+        reader.flush()
         reader.finish()
     if reader.errors:
         reader.errors.sort(key=lambda it: it[0])
@@ -284,10 +384,10 @@ class _Source:
     name: str                 # as shown in messages
     path: Path | None         # where it is (None for text without a file)
     raw: list[str]            # the lines as read
-    lines: list[str]          # the lines as shown (without a carriage return at the end)
 
     def line(self, n: int) -> str | None:
-        return self.lines[n - 1] if 1 <= n <= len(self.lines) else None
+        """Line n as shown (without a carriage return at the end)."""
+        return self.raw[n - 1].rstrip("\r") if 1 <= n <= len(self.raw) else None
 
 
 @dataclass(frozen=True)
@@ -305,12 +405,38 @@ def _lex_line(source: _Source, number: int) -> _Record | None:
     UnexpectedInput
         Not expected: every character is some token.
     """
-    tokens = list(_LARK.lex(source.raw[number - 1]))
+    line = source.raw[number - 1]
+    tokens = _simple_tokens(line, number)
+    if tokens is None:
+        tokens = list(_lark().lex(line))
+        for tok in tokens:
+            tok.line = tok.end_line = number
     if not tokens:
         return None
-    for tok in tokens:
-        tok.line = tok.end_line = number
     return _Record(tokens[0], tuple(tokens[1:]), source)
+
+
+class _Token(str):
+    """A token of :func:`_simple_tokens`: the text with the attributes of a Lark ``Token``
+    that the parser uses (type, line, column, end_line, end_column)."""
+
+
+def _simple_tokens(line: str, number: int):
+    """The tokens of a line of words, numbers and strings only (``DEFORMATIONS modified``,
+    ``END``, ``EXPECT run.exit_code 1``), as Lark lexes them, without Lark; None for any
+    other line (expressions, ranges, unreadable fields): Lark lexes those."""
+    simple = _SIMPLE_LINE.fullmatch(line)
+    if simple is None:
+        return None
+    tokens = []
+    for m in _SIMPLE_TOKEN.finditer(line, *simple.span("data")):
+        tok = _Token(m.group())
+        tok.type = m.lastgroup
+        tok.line = tok.end_line = number
+        tok.column = m.start() + 1
+        tok.end_column = m.end() + 1
+        tokens.append(tok)
+    return tokens
 
 
 def _plain_fields(line: str):
@@ -427,6 +553,68 @@ def _plain_kinds(keyword: str, data_module: bool, n: int):
     return tuple((f.kind, f.positive) for f in specs)
 
 
+class _PlainStatement(Statement):
+    """A statement of the fast path: its locations are made from its line when asked for."""
+
+    __slots__ = ()
+
+    def __init__(self, keyword: str, fields: tuple, module: int, src: _Source, line: int):
+        self.keyword = keyword
+        self.fields = fields
+        self.module = module
+        self.origin = None
+        self.file = src.name
+        self.line = line
+        self._src = src
+
+
+class _Batch:
+    """The plain lines of one keyword, field count, module and file, their numbers converted
+    together (:meth:`convert`)."""
+
+    def __init__(self, keyword: str, kinds: tuple, module: int, source: _Source):
+        self.keyword, self.kinds, self.module, self.source = keyword, kinds, module, source
+        self.slots: list[int] = []      # where each statement goes in the output
+        self.orders: list[int] = []     # the record order of each line (sort key of errors)
+        self.numbers: list[int] = []    # the line numbers
+        self.texts: list[str] = []      # the fields' texts, line after line
+
+    def add(self, slot: int, order: int, number: int, parts: list) -> None:
+        self.slots.append(slot)
+        self.orders.append(order)
+        self.numbers.append(number)
+        self.texts.extend(parts[1:])
+
+    def convert(self):
+        """``(fields, ok)``: the fields tuple of every line, and for each whether it is
+        simply correct (None: all are). Converts as :meth:`_Reader.convert` does a NUMBER:
+        float fields finite, int fields whole, at most _INT_LIMIT in magnitude, and at least
+        1 where positive."""
+        n_fields, n_rows = len(self.kinds), len(self.slots)
+        if n_fields == 0:
+            return [()] * n_rows, None
+        try:
+            values = list(map(float, self.texts))
+        except ValueError:              # a Fortran exponent (1.0D-3) somewhere
+            values = list(map(_number, self.texts))
+        table = np.array(values, dtype=float).reshape(n_rows, n_fields)
+        ok = np.ones(n_rows, dtype=bool)
+        columns = []
+        with np.errstate(invalid="ignore"):
+            for j, (kind, positive) in enumerate(self.kinds):
+                col = table[:, j]
+                if kind == "float":
+                    ok &= np.isfinite(col)
+                    columns.append(values[j::n_fields])
+                    continue
+                good = (np.floor(col) == col) & (np.abs(col) <= _INT_LIMIT)
+                if positive:
+                    good &= col >= 1
+                ok &= good
+                columns.append(np.where(good, col, 0.0).astype(np.int64).tolist())
+        return list(zip(*columns)), (None if ok.all() else ok.tolist())
+
+
 class _Reader:
     """Reads files record by record: module structure, parameters, includes, all errors."""
 
@@ -449,6 +637,8 @@ class _Reader:
         self.unknown_uses: list = []    # (error index, name) of unknown parameters
         self.last: tuple[_Source, int] | None = None   # where the last record is (file, line)
         self.stack: list[Path] = []     # files being read (include cycle detection)
+        self.kinds_of: dict = {}        # (keyword as written, tokens, module) -> _plain_kinds
+        self.batches: dict = {}         # plain lines waiting for conversion (see flush)
 
     # ---------------------------------------------------------------- errors
     def error(self, loc: SourceLoc | None, message: str, source: _Source | None = None) -> None:
@@ -463,22 +653,59 @@ class _Reader:
     # ---------------------------------------------------------------- files
     def read(self, text: str, name: str, path: Path | None) -> None:
         raw = text.split("\n")
-        source = _Source(name, path, raw, [ln.rstrip("\r") for ln in raw])
+        source = _Source(name, path, raw)
         if path is not None:
             self.stack.append(path.resolve())
+        # the lines that are not plain (blank, comments only, words, strings, expressions,
+        # ...), found by one scan of the text; every other line is a keyword and numbers
+        general = np.zeros(len(raw) + 1, dtype=bool)
+        if len(raw) > 1:
+            lengths = np.fromiter(map(len, raw), dtype=np.int64, count=len(raw))
+            starts = np.concatenate(([0], np.cumsum(lengths + 1)[:-1]))
+            at = np.fromiter((m.start() for m in _NOT_PLAIN.finditer(text)), dtype=np.int64)
+            general[np.searchsorted(starts, at) + 1] = True
+        else:
+            general[1] = _PLAIN_LINE.fullmatch(raw[0]) is None
+        general = general.tolist()
+        kinds_of = self.kinds_of
         try:
-            for number in range(1, len(raw) + 1):
+            number = 0
+            for line in raw:
+                number += 1
                 if self.stopped:
                     break
-                plain = _plain_fields(raw[number - 1])
-                if plain is None and _BLANK_LINE.fullmatch(raw[number - 1]):
+                if not general[number] and not (self.visual or self.closed):
+                    # the fast path: a keyword and numbers; the numbers are converted in
+                    # batches (flush), the location kept as the line number
+                    if "#" in line or "%" in line:
+                        line = _COMMENT_START.split(line, 1)[0]
+                    parts = line.split()
+                    key = (parts[0], len(parts), self.module)
+                    kinds = kinds_of.get(key, False)
+                    if kinds is False:
+                        kinds = kinds_of[key] = _plain_kinds(parts[0].upper(), self.module >= 1,
+                                                             len(parts) - 1)
+                    self.order += 1
+                    if kinds is not None:
+                        batch = self.batches.get((key, id(source)))
+                        if batch is None:
+                            batch = self.batches[(key, id(source))] = _Batch(
+                                parts[0].upper(), kinds, self.module, source)
+                        batch.add(len(self.out), self.order, number, parts)
+                        self.out.append(None)
+                        self.prev_end = False
+                        self.last = (source, number)
+                        continue
+                elif _BLANK_LINE.fullmatch(line):
                     continue
-                self.order += 1
-                if plain is not None and self.plain_record(source, number, *plain):
-                    continue
+                else:
+                    self.order += 1
                 try:
                     rec = _lex_line(source, number)
-                except UnexpectedInput as exc:  # pragma: no cover - every character is some token
+                except Exception as exc:  # pragma: no cover - every character is some token
+                    from lark.exceptions import UnexpectedInput
+                    if not isinstance(exc, UnexpectedInput):
+                        raise
                     col = getattr(exc, "column", None)
                     col = col if isinstance(col, int) and col > 0 else 1
                     self.errors.append(((1, self.order, 0), SourceLoc(name, number, col),
@@ -488,6 +715,42 @@ class _Reader:
         finally:
             if path is not None:
                 self.stack.pop()
+
+    def flush(self) -> None:
+        """Convert the batched plain lines (see read) and put their statements in place. A
+        line whose numbers do not fit its fields (a float for a whole number, a non-finite
+        number, ...) is checked by the general path instead, which reports what is wrong."""
+        again = []
+        for batch in self.batches.values():
+            fields, ok = batch.convert()
+            make = _PlainStatement
+            keyword, module, src, out = batch.keyword, batch.module, batch.source, self.out
+            if ok is None:
+                for slot, row, number in zip(batch.slots, fields, batch.numbers):
+                    out[slot] = make(keyword, row, module, src, number)
+                continue
+            for i, (slot, row, number) in enumerate(zip(batch.slots, fields, batch.numbers)):
+                if ok[i]:
+                    out[slot] = make(keyword, row, module, src, number)
+                else:
+                    again.append((batch.orders[i], slot, number, batch))
+        self.batches.clear()
+        if not again:
+            return
+        order, out = self.order, self.out
+        for self.order, slot, number, batch in sorted(again, key=lambda a: a[0]):
+            self.out = []
+            rec = _lex_line(batch.source, number)
+            keyword = str(rec.head).upper()
+            spec = KEYWORDS[keyword]
+            if spec.data_form is not None and batch.module >= 1:
+                spec = spec.data_form
+            converted = self.check_fields(rec, keyword, spec)
+            if converted is not None:
+                self.emit(rec, keyword, converted, batch.module)
+            out[slot] = self.out
+        self.order, self.out = order, [x for item in out for x in
+                                       (item if isinstance(item, list) else (item,))]
 
     def last_record(self) -> _Record | None:
         """The last record read (lexed again: the fast path keeps no tokens)."""
@@ -609,36 +872,6 @@ class _Reader:
         if converted is not None:
             self.emit(rec, keyword, converted, this_module)
 
-    def plain_record(self, source: _Source, number: int, texts: list, columns: list) -> bool:
-        """The fast path of :meth:`record` for a line of a keyword and plain numbers (see
-        _PLAIN_LINE): True if it was a simply correct record and its statement is out; False if
-        it needs the general path (which reports what is wrong with it)."""
-        if self.visual or self.closed:
-            return False
-        keyword = texts[0].upper()
-        kinds = _plain_kinds(keyword, self.module >= 1, len(texts) - 1)
-        if kinds is None:
-            return False
-        values = []
-        for text, (kind, positive) in zip(texts[1:], kinds):
-            value = _number(text)           # as convert() does
-            if kind == "float":
-                if not math.isfinite(value):
-                    return False
-            elif value.is_integer() and abs(value) <= _INT_LIMIT and (value >= 1 or not positive):
-                value = int(value)
-            else:
-                return False
-            values.append(value)
-        name = source.name
-        self.out.append(Statement(
-            keyword=keyword, fields=tuple(values), loc=SourceLoc(name, number, columns[0]),
-            field_locs=tuple(SourceLoc(name, number, column) for column in columns[1:]),
-            source_line=source.lines[number - 1], module=self.module))
-        self.prev_end = False
-        self.last = (source, number)
-        return True
-
     def emit(self, rec: _Record, keyword: str, converted: list, module: int) -> None:
         """Output the statements of a record: ``converted`` is a list of
         ``(fields, field_locs)``, one per statement (see check_fields)."""
@@ -735,7 +968,7 @@ class _Reader:
             self.error(loc, f"SET: '{name}' is not a valid parameter name (letters, digits and "
                             "'_', starting with a letter)", rec.source)
             return False
-        if name in RESERVED_NAMES:
+        if name in _expr().RESERVED_NAMES:
             self.error(loc, f"SET: '{name}' is a built-in name and cannot be set", rec.source)
             return False
         if name in self.params:
@@ -751,13 +984,13 @@ class _Reader:
                 if isinstance(override, (int, float)) and not isinstance(override, bool):
                     value = float(override)
                     if not math.isfinite(value):
-                        raise ExpressionError(0, "not a finite number")
+                        raise _expr().ExpressionError(0, "not a finite number")
                 else:
                     text = str(override).strip()
                     if text.startswith("{") and text.endswith("}"):
                         text = text[1:-1]
-                    value = evaluate(text, self.params)
-            except ExpressionError as exc:
+                    value = _expr().evaluate(text, self.params)
+            except _expr().ExpressionError as exc:
                 # reported; the deck's own value is kept so that later lines are still checked
                 self.error(None, f"--set {name}={override}: {exc.message}")
         self.params[name] = value
@@ -829,8 +1062,8 @@ class _Reader:
         """Evaluate an {expression} field (or the part ``text`` of a range at ``offset``)."""
         text = str(tok)[1:-1] if text is None else text
         try:
-            return evaluate(text, self.params)
-        except ExpressionError as exc:
+            return _expr().evaluate(text, self.params)
+        except _expr().ExpressionError as exc:
             if exc.unknown_name is not None:
                 self.unknown_uses.append((len(self.errors), exc.unknown_name))
             raise _FieldError(index, exc.message, offset + 1 + exc.offset) from None
@@ -846,7 +1079,7 @@ class _Reader:
             return value
         if tok.type == "EXPR":
             value = self.expression(tok, index)
-            whole = whole_number(value, 0.0)
+            whole = _expr().whole_number(value, 0.0)
             return whole if whole is not None and abs(whole) <= _INT_LIMIT else value
         if tok.type == "STRING":
             return str(tok)[1:-1]
@@ -878,7 +1111,7 @@ class _Reader:
     def whole(self, value: float, tok: Token, spec: FieldSpec, keyword: str, index: int) -> int:
         # int: a float with zero fractional part is accepted (SPACAR writes 5.000000); an
         # expression may be off by round-off ({0.1*30} is 3)
-        ivalue = whole_number(value, 0.0 if tok.type == "NUMBER" else 1e-9)
+        ivalue = _expr().whole_number(value, 0.0 if tok.type == "NUMBER" else 1e-9)
         if ivalue is None:
             if tok.type == "EXPR":
                 raise _FieldError(index, f"{keyword}: the {spec.name} must be a whole number, "
@@ -901,7 +1134,7 @@ class _Reader:
             offset = str(tok).index(part, offset)
             if part.startswith("{"):
                 value = self.expression(tok, index, part[1:-1], offset)
-                ivalue = whole_number(value)
+                ivalue = _expr().whole_number(value)
                 if ivalue is None:
                     raise _FieldError(index, f"{keyword}: the range '{tok}' needs whole "
                                              f"numbers, but {part} = {value:.10g}", offset)
