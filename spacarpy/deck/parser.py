@@ -88,8 +88,10 @@ _PLAIN_LINE = re.compile(r"{ws}*(?P<data>{word}(?:{ws}+{number})*){ws}*(?:{comme
     ws=r"[^\S\n]", word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"],
     comment=_TERMINALS["COMMENT"]))
 _PLAIN_FIELD = re.compile(r"[^\s#%]+")
-#: The start of every line that is not plain (one scan of a whole text, see _Reader.read).
-_NOT_PLAIN = re.compile(rf"^(?!{_PLAIN_LINE.pattern}$)", re.M)
+_WORD = re.compile(_TERMINALS["WORD"])
+_NUMBER = re.compile(_TERMINALS["NUMBER"])
+#: A character that no NUMBER of the fast path has (see _Batch.convert).
+_NOT_NUMBER_CHAR = re.compile(r"[^0-9+\-.eEdD]")
 _COMMENT_START = re.compile(r"[#%]")
 #: A line of words, numbers and strings (see _simple_tokens), and one such token.
 _SIMPLE_TOKEN = re.compile("(?P<STRING>{string})|(?P<WORD>{word})|(?P<NUMBER>{number})".format(
@@ -195,7 +197,7 @@ class Statement:
                 self.module, self.origin)
 
     def __eq__(self, other):
-        if other.__class__ is not self.__class__:
+        if not isinstance(other, Statement):
             return NotImplemented
         return self._key() == other._key()
 
@@ -538,10 +540,14 @@ def _field_specs(spec: KeywordSpec, n: int):
 
 
 @functools.lru_cache(maxsize=1024)
-def _plain_kinds(keyword: str, data_module: bool, n: int):
-    """For the fast path: ``(kind, positive)`` of each of the n fields of a record of
-    ``keyword``, or None if such a record takes the general path (module structure, an unknown
-    keyword, a wrong field count, a field that is not a number)."""
+def _plain_kinds(word: str, data_module: bool, n: int):
+    """For the fast path: ``(kind, positive)`` of each of the n fields of a record whose first
+    token is ``word``, or None if such a record takes the general path (not a keyword,
+    module structure, an unknown keyword, a wrong field count, a field that is not a
+    number)."""
+    if _WORD.fullmatch(word) is None:
+        return None
+    keyword = word.upper()
     spec = KEYWORDS.get(keyword)
     if spec is None or keyword in _GENERAL_KEYWORDS:
         return None
@@ -568,37 +574,60 @@ class _PlainStatement(Statement):
         self._src = src
 
 
+class _RangeStatement(Statement):
+    """A statement of a range after the first: the first one's places, other fields."""
+
+    __slots__ = ()
+
+    def __init__(self, first: Statement, fields: tuple):
+        self.keyword = first.keyword
+        self.fields = fields
+        self.module = first.module
+        self.origin = None
+        self.file = first.file
+        self.line = first.line
+        self._loc = first._loc
+        self._field_locs = first._field_locs
+        self._source_line = first._source_line
+        self._src = None
+
+
 class _Batch:
-    """The plain lines of one keyword, field count, module and file, their numbers converted
-    together (:meth:`convert`)."""
+    """The lines of one keyword, field count, module and file that may be plain (a keyword
+    and numbers), their numbers converted together (:meth:`convert`)."""
 
     def __init__(self, keyword: str, kinds: tuple, module: int, source: _Source):
         self.keyword, self.kinds, self.module, self.source = keyword, kinds, module, source
-        self.slots: list[int] = []      # where each statement goes in the output
-        self.orders: list[int] = []     # the record order of each line (sort key of errors)
-        self.numbers: list[int] = []    # the line numbers
+        self.where: list[tuple] = []    # (output slot, record order, line number) per line
         self.texts: list[str] = []      # the fields' texts, line after line
 
-    def add(self, slot: int, order: int, number: int, parts: list) -> None:
-        self.slots.append(slot)
-        self.orders.append(order)
-        self.numbers.append(number)
-        self.texts.extend(parts[1:])
-
     def convert(self):
-        """``(fields, ok)``: the fields tuple of every line, and for each whether it is
-        simply correct (None: all are). Converts as :meth:`_Reader.convert` does a NUMBER:
-        float fields finite, int fields whole, at most _INT_LIMIT in magnitude, and at least
-        1 where positive."""
-        n_fields, n_rows = len(self.kinds), len(self.slots)
+        """``(fields, ok)``: the fields tuple of every line, and for each whether it is a
+        plain line (a keyword and NUMBERs) and simply correct (None: all are). Converts as
+        :meth:`_Reader.convert` converts a NUMBER: float fields finite, int fields whole, at
+        most _INT_LIMIT in magnitude, and at least 1 where positive. A text of the characters
+        of numbers only is a NUMBER exactly when float() (or _number, for a Fortran exponent)
+        reads it; any other text is checked against the grammar's NUMBER."""
+        n_fields, n_rows = len(self.kinds), len(self.where)
         if n_fields == 0:
             return [()] * n_rows, None
-        try:
-            values = list(map(float, self.texts))
-        except ValueError:              # a Fortran exponent (1.0D-3) somewhere
-            values = list(map(_number, self.texts))
-        table = np.array(values, dtype=float).reshape(n_rows, n_fields)
+        texts = self.texts
         ok = np.ones(n_rows, dtype=bool)
+        try:
+            if _NOT_NUMBER_CHAR.search("".join(texts)):
+                raise ValueError
+            values = list(map(float, texts))
+        except ValueError:              # a Fortran exponent, or a field that is no NUMBER
+            values = []
+            for i, text in enumerate(texts):
+                try:
+                    if _NUMBER.fullmatch(text) is None:
+                        raise ValueError
+                    values.append(_number(text))
+                except ValueError:
+                    values.append(0.0)
+                    ok[i // n_fields] = False
+        table = np.array(values, dtype=float).reshape(n_rows, n_fields)
         columns = []
         with np.errstate(invalid="ignore"):
             for j, (kind, positive) in enumerate(self.kinds):
@@ -637,7 +666,6 @@ class _Reader:
         self.unknown_uses: list = []    # (error index, name) of unknown parameters
         self.last: tuple[_Source, int] | None = None   # where the last record is (file, line)
         self.stack: list[Path] = []     # files being read (include cycle detection)
-        self.kinds_of: dict = {}        # (keyword as written, tokens, module) -> _plain_kinds
         self.batches: dict = {}         # plain lines waiting for conversion (see flush)
 
     # ---------------------------------------------------------------- errors
@@ -656,50 +684,44 @@ class _Reader:
         source = _Source(name, path, raw)
         if path is not None:
             self.stack.append(path.resolve())
-        # the lines that are not plain (blank, comments only, words, strings, expressions,
-        # ...), found by one scan of the text; every other line is a keyword and numbers
-        general = np.zeros(len(raw) + 1, dtype=bool)
-        if len(raw) > 1:
-            lengths = np.fromiter(map(len, raw), dtype=np.int64, count=len(raw))
-            starts = np.concatenate(([0], np.cumsum(lengths + 1)[:-1]))
-            at = np.fromiter((m.start() for m in _NOT_PLAIN.finditer(text)), dtype=np.int64)
-            general[np.searchsorted(starts, at) + 1] = True
-        else:
-            general[1] = _PLAIN_LINE.fullmatch(raw[0]) is None
-        general = general.tolist()
-        kinds_of = self.kinds_of
+        # the fast path, for a line that may be a keyword and numbers: its numbers are
+        # converted in a batch (flush), which sends a line that is not simply correct back to
+        # the general path (lexed, checked and reported as any other line). The reader's state
+        # is kept in locals between general records, which are the only ones to change it.
+        batch_of: dict = {}             # (first word, tokens, module) -> _Batch or None
+        out = self.out
+        order, module = self.order, self.module
+        fast = not (self.visual or self.closed)
+        last_fast = 0                   # the last line batched since the last general record
         try:
             number = 0
             for line in raw:
                 number += 1
-                if self.stopped:
-                    break
-                if not general[number] and not (self.visual or self.closed):
-                    # the fast path: a keyword and numbers; the numbers are converted in
-                    # batches (flush), the location kept as the line number
-                    if "#" in line or "%" in line:
-                        line = _COMMENT_START.split(line, 1)[0]
-                    parts = line.split()
-                    key = (parts[0], len(parts), self.module)
-                    kinds = kinds_of.get(key, False)
-                    if kinds is False:
-                        kinds = kinds_of[key] = _plain_kinds(parts[0].upper(), self.module >= 1,
-                                                             len(parts) - 1)
-                    self.order += 1
-                    if kinds is not None:
-                        batch = self.batches.get((key, id(source)))
-                        if batch is None:
-                            batch = self.batches[(key, id(source))] = _Batch(
-                                parts[0].upper(), kinds, self.module, source)
-                        batch.add(len(self.out), self.order, number, parts)
-                        self.out.append(None)
-                        self.prev_end = False
-                        self.last = (source, number)
-                        continue
-                elif _BLANK_LINE.fullmatch(line):
-                    continue
+                if "#" in line or "%" in line:
+                    data = _COMMENT_START.split(line, 1)[0]
+                    parts = data.split()
+                    if not parts and not _BLANK_LINE.fullmatch(line):
+                        parts = None       # not blank after all (not expected)
                 else:
-                    self.order += 1
+                    parts = line.split()
+                if not parts:
+                    if parts is not None:
+                        continue           # blank, or a comment only
+                elif fast and ":" not in line and "{" not in line and '"' not in line:
+                    key = (parts[0], len(parts), module)
+                    batch = batch_of.get(key, False)
+                    if batch is False:
+                        batch = batch_of[key] = self.batch(parts[0], len(parts) - 1, source)
+                    if batch is not None:
+                        order += 1
+                        batch.where.append((len(out), order, number))
+                        batch.texts.extend(parts[1:])
+                        out.append(None)
+                        last_fast = number
+                        continue
+                if last_fast:
+                    self.prev_end, self.last, last_fast = False, (source, last_fast), 0
+                self.order = order + 1
                 try:
                     rec = _lex_line(source, number)
                 except Exception as exc:  # pragma: no cover - every character is some token
@@ -712,42 +734,67 @@ class _Reader:
                                         "cannot read this line", source.line(number)))
                     break
                 self.record(rec)
+                if self.stopped:
+                    break
+                order, fast = self.order, not (self.visual or self.closed)
+                if self.module != module:
+                    module, batch_of = self.module, {}
         finally:
+            if last_fast:
+                self.prev_end, self.last = False, (source, last_fast)
+            self.order = order
             if path is not None:
                 self.stack.pop()
 
+    def batch(self, word: str, n_fields: int, source: _Source):
+        """The batch of the lines of ``word`` with n fields in the current module of
+        ``source``, or None if such lines take the general path."""
+        kinds = _plain_kinds(word, self.module >= 1, n_fields)
+        if kinds is None:
+            return None
+        key = (word.upper(), n_fields, self.module, id(source))
+        batch = self.batches.get(key)
+        if batch is None:
+            batch = self.batches[key] = _Batch(key[0], kinds, self.module, source)
+        return batch
+
     def flush(self) -> None:
-        """Convert the batched plain lines (see read) and put their statements in place. A
-        line whose numbers do not fit its fields (a float for a whole number, a non-finite
-        number, ...) is checked by the general path instead, which reports what is wrong."""
+        """Convert the batched lines (see read) and put their statements in place. A line
+        that is not a keyword and NUMBERs, or whose numbers do not fit its fields (a float for
+        a whole number, a non-finite number, ...), is read by the general path instead, which
+        reports what is wrong."""
         again = []
+        out = self.out
         for batch in self.batches.values():
             fields, ok = batch.convert()
             make = _PlainStatement
-            keyword, module, src, out = batch.keyword, batch.module, batch.source, self.out
+            keyword, module, src = batch.keyword, batch.module, batch.source
             if ok is None:
-                for slot, row, number in zip(batch.slots, fields, batch.numbers):
+                for (slot, _, number), row in zip(batch.where, fields):
                     out[slot] = make(keyword, row, module, src, number)
                 continue
-            for i, (slot, row, number) in enumerate(zip(batch.slots, fields, batch.numbers)):
-                if ok[i]:
+            for good, (slot, order, number), row in zip(ok, batch.where, fields):
+                if good:
                     out[slot] = make(keyword, row, module, src, number)
                 else:
-                    again.append((batch.orders[i], slot, number, batch))
+                    again.append((order, slot, number, batch))
         self.batches.clear()
         if not again:
             return
-        order, out = self.order, self.out
+        order = self.order
         for self.order, slot, number, batch in sorted(again, key=lambda a: a[0]):
             self.out = []
             rec = _lex_line(batch.source, number)
-            keyword = str(rec.head).upper()
-            spec = KEYWORDS[keyword]
-            if spec.data_form is not None and batch.module >= 1:
-                spec = spec.data_form
-            converted = self.check_fields(rec, keyword, spec)
-            if converted is not None:
-                self.emit(rec, keyword, converted, batch.module)
+            if rec.head.type != "WORD":
+                self.not_a_keyword(rec)
+            else:
+                keyword = str(rec.head).upper()
+                spec = KEYWORDS[keyword]
+                if spec.data_form is not None and batch.module >= 1:
+                    spec = spec.data_form
+                converted = self.check_fields(rec, keyword, spec)
+                if converted is not None:
+                    self.emit(rec, keyword, converted, batch.module)
             out[slot] = self.out
         self.order, self.out = order, [x for item in out for x in
                                        (item if isinstance(item, list) else (item,))]
@@ -877,9 +924,10 @@ class _Reader:
         ``(fields, field_locs)``, one per statement (see check_fields)."""
         loc = self.loc(rec, rec.head)
         source_line = rec.source.line(rec.head.line) or ""
-        for fields, locs in converted:
-            self.out.append(Statement(keyword=keyword, fields=fields, loc=loc, field_locs=locs,
-                                      source_line=source_line, module=module))
+        first = Statement(keyword, converted[0][0], loc, converted[0][1], source_line, module)
+        self.out.append(first)
+        if len(converted) > 1:          # a range: one statement per number, the same places
+            self.out.extend([_RangeStatement(first, fields) for fields, _ in converted[1:]])
 
     def visualization(self, rec: _Record, keyword: str) -> None:
         if not self.visual:

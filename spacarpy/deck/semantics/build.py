@@ -14,6 +14,7 @@ are none, the warnings are logged and the parts are assembled into the model and
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import replace
 
 from spacarpy.deck.generators import expand_generators
@@ -37,6 +38,27 @@ __all__ = ["build_job", "build_model"]
 logger = logging.getLogger(__name__)
 
 
+class _Locs(Sequence):
+    """The locations of the element lines (``ElementSet.locs``), made when asked for: most
+    runs never look at them (see :class:`spacarpy.deck.parser.Statement`)."""
+
+    def __init__(self, statements: list):
+        self._statements = statements
+
+    def __len__(self) -> int:
+        return len(self._statements)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [st.loc for st in self._statements[i]]
+        return self._statements[i].loc
+
+    def __eq__(self, other) -> bool:
+        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
+
+    __hash__ = None
+
+
 def _element_sets(topology: _topology.Topology) -> dict:
     """The element records as one :class:`ElementSet` per kind, in the registry's order."""
     by_kind: dict[str, list] = {}
@@ -51,7 +73,7 @@ def _element_sets(topology: _topology.Topology) -> dict:
                 vector=[b.orientation for b in els], def_class=[b.def_class for b in els],
                 stiffness=[b.stiffness for b in els],
                 has_stiffness=[b.estiff is not None for b in els],
-                mass=[b.mass for b in els], locs=[b.st.loc for b in els])
+                mass=[b.mass for b in els], locs=_Locs([b.st for b in els]))
     return sets
 
 

@@ -66,9 +66,9 @@ class _ElementDataPass(UsesTopology):
                            st)
                 continue
             beam.def_class[k - 1] = cls
-            beam.class_line[k - 1] = st.loc.line
+            beam.class_line[k - 1] = st.line
             if cls == FLEXIBLE:
-                beam.flex_locs.setdefault(k, st.field_locs[i])
+                beam.flex_locs.setdefault(k, (st, i))
 
     def _repeated(self, st: Statement, first: Statement | None) -> bool:
         if first is not None:
@@ -151,7 +151,7 @@ class _ElementDataPass(UsesTopology):
                 continue
             info = beam.info
             if beam.estiff is None:
-                loc = beam.flex_locs[modes[0]]
+                loc = beam.flex_loc(modes[0])
                 what = (f"mode {modes[0]} is" if len(modes) == 1
                         else "modes " + " ".join(map(str, modes)) + " are")
                 self.error(loc, f"element {beam.id} {what} flexible (DYNE) but "
@@ -169,10 +169,10 @@ class _ElementDataPass(UsesTopology):
                 names = sorted({names_all[mode_k[m - 1]] for m in zero}, key=names_all.index)
                 what = (f"mode {k} is" if len(zero) == 1
                         else "modes " + " ".join(map(str, zero)) + " are")
-                self.error(beam.flex_locs[k],
+                self.error(beam.flex_loc(k),
                            f"element {beam.id} {what} flexible (DYNE) but the stiffness "
                            f"{' '.join(names)} is zero in ESTIFF (line "
-                           f"{beam.estiff.loc.line})", self.errors.line_at(beam.flex_locs[k]))
+                           f"{beam.estiff.loc.line})", self.errors.line_at(beam.flex_loc(k)))
 
     def edamp(self, st: Statement) -> None:
         """``EDAMP e d1 [d2 ...]``: viscous damping coefficients of the deformation modes

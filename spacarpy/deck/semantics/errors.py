@@ -28,7 +28,7 @@ class ErrorCollector:
         self.by_line: dict = {}            # (file, line) -> first statement on it
         self.rank: dict = {}               # (file, line) -> position in deck order
         for st in statements:
-            key = (st.loc.file, st.loc.line)
+            key = (st.file, st.line)
             if key not in self.rank:
                 self.by_line[key] = st
                 self.rank[key] = len(self.rank)
@@ -53,7 +53,7 @@ class ErrorCollector:
 
     def order(self, st: Statement) -> int:
         """The position of a statement's line in deck order."""
-        return self.rank[(st.loc.file, st.loc.line)]
+        return self.rank[(st.file, st.line)]
 
     def sorted(self) -> list:
         """The errors in deck order. Errors that a range or generator line repeats for each of

@@ -93,11 +93,17 @@ class ElementRecord:
         n_def = info["n_def"]
         self.def_class = [RIGID] * n_def
         self.class_line = [0] * n_def      # line of the DYNE/RLSE that set each mode
-        self.flex_locs: dict[int, SourceLoc] = {}   # mode -> where it was made flexible
+        self.flex_locs: dict[int, tuple] = {}   # mode -> (DYNE statement, field index)
         self.stiffness = (0.0,) * (6 if st.keyword == "BEAM" else 3)
         self.estiff: Statement | None = None
         self.mass = (0.0,) * 5
         self.em: Statement | None = None
+
+
+    def flex_loc(self, mode: int) -> SourceLoc:
+        """Where mode (1-based) was made flexible: the field of its first DYNE line."""
+        st, i = self.flex_locs[mode]
+        return st.field_locs[i]
 
 
 class Topology(Part):
