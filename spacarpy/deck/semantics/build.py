@@ -89,12 +89,17 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     statements = [st for st in statements if st.module >= 0]
     by_kw: dict[str, list[Statement]] = {}
     for st in statements:
-        by_kw.setdefault(st.keyword, []).append(st)
-        if st.keyword in UNSUPPORTED:
+        sts = by_kw.get(st.keyword)
+        if sts is None:
+            sts = by_kw[st.keyword] = []
+        sts.append(st)
+    for keyword in UNSUPPORTED:
+        for st in by_kw.get(keyword, ()):
             errors.error(st.loc, unsupported_message(st.keyword), st)
     # a planar model: PLBEAM/PLTRUSS/PLHINGE only, nodes in the x-y plane
     ctx = DeckContext(path, statements, planar=any(kw in by_kw for kw in PLANAR_KINDS),
                       quiet_elements=quiet_elements, quiet_nodes=quiet_nodes)
+    ctx.by_keyword = by_kw
 
     topology = _topology.from_statements(by_kw, ctx, errors)
     element_data = _element_data.from_statements(by_kw, ctx, errors, topology)

@@ -9,6 +9,8 @@ once the fixes are known, position nodes no element uses.
 """
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 
 from spacarpy.deck.keywords import KEYWORDS, UNKNOWN_LAYOUT_ELEMENTS, UNSUPPORTED_ELEMENTS
@@ -52,13 +54,27 @@ def _element_name(st: Statement, e: int) -> str:
     return f"element {e}" + (f" (made by the {st.origin} line)" if st.origin else "")
 
 
+def _picker(indices):
+    """A function giving the tuple of the items at ``indices`` of a sequence."""
+    if len(indices) > 1:
+        return operator.itemgetter(*indices)
+    return lambda values: tuple(values[i] for i in indices)
+
+
 def _kind_info(kind) -> dict:
     """What the semantics check of an element kind, from its declaration: number of
     deformation modes, index of the first vector field (orientation / hinge axis) or None,
     allowed ESTIFF value counts, the stiffness names, which ESTIFF value carries each mode's
     stiffness, and whether (and how much) EM applies."""
     est, em = kind.estiff, kind.em
+    roles = KEYWORDS[kind.keyword].node_roles
     info = dict(n_def=kind.n_def, vector_at=1 + len(kind.slots) if kind.vector else None,
+                roles=roles, mode_stiffnesses=_picker(sorted(set(kind.mode_stiffness))),
+                position_nodes=_picker([i for i, r in enumerate(roles, start=1) if r == "p"]),
+                orientation_nodes=_picker([i for i, r in enumerate(roles, start=1)
+                                           if r == "r"]),
+                position_fields=[i for i, r in enumerate(roles, start=1) if r == "p"],
+                orientation_fields=[i for i, r in enumerate(roles, start=1) if r == "r"],
                 n_estiff=(est.required, est.allowed), stiff_names=est.names,
                 mode_stiffness=kind.mode_stiffness, has_mass=em is not None,
                 estiff_usage=est.usage)
@@ -77,27 +93,29 @@ class ElementRecord:
     data (:mod:`spacarpy.deck.semantics.element_data`) fill in its classes, stiffness and
     mass."""
 
+    # not yet given: the element data replace these (class-wide, immutable) defaults
+    estiff: Statement | None = None
+    mass = (0.0,) * 5
+    em: Statement | None = None
+
     def __init__(self, st: Statement):
         self.st = st
-        self.keyword = st.keyword
-        info = KIND_INFO[st.keyword]
-        self.info = info
-        self.roles = KEYWORDS[st.keyword].node_roles
-        self.id = st.fields[0]
-        self.nodes = list(st.fields[1:1 + len(self.roles)])
-        self.position_nodes = [n for n, r in zip(self.nodes, self.roles) if r == "p"]
+        keyword = self.keyword = st.keyword
+        info = self.info = KIND_INFO[keyword]
+        self.roles = info["roles"]
+        fields = st.fields
+        self.id = fields[0]
+        self.nodes = list(fields[1:1 + len(self.roles)])
+        self.position_nodes = [fields[i] for i in info["position_fields"]]
         at = info["vector_at"]
-        self.vector_given = at is not None and len(st.fields) >= at + 3
-        self.orientation = (tuple(st.fields[at:at + 3]) if self.vector_given
+        self.vector_given = at is not None and len(fields) >= at + 3
+        self.orientation = (tuple(fields[at:at + 3]) if self.vector_given
                             else (np.nan, np.nan, np.nan))
         n_def = info["n_def"]
         self.def_class = [RIGID] * n_def
         self.class_line = [0] * n_def      # line of the DYNE/RLSE that set each mode
         self.flex_locs: dict[int, tuple] = {}   # mode -> (DYNE statement, field index)
-        self.stiffness = (0.0,) * (6 if st.keyword == "BEAM" else 3)
-        self.estiff: Statement | None = None
-        self.mass = (0.0,) * 5
-        self.em: Statement | None = None
+        self.stiffness = (0.0,) * (6 if keyword == "BEAM" else 3)
 
 
     def flex_loc(self, mode: int) -> SourceLoc:
@@ -201,6 +219,17 @@ class Topology(Part):
                 parallel: bool) -> None:
         """An element record of any supported kind; the geometry flags come from
         :meth:`element_geometry`."""
+        positions = self.positions
+        if not (zero_length or b.id in self.elements or b.id in self.foreign_elements
+                or (b.vector_given and (zero_vector or parallel))
+                or (b.keyword == "HINGE" and not b.vector_given)):
+            fields = b.st.fields
+            info = b.info
+            has = positions.__contains__
+            if all(map(has, info["position_nodes"](fields))) and \
+                    not any(map(has, info["orientation_nodes"](fields))):
+                self.elements[b.id] = b         # nothing to report
+                return
         st = b.st
         ok = True
         if b.id in self.elements:
@@ -315,14 +344,23 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector) -> To
     for keyword in UNSUPPORTED_ELEMENTS + UNKNOWN_LAYOUT_ELEMENTS:
         for st in by_kw.get(keyword, []):
             topology.note_foreign(st)
-    for st in by_kw.get("X", []):
-        topology.node(st)
-    element_sts = [st for kw in ELEMENT_KEYWORDS for st in by_kw.get(kw, [])]
-    element_sts.sort(key=errors.order)
+    x_sts = by_kw.get("X", [])
+    ids = [st.fields[0] for st in x_sts]
+    if not ctx.planar and len(set(ids)) == len(ids) and all(len(st.fields) == 4 for st in x_sts):
+        topology.positions = dict(zip(ids, zip([st.fields[1:4] for st in x_sts], x_sts)))
+    else:
+        for st in x_sts:
+            topology.node(st)
+    kinds = [kw for kw in ELEMENT_KEYWORDS if kw in by_kw]
+    element_sts = [st for kw in kinds for st in by_kw[kw]]
+    if len(kinds) > 1:
+        element_sts.sort(key=errors.order)
+    use = topology.orientation_use
     for st in element_sts:
-        for i, role in enumerate(KEYWORDS[st.keyword].node_roles, start=1):
-            if role == "r":
-                topology.orientation_use.setdefault(st.fields[i], st)
+        fields = st.fields
+        for i in KIND_INFO[st.keyword]["orientation_fields"]:
+            if fields[i] not in use:
+                use[fields[i]] = st
     elements = [ElementRecord(st) for st in element_sts]
     for b, geometry in zip(elements, topology.element_geometry(elements)):
         topology.element(b, *geometry)
