@@ -111,7 +111,10 @@ ODD_LINES = [
 
 @pytest.mark.parametrize("line", ODD_LINES)
 @pytest.mark.parametrize("where", ["kinematics", "data", "after the end", "continued"])
-def test_odd_lines_read_as_the_general_path_reads_them(monkeypatch, line, where):
+@pytest.mark.parametrize("batch", ["numpy", "line by line"])
+def test_odd_lines_read_as_the_general_path_reads_them(monkeypatch, line, where, batch):
+    # a batch of this small deck is converted line by line unless told otherwise
+    monkeypatch.setattr(parser, "_SMALL_BATCH", 0 if batch == "numpy" else 10**9)
     lines = BASE.splitlines()
     if where == "kinematics":
         lines.insert(2, line)
@@ -172,10 +175,12 @@ def test_every_deck_reads_the_same_both_ways(monkeypatch):
     statements with the same places, or the same errors, with and without the fast path."""
     for path in _corpus():
         text = path.read_text(encoding="utf-8", errors="replace")
-        fast = _outcome(text, str(path))
         with monkeypatch.context() as m:
             _general(m)
-            assert _outcome(text, str(path)) == fast, path.name
+            general = _outcome(text, str(path))
+        for small in (0, 10**9):        # batches converted with numpy, and line by line
+            monkeypatch.setattr(parser, "_SMALL_BATCH", small)
+            assert _outcome(text, str(path)) == general, path.name
 
 
 def test_terminals_read_from_the_grammar_are_larks():

@@ -106,6 +106,8 @@ _GENERAL_KEYWORDS = frozenset({"END", "HALT", "INCLUDE", "SET", "VISUALIZATION"}
 
 #: Largest magnitude accepted for a whole-number field (node/element numbers, counts).
 _INT_LIMIT = 2**31 - 1
+#: Batches of fewer lines are converted line by line (see _Batch.convert).
+_SMALL_BATCH = 16
 #: Most numbers a single range (``1:48``) may stand for.
 MAX_RANGE = 1_000_000
 #: Deepest chain of INCLUDEs (cycles are reported before this is reached).
@@ -612,6 +614,8 @@ class _Batch:
         if n_fields == 0:
             return [()] * n_rows, None
         texts = self.texts
+        if n_rows < _SMALL_BATCH:
+            return self.convert_lines()
         ok = np.ones(n_rows, dtype=bool)
         try:
             if _NOT_NUMBER_CHAR.search("".join(texts)):
@@ -642,6 +646,30 @@ class _Batch:
                 ok &= good
                 columns.append(np.where(good, col, 0.0).astype(np.int64).tolist())
         return list(zip(*columns)), (None if ok.all() else ok.tolist())
+
+    def convert_lines(self):
+        """:meth:`convert` line by line (a few lines: cheaper than numpy's calls)."""
+        n_fields = len(self.kinds)
+        fields, ok = [], []
+        for start in range(0, len(self.texts), n_fields):
+            values = []
+            for text, (kind, positive) in zip(self.texts[start:start + n_fields], self.kinds):
+                if _NUMBER.fullmatch(text) is None:
+                    break
+                value = _number(text)
+                if kind == "float":
+                    if not math.isfinite(value):
+                        break
+                elif value.is_integer() and abs(value) <= _INT_LIMIT and \
+                        (value >= 1 or not positive):
+                    value = int(value)
+                else:
+                    break
+                values.append(value)
+            good = len(values) == n_fields
+            fields.append(tuple(values) if good else None)
+            ok.append(good)
+        return fields, (None if all(ok) else ok)
 
 
 class _Reader:
