@@ -16,6 +16,9 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import replace
+from itertools import chain
+
+import numpy as np
 
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import UNSUPPORTED, unsupported_message
@@ -36,6 +39,19 @@ from spacarpy.model import ElementSet, Model
 __all__ = ["build_job", "build_model"]
 
 logger = logging.getLogger(__name__)
+
+
+def _table(rows, dtype) -> np.ndarray:
+    """Rows of numbers as an array (n, width): one pass over the values when every row has
+    the same length (np.array's nested-list conversion is several times slower); otherwise
+    the rows as they are (ElementSet converts them)."""
+    rows = list(rows)
+    widths = set(map(len, rows))
+    if len(widths) != 1:
+        return rows
+    width = widths.pop()
+    return np.fromiter(chain.from_iterable(rows), dtype=dtype,
+                       count=len(rows) * width).reshape(len(rows), width)
 
 
 class _Locs(Sequence):
@@ -69,11 +85,14 @@ def _element_sets(topology: _topology.Topology) -> dict:
         els = by_kind.get(kw)
         if els:
             sets[kw] = ElementSet(
-                kind=kw, ids=[b.id for b in els], nodes=[b.nodes for b in els],
-                vector=[b.orientation for b in els], def_class=[b.def_class for b in els],
-                stiffness=[b.stiffness for b in els],
+                kind=kw, ids=[b.id for b in els],
+                nodes=_table(map(_topology.KIND_INFO[kw]["nodes"], [b.st.fields for b in els]),
+                             np.int64),
+                vector=_topology.vectors_of(els),
+                def_class=_table([b.def_class for b in els], np.int8),
+                stiffness=_table([b.stiffness for b in els], float),
                 has_stiffness=[b.estiff is not None for b in els],
-                mass=[b.mass for b in els], locs=_Locs([b.st for b in els]))
+                mass=_table([b.mass for b in els], float), locs=_Locs([b.st for b in els]))
     return sets
 
 

@@ -304,9 +304,29 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,
     classes = by_kw.get("DYNE", []) + by_kw.get("RLSE", [])
     if "DYNE" in by_kw and "RLSE" in by_kw:
         classes.sort(key=errors.order)
+    elements = topology.elements
     for st in classes:
+        # the usual line, DYNE e 1 2 ... n_def on an element no DYNE/RLSE has touched, here;
+        # everything else in deformation_class
+        fields = st.fields
+        beam = elements.get(fields[0])
+        if beam is not None and not beam.flex_locs and st.keyword == "DYNE" and \
+                RELEASED not in beam.def_class and fields[1:] == _ALL_MODES[len(beam.def_class)]:
+            modes = fields[1:]
+            beam.def_class = [FLEXIBLE] * len(modes)
+            beam.class_line = [st.line] * len(modes)
+            beam.flex_locs = dict(zip(modes, zip(repeat(st), modes)))
+            continue
         part.deformation_class(st)
     for st in by_kw.get("ESTIFF", []):
+        # the usual BEAM line (4 to 6 values, none negative, given once), here
+        fields = st.fields
+        beam = elements.get(fields[0])
+        if beam is not None and beam.estiff is None and beam.keyword == "BEAM" and \
+                5 <= len(fields) <= 7 and min(fields[1:]) >= 0:
+            beam.estiff = st
+            beam.stiffness = fields[1:] + (0.0,) * (7 - len(fields))
+            continue
         part.estiff(st)
     for st in by_kw.get("EM", []):
         part.em(st)

@@ -70,6 +70,8 @@ def _kind_info(kind) -> dict:
     roles = KEYWORDS[kind.keyword].node_roles
     info = dict(n_def=kind.n_def, vector_at=1 + len(kind.slots) if kind.vector else None,
                 roles=roles, mode_stiffnesses=_picker(sorted(set(kind.mode_stiffness))),
+                nodes=_picker(range(1, 1 + len(roles))),
+                no_stiffness=(0.0,) * (6 if kind.keyword == "BEAM" else 3),
                 position_nodes=_picker([i for i, r in enumerate(roles, start=1) if r == "p"]),
                 orientation_nodes=_picker([i for i, r in enumerate(roles, start=1)
                                            if r == "r"]),
@@ -88,6 +90,18 @@ KIND_INFO = {keyword: _kind_info(kind) for keyword, kind in KINDS.items()}
 ELEMENT_KEYWORDS = tuple(KIND_INFO)
 
 
+def vectors_of(elements) -> np.ndarray:
+    """The orientation vector (hinge axis) of each element, (n, 3), NaN rows where none is
+    given."""
+    out = np.full((len(elements), 3), np.nan)
+    given = [i for i, b in enumerate(elements) if b.info["vector_at"] is not None
+             and len(b.st.fields) >= b.info["vector_at"] + 3]
+    if given:
+        out[given] = [b.st.fields[b.info["vector_at"]:b.info["vector_at"] + 3]
+                      for b in (elements[i] for i in given)]
+    return out
+
+
 class ElementRecord:
     """One element line (of any supported kind) while the model is being built; the element
     data (:mod:`spacarpy.deck.semantics.element_data`) fill in its classes, stiffness and
@@ -102,20 +116,36 @@ class ElementRecord:
         self.st = st
         keyword = self.keyword = st.keyword
         info = self.info = KIND_INFO[keyword]
-        self.roles = info["roles"]
-        fields = st.fields
-        self.id = fields[0]
-        self.nodes = list(fields[1:1 + len(self.roles)])
-        self.position_nodes = [fields[i] for i in info["position_fields"]]
-        at = info["vector_at"]
-        self.vector_given = at is not None and len(fields) >= at + 3
-        self.orientation = (tuple(fields[at:at + 3]) if self.vector_given
-                            else (np.nan, np.nan, np.nan))
+        self.id = st.fields[0]
         n_def = info["n_def"]
         self.def_class = [RIGID] * n_def
         self.class_line = [0] * n_def      # line of the DYNE/RLSE that set each mode
         self.flex_locs: dict[int, tuple] = {}   # mode -> (DYNE statement, field index)
-        self.stiffness = (0.0,) * (6 if keyword == "BEAM" else 3)
+        self.stiffness = info["no_stiffness"]
+
+    # made from the element line when asked for (all elements at once: the info's getters)
+    @property
+    def roles(self) -> str:
+        return self.info["roles"]
+
+    @property
+    def nodes(self) -> list:
+        return list(self.info["nodes"](self.st.fields))
+
+    @property
+    def position_nodes(self) -> list:
+        return list(self.info["position_nodes"](self.st.fields))
+
+    @property
+    def vector_given(self) -> bool:
+        at = self.info["vector_at"]
+        return at is not None and len(self.st.fields) >= at + 3
+
+    @property
+    def orientation(self) -> tuple:
+        at = self.info["vector_at"]
+        return (tuple(self.st.fields[at:at + 3]) if self.vector_given
+                else (np.nan, np.nan, np.nan))
 
 
     def flex_loc(self, mode: int) -> SourceLoc:
@@ -194,9 +224,9 @@ class Topology(Part):
         ids = np.fromiter(self.positions, dtype=np.int64, count=len(self.positions))
         x = np.array([xyz for xyz, _ in self.positions.values()], dtype=float).reshape(-1, 3)
         # rows of x of each element's two position nodes (HINGEs have none)
-        two = np.array([len(b.position_nodes) == 2 for b in elements], dtype=bool)
-        ends = np.array([b.position_nodes if len(b.position_nodes) == 2 else (0, 0)
-                         for b in elements], dtype=np.int64).reshape(n, 2)
+        two = np.array([len(b.info["position_fields"]) == 2 for b in elements], dtype=bool)
+        ends = np.array([b.info["position_nodes"](b.st.fields) if len(b.info["position_fields"])
+                         == 2 else (0, 0) for b in elements], dtype=np.int64).reshape(n, 2)
         rows, found = _lookup(ids, ends)
         has_axis = two & found.all(axis=1)
         d = x[rows[:, 1]] - x[rows[:, 0]] if len(ids) else np.zeros((n, 3))
@@ -209,7 +239,7 @@ class Topology(Part):
         zero_length = has_axis & (length <= ZERO_LENGTH_RTOL * scale)
         axis = np.divide(d, length[:, None], out=np.full_like(d, np.nan),
                          where=(has_axis & ~zero_length)[:, None])
-        vector = np.array([b.orientation for b in elements], dtype=float).reshape(n, 3)
+        vector = vectors_of(elements)
         vector_norm = _row_norms(vector)                   # NaN where no vector is given
         zero_vector = vector_norm < ORIENTATION_TOL
         parallel = _row_norms(np.cross(axis, vector)) < ORIENTATION_TOL * vector_norm
@@ -300,7 +330,7 @@ class Topology(Part):
     def check_unconnected(self, fixes: dict) -> None:
         """A position node no element uses floats free (a mechanism): an error, unless all
         its coordinates are fixed (then it is merely useless: a warning)."""
-        used = ({n for b in self.elements.values() for n in b.position_nodes}
+        used = ({n for b in self.elements.values() for n in b.info["position_nodes"](b.st.fields)}
                 | self.foreign_nodes | self.quiet_nodes)
         for n, (_, st) in self.positions.items():
             if n in used:
