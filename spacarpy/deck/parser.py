@@ -1,18 +1,23 @@
 """Deck text -> checked :class:`Statement` records (syntax only, no model semantics).
 
 Lark (``grammar.lark``) splits each line into a keyword record; the grammar accepts any line, so
-that every problem is found and reported at once (a line of a keyword and plain numbers takes a
-fast path that gives the same statements: see ``_PLAIN_LINE``). This module then checks every
-record against the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count,
-field types), converts the fields to ints/floats/strings, and tracks the module structure (END /
-HALT / END END / VISUALIZATION). It also implements the spacarpy extensions that act on the
-text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.expressions`), ``1:48``
-ranges and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with
-file, line and column; Lark's own exceptions never escape.
+that every problem is found and reported at once. This module then checks every record against
+the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count, field types),
+converts the fields to ints/floats/strings, and tracks the module structure (END / HALT / END
+END / VISUALIZATION). It also implements the spacarpy extensions that act on the text: ``SET``
+parameters, ``{expression}`` fields (:mod:`spacarpy.expressions`), ``1:48`` ranges and
+``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with file, line
+and column; Lark's own exceptions never escape.
 
-The module is longer than most (about 900 lines) because the Lark path and the fast path must
-give identical statements: both share the field conversion and the module tracking here, and
-splitting them would separate code that has to change together.
+A line of a keyword and plain numbers (nearly every line of a large deck) takes a fast path
+that gives the same statements: its numbers are converted in a batch with the other lines of
+its keyword (:class:`_Batch`), and its statement makes its locations only when asked for. Lines
+of words, numbers and strings are lexed without Lark (:func:`_simple_tokens`); Lark and the
+expressions are imported at the first line that needs them.
+
+The module is longer than most (about 1200 lines) because the general path and the fast path
+must give identical statements: both share the field conversion and the module tracking here,
+and splitting them would separate code that has to change together.
 """
 from __future__ import annotations
 
@@ -78,11 +83,13 @@ def _grammar_terminals(names) -> dict:
 
 # Lark lexes a few ten thousand tokens a second: most of the time of reading a deck of 10^5
 # elements, nearly all of whose lines are a keyword and plain numbers ("BEAM 7 13 14 15 16 0 1 0").
-# Such a line takes a fast path: one regular expression made of the grammar's own WORD and NUMBER
-# terminals recognises it and splits it into the tokens Lark would give, at the same columns, and
-# _Reader.plain_record converts the numbers directly. Every other line (words, strings,
-# {expressions}, ranges, unreadable fields, ...) and every plain line that is not simply correct
-# is lexed by Lark and checked by the general code, which reports all errors.
+# Such a line takes a fast path (_Reader.read, _Batch): split, its first token checked against
+# the grammar's WORD, its numbers converted in a batch (a text of the characters of numbers is a
+# NUMBER exactly when float() reads it; any other text is checked against NUMBER). Its
+# locations, when asked for, come from _PLAIN_LINE, made of the grammar's own terminals, at the
+# columns Lark would give. Every other line (strings, {expressions}, ranges, unreadable fields,
+# ...) and every plain line that is not simply correct is lexed and checked by the general
+# code, which reports all errors.
 _TERMINALS = _grammar_terminals(("WORD", "NUMBER", "STRING", "COMMENT"))
 _PLAIN_LINE = re.compile(r"{ws}*(?P<data>{word}(?:{ws}+{number})*){ws}*(?:{comment})?".format(
     ws=r"[^\S\n]", word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"],
