@@ -211,6 +211,27 @@ class Numbering:
         return out
 
 
+def _rows(ids: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """The row of each of ``nodes`` in ``ids`` (distinct node numbers), for all at once.
+
+    Raises
+    ------
+    KeyError
+        A node that is not in ``ids`` (not expected: the model is validated).
+    """
+    nodes = np.asarray(nodes, dtype=np.int64)
+    if ids.size == 0:
+        if nodes.size:
+            raise KeyError(int(nodes[0]))
+        return np.zeros(0, dtype=np.int64)
+    order = np.argsort(ids, kind="stable")
+    rows = order[np.minimum(np.searchsorted(ids, nodes, sorter=order), ids.size - 1)]
+    missing = ids[rows] != nodes
+    if missing.any():
+        raise KeyError(int(nodes[np.argmax(missing)]))
+    return rows.astype(np.int64)
+
+
 def number_model(model: Model) -> Numbering:
     """Build the :class:`Numbering` of a validated model."""
     pos_ids, rot_ids = model.position_ids, model.orientation_ids
@@ -228,8 +249,8 @@ def number_model(model: Model) -> Numbering:
     x0[pos_idx] = model.position_x0
     x0[rot_idx[:, 0]] = 1.0
 
-    pos_row = {int(n): i for i, n in enumerate(pos_ids)}
-    rot_row = {int(n): i for i, n in enumerate(rot_ids)}
+    pos_row = dict(zip(pos_ids.tolist(), range(pos_ids.size)))
+    rot_row = dict(zip(rot_ids.tolist(), range(rot_ids.size)))
 
     groups = []
     offset = 0
@@ -239,11 +260,11 @@ def number_model(model: Model) -> Numbering:
         idx_parts, x0_slots = [], []
         for j, slot in enumerate(kind.slots):
             if slot == "pos":
-                rows = np.array([pos_row[int(v)] for v in nodes[:, j]], dtype=np.int64)
+                rows = _rows(pos_ids, nodes[:, j])
                 idx_parts.append(pos_idx[rows])
                 x0_slots.append(model.position_x0[rows])
             else:
-                rows = np.array([rot_row[int(v)] for v in nodes[:, j]], dtype=np.int64)
+                rows = _rows(rot_ids, nodes[:, j])
                 idx_parts.append(rot_idx[rows])
                 x0_slots.append(None)
         ref, scale = kind.reference(x0_slots, es.vector)

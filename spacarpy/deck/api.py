@@ -235,8 +235,8 @@ class ModelBuilder:
 
         try:
             statements = parse_deck(text, _DECK_NAME)
-            statements = [dataclasses.replace(st, loc=remap(st.loc),
-                                              field_locs=tuple(remap(f) for f in st.field_locs))
+            statements = [st.replace(loc=remap(st.loc),
+                                     field_locs=tuple(remap(f) for f in st.field_locs))
                           for st in statements]
             job = build_job(statements, text=text, path=_caller()[0],
                             deformations=deformations, analysis=analysis)

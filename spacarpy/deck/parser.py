@@ -1,18 +1,23 @@
 """Deck text -> checked :class:`Statement` records (syntax only, no model semantics).
 
 Lark (``grammar.lark``) splits each line into a keyword record; the grammar accepts any line, so
-that every problem is found and reported at once (a line of a keyword and plain numbers takes a
-fast path that gives the same statements: see ``_PLAIN_LINE``). This module then checks every
-record against the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count,
-field types), converts the fields to ints/floats/strings, and tracks the module structure (END /
-HALT / END END / VISUALIZATION). It also implements the spacarpy extensions that act on the
-text: ``SET`` parameters, ``{expression}`` fields (:mod:`spacarpy.expressions`), ``1:48``
-ranges and ``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with
-file, line and column; Lark's own exceptions never escape.
+that every problem is found and reported at once. This module then checks every record against
+the keyword table of :mod:`spacarpy.deck.keywords` (known keyword, field count, field types),
+converts the fields to ints/floats/strings, and tracks the module structure (END / HALT / END
+END / VISUALIZATION). It also implements the spacarpy extensions that act on the text: ``SET``
+parameters, ``{expression}`` fields (:mod:`spacarpy.expressions`), ``1:48`` ranges and
+``INCLUDE "file"``. Every problem is a :class:`spacarpy.errors.DeckError` item with file, line
+and column; Lark's own exceptions never escape.
 
-The module is longer than most (about 900 lines) because the Lark path and the fast path must
-give identical statements: both share the field conversion and the module tracking here, and
-splitting them would separate code that has to change together.
+A line of a keyword and plain numbers (nearly every line of a large deck) takes a fast path
+that gives the same statements: its numbers are converted in a batch with the other lines of
+its keyword (:class:`_Batch`), and its statement makes its locations only when asked for. Lines
+of words, numbers and strings are lexed without Lark (:func:`_simple_tokens`); Lark and the
+expressions are imported at the first line that needs them.
+
+The module is longer than most (about 1200 lines) because the general path and the fast path
+must give identical statements: both share the field conversion and the module tracking here,
+and splitting them would separate code that has to change together.
 """
 from __future__ import annotations
 
@@ -28,9 +33,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from itertools import accumulate
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from lark import Token
-from lark.exceptions import UnexpectedInput
+import numpy as np
 
 from spacarpy.deck.keywords import (
     KEYWORDS,
@@ -40,8 +45,9 @@ from spacarpy.deck.keywords import (
     KeywordSpec,
 )
 from spacarpy.errors import DeckError, SourceLoc
-from spacarpy.expressions import RESERVED_NAMES, ExpressionError, evaluate, whole_number
-from spacarpy.grammars import lalr_parser
+
+if TYPE_CHECKING:                      # Lark is imported only when a line needs it
+    from lark import Token
 
 __all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"]
 
@@ -50,20 +56,56 @@ logger = logging.getLogger(__name__)
 # The grammar accepts every sequence of tokens, so lexing is all the parsing a deck needs: a
 # record is the tokens of one line (no token spans a line end). Lexing alone is twice as fast as
 # building the parse tree.
-_LARK = lalr_parser(Path(__file__).with_name("grammar.lark"), lexer="basic")
+_GRAMMAR = Path(__file__).with_name("grammar.lark")
+
+
+def _expr():
+    """:mod:`spacarpy.expressions` (and with it Lark), imported at the first line that needs
+    it: a deck of plain lines is read without either."""
+    import spacarpy.expressions
+    return spacarpy.expressions
+
+
+@functools.lru_cache(maxsize=1)
+def _lark():
+    """The compiled grammar, loaded (with Lark) at the first line that is not plain."""
+    from spacarpy.grammars import lalr_parser
+    return lalr_parser(_GRAMMAR, lexer="basic")
+
+
+def _grammar_terminals(names) -> dict:
+    """The regular expressions of some terminals, read from the grammar's text (the fast path
+    needs no Lark; tests/test_deck_fast.py checks them against Lark's compiled ones)."""
+    text = _GRAMMAR.read_text(encoding="utf-8")
+    return {name: re.search(rf"^{name}(?:\.\d+)?:\s*/(.*)/\s*$", text, re.M).group(1)
+            for name in names}
+
 
 # Lark lexes a few ten thousand tokens a second: most of the time of reading a deck of 10^5
 # elements, nearly all of whose lines are a keyword and plain numbers ("BEAM 7 13 14 15 16 0 1 0").
-# Such a line takes a fast path: one regular expression made of the grammar's own WORD and NUMBER
-# terminals recognises it and splits it into the tokens Lark would give, at the same columns, and
-# _Reader.plain_record converts the numbers directly. Every other line (words, strings,
-# {expressions}, ranges, unreadable fields, ...) and every plain line that is not simply correct
-# is lexed by Lark and checked by the general code, which reports all errors.
-_TERMINALS = {t.name: t.pattern.to_regexp() for t in _LARK.terminals}
+# Such a line takes a fast path (_Reader.read, _Batch): split, its first token checked against
+# the grammar's WORD, its numbers converted in a batch (a text of the characters of numbers is a
+# NUMBER exactly when float() reads it; any other text is checked against NUMBER). Its
+# locations, when asked for, come from _PLAIN_LINE, made of the grammar's own terminals, at the
+# columns Lark would give. Every other line (strings, {expressions}, ranges, unreadable fields,
+# ...) and every plain line that is not simply correct is lexed and checked by the general
+# code, which reports all errors.
+_TERMINALS = _grammar_terminals(("WORD", "NUMBER", "STRING", "COMMENT"))
 _PLAIN_LINE = re.compile(r"{ws}*(?P<data>{word}(?:{ws}+{number})*){ws}*(?:{comment})?".format(
     ws=r"[^\S\n]", word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"],
     comment=_TERMINALS["COMMENT"]))
 _PLAIN_FIELD = re.compile(r"[^\s#%]+")
+_WORD = re.compile(_TERMINALS["WORD"])
+_NUMBER = re.compile(_TERMINALS["NUMBER"])
+#: A character that no NUMBER of the fast path has (see _Batch.convert).
+_NOT_NUMBER_CHAR = re.compile(r"[^0-9+\-.eEdD]")
+_COMMENT_START = re.compile(r"[#%]")
+#: A line of words, numbers and strings (see _simple_tokens), and one such token.
+_SIMPLE_TOKEN = re.compile("(?P<STRING>{string})|(?P<WORD>{word})|(?P<NUMBER>{number})".format(
+    string=_TERMINALS["STRING"], word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"]))
+_ANY_SIMPLE = "(?:{})|(?:{})|(?:{})".format(*(_TERMINALS[k] for k in ("STRING", "WORD", "NUMBER")))
+_SIMPLE_LINE = re.compile(r"{ws}*(?P<data>(?:{tok})(?:{ws}+(?:{tok}))*)?{ws}*(?:{comment})?".format(
+    ws=r"[^\S\n]", tok=_ANY_SIMPLE, comment=_TERMINALS["COMMENT"]))
 _BLANK_LINE = re.compile(r"{ws}*(?:{comment})?".format(ws=r"[^\S\n]",
                                                        comment=_TERMINALS["COMMENT"]))
 #: Keywords whose records always take the general path (module structure, parameters, files).
@@ -71,6 +113,8 @@ _GENERAL_KEYWORDS = frozenset({"END", "HALT", "INCLUDE", "SET", "VISUALIZATION"}
 
 #: Largest magnitude accepted for a whole-number field (node/element numbers, counts).
 _INT_LIMIT = 2**31 - 1
+#: Batches of fewer lines are converted line by line (see _Batch.convert).
+_SMALL_BATCH = 16
 #: Most numbers a single range (``1:48``) may stand for.
 MAX_RANGE = 1_000_000
 #: Deepest chain of INCLUDEs (cycles are reported before this is reached).
@@ -82,9 +126,9 @@ _RANGE_PART = re.compile(r"\{[^}]*\}|\d+")
 _GLUED = re.compile(r"([A-Z]+)([+-]?\d[\d.eE+-]*)")
 
 
-@dataclass(frozen=True)
 class Statement:
-    """One checked keyword record of a deck.
+    """One checked keyword record of a deck (read-only by convention; compared and hashed by
+    value).
 
     Attributes
     ----------
@@ -105,15 +149,81 @@ class Statement:
         section.
     origin : str or None
         For statements made by a generator (BEAMS, BEAMARC): its keyword; None otherwise.
+    file, line : str, int
+        ``loc.file`` and ``loc.line``, without making ``loc``.
+
+    The statements of plain lines (a keyword and numbers, the fast path) make ``loc``,
+    ``field_locs`` and ``source_line`` only when asked for (an error, ``spacarpy check``):
+    a deck of 10^5 elements then needs no location objects at all.
     """
 
-    keyword: str
-    fields: tuple
-    loc: SourceLoc
-    field_locs: tuple
-    source_line: str
-    module: int
-    origin: str | None = None
+    __slots__ = ("keyword", "fields", "module", "origin", "file", "line", "_loc",
+                 "_field_locs", "_source_line", "_src")
+
+    def __init__(self, keyword: str, fields: tuple, loc: SourceLoc, field_locs: tuple,
+                 source_line: str, module: int, origin: str | None = None):
+        self.keyword = keyword
+        self.fields = fields
+        self.module = module
+        self.origin = origin
+        self.file = getattr(loc, "file", None)
+        self.line = getattr(loc, "line", None)
+        self._loc = loc
+        self._field_locs = field_locs
+        self._source_line = source_line
+        self._src = None
+
+    @property
+    def loc(self) -> SourceLoc:
+        if self._src is not None:
+            self._locate()
+        return self._loc
+
+    @property
+    def field_locs(self) -> tuple:
+        if self._src is not None:
+            self._locate()
+        return self._field_locs
+
+    @property
+    def source_line(self) -> str:
+        if self._src is not None:
+            self._locate()
+        return self._source_line
+
+    def _locate(self) -> None:
+        """The locations of a fast-path statement, from its line (lexed as the fast path
+        lexed it)."""
+        src, line = self._src, self.line
+        _, columns = _plain_fields(src.raw[line - 1])
+        self._loc = SourceLoc(src.name, line, columns[0])
+        self._field_locs = tuple(SourceLoc(src.name, line, column) for column in columns[1:])
+        self._source_line = src.line(line)
+        self._src = None
+
+    def _key(self) -> tuple:
+        return (self.keyword, self.fields, self.loc, self.field_locs, self.source_line,
+                self.module, self.origin)
+
+    def __eq__(self, other):
+        if not isinstance(other, Statement):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    def __repr__(self) -> str:
+        return ("Statement(" + ", ".join(f"{name}={value!r}" for name, value in zip(
+            ("keyword", "fields", "loc", "field_locs", "source_line", "module", "origin"),
+            self._key())) + ")")
+
+    def replace(self, **changes) -> Statement:
+        """A copy with some attributes changed (as ``dataclasses.replace``)."""
+        values = dict(zip(("keyword", "fields", "loc", "field_locs", "source_line", "module",
+                           "origin"), self._key()))
+        values.update(changes)
+        return Statement(**values)
 
     @property
     def spec(self) -> KeywordSpec:
@@ -251,6 +361,7 @@ def parse_deck(text: str, filename: str = "<deck>", *,
     path = None if filename.startswith("<") else Path(filename)
     with gc_paused():
         reader.read(text, filename, path)
+        reader.flush()
         reader.finish()
     if reader.errors:
         reader.errors.sort(key=lambda it: it[0])
@@ -284,10 +395,10 @@ class _Source:
     name: str                 # as shown in messages
     path: Path | None         # where it is (None for text without a file)
     raw: list[str]            # the lines as read
-    lines: list[str]          # the lines as shown (without a carriage return at the end)
 
     def line(self, n: int) -> str | None:
-        return self.lines[n - 1] if 1 <= n <= len(self.lines) else None
+        """Line n as shown (without a carriage return at the end)."""
+        return self.raw[n - 1].rstrip("\r") if 1 <= n <= len(self.raw) else None
 
 
 @dataclass(frozen=True)
@@ -305,12 +416,38 @@ def _lex_line(source: _Source, number: int) -> _Record | None:
     UnexpectedInput
         Not expected: every character is some token.
     """
-    tokens = list(_LARK.lex(source.raw[number - 1]))
+    line = source.raw[number - 1]
+    tokens = _simple_tokens(line, number)
+    if tokens is None:
+        tokens = list(_lark().lex(line))
+        for tok in tokens:
+            tok.line = tok.end_line = number
     if not tokens:
         return None
-    for tok in tokens:
-        tok.line = tok.end_line = number
     return _Record(tokens[0], tuple(tokens[1:]), source)
+
+
+class _Token(str):
+    """A token of :func:`_simple_tokens`: the text with the attributes of a Lark ``Token``
+    that the parser uses (type, line, column, end_line, end_column)."""
+
+
+def _simple_tokens(line: str, number: int):
+    """The tokens of a line of words, numbers and strings only (``DEFORMATIONS modified``,
+    ``END``, ``EXPECT run.exit_code 1``), as Lark lexes them, without Lark; None for any
+    other line (expressions, ranges, unreadable fields): Lark lexes those."""
+    simple = _SIMPLE_LINE.fullmatch(line)
+    if simple is None:
+        return None
+    tokens = []
+    for m in _SIMPLE_TOKEN.finditer(line, *simple.span("data")):
+        tok = _Token(m.group())
+        tok.type = m.lastgroup
+        tok.line = tok.end_line = number
+        tok.column = m.start() + 1
+        tok.end_column = m.end() + 1
+        tokens.append(tok)
+    return tokens
 
 
 def _plain_fields(line: str):
@@ -412,10 +549,14 @@ def _field_specs(spec: KeywordSpec, n: int):
 
 
 @functools.lru_cache(maxsize=1024)
-def _plain_kinds(keyword: str, data_module: bool, n: int):
-    """For the fast path: ``(kind, positive)`` of each of the n fields of a record of
-    ``keyword``, or None if such a record takes the general path (module structure, an unknown
-    keyword, a wrong field count, a field that is not a number)."""
+def _plain_kinds(word: str, data_module: bool, n: int):
+    """For the fast path: ``(kind, positive)`` of each of the n fields of a record whose first
+    token is ``word``, or None if such a record takes the general path (not a keyword,
+    module structure, an unknown keyword, a wrong field count, a field that is not a
+    number)."""
+    if _WORD.fullmatch(word) is None:
+        return None
+    keyword = word.upper()
     spec = KEYWORDS.get(keyword)
     if spec is None or keyword in _GENERAL_KEYWORDS:
         return None
@@ -425,6 +566,117 @@ def _plain_kinds(keyword: str, data_module: bool, n: int):
     if specs is None or any(f.kind not in ("int", "float") for f in specs):
         return None
     return tuple((f.kind, f.positive) for f in specs)
+
+
+class _PlainStatement(Statement):
+    """A statement of the fast path: its locations are made from its line when asked for."""
+
+    __slots__ = ()
+
+    def __init__(self, keyword: str, fields: tuple, module: int, src: _Source, line: int):
+        self.keyword = keyword
+        self.fields = fields
+        self.module = module
+        self.origin = None
+        self.file = src.name
+        self.line = line
+        self._src = src
+
+
+class _RangeStatement(Statement):
+    """A statement of a range after the first: the first one's places, other fields."""
+
+    __slots__ = ()
+
+    def __init__(self, first: Statement, fields: tuple):
+        self.keyword = first.keyword
+        self.fields = fields
+        self.module = first.module
+        self.origin = None
+        self.file = first.file
+        self.line = first.line
+        self._loc = first._loc
+        self._field_locs = first._field_locs
+        self._source_line = first._source_line
+        self._src = None
+
+
+class _Batch:
+    """The lines of one keyword, field count, module and file that may be plain (a keyword
+    and numbers), their numbers converted together (:meth:`convert`)."""
+
+    def __init__(self, keyword: str, kinds: tuple, module: int, source: _Source):
+        self.keyword, self.kinds, self.module, self.source = keyword, kinds, module, source
+        self.where: list[tuple] = []    # (output slot, record order, line number) per line
+        self.texts: list[str] = []      # the fields' texts, line after line
+
+    def convert(self):
+        """``(fields, ok)``: the fields tuple of every line, and for each whether it is a
+        plain line (a keyword and NUMBERs) and simply correct (None: all are). Converts as
+        :meth:`_Reader.convert` converts a NUMBER: float fields finite, int fields whole, at
+        most _INT_LIMIT in magnitude, and at least 1 where positive. A text of the characters
+        of numbers only is a NUMBER exactly when float() (or _number, for a Fortran exponent)
+        reads it; any other text is checked against the grammar's NUMBER."""
+        n_fields, n_rows = len(self.kinds), len(self.where)
+        if n_fields == 0:
+            return [()] * n_rows, None
+        texts = self.texts
+        if n_rows < _SMALL_BATCH:
+            return self.convert_lines()
+        ok = np.ones(n_rows, dtype=bool)
+        try:
+            if _NOT_NUMBER_CHAR.search("".join(texts)):
+                raise ValueError
+            values = list(map(float, texts))
+        except ValueError:              # a Fortran exponent, or a field that is no NUMBER
+            values = []
+            for i, text in enumerate(texts):
+                try:
+                    if _NUMBER.fullmatch(text) is None:
+                        raise ValueError
+                    values.append(_number(text))
+                except ValueError:
+                    values.append(0.0)
+                    ok[i // n_fields] = False
+        table = np.array(values, dtype=float).reshape(n_rows, n_fields)
+        columns = []
+        with np.errstate(invalid="ignore"):
+            for j, (kind, positive) in enumerate(self.kinds):
+                col = table[:, j]
+                if kind == "float":
+                    ok &= np.isfinite(col)
+                    columns.append(values[j::n_fields])
+                    continue
+                good = (np.floor(col) == col) & (np.abs(col) <= _INT_LIMIT)
+                if positive:
+                    good &= col >= 1
+                ok &= good
+                columns.append(np.where(good, col, 0.0).astype(np.int64).tolist())
+        return list(zip(*columns)), (None if ok.all() else ok.tolist())
+
+    def convert_lines(self):
+        """:meth:`convert` line by line (a few lines: cheaper than numpy's calls)."""
+        n_fields = len(self.kinds)
+        fields, ok = [], []
+        for start in range(0, len(self.texts), n_fields):
+            values = []
+            for text, (kind, positive) in zip(self.texts[start:start + n_fields], self.kinds):
+                if _NUMBER.fullmatch(text) is None:
+                    break
+                value = _number(text)
+                if kind == "float":
+                    if not math.isfinite(value):
+                        break
+                elif value.is_integer() and abs(value) <= _INT_LIMIT and \
+                        (value >= 1 or not positive):
+                    value = int(value)
+                else:
+                    break
+                values.append(value)
+            good = len(values) == n_fields
+            fields.append(tuple(values) if good else None)
+            ok.append(good)
+        return fields, (None if all(ok) else ok)
 
 
 class _Reader:
@@ -449,6 +701,7 @@ class _Reader:
         self.unknown_uses: list = []    # (error index, name) of unknown parameters
         self.last: tuple[_Source, int] | None = None   # where the last record is (file, line)
         self.stack: list[Path] = []     # files being read (include cycle detection)
+        self.batches: dict = {}         # plain lines waiting for conversion (see flush)
 
     # ---------------------------------------------------------------- errors
     def error(self, loc: SourceLoc | None, message: str, source: _Source | None = None) -> None:
@@ -463,31 +716,123 @@ class _Reader:
     # ---------------------------------------------------------------- files
     def read(self, text: str, name: str, path: Path | None) -> None:
         raw = text.split("\n")
-        source = _Source(name, path, raw, [ln.rstrip("\r") for ln in raw])
+        source = _Source(name, path, raw)
         if path is not None:
             self.stack.append(path.resolve())
+        # the fast path, for a line that may be a keyword and numbers: its numbers are
+        # converted in a batch (flush), which sends a line that is not simply correct back to
+        # the general path (lexed, checked and reported as any other line). The reader's state
+        # is kept in locals between general records, which are the only ones to change it.
+        batch_of: dict = {}             # (first word, tokens, module) -> _Batch or None
+        out = self.out
+        order, module = self.order, self.module
+        fast = not (self.visual or self.closed)
+        last_fast = 0                   # the last line batched since the last general record
         try:
-            for number in range(1, len(raw) + 1):
-                if self.stopped:
-                    break
-                plain = _plain_fields(raw[number - 1])
-                if plain is None and _BLANK_LINE.fullmatch(raw[number - 1]):
-                    continue
-                self.order += 1
-                if plain is not None and self.plain_record(source, number, *plain):
-                    continue
+            number = 0
+            for line in raw:
+                number += 1
+                if "#" in line or "%" in line:
+                    data = _COMMENT_START.split(line, 1)[0]
+                    parts = data.split()
+                    if not parts and not _BLANK_LINE.fullmatch(line):
+                        parts = None       # not blank after all (not expected)
+                else:
+                    parts = line.split()
+                if not parts:
+                    if parts is not None:
+                        continue           # blank, or a comment only
+                elif fast and ":" not in line and "{" not in line and '"' not in line:
+                    key = (parts[0], len(parts), module)
+                    batch = batch_of.get(key, False)
+                    if batch is False:
+                        batch = batch_of[key] = self.batch(parts[0], len(parts) - 1, source)
+                    if batch is not None:
+                        order += 1
+                        batch.where.append((len(out), order, number))
+                        batch.texts.extend(parts[1:])
+                        out.append(None)
+                        last_fast = number
+                        continue
+                if last_fast:
+                    self.prev_end, self.last, last_fast = False, (source, last_fast), 0
+                self.order = order + 1
                 try:
                     rec = _lex_line(source, number)
-                except UnexpectedInput as exc:  # pragma: no cover - every character is some token
+                except Exception as exc:  # pragma: no cover - every character is some token
+                    from lark.exceptions import UnexpectedInput
+                    if not isinstance(exc, UnexpectedInput):
+                        raise
                     col = getattr(exc, "column", None)
                     col = col if isinstance(col, int) and col > 0 else 1
                     self.errors.append(((1, self.order, 0), SourceLoc(name, number, col),
                                         "cannot read this line", source.line(number)))
                     break
                 self.record(rec)
+                if self.stopped:
+                    break
+                order, fast = self.order, not (self.visual or self.closed)
+                if self.module != module:
+                    module, batch_of = self.module, {}
         finally:
+            if last_fast:
+                self.prev_end, self.last = False, (source, last_fast)
+            self.order = order
             if path is not None:
                 self.stack.pop()
+
+    def batch(self, word: str, n_fields: int, source: _Source):
+        """The batch of the lines of ``word`` with n fields in the current module of
+        ``source``, or None if such lines take the general path."""
+        kinds = _plain_kinds(word, self.module >= 1, n_fields)
+        if kinds is None:
+            return None
+        key = (word.upper(), n_fields, self.module, id(source))
+        batch = self.batches.get(key)
+        if batch is None:
+            batch = self.batches[key] = _Batch(key[0], kinds, self.module, source)
+        return batch
+
+    def flush(self) -> None:
+        """Convert the batched lines (see read) and put their statements in place. A line
+        that is not a keyword and NUMBERs, or whose numbers do not fit its fields (a float for
+        a whole number, a non-finite number, ...), is read by the general path instead, which
+        reports what is wrong."""
+        again = []
+        out = self.out
+        for batch in self.batches.values():
+            fields, ok = batch.convert()
+            make = _PlainStatement
+            keyword, module, src = batch.keyword, batch.module, batch.source
+            if ok is None:
+                for (slot, _, number), row in zip(batch.where, fields):
+                    out[slot] = make(keyword, row, module, src, number)
+                continue
+            for good, (slot, order, number), row in zip(ok, batch.where, fields):
+                if good:
+                    out[slot] = make(keyword, row, module, src, number)
+                else:
+                    again.append((order, slot, number, batch))
+        self.batches.clear()
+        if not again:
+            return
+        order = self.order
+        for self.order, slot, number, batch in sorted(again, key=lambda a: a[0]):
+            self.out = []
+            rec = _lex_line(batch.source, number)
+            if rec.head.type != "WORD":
+                self.not_a_keyword(rec)
+            else:
+                keyword = str(rec.head).upper()
+                spec = KEYWORDS[keyword]
+                if spec.data_form is not None and batch.module >= 1:
+                    spec = spec.data_form
+                converted = self.check_fields(rec, keyword, spec)
+                if converted is not None:
+                    self.emit(rec, keyword, converted, batch.module)
+            out[slot] = self.out
+        self.order, self.out = order, [x for item in out for x in
+                                       (item if isinstance(item, list) else (item,))]
 
     def last_record(self) -> _Record | None:
         """The last record read (lexed again: the fast path keeps no tokens)."""
@@ -609,44 +954,15 @@ class _Reader:
         if converted is not None:
             self.emit(rec, keyword, converted, this_module)
 
-    def plain_record(self, source: _Source, number: int, texts: list, columns: list) -> bool:
-        """The fast path of :meth:`record` for a line of a keyword and plain numbers (see
-        _PLAIN_LINE): True if it was a simply correct record and its statement is out; False if
-        it needs the general path (which reports what is wrong with it)."""
-        if self.visual or self.closed:
-            return False
-        keyword = texts[0].upper()
-        kinds = _plain_kinds(keyword, self.module >= 1, len(texts) - 1)
-        if kinds is None:
-            return False
-        values = []
-        for text, (kind, positive) in zip(texts[1:], kinds):
-            value = _number(text)           # as convert() does
-            if kind == "float":
-                if not math.isfinite(value):
-                    return False
-            elif value.is_integer() and abs(value) <= _INT_LIMIT and (value >= 1 or not positive):
-                value = int(value)
-            else:
-                return False
-            values.append(value)
-        name = source.name
-        self.out.append(Statement(
-            keyword=keyword, fields=tuple(values), loc=SourceLoc(name, number, columns[0]),
-            field_locs=tuple(SourceLoc(name, number, column) for column in columns[1:]),
-            source_line=source.lines[number - 1], module=self.module))
-        self.prev_end = False
-        self.last = (source, number)
-        return True
-
     def emit(self, rec: _Record, keyword: str, converted: list, module: int) -> None:
         """Output the statements of a record: ``converted`` is a list of
         ``(fields, field_locs)``, one per statement (see check_fields)."""
         loc = self.loc(rec, rec.head)
         source_line = rec.source.line(rec.head.line) or ""
-        for fields, locs in converted:
-            self.out.append(Statement(keyword=keyword, fields=fields, loc=loc, field_locs=locs,
-                                      source_line=source_line, module=module))
+        first = Statement(keyword, converted[0][0], loc, converted[0][1], source_line, module)
+        self.out.append(first)
+        if len(converted) > 1:          # a range: one statement per number, the same places
+            self.out.extend([_RangeStatement(first, fields) for fields, _ in converted[1:]])
 
     def visualization(self, rec: _Record, keyword: str) -> None:
         if not self.visual:
@@ -735,7 +1051,7 @@ class _Reader:
             self.error(loc, f"SET: '{name}' is not a valid parameter name (letters, digits and "
                             "'_', starting with a letter)", rec.source)
             return False
-        if name in RESERVED_NAMES:
+        if name in _expr().RESERVED_NAMES:
             self.error(loc, f"SET: '{name}' is a built-in name and cannot be set", rec.source)
             return False
         if name in self.params:
@@ -751,13 +1067,13 @@ class _Reader:
                 if isinstance(override, (int, float)) and not isinstance(override, bool):
                     value = float(override)
                     if not math.isfinite(value):
-                        raise ExpressionError(0, "not a finite number")
+                        raise _expr().ExpressionError(0, "not a finite number")
                 else:
                     text = str(override).strip()
                     if text.startswith("{") and text.endswith("}"):
                         text = text[1:-1]
-                    value = evaluate(text, self.params)
-            except ExpressionError as exc:
+                    value = _expr().evaluate(text, self.params)
+            except _expr().ExpressionError as exc:
                 # reported; the deck's own value is kept so that later lines are still checked
                 self.error(None, f"--set {name}={override}: {exc.message}")
         self.params[name] = value
@@ -829,8 +1145,8 @@ class _Reader:
         """Evaluate an {expression} field (or the part ``text`` of a range at ``offset``)."""
         text = str(tok)[1:-1] if text is None else text
         try:
-            return evaluate(text, self.params)
-        except ExpressionError as exc:
+            return _expr().evaluate(text, self.params)
+        except _expr().ExpressionError as exc:
             if exc.unknown_name is not None:
                 self.unknown_uses.append((len(self.errors), exc.unknown_name))
             raise _FieldError(index, exc.message, offset + 1 + exc.offset) from None
@@ -846,7 +1162,7 @@ class _Reader:
             return value
         if tok.type == "EXPR":
             value = self.expression(tok, index)
-            whole = whole_number(value, 0.0)
+            whole = _expr().whole_number(value, 0.0)
             return whole if whole is not None and abs(whole) <= _INT_LIMIT else value
         if tok.type == "STRING":
             return str(tok)[1:-1]
@@ -878,7 +1194,7 @@ class _Reader:
     def whole(self, value: float, tok: Token, spec: FieldSpec, keyword: str, index: int) -> int:
         # int: a float with zero fractional part is accepted (SPACAR writes 5.000000); an
         # expression may be off by round-off ({0.1*30} is 3)
-        ivalue = whole_number(value, 0.0 if tok.type == "NUMBER" else 1e-9)
+        ivalue = _expr().whole_number(value, 0.0 if tok.type == "NUMBER" else 1e-9)
         if ivalue is None:
             if tok.type == "EXPR":
                 raise _FieldError(index, f"{keyword}: the {spec.name} must be a whole number, "
@@ -901,7 +1217,7 @@ class _Reader:
             offset = str(tok).index(part, offset)
             if part.startswith("{"):
                 value = self.expression(tok, index, part[1:-1], offset)
-                ivalue = whole_number(value)
+                ivalue = _expr().whole_number(value)
                 if ivalue is None:
                     raise _FieldError(index, f"{keyword}: the range '{tok}' needs whole "
                                              f"numbers, but {part} = {value:.10g}", offset)

@@ -14,7 +14,11 @@ are none, the warnings are logged and the parts are assembled into the model and
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import replace
+from itertools import chain
+
+import numpy as np
 
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import UNSUPPORTED, unsupported_message
@@ -37,6 +41,40 @@ __all__ = ["build_job", "build_model"]
 logger = logging.getLogger(__name__)
 
 
+def _table(rows, dtype) -> np.ndarray:
+    """Rows of numbers as an array (n, width): one pass over the values when every row has
+    the same length (np.array's nested-list conversion is several times slower); otherwise
+    the rows as they are (ElementSet converts them)."""
+    rows = list(rows)
+    widths = set(map(len, rows))
+    if len(widths) != 1:
+        return rows
+    width = widths.pop()
+    return np.fromiter(chain.from_iterable(rows), dtype=dtype,
+                       count=len(rows) * width).reshape(len(rows), width)
+
+
+class _Locs(Sequence):
+    """The locations of the element lines (``ElementSet.locs``), made when asked for: most
+    runs never look at them (see :class:`spacarpy.deck.parser.Statement`)."""
+
+    def __init__(self, statements: list):
+        self._statements = statements
+
+    def __len__(self) -> int:
+        return len(self._statements)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [st.loc for st in self._statements[i]]
+        return self._statements[i].loc
+
+    def __eq__(self, other) -> bool:
+        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
+
+    __hash__ = None
+
+
 def _element_sets(topology: _topology.Topology) -> dict:
     """The element records as one :class:`ElementSet` per kind, in the registry's order."""
     by_kind: dict[str, list] = {}
@@ -47,11 +85,14 @@ def _element_sets(topology: _topology.Topology) -> dict:
         els = by_kind.get(kw)
         if els:
             sets[kw] = ElementSet(
-                kind=kw, ids=[b.id for b in els], nodes=[b.nodes for b in els],
-                vector=[b.orientation for b in els], def_class=[b.def_class for b in els],
-                stiffness=[b.stiffness for b in els],
+                kind=kw, ids=[b.id for b in els],
+                nodes=_table(map(_topology.KIND_INFO[kw]["nodes"], [b.st.fields for b in els]),
+                             np.int64),
+                vector=_topology.vectors_of(els),
+                def_class=_table([b.def_class for b in els], np.int8),
+                stiffness=_table([b.stiffness for b in els], float),
                 has_stiffness=[b.estiff is not None for b in els],
-                mass=[b.mass for b in els], locs=[b.st.loc for b in els])
+                mass=_table([b.mass for b in els], float), locs=_Locs([b.st for b in els]))
     return sets
 
 
@@ -67,12 +108,17 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     statements = [st for st in statements if st.module >= 0]
     by_kw: dict[str, list[Statement]] = {}
     for st in statements:
-        by_kw.setdefault(st.keyword, []).append(st)
-        if st.keyword in UNSUPPORTED:
+        sts = by_kw.get(st.keyword)
+        if sts is None:
+            sts = by_kw[st.keyword] = []
+        sts.append(st)
+    for keyword in UNSUPPORTED:
+        for st in by_kw.get(keyword, ()):
             errors.error(st.loc, unsupported_message(st.keyword), st)
     # a planar model: PLBEAM/PLTRUSS/PLHINGE only, nodes in the x-y plane
     ctx = DeckContext(path, statements, planar=any(kw in by_kw for kw in PLANAR_KINDS),
                       quiet_elements=quiet_elements, quiet_nodes=quiet_nodes)
+    ctx.by_keyword = by_kw
 
     topology = _topology.from_statements(by_kw, ctx, errors)
     element_data = _element_data.from_statements(by_kw, ctx, errors, topology)

@@ -12,6 +12,7 @@ stiffness.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import repeat
 
 from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
@@ -20,6 +21,7 @@ from spacarpy.model import FLEXIBLE, RELEASED, RIGID
 
 __all__ = ["ElementData", "from_statements"]
 
+_ALL_MODES = {n: tuple(range(1, n + 1)) for n in range(1, 16)}
 _STIFFNESS_NAMES = ("EA", "GJ", "EIy", "EIz", "cy", "cz")
 _MASS_NAMES = ("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz")
 
@@ -42,6 +44,31 @@ class _ElementDataPass(UsesTopology):
 
     def deformation_class(self, st: Statement) -> None:
         """A DYNE (flexible) or RLSE (released) line."""
+        fields = st.fields
+        beam = self.beams.get(fields[0])
+        if beam is not None and len(fields) > 1:
+            # the usual line: known modes, none of them set the other way
+            cls = FLEXIBLE if st.keyword == "DYNE" else RELEASED
+            modes = fields[1:]
+            current = beam.def_class
+            if min(modes) >= 1 and max(modes) <= len(current) and \
+                    (RELEASED if cls == FLEXIBLE else FLEXIBLE) not in current:
+                line = st.line
+                flex = beam.flex_locs
+                if len(modes) == len(current) and not flex and modes == _ALL_MODES[len(modes)]:
+                    beam.def_class = [cls] * len(modes)        # DYNE e 1 2 ... n_def
+                    beam.class_line = [line] * len(modes)
+                    if cls == FLEXIBLE:
+                        beam.flex_locs = dict(zip(modes, zip(repeat(st), modes)))
+                    return
+                for k in modes:
+                    current[k - 1] = cls
+                    beam.class_line[k - 1] = line
+                if cls == FLEXIBLE:
+                    for i, k in enumerate(modes, start=1):
+                        if k not in flex:
+                            flex[k] = (st, i)
+                return
         beam = self.element_for(st)
         if beam is None:
             return
@@ -66,9 +93,9 @@ class _ElementDataPass(UsesTopology):
                            st)
                 continue
             beam.def_class[k - 1] = cls
-            beam.class_line[k - 1] = st.loc.line
+            beam.class_line[k - 1] = st.line
             if cls == FLEXIBLE:
-                beam.flex_locs.setdefault(k, st.field_locs[i])
+                beam.flex_locs.setdefault(k, (st, i))
 
     def _repeated(self, st: Statement, first: Statement | None) -> bool:
         if first is not None:
@@ -79,11 +106,16 @@ class _ElementDataPass(UsesTopology):
 
     def estiff(self, st: Statement) -> None:
         """An ESTIFF line."""
-        beam = self.element_for(st)
-        if beam is None or self._repeated(st, beam.estiff):
-            return
+        beam = self.beams.get(st.fields[0])
+        if beam is None or beam.estiff is not None:
+            beam = self.element_for(st)
+            if beam is None or self._repeated(st, beam.estiff):
+                return
         beam.estiff = st
         values = st.fields[1:]
+        if beam.keyword == "BEAM" and 4 <= len(values) <= 6 and min(values) >= 0:
+            beam.stiffness = values + (0.0,) * (6 - len(values))   # nothing to report
+            return
         if beam.keyword != "BEAM":
             self._estiff_other(beam, st, values)
             return
@@ -144,14 +176,22 @@ class _ElementDataPass(UsesTopology):
     def check_flexible_stiffness(self) -> None:
         """Every flexible mode (DYNE) of an element but a hinge has a stiffness."""
         for beam in self.beams.values():
-            modes = sorted(beam.flex_locs)
-            if not modes or beam.keyword == "HINGE":
+            flex = beam.flex_locs
+            if not flex:
+                continue
+            if beam.estiff is not None:         # the usual element: nothing to report
+                lo, hi = beam.info["n_estiff"]
+                if lo <= len(beam.estiff.fields) - 1 <= hi and \
+                        0 not in beam.info["mode_stiffnesses"](beam.stiffness):
+                    continue
+            modes = sorted(flex)
+            if beam.keyword == "HINGE":
                 # a HINGE mode listed in DYNE is a degree of freedom of the joint; without
                 # ESTIFF (or with k = 0) it simply turns freely, as in SPACAR
                 continue
             info = beam.info
             if beam.estiff is None:
-                loc = beam.flex_locs[modes[0]]
+                loc = beam.flex_loc(modes[0])
                 what = (f"mode {modes[0]} is" if len(modes) == 1
                         else "modes " + " ".join(map(str, modes)) + " are")
                 self.error(loc, f"element {beam.id} {what} flexible (DYNE) but "
@@ -169,10 +209,10 @@ class _ElementDataPass(UsesTopology):
                 names = sorted({names_all[mode_k[m - 1]] for m in zero}, key=names_all.index)
                 what = (f"mode {k} is" if len(zero) == 1
                         else "modes " + " ".join(map(str, zero)) + " are")
-                self.error(beam.flex_locs[k],
+                self.error(beam.flex_loc(k),
                            f"element {beam.id} {what} flexible (DYNE) but the stiffness "
                            f"{' '.join(names)} is zero in ESTIFF (line "
-                           f"{beam.estiff.loc.line})", self.errors.line_at(beam.flex_locs[k]))
+                           f"{beam.estiff.loc.line})", self.errors.line_at(beam.flex_loc(k)))
 
     def edamp(self, st: Statement) -> None:
         """``EDAMP e d1 [d2 ...]``: viscous damping coefficients of the deformation modes
@@ -261,9 +301,32 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,
     """Fill the element records of ``topology`` with the DYNE/RLSE, ESTIFF and EM lines;
     return the damping. Every problem goes to ``errors``."""
     part = _ElementDataPass(ctx, errors, topology)
-    for st in sorted(by_kw.get("DYNE", []) + by_kw.get("RLSE", []), key=errors.order):
+    classes = by_kw.get("DYNE", []) + by_kw.get("RLSE", [])
+    if "DYNE" in by_kw and "RLSE" in by_kw:
+        classes.sort(key=errors.order)
+    elements = topology.elements
+    for st in classes:
+        # the usual line, DYNE e 1 2 ... n_def on an element no DYNE/RLSE has touched, here;
+        # everything else in deformation_class
+        fields = st.fields
+        beam = elements.get(fields[0])
+        if beam is not None and not beam.flex_locs and st.keyword == "DYNE" and \
+                RELEASED not in beam.def_class and fields[1:] == _ALL_MODES[len(beam.def_class)]:
+            modes = fields[1:]
+            beam.def_class = [FLEXIBLE] * len(modes)
+            beam.class_line = [st.line] * len(modes)
+            beam.flex_locs = dict(zip(modes, zip(repeat(st), modes)))
+            continue
         part.deformation_class(st)
     for st in by_kw.get("ESTIFF", []):
+        # the usual BEAM line (4 to 6 values, none negative, given once), here
+        fields = st.fields
+        beam = elements.get(fields[0])
+        if beam is not None and beam.estiff is None and beam.keyword == "BEAM" and \
+                5 <= len(fields) <= 7 and min(fields[1:]) >= 0:
+            beam.estiff = st
+            beam.stiffness = fields[1:] + (0.0,) * (7 - len(fields))
+            continue
         part.estiff(st)
     for st in by_kw.get("EM", []):
         part.em(st)

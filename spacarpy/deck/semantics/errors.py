@@ -25,13 +25,31 @@ class ErrorCollector:
     def __init__(self, statements=()):
         self.items: list = []
         self.warnings: list[str] = []
-        self.by_line: dict = {}            # (file, line) -> first statement on it
-        self.rank: dict = {}               # (file, line) -> position in deck order
-        for st in statements:
-            key = (st.loc.file, st.loc.line)
-            if key not in self.rank:
-                self.by_line[key] = st
-                self.rank[key] = len(self.rank)
+        self._statements = statements
+        self._by_line: dict | None = None  # (file, line) -> first statement on it
+        self._rank: dict | None = None     # (file, line) -> position in deck order
+
+    def _index(self) -> None:
+        """The lines of the statements in deck order (made when first needed: a valid deck
+        of one element kind never needs them)."""
+        self._by_line, self._rank = {}, {}
+        for st in self._statements:
+            key = (st.file, st.line)
+            if key not in self._rank:
+                self._by_line[key] = st
+                self._rank[key] = len(self._rank)
+
+    @property
+    def by_line(self) -> dict:
+        if self._by_line is None:
+            self._index()
+        return self._by_line
+
+    @property
+    def rank(self) -> dict:
+        if self._rank is None:
+            self._index()
+        return self._rank
 
     def __bool__(self) -> bool:
         return bool(self.items)
@@ -53,7 +71,7 @@ class ErrorCollector:
 
     def order(self, st: Statement) -> int:
         """The position of a statement's line in deck order."""
-        return self.rank[(st.loc.file, st.loc.line)]
+        return self.rank[(st.file, st.line)]
 
     def sorted(self) -> list:
         """The errors in deck order. Errors that a range or generator line repeats for each of
@@ -96,9 +114,14 @@ class DeckContext:
         self.quiet_elements: set[int] = set(quiet_elements)   # of failed generator lines
         self.quiet_nodes: set[int] = set(quiet_nodes)         # end nodes of those
         self._singletons: dict[str, Statement] = {}
+        self.by_keyword: dict | None = None       # the statements of each keyword, in order
 
     def in_deck_order(self, *keywords: str) -> list[Statement]:
         """The statements of some keywords, in deck order."""
+        if self.by_keyword is not None:
+            present = [kw for kw in keywords if kw in self.by_keyword]
+            if len(present) <= 1:       # already in deck order
+                return list(self.by_keyword[present[0]]) if present else []
         return [st for st in self.statements if st.keyword in keywords]
 
     def once(self, st: Statement, errors: ErrorCollector) -> bool:

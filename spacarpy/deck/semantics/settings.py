@@ -14,7 +14,6 @@ import numpy as np
 from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
-from spacarpy.expressions import ExpressionError, evaluate
 from spacarpy.settings import (
     DEFORMATION_VARIANTS,
     AnalysisSettings,
@@ -226,6 +225,7 @@ class _SettingsPass(UsesTopology):
                 self.error(st.loc, 'TIMEFUNCTION expr takes one expression in t, in double '
                                    'quotes: TIMEFUNCTION expr "1 - exp(-t/0.1)"', st)
                 return
+            from spacarpy.expressions import ExpressionError, evaluate  # Lark: only here
             try:
                 evaluate(given[0], {"t": 0.0})
             except (ExpressionError, ValueError, ZeroDivisionError) as exc:

@@ -9,6 +9,8 @@ once the fixes are known, position nodes no element uses.
 """
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 
 from spacarpy.deck.keywords import KEYWORDS, UNKNOWN_LAYOUT_ELEMENTS, UNSUPPORTED_ELEMENTS
@@ -52,13 +54,29 @@ def _element_name(st: Statement, e: int) -> str:
     return f"element {e}" + (f" (made by the {st.origin} line)" if st.origin else "")
 
 
+def _picker(indices):
+    """A function giving the tuple of the items at ``indices`` of a sequence."""
+    if len(indices) > 1:
+        return operator.itemgetter(*indices)
+    return lambda values: tuple(values[i] for i in indices)
+
+
 def _kind_info(kind) -> dict:
     """What the semantics check of an element kind, from its declaration: number of
     deformation modes, index of the first vector field (orientation / hinge axis) or None,
     allowed ESTIFF value counts, the stiffness names, which ESTIFF value carries each mode's
     stiffness, and whether (and how much) EM applies."""
     est, em = kind.estiff, kind.em
+    roles = KEYWORDS[kind.keyword].node_roles
     info = dict(n_def=kind.n_def, vector_at=1 + len(kind.slots) if kind.vector else None,
+                roles=roles, mode_stiffnesses=_picker(sorted(set(kind.mode_stiffness))),
+                nodes=_picker(range(1, 1 + len(roles))),
+                no_stiffness=(0.0,) * (6 if kind.keyword == "BEAM" else 3),
+                position_nodes=_picker([i for i, r in enumerate(roles, start=1) if r == "p"]),
+                orientation_nodes=_picker([i for i, r in enumerate(roles, start=1)
+                                           if r == "r"]),
+                position_fields=[i for i, r in enumerate(roles, start=1) if r == "p"],
+                orientation_fields=[i for i, r in enumerate(roles, start=1) if r == "r"],
                 n_estiff=(est.required, est.allowed), stiff_names=est.names,
                 mode_stiffness=kind.mode_stiffness, has_mass=em is not None,
                 estiff_usage=est.usage)
@@ -72,32 +90,68 @@ KIND_INFO = {keyword: _kind_info(kind) for keyword, kind in KINDS.items()}
 ELEMENT_KEYWORDS = tuple(KIND_INFO)
 
 
+def vectors_of(elements) -> np.ndarray:
+    """The orientation vector (hinge axis) of each element, (n, 3), NaN rows where none is
+    given."""
+    out = np.full((len(elements), 3), np.nan)
+    given = [i for i, b in enumerate(elements) if b.info["vector_at"] is not None
+             and len(b.st.fields) >= b.info["vector_at"] + 3]
+    if given:
+        out[given] = [b.st.fields[b.info["vector_at"]:b.info["vector_at"] + 3]
+                      for b in (elements[i] for i in given)]
+    return out
+
+
 class ElementRecord:
     """One element line (of any supported kind) while the model is being built; the element
     data (:mod:`spacarpy.deck.semantics.element_data`) fill in its classes, stiffness and
     mass."""
 
+    # not yet given: the element data replace these (class-wide, immutable) defaults
+    estiff: Statement | None = None
+    mass = (0.0,) * 5
+    em: Statement | None = None
+
     def __init__(self, st: Statement):
         self.st = st
-        self.keyword = st.keyword
-        info = KIND_INFO[st.keyword]
-        self.info = info
-        self.roles = KEYWORDS[st.keyword].node_roles
+        keyword = self.keyword = st.keyword
+        info = self.info = KIND_INFO[keyword]
         self.id = st.fields[0]
-        self.nodes = list(st.fields[1:1 + len(self.roles)])
-        self.position_nodes = [n for n, r in zip(self.nodes, self.roles) if r == "p"]
-        at = info["vector_at"]
-        self.vector_given = at is not None and len(st.fields) >= at + 3
-        self.orientation = (tuple(st.fields[at:at + 3]) if self.vector_given
-                            else (np.nan, np.nan, np.nan))
         n_def = info["n_def"]
         self.def_class = [RIGID] * n_def
         self.class_line = [0] * n_def      # line of the DYNE/RLSE that set each mode
-        self.flex_locs: dict[int, SourceLoc] = {}   # mode -> where it was made flexible
-        self.stiffness = (0.0,) * (6 if st.keyword == "BEAM" else 3)
-        self.estiff: Statement | None = None
-        self.mass = (0.0,) * 5
-        self.em: Statement | None = None
+        self.flex_locs: dict[int, tuple] = {}   # mode -> (DYNE statement, field index)
+        self.stiffness = info["no_stiffness"]
+
+    # made from the element line when asked for (all elements at once: the info's getters)
+    @property
+    def roles(self) -> str:
+        return self.info["roles"]
+
+    @property
+    def nodes(self) -> list:
+        return list(self.info["nodes"](self.st.fields))
+
+    @property
+    def position_nodes(self) -> list:
+        return list(self.info["position_nodes"](self.st.fields))
+
+    @property
+    def vector_given(self) -> bool:
+        at = self.info["vector_at"]
+        return at is not None and len(self.st.fields) >= at + 3
+
+    @property
+    def orientation(self) -> tuple:
+        at = self.info["vector_at"]
+        return (tuple(self.st.fields[at:at + 3]) if self.vector_given
+                else (np.nan, np.nan, np.nan))
+
+
+    def flex_loc(self, mode: int) -> SourceLoc:
+        """Where mode (1-based) was made flexible: the field of its first DYNE line."""
+        st, i = self.flex_locs[mode]
+        return st.field_locs[i]
 
 
 class Topology(Part):
@@ -170,9 +224,9 @@ class Topology(Part):
         ids = np.fromiter(self.positions, dtype=np.int64, count=len(self.positions))
         x = np.array([xyz for xyz, _ in self.positions.values()], dtype=float).reshape(-1, 3)
         # rows of x of each element's two position nodes (HINGEs have none)
-        two = np.array([len(b.position_nodes) == 2 for b in elements], dtype=bool)
-        ends = np.array([b.position_nodes if len(b.position_nodes) == 2 else (0, 0)
-                         for b in elements], dtype=np.int64).reshape(n, 2)
+        two = np.array([len(b.info["position_fields"]) == 2 for b in elements], dtype=bool)
+        ends = np.array([b.info["position_nodes"](b.st.fields) if len(b.info["position_fields"])
+                         == 2 else (0, 0) for b in elements], dtype=np.int64).reshape(n, 2)
         rows, found = _lookup(ids, ends)
         has_axis = two & found.all(axis=1)
         d = x[rows[:, 1]] - x[rows[:, 0]] if len(ids) else np.zeros((n, 3))
@@ -185,7 +239,7 @@ class Topology(Part):
         zero_length = has_axis & (length <= ZERO_LENGTH_RTOL * scale)
         axis = np.divide(d, length[:, None], out=np.full_like(d, np.nan),
                          where=(has_axis & ~zero_length)[:, None])
-        vector = np.array([b.orientation for b in elements], dtype=float).reshape(n, 3)
+        vector = vectors_of(elements)
         vector_norm = _row_norms(vector)                   # NaN where no vector is given
         zero_vector = vector_norm < ORIENTATION_TOL
         parallel = _row_norms(np.cross(axis, vector)) < ORIENTATION_TOL * vector_norm
@@ -195,6 +249,17 @@ class Topology(Part):
                 parallel: bool) -> None:
         """An element record of any supported kind; the geometry flags come from
         :meth:`element_geometry`."""
+        positions = self.positions
+        if not (zero_length or b.id in self.elements or b.id in self.foreign_elements
+                or (b.vector_given and (zero_vector or parallel))
+                or (b.keyword == "HINGE" and not b.vector_given)):
+            fields = b.st.fields
+            info = b.info
+            has = positions.__contains__
+            if all(map(has, info["position_nodes"](fields))) and \
+                    not any(map(has, info["orientation_nodes"](fields))):
+                self.elements[b.id] = b         # nothing to report
+                return
         st = b.st
         ok = True
         if b.id in self.elements:
@@ -265,7 +330,7 @@ class Topology(Part):
     def check_unconnected(self, fixes: dict) -> None:
         """A position node no element uses floats free (a mechanism): an error, unless all
         its coordinates are fixed (then it is merely useless: a warning)."""
-        used = ({n for b in self.elements.values() for n in b.position_nodes}
+        used = ({n for b in self.elements.values() for n in b.info["position_nodes"](b.st.fields)}
                 | self.foreign_nodes | self.quiet_nodes)
         for n, (_, st) in self.positions.items():
             if n in used:
@@ -309,14 +374,23 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector) -> To
     for keyword in UNSUPPORTED_ELEMENTS + UNKNOWN_LAYOUT_ELEMENTS:
         for st in by_kw.get(keyword, []):
             topology.note_foreign(st)
-    for st in by_kw.get("X", []):
-        topology.node(st)
-    element_sts = [st for kw in ELEMENT_KEYWORDS for st in by_kw.get(kw, [])]
-    element_sts.sort(key=errors.order)
+    x_sts = by_kw.get("X", [])
+    ids = [st.fields[0] for st in x_sts]
+    if not ctx.planar and len(set(ids)) == len(ids) and all(len(st.fields) == 4 for st in x_sts):
+        topology.positions = dict(zip(ids, zip([st.fields[1:4] for st in x_sts], x_sts)))
+    else:
+        for st in x_sts:
+            topology.node(st)
+    kinds = [kw for kw in ELEMENT_KEYWORDS if kw in by_kw]
+    element_sts = [st for kw in kinds for st in by_kw[kw]]
+    if len(kinds) > 1:
+        element_sts.sort(key=errors.order)
+    use = topology.orientation_use
     for st in element_sts:
-        for i, role in enumerate(KEYWORDS[st.keyword].node_roles, start=1):
-            if role == "r":
-                topology.orientation_use.setdefault(st.fields[i], st)
+        fields = st.fields
+        for i in KIND_INFO[st.keyword]["orientation_fields"]:
+            if fields[i] not in use:
+                use[fields[i]] = st
     elements = [ElementRecord(st) for st in element_sts]
     for b, geometry in zip(elements, topology.element_geometry(elements)):
         topology.element(b, *geometry)
