@@ -59,12 +59,12 @@ def _libc():
 # -- memory estimate before a run ------------------------------------------------------------
 
 #: Peak resident memory of ``spacarpy run`` ~ BASE + PER_ELEMENT * elements, fitted to the
-#: static cantilever of ``spacarpy bench`` (docs/performance.md: 748 MB at 10^4 elements,
-#: 3014 MB at 10^5; the estimate gives 580 MB and 3100 MB). Eigen runs measured less (585 MB
-#: at 10^4). The constant term covers Python, numpy/scipy and h5py and glibc's 256 MB heap
+#: static cantilever of ``spacarpy bench`` (docs/performance.md, 2026-11-23: 623 MB at 10^4
+#: elements, 3342 MB at 10^5; the estimate gives 603 MB and 3327 MB). The 10-mode eigen runs
+#: measured 489 MB at 10^4 and 4080 MB at 10^5 (their ARPACK vectors). The constant term covers Python, numpy/scipy and h5py and glibc's 256 MB heap
 #: steps (:func:`keep_freed_memory`).
 BASE_BYTES = 300 * 2**20
-PER_ELEMENT_BYTES = 28 * 2**10
+PER_ELEMENT_BYTES = 31 * 2**10
 
 
 def estimate_run_bytes(n_elem: int) -> int:
@@ -107,7 +107,7 @@ class MemoryLimitError(SpacarError):
 
 
 def memory_line(n_elem: int) -> str:
-    """``about 573 MB at the peak of a run``: the estimate as ``spacarpy check`` shows it
+    """``about 603 MB at the peak of a run``: the estimate as ``spacarpy check`` shows it
     (without the available memory, which changes from moment to moment)."""
     return f"about {format_bytes(estimate_run_bytes(n_elem))} at the peak of a run"
 

@@ -251,10 +251,10 @@ def test_control_characters_in_messages_are_escaped(tmp_path, capsys):
 # -- D7: memory estimate before the solve ----------------------------------------------------
 
 def test_memory_estimate_matches_the_benchmark_measurements():
-    """docs/performance.md: peak 748 MB at 10^4 and 3014 MB at 10^5 cantilever elements."""
+    """docs/performance.md: peak 623 MB at 10^4 and 3342 MB at 10^5 cantilever elements."""
     from spacarpy.memory import estimate_run_bytes
-    assert 0.7 < estimate_run_bytes(10**4) / (748 * 2**20) < 1.1
-    assert 0.9 < estimate_run_bytes(10**5) / (3014 * 2**20) < 1.2
+    assert 0.7 < estimate_run_bytes(10**4) / (623 * 2**20) < 1.1
+    assert 0.9 < estimate_run_bytes(10**5) / (3342 * 2**20) < 1.2
 
 
 def test_run_stops_when_the_estimate_exceeds_the_available_memory(tmp_path, capsys,
