@@ -61,8 +61,9 @@ def _libc():
 #: Peak resident memory of ``spacarpy run`` ~ BASE + PER_ELEMENT * elements, fitted to the
 #: static cantilever of ``spacarpy bench`` (docs/performance.md, 2026-11-23: 623 MB at 10^4
 #: elements, 3342 MB at 10^5; the estimate gives 603 MB and 3327 MB). The 10-mode eigen runs
-#: measured 489 MB at 10^4 and 4080 MB at 10^5 (their ARPACK vectors). The constant term covers Python, numpy/scipy and h5py and glibc's 256 MB heap
-#: steps (:func:`keep_freed_memory`).
+#: measured 489 MB at 10^4 and 4080 MB at 10^5 (their ARPACK vectors). The constant term
+#: covers Python, numpy/scipy and h5py and glibc's 256 MB heap steps
+#: (:func:`keep_freed_memory`).
 BASE_BYTES = 300 * 2**20
 PER_ELEMENT_BYTES = 31 * 2**10
 
