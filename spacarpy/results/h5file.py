@@ -7,7 +7,7 @@ This module's one job is the HDF5 file itself, below the schema's meaning:
   never replaced by a broken one (:func:`fsync` makes both durable);
 - step datasets grow by one row per step (:func:`create_extendable`) and a step is
   *committed* by appending its scale value (load factor, time, linearized step) after its
-  rows have been flushed (:class:`StepAppender`, :func:`append_step`): the scale's length
+  rows have been flushed (:class:`StepAppender`): the scale's length
   is the number of committed steps, rows beyond it belong to a step that was being
   written when the process died;
 - after the groups are created the file is switched to HDF5 single-writer/multiple-reader
@@ -48,7 +48,7 @@ log = logging.getLogger(__name__)
 
 __all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_superblock",
            "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
-           "create_extendable", "append_step", "StepAppender", "ascii_array", "SchemaFile",
+           "create_extendable", "StepAppender", "ascii_array", "SchemaFile",
            "LIBVER", "crc32", "checksum_row", "damaged_steps", "fixed_damaged",
            "checksum_problems", "CRC_ATTR", "python_value", "str_list"]
 
@@ -419,8 +419,11 @@ def create_extendable(group: h5py.Group, name: str, trailing: tuple, dtype) -> h
 
 
 class StepAppender:
-    """Appends the steps of one step group (its datasets, its scale, its checksum) with the
-    commit protocol of :func:`append_step`, through HDF5's low-level calls.
+    """Appends the steps of one step group (its datasets, its scale, its checksum), through
+    HDF5's low-level calls: row ``k`` of every dataset is written and made durable, then the
+    step is committed by appending its scale value (load factor, time, static step) and
+    flushing again, so that a reader never sees a scale entry whose rows are not on disk.
+    The ``checksum`` dataset gets the step's :func:`checksum_row` with the rows (schema 2.1).
 
     h5py's ``Dataset.resize`` and ``Dataset.__setitem__`` re-derive the shape, the selection,
     the memory space and the type of every write (60-140 us each, most of a small model's
@@ -501,18 +504,6 @@ def _write_row(dsid, trailing: tuple, dtype, maxshape, mtype, mspace, fspace, ro
     fspace.set_extent_simple(shape, maxshape)
     fspace.select_hyperslab((k,) + (0,) * len(trailing), (1,) + trailing)
     dsid.write(mspace, fspace, row, mtype)
-
-
-def append_step(f: h5py.File, datasets: dict, rows: dict, scale: h5py.Dataset, value,
-                k: int, checksum: tuple | None = None) -> None:
-    """Append row ``k`` of every dataset and make it durable, then commit the step by
-    appending its scale value (load factor, time, static step) and flushing again: a reader
-    never sees a scale entry whose rows are not on disk.
-
-    ``checksum`` is ``(dataset, columns)``: the step's :func:`checksum_row` is appended to it
-    with the rows (schema 2.1). A writer that appends many steps keeps one
-    :class:`StepAppender` instead (this function makes one per call)."""
-    StepAppender(f, datasets, scale, checksum).append(rows, value, k)
 
 
 def ascii_array(strings) -> np.ndarray:
