@@ -676,22 +676,13 @@ def _simplified_norm(prob, simplified, ev, x, r) -> float:
     state (x, ``ev``) with the force residual r (over the free coordinates): the last
     iteration matrix's factorization applied to the new residual (Deuflhard's simplified
     Newton correction), an estimate of the increment that state still needs, for one solve
-    instead of a new tangent, factorization and residual. ``simplified`` says how the last
-    increment was solved: "reduced" (the tangent-space LDL^T,
-    :meth:`ReducedNewton.simplified_increment`), ``(lu, scale)`` (the bordered SuperLU and
-    its constraint-row scale), or None (inf: no estimate)."""
-    if simplified is None:
+    instead of a new tangent, factorization and residual. ``simplified(ev, x, r)`` is that
+    solve over the free coordinates (None: no estimate), or None when no iteration matrix
+    was factorized; inf where there is no estimate."""
+    dx = None if simplified is None else simplified(ev, x, r)
+    if dx is None or not np.all(np.isfinite(dx)):
         return np.inf
-    if isinstance(simplified, str):
-        full = np.zeros(prob.num.n_coord)
-        full[prob.free] = r
-        dx = prob.reduced.simplified_increment(ev, x, residual=full)
-        if dx is None:
-            return np.inf
-    else:
-        lu, scale = simplified
-        dx = lu.solve(-np.concatenate([r, scale * ev.c]))[:prob.pattern.n_x]
-    return prob.increment_norm(dx) if np.all(np.isfinite(dx)) else np.inf
+    return prob.increment_norm(dx)
 
 
 def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
@@ -725,7 +716,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     history = []
     trial_level = None               # the force level of the step's predictor
     m_max = floor_dyn = 0.0          # largest mass entry, round-off floor (iteration 0)
-    simplified = None                # how the last increment was solved (_simplified_norm)
+    simplified = None                # the last factorization's solve (_simplified_norm)
     for it in range(opts.max_iter + 1):
         ev, blocks, f_in, r, res, floor, _, f_damp, damp_blocks, level = tp.residual(
             t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
@@ -801,7 +792,11 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
                                       invariant=False)
         if step is not None:
             dx, dmu = step
-            simplified = "reduced"
+
+            def simplified(ev, x, r):                # the tangent-space LDL^T's solve
+                full = np.zeros(num.n_coord)
+                full[free] = r
+                return prob.reduced.simplified_increment(ev, x, residual=full)
         else:
             scale = max(prob.scale, beta_p * m_max)
             S = prob.matrix(ev, mu1, extra=extra, scale=scale)
@@ -818,7 +813,9 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
                 raise StepFailed("singular iteration matrix", history) from None
             dz = lu.solve(rhs)
             dx, dmu = dz[:n_x], dz[n_x:] * scale
-            simplified = (lu, scale)
+
+            def simplified(ev, x, r, lu=lu, scale=scale):    # the bordered SuperLU's
+                return lu.solve(-np.concatenate([r, scale * ev.c]))[:n_x]
         if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
             raise StepFailed("non-finite Newton increment", history)
         dx_norm = prob.increment_norm(dx)
