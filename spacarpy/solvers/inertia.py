@@ -126,9 +126,9 @@ class Inertia:
                                                 _tiled(g.mass, reps), self.rotary)
             out.append(_Batch(mass_of, g.idx, rot, conv_of, force_of))
         pm, jr = self.point_mass, self.rot_inertia
-        out.append(_Batch((lambda xl, reps: np.tile(pm, reps)[:, None, None] * np.eye(3)),
+        out.append(_Batch((lambda xl, reps: _tiled(pm, reps)[:, None, None] * np.eye(3)),
                           self.point_idx, np.zeros(0, np.int64), None, None))
-        out.append(_Batch((lambda xl, reps: nodal_rotary_mass(xl, np.concatenate([jr] * reps))),
+        out.append(_Batch((lambda xl, reps: nodal_rotary_mass(xl, _tiled(jr, reps))),
                           self.rot_idx, np.arange(4), None, None))
         return out
 

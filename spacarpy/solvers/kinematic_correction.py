@@ -226,8 +226,11 @@ class KinematicCorrector:
                 t[g.rigid_elem, g.rigid_mode] = rigid_target[g.rigid_slice]
         inv_scale = [1.0 / g.scale for g in num.groups]
 
+        def state_of(g, x):
+            return g.kind.state(x[g.idx], g.ref, self.variant, g.prev)
+
         def full_states(x):
-            return [g.kind.state(x[g.idx], g.ref, self.variant, g.prev) for g in num.groups]
+            return [state_of(g, x) for g in num.groups]
 
         def mismatch(x, full):
             # the deformations alone where the Jacobian is not needed (a chord iteration
@@ -238,8 +241,7 @@ class KinematicCorrector:
                 e = [st.e for st in states]
             else:
                 states = None
-                e = [g.kind.state(x[g.idx], g.ref, self.variant, g.prev).e
-                     if g.kind.deformations is None else
+                e = [state_of(g, x).e if g.kind.deformations is None else
                      g.kind.deformations(x[g.idx], g.ref, self.variant, g.prev)
                      for g in num.groups]
             g_e = [(t - ei) * w for t, ei, w in zip(targets, e, inv_scale)]
