@@ -201,9 +201,11 @@ class Statement:
         self._source_line = src.line(line)
         self._src = None
 
+    #: The attributes that make a statement (its constructor's arguments), in order.
+    _ATTRIBUTES = ("keyword", "fields", "loc", "field_locs", "source_line", "module", "origin")
+
     def _key(self) -> tuple:
-        return (self.keyword, self.fields, self.loc, self.field_locs, self.source_line,
-                self.module, self.origin)
+        return tuple(getattr(self, name) for name in self._ATTRIBUTES)
 
     def __eq__(self, other):
         if not isinstance(other, Statement):
@@ -215,15 +217,11 @@ class Statement:
 
     def __repr__(self) -> str:
         return ("Statement(" + ", ".join(f"{name}={value!r}" for name, value in zip(
-            ("keyword", "fields", "loc", "field_locs", "source_line", "module", "origin"),
-            self._key())) + ")")
+            self._ATTRIBUTES, self._key())) + ")")
 
     def replace(self, **changes) -> Statement:
         """A copy with some attributes changed (as ``dataclasses.replace``)."""
-        values = dict(zip(("keyword", "fields", "loc", "field_locs", "source_line", "module",
-                           "origin"), self._key()))
-        values.update(changes)
-        return Statement(**values)
+        return Statement(**{**dict(zip(self._ATTRIBUTES, self._key())), **changes})
 
     @property
     def spec(self) -> KeywordSpec:
