@@ -2,8 +2,8 @@
 
 Fixtures live in conftest.py; this module holds what is called, not injected: deck-error
 collection, finite differences, an independent planar four-bar solution, the arguments of the
-documented sweep and a results writer process killed with SIGKILL. No test module imports
-another test module.
+documented sweep, a results writer process killed with SIGKILL and the perfect column's
+arc-length path. No test module imports another test module.
 """
 from __future__ import annotations
 
@@ -91,6 +91,32 @@ def planar_four_bar_equilibrium(k=2.0, P=1.5):
     phi = brentq(lambda p: k * p - P * (c_of(p + 1e-6)[0] - c_of(p - 1e-6)[0]) / 2e-6,
                  -1.0, 1.0)
     return phi, c_of(phi)
+
+
+def perfect_column(n: int = 10, setting: str = "switch"):
+    """(model, settings) of the straight clamped column at 1.5 times its Euler load with
+    EIy = 2 EIz (one buckling mode, a bifurcation at the load factor 1/1.5), followed by arc
+    length with ``BIFURCATION setting``."""
+    from spacarpy.cases import arclength_column_deck
+    from spacarpy.deck import job_from_text
+    text = arclength_column_deck(n, imperfection=0.0, ds0=0.02).replace(
+        "ARCLENGTH 200 0.02", "ARCLENGTH 200 0.02 0.0001 0.02").replace(
+        "MODE static", f"MODE static\nBIFURCATION {setting}").replace(
+        "1000000 1 1 1", "1000000 1 2 1")
+    return job_from_text(text, "<column>")
+
+
+def perfect_column_path(setting: str = "warn"):
+    """The perfect column (:func:`perfect_column`) solved along its arc-length path:
+    ``(prob, path, steps)`` with its ``ArcLengthPath`` and every fourth stored step after
+    the first (for :func:`spacarpy.solvers.arclength.point_at`)."""
+    from spacarpy.solvers.arclength import ArcLengthPath
+    from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+    model, settings = perfect_column(setting=setting)
+    prob = StaticProblem(model)
+    res = solve_static(model, settings, problem=prob)
+    path = ArcLengthPath(prob, StaticOptions.from_settings(settings), settings.static.arclength)
+    return prob, path, res.steps[1::4]
 
 
 def docs_sweep_args(out, deck: str = "sweep_column_load_ratio") -> list[str]:

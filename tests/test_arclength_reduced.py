@@ -11,26 +11,16 @@ import numpy as np
 import pytest
 
 import spacarpy.solvers.arclength as arclength
-from spacarpy.cases import arclength_column_deck
-from spacarpy.deck import job_from_text
-from spacarpy.solvers.arclength import ArcLengthPath, determinant_sign, point_at
+from spacarpy.solvers.arclength import determinant_sign, point_at
 from spacarpy.solvers.stability import stability
-from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+from spacarpy.solvers.static import StaticProblem, solve_static
 
-
-def _perfect_column(n: int = 10, setting: str = "switch"):
-    """The straight clamped column at 1.5 times its Euler load with EIy = 2 EIz (one
-    buckling mode, a bifurcation at the load factor 1/1.5), BIFURCATION switch."""
-    text = arclength_column_deck(n, imperfection=0.0, ds0=0.02).replace(
-        "ARCLENGTH 200 0.02", "ARCLENGTH 200 0.02 0.0001 0.02").replace(
-        "MODE static", f"MODE static\nBIFURCATION {setting}").replace(
-        "1000000 1 1 1", "1000000 1 2 1")
-    return job_from_text(text, "<column>")
+from helpers import perfect_column, perfect_column_path
 
 
 def _run(monkeypatch, use_reduced: bool):
     monkeypatch.setattr(arclength, "USE_REDUCED", use_reduced)
-    model, settings = _perfect_column()
+    model, settings = perfect_column()
     prob = StaticProblem(model)
     assert prob.reduced is not None          # the case where the two solvers differ
     return prob, settings, solve_static(model, settings, problem=prob)
@@ -59,12 +49,9 @@ def test_ldl_pivots_give_the_determinant_sign_and_the_index(monkeypatch):
     """Along the perfect column without switching (it stays straight: index 0 before the
     bifurcation, 1 after it)."""
     monkeypatch.setattr(arclength, "USE_REDUCED", True)
-    model, settings = _perfect_column(setting="warn")
-    prob = StaticProblem(model)
-    res = solve_static(model, settings, problem=prob)
-    path = ArcLengthPath(prob, StaticOptions.from_settings(settings), settings.static.arclength)
+    prob, path, steps = perfect_column_path(setting="warn")
     seen = set()
-    for step in res.steps[1::4]:
+    for step in steps:
         p = point_at(path, step)
         neg = path.reduced.negative_pivots
         assert p.lu is None and neg is not None       # the LDL^T gave the sign

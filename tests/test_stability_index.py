@@ -2,20 +2,19 @@
 alone and decomposes the eigenvectors only when a branch switch asks for them; both must be
 exactly what one dense ``eigh`` of the Jacobi-scaled reduced tangent gives (the index, and
 the modes bit for bit), and a branch's potential energy from the check's kernel states must
-equal the one evaluated afresh. Checked along the perfect column of
-tests/test_arclength_reduced.py past its bifurcation (index 0, then 1)."""
+equal the one evaluated afresh. Checked along the perfect column (helpers.perfect_column, as
+in tests/test_arclength_reduced.py) past its bifurcation (index 0, then 1)."""
 from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
 
-from spacarpy.cases import arclength_column_deck
-from spacarpy.deck import job_from_text
-from spacarpy.solvers.arclength import ArcLengthPath, point_at
+from spacarpy.solvers.arclength import point_at
 from spacarpy.solvers.eigen import null_space_basis
 from spacarpy.solvers.linearize import linearize
 from spacarpy.solvers.stability import ZERO_TOL, canonical_sign, potential_energy, stability
-from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+
+from helpers import perfect_column_path
 
 
 def _eager(prob, x, mu, load):
@@ -32,16 +31,9 @@ def _eager(prob, x, mu, load):
 
 
 def test_lazy_modes_and_index_equal_one_eigh():
-    text = arclength_column_deck(10, imperfection=0.0, ds0=0.02).replace(
-        "ARCLENGTH 200 0.02", "ARCLENGTH 200 0.02 0.0001 0.02").replace(
-        "MODE static", "MODE static\nBIFURCATION warn").replace(
-        "1000000 1 1 1", "1000000 1 2 1")
-    model, settings = job_from_text(text, "<column>")
-    prob = StaticProblem(model)
-    res = solve_static(model, settings, problem=prob)
-    path = ArcLengthPath(prob, StaticOptions.from_settings(settings), settings.static.arclength)
+    prob, path, steps = perfect_column_path(setting="warn")
     seen = set()
-    for step in res.steps[1::4]:
+    for step in steps:
         p = point_at(path, step)
         load = path.load(p.s)
         st = stability(prob, p.x, p.mu, load)
