@@ -215,6 +215,7 @@ def _transient_row(n: int, n_steps: int) -> dict:
     return dict(case="transient", n=n, unknowns=res.problem.pattern.n, setup=setup,
                 total=total, median=total, steps=steps, iterations=res.n_newton,
                 per_step=total / steps, iters_per_step=res.n_newton / steps,
+                lu_per_step=res.n_matrices / steps,
                 per_iter=total / max(res.n_newton, 1), result=float(tip[1]),
                 peak_mb=_peak_mb())
 
@@ -460,6 +461,7 @@ def _columns(case: str, peer: bool):
                  ("tip y (m)", 10, f("result", ".4f"))]
     else:
         cols += [("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
+                 ("LU/step", 7, f("lu_per_step", ".2f")),
                  ("ms/step", 8, f("per_step", ".2f", 1e3)),
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
                  ("tip u_y (m)", 11, f("result", ".6f"))]

@@ -259,19 +259,38 @@ class ReducedNewton:
         factorization failed). Its size estimates the Newton increment that state still
         needs (Deuflhard's simplified Newton correction): a convergence test that costs
         one solve instead of a new tangent and factorization."""
-        if self._last is None:
+        out = self.chord(self.last, ev, x, residual)
+        return None if out is None else out[0]
+
+    @property
+    def last(self):
+        """The last successful :meth:`step`'s factorization and element blocks (for
+        :meth:`chord`), or None."""
+        return self._last
+
+    def chord(self, last, ev, x, residual=None):
+        """The chord (modified Newton) increment ``(dx over the free coordinates, dmu)`` at
+        the state (x, ``ev``) with an earlier :meth:`step`'s factorization and element
+        blocks ``last`` (:attr:`last`), without refinement; None when ``last`` is None or
+        the solve fails. The tangent-space basis and the Euler constraints' radial part
+        are those of the new state, so the increment keeps ``q.q = 1`` to first order
+        whatever the age of the matrix."""
+        if last is None:
             return None
-        k_rot, euler_diag, invariant, solve = self._last
+        k_rot, euler_diag, invariant, solve = last
         q = x[self.eu]
         nq = np.linalg.norm(q, axis=1)
         b = self.basis(q)
-        _, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
+        r_full, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
         try:
             z[self.keep] = solve(rhs)
         except FactorizationError:
             return None
+        radial = self.eu[:, 0]
+        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
+            radial]) / (2.0 * nq)
         z[self.eu] = np.einsum("nab,nb->na", b, z[self.eu])
-        return z[self.free]
+        return z[self.free], np.concatenate([np.zeros(self.prob.num.n_rigid), dmu])
 
     def step(self, ev, x, mu, k_el, euler_diag, residual=None, invariant: bool = True,
              load=None):
