@@ -1,6 +1,7 @@
-"""The element kernels' fast paths for small groups equal their general paths and the finite
-differences: the BEAM's dense second derivatives (``dense=True``, groups of up to
-``DENSE_MAX`` elements) against the block-by-block ones and central differences."""
+"""The element kernels' fast paths equal their general paths and the finite differences:
+the BEAM's dense second derivatives (``dense=True``, groups of up to ``DENSE_MAX``
+elements) against the block-by-block ones and central differences; the HINGE's
+deformations alone against its full state's; the RBEAM with its stacked reference triad."""
 import numpy as np
 import pytest
 from test_beam import random_elements
@@ -13,6 +14,10 @@ from spacarpy.elements.beam import (
     beam_tangent,
     beam_weighted_hessian,
 )
+from spacarpy.elements.hinge import Hinge, hinge_deformations, hinge_reference, hinge_state
+from spacarpy.elements.plhinge import PlHinge
+from spacarpy.elements.rbeam import rbeam_reference, rbeam_state
+from spacarpy.rotation import from_axis_angle
 
 VARIANTS = ("basic", "modified")
 
@@ -67,3 +72,50 @@ def test_the_kind_takes_the_dense_path_for_small_groups_only():
                          w[:DENSE_MAX])
     np.testing.assert_allclose(small, big[:DENSE_MAX], rtol=0,
                                atol=1e-13 * np.abs(big).max())
+
+
+def _hinge_data(n, seed):
+    rng = np.random.default_rng(seed)
+    a, b, c = hinge_reference(rng.normal(size=(n, 3)))
+    x = np.concatenate([from_axis_angle(rng.normal(size=(n, 3)), 2.0 * rng.normal(size=n)),
+                        from_axis_angle(rng.normal(size=(n, 3)), 2.0 * rng.normal(size=n))],
+                       axis=1)
+    return rng, x, a, b, c
+
+
+@pytest.mark.parametrize("previous", [None, "array", 20.0])
+def test_hinge_deformations_alone_equal_those_of_the_full_state(previous):
+    rng, x, a, b, c = _hinge_data(15, 24)
+    prev = rng.normal(size=15) * 10.0 if previous == "array" else previous
+    st = hinge_state(x, a, b, c, prev)
+    e = hinge_deformations(x, a, b, c, prev)
+    assert np.all(np.abs(e - st.e) <= 1e-14 * np.maximum(1.0, np.abs(st.e)))
+    if prev is not None:                    # the branch of the previous angle, as the state's
+        assert np.all(np.abs(e[:, 0] - prev) <= np.pi)
+
+
+def test_hinge_and_planar_hinge_kinds_give_their_states_deformations():
+    rng, x, a, b, c = _hinge_data(6, 25)
+    hinge, plhinge = Hinge(), PlHinge()
+    ref = hinge.reference(None, rng.normal(size=(6, 3)))[0]
+    prev = {"e1": rng.normal(size=6) * 7.0}
+    np.testing.assert_allclose(hinge.deformations(x, ref, "modified", prev),
+                               hinge.state(x, ref, "modified", prev).e, rtol=0, atol=1e-14)
+    planar = from_axis_angle(np.tile([0.0, 0.0, 1.0], (6, 1)), rng.normal(size=6) * 3.0)
+    xp = np.concatenate([planar, planar[::-1]], axis=1)
+    pref = plhinge.reference(None, np.zeros((6, 3)))[0]
+    np.testing.assert_allclose(plhinge.deformations(xp, pref, "modified", {}),
+                               plhinge.state(xp, pref, "modified", {}).e, rtol=0, atol=1e-14)
+
+
+def test_rbeam_state_with_and_without_the_stacked_reference_triad():
+    rng = np.random.default_rng(26)
+    xp = rng.normal(size=(9, 3))
+    xq = xp + rng.normal(size=(9, 3))
+    nx, ny, nz, l0 = rbeam_reference(xp, xq, rng.normal(size=(9, 3)))
+    q = from_axis_angle(rng.normal(size=(9, 3)), rng.normal(size=9))
+    x = np.concatenate([xp, q, xq + 0.1 * rng.normal(size=(9, 3))], axis=1)
+    with_u = rbeam_state(x, nx, ny, nz, l0, np.stack([nx, ny, nz], axis=1))
+    without = rbeam_state(x, nx, ny, nz, l0)
+    for f, g in zip(with_u, without):
+        np.testing.assert_array_equal(f, g)

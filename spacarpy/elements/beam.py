@@ -72,7 +72,8 @@ from spacarpy.elements.beam_mass import (
     tangent_gravity,
 )
 from spacarpy.elements.chunks import in_chunks
-from spacarpy.rotation import hessian_combination, quadratic_form
+from spacarpy.elements.nodal import TQ_H2, nodal_jacobians
+from spacarpy.rotation import hessian_combination
 
 N_DEF = 6
 
@@ -201,20 +202,6 @@ _B1X2 = 2.0 * _B1
 #: out as (i, j) with ``qe[i, j] = sum_k Q[i, j, k] e_hat_k``.
 _QM = np.ascontiguousarray(Q_MODIFIED.reshape(36, 6).T)  # (6, 36)
 _QW = Q_MODIFIED.reshape(6, 36)
-#: ``d(R(q) u_i)/dq = 2 H(u_i) q = u_i @ (q @ _TQ_VEC)``, see :func:`_nodal_jacobians`
-#: (``quadratic_form(e_j)[k, a, b] = H_k(e_j)[a, b]``, laid out as [b, (j, k, a)]).
-_TQ_VEC = 2.0 * np.ascontiguousarray(quadratic_form(np.eye(3)).transpose(3, 0, 1, 2)
-                                     .reshape(4, 36))
-
-
-def _nodal_jacobians(q2: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``Y[:, m] = d[n_y, n_z]/dq`` (n, 2, 6, 4) of the nodes m = p, q for their Euler
-    parameters q2 (n, 2, 4) and the reference vectors u (n, 2, 3): ``Y q = 2 [n_y, n_z]``."""
-    n = q2.shape[0]
-    p = (q2.reshape(2 * n, 4) @ _TQ_VEC).reshape(n, 2, 3, 12)   # [j, (k, a)] = 2 H_k(e_j) q
-    return (u[:, None] @ p).reshape(n, 2, 6, 4)
-
-
 def _basic(x, u, l0):
     """The vectors y (n, 5, 3), the nodal Jacobians Y (n, 2, 6, 4) (or None), chord length,
     Gram weights c1 (n, 6) and the basic deformations (Eq. 7), shared by :func:`beam_state`
@@ -222,7 +209,7 @@ def _basic(x, u, l0):
     n = x.shape[0]
     x2 = x.reshape(n, 2, 7)
     q2 = x2[:, :, 3:]
-    Y = _nodal_jacobians(q2, u)
+    Y = nodal_jacobians(q2, u)
     y = np.empty((n, 5, 3))
     np.subtract(x2[:, 1, :3], x2[:, 0, :3], out=y[:, 0])
     y[:, 1:] = (Y @ q2[..., None]).reshape(n, 4, 3)
@@ -379,8 +366,6 @@ _KW_KRON = np.vstack([_B1X2, np.outer(np.full(6, 2.0), np.eye(25)[0])]) @ _KRON3
 #: dy/dx with the nodal blocks still empty: d = r^q - r^p.
 _Z0 = np.zeros((15, N_LDOF))
 _Z0[:3, :3], _Z0[:3, 7:10] = -np.eye(3), np.eye(3)
-#: :func:`~spacarpy.rotation.hessian_combination` as one product: (9, 16).
-_TQ_H2 = hessian_combination(np.eye(9).reshape(9, 3, 3)).reshape(9, 16)
 
 
 def _dense(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | None) -> np.ndarray:
@@ -416,7 +401,7 @@ def _dense(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | None) -> np.nda
     hx = z.transpose(0, 2, 1) @ (h @ z)
     # sum_k c_k d^2 y_k/dq^2 of both nodes: hessian_combination(sum_i c_i u_i^T)
     c = cw[:, 0, 3:].reshape(n, 2, 2, 3).transpose(0, 1, 3, 2)    # (n, node, k, i)
-    hq = ((c @ st.u[:, None]).reshape(2 * n, 9) @ _TQ_H2).reshape(n, 2, 4, 4)
+    hq = ((c @ st.u[:, None]).reshape(2 * n, 9) @ TQ_H2).reshape(n, 2, 4, 4)
     hx[:, 3:7, 3:7] += hq[:, 0]
     hx[:, 10:14, 10:14] += hq[:, 1]
     return hx
