@@ -1,7 +1,8 @@
 """The element kernels' fast paths equal their general paths and the finite differences:
 the BEAM's dense second derivatives (``dense=True``, groups of up to ``DENSE_MAX``
 elements) against the block-by-block ones and central differences; the HINGE's
-deformations alone against its full state's; the RBEAM with its stacked reference triad."""
+deformations alone against its full state's; the RBEAM and the BEAM's mass kernels with the
+kinds' stacked reference axes and without."""
 import numpy as np
 import pytest
 from test_beam import random_elements
@@ -14,6 +15,7 @@ from spacarpy.elements.beam import (
     beam_tangent,
     beam_weighted_hessian,
 )
+from spacarpy.elements.beam_mass import beam_convective, beam_inertia_force, beam_mass_matrix
 from spacarpy.elements.hinge import Hinge, hinge_deformations, hinge_reference, hinge_state
 from spacarpy.elements.plhinge import PlHinge
 from spacarpy.elements.rbeam import rbeam_reference, rbeam_state
@@ -119,3 +121,27 @@ def test_rbeam_state_with_and_without_the_stacked_reference_triad():
     without = rbeam_state(x, nx, ny, nz, l0)
     for f, g in zip(with_u, without):
         np.testing.assert_array_equal(f, g)
+
+
+@pytest.mark.parametrize("rotary", ["lumped", "consistent"])
+def test_beam_mass_kernels_with_the_kept_axes_equal_those_without(rotary):
+    """The kind passes its stacked element axes; a direct call stacks them itself."""
+    rng = np.random.default_rng(27)
+    x, ny, nz, l0 = random_elements(rng, 7)
+    nx = np.cross(ny, nz)
+    axes = np.stack([nx, ny, nz], axis=1)
+    v, a = rng.normal(size=(7, 14)), rng.normal(size=(7, 14))
+    mass = np.abs(rng.normal(size=(7, 5)))
+    pairs = [(beam_mass_matrix(x, nx, ny, nz, l0, mass, rotary),
+              beam_mass_matrix(x, nx, ny, nz, l0, mass, rotary, axes)),
+             (beam_inertia_force(x, v, a, nx, ny, nz, l0, mass, rotary),
+              beam_inertia_force(x, v, a, nx, ny, nz, l0, mass, rotary, axes))]
+    pairs += list(zip(beam_convective(x, v, nx, ny, nz, l0, mass, rotary),
+                      beam_convective(x, v, nx, ny, nz, l0, mass, rotary, axes)))
+    for p, q in pairs:
+        np.testing.assert_array_equal(p, q)
+    # and the force without the mass matrix is M a + dM/dt v - grad/2
+    m = beam_mass_matrix(x, nx, ny, nz, l0, mass, rotary)
+    mdot, grad = beam_convective(x, v, nx, ny, nz, l0, mass, rotary)
+    ref = np.einsum("nij,nj->ni", m, a) + mdot - 0.5 * grad
+    np.testing.assert_allclose(pairs[1][0], ref, rtol=0, atol=1e-12 * np.abs(ref).max())

@@ -525,8 +525,10 @@ class Beam(ElementKind):
 
     def reference(self, x0, vector):
         nx, ny, nz, l0 = reference_triads(x0[0], x0[2], vector)
-        # u = [n_y, n_z] stacked once here rather than at every kernel call
-        return (dict(nx=nx, ny=ny, nz=nz, l0=l0, u=np.stack([ny, nz], axis=1)),
+        # the axes stacked once here rather than at every kernel call: axes = [n_x, n_y, n_z]
+        # (rows) and u = [n_y, n_z]
+        axes = np.stack([nx, ny, nz], axis=1)
+        return (dict(nx=nx, ny=ny, nz=nz, l0=l0, axes=axes, u=axes[:, 1:]),
                 np.repeat(l0[:, None], 6, axis=1))
 
     def state(self, x, ref, variant, prev):
@@ -548,15 +550,15 @@ class Beam(ElementKind):
 
     def mass(self, x, ref, m, rotary="lumped"):
         return in_chunks(beam_mass_matrix, len(x), x, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary)
+                         ref["l0"], m, rotary, ref.get("axes"))
 
     def convective(self, x, v, ref, m, rotary="lumped"):
         return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary)
+                         ref["l0"], m, rotary, ref.get("axes"))
 
     def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
         return in_chunks(beam_inertia_force, len(x), x, v, a, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary)
+                         ref["l0"], m, rotary, ref.get("axes"))
 
     def check(self, st, ref):
         return check_saturation(st, ref)
