@@ -1,8 +1,8 @@
 """The element kernels' fast paths equal their general paths and the finite differences:
 the BEAM's dense second derivatives (``dense=True``, groups of up to ``DENSE_MAX``
 elements) against the block-by-block ones and central differences; the HINGE's
-deformations alone against its full state's; the RBEAM and the BEAM's mass kernels with the
-kinds' stacked reference axes and without."""
+deformations alone against its full state's; the RBEAM with the kind's stacked reference
+axes and without, the BEAM's mass kernels with its kept section inertia forms and without."""
 import numpy as np
 import pytest
 from test_beam import random_elements
@@ -15,7 +15,12 @@ from spacarpy.elements.beam import (
     beam_tangent,
     beam_weighted_hessian,
 )
-from spacarpy.elements.beam_mass import beam_convective, beam_inertia_force, beam_mass_matrix
+from spacarpy.elements.beam_mass import (
+    beam_convective,
+    beam_inertia_force,
+    beam_mass_matrix,
+    section_axes,
+)
 from spacarpy.elements.hinge import Hinge, hinge_deformations, hinge_reference, hinge_state
 from spacarpy.elements.plhinge import PlHinge
 from spacarpy.elements.rbeam import rbeam_reference, rbeam_state
@@ -29,10 +34,17 @@ def test_dense_and_blocked_second_derivatives_agree(variant):
     rng = np.random.default_rng(21)
     x, ny, nz, l0 = random_elements(rng, 30)
     st = beam_state(x, ny, nz, l0, variant)
+    st_dense = beam_state(x, ny, nz, l0, variant, dense=True)    # with dy/dx kept
+    assert st.z is None and st_dense.z is not None
+    np.testing.assert_array_equal(st_dense.e, st.e)
+    np.testing.assert_allclose(st_dense.D, st.D, rtol=0, atol=1e-15 * np.abs(st.D).max())
     w = rng.normal(size=(30, 6))
     s = rng.normal(size=(30, 6, 6))
     s = s + s.transpose(0, 2, 1)
     for dense, blocked in ((beam_weighted_hessian(st, w, True), beam_weighted_hessian(st, w)),
+                           (beam_weighted_hessian(st_dense, w, True),
+                            beam_weighted_hessian(st, w)),
+                           (beam_tangent(st_dense, s, w, True), beam_tangent(st, s, w)),
                            (beam_tangent(st, s, w, True), beam_tangent(st, s, w))):
         scale = np.abs(blocked).max(axis=(1, 2))[:, None, None]
         assert np.all(np.abs(dense - blocked) <= 1e-13 * scale)
@@ -124,12 +136,12 @@ def test_rbeam_state_with_and_without_the_stacked_reference_triad():
 
 
 @pytest.mark.parametrize("rotary", ["lumped", "consistent"])
-def test_beam_mass_kernels_with_the_kept_axes_equal_those_without(rotary):
-    """The kind passes its stacked element axes; a direct call stacks them itself."""
+def test_beam_mass_kernels_with_the_kept_section_forms_equal_those_without(rotary):
+    """The kind passes its section inertia forms; a direct call makes them itself."""
     rng = np.random.default_rng(27)
     x, ny, nz, l0 = random_elements(rng, 7)
     nx = np.cross(ny, nz)
-    axes = np.stack([nx, ny, nz], axis=1)
+    axes = section_axes(np.stack([nx, ny, nz], axis=1))
     v, a = rng.normal(size=(7, 14)), rng.normal(size=(7, 14))
     mass = np.abs(rng.normal(size=(7, 5)))
     pairs = [(beam_mass_matrix(x, nx, ny, nz, l0, mass, rotary),

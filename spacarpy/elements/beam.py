@@ -69,6 +69,7 @@ from spacarpy.elements.beam_mass import (
     beam_convective,
     beam_inertia_force,
     beam_mass_matrix,
+    section_axes,
     tangent_gravity,
 )
 from spacarpy.elements.chunks import in_chunks
@@ -172,6 +173,7 @@ class BeamState(NamedTuple):
     length: np.ndarray     # (n,) current chord length
     l0: np.ndarray         # (n,)
     u: np.ndarray          # (n, 2, 3) reference vectors [n_y, n_z] (nodal ones = R(q) u)
+    z: np.ndarray | None   # (n, 15, 14) dy/dx, formed for small groups (``dense``) only
 
 
 # The nodal vectors of y in the order [d, n_y^p, n_z^p, n_y^q, n_z^q]: the bending modes
@@ -198,14 +200,18 @@ def _gram_forms() -> np.ndarray:
 _B1 = _gram_forms().reshape(6, 25)
 _B1T = np.ascontiguousarray(_B1.T)                       # (25, 6)
 _B1X2 = 2.0 * _B1
-#: Q_MODIFIED for ``e_hat @ _QM`` -> the (n, 36) rows of sum_k e_hat_k Q[i, k, :]... laid
-#: out as (i, j) with ``qe[i, j] = sum_k Q[i, j, k] e_hat_k``.
+#: Q_MODIFIED as products: ``(e_hat @ _QM)[(i, j)] = sum_k Q[i, j, k] e_hat_k`` and
+#: ``(w @ _QW)[(j, k)] = sum_i w_i Q[i, j, k]``.
 _QM = np.ascontiguousarray(Q_MODIFIED.reshape(36, 6).T)  # (6, 36)
 _QW = Q_MODIFIED.reshape(6, 36)
+#: Which Gram weights c1 are l0 / l (the bending modes).
+_BENDING_MODES = np.array([0.0, 0.0, 1.0, 1.0, 1.0, 1.0])
+
+
 def _basic(x, u, l0):
-    """The vectors y (n, 5, 3), the nodal Jacobians Y (n, 2, 6, 4) (or None), chord length,
-    Gram weights c1 (n, 6) and the basic deformations (Eq. 7), shared by :func:`beam_state`
-    and :func:`beam_deformations`."""
+    """The vectors y (n, 5, 3), the nodal Jacobians Y (n, 2, 6, 4), chord length, Gram
+    weights c1 (n, 6) and the basic deformations (Eq. 7), shared by :func:`beam_state` and
+    :func:`beam_deformations`."""
     n = x.shape[0]
     x2 = x.reshape(n, 2, 7)
     q2 = x2[:, :, 3:]
@@ -216,11 +222,8 @@ def _basic(x, u, l0):
     y[:, 1:] *= 0.5
     g = (y @ y.transpose(0, 2, 1)).reshape(n, 25)
     length = np.sqrt(g[:, 0])
-    c1 = np.empty((n, 6))
-    c1[:, 0] = 0.0
+    c1 = (l0 / length)[:, None] * _BENDING_MODES                # [0, l0, l0/l, ...]
     c1[:, 1] = l0
-    np.divide(l0, length, out=c1[:, 2])
-    c1[:, 3:] = c1[:, 2:3]
     e_hat = (g @ _B1T) * c1
     np.subtract(length, l0, out=e_hat[:, 0])
     return y, Y, length, c1, e_hat
@@ -240,7 +243,8 @@ def _modified(e_hat, l0, variant):
 
 
 def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
-               variant: str = "modified", u: np.ndarray | None = None) -> BeamState:
+               variant: str = "modified", u: np.ndarray | None = None,
+               dense: bool = False) -> BeamState:
     """Deformations e (Eq. 7 or 48) and their exact Jacobian D at configurations x.
 
     Parameters
@@ -252,6 +256,9 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     variant : {"modified", "basic"}
     u : (n_elem, 2, 3), optional
         ``[ny, nz]`` stacked, when the caller keeps it (the kind's reference data).
+    dense : bool
+        Form ``dy/dx`` (kept in the state) and ``D_hat`` in one product: fewer numpy calls
+        for small groups, as :func:`beam_weighted_hessian`'s ``dense``; equal to round-off.
     """
     n = x.shape[0]
     if u is None:
@@ -269,25 +276,42 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
     k[:, :, 0] = c2
     G = (k.reshape(n, 30, 5) @ y).reshape(n, 6, 15)
     c2 *= 0.5
-    D_hat = np.empty((n, 6, N_LDOF))
-    d4 = D_hat.reshape(n, 6, 2, 7)
-    np.negative(G[:, :, :3], out=d4[:, :, 0, :3])
-    d4[:, :, 1, :3] = G[:, :, :3]
-    d4[:, :, :, 3:] = (G[:, :, 3:].reshape(n, 6, 2, 6).transpose(0, 2, 1, 3)
-                       @ Y).transpose(0, 2, 1, 3)
+    if dense:                       # D_hat = G dy/dx in one product (small groups)
+        z = _dy_dx(Y)
+        D_hat = G @ z
+    else:                           # block by block: less arithmetic per element
+        z = None
+        D_hat = np.empty((n, 6, N_LDOF))
+        d4 = D_hat.reshape(n, 6, 2, 7)
+        np.negative(G[:, :, :3], out=d4[:, :, 0, :3])
+        d4[:, :, 1, :3] = G[:, :, :3]
+        d4[:, :, :, 3:] = (G[:, :, 3:].reshape(n, 6, 2, 6).transpose(0, 2, 1, 3)
+                           @ Y).transpose(0, 2, 1, 3)
     if variant == "basic":
         e, D, J = e_hat, D_hat, None
     else:
         e, qe = _modified(e_hat, l0, variant)
-        D = qe @ D_hat
-        D += D_hat
-        qe[:, _DIAG6, _DIAG6] += 1.0
-        J = qe
+        J = qe + _EYE6
+        D = J @ D_hat
     return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Y=Y, c12=c12,
-                     length=length, l0=l0, u=u)
+                     length=length, l0=l0, u=u, z=z)
 
 
-_DIAG6 = np.arange(6)
+_EYE6 = np.eye(6)
+#: dy/dx with the nodal blocks still empty (d = r^q - r^p), and where the nodal blocks go:
+#: rows 3 + 6 m + r, columns 3 + 7 m + a of node m's Y[m, r, a] in the flattened (15, 14).
+_Z0 = np.zeros((15, N_LDOF))
+_Z0[:3, :3], _Z0[:3, 7:10] = -np.eye(3), np.eye(3)
+_Z_Y = np.array([(3 + 6 * m + r) * N_LDOF + 3 + 7 * m + a
+                 for m in range(2) for r in range(6) for a in range(4)])
+
+
+def _dy_dx(Y: np.ndarray) -> np.ndarray:
+    """``dy/dx`` (n, 15, 14) from the nodal Jacobians Y (n, 2, 6, 4)."""
+    n = Y.shape[0]
+    z = np.repeat(_Z0[None], n, axis=0)
+    z.reshape(n, 15 * N_LDOF)[:, _Z_Y] = Y.reshape(n, 48)
+    return z
 
 
 def beam_deformations(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
@@ -363,9 +387,6 @@ _W2 = np.array([[1.0] * 6, [0.5, 0.0, 1.0, 1.0, 1.0, 1.0]])
 _KRON3 = np.einsum("ac,bd,ij->cdaibj", np.eye(5), np.eye(5), np.eye(3)).reshape(25, 225)
 #: [c1 | c2] (n, 12) weights -> 2 K_w (x) I3 (n, 225) in one product.
 _KW_KRON = np.vstack([_B1X2, np.outer(np.full(6, 2.0), np.eye(25)[0])]) @ _KRON3
-#: dy/dx with the nodal blocks still empty: d = r^q - r^p.
-_Z0 = np.zeros((15, N_LDOF))
-_Z0[:3, :3], _Z0[:3, 7:10] = -np.eye(3), np.eye(3)
 
 
 def _dense(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | None) -> np.ndarray:
@@ -394,10 +415,7 @@ def _dense(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | None) -> np.nda
     h[:, :, :3] += outer.transpose(0, 2, 1)
     if inner is not None:
         h += G.transpose(0, 2, 1) @ (inner @ G)
-    z = np.empty((n, 15, N_LDOF))
-    z[:] = _Z0
-    z[:, 3:9, 3:7] = st.Y[:, 0]
-    z[:, 9:15, 10:14] = st.Y[:, 1]
+    z = _dy_dx(st.Y) if st.z is None else st.z
     hx = z.transpose(0, 2, 1) @ (h @ z)
     # sum_k c_k d^2 y_k/dq^2 of both nodes: hessian_combination(sum_i c_i u_i^T)
     c = cw[:, 0, 3:].reshape(n, 2, 2, 3).transpose(0, 1, 3, 2)    # (n, node, k, i)
@@ -495,6 +513,20 @@ def beam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
     return f, k
 
 
+def _section(ref: dict, m: np.ndarray):
+    """The section inertia forms (:func:`~spacarpy.elements.beam_mass.section_axes`) of a
+    group's reference data, made on first use and kept in it (they depend on the element
+    axes alone), or None for EM values without section inertia."""
+    if not np.count_nonzero(m[:, 1:]):
+        return None
+    forms = ref.get("section_axes")
+    if forms is None:
+        axes = ref.get("axes")
+        forms = ref["section_axes"] = section_axes(
+            np.stack([ref["nx"], ref["ny"], ref["nz"]], axis=1) if axes is None else axes)
+    return forms
+
+
 class Beam(ElementKind):
     """``BEAM e p r q s [oy_x oy_y oy_z]``: the spatial DDM beam (kernels above; its
     mass, with the section rotary inertia lumped or consistent, in
@@ -533,7 +565,7 @@ class Beam(ElementKind):
 
     def state(self, x, ref, variant, prev):
         return in_chunks(beam_state, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant,
-                         ref.get("u"))
+                         ref.get("u"), len(x) <= DENSE_MAX)
 
     def deformations(self, x, ref, variant, prev):
         return in_chunks(beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant,
@@ -550,15 +582,15 @@ class Beam(ElementKind):
 
     def mass(self, x, ref, m, rotary="lumped"):
         return in_chunks(beam_mass_matrix, len(x), x, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary, ref.get("axes"))
+                         ref["l0"], m, rotary, _section(ref, m))
 
     def convective(self, x, v, ref, m, rotary="lumped"):
         return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary, ref.get("axes"))
+                         ref["l0"], m, rotary, _section(ref, m))
 
     def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
         return in_chunks(beam_inertia_force, len(x), x, v, a, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary, ref.get("axes"))
+                         ref["l0"], m, rotary, _section(ref, m))
 
     def check(self, st, ref):
         return check_saturation(st, ref)

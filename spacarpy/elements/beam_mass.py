@@ -137,20 +137,28 @@ _SECTION_FORMS = _SECTION_FORMS.reshape(4, 9)
 _W_RT = HERMITE_MASS[np.ix_([0, 2], [1, 3])]
 
 
-def _axes(nx, ny, nz, axes):
-    """The element axes as rows (n, 3, 3), stacked unless the caller keeps them."""
-    return np.stack([nx, ny, nz], axis=1) if axes is None else axes
+def section_axes(axes: np.ndarray) -> np.ndarray:
+    """The section inertia forms in initial global axes (n, 4, 9): ``E S_k E^T`` for the
+    element axes ``E = [n_x n_y n_z]`` (given as rows, axes (n, 3, 3)) and the forms S_k of
+    ``J = sum_k S_k [rho(Iy+Iz), rhoIy, rhoIz, rhoIyz]_k``, so that the tensor of EM values
+    m is ``m[1:5] @ forms`` (one product per call; the forms are a model's constant)."""
+    n = axes.shape[0]
+    forms = _SECTION_FORMS.reshape(4, 3, 3) @ axes[:, None]
+    return (axes.transpose(0, 2, 1)[:, None] @ forms).reshape(n, 4, 9)
 
 
-def _section_global(axes: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """:func:`_global_section_inertia` from the stacked axes (rows): ``E J E^T``."""
-    n = mass.shape[0]
-    j = (mass[:, 1:5] @ _SECTION_FORMS).reshape(n, 3, 3)
-    return axes.transpose(0, 2, 1) @ (j @ axes)
+def _section_global(nx, ny, nz, mass, section):
+    """The section inertia tensors per unit length in initial global axes (n, 3, 3), from
+    the forms of :func:`section_axes` (made here unless the caller keeps them)."""
+    if section is None:
+        section = section_axes(np.stack([nx, ny, nz], axis=1))
+    return (mass[:, None, 1:5] @ section).reshape(-1, 3, 3)
 
 
-def _has_rotary(mass: np.ndarray) -> bool:
-    return bool(np.count_nonzero(mass[:, 1:]))
+def _has_rotary(mass: np.ndarray, section) -> bool:
+    """Whether the rotary terms are evaluated: the caller's forms (it has checked the EM
+    values), or any nonzero section inertia."""
+    return section is not None or bool(np.count_nonzero(mass[:, 1:]))
 
 
 def _rotary_force(g: np.ndarray, jg: np.ndarray, w: np.ndarray, c_ab: np.ndarray,
@@ -165,7 +173,7 @@ def _rotary_force(g: np.ndarray, jg: np.ndarray, w: np.ndarray, c_ab: np.ndarray
 
 def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
                      l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped",
-                     axes: np.ndarray | None = None) -> np.ndarray:
+                     section: np.ndarray | None = None) -> np.ndarray:
     """Mass matrices (n_elem, 14, 14) at configurations x (n_elem, 14): the consistent
     translational mass and the section rotary inertia of the choice ``rotary``.
 
@@ -183,8 +191,9 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
         EM data ``rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz`` (kg/m, kg m).
     rotary : str
         ``"lumped"`` or ``"consistent"`` (:data:`ROTARY_WEIGHTS`).
-    axes : (n_elem, 3, 3), optional
-        ``[nx, ny, nz]`` stacked (rows), when the caller keeps them.
+    section : (n_elem, 4, 9), optional
+        :func:`section_axes` of the element axes, when the caller keeps them (then the
+        rotary terms are evaluated whatever the EM values).
     """
     wr = _rotary_weights8(rotary)
     n = x.shape[0]
@@ -201,9 +210,9 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     bt = lb.transpose(0, 1, 3, 2).reshape(n, 8, 3)
     qq = (bt @ bt.transpose(0, 2, 1)) * _W_TANGENT
     qq *= ra[:, None, None]
-    if _has_rotary(mass):
+    if _has_rotary(mass, section):
         g = _g_pair(x[:, _Q8])
-        jg = _section_global(_axes(nx, ny, nz, axes), mass)
+        jg = _section_global(nx, ny, nz, mass, section)
         qq += (4.0 * l0)[:, None, None] * wr * (g.transpose(0, 2, 1) @ (jg @ g))
     m4[:, :, 3:, :, 3:] = qq.reshape(n, 2, 4, 2, 4)
     return m
@@ -211,7 +220,8 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
 
 def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarray,
                        ny: np.ndarray, nz: np.ndarray, l0: np.ndarray, mass: np.ndarray,
-                       rotary: str = "lumped", axes: np.ndarray | None = None) -> np.ndarray:
+                       rotary: str = "lumped", section: np.ndarray | None = None
+                       ) -> np.ndarray:
     """The inertia force ``M a + h`` (n_elem, 14) of Eq. 60 at (x, v, a), without forming M.
 
     Translation: with ``N`` as in :func:`beam_mass_matrix`, ``dN/dt`` has the tangent rows
@@ -221,7 +231,7 @@ def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarr
     :func:`beam_convective` are not needed for the force). Rotation: with ``omega_b = G(q_b)
     v_b`` and ``G(q) dq = -G(dq) q``, node a receives ``4 l0 sum_b c_ab (G_a^T J G_b a_b +
     2 G(v_a)^T J omega_b)`` (for the lumped weights the rigid body's ``J alpha + omega x J
-    omega`` mapped onto its Euler parameters). ``axes`` as for :func:`beam_mass_matrix`."""
+    omega`` mapped onto its Euler parameters). ``section`` as for :func:`beam_mass_matrix`."""
     n = x.shape[0]
     v2, a2 = v.reshape(n, 2, 7), a.reshape(n, 2, 7)
     q4 = np.concatenate([x.reshape(n, 2, 7)[:, :, 3:], v2[:, :, 3:]], axis=1)  # q^p q^q v^p v^q
@@ -241,23 +251,24 @@ def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarr
     f2[:, :, :3] = w[:, :, 0]
     fq = (bq.transpose(0, 1, 3, 2) @ w[:, :, 1, :, None])[..., 0]     # B^T (C z)_tangent
     np.multiply(fq, l0[:, None, None], out=f2[:, :, 3:])
-    if _has_rotary(mass):
+    if _has_rotary(mass, section):
         c_ab = rotary_weights(rotary)
-        jg = _section_global(_axes(nx, ny, nz, axes), mass)
+        jg = _section_global(nx, ny, nz, mass, section)
         g = (q4.reshape(4 * n, 4) @ _G_TENSOR).reshape(n, 4, 3, 4)  # G(q^p) G(q^q) G(v^p) ..
         gq, gv = g[:, :2], g[:, 2:]
-        # body angular velocity and acceleration of both nodes (n, 2, 3, 2)
-        oa = gq @ np.stack([v2[:, :, 3:], a2[:, :, 3:]], axis=3)
-        coef = 4.0 * l0
-        rot = _rotary_force(gq, jg, oa[..., 1:], c_ab, coef)
-        rot += _rotary_force(gv, jg, oa[..., :1], c_ab, 2.0 * coef)
+        # body angular velocity and acceleration of both nodes, mixed by c_ab, times J
+        oa = np.concatenate([gq @ v2[:, :, 3:, None], gq @ a2[:, :, 3:, None]], axis=3)
+        joa = jg[:, None] @ (c_ab @ oa.reshape(n, 2, 6)).reshape(n, 2, 3, 2)
+        rot = gq.transpose(0, 1, 3, 2) @ joa[..., 1:]
+        rot += gv.transpose(0, 1, 3, 2) @ (2.0 * joa[..., :1])
+        rot *= (4.0 * l0)[:, None, None, None]
         f2[:, :, 3:] += rot[..., 0]
     return f
 
 
 def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray,
                     nz: np.ndarray, l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped",
-                    axes: np.ndarray | None = None):
+                    section: np.ndarray | None = None):
     """``(dM/dt v, d(v^T M v)/dx)``, both (n_elem, 14), of :func:`beam_mass_matrix` (with the
     same ``rotary``) at velocities v: the two parts of the convective term
     ``h = dM/dt v - grad/2`` of Eq. 60.
@@ -277,7 +288,7 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
       lumped weights that is, node by node, the gyroscopic term ``omega x (J omega)`` of a
       rigid body mapped onto the Euler parameters.
 
-    ``axes`` as for :func:`beam_mass_matrix`.
+    ``section`` as for :func:`beam_mass_matrix`.
     """
     c_ab = rotary_weights(rotary)
     n = x.shape[0]
@@ -303,8 +314,8 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
     np.multiply(bt[:, 2:], 2.0, out=g2[:, :, 3:])
     np.add(bt[:, 2:], bt[:, :2], out=m2[:, :, 3:])
     m2[:, :, :3] = ww[:, 1, :, 0::2].transpose(0, 2, 1)
-    if _has_rotary(mass):
-        jg = _section_global(_axes(nx, ny, nz, axes), mass)
+    if _has_rotary(mass, section):
+        jg = _section_global(nx, ny, nz, mass, section)
         g = (q4.reshape(4 * n, 4) @ _G_TENSOR).reshape(n, 4, 3, 4)
         om = g[:, :2] @ vq2[..., None]                           # (n, 2, 3, 1)
         rot = _rotary_force(g[:, 2:], jg, om, c_ab, 8.0 * l0)[..., 0]

@@ -128,8 +128,8 @@ class HingeState(NamedTuple):
     v: np.ndarray          # (n, 2, 3, 3) rows a, b, c of node p, then of node q
     Y: np.ndarray          # (n, 2, 9, 4) d[a, b, c]/dq of node p, then of node q
     u: np.ndarray          # (n, 3, 3) rows a, b, c (reference triad)
-    pq: np.ndarray         # (n, 2) de1/d[s, c] = [c, -s] / (s^2 + c^2)
-    ab: np.ndarray         # (n, 2, 8) de1/dx and its companion (the curvature of atan2)
+    m: np.ndarray          # (n, 4, 4) rows: de1, de2, de3 and the companion of de1, in f
+    mj: np.ndarray         # (n, 4, 8) the same in x (its first three rows are D)
 
 
 #: ``sum_ij C[f, i, j] u_j^q`` and ``sum_i C[f, i, j] u_i^p`` side by side: the gradients of
@@ -169,27 +169,31 @@ def hinge_state(x: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
     J = (g @ Y).transpose(0, 2, 1, 3).reshape(n, 4, N_LDOF)        # (n, 4, 8)
     s, co = f[:, 0], f[:, 1]
     phi = np.arctan2(s, co)
-    e = np.empty((n, N_DEF))
+    e = f[:, 1:].copy()
     if e1_previous is None:
         turns = np.zeros(n, dtype=np.int64)
         e[:, 0] = phi
     else:
         turns = np.floor((e1_previous - phi) / (2.0 * np.pi) + 0.5).astype(np.int64)
         e[:, 0] = phi + 2.0 * np.pi * turns
-    e[:, 1:] = f[:, 2:]
-    # de1 = (c ds - s dc) / rho^2 = [p, q] . [ds, dc]; its companion [q, -p] . [ds, dc]
-    # gives the curvature of atan2 (see hinge_weighted_hessian)
+    # de1 = (c ds - s dc) / rho^2 = [p, q] . [ds, dc]; with de2, de3 and the companion
+    # [q, -p] . [ds, dc] of de1 (the curvature of atan2, see hinge_weighted_hessian) as the
+    # rows of M (n, 4, 4) applied to df/dx
     pq = f[:, 1::-1] * _SIGN_CS
     pq /= (s * s + co * co)[:, None]
-    r2 = np.empty((n, 2, 2))
-    r2[:, 0] = pq
-    r2[:, 1, 0] = pq[:, 1]
-    r2[:, 1, 1] = -pq[:, 0]
-    ab = r2 @ J[:, :2]
-    D = np.empty((n, N_DEF, N_LDOF))
-    D[:, 0] = ab[:, 0]
-    D[:, 1:] = J[:, 2:]
-    return HingeState(e=e, D=D, turns=turns, f=f, J=J, v=v, Y=Y, u=u, pq=pq, ab=ab)
+    m = (pq @ _M_PQ).reshape(n, 4, 4)
+    m += _M_CONST
+    mj = m @ J                                                     # de1, de2, de3, companion
+    return HingeState(e=e, D=mj[:, :3], turns=turns, f=f, J=J, v=v, Y=Y, u=u, m=m, mj=mj)
+
+
+#: The rows [de1, de2, de3, companion of de1] of M = dq/df as products with [p, q].
+_M_PQ = np.zeros((2, 4, 4))
+_M_PQ[0, 0, 0] = _M_PQ[1, 0, 1] = _M_PQ[1, 3, 0] = 1.0
+_M_PQ[0, 3, 1] = -1.0
+_M_PQ = _M_PQ.reshape(2, 16)
+_M_CONST = np.zeros((4, 4))
+_M_CONST[1, 2] = _M_CONST[2, 3] = 1.0
 
 
 def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
@@ -200,11 +204,9 @@ def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
     node's block and ``Y_p^T (C(w_f) (x) I3) Y_q`` between the nodes. The curvature of
     ``e1 = atan2(s, c)`` in (s, c) is ``[[2pq, q^2-p^2], [q^2-p^2, -2pq]]`` with
     ``[p, q] = [c, -s] / rho^2``, which is ``r_perp r^T + r r_perp^T``: in x the symmetric
-    product of de1/dx and its companion of the state (``ab``)."""
+    product of de1/dx and its companion (rows 0 and 3 of the state's ``mj``)."""
     n = w.shape[0]
-    wf = np.empty((n, 4))
-    np.multiply(w[:, :1], st.pq, out=wf[:, :2])
-    wf[:, 2:] = w[:, 1:]
+    wf = (w[:, None, :] @ st.m[:, :3])[:, 0]                      # weights on f (n, 4)
     cw = (wf @ _C_W).reshape(n, 2, 3, 3)                          # C(w_f), C(w_f)^T
     # coefficients of the nodal-vector Hessians 2 H(u): node p sum_j C_ij u_j^q, node q ...
     m = (cw @ st.v[:, ::-1]).transpose(0, 1, 3, 2) @ st.u[:, None]   # (n, 2, 3, 3)
@@ -217,9 +219,9 @@ def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
     pq = yp.transpose(0, 2, 1) @ (cw[:, 0] @ yq.reshape(n, 3, 12)).reshape(n, 9, 4)
     hx[:, QP, QQ] = pq
     hx[:, QQ, QP] = pq.transpose(0, 2, 1)
-    # curvature of atan2: w_1 (a b^T + b a^T) with a, b the rows of ab
-    ab = st.ab * w[:, :1, None]
-    hx += ab.transpose(0, 2, 1) @ st.ab[:, ::-1]
+    # curvature of atan2: w_1 (a b^T + b a^T) with b = de1/dx, a its companion
+    ab = st.mj[:, ::3]                                            # (n, 2, 8): b, a
+    hx += (ab * w[:, :1, None]).transpose(0, 2, 1) @ ab[:, ::-1]
     return hx
 
 
