@@ -44,9 +44,9 @@ sum_k c_k d^2 y_k/dx^2`` with ``G = de_hat/dy``, ``c = G^T w`` and H_y the weigh
 derivative in y (``2 K_w (x) I3`` plus the curvature of the Gram functions in g_dd and
 g_da). Small groups form H_y densely (15 x 15: few, larger numpy calls, the fixed cost per
 call of small models); large groups evaluate the products block by block (H_y has only the
-blocks d-d, d-p, d-q and p-q) on 3x3 to 6x6 matrices. The modified deformations are a
-quadratic map ``e_i = e_hat_i + e_hat^T Q_i e_hat / (2 l0)`` of the basic ones (Eq. 48b),
-differentiated once more by the chain rule.
+blocks d-d, d-p, d-q and p-q) on 3x3 to 6x6 matrices (:mod:`spacarpy.elements.beam_blocks`).
+The modified deformations are a quadratic map ``e_i = e_hat_i + e_hat^T Q_i e_hat / (2 l0)``
+of the basic ones (Eq. 48b), differentiated once more by the chain rule.
 """
 from __future__ import annotations
 
@@ -64,7 +64,8 @@ from spacarpy.elements.base import (
     ElementKind,
     Fields,
 )
-from spacarpy.elements.beam_layout import N_LDOF, QP, QQ, RP, RQ
+from spacarpy.elements.beam_blocks import blocked_hessian
+from spacarpy.elements.beam_layout import BEND_SIGN, BEND_Y, N_LDOF
 from spacarpy.elements.beam_mass import (
     beam_convective,
     beam_inertia_force,
@@ -74,7 +75,6 @@ from spacarpy.elements.beam_mass import (
 )
 from spacarpy.elements.chunks import in_chunks
 from spacarpy.elements.nodal import TQ_H2, nodal_jacobians
-from spacarpy.rotation import hessian_combination
 
 N_DEF = 6
 
@@ -176,13 +176,6 @@ class BeamState(NamedTuple):
     z: np.ndarray | None   # (n, 15, 14) dy/dx, formed for small groups (``dense``) only
 
 
-# The nodal vectors of y in the order [d, n_y^p, n_z^p, n_y^q, n_z^q]: the bending modes
-# e3..e6 of Eq. (7) are e_j = s_j l0 (n1 . a_j) with (sign s_j, nodal vector a_j):
-_BENDING = ((-1.0, 2, "nzp"), (1.0, 4, "nzq"), (1.0, 1, "nyp"), (-1.0, 3, "nyq"))
-_BEND_SIGN = np.array([b[0] for b in _BENDING])
-_BEND_Y = np.array([b[1] for b in _BENDING])
-
-
 def _gram_forms() -> np.ndarray:
     """B1 (6, 5, 5), symmetric: ``e_hat_i = c1_i sum_ab B1[i, a, b] g_ab`` (i >= 1) for the
     Gram matrix ``g_ab = y_a . y_b`` of y = [d, n_y^p, n_z^p, n_y^q, n_z^q] and the weights
@@ -192,7 +185,7 @@ def _gram_forms() -> np.ndarray:
     b1[1, 2, 3] = b1[1, 3, 2] = 0.25
     b1[1, 1, 4] = b1[1, 4, 1] = -0.25
     # bending: s_j d . a_j
-    for j, (s, a) in enumerate(zip(_BEND_SIGN, _BEND_Y)):
+    for j, (s, a) in enumerate(zip(BEND_SIGN, BEND_Y)):
         b1[2 + j, 0, a] = b1[2 + j, a, 0] = 0.5 * s
     return b1
 
@@ -328,7 +321,7 @@ def beam_weighted_hessian(st: BeamState, w: np.ndarray, dense: bool = False) -> 
     """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 6) -> (n_elem, 14, 14).
 
     ``dense``: form it densely (:func:`_dense`, fewer numpy calls: small groups) rather
-    than block by block (:func:`_blocked`); the two agree to round-off."""
+    than block by block (:mod:`spacarpy.elements.beam_blocks`); the two agree to round-off."""
     if st.J is None:
         return _second_derivatives(st, w, None, dense)
     # e = e_hat + e_hat^T Q e_hat / (2 l0): weights on e_hat and the quadratic part
@@ -374,7 +367,7 @@ def _second_derivatives(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | No
     """``sum_i w_hat_i d^2 e_hat_i / dx^2 + D_hat^T inner D_hat`` (n, 14, 14)."""
     if dense:
         return _dense(st, w_hat, inner)
-    hx = _blocked(st, w_hat)
+    hx = blocked_hessian(st, w_hat)
     if inner is not None:
         hx += st.D_hat.transpose(0, 2, 1) @ (inner @ st.D_hat)
     return hx
@@ -419,63 +412,15 @@ def _dense(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | None) -> np.nda
     hx = z.transpose(0, 2, 1) @ (h @ z)
     # sum_k c_k d^2 y_k/dq^2 of both nodes: hessian_combination(sum_i c_i u_i^T)
     c = cw[:, 0, 3:].reshape(n, 2, 2, 3).transpose(0, 1, 3, 2)    # (n, node, k, i)
-    hq = ((c @ st.u[:, None]).reshape(2 * n, 9) @ TQ_H2).reshape(n, 2, 4, 4)
-    hx[:, 3:7, 3:7] += hq[:, 0]
-    hx[:, 10:14, 10:14] += hq[:, 1]
+    hx += ((c @ st.u[:, None]).reshape(n, 18) @ _TQ_H14).reshape(n, N_LDOF, N_LDOF)
     return hx
 
 
-def _blocked(st: BeamState, w_hat: np.ndarray) -> np.ndarray:
-    """``sum_i w_hat_i d^2 e_hat_i / dx^2`` block by block (large groups): the weighted
-    second derivative in y has only the blocks d-d, d-p, d-q and p-q, so the chain rule is
-    evaluated on 3x3 to 6x6 matrices instead of 15x14."""
-    n = w_hat.shape[0]
-    length, l0 = st.length, st.l0
-    n1 = st.y[:, 0] / length[:, None]
-    outer = n1[:, :, None] * n1[:, None, :]
-    proj_op = np.eye(3) - outer                                       # (n,3,3)
-    # the bending modes e_j = s_j l0 (n1 . a_j) with weights c_j = s_j l0 w_j: their
-    # second derivatives in d are linear in a_j, so the four sum to one term in
-    # b = sum_j c_j a_j and p = sum_j c_j (n1 . a_j)
-    coef = (_BEND_SIGN * l0[:, None]) * w_hat[:, 2:6]                 # (n, 4)
-    a = st.y[:, _BEND_Y]
-    b = np.einsum("nj,njk->nk", coef, a)
-    p = np.einsum("nj,nk,njk->n", coef, n1, a)[:, None, None]
-    bn1 = b[:, :, None] * n1[:, None, :]
-    dd = -(bn1 + bn1.transpose(0, 2, 1)) - p * np.eye(3) + 3.0 * p * outer
-    hdd = ((w_hat[:, 0] / length)[:, None, None] * proj_op
-           + (1.0 / length**2)[:, None, None] * dd)
-    # (d, nodal vector) blocks: c_j / length times the projector, in y's vector order
-    cl = (coef / length[:, None])[:, _VEC_MODE]                       # [nyp nzp nyq nzq]
-    hdpq = (proj_op[:, :, None, :] * cl[:, None, :, None]).reshape(n, 3, 12)
-    hdp, hdq = hdpq[:, :, :6], hdpq[:, :, 6:]
-    c2 = (0.5 * l0 * w_hat[:, 1])[:, None, None] * np.eye(3)
-    hpq = np.zeros((n, 6, 6))
-    hpq[:, 3:6, 0:3] = c2                                             # n_z^p . n_y^q
-    hpq[:, 0:3, 3:6] = -c2                                            # n_y^p . n_z^q
-    yp, yq = st.Y[:, 0], st.Y[:, 1]
-    hx = np.zeros((n, N_LDOF, N_LDOF))
-    hx[:, RP, RP] = hx[:, RQ, RQ] = hdd
-    hx[:, RP, RQ] = hx[:, RQ, RP] = -hdd
-    dp = hdp @ yp                                                     # (n,3,4)
-    dq = hdq @ yq
-    hx[:, RP, QP], hx[:, RQ, QP] = -dp, dp
-    hx[:, RP, QQ], hx[:, RQ, QQ] = -dq, dq
-    pq = yp.transpose(0, 2, 1) @ (hpq @ yq)                           # (n,4,4)
-    hx[:, QP, QQ] = pq
-    hx[:, QP, RP], hx[:, QP, RQ] = -dp.transpose(0, 2, 1), dp.transpose(0, 2, 1)
-    hx[:, QQ, RP], hx[:, QQ, RQ] = -dq.transpose(0, 2, 1), dq.transpose(0, 2, 1)
-    hx[:, QQ, QP] = pq.transpose(0, 2, 1)
-    # the nodal vectors are quadratic in q: d^2 n_k/dq^2 = 2 H_k
-    c = (w_hat[:, None, :] @ st.G)[:, 0]                                    # (n, 15)
-    # sum_k c_k d^2(R u)_k/dq^2 over both vectors = hessian_combination(sum_i c_i u_i^T)
-    hx[:, QP, QP] += hessian_combination(c[:, 3:9].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
-    hx[:, QQ, QQ] += hessian_combination(c[:, 9:15].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
-    return hx
-
-
-#: The bending modes' nodal vectors in y's order [n_y^p, n_z^p, n_y^q, n_z^q].
-_VEC_MODE = np.argsort(_BEND_Y)
+#: TQ_H2 of both nodes placed in their Euler-parameter blocks of the 14 x 14: (18, 196).
+_TQ_H14 = np.zeros((2, 9, N_LDOF, N_LDOF))
+_TQ_H14[0, :, 3:7, 3:7] = TQ_H2.reshape(9, 4, 4)
+_TQ_H14[1, :, 10:14, 10:14] = TQ_H2.reshape(9, 4, 4)
+_TQ_H14 = _TQ_H14.reshape(18, N_LDOF * N_LDOF)
 
 
 # ------------------------------------------------------------------------------ the kind
