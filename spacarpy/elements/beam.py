@@ -31,17 +31,22 @@ S : (n_elem, 6, 6)
 
 How the derivatives are organised
 ---------------------------------
-e_hat depends on x only through 15 intermediate quantities
-``y = [d, n_y^p, n_z^p, n_y^q, n_z^q]`` with ``d = r^q - r^p``. Each nodal vector
-``n = R(q) v`` is a quadratic form in q (see :mod:`spacarpy.rotation`), so ``dy/dx`` is
-linear in x and ``d^2y/dx^2`` constant. The chain rule then gives D and H exactly:
-``D_hat = G Y``, ``H_hat(w) = Y^T (sum_j w_j d^2 e_hat_j/dy^2) Y + sum_k c_k d^2 y_k/dx^2``
-with ``G = de_hat/dy``, ``Y = dy/dx`` and ``c = G^T w``. Y is block sparse (d depends on the
-positions only, the nodal vectors of p on q^p only, those of q on q^q only) and the weighted
-second derivative in y has only the blocks d-d, d-p, d-q and p-q, so both products are
-evaluated block by block on 3x3 to 6x6 matrices instead of 15x14. The modified deformations are a
-quadratic map ``e_i = e_hat_i + e_hat^T Q_i e_hat / (2 l0)`` of the basic ones (Eq. 48b),
-differentiated once more by the chain rule.
+e_hat depends on x only through the five vectors ``y = [d, n_y^p, n_z^p, n_y^q, n_z^q]``
+with ``d = r^q - r^p``, and on those only through their Gram matrix ``g_ab = y_a . y_b``:
+the length ``l = sqrt(g_dd)``, the torsion ``l0 (g(n_z^p, n_y^q) - g(n_y^p, n_z^q)) / 2``
+and the bending modes ``s_j l0 g(d, a_j) / l``. So ``e_hat_i = c1_i sum_ab B1[i,a,b] g_ab``
+with constant forms B1 and the weights ``c1 = [0, l0, l0/l, ...]``, one product with the
+Gram entries, and ``de_hat_i/dy = 2 K_i y`` with ``K_i = c1_i B1_i + c2_i E_dd`` (c2 from
+the dependence of c1 on l). Each nodal vector ``n = R(q) v`` is a quadratic form in q (see
+:mod:`spacarpy.rotation`), so ``Y = dy/dx`` is linear in x and ``d^2y/dx^2`` constant.
+The chain rule then gives D and H exactly: ``D_hat = G Y`` and ``H_hat(w) = Y^T H_y Y +
+sum_k c_k d^2 y_k/dx^2`` with ``G = de_hat/dy``, ``c = G^T w`` and H_y the weighted second
+derivative in y (``2 K_w (x) I3`` plus the curvature of the Gram functions in g_dd and
+g_da). Small groups form H_y densely (15 x 15: few, larger numpy calls, the fixed cost per
+call of small models); large groups evaluate the products block by block (H_y has only the
+blocks d-d, d-p, d-q and p-q) on 3x3 to 6x6 matrices (:mod:`spacarpy.elements.beam_blocks`).
+The modified deformations are a quadratic map ``e_i = e_hat_i + e_hat^T Q_i e_hat / (2 l0)``
+of the basic ones (Eq. 48b), differentiated once more by the chain rule.
 """
 from __future__ import annotations
 
@@ -59,23 +64,19 @@ from spacarpy.elements.base import (
     ElementKind,
     Fields,
 )
-from spacarpy.elements.beam_layout import N_LDOF, QP, QQ, RP, RQ
+from spacarpy.elements.beam_blocks import blocked_hessian
+from spacarpy.elements.beam_layout import BEND_SIGN, BEND_Y, N_LDOF
 from spacarpy.elements.beam_mass import (
     beam_convective,
     beam_inertia_force,
     beam_mass_matrix,
+    section_axes,
     tangent_gravity,
 )
 from spacarpy.elements.chunks import in_chunks
-from spacarpy.linalg import batch_matvec
-from spacarpy.rotation import hessian_combination, vector_jacobians
+from spacarpy.elements.nodal import TQ_H2, nodal_jacobians
 
 N_DEF = 6
-
-# Intermediate slices y = [d, nyp, nzp, nyq, nzq].
-YD, YNYP, YNZP, YNYQ, YNZQ = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12),
-                              slice(12, 15))
-
 
 def _modified_quadratic_forms() -> np.ndarray:
     """Q[i] (6x6, symmetric) with ``e_i = e_hat_i + e_hat^T Q[i] e_hat / (2 l0)``, Eq. (48b)."""
@@ -164,18 +165,79 @@ class BeamState(NamedTuple):
     D_hat: np.ndarray      # (n, 6, 14)
     J: np.ndarray | None   # (n, 6, 6) de/de_hat (None for the basic variant)
     # intermediates for the second derivatives
-    y: np.ndarray          # (n, 15)
+    y: np.ndarray          # (n, 5, 3) the vectors [d, n_y^p, n_z^p, n_y^q, n_z^q]
     G: np.ndarray          # (n, 6, 15)  de_hat/dy
-    Yp: np.ndarray         # (n, 6, 4) d[n_y^p, n_z^p]/dq^p
-    Yq: np.ndarray         # (n, 6, 4) d[n_y^q, n_z^q]/dq^q
-    n1: np.ndarray         # (n, 3) unit chord
+    Y: np.ndarray          # (n, 2, 6, 4) d[n_y, n_z]/dq of node p and node q
+    c12: np.ndarray        # (n, 12) [c1 | c2]: e_hat's first derivatives in the Gram
+    #                        entries, the forms B1 and g_dd (see :func:`beam_state`)
     length: np.ndarray     # (n,) current chord length
     l0: np.ndarray         # (n,)
     u: np.ndarray          # (n, 2, 3) reference vectors [n_y, n_z] (nodal ones = R(q) u)
+    z: np.ndarray | None   # (n, 15, 14) dy/dx, formed for small groups (``dense``) only
+
+
+def _gram_forms() -> np.ndarray:
+    """B1 (6, 5, 5), symmetric: ``e_hat_i = c1_i sum_ab B1[i, a, b] g_ab`` (i >= 1) for the
+    Gram matrix ``g_ab = y_a . y_b`` of y = [d, n_y^p, n_z^p, n_y^q, n_z^q] and the weights
+    ``c1 = [0, l0, l0/l, l0/l, l0/l, l0/l]`` (l the current chord length)."""
+    b1 = np.zeros((6, 5, 5))
+    # torsion: (n_z^p . n_y^q - n_y^p . n_z^q) / 2
+    b1[1, 2, 3] = b1[1, 3, 2] = 0.25
+    b1[1, 1, 4] = b1[1, 4, 1] = -0.25
+    # bending: s_j d . a_j
+    for j, (s, a) in enumerate(zip(BEND_SIGN, BEND_Y)):
+        b1[2 + j, 0, a] = b1[2 + j, a, 0] = 0.5 * s
+    return b1
+
+
+_B1 = _gram_forms().reshape(6, 25)
+_B1T = np.ascontiguousarray(_B1.T)                       # (25, 6)
+_B1X2 = 2.0 * _B1
+#: Q_MODIFIED as products: ``(e_hat @ _QM)[(i, j)] = sum_k Q[i, j, k] e_hat_k`` and
+#: ``(w @ _QW)[(j, k)] = sum_i w_i Q[i, j, k]``.
+_QM = np.ascontiguousarray(Q_MODIFIED.reshape(36, 6).T)  # (6, 36)
+_QW = Q_MODIFIED.reshape(6, 36)
+#: Which Gram weights c1 are l0 / l (the bending modes).
+_BENDING_MODES = np.array([0.0, 0.0, 1.0, 1.0, 1.0, 1.0])
+
+
+def _basic(x, u, l0):
+    """The vectors y (n, 5, 3), the nodal Jacobians Y (n, 2, 6, 4), chord length, Gram
+    weights c1 (n, 6) and the basic deformations (Eq. 7), shared by :func:`beam_state` and
+    :func:`beam_deformations`."""
+    n = x.shape[0]
+    x2 = x.reshape(n, 2, 7)
+    q2 = x2[:, :, 3:]
+    Y = nodal_jacobians(q2, u)
+    y = np.empty((n, 5, 3))
+    np.subtract(x2[:, 1, :3], x2[:, 0, :3], out=y[:, 0])
+    y[:, 1:] = (Y @ q2[..., None]).reshape(n, 4, 3)
+    y[:, 1:] *= 0.5
+    g = (y @ y.transpose(0, 2, 1)).reshape(n, 25)
+    length = np.sqrt(g[:, 0])
+    c1 = (l0 / length)[:, None] * _BENDING_MODES                # [0, l0, l0/l, ...]
+    c1[:, 1] = l0
+    e_hat = (g @ _B1T) * c1
+    np.subtract(length, l0, out=e_hat[:, 0])
+    return y, Y, length, c1, e_hat
+
+
+def _modified(e_hat, l0, variant):
+    """Modified deformations (Eq. 48b) and their quadratic-form matrices ``Q e_hat / l0``."""
+    if variant != "modified":
+        raise ValueError(f"unknown deformation variant {variant!r}")
+    n = e_hat.shape[0]
+    qe = (e_hat @ _QM).reshape(n, 6, 6)
+    qe /= l0[:, None, None]
+    e = (qe @ e_hat[:, :, None])[:, :, 0]
+    e *= 0.5
+    e += e_hat
+    return e, qe
 
 
 def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
-               variant: str = "modified") -> BeamState:
+               variant: str = "modified", u: np.ndarray | None = None,
+               dense: bool = False) -> BeamState:
     """Deformations e (Eq. 7 or 48) and their exact Jacobian D at configurations x.
 
     Parameters
@@ -185,179 +247,180 @@ def beam_state(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
         Reference triad vectors (see :func:`reference_triads`).
     l0 : (n_elem,)
     variant : {"modified", "basic"}
+    u : (n_elem, 2, 3), optional
+        ``[ny, nz]`` stacked, when the caller keeps it (the kind's reference data).
+    dense : bool
+        Form ``dy/dx`` (kept in the state) and ``D_hat`` in one product: fewer numpy calls
+        for small groups, as :func:`beam_weighted_hessian`'s ``dense``; equal to round-off.
     """
     n = x.shape[0]
-    u, Yp, Yq, y, length, n1, e_hat, proj = _basic(x, ny, nz, l0)
-    nyp, nzp, nyq, nzq = y[:, YNYP], y[:, YNZP], y[:, YNYQ], y[:, YNZQ]
-    lc = l0[:, None]
-    G = np.zeros((n, 6, 15))
-    G[:, 0, YD] = n1
-    G[:, 1, YNZP] = 0.5 * lc * nyq
-    G[:, 1, YNYQ] = 0.5 * lc * nzp
-    G[:, 1, YNYP] = -0.5 * lc * nzq
-    G[:, 1, YNZQ] = -0.5 * lc * nyp
-    # bending modes: e_j = s_j l0 (n1 . a_j), all four at once
-    sl0 = _BEND_SIGN * lc                                           # (n, 4) s_j l0
-    a = _bending_vectors(y)
-    G[:, 2:6, YD] = (sl0 / length[:, None])[:, :, None] * (a - proj[:, :, None] * n1[:, None])
-    G[:, _BEND_ROWS, _BEND_COLS] = (sl0[:, :, None] * n1[:, None]).reshape(n, 12)
-    D_hat = np.empty((n, 6, N_LDOF))
-    D_hat[:, :, RP] = -G[:, :, YD]
-    D_hat[:, :, RQ] = G[:, :, YD]
-    D_hat[:, :, QP] = G[:, :, 3:9] @ Yp
-    D_hat[:, :, QQ] = G[:, :, 9:15] @ Yq
-
+    if u is None:
+        u = np.stack([ny, nz], axis=1)
+    y, Y, length, c1, e_hat = _basic(x, u, l0)
+    # G = de_hat/dy = 2 K y with K_i = c1_i B1_i + c2_i E_dd (the chain rule through the
+    # Gram matrix; c2 = de_hat/dg_dd beyond c1's part: 1/(2 l) and -e_b/(2 l^2))
+    c12 = np.empty((n, 12))
+    c12[:, :6] = c1
+    c2 = c12[:, 6:]
+    np.divide(1.0, length, out=c2[:, 0])
+    c2[:, 1] = 0.0
+    np.divide(e_hat[:, 2:], (-length * length)[:, None], out=c2[:, 2:])
+    k = c1[:, :, None] * _B1X2                                     # (n, 6, 25)
+    k[:, :, 0] = c2
+    G = (k.reshape(n, 30, 5) @ y).reshape(n, 6, 15)
+    c2 *= 0.5
+    if dense:                       # D_hat = G dy/dx in one product (small groups)
+        z = _dy_dx(Y)
+        D_hat = G @ z
+    else:                           # block by block: less arithmetic per element
+        z = None
+        D_hat = np.empty((n, 6, N_LDOF))
+        d4 = D_hat.reshape(n, 6, 2, 7)
+        np.negative(G[:, :, :3], out=d4[:, :, 0, :3])
+        d4[:, :, 1, :3] = G[:, :, :3]
+        d4[:, :, :, 3:] = (G[:, :, 3:].reshape(n, 6, 2, 6).transpose(0, 2, 1, 3)
+                           @ Y).transpose(0, 2, 1, 3)
     if variant == "basic":
         e, D, J = e_hat, D_hat, None
     else:
         e, qe = _modified(e_hat, l0, variant)
-        J = np.eye(6) + qe
+        J = qe + _EYE6
         D = J @ D_hat
-    return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Yp=Yp, Yq=Yq, n1=n1,
-                     length=length, l0=l0, u=u)
+    return BeamState(e=e, D=D, e_hat=e_hat, D_hat=D_hat, J=J, y=y, G=G, Y=Y, c12=c12,
+                     length=length, l0=l0, u=u, z=z)
 
 
-def _basic(x, ny, nz, l0):
-    """The nodal vectors and basic deformations (Eq. 7) shared by :func:`beam_state` and
-    :func:`beam_deformations`: (u, Yp, Yq, y, length, n1, e_hat, bending projections)."""
-    n = x.shape[0]
-    qp, qq = x[:, QP], x[:, QQ]
-    d = x[:, RQ] - x[:, RP]
-    # nodal vectors n = R(q) v = q^T H(v) q (quadratic in q) and their derivatives 2 H(v) q;
-    # Yp = d[n_y^p, n_z^p]/dq^p (n, 6, 4), and n = (2 H q) . q / 2
-    u = np.stack([ny, nz], axis=1)                                  # (n, 2, 3)
-    Yp = vector_jacobians(qp, u).reshape(n, 6, 4)
-    Yq = vector_jacobians(qq, u).reshape(n, 6, 4)
-    vp = 0.5 * batch_matvec(Yp, qp)                                 # [n_y^p, n_z^p]
-    vq = 0.5 * batch_matvec(Yq, qq)
-    y = np.concatenate([d, vp, vq], axis=1)
-    nyp, nzp, nyq, nzq = vp[:, :3], vp[:, 3:], vq[:, :3], vq[:, 3:]
-    length = np.linalg.norm(d, axis=1)
-    n1 = d / length[:, None]
-    e_hat = np.empty((n, 6))
-    e_hat[:, 0] = length - l0
-    e_hat[:, 1] = 0.5 * l0 * (np.sum(nzp * nyq, 1) - np.sum(nyp * nzq, 1))
-    # bending modes: e_j = s_j l0 (n1 . a_j)
-    proj = np.einsum("nk,njk->nj", n1, _bending_vectors(y))           # (n, 4)
-    e_hat[:, 2:6] = (_BEND_SIGN * l0[:, None]) * proj
-    return u, Yp, Yq, y, length, n1, e_hat, proj
+_EYE6 = np.eye(6)
+#: dy/dx with the nodal blocks still empty (d = r^q - r^p), and where the nodal blocks go:
+#: rows 3 + 6 m + r, columns 3 + 7 m + a of node m's Y[m, r, a] in the flattened (15, 14).
+_Z0 = np.zeros((15, N_LDOF))
+_Z0[:3, :3], _Z0[:3, 7:10] = -np.eye(3), np.eye(3)
+_Z_Y = np.array([(3 + 6 * m + r) * N_LDOF + 3 + 7 * m + a
+                 for m in range(2) for r in range(6) for a in range(4)])
 
 
-def _modified(e_hat, l0, variant):
-    """Modified deformations (Eq. 48b) and their quadratic-form matrices ``Q e_hat / l0``."""
-    if variant != "modified":
-        raise ValueError(f"unknown deformation variant {variant!r}")
-    n = e_hat.shape[0]
-    qe = (e_hat @ Q_MODIFIED.reshape(36, 6).T).reshape(n, 6, 6) / l0[:, None, None]
-    return e_hat + 0.5 * batch_matvec(qe, e_hat), qe
+def _dy_dx(Y: np.ndarray) -> np.ndarray:
+    """``dy/dx`` (n, 15, 14) from the nodal Jacobians Y (n, 2, 6, 4)."""
+    n = Y.shape[0]
+    z = np.repeat(_Z0[None], n, axis=0)
+    z.reshape(n, 15 * N_LDOF)[:, _Z_Y] = Y.reshape(n, 48)
+    return z
 
 
 def beam_deformations(x: np.ndarray, ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
-                      variant: str = "modified") -> np.ndarray:
+                      variant: str = "modified", u: np.ndarray | None = None) -> np.ndarray:
     """The deformations e (n_elem, 6) of :func:`beam_state` alone, without their
     derivatives (for the iterations of the kinematic correction, a third of the work)."""
-    e_hat = _basic(x, ny, nz, l0)[6]
+    if u is None:
+        u = np.stack([ny, nz], axis=1)
+    e_hat = _basic(x, u, l0)[4]
     return e_hat if variant == "basic" else _modified(e_hat, l0, variant)[0]
 
 
-# (mode index, sign, slice of the nodal vector in y, name) for e3..e6 of Eq. (7).
-_BENDING = ((2, -1.0, YNZP, "nzp"), (3, 1.0, YNZQ, "nzq"), (4, 1.0, YNYP, "nyp"),
-            (5, -1.0, YNYQ, "nyq"))
-#: The same as arrays: signs of e3..e6, the nodal vector of each among y's four
-#: [n_y^p, n_z^p, n_y^q, n_z^q], and the (row, column) of G where its n1 goes.
-_BEND_SIGN = np.array([b[1] for b in _BENDING])
-_BEND_VEC = np.array([(b[2].start - 3) // 3 for b in _BENDING])
-_BEND_ROWS = np.repeat([b[0] for b in _BENDING], 3)
-_BEND_COLS = np.concatenate([np.arange(b[2].start, b[2].stop) for b in _BENDING])
-#: The bending modes' nodal vectors in the order [n_y^p, n_z^p, n_y^q, n_z^q].
-_VEC_MODE = np.argsort(_BEND_VEC)
+def beam_weighted_hessian(st: BeamState, w: np.ndarray, dense: bool = False) -> np.ndarray:
+    """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 6) -> (n_elem, 14, 14).
 
-
-def _bending_vectors(y: np.ndarray) -> np.ndarray:
-    """The nodal vectors a_j of the bending modes e3..e6 (n, 4, 3), from y (n, 15)."""
-    return y[:, 3:15].reshape(-1, 4, 3)[:, _BEND_VEC]
-
-
-def beam_weighted_hessian(st: BeamState, w: np.ndarray) -> np.ndarray:
-    """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 6) -> (n_elem, 14, 14)."""
+    ``dense``: form it densely (:func:`_dense`, fewer numpy calls: small groups) rather
+    than block by block (:mod:`spacarpy.elements.beam_blocks`); the two agree to round-off."""
     if st.J is None:
-        return _basic_hessian(st, w)
+        return _second_derivatives(st, w, None, dense)
     # e = e_hat + e_hat^T Q e_hat / (2 l0): weights on e_hat and the quadratic part
-    hx = _basic_hessian(st, batch_matvec(st.J.transpose(0, 2, 1), w))
-    hx += st.D_hat.transpose(0, 2, 1) @ (_quadratic_weights(st, w) @ st.D_hat)
-    return hx
+    return _second_derivatives(st, (w[:, None, :] @ st.J)[:, 0], _quadratic_weights(st, w),
+                               dense)
 
 
 def _quadratic_weights(st: BeamState, w: np.ndarray) -> np.ndarray:
     """``sum_i w_i Q_i / l0`` (n, 6, 6): the second derivative of the modified deformations
     with respect to the basic ones, weighted."""
-    return (w @ Q_MODIFIED.reshape(6, 36)).reshape(-1, 6, 6) / st.l0[:, None, None]
+    qw = (w @ _QW).reshape(-1, 6, 6)
+    qw /= st.l0[:, None, None]
+    return qw
 
 
-def beam_tangent(st: BeamState, S: np.ndarray, w: np.ndarray) -> np.ndarray:
+def beam_tangent(st: BeamState, S: np.ndarray, w: np.ndarray, dense: bool = False
+                 ) -> np.ndarray:
     """The element tangent ``D^T S D + sum_i w_i d^2 e_i / dx^2`` (n_elem, 14, 14).
 
     For the modified deformations ``D = J D_hat``, so the material part and the quadratic
     part of the second derivatives share the outer factors:
-    ``D_hat^T (J^T S J + sum_i w_i Q_i / l0) D_hat``, one product with the 14-column D_hat
-    instead of two (the largest products of the tangent)."""
+    ``D_hat^T (J^T S J + sum_i w_i Q_i / l0) D_hat``, and with ``D_hat = G dy/dx`` that is
+    one more term of the y-space matrix (:func:`_second_derivatives`); ``dense`` as for
+    :func:`beam_weighted_hessian`."""
     if st.J is None:
-        hx = _basic_hessian(st, w)
-        hx += st.D.transpose(0, 2, 1) @ (S @ st.D)
-        return hx
+        return _second_derivatives(st, w, S, dense)
     jt = st.J.transpose(0, 2, 1)
-    hx = _basic_hessian(st, batch_matvec(jt, w))
-    inner = jt @ (S @ st.J) + _quadratic_weights(st, w)
-    hx += st.D_hat.transpose(0, 2, 1) @ (inner @ st.D_hat)
+    inner = jt @ (S @ st.J)
+    inner += _quadratic_weights(st, w)
+    return _second_derivatives(st, (w[:, None, :] @ st.J)[:, 0], inner, dense)
+
+
+#: Groups of up to this many elements get their second derivatives formed densely in y
+#: (few, larger numpy calls: the fixed cost per call of small models); larger ones block by
+#: block (less arithmetic and memory per element). The choice is the group's, not a
+#: chunk's (:class:`Beam`), so that chunks give the whole call's bits; both are exact and
+#: tests/test_kernel_paths.py compares them.
+DENSE_MAX = 48
+
+
+def _second_derivatives(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | None,
+                        dense: bool):
+    """``sum_i w_hat_i d^2 e_hat_i / dx^2 + D_hat^T inner D_hat`` (n, 14, 14)."""
+    if dense:
+        return _dense(st, w_hat, inner)
+    hx = blocked_hessian(st, w_hat)
+    if inner is not None:
+        hx += st.D_hat.transpose(0, 2, 1) @ (inner @ st.D_hat)
     return hx
 
 
-def _basic_hessian(st: BeamState, w_hat: np.ndarray) -> np.ndarray:
-    """``sum_i w_hat_i d^2 e_hat_i / dx^2`` (basic deformations, Eq. 7) at the state ``st``."""
+#: The two weight rows of :func:`_dense`: w_hat itself (for ``c = G^T w_hat``) and the
+#: weights of the curvature vectors (half the elongation's, no torsion).
+_W2 = np.array([[1.0] * 6, [0.5, 0.0, 1.0, 1.0, 1.0, 1.0]])
+#: ``kron(K, I3)`` of a 5x5 K (flattened) as a product with a constant: (25, 225).
+_KRON3 = np.einsum("ac,bd,ij->cdaibj", np.eye(5), np.eye(5), np.eye(3)).reshape(25, 225)
+#: [c1 | c2] (n, 12) weights -> 2 K_w (x) I3 (n, 225) in one product.
+_KW_KRON = np.vstack([_B1X2, np.outer(np.full(6, 2.0), np.eye(25)[0])]) @ _KRON3
+
+
+def _dense(st: BeamState, w_hat: np.ndarray, inner: np.ndarray | None) -> np.ndarray:
+    """:func:`_second_derivatives` densely in y (few numpy calls: small groups).
+
+    ``e_hat_i = f_i(g)`` of the Gram entries g (quadratic in y), so the weighted second
+    derivative in y is ``2 K_w (x) I3`` (``K_w = sum_i w_i K_i``, the forms of the first
+    derivatives) plus the curvature of f in g_dd and g_da, ``D h^T + h D^T`` with
+    ``D = [d, 0, 0, 0, 0]`` and ``h = -(sum_i w'_i G_i) / l^2 + kappa D`` (w' = w_hat with
+    half the elongation's weight and none of the torsion's; ``kappa = (w_b . e_b) / (2
+    l^4)`` over the bending modes); ``D_hat^T inner D_hat`` adds ``G^T inner G``. The y
+    matrix H (15 x 15) maps to x as ``Z^T H Z`` with ``Z = dy/dx``, plus
+    ``sum_k c_k d^2 y_k/dx^2`` with ``c = G^T w_hat`` (the nodal vectors are quadratic in
+    the Euler parameters)."""
     n = w_hat.shape[0]
-    # weighted second derivatives of e_hat with respect to y, by blocks:
-    # hdd (d, d), hdp (d, [n_y^p n_z^p]), hdq (d, [n_y^q n_z^q]), hpq (p vectors, q vectors)
-    length, n1, y = st.length, st.n1, st.y
-    outer = n1[:, :, None] * n1[:, None, :]
-    proj_op = np.eye(3) - outer                                       # (n,3,3)
-    # the bending modes e_j = s_j l0 (n1 . a_j) with weights c_j = s_j l0 w_j: their
-    # second derivatives in d are linear in a_j, so the four sum to one term in
-    # b = sum_j c_j a_j and p = sum_j c_j (n1 . a_j)
-    coef = (_BEND_SIGN * st.l0[:, None]) * w_hat[:, 2:6]              # (n, 4)
-    a = _bending_vectors(y)
-    b = np.einsum("nj,njk->nk", coef, a)
-    p = np.einsum("nj,nk,njk->n", coef, n1, a)[:, None, None]
-    bn1 = b[:, :, None] * n1[:, None, :]
-    dd = -(bn1 + bn1.transpose(0, 2, 1)) - p * np.eye(3) + 3.0 * p * outer
-    hdd = ((w_hat[:, 0] / length)[:, None, None] * proj_op
-           + (1.0 / length**2)[:, None, None] * dd)
-    # (d, nodal vector) blocks: c_j / length times the projector, in y's vector order
-    cl = (coef / length[:, None])[:, _VEC_MODE]                       # [nyp nzp nyq nzq]
-    hdpq = (proj_op[:, :, None, :] * cl[:, None, :, None]).reshape(n, 3, 12)
-    hdp, hdq = hdpq[:, :, :6], hdpq[:, :, 6:]
-    c2 = (0.5 * st.l0 * w_hat[:, 1])[:, None, None] * np.eye(3)
-    hpq = np.zeros((n, 6, 6))
-    hpq[:, 3:6, 0:3] = c2                                             # n_z^p . n_y^q
-    hpq[:, 0:3, 3:6] = -c2                                            # n_y^p . n_z^q
-
-    hx = np.zeros((n, N_LDOF, N_LDOF))
-    hx[:, RP, RP] = hx[:, RQ, RQ] = hdd
-    hx[:, RP, RQ] = hx[:, RQ, RP] = -hdd
-    dp = hdp @ st.Yp                                                  # (n,3,4)
-    dq = hdq @ st.Yq
-    hx[:, RP, QP], hx[:, RQ, QP] = -dp, dp
-    hx[:, RP, QQ], hx[:, RQ, QQ] = -dq, dq
-    pq = st.Yp.transpose(0, 2, 1) @ (hpq @ st.Yq)                     # (n,4,4)
-    hx[:, QP, QQ] = pq
-    hx[:, QP, RP], hx[:, QP, RQ] = -dp.transpose(0, 2, 1), dp.transpose(0, 2, 1)
-    hx[:, QQ, RP], hx[:, QQ, RQ] = -dq.transpose(0, 2, 1), dq.transpose(0, 2, 1)
-    hx[:, QQ, QP] = pq.transpose(0, 2, 1)
-    # the nodal vectors are quadratic in q: d^2 n_k/dq^2 = 2 H_k
-    c = batch_matvec(st.G.transpose(0, 2, 1), w_hat)                       # (n, 15)
-    # sum_k c_k d^2(R u)_k/dq^2 over both vectors = hessian_combination(sum_i c_i u_i^T)
-    hx[:, QP, QP] += hessian_combination(c[:, 3:9].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
-    hx[:, QQ, QQ] += hessian_combination(c[:, 9:15].reshape(n, 2, 3).transpose(0, 2, 1) @ st.u)
+    y, G, inv2 = st.y, st.G, 1.0 / (st.length * st.length)
+    wc = (w_hat[:, None, :] * st.c12.reshape(n, 2, 6)).reshape(n, 12)
+    h = (wc @ _KW_KRON).reshape(n, 15, 15)                       # 2 K_w (x) I3
+    cw = (w_hat[:, None, :] * _W2) @ G                           # (n, 2, 15): c, w'^T G
+    hv = cw[:, 1] * (-inv2)[:, None]
+    d = y[:, 0]
+    kappa = (w_hat[:, None, 2:] @ st.e_hat[:, 2:, None])[:, 0, 0] * (0.5 * inv2 * inv2)
+    hv[:, :3] += kappa[:, None] * d
+    outer = d[:, :, None] * hv[:, None, :]                        # (n, 3, 15): rows of D h^T
+    h[:, :3] += outer
+    h[:, :, :3] += outer.transpose(0, 2, 1)
+    if inner is not None:
+        h += G.transpose(0, 2, 1) @ (inner @ G)
+    z = _dy_dx(st.Y) if st.z is None else st.z
+    hx = z.transpose(0, 2, 1) @ (h @ z)
+    # sum_k c_k d^2 y_k/dq^2 of both nodes: hessian_combination(sum_i c_i u_i^T)
+    c = cw[:, 0, 3:].reshape(n, 2, 2, 3).transpose(0, 1, 3, 2)    # (n, node, k, i)
+    hx += ((c @ st.u[:, None]).reshape(n, 18) @ _TQ_H14).reshape(n, N_LDOF, N_LDOF)
     return hx
+
+
+#: TQ_H2 of both nodes placed in their Euler-parameter blocks of the 14 x 14: (18, 196).
+_TQ_H14 = np.zeros((2, 9, N_LDOF, N_LDOF))
+_TQ_H14[0, :, 3:7, 3:7] = TQ_H2.reshape(9, 4, 4)
+_TQ_H14[1, :, 10:14, 10:14] = TQ_H2.reshape(9, 4, 4)
+_TQ_H14 = _TQ_H14.reshape(18, N_LDOF * N_LDOF)
 
 
 # ------------------------------------------------------------------------------ the kind
@@ -395,6 +458,20 @@ def beam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
     return f, k
 
 
+def _section(ref: dict, m: np.ndarray):
+    """The section inertia forms (:func:`~spacarpy.elements.beam_mass.section_axes`) of a
+    group's reference data, made on first use and kept in it (they depend on the element
+    axes alone), or None for EM values without section inertia."""
+    if not np.count_nonzero(m[:, 1:]):
+        return None
+    forms = ref.get("section_axes")
+    if forms is None:
+        axes = ref.get("axes")
+        forms = ref["section_axes"] = section_axes(
+            np.stack([ref["nx"], ref["ny"], ref["nz"]], axis=1) if axes is None else axes)
+    return forms
+
+
 class Beam(ElementKind):
     """``BEAM e p r q s [oy_x oy_y oy_z]``: the spatial DDM beam (kernels above; its
     mass, with the section rotary inertia lumped or consistent, in
@@ -425,34 +502,40 @@ class Beam(ElementKind):
 
     def reference(self, x0, vector):
         nx, ny, nz, l0 = reference_triads(x0[0], x0[2], vector)
-        return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 6, axis=1)
+        # the axes stacked once here rather than at every kernel call: axes = [n_x, n_y, n_z]
+        # (rows) and u = [n_y, n_z]
+        axes = np.stack([nx, ny, nz], axis=1)
+        return (dict(nx=nx, ny=ny, nz=nz, l0=l0, axes=axes, u=axes[:, 1:]),
+                np.repeat(l0[:, None], 6, axis=1))
 
     def state(self, x, ref, variant, prev):
-        return in_chunks(beam_state, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant)
+        return in_chunks(beam_state, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant,
+                         ref.get("u"), len(x) <= DENSE_MAX)
 
     def deformations(self, x, ref, variant, prev):
-        return in_chunks(beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant)
+        return in_chunks(beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant,
+                         ref.get("u"))
 
     def hessian(self, st, w):
-        return in_chunks(beam_weighted_hessian, len(w), st, w)
+        return in_chunks(beam_weighted_hessian, len(w), st, w, len(w) <= DENSE_MAX)
 
     def tangent(self, st, S, w):
-        return in_chunks(beam_tangent, len(w), st, S, w)
+        return in_chunks(beam_tangent, len(w), st, S, w, len(w) <= DENSE_MAX)
 
     def stiffness(self, props, ref):
         return stiffness_matrix(props, ref["l0"])
 
     def mass(self, x, ref, m, rotary="lumped"):
         return in_chunks(beam_mass_matrix, len(x), x, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary)
+                         ref["l0"], m, rotary, _section(ref, m))
 
     def convective(self, x, v, ref, m, rotary="lumped"):
         return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary)
+                         ref["l0"], m, rotary, _section(ref, m))
 
     def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
         return in_chunks(beam_inertia_force, len(x), x, v, a, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary)
+                         ref["l0"], m, rotary, _section(ref, m))
 
     def check(self, st, ref):
         return check_saturation(st, ref)

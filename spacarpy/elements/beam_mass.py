@@ -38,7 +38,8 @@ from __future__ import annotations
 import numpy as np
 
 from spacarpy.elements.beam_layout import QP, QQ, RP, RQ
-from spacarpy.rotation import quadratic_form, vector_jacobians
+from spacarpy.elements.nodal import nodal_jacobians
+from spacarpy.rotation import quadratic_form
 
 #: int_0^1 h_i h_j dxi for the Hermite functions h1..h4 (Eq. 59, times 420).
 HERMITE_MASS = np.array([[156.0, 22.0, 54.0, -13.0],
@@ -82,18 +83,6 @@ def g_matrix(q: np.ndarray) -> np.ndarray:
 _G_TENSOR = np.stack([g_matrix(e).ravel() for e in np.eye(4)])
 
 
-def _twice_h_times(hx: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``2 H_k(n_x) q`` (n, 3, 4) for the quadratic forms hx (n, 3, 4, 4): the derivative
-    ``d n_x / d q`` at q, or ``d/dt`` of it for q a velocity."""
-    return 2.0 * (hx @ q[:, None, :, None])[..., 0]
-
-
-def _global_section_inertia(nx, ny, nz, mass) -> np.ndarray:
-    """The section inertia tensors per unit length (n, 3, 3) in initial global axes."""
-    e = np.stack([nx, ny, nz], axis=2)                          # columns n_x n_y n_z
-    return e @ section_inertia(mass) @ e.transpose(0, 2, 1)
-
-
 def section_inertia(mass: np.ndarray) -> np.ndarray:
     """Per-unit-length rotary inertia tensors J (n_elem, 3, 3) in element axes from EM data
     ``[rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz]`` (n_elem, 5)."""
@@ -120,15 +109,6 @@ _W_CROSS = np.repeat(HERMITE_MASS[np.ix_([0, 2], [1, 3])], 4, axis=1)          #
 _W_TANGENT = np.kron(HERMITE_MASS[np.ix_([1, 3], [1, 3])], np.ones((4, 4)))    # (8, 8)
 
 
-def _tangent_jacobians(q8: np.ndarray, nx: np.ndarray) -> np.ndarray:
-    """``B = d n_x / d q = 2 H(n_x) q`` of both nodes side by side, (n, 3, 8), for the
-    Euler parameters q8 = [q^p, q^q] (n, 8): B is linear in q, so at a velocity it is
-    ``dB/dt``."""
-    n = q8.shape[0]
-    b = vector_jacobians(q8.reshape(2 * n, 4), np.repeat(nx, 2, axis=0)[:, None, :])
-    return b.reshape(n, 2, 3, 4).transpose(0, 2, 1, 3).reshape(n, 3, 8)
-
-
 def _g_pair(q8: np.ndarray) -> np.ndarray:
     """``[G(q^p) | G(q^q)]`` (n, 3, 8) of :func:`g_matrix`, for q8 (n, 8)."""
     n = q8.shape[0]
@@ -146,8 +126,54 @@ def _rotary_weights8(rotary: str) -> np.ndarray:
     return _ROTARY_WEIGHTS8[rotary]
 
 
+#: The section inertia J (3x3, element axes) as a product with the EM values
+#: ``[rho(Iy+Iz), rhoIy, rhoIz, rhoIyz]``: (4, 9).
+_SECTION_FORMS = np.zeros((4, 3, 3))
+_SECTION_FORMS[0, 0, 0] = _SECTION_FORMS[1, 1, 1] = _SECTION_FORMS[2, 2, 2] = 1.0
+_SECTION_FORMS[3, 1, 2] = _SECTION_FORMS[3, 2, 1] = -1.0
+_SECTION_FORMS = _SECTION_FORMS.reshape(4, 9)
+#: Hermite weights of the position-tangent blocks per unit rho A l0^2: [node of the
+#: position, node of the tangent] (``C_12, C_14; C_32, C_34``).
+_W_RT = HERMITE_MASS[np.ix_([0, 2], [1, 3])]
+
+
+def section_axes(axes: np.ndarray) -> np.ndarray:
+    """The section inertia forms in initial global axes (n, 4, 9): ``E S_k E^T`` for the
+    element axes ``E = [n_x n_y n_z]`` (given as rows, axes (n, 3, 3)) and the forms S_k of
+    ``J = sum_k S_k [rho(Iy+Iz), rhoIy, rhoIz, rhoIyz]_k``, so that the tensor of EM values
+    m is ``m[1:5] @ forms`` (one product per call; the forms are a model's constant)."""
+    n = axes.shape[0]
+    forms = _SECTION_FORMS.reshape(4, 3, 3) @ axes[:, None]
+    return (axes.transpose(0, 2, 1)[:, None] @ forms).reshape(n, 4, 9)
+
+
+def _section_global(nx, ny, nz, mass, section):
+    """The section inertia tensors per unit length in initial global axes (n, 3, 3), from
+    the forms of :func:`section_axes` (made here unless the caller keeps them)."""
+    if section is None:
+        section = section_axes(np.stack([nx, ny, nz], axis=1))
+    return (mass[:, None, 1:5] @ section).reshape(-1, 3, 3)
+
+
+def _has_rotary(mass: np.ndarray, section) -> bool:
+    """Whether the rotary terms are evaluated: the caller's forms (it has checked the EM
+    values), or any nonzero section inertia."""
+    return section is not None or bool(np.count_nonzero(mass[:, 1:]))
+
+
+def _rotary_force(g: np.ndarray, jg: np.ndarray, w: np.ndarray, c_ab: np.ndarray,
+                  coef: np.ndarray) -> np.ndarray:
+    """``coef sum_b c_ab G(q_a)^T J G(q_b) w_b``-type products of the rotary terms, for both
+    nodes a: g (n, 2, 3, 4) the G matrices of the left factor, w (n, 2, 3, k) body
+    vectors per node (angular velocities or accelerations), -> (n, 2, 4, k)."""
+    n = g.shape[0]
+    mixed = (c_ab @ w.reshape(n, 2, -1)).reshape(w.shape)         # sum_b c_ab w_b
+    return coef[:, None, None, None] * (g.transpose(0, 1, 3, 2) @ (jg[:, None] @ mixed))
+
+
 def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
-                     l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped") -> np.ndarray:
+                     l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped",
+                     section: np.ndarray | None = None) -> np.ndarray:
     """Mass matrices (n_elem, 14, 14) at configurations x (n_elem, 14): the consistent
     translational mass and the section rotary inertia of the choice ``rotary``.
 
@@ -165,29 +191,37 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
         EM data ``rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz`` (kg/m, kg m).
     rotary : str
         ``"lumped"`` or ``"consistent"`` (:data:`ROTARY_WEIGHTS`).
+    section : (n_elem, 4, 9), optional
+        :func:`section_axes` of the element axes, when the caller keeps them (then the
+        rotary terms are evaluated whatever the EM values).
     """
     wr = _rotary_weights8(rotary)
-    q8 = x[:, _Q8]
+    n = x.shape[0]
+    q2 = x.reshape(n, 2, 7)[:, :, 3:]
     ra = mass[:, 0] * l0                                        # rho A l0
-    lb = _tangent_jacobians(q8, nx) * l0[:, None, None]         # (n, 3, 8): l0 B
+    lb = nodal_jacobians(q2, nx[:, None]) * l0[:, None, None, None]   # l0 B (n, 2, 3, 4)
     m = ra[:, None, None] * _M_POS
-    cross = ra[:, None, None, None] * (_W_CROSS[:, None, :] * lb[:, None])   # (n, 2, 3, 8)
-    m[:, RP, _Q8] = cross[:, 0]
-    m[:, RQ, _Q8] = cross[:, 1]
-    m[:, _Q8, RP] = cross[:, 0].transpose(0, 2, 1)
-    m[:, _Q8, RQ] = cross[:, 1].transpose(0, 2, 1)
-    qq = ra[:, None, None] * _W_TANGENT * (lb.transpose(0, 2, 1) @ lb)
-    if np.any(mass[:, 1:]):
-        g = _g_pair(q8)
-        jg = _global_section_inertia(nx, ny, nz, mass)
+    m4 = m.reshape(n, 2, 7, 2, 7)
+    # position rows of node a, tangent columns of node b: C_(a, b) rho A l0 (l0 B_b)
+    cross = _W_RT[:, None, :, None] * lb.transpose(0, 2, 1, 3)[:, None]    # (n, 2, 3, 2, 4)
+    cross *= ra[:, None, None, None, None]
+    m4[:, :, :3, :, 3:] = cross
+    m4[:, :, 3:, :, :3] = cross.transpose(0, 3, 4, 1, 2)
+    bt = lb.transpose(0, 1, 3, 2).reshape(n, 8, 3)
+    qq = (bt @ bt.transpose(0, 2, 1)) * _W_TANGENT
+    qq *= ra[:, None, None]
+    if _has_rotary(mass, section):
+        g = _g_pair(x[:, _Q8])
+        jg = _section_global(nx, ny, nz, mass, section)
         qq += (4.0 * l0)[:, None, None] * wr * (g.transpose(0, 2, 1) @ (jg @ g))
-    m[:, _Q8[:, None], _Q8] = qq
+    m4[:, :, 3:, :, 3:] = qq.reshape(n, 2, 4, 2, 4)
     return m
 
 
 def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarray,
                        ny: np.ndarray, nz: np.ndarray, l0: np.ndarray, mass: np.ndarray,
-                       rotary: str = "lumped") -> np.ndarray:
+                       rotary: str = "lumped", section: np.ndarray | None = None
+                       ) -> np.ndarray:
     """The inertia force ``M a + h`` (n_elem, 14) of Eq. 60 at (x, v, a), without forming M.
 
     Translation: with ``N`` as in :func:`beam_mass_matrix`, ``dN/dt`` has the tangent rows
@@ -197,38 +231,44 @@ def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarr
     :func:`beam_convective` are not needed for the force). Rotation: with ``omega_b = G(q_b)
     v_b`` and ``G(q) dq = -G(dq) q``, node a receives ``4 l0 sum_b c_ab (G_a^T J G_b a_b +
     2 G(v_a)^T J omega_b)`` (for the lumped weights the rigid body's ``J alpha + omega x J
-    omega`` mapped onto its Euler parameters)."""
+    omega`` mapped onto its Euler parameters). ``section`` as for :func:`beam_mass_matrix`."""
     n = x.shape[0]
-    q8, v8, a8 = x[:, _Q8], v[:, _Q8], a[:, _Q8]
-    ra = mass[:, 0] * l0
-    lc = l0[:, None]
-    b = _tangent_jacobians(np.concatenate([q8, v8]), np.concatenate([nx, nx]))
-    bq, bv = b[:n], b[n:]                                       # B, dB/dt (n, 3, 8)
-    # N a + (dN/dt) v per Hermite function (n, 3, 4), then C times it
-    tang = (bq * a8[:, None, :] + bv * v8[:, None, :]).reshape(n, 3, 2, 4).sum(axis=3)
-    z = np.stack([a[:, RP], lc * tang[:, :, 0], a[:, RQ], lc * tang[:, :, 1]], axis=2)
-    w = (z @ HERMITE_MASS) * ra[:, None, None]
+    v2, a2 = v.reshape(n, 2, 7), a.reshape(n, 2, 7)
+    q4 = np.concatenate([x.reshape(n, 2, 7)[:, :, 3:], v2[:, :, 3:]], axis=1)  # q^p q^q v^p v^q
+    b = nodal_jacobians(q4, nx[:, None])                        # B(q), dB/dt (n, 4, 3, 4)
+    bq = b[:, :2]
+    # N a + (dN/dt) v per Hermite function: [a_r^p, l0 t^p, a_r^q, l0 t^q] (n, 4, 3)
+    z = np.empty((n, 2, 2, 3))
+    z[:, :, 0] = a2[:, :, :3]
+    t = bq @ a2[:, :, 3:, None]
+    t += b[:, 2:] @ v2[:, :, 3:, None]
+    np.multiply(t[..., 0], l0[:, None, None], out=z[:, :, 1])
+    w = (z.reshape(n, 4, 3).transpose(0, 2, 1) @ HERMITE_MASS)      # C z (n, 3, 4)
+    w *= (mass[:, 0] * l0)[:, None, None]
+    w = w.transpose(0, 2, 1).reshape(n, 2, 2, 3)                # [node, (position, tangent)]
     f = np.empty((n, 14))
-    f[:, RP] = w[:, :, 0]
-    f[:, RQ] = w[:, :, 2]
-    f[:, _Q8] = lc * np.einsum("nkj,nkj->nj", bq,
-                               np.repeat(w[:, :, [1, 3]], 4, axis=2))
-    if np.any(mass[:, 1:]):
+    f2 = f.reshape(n, 2, 7)
+    f2[:, :, :3] = w[:, :, 0]
+    fq = (bq.transpose(0, 1, 3, 2) @ w[:, :, 1, :, None])[..., 0]     # B^T (C z)_tangent
+    np.multiply(fq, l0[:, None, None], out=f2[:, :, 3:])
+    if _has_rotary(mass, section):
         c_ab = rotary_weights(rotary)
-        jg = _global_section_inertia(nx, ny, nz, mass)
-        g = _g_pair(np.concatenate([q8, v8]))
-        gq, gv = g[:n].reshape(n, 3, 2, 4), g[n:].reshape(n, 3, 2, 4)
-        # body angular velocity and acceleration of both nodes (n, 3, 2)
-        om = np.einsum("nkbj,nbj->nkb", gq, v8.reshape(n, 2, 4))
-        al = np.einsum("nkbj,nbj->nkb", gq, a8.reshape(n, 2, 4))
-        jom, jal = jg @ (om @ c_ab.T), jg @ (al @ c_ab.T)       # sum_b c_ab J (.)_b
-        f[:, _Q8] += (4.0 * lc) * (np.einsum("nkaj,nka->naj", gq, jal)
-                                   + 2.0 * np.einsum("nkaj,nka->naj", gv, jom)).reshape(n, 8)
+        jg = _section_global(nx, ny, nz, mass, section)
+        g = (q4.reshape(4 * n, 4) @ _G_TENSOR).reshape(n, 4, 3, 4)  # G(q^p) G(q^q) G(v^p) ..
+        gq, gv = g[:, :2], g[:, 2:]
+        # body angular velocity and acceleration of both nodes, mixed by c_ab, times J
+        oa = np.concatenate([gq @ v2[:, :, 3:, None], gq @ a2[:, :, 3:, None]], axis=3)
+        joa = jg[:, None] @ (c_ab @ oa.reshape(n, 2, 6)).reshape(n, 2, 3, 2)
+        rot = gq.transpose(0, 1, 3, 2) @ joa[..., 1:]
+        rot += gv.transpose(0, 1, 3, 2) @ (2.0 * joa[..., :1])
+        rot *= (4.0 * l0)[:, None, None, None]
+        f2[:, :, 3:] += rot[..., 0]
     return f
 
 
 def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray,
-                    nz: np.ndarray, l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped"):
+                    nz: np.ndarray, l0: np.ndarray, mass: np.ndarray, rotary: str = "lumped",
+                    section: np.ndarray | None = None):
     """``(dM/dt v, d(v^T M v)/dx)``, both (n_elem, 14), of :func:`beam_mass_matrix` (with the
     same ``rotary``) at velocities v: the two parts of the convective term
     ``h = dM/dt v - grad/2`` of Eq. 60.
@@ -247,40 +287,40 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
       ``-8 l0 sum_b c_ab G(v_a)^T J omega_b`` and ``dM/dt v`` is minus half of it. For the
       lumped weights that is, node by node, the gyroscopic term ``omega x (J omega)`` of a
       rigid body mapped onto the Euler parameters.
+
+    ``section`` as for :func:`beam_mass_matrix`.
     """
     c_ab = rotary_weights(rotary)
     n = x.shape[0]
-    qp, qq = x[:, QP], x[:, QQ]
-    vqp, vqq = v[:, QP], v[:, QQ]
-    hx = quadratic_form(nx)                                     # (n, 3, 4, 4)
-    # B q-columns (n, 3, 4) and the tangent velocities l0 B v_q, l0 (dB/dt) v_q
-    bp, bq = _twice_h_times(hx, qp), _twice_h_times(hx, qq)
-    hvp, hvq = _twice_h_times(hx, vqp), _twice_h_times(hx, vqq)
-    lc = l0[:, None]
-    u = np.stack([v[:, RP], lc * (bp @ vqp[:, :, None])[..., 0], v[:, RQ],
-                  lc * (bq @ vqq[:, :, None])[..., 0]], axis=2)          # (n, 3, 4)
-    du = np.zeros_like(u)
-    du[:, :, 1] = lc * (hvp @ vqp[:, :, None])[..., 0]
-    du[:, :, 3] = lc * (hvq @ vqq[:, :, None])[..., 0]
-    w, dw = u @ HERMITE_MASS, du @ HERMITE_MASS                  # C u, C u' per component
-    ra = (mass[:, 0] * l0)[:, None]                              # rho A l0
-    grad, mdot = np.zeros((n, 14)), np.zeros((n, 14))
-    for sl, i, hv, b in ((QP, 1, hvp, bp), (QQ, 3, hvq, bq)):
-        dn_w = lc * (hv.transpose(0, 2, 1) @ w[:, :, i, None])[..., 0]   # (dN/dq v)^T w
-        grad[:, sl] = 2.0 * ra * dn_w
-        mdot[:, sl] = ra * (dn_w + lc * (b.transpose(0, 2, 1) @ dw[:, :, i, None])[..., 0])
-    mdot[:, RP] = ra * dw[:, :, 0]
-    mdot[:, RQ] = ra * dw[:, :, 2]
-    if np.any(mass[:, 1:]):
-        jg = _global_section_inertia(nx, ny, nz, mass)
-        om = [(g_matrix(q) @ vq[:, :, None])[..., 0] for q, vq in ((qp, vqp), (qq, vqq))]
-        for a, (sl, vq) in enumerate(((QP, vqp), (QQ, vqq))):
-            jw = sum(c_ab[a, b] * (jg @ om[b][:, :, None])[..., 0] for b in range(2)
-                     if c_ab[a, b] != 0.0)
-            rot = (8.0 * l0)[:, None] * (
-                g_matrix(vq).transpose(0, 2, 1) @ jw[:, :, None])[..., 0]
-            grad[:, sl] -= rot
-            mdot[:, sl] += 0.5 * rot
+    v2 = v.reshape(n, 2, 7)
+    vq2 = v2[:, :, 3:]
+    q4 = np.concatenate([x.reshape(n, 2, 7)[:, :, 3:], vq2], axis=1)    # q^p q^q v^p v^q
+    b = nodal_jacobians(q4, nx[:, None])                        # B(q), dB/dt (n, 4, 3, 4)
+    # u = N v and u' = dN/dt v per Hermite function, side by side: (n, 2 [u, u'], 4, 3)
+    uu = np.zeros((n, 2, 2, 2, 3))
+    uu[:, 0, :, 0] = v2[:, :, :3]
+    tv = (b @ np.concatenate([vq2, vq2], axis=1)[..., None])[..., 0]   # (n, 4, 3)
+    tv *= l0[:, None, None]
+    uu[:, :, :, 1] = tv.reshape(n, 2, 2, 3)
+    ra = mass[:, 0] * l0                                         # rho A l0
+    ww = (uu.reshape(n, 2, 4, 3).transpose(0, 1, 3, 2) @ HERMITE_MASS)   # C u, C u' (n,2,3,4)
+    ww *= ra[:, None, None, None]
+    # (dN/dq v)^T w and N^T w' on the tangent rows: B(v)^T w_t, B(q)^T w'_t (times l0)
+    wt = ww[:, ::-1, :, 1::2].transpose(0, 1, 3, 2).reshape(n, 4, 1, 3)   # w'_t p q, w_t p q
+    bt = (wt @ b)[:, :, 0]                                       # B(q)^T w'_t, B(v)^T w_t
+    bt *= l0[:, None, None]
+    grad, mdot = np.zeros((n, 14)), np.empty((n, 14))
+    g2, m2 = grad.reshape(n, 2, 7), mdot.reshape(n, 2, 7)
+    np.multiply(bt[:, 2:], 2.0, out=g2[:, :, 3:])
+    np.add(bt[:, 2:], bt[:, :2], out=m2[:, :, 3:])
+    m2[:, :, :3] = ww[:, 1, :, 0::2].transpose(0, 2, 1)
+    if _has_rotary(mass, section):
+        jg = _section_global(nx, ny, nz, mass, section)
+        g = (q4.reshape(4 * n, 4) @ _G_TENSOR).reshape(n, 4, 3, 4)
+        om = g[:, :2] @ vq2[..., None]                           # (n, 2, 3, 1)
+        rot = _rotary_force(g[:, 2:], jg, om, c_ab, 8.0 * l0)[..., 0]
+        g2[:, :, 3:] -= rot
+        m2[:, :, 3:] += 0.5 * rot
     return mdot, grad
 
 

@@ -68,8 +68,8 @@ from typing import NamedTuple
 import numpy as np
 
 from spacarpy.elements.base import ROT_P, ROT_Q, ElementKind, Fields
-from spacarpy.linalg import batch_matvec, property_columns
-from spacarpy.rotation import hessian_combination, vector_jacobians
+from spacarpy.elements.nodal import TQ_H2, nodal_jacobians
+from spacarpy.linalg import property_columns
 
 N_LDOF = 8
 N_DEF = 3
@@ -125,15 +125,24 @@ class HingeState(NamedTuple):
     turns: np.ndarray      # (n,) int: e1 = atan2(s, c) + 2 pi turns
     f: np.ndarray          # (n, 4) the bilinear forms [s, c, e2, e3]
     J: np.ndarray          # (n, 4, 8) df/dx
-    yp: np.ndarray         # (n, 3, 3) rows a^p, b^p, c^p
-    yq: np.ndarray         # (n, 3, 3) rows a^q, b^q, c^q
-    Yp: np.ndarray         # (n, 9, 4) d[a^p, b^p, c^p]/dq^p
-    Yq: np.ndarray         # (n, 9, 4) d[a^q, b^q, c^q]/dq^q
+    v: np.ndarray          # (n, 2, 3, 3) rows a, b, c of node p, then of node q
+    Y: np.ndarray          # (n, 2, 9, 4) d[a, b, c]/dq of node p, then of node q
     u: np.ndarray          # (n, 3, 3) rows a, b, c (reference triad)
+    m: np.ndarray          # (n, 4, 4) rows: de1, de2, de3 and the companion of de1, in f
+    mj: np.ndarray         # (n, 4, 8) the same in x (its first three rows are D)
+
+
+#: ``sum_ij C[f, i, j] u_j^q`` and ``sum_i C[f, i, j] u_i^p`` side by side: the gradients of
+#: the forms with respect to the vectors of node p, then of node q (2, 12, 3).
+_C_PQ = np.stack([C_FORMS.reshape(12, 3), C_FORMS.transpose(0, 2, 1).reshape(12, 3)])
+#: The combined forms ``C(w_f)`` of weights w_f (n, 4) and their transposes: (4, 18).
+_C_W = np.hstack([C_FORMS.reshape(4, 9), C_FORMS.transpose(0, 2, 1).reshape(4, 9)])
+_SIGN_CS = np.array([1.0, -1.0])
 
 
 def hinge_state(x: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
-                e1_previous: np.ndarray | None = None) -> HingeState:
+                e1_previous: np.ndarray | None = None, u: np.ndarray | None = None
+                ) -> HingeState:
     """Deformations e (n_elem, 3) and their exact Jacobian D (n_elem, 3, 8) at x (n_elem, 8).
 
     Parameters
@@ -141,73 +150,104 @@ def hinge_state(x: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
     x : (n_elem, 8)
     a, b, c : (n_elem, 3)
         Reference triads (see :func:`hinge_reference`).
-    e1_previous : (n_elem,), optional
+    e1_previous : (n_elem,) or float, optional
         Previous (converged) values of e1; the returned e1 is the branch ``atan2(s, c) +
         2 pi k`` closest to it. Without it, e1 lies in (-pi, pi].
+    u : (n_elem, 3, 3), optional
+        ``[a, b, c]`` stacked, when the caller keeps it (the kind's reference data).
     """
     n = x.shape[0]
-    qp, qq = x[:, QP], x[:, QQ]
-    u = np.stack([a, b, c], axis=1)
-    Yp = vector_jacobians(qp, u).reshape(n, 9, 4)
-    Yq = vector_jacobians(qq, u).reshape(n, 9, 4)
-    yp = 0.5 * batch_matvec(Yp, qp).reshape(n, 3, 3)
-    yq = 0.5 * batch_matvec(Yq, qq).reshape(n, 3, 3)
-    # gradients of the four bilinear forms with respect to y^p and y^q
-    gp = (C_FORMS.reshape(12, 3) @ yq).reshape(n, 4, 9)            # sum_j C[f,i,j] u_j^q
-    gq = (C_FORMS.transpose(0, 2, 1).reshape(12, 3) @ yp).reshape(n, 4, 9)
-    f = batch_matvec(gp, yp.reshape(n, 9))                         # (n, 4)
-    J = np.concatenate([gp @ Yp, gq @ Yq], axis=2)                 # (n, 4, 8)
-
+    if u is None:
+        u = np.stack([a, b, c], axis=1)
+    q2 = x.reshape(n, 2, 4)
+    Y = nodal_jacobians(q2, u)                                     # (n, 2, 9, 4)
+    v = (Y @ q2[..., None]).reshape(n, 2, 3, 3)
+    v *= 0.5
+    # gradients of the four bilinear forms with respect to the vectors of p and of q
+    g = (_C_PQ @ v[:, ::-1]).reshape(n, 2, 4, 9)
+    f = (g[:, 0] @ v[:, 0].reshape(n, 9, 1))[:, :, 0]              # (n, 4)
+    J = (g @ Y).transpose(0, 2, 1, 3).reshape(n, 4, N_LDOF)        # (n, 4, 8)
     s, co = f[:, 0], f[:, 1]
     phi = np.arctan2(s, co)
+    e = f[:, 1:].copy()
     if e1_previous is None:
         turns = np.zeros(n, dtype=np.int64)
+        e[:, 0] = phi
     else:
-        prev = np.broadcast_to(np.asarray(e1_previous, dtype=float), (n,))
-        turns = np.floor((prev - phi) / (2.0 * np.pi) + 0.5).astype(np.int64)
-    rho2 = s * s + co * co
-    e = np.empty((n, N_DEF))
-    e[:, 0] = phi + 2.0 * np.pi * turns
-    e[:, 1:] = f[:, 2:]
-    D = np.empty((n, N_DEF, N_LDOF))
-    D[:, 0] = (co[:, None] * J[:, 0] - s[:, None] * J[:, 1]) / rho2[:, None]
-    D[:, 1:] = J[:, 2:]
-    return HingeState(e=e, D=D, turns=turns, f=f, J=J, yp=yp, yq=yq, Yp=Yp, Yq=Yq, u=u)
+        turns = np.floor((e1_previous - phi) / (2.0 * np.pi) + 0.5).astype(np.int64)
+        e[:, 0] = phi + 2.0 * np.pi * turns
+    # de1 = (c ds - s dc) / rho^2 = [p, q] . [ds, dc]; with de2, de3 and the companion
+    # [q, -p] . [ds, dc] of de1 (the curvature of atan2, see hinge_weighted_hessian) as the
+    # rows of M (n, 4, 4) applied to df/dx
+    pq = f[:, 1::-1] * _SIGN_CS
+    pq /= (s * s + co * co)[:, None]
+    m = (pq @ _M_PQ).reshape(n, 4, 4)
+    m += _M_CONST
+    mj = m @ J                                                     # de1, de2, de3, companion
+    return HingeState(e=e, D=mj[:, :3], turns=turns, f=f, J=J, v=v, Y=Y, u=u, m=m, mj=mj)
+
+
+#: The rows [de1, de2, de3, companion of de1] of M = dq/df as products with [p, q].
+_M_PQ = np.zeros((2, 4, 4))
+_M_PQ[0, 0, 0] = _M_PQ[1, 0, 1] = _M_PQ[1, 3, 0] = 1.0
+_M_PQ[0, 3, 1] = -1.0
+_M_PQ = _M_PQ.reshape(2, 16)
+_M_CONST = np.zeros((4, 4))
+_M_CONST[1, 2] = _M_CONST[2, 3] = 1.0
 
 
 def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
-    """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 3) -> (n_elem, 8, 8)."""
+    """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 3) -> (n_elem, 8, 8).
+
+    The forms f are bilinear in the nodal vectors, so with the weights ``w_f`` on f (w_1
+    times de1/df for s and c) their second derivatives are ``2 H`` combinations on each
+    node's block and ``Y_p^T (C(w_f) (x) I3) Y_q`` between the nodes. The curvature of
+    ``e1 = atan2(s, c)`` in (s, c) is ``[[2pq, q^2-p^2], [q^2-p^2, -2pq]]`` with
+    ``[p, q] = [c, -s] / rho^2``, which is ``r_perp r^T + r r_perp^T``: in x the symmetric
+    product of de1/dx and its companion (rows 0 and 3 of the state's ``mj``)."""
     n = w.shape[0]
-    s, co = st.f[:, 0], st.f[:, 1]
-    rho2 = s * s + co * co
-    # weights on the bilinear forms f = [s, c, e2, e3]
-    wf = np.stack([w[:, 0] * co / rho2, -w[:, 0] * s / rho2, w[:, 1], w[:, 2]], axis=1)
-    cw = (wf @ C_FORMS.reshape(4, 9)).reshape(n, 3, 3)             # combined C(w_f)
-    # coefficients of the nodal-vector Hessians 2 H(u)
-    cp = cw @ st.yq                                                # (n, 3, 3) rows i
-    cq = cw.transpose(0, 2, 1) @ st.yp
+    wf = (w[:, None, :] @ st.m[:, :3])[:, 0]                      # weights on f (n, 4)
+    cw = (wf @ _C_W).reshape(n, 2, 3, 3)                          # C(w_f), C(w_f)^T
+    # coefficients of the nodal-vector Hessians 2 H(u): node p sum_j C_ij u_j^q, node q ...
+    m = (cw @ st.v[:, ::-1]).transpose(0, 1, 3, 2) @ st.u[:, None]   # (n, 2, 3, 3)
+    hq = (m.reshape(2 * n, 9) @ TQ_H2).reshape(n, 2, 4, 4)
     hx = np.empty((n, N_LDOF, N_LDOF))
-    hx[:, QP, QP] = hessian_combination(cp.transpose(0, 2, 1) @ st.u)
-    hx[:, QQ, QQ] = hessian_combination(cq.transpose(0, 2, 1) @ st.u)
+    hx[:, QP, QP] = hq[:, 0]
+    hx[:, QQ, QQ] = hq[:, 1]
     # mixed block Yp^T (C(w_f) kron I3) Yq
-    byq = (cw @ st.Yq.reshape(n, 3, 12)).reshape(n, 9, 4)
-    pq = st.Yp.transpose(0, 2, 1) @ byq
+    yp, yq = st.Y[:, 0], st.Y[:, 1]
+    pq = yp.transpose(0, 2, 1) @ (cw[:, 0] @ yq.reshape(n, 3, 12)).reshape(n, 9, 4)
     hx[:, QP, QQ] = pq
     hx[:, QQ, QP] = pq.transpose(0, 2, 1)
-    # curvature of atan2 in (s, c)
-    r4 = rho2 * rho2
-    amat = np.empty((n, 2, 2))
-    amat[:, 0, 0] = -2.0 * s * co / r4
-    amat[:, 1, 1] = -amat[:, 0, 0]
-    amat[:, 0, 1] = amat[:, 1, 0] = (s * s - co * co) / r4
-    jsc = st.J[:, :2]
-    hx += w[:, 0, None, None] * (jsc.transpose(0, 2, 1) @ (amat @ jsc))
+    # curvature of atan2: w_1 (a b^T + b a^T) with b = de1/dx, a its companion
+    ab = st.mj[:, ::3]                                            # (n, 2, 8): b, a
+    hx += (ab * w[:, :1, None]).transpose(0, 2, 1) @ ab[:, ::-1]
     return hx
 
 
-def hinge_deformations(x, a, b, c, e1_previous=None) -> np.ndarray:
-    """Deformations only, (n_elem, 3): a convenience wrapper of :func:`hinge_state`."""
-    return hinge_state(x, a, b, c, e1_previous).e
+def hinge_deformations(x, a, b, c, e1_previous=None, u=None) -> np.ndarray:
+    """The deformations (n_elem, 3) of :func:`hinge_state` alone, without their
+    derivatives (for the iterations of the kinematic correction)."""
+    n = x.shape[0]
+    if u is None:
+        u = np.stack([a, b, c], axis=1)
+    q2 = x.reshape(n, 2, 4)
+    v = (nodal_jacobians(q2, u) @ q2[..., None]).reshape(n, 2, 9)
+    # f = sum_ij C[f, i, j] u_i^p . u_j^q: the 3x3 products of the two triads, times C
+    f = (v[:, 0].reshape(n, 3, 3) @ v[:, 1].reshape(n, 3, 3).transpose(0, 2, 1)).reshape(
+        n, 9) @ _C_FLAT_T
+    f *= 0.25                                                      # v is twice the vectors
+    e = np.empty((n, N_DEF))
+    phi = np.arctan2(f[:, 0], f[:, 1])
+    if e1_previous is None:
+        e[:, 0] = phi
+    else:
+        e[:, 0] = phi + 2.0 * np.pi * np.floor((e1_previous - phi) / (2.0 * np.pi) + 0.5)
+    e[:, 1:] = f[:, 2:]
+    return e
+
+
+_C_FLAT_T = np.ascontiguousarray(C_FORMS.reshape(4, 9).T)
 
 
 def hinge_stiffness(props: np.ndarray) -> np.ndarray:
@@ -244,10 +284,14 @@ class Hinge(ElementKind):
 
     def reference(self, x0, vector):
         a, b, c = hinge_reference(vector)
-        return dict(a=a, b=b, c=c), np.ones((a.shape[0], 3))
+        # u = [a, b, c] stacked once here rather than at every kernel call
+        return dict(a=a, b=b, c=c, u=np.stack([a, b, c], axis=1)), np.ones((a.shape[0], 3))
 
     def state(self, x, ref, variant, prev):
-        return hinge_state(x, ref["a"], ref["b"], ref["c"], e1_previous=prev.get("e1"))
+        return hinge_state(x, ref["a"], ref["b"], ref["c"], prev.get("e1"), ref.get("u"))
+
+    def deformations(self, x, ref, variant, prev):
+        return hinge_deformations(x, ref["a"], ref["b"], ref["c"], prev.get("e1"), ref.get("u"))
 
     def hessian(self, st, w):
         return hinge_weighted_hessian(st, w)

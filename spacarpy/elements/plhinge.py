@@ -37,6 +37,9 @@ class PlHinge(ElementKind):
     def state(self, x, ref, variant, prev):
         return Selected(_HINGE.state(x, ref, variant, prev), _MODES)
 
+    def deformations(self, x, ref, variant, prev):
+        return _HINGE.deformations(x, ref, variant, prev)[:, _MODES]
+
     def hessian(self, st, w):
         return _HINGE.hessian(st.full, expand(w, _MODES, 3))
 

@@ -78,8 +78,9 @@ from spacarpy.elements.base import (
 )
 from spacarpy.elements.beam import reference_triads
 from spacarpy.elements.beam_mass import g_matrix, section_inertia, tangent_gravity
-from spacarpy.linalg import batch_matvec, property_columns
-from spacarpy.rotation import hessian_combination, vector_jacobians
+from spacarpy.elements.nodal import TQ_H2, nodal_jacobians
+from spacarpy.linalg import property_columns
+from spacarpy.rotation import vector_jacobians
 
 N_LDOF = 10
 N_DEF = 3
@@ -116,21 +117,26 @@ class RBeamState(NamedTuple):
 
 
 def rbeam_state(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
-                l0: np.ndarray) -> RBeamState:
+                l0: np.ndarray, u: np.ndarray | None = None) -> RBeamState:
     """Deformations e (n_elem, 3) and their exact Jacobian D (n_elem, 3, 10) at x (n_elem, 10).
 
-    nx, ny, nz (n_elem, 3) and l0 (n_elem,) from :func:`rbeam_reference`.
+    nx, ny, nz (n_elem, 3) and l0 (n_elem,) from :func:`rbeam_reference`; u (n_elem, 3, 3)
+    is ``[nx, ny, nz]`` stacked, when the caller keeps it (the kind's reference data).
     """
     n = x.shape[0]
+    if u is None:
+        u = np.stack([nx, ny, nz], axis=1)
     qp = x[:, QP]
-    d = x[:, RQ] - x[:, RP]
-    u = np.stack([nx, ny, nz], axis=1)
-    dtr = vector_jacobians(qp, u)                                 # (n, 3, 3, 4)
-    triad = 0.5 * batch_matvec(dtr, qp[:, None, :])               # (n, 3, 3)
-    e = batch_matvec(triad, d)
+    y = np.empty((n, 4, 3))                                       # [d, n_x^p, n_y^p, n_z^p]
+    np.subtract(x[:, RQ], x[:, RP], out=y[:, 0])
+    dtr = nodal_jacobians(qp[:, None], u).reshape(n, 3, 3, 4)     # d n_j^p / d q^p
+    y[:, 1:] = (dtr.reshape(n, 9, 4) @ qp[:, :, None]).reshape(n, 3, 3)
+    y[:, 1:] *= 0.5
+    d, triad = y[:, 0], y[:, 1:]
+    e = (triad @ d[:, :, None])[:, :, 0]
     e[:, 0] -= l0
     D = np.empty((n, N_DEF, N_LDOF))
-    D[:, :, RP] = -triad
+    np.negative(triad, out=D[:, :, RP])
     D[:, :, RQ] = triad
     D[:, :, QP] = (d[:, None, None, :] @ dtr)[:, :, 0, :]          # d^T dn_j/dq
     return RBeamState(e=e, D=D, d=d, triad=triad, dtriad=dtr, u=u)
@@ -139,10 +145,10 @@ def rbeam_state(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray,
 def rbeam_weighted_hessian(st: RBeamState, w: np.ndarray) -> np.ndarray:
     """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 3) -> (n_elem, 10, 10)."""
     n = w.shape[0]
-    v = batch_matvec(st.u.transpose(0, 2, 1), w)                   # sum_j w_j n_j
-    mkj = st.d[:, :, None] * v[:, None, :]                         # d_k v_j
+    v = (w[:, None, :] @ st.u)                                     # sum_j w_j n_j (n, 1, 3)
+    mkj = st.d[:, :, None] * v                                     # d_k v_j
     hx = np.zeros((n, N_LDOF, N_LDOF))
-    hx[:, QP, QP] = hessian_combination(mkj)                       # 2 sum_k d_k H_k(v)
+    hx[:, QP, QP] = (mkj.reshape(n, 9) @ TQ_H2).reshape(n, 4, 4)   # 2 sum_k d_k H_k(v)
     dm = (w[:, None, :] @ st.dtriad.reshape(n, 3, 12)).reshape(n, 3, 4)   # d(R v)/dq
     dmt = dm.transpose(0, 2, 1)
     hx[:, QP, RQ], hx[:, QP, RP] = dmt, -dmt
@@ -235,10 +241,12 @@ class RBeam(ElementKind):
 
     def reference(self, x0, vector):
         nx, ny, nz, l0 = rbeam_reference(x0[0], x0[2], vector)
-        return dict(nx=nx, ny=ny, nz=nz, l0=l0), np.repeat(l0[:, None], 3, axis=1)
+        # u = [n_x, n_y, n_z] stacked once here rather than at every kernel call
+        return (dict(nx=nx, ny=ny, nz=nz, l0=l0, u=np.stack([nx, ny, nz], axis=1)),
+                np.repeat(l0[:, None], 3, axis=1))
 
     def state(self, x, ref, variant, prev):
-        return rbeam_state(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"])
+        return rbeam_state(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"], ref.get("u"))
 
     def hessian(self, st, w):
         return rbeam_weighted_hessian(st, w)
