@@ -176,10 +176,9 @@ def applies(lin) -> bool:
         and getattr(lin, "blocks", None) is not None
 
 
-def _ritz(tan, S, k):
-    """Rayleigh-Ritz on span(S) with accurate products: the lowest k pairs
-    ``(theta, V, K_r V)``."""
-    KS, ks = tan.products(S)
+def _ritz(tan, S, KS, ks, k):
+    """Rayleigh-Ritz on span(S), ``KS`` and ``ks`` being ``K_r S`` and ``S^T K_r S`` from
+    accurate products: the lowest k pairs ``(theta, V, K_r V)``."""
     ms = S.T @ (tan.M @ S)
     ms = 0.5 * (ms + ms.T)
     # an M-orthonormal basis of span(S) first: S's columns may be nearly dependent
@@ -189,6 +188,17 @@ def _ritz(tan, S, k):
     theta, z = sla.eigh(basis.T @ ks @ basis)
     z = basis @ z[:, :k]
     return theta[:k], S @ z, KS @ z
+
+
+def _extend(tan, theta, V, KV, W, k):
+    """Rayleigh-Ritz on ``[V, W]`` where ``V`` are Ritz vectors (``V^T K_r V`` is
+    ``diag(theta)`` up to round-off, ``K_r V`` known): only ``W`` is multiplied. The
+    coupling ``W^T K_r V`` is taken from the element-wise ``K_r V``; its round-off enters
+    the eigenvalues only squared (V is nearly an invariant subspace)."""
+    KW, kw = tan.products(W)
+    cross = 0.5 * (W.T @ KV + (V.T @ KW).T)
+    ks = np.block([[np.diag(theta), cross.T], [cross, kw]])
+    return _ritz(tan, np.hstack([V, W]), np.hstack([KV, KW]), ks, k)
 
 
 def lowest_modes(lin, num, n_modes: int):
@@ -228,28 +238,33 @@ def lowest_modes(lin, num, n_modes: int):
         log.debug("tangent eigen solver: ARPACK failed (%s), bordered solver instead", exc)
         return None
     t3 = time.perf_counter()
-    theta, V, KV = _ritz(tan, V, k)
+    theta, V, KV = _ritz(tan, V, *tan.products(V), k)
     change = np.inf
+    tiny = np.finfo(float).tiny
+    nm = min(n_modes, k)                                   # the wanted ones
     for it in range(MAX_REFINE + 1):  # noqa: B007 (logged below)
         R = KV - (tan.M @ V) * theta
         W = np.empty(R.shape, order="F")
         try:
-            for j in range(R.shape[1]):
+            # the wanted modes' corrections first: their estimate may end the refinement
+            for j in range(nm):
+                W[:, j] = solve(R[:, j])
+            # the Rayleigh quotient's error, about r^T K^-1 r relative to theta (V is
+            # M-orthonormal): below EST_RTOL, the Ritz pairs are the answer
+            est = (np.abs(np.einsum("ij,ij->j", R[:, :nm], W[:, :nm]))
+                   / np.maximum(np.abs(theta[:nm]), tiny))
+            log.debug("tangent eigen solver: refinement %d, estimated error %.1e, "
+                      "change %.1e", it, est.max(initial=0.0), change)
+            if est.max(initial=0.0) <= EST_RTOL or change <= RTOL or it == MAX_REFINE:
+                break
+            for j in range(nm, R.shape[1]):
                 W[:, j] = solve(R[:, j])
         except FactorizationError:
             return None
-        # the Rayleigh quotient's error, about r^T K^-1 r relative to theta (V is
-        # M-orthonormal): below EST_RTOL, the Ritz pairs are the answer
-        est = (np.abs(np.einsum("ij,ij->j", R, W))[:n_modes]
-               / np.maximum(np.abs(theta[:n_modes]), np.finfo(float).tiny))
-        log.debug("tangent eigen solver: refinement %d, estimated error %.1e, change %.1e",
-                  it, est.max(initial=0.0), change)
-        if est.max(initial=0.0) <= EST_RTOL or change <= RTOL or it == MAX_REFINE:
-            break
-        old = theta[:n_modes]
-        theta, V, KV = _ritz(tan, np.hstack([V, W]), k)
-        change = float(np.max(np.abs(theta[:n_modes] - old) / np.maximum(
-            np.abs(theta[:n_modes]), np.finfo(float).tiny), initial=0.0))
+        old = theta[:nm]
+        theta, V, KV = _extend(tan, theta, V, KV, W, k)
+        change = float(np.max(np.abs(theta[:nm] - old)
+                              / np.maximum(np.abs(theta[:nm]), tiny), initial=0.0))
     log.debug("tangent eigen solver: tangent pencil %.2f s, LDL^T %.2f s, ARPACK %.2f s, "
               "%d refinement steps %.2f s", t1 - t0, t2 - t1, t3 - t2, it,
               time.perf_counter() - t3)
