@@ -147,7 +147,8 @@ def linearize(prob, x, mu, load, mass: MassAssembler | None = None) -> Lineariza
         reduced = prob.reduced
         parts = []
         for i, (g, st, sig) in enumerate(zip(prob.num.groups, ev.states, ev.sigmas)):
-            h = g.kind.hessian(st, sig)
+            # the weighted Hessian is linear in the stress resultants: none where they vanish
+            h = g.kind.hessian(st, sig) if np.any(sig) else 0.0
             if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
                 h = h - ev.gravity_stiffness[i]
             parts.append((st.D, g.S, h if np.any(h) else None))   # None: unstressed
