@@ -198,29 +198,39 @@ def applies(lin) -> bool:
         and getattr(lin, "blocks", None) is not None
 
 
-def _ritz(tan, S, KS, ks, k):
-    """Rayleigh-Ritz on span(S), ``KS`` and ``ks`` being ``K_r S`` and ``S^T K_r S`` from
-    accurate products: the lowest k pairs ``(theta, V, K_r V)``."""
-    ms = S.T @ (tan.M @ S)
-    ms = 0.5 * (ms + ms.T)
-    # an M-orthonormal basis of span(S) first: S's columns may be nearly dependent
-    w, u = np.linalg.eigh(ms)
+def _ritz(blocks, ks, ms, k):
+    """Rayleigh-Ritz on the span of the blocks ``(S, K_r S, M_r S)`` with the projected
+    ``ks = S^T K_r S`` (from accurate products) and ``ms = S^T M_r S``: the lowest k pairs
+    ``(theta, V, K_r V, M_r V)``; no product with K_r or M_r is repeated."""
+    # an M-orthonormal basis of the span first: its columns may be nearly dependent
+    w, u = np.linalg.eigh(0.5 * (ms + ms.T))
     keep = w > 1e-12 * w.max()
     basis = u[:, keep] / np.sqrt(w[keep])
     theta, z = sla.eigh(basis.T @ ks @ basis)
     z = basis @ z[:, :k]
-    return theta[:k], S @ z, KS @ z
+    rows = np.cumsum([0] + [s.shape[1] for s, _, _ in blocks])
+    out = []
+    for j in range(3):                                  # V, K_r V, M_r V
+        acc = None
+        for (b, lo, hi) in zip(blocks, rows[:-1], rows[1:]):
+            term = b[j] @ z[lo:hi]
+            acc = term if acc is None else acc + term
+        out.append(acc)
+    return (theta[:k], *out)
 
 
-def _extend(tan, theta, V, KV, W, k):
+def _extend(tan, theta, V, KV, MV, W, k):
     """Rayleigh-Ritz on ``[V, W]`` where ``V`` are Ritz vectors (``V^T K_r V`` is
-    ``diag(theta)`` up to round-off, ``K_r V`` known): only ``W`` is multiplied. The
-    coupling ``W^T K_r V`` is taken from the element-wise ``K_r V``; its round-off enters
-    the eigenvalues only squared (V is nearly an invariant subspace)."""
+    ``diag(theta)`` up to round-off, ``K_r V`` and ``M_r V`` known): only ``W`` is
+    multiplied. The coupling ``W^T K_r V`` is taken from the element-wise ``K_r V``; its
+    round-off enters the eigenvalues only squared (V is nearly an invariant subspace)."""
     KW, kw = tan.products(W)
-    cross = 0.5 * (W.T @ KV + (V.T @ KW).T)
-    ks = np.block([[np.diag(theta), cross.T], [cross, kw]])
-    return _ritz(tan, np.hstack([V, W]), np.hstack([KV, KW]), ks, k)
+    MW = tan.M @ W
+    kc = 0.5 * (W.T @ KV + (V.T @ KW).T)
+    mc = 0.5 * (W.T @ MV + (V.T @ MW).T)
+    ks = np.block([[np.diag(theta), kc.T], [kc, kw]])
+    ms = np.block([[V.T @ MV, mc.T], [mc, W.T @ MW]])
+    return _ritz([(V, KV, MV), (W, KW, MW)], ks, ms, k)
 
 
 def lowest_modes(lin, num, n_modes: int):
@@ -259,7 +269,9 @@ def lowest_modes(lin, num, n_modes: int):
         log.debug("tangent eigen solver: ARPACK failed (%s), bordered solver instead", exc)
         return None
     t3 = time.perf_counter()
-    theta, V, KV = _ritz(tan, V, *tan.products(V), k)
+    KV, kv = tan.products(V)
+    MV = tan.M @ V
+    theta, V, KV, MV = _ritz([(V, KV, MV)], kv, V.T @ MV, k)
     change = np.inf
     tiny = np.finfo(float).tiny
     nm = min(n_modes, k)                                   # the wanted ones
@@ -272,7 +284,7 @@ def lowest_modes(lin, num, n_modes: int):
             log.debug("tangent eigen solver: %d negative pivots and a Ritz value %.3g, "
                       "bordered solver instead", neg, float(theta[:nm].min()))
             return None
-        R = KV - (tan.M @ V) * theta
+        R = KV - MV * theta
         W = np.empty(R.shape, order="F")
         try:
             # the wanted modes' corrections first: their estimate may end the refinement
@@ -291,7 +303,7 @@ def lowest_modes(lin, num, n_modes: int):
         except FactorizationError:
             return None
         old = theta[:nm]
-        theta, V, KV = _extend(tan, theta, V, KV, W, k)
+        theta, V, KV, MV = _extend(tan, theta, V, KV, MV, W, k)
         change = float(np.max(np.abs(theta[:nm] - old)
                               / np.maximum(np.abs(theta[:nm]), tiny), initial=0.0))
     log.debug("tangent eigen solver: tangent pencil %.2f s, LDL^T %.2f s, ARPACK %.2f s, "
