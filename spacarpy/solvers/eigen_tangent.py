@@ -285,9 +285,10 @@ def lowest_modes(lin, num, n_modes: int):
                       "bordered solver instead", neg, float(theta[:nm].min()))
             return None
         R = KV - MV * theta
-        W = np.empty(R.shape, order="F")
+        # the wanted modes' corrections (the extra Ritz vectors are there to protect the
+        # last wanted ones; their own corrections did not speed the convergence)
+        W = np.empty((R.shape[0], nm), order="F")
         try:
-            # the wanted modes' corrections first: their estimate may end the refinement
             for j in range(nm):
                 W[:, j] = solve(R[:, j])
             # the Rayleigh quotient's error, about r^T K^-1 r relative to theta (V is
@@ -298,8 +299,6 @@ def lowest_modes(lin, num, n_modes: int):
                       "change %.1e", it, est.max(initial=0.0), change)
             if est.max(initial=0.0) <= EST_RTOL or change <= RTOL or it == MAX_REFINE:
                 break
-            for j in range(nm, R.shape[1]):
-                W[:, j] = solve(R[:, j])
         except FactorizationError:
             return None
         old = theta[:nm]
