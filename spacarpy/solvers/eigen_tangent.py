@@ -211,10 +211,9 @@ def _ritz(blocks, ks, ms, k):
     rows = np.cumsum([0] + [s.shape[1] for s, _, _ in blocks])
     out = []
     for j in range(3):                                  # V, K_r V, M_r V
-        acc = None
-        for (b, lo, hi) in zip(blocks, rows[:-1], rows[1:]):
-            term = b[j] @ z[lo:hi]
-            acc = term if acc is None else acc + term
+        acc = blocks[0][j] @ z[:rows[1]]
+        for (b, lo, hi) in zip(blocks[1:], rows[1:-1], rows[2:]):
+            acc += b[j] @ z[lo:hi]                     # in place: no third full array
         out.append(acc)
     return (theta[:k], *out)
 
@@ -284,7 +283,8 @@ def lowest_modes(lin, num, n_modes: int):
             log.debug("tangent eigen solver: %d negative pivots and a Ritz value %.3g, "
                       "bordered solver instead", neg, float(theta[:nm].min()))
             return None
-        R = KV - MV * theta
+        R = MV * theta
+        np.subtract(KV, R, out=R)                          # K V - M V Theta
         # the wanted modes' corrections (the extra Ritz vectors are there to protect the
         # last wanted ones; their own corrections did not speed the convergence)
         W = np.empty((R.shape[0], nm), order="F")
