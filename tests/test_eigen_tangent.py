@@ -128,3 +128,23 @@ def test_frequencies_of_1000_and_10000_elements_agree():
     np.testing.assert_allclose(f[10000][:2], f[1000][:2], rtol=1e-10)
     np.testing.assert_allclose(f[10000][2:4], f[1000][2:4], rtol=1e-9)
     assert f[10000][0] == pytest.approx(20.7271436041, rel=1e-10)
+
+
+def test_negative_pivots_alone_do_not_decide(monkeypatch):
+    """A round-off negative pivot of the LDL^T (as the loaded 10^5-element cantilever had)
+    does not send a positive definite pencil to the bordered solver: the refined Ritz
+    values decide, and the modes are those of the pivots' ordinary case."""
+    prob, lin = _lin(_loaded_deck(70), loaded=True)
+    lam, vec = ET.lowest_modes(lin, prob.num, 8)
+    monkeypatch.setattr(ET.SPDFactorization, "negative_pivots", lambda self: 1)
+
+    def no_bordered(*a, **k):
+        raise AssertionError("the bordered solver was called")
+    monkeypatch.setattr(E, "_sparse", no_bordered)
+    lam1, vec1 = ET.lowest_modes(lin, prob.num, 8)
+    np.testing.assert_array_equal(lam1, lam)
+    # rigid-body modes (negative pivots, and Ritz values of round-off size) still go to
+    # the bordered solver
+    text = eigen_cantilever_deck(70).replace("FIX 1\nFIX 2\n", "")
+    prob, lin = _lin(text)
+    assert ET.lowest_modes(lin, prob.num, 10) is None

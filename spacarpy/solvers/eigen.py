@@ -205,7 +205,7 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
     give the same modes."""
     if lin.M is None:
         raise ValueError("no mass: an eigenfrequency analysis needs EM or XM data")
-    n_x = lin.K.shape[0]
+    n_x = lin.n_x
     if dense_limit is None:
         dense_limit = default_dense_limit(n_x, n_modes)
     dense = n_x <= dense_limit
@@ -251,7 +251,7 @@ def finite_mode_count(lin, n_modes: int) -> tuple[int, int] | None:
     ``SAFETY n eps ||M||_F``, the bound of :func:`infinite_mask`. None where
     :func:`eigenmodes` would take the sparse solver for ``n_modes`` modes: the dense count
     would cost more than the solve (for a few modes of 2450 coordinates, 4 times the run)."""
-    n_x = lin.K.shape[0]
+    n_x = lin.n_x
     if lin.M is None or n_x > default_dense_limit(n_x, n_modes):
         return None
     T = null_space_basis(lin.C, n_x)

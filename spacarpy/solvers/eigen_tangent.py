@@ -30,8 +30,16 @@ the axial one at 10^5 elements, below the round-off of the axial entries), so th
 eigenvalues of the factorized matrix are about 1e-3 off there; the factorization remains an
 excellent preconditioner, and the element-wise products make the Rayleigh quotients accurate.
 
-Returns None where this does not apply or the factorized ``K_r`` is not positive definite
-(rigid-body modes, an unstable state), and the caller takes the bordered solver.
+Returns None where this does not apply or ``K_r`` is not positive definite (rigid-body
+modes, an unstable state), and the caller takes the bordered solver. The pivots of the
+LDL^T alone do not decide that: at 10^5 elements the loaded bench cantilever (Table 1's
+tip force; its lowest eigenvalue 2.6e4) factorized with one negative pivot (-0.04 where
+the others are 0.165 or more, the round-off of the soft directions), and the bordered
+solver it then took ran for minutes and returned no mode. Where the LDL^T has negative
+pivots, the refined Ritz values decide: ``K_r`` counts as not positive definite when one
+of the wanted ones is negative or zero next to the largest (:data:`ZERO_RTOL`); a model
+whose lowest elastic eigenvalue is below that fraction also takes the bordered solver, as
+every model with negative pivots did before.
 """
 from __future__ import annotations
 
@@ -59,6 +67,15 @@ EST_RTOL = 1e-8
 #: Most Rayleigh-Ritz refinement steps (two suffice on the bench cantilever up to 10^5
 #: elements; the third confirms).
 MAX_REFINE = 6
+#: ARPACK's relative tolerance of the Ritz values of the factorized pencil. The refinement
+#: decides the accuracy (:data:`EST_RTOL`); 1e-8 cost a restart at 10^4 and 10^5 elements
+#: (46 solves instead of 30 on the bench cantilever) for vectors no closer to the accurate
+#: pencil's at 10^5 elements (the estimate after ARPACK is 3.7e-8 with both).
+ARPACK_TOL = 1e-6
+#: Where the LDL^T has negative pivots: a Ritz value at most this fraction of the largest
+#: one counts as zero (a rigid-body mode's is 9e-18 of it on the free 70-element bench
+#: beam; the clamped one's lowest elastic eigenvalue is 1.5e-4 of its 14th).
+ZERO_RTOL = 1e-8
 #: Extra Lanczos vectors beyond the modes wanted (their convergence protects the last ones).
 EXTRA = 4
 
@@ -176,19 +193,38 @@ def applies(lin) -> bool:
         and getattr(lin, "blocks", None) is not None
 
 
-def _ritz(tan, S, k):
-    """Rayleigh-Ritz on span(S) with accurate products: the lowest k pairs
-    ``(theta, V, K_r V)``."""
-    KS, ks = tan.products(S)
-    ms = S.T @ (tan.M @ S)
-    ms = 0.5 * (ms + ms.T)
-    # an M-orthonormal basis of span(S) first: S's columns may be nearly dependent
-    w, u = np.linalg.eigh(ms)
+def _ritz(blocks, ks, ms, k):
+    """Rayleigh-Ritz on the span of the blocks ``(S, K_r S, M_r S)`` with the projected
+    ``ks = S^T K_r S`` (from accurate products) and ``ms = S^T M_r S``: the lowest k pairs
+    ``(theta, V, K_r V, M_r V)``; no product with K_r or M_r is repeated."""
+    # an M-orthonormal basis of the span first: its columns may be nearly dependent
+    w, u = np.linalg.eigh(0.5 * (ms + ms.T))
     keep = w > 1e-12 * w.max()
     basis = u[:, keep] / np.sqrt(w[keep])
     theta, z = sla.eigh(basis.T @ ks @ basis)
     z = basis @ z[:, :k]
-    return theta[:k], S @ z, KS @ z
+    rows = np.cumsum([0] + [s.shape[1] for s, _, _ in blocks])
+    out = []
+    for j in range(3):                                  # V, K_r V, M_r V
+        acc = blocks[0][j] @ z[:rows[1]]
+        for (b, lo, hi) in zip(blocks[1:], rows[1:-1], rows[2:]):
+            acc += b[j] @ z[lo:hi]                     # in place: no third full array
+        out.append(acc)
+    return (theta[:k], *out)
+
+
+def _extend(tan, theta, V, KV, MV, W, k):
+    """Rayleigh-Ritz on ``[V, W]`` where ``V`` are Ritz vectors (``V^T K_r V`` is
+    ``diag(theta)`` up to round-off, ``K_r V`` and ``M_r V`` known): only ``W`` is
+    multiplied. The coupling ``W^T K_r V`` is taken from the element-wise ``K_r V``; its
+    round-off enters the eigenvalues only squared (V is nearly an invariant subspace)."""
+    KW, kw = tan.products(W)
+    MW = tan.M @ W
+    kc = 0.5 * (W.T @ KV + (V.T @ KW).T)
+    mc = 0.5 * (W.T @ MV + (V.T @ MW).T)
+    ks = np.block([[np.diag(theta), kc.T], [kc, kw]])
+    ms = np.block([[V.T @ MV, mc.T], [mc, W.T @ MW]])
+    return _ritz([(V, KV, MV), (W, KW, MW)], ks, ms, k)
 
 
 def lowest_modes(lin, num, n_modes: int):
@@ -216,40 +252,53 @@ def lowest_modes(lin, num, n_modes: int):
         return None
     t2 = time.perf_counter()
     neg = factor.negative_pivots()
-    if neg is None or neg > 0:
-        log.debug("tangent eigen solver: %s negative pivots, bordered solver instead", neg)
+    if neg is None:
         return None
     op = spla.LinearOperator((n, n), matvec=solve, dtype=float)
     v0 = np.random.default_rng(0).standard_normal(n)     # deterministic, generic start
     try:
         _, V = spla.eigsh(tan.upper, k=k, M=tan.M, sigma=0.0, OPinv=op, which="LM",
-                          v0=v0, tol=1e-8)
+                          v0=v0, tol=ARPACK_TOL)
     except (spla.ArpackNoConvergence, spla.ArpackError, FactorizationError) as exc:
         log.debug("tangent eigen solver: ARPACK failed (%s), bordered solver instead", exc)
         return None
     t3 = time.perf_counter()
-    theta, V, KV = _ritz(tan, V, k)
+    KV, kv = tan.products(V)
+    MV = tan.M @ V
+    theta, V, KV, MV = _ritz([(V, KV, MV)], kv, V.T @ MV, k)
     change = np.inf
+    tiny = np.finfo(float).tiny
+    nm = min(n_modes, k)                                   # the wanted ones
     for it in range(MAX_REFINE + 1):  # noqa: B007 (logged below)
-        R = KV - (tan.M @ V) * theta
-        W = np.empty(R.shape, order="F")
+        if neg > 0 and np.any(theta[:nm] <= ZERO_RTOL * np.abs(theta).max(initial=0.0)):
+            # negative pivots, and an accurate Ritz value (an upper bound of an eigenvalue)
+            # that is negative or zero next to the others: K_r is not positive definite
+            # (the module docstring)
+            log.debug("tangent eigen solver: %d negative pivots and a Ritz value %.3g, "
+                      "bordered solver instead", neg, float(theta[:nm].min()))
+            return None
+        R = MV * theta
+        np.subtract(KV, R, out=R)                          # K V - M V Theta
+        # the wanted modes' corrections (the extra Ritz vectors are there to protect the
+        # last wanted ones; their own corrections did not speed the convergence)
+        W = np.empty((R.shape[0], nm), order="F")
         try:
-            for j in range(R.shape[1]):
+            for j in range(nm):
                 W[:, j] = solve(R[:, j])
+            # the Rayleigh quotient's error, about r^T K^-1 r relative to theta (V is
+            # M-orthonormal): below EST_RTOL, the Ritz pairs are the answer
+            est = (np.abs(np.einsum("ij,ij->j", R[:, :nm], W[:, :nm]))
+                   / np.maximum(np.abs(theta[:nm]), tiny))
+            log.debug("tangent eigen solver: refinement %d, estimated error %.1e, "
+                      "change %.1e", it, est.max(initial=0.0), change)
+            if est.max(initial=0.0) <= EST_RTOL or change <= RTOL or it == MAX_REFINE:
+                break
         except FactorizationError:
             return None
-        # the Rayleigh quotient's error, about r^T K^-1 r relative to theta (V is
-        # M-orthonormal): below EST_RTOL, the Ritz pairs are the answer
-        est = (np.abs(np.einsum("ij,ij->j", R, W))[:n_modes]
-               / np.maximum(np.abs(theta[:n_modes]), np.finfo(float).tiny))
-        log.debug("tangent eigen solver: refinement %d, estimated error %.1e, change %.1e",
-                  it, est.max(initial=0.0), change)
-        if est.max(initial=0.0) <= EST_RTOL or change <= RTOL or it == MAX_REFINE:
-            break
-        old = theta[:n_modes]
-        theta, V, KV = _ritz(tan, np.hstack([V, W]), k)
-        change = float(np.max(np.abs(theta[:n_modes] - old) / np.maximum(
-            np.abs(theta[:n_modes]), np.finfo(float).tiny), initial=0.0))
+        old = theta[:nm]
+        theta, V, KV, MV = _extend(tan, theta, V, KV, MV, W, k)
+        change = float(np.max(np.abs(theta[:nm] - old)
+                              / np.maximum(np.abs(theta[:nm]), tiny), initial=0.0))
     log.debug("tangent eigen solver: tangent pencil %.2f s, LDL^T %.2f s, ARPACK %.2f s, "
               "%d refinement steps %.2f s", t1 - t0, t2 - t1, t3 - t2, it,
               time.perf_counter() - t3)
