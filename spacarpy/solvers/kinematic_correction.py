@@ -177,6 +177,19 @@ class KinematicCorrector:
         self.kin_floor = 64 * np.finfo(float).eps * num.length_scale / (
             min_scale if np.isfinite(min_scale) and min_scale > 0 else 1.0)
 
+    def _stationary(self, states, x, g_e, g_q) -> bool:
+        """Whether x is a least-squares solution of the targets to round-off: the
+        Gauss-Newton step there (with the kept factorization and the current W, which the
+        normal equations' right side needs) is below the round-off level
+        :attr:`kin_floor` (positions relative to the length scale, Euler parameters as they
+        are)."""
+        eu = self.num.rot_idx[self.num.euler_nodes]
+        step = self._solve(g_e, g_q, self.jacobian_blocks(states, x)[0], 2.0 * x[eu])
+        rot = self.num.is_rotation_coord[self.free]
+        size = max(float(np.abs(step[~rot]).max(initial=0.0)) / self.num.length_scale,
+                   float(np.abs(step[rot]).max(initial=0.0)))
+        return size <= self.kin_floor
+
     def jacobian_blocks(self, states, x):
         """The Jacobian W at x by blocks: ``D / scale`` per element group and the Euler rows
         ``2 q`` (see :class:`SquareJacobian`)."""
@@ -209,7 +222,10 @@ class KinematicCorrector:
         back-substitutions, no factorization. The iterations stop when the correction is
         below ``|first correction|^2`` (what two exact Gauss-Newton steps reach) or below
         round-off; near the solution it is of second order, so Newton's quadratic
-        convergence is kept. An increment whose square is below round-off cannot stretch
+        convergence is kept. With the normal equations (a closed loop: the targets are
+        consistent to first order only) they also stop where the mismatch has stalled and
+        the next Gauss-Newton step is below round-off (:meth:`_stationary`): the
+        least-squares fit is reached. An increment whose square is below round-off cannot stretch
         anything measurably and is taken as it is. With ``return_states`` the kernel states
         at the returned configuration come along (None when not computed there), so that
         the next residual evaluation does not repeat them. ``size`` is the scaled norm of
@@ -270,6 +286,12 @@ class KinematicCorrector:
                 done = states
                 break
             if prev is not None and not worst <= 0.05 * prev:
+                if kin.jacobian_each_step and self._solve is not None and self._stationary(
+                        states, x, g_e, g_q):
+                    # least squares: the mismatch has stopped falling because x is the
+                    # closest fit to the targets; another step would not move it
+                    done = states
+                    break
                 if reused:
                     # the kept matrix was too stale: undo its step, refactorize there
                     x, states, g_e, g_q, worst = back
