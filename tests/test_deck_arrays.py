@@ -93,12 +93,20 @@ def _corpus():
 
 
 def _check_corpus(monkeypatch, decks):
-    # every batch of plain lines a table: the array path for every deck it can take
+    # every batch of plain lines a table: the array path for every deck it can take; the
+    # lines read one by one, and scanned as in a large deck
     monkeypatch.setattr(parser, "_SMALL_BATCH", 0)
     spy = _Spy(monkeypatch)
     for path in decks:
         text = path.read_text(encoding="utf-8", errors="replace")
-        assert _arrays(text, str(path)) == _per_statement(text, str(path)), path.name
+        reference = _per_statement(text, str(path))
+        assert _arrays(text, str(path)) == reference, path.name
+        with monkeypatch.context() as m:
+            m.setattr(parser, "_SCAN_LINES", 0)
+            m.setattr(parser, "_RUN_LINES", 1)
+            assert _arrays(text, str(path)) == reference, path.name
+    spy.built //= 2
+    spy.gave_up //= 2
     return spy
 
 
@@ -175,6 +183,7 @@ MIXED_DATA = ["ESTIFF 5001 1e5", "ESTIFF 5002 {2e9} 1e6 1e6 1e6", "EM 5001 2.0",
 
 
 def test_a_mixed_deck_builds_the_same_on_arrays(monkeypatch):
+    monkeypatch.setattr(parser, "_SCAN_LINES", 0)
     spy = _Spy(monkeypatch)
     n = 400
     text = _cantilever(n, extra=MIXED_BODY, data_extra=MIXED_DATA)
@@ -224,6 +233,7 @@ BAD = {
 
 @pytest.mark.parametrize("case", sorted(BAD))
 def test_a_bad_line_in_a_large_deck_gives_the_per_statement_error(monkeypatch, case):
+    monkeypatch.setattr(parser, "_SCAN_LINES", 0)      # read as the large deck it stands for
     text = _cut(_cantilever(N), *BAD[case])
     spy = _Spy(monkeypatch)
     got = _arrays(text, "big.dat")
@@ -264,3 +274,36 @@ def test_tables_give_the_statements_of_parse_deck(monkeypatch):
     parsed = parser.parse_deck_tables(text, "d.dat", keywords=arrays.TABLE_KEYWORDS)
     assert {t.keyword for t in parsed.tables} == {"X", "BEAM", "DYNE", "ESTIFF"}
     assert parsed.materialize() == parse_deck(text, "d.dat")
+
+
+def test_the_scan_finds_the_tokens_and_numbers_of_split_and_float():
+    from spacarpy.deck.linescan import LineScan
+    rng = np.random.default_rng(7)
+    words = ["X", "BEAM", "x", "DYNE", "ESTIFF", "E_1", "LONGWORDS", "-", "1e5", "007", "+3",
+             "2.5e-3", "1.", ".5", "123456789012345", "1234567890123456", "1.0D-3", "1-2"]
+    lines = []
+    for _ in range(400):
+        tokens = rng.choice(words, size=rng.integers(0, 6)).tolist()
+        gaps = rng.choice(["", " ", "  ", "\t", " \r"], size=len(tokens) + 1).tolist()
+        lines.append(gaps[0] + "".join(t + (g or " ") for t, g in zip(tokens, gaps[1:])))
+    lines += ["X 1 2 # comment", "BEAM {1} 2", "a:b", "\x0c", ""]
+    text = "\n".join(lines)
+    scan = LineScan(text)
+    assert len(scan.n_tokens) == len(lines)
+    for i, line in enumerate(lines):
+        simple = not any(c in line for c in "#:{\x0c") and \
+            (not line.split() or len(line.split()[0]) <= 8)
+        assert bool(scan.simple[i]) == simple, line
+        if not simple:
+            continue
+        assert scan.n_tokens[i] == len(line.split()), line
+        if line.split():
+            assert scan.combos[scan.combo[i]] == (line.split()[0], len(line.split()))
+            tokens = scan.first_tok[i] + np.arange(len(line.split()))
+            values, digits, texts = scan.numbers(tokens)
+            parts = line.split()
+            assert [p for p, d in zip(parts, digits) if not d] == texts
+            for part, value, digit in zip(parts, values.tolist(), digits.tolist()):
+                assert digit == (part.isdigit() and len(part) <= 15)
+                if digit:
+                    assert value == float(part)

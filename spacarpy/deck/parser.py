@@ -44,6 +44,7 @@ from spacarpy.deck.keywords import (
     FieldSpec,
     KeywordSpec,
 )
+from spacarpy.deck.linescan import LineScan
 from spacarpy.errors import DeckError, SourceLoc
 
 if TYPE_CHECKING:                      # Lark is imported only when a line needs it
@@ -116,6 +117,10 @@ _GENERAL_KEYWORDS = frozenset({"END", "HALT", "INCLUDE", "SET", "VISUALIZATION"}
 _INT_LIMIT = 2**31 - 1
 #: Batches of fewer lines are converted line by line (see _Batch.convert).
 _SMALL_BATCH = 16
+#: Texts of fewer lines are read line by line; in longer ones, runs of at least _RUN_LINES
+#: simple lines are appended to their batches at once (_Reader.run).
+_SCAN_LINES = 2048
+_RUN_LINES = 32
 #: Most numbers a single range (``1:48``) may stand for.
 MAX_RANGE = 1_000_000
 #: Deepest chain of INCLUDEs (cycles are reported before this is reached).
@@ -466,6 +471,14 @@ def _simple_tokens(line: str, number: int):
     return tokens
 
 
+def _scan(text: str, raw: list) -> LineScan | None:
+    """The :class:`~spacarpy.deck.linescan.LineScan` of a large ASCII text, else None (a few
+    lines are cheaper read one by one)."""
+    if len(raw) < _SCAN_LINES or not text.isascii():
+        return None
+    return LineScan(text)
+
+
 def _plain_fields(line: str):
     """The fast path's lexer (see _PLAIN_LINE): ``(texts, columns)`` of the tokens of a line
     that is a keyword followed by plain numbers, the tokens and columns Lark would give; None
@@ -617,6 +630,29 @@ class _RangeStatement(Statement):
         self._src = None
 
 
+def _numbers(texts: list):
+    """``(values, ok)`` of the texts of numbers, two arrays: a text of the characters of
+    numbers only is a NUMBER exactly when float() (or _number, for a Fortran exponent) reads
+    it; any other text is checked against the grammar's NUMBER (0 and not ok if it is
+    none)."""
+    ok = np.ones(len(texts), dtype=bool)
+    try:
+        if _NOT_NUMBER_CHAR.search("".join(texts)):
+            raise ValueError
+        values = list(map(float, texts))
+    except ValueError:              # a Fortran exponent, or a field that is no NUMBER
+        values = []
+        for i, text in enumerate(texts):
+            try:
+                if _NUMBER.fullmatch(text) is None:
+                    raise ValueError
+                values.append(_number(text))
+            except ValueError:
+                values.append(0.0)
+                ok[i] = False
+    return np.array(values, dtype=float), ok
+
+
 def _row_tuples(table: np.ndarray, kinds: tuple) -> list:
     """The fields tuple of every row of a table of a plain keyword: Python floats and ints
     (those of whole-number fields), as the general path converts them."""
@@ -721,16 +757,40 @@ class _Batch:
         self.keyword, self.kinds, self.module, self.source = keyword, kinds, module, source
         self.where: list[tuple] = []    # (output slot, record order, line number) per line
         self.texts: list[str] = []      # the fields' texts, line after line
+        # lines appended in runs (_Reader.read with a LineScan): (where (m, 3), the token
+        # indices of their fields (m, n_fields), the scan)
+        self.bulk: list[tuple] = []
+
+    def __len__(self) -> int:
+        return len(self.where) + sum(len(w) for w, _, _ in self.bulk)
+
+    def rows(self) -> np.ndarray:
+        """(slot, order, line number) of every line, (n, 3): the lines appended one by one,
+        then those appended in runs (the order of :meth:`table` and :meth:`convert`)."""
+        parts = [np.array(self.where, dtype=np.int64).reshape(-1, 3)]
+        parts += [w for w, _, _ in self.bulk]
+        return np.concatenate(parts) if self.bulk else parts[0]
+
+    def unbulk(self) -> None:
+        """The lines appended in runs as lines appended one by one (their texts cut from
+        the text)."""
+        for where, tokens, scan in self.bulk:
+            text, start, end = scan.text, scan.tok_start, scan.tok_end
+            self.where.extend(map(tuple, where.tolist()))
+            self.texts.extend(text[i:j] for i, j in zip(start[tokens.ravel()].tolist(),
+                                                         end[tokens.ravel()].tolist()))
+        self.bulk = []
 
     def convert(self):
         """``(fields, ok)``: the fields tuple of every line, and for each whether it is a
         plain line (a keyword and NUMBERs) and simply correct (None: all are). Converts as
         :meth:`_Reader.convert` converts a NUMBER: float fields finite, int fields whole, at
         most _INT_LIMIT in magnitude, and at least 1 where positive (see :meth:`table`)."""
-        n_fields, n_rows = len(self.kinds), len(self.where)
+        n_fields, n_rows = len(self.kinds), len(self)
         if n_fields == 0:
             return [()] * n_rows, None
         if n_rows < _SMALL_BATCH:
+            self.unbulk()
             return self.convert_lines()
         table, ok = self.table()
         return _row_tuples(table, self.kinds), (None if ok.all() else ok.tolist())
@@ -741,24 +801,18 @@ class _Batch:
         that are not hold 0 where a whole number was expected). A text of the characters of
         numbers only is a NUMBER exactly when float() (or _number, for a Fortran exponent)
         reads it; any other text is checked against the grammar's NUMBER."""
-        n_fields, n_rows = len(self.kinds), len(self.where)
-        texts = self.texts
-        ok = np.ones(n_rows, dtype=bool)
-        try:
-            if _NOT_NUMBER_CHAR.search("".join(texts)):
-                raise ValueError
-            values = list(map(float, texts))
-        except ValueError:              # a Fortran exponent, or a field that is no NUMBER
-            values = []
-            for i, text in enumerate(texts):
-                try:
-                    if _NUMBER.fullmatch(text) is None:
-                        raise ValueError
-                    values.append(_number(text))
-                except ValueError:
-                    values.append(0.0)
-                    ok[i // n_fields] = False
-        table = np.array(values, dtype=float).reshape(n_rows, n_fields)
+        n_fields = len(self.kinds)
+        values, good = _numbers(self.texts)
+        tables = [values.reshape(-1, n_fields)]
+        oks = [good.reshape(-1, n_fields).all(axis=1)]
+        for _, tokens, scan in self.bulk:
+            values, good, texts = scan.numbers(tokens)
+            if texts:
+                values[~good], good[~good] = _numbers(texts)
+            tables.append(values)
+            oks.append(good.all(axis=1))
+        table, ok = (np.concatenate(tables), np.concatenate(oks)) if self.bulk else \
+            (tables[0], oks[0])
         with np.errstate(invalid="ignore"):
             for j, (kind, positive) in enumerate(self.kinds):
                 col = table[:, j]
@@ -848,9 +902,28 @@ class _Reader:
         order, module = self.order, self.module
         fast = not (self.visual or self.closed)
         last_fast = 0                   # the last line batched since the last general record
+        # a large deck: runs of simple lines appended to their batches at once (see run)
+        scan = _scan(text, raw)
+        events: dict = {}
         try:
-            number = 0
-            for line in raw:
+            number, n_lines = 0, len(raw)
+            while number < n_lines:
+                if scan is not None and fast:
+                    data = module >= 1
+                    if data not in events:
+                        events[data] = self.events(scan, data)
+                    ev = events[data]
+                    k = int(np.searchsorted(ev, number))
+                    end = int(ev[k]) if k < len(ev) else n_lines
+                    if end - number >= _RUN_LINES:
+                        lines = number + np.flatnonzero(scan.n_tokens[number:end] > 0)
+                        if len(lines):
+                            self.run(scan, lines, order, module, source, batch_of)
+                            order += len(lines)
+                            last_fast = int(lines[-1]) + 1
+                        number = end
+                        continue
+                line = raw[number]
                 number += 1
                 if "#" in line or "%" in line:
                     data = _COMMENT_START.split(line, 1)[0]
@@ -901,6 +974,33 @@ class _Reader:
             if path is not None:
                 self.stack.pop()
 
+    def events(self, scan: LineScan, data_module: bool) -> np.ndarray:
+        """The lines (0-based, ascending) :meth:`run` does not take in a module of the kind
+        given: lines that are not simple, and simple lines that take the general path."""
+        batchable = np.array([_plain_kinds(word, data_module, n - 1) is not None
+                              for word, n in scan.combos] + [False], dtype=bool)
+        blank = (scan.n_tokens == 0) & scan.simple
+        return np.flatnonzero(~blank & ~batchable[scan.combo])
+
+    def run(self, scan: LineScan, lines: np.ndarray, order: int, module: int, source: _Source,
+            batch_of: dict) -> None:
+        """Append simple lines (0-based numbers, ascending, all of batches: see
+        :meth:`events`) to their batches, as the loop of :meth:`read` would one by one."""
+        out = self.out
+        combos = scan.combo[lines]
+        where = np.stack([np.arange(len(out), len(out) + len(lines)),
+                          order + 1 + np.arange(len(lines)), lines + 1], axis=1)
+        for c in np.unique(combos).tolist():
+            word, n = scan.combos[c]
+            key = (word, n, module)
+            batch = batch_of.get(key, False)
+            if batch is False:
+                batch = batch_of[key] = self.batch(word, n - 1, source)
+            mine = combos == c
+            tokens = scan.first_tok[lines[mine]][:, None] + np.arange(1, n)
+            batch.bulk.append((where[mine], tokens, scan))
+        out.extend([None] * len(lines))
+
     def batch(self, word: str, n_fields: int, source: _Source):
         """The batch of the lines of ``word`` with n fields in the current module of
         ``source``, or None if such lines take the general path."""
@@ -922,10 +1022,10 @@ class _Reader:
         out = self.out
         tables = []
         for batch in self.batches.values():
-            if batch.keyword in self.table_keywords and len(batch.where) >= _SMALL_BATCH \
+            if batch.keyword in self.table_keywords and len(batch) >= _SMALL_BATCH \
                     and batch.kinds:
                 table, ok = batch.table()
-                where = np.array(batch.where, dtype=np.int64).reshape(-1, 3)
+                where = batch.rows()
                 if not ok.all():
                     again.extend((order, slot, number, batch) for (slot, order, number) in
                                  where[~ok].tolist())
@@ -936,11 +1036,12 @@ class _Reader:
             fields, ok = batch.convert()
             make = _PlainStatement
             keyword, module, src = batch.keyword, batch.module, batch.source
+            where = batch.rows().tolist() if batch.bulk else batch.where
             if ok is None:
-                for (slot, _, number), row in zip(batch.where, fields):
+                for (slot, _, number), row in zip(where, fields):
                     out[slot] = make(keyword, row, module, src, number)
                 continue
-            for good, (slot, order, number), row in zip(ok, batch.where, fields):
+            for good, (slot, order, number), row in zip(ok, where, fields):
                 if good:
                     out[slot] = make(keyword, row, module, src, number)
                 else:
