@@ -21,7 +21,6 @@ __all__ = ["KEY_BYTES", "LineScan"]
 KEY_BYTES = 8
 #: Digits of a whole number converted with numpy (exact in int64 and in a float).
 _MAX_DIGITS = 15
-_POW10 = 10 ** np.arange(_MAX_DIGITS, dtype=np.int64)
 
 _CLASS = np.zeros(256, dtype=np.uint8)     # 0: other (not simple), 1: blank, 2: token
 _CLASS[[ord(" "), ord("\t"), ord("\r"), ord("\n")]] = 1
@@ -54,17 +53,16 @@ class LineScan:
         ends = np.concatenate([newline, [len(b)]])
         n_lines = len(starts)
         cls = _CLASS[b]
-        other = np.concatenate([[0], np.cumsum(cls == 0)])
-        simple = other[ends] == other[starts]
-        token = cls == 2
-        edge = np.diff(np.concatenate([[False], token, [False]]).view(np.int8))
+        # a line is simple when it holds no byte of class 0 (those are few: find them)
+        simple = np.ones(n_lines, dtype=bool)
+        simple[np.searchsorted(starts, np.flatnonzero(cls == 0), side="right") - 1] = False
+        edge = np.diff((cls == 2).view(np.int8), prepend=np.int8(0), append=np.int8(0))
         self.tok_start = np.flatnonzero(edge == 1)
         self.tok_end = np.flatnonzero(edge == -1)
-        tok_line = np.searchsorted(starts, self.tok_start, side="right") - 1
-        self.n_tokens = np.bincount(tok_line, minlength=n_lines)
-        self.first_tok = np.searchsorted(tok_line, np.arange(n_lines))
+        self.first_tok = np.searchsorted(self.tok_start, starts)
+        self.n_tokens = np.searchsorted(self.tok_start, ends) - self.first_tok
         has = self.n_tokens > 0
-        first = np.where(has, self.first_tok, 0)
+        first = np.minimum(self.first_tok, max(len(self.tok_start) - 1, 0))
         length = np.where(has, (self.tok_end[first] - self.tok_start[first])
                           if len(self.tok_start) else 0, 0)
         simple &= length <= KEY_BYTES
@@ -77,14 +75,16 @@ class LineScan:
             inside = np.arange(KEY_BYTES) < length[keyed][:, None]
             word = np.where(inside, b[np.minimum(at, len(b) - 1)], 0).astype(np.uint8)
             key = np.ascontiguousarray(word).view(np.uint64).ravel()
-            words, word_of = np.unique(key, return_inverse=True)
             count = self.n_tokens[keyed]
-            unique, inverse = np.unique(word_of.ravel() * (int(count.max()) + 1) + count,
-                                        return_inverse=True)
-            self.combo[keyed] = inverse.ravel()
-            self.combos = [
-                (words[i // (int(count.max()) + 1):][:1].view(np.uint8).tobytes()
-                 .rstrip(b"\0").decode(), int(i % (int(count.max()) + 1))) for i in unique]
+            # the lines of a deck come in runs of one keyword: look at the first of each run
+            head = np.flatnonzero(np.concatenate([[True], (key[1:] != key[:-1]) |
+                                                  (count[1:] != count[:-1])]))
+            pairs: dict = {}
+            run_combo = [pairs.setdefault(pair, len(pairs)) for pair in
+                         zip(key[head].tolist(), count[head].tolist())]
+            self.combo[keyed] = np.repeat(run_combo, np.diff(head, append=len(keyed)))
+            self.combos = [(np.array([k], dtype=np.uint64).view(np.uint8).tobytes()
+                            .rstrip(b"\0").decode(), n) for k, n in pairs]
 
     def numbers(self, tokens: np.ndarray):
         """The numbers of some tokens (an int array of token indices, any shape):
@@ -96,7 +96,8 @@ class LineScan:
         s, e = self.tok_start[flat], self.tok_end[flat]
         b = self.bytes
         if self._nondigit is None:
-            self._nondigit = np.concatenate([[0], np.cumsum((b < 48) | (b > 57))])
+            self._nondigit = np.concatenate([[0], np.cumsum((b < 48) | (b > 57),
+                                                            dtype=np.int32)])
         nondigit = self._nondigit
         length = e - s
         digits = (nondigit[e] == nondigit[s]) & (length <= _MAX_DIGITS)
@@ -104,12 +105,13 @@ class LineScan:
         d = np.flatnonzero(digits)
         if len(d):
             ds, dl = s[d], length[d]
-            total = int(dl.sum())
-            offset = np.cumsum(dl) - dl
-            pos = np.repeat(ds - offset, dl) + np.arange(total)
-            power = np.repeat(ds + dl - 1, dl) - pos
-            terms = (b[pos].astype(np.int64) - 48) * _POW10[power]
-            values[d] = np.add.reduceat(terms, offset)
+            for n in np.unique(dl).tolist():        # the tokens of n digits together
+                mine = dl == n
+                at = ds[mine]
+                value = b[at].astype(np.int64) - 48
+                for k in range(1, n):
+                    value = value * 10 + (b[at + k].astype(np.int64) - 48)
+                values[d[mine]] = value
         text = self.text
         texts = [text[i:j] for i, j in zip(s[~digits].tolist(), e[~digits].tolist())]
         return values.reshape(tokens.shape), digits.reshape(tokens.shape), texts

@@ -740,6 +740,15 @@ class ParsedDeck:
     def __init__(self, statements: list, tables: list):
         self.statements, self.tables = statements, tables
 
+    def general(self) -> list[tuple[int, Statement]]:
+        """``(position, statement)`` of the statements that are no table rows, in deck
+        order."""
+        rows = np.zeros(len(self.statements), dtype=bool)
+        for table in self.tables:
+            rows[table.slots] = True
+        statements = self.statements
+        return [(i, statements[i]) for i in np.flatnonzero(~rows).tolist()]
+
     def materialize(self) -> list[Statement]:
         """All statements in deck order, as :func:`parse_deck` gives them."""
         out = list(self.statements)

@@ -315,7 +315,9 @@ class _RowLocs(Sequence):
 
 
 def _unique(ids: np.ndarray) -> bool:
-    return len(np.unique(ids)) == len(ids)
+    """Whether no number is there twice."""
+    ids = np.sort(ids)
+    return bool((ids[1:] != ids[:-1]).all())
 
 
 def _positions(lines: _Lines) -> _Positions:
@@ -469,7 +471,7 @@ def build_arrays(parsed, path: str, text: str, deformations, analysis) -> Job | 
 
 
 def _build(parsed, path, text, deformations, analysis) -> Job | None:
-    general = [(pos, st) for pos, st in enumerate(parsed.statements) if st is not None]
+    general = parsed.general()
     keywords = {st.keyword for _, st in general} | {t.keyword for t in parsed.tables}
     if keywords & (set(GENERATORS) | set(UNSUPPORTED) | set(PLANAR_KINDS)):
         raise _GiveUp
