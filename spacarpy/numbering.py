@@ -254,6 +254,14 @@ class _RowOf:
         return int(self.order[k])
 
 
+def _row_of(ids: np.ndarray):
+    """The row of each node number: a dict for a small model (its lookups are the
+    cheapest), a :class:`_RowOf` for a large one."""
+    if ids.size <= 4096:
+        return dict(zip(ids.tolist(), range(ids.size)))
+    return _RowOf(ids)
+
+
 def number_model(model: Model) -> Numbering:
     """Build the :class:`Numbering` of a validated model."""
     pos_ids, rot_ids = model.position_ids, model.orientation_ids
@@ -273,7 +281,7 @@ def number_model(model: Model) -> Numbering:
 
     # the row of a node among the position or orientation nodes, for the few nodes that the
     # fixes and prescribed motions name (a dict of all nodes cost more than the lookups)
-    pos_row, rot_row = _RowOf(pos_ids), _RowOf(rot_ids)
+    pos_row, rot_row = _row_of(pos_ids), _row_of(rot_ids)
 
     groups = []
     offset = 0

@@ -96,6 +96,7 @@ def _check_corpus(monkeypatch, decks):
     # every batch of plain lines a table: the array path for every deck it can take; the
     # lines read one by one, and scanned as in a large deck
     monkeypatch.setattr(parser, "_SMALL_BATCH", 0)
+    monkeypatch.setattr(arrays, "MIN_LINES", 0)
     spy = _Spy(monkeypatch)
     for path in decks:
         text = path.read_text(encoding="utf-8", errors="replace")

@@ -29,8 +29,8 @@ from spacarpy.deck.parser import (
     parse_deck_tables,
     read_deck_text,
 )
+from spacarpy.deck.semantics import arrays as _arrays
 from spacarpy.deck.semantics import build_job, build_model
-from spacarpy.deck.semantics.arrays import TABLE_KEYWORDS
 from spacarpy.deck.semantics.build import build_job_parsed
 from spacarpy.deck.visualization import CrossSection, CrossSections, cross_sections
 from spacarpy.deck.writer import model_to_deck
@@ -82,12 +82,16 @@ def job_from_text(text: str, name: str = "<text>", *, deformations: str | None =
     for the file name in error messages. Options as in :func:`load`."""
     # one pause of the garbage collector for both steps (see gc_paused), ending after the
     # statements are gone: the collection that follows has only the model to look at
-    # the nodes, elements, DYNE and ESTIFF lines of a large deck as arrays (see
-    # spacarpy.deck.semantics.arrays)
     with gc_paused():
-        parsed = parse_deck_tables(text, name, overrides=overrides, keywords=TABLE_KEYWORDS)
-        return build_job_parsed(parsed, text=text, path=name, deformations=deformations,
-                                analysis=analysis)
+        if text.count("\n") >= _arrays.MIN_LINES:
+            # the nodes, elements, DYNE and ESTIFF lines of a large deck as arrays (see
+            # spacarpy.deck.semantics.arrays)
+            parsed = parse_deck_tables(text, name, overrides=overrides,
+                                       keywords=_arrays.TABLE_KEYWORDS)
+            return build_job_parsed(parsed, text=text, path=name, deformations=deformations,
+                                    analysis=analysis)
+        return build_job(parse_deck(text, name, overrides=overrides), text=text, path=name,
+                         deformations=deformations, analysis=analysis)
 
 
 def model_from_text(text: str, name: str = "<text>", **kw) -> Model:

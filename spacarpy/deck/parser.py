@@ -795,11 +795,12 @@ class _Batch:
         plain line (a keyword and NUMBERs) and simply correct (None: all are). Converts as
         :meth:`_Reader.convert` converts a NUMBER: float fields finite, int fields whole, at
         most _INT_LIMIT in magnitude, and at least 1 where positive (see :meth:`table`)."""
-        n_fields, n_rows = len(self.kinds), len(self)
+        n_fields, n_rows = len(self.kinds), len(self) if self.bulk else len(self.where)
         if n_fields == 0:
             return [()] * n_rows, None
         if n_rows < _SMALL_BATCH:
-            self.unbulk()
+            if self.bulk:
+                self.unbulk()
             return self.convert_lines()
         table, ok = self.table()
         return _row_tuples(table, self.kinds), (None if ok.all() else ok.tolist())
@@ -813,7 +814,8 @@ class _Batch:
         n_fields = len(self.kinds)
         values, good = _numbers(self.texts)
         tables = [values.reshape(-1, n_fields)]
-        oks = [good.reshape(-1, n_fields).all(axis=1)]
+        oks = [np.ones(len(tables[0]), dtype=bool) if good.all() else
+               good.reshape(-1, n_fields).all(axis=1)]
         for _, tokens, scan in self.bulk:
             values, good, texts = scan.numbers(tokens)
             if texts:

@@ -48,10 +48,13 @@ from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.job import Job
 from spacarpy.model import FLEXIBLE, RIGID, ElementSet, Model
 
-__all__ = ["TABLE_KEYWORDS", "build_arrays"]
+__all__ = ["MIN_LINES", "TABLE_KEYWORDS", "build_arrays"]
 
 #: The keywords whose plain lines the parser gives as tables for this module.
 TABLE_KEYWORDS = frozenset(("X", "DYNE", "ESTIFF") + ELEMENT_KEYWORDS)
+#: Decks of fewer lines are read the per-statement way (``spacarpy.deck.job_from_text``):
+#: for them the arrays' fixed costs outweigh what they save.
+MIN_LINES = 1024
 
 
 class _GiveUp(Exception):
