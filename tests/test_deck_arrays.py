@@ -273,7 +273,7 @@ def test_tables_give_the_statements_of_parse_deck(monkeypatch):
     text = _cantilever(200, extra=MIXED_BODY, data_extra=MIXED_DATA).replace(
         "DYNE 200 1 2 3 4 5 6", "DYNE 100:200 1:6")
     parsed = parser.parse_deck_tables(text, "d.dat", keywords=arrays.TABLE_KEYWORDS)
-    assert {t.keyword for t in parsed.tables} == {"X", "BEAM", "DYNE", "ESTIFF"}
+    assert {t.keyword for t in parsed.tables} == {"X", "BEAM", "DYNE", "ESTIFF", "EM"}
     assert parsed.materialize() == parse_deck(text, "d.dat")
 
 
@@ -308,3 +308,15 @@ def test_the_scan_finds_the_tokens_and_numbers_of_split_and_float():
                 assert digit == (part.isdigit() and len(part) <= 15)
                 if digit:
                     assert value == float(part)
+
+
+def test_many_lines_left_to_the_per_statement_part_give_up(monkeypatch):
+    """RLSE lines for every element (left to the per-statement part, one record each): past
+    MAX_LEFT the per-statement semantics build the deck, with the same result."""
+    monkeypatch.setattr(arrays, "MAX_LEFT", 100)
+    text = _cantilever(N, data_extra=[f"RLSE {i} 4" for i in range(1, N + 1)]).replace(
+        "DYNE", "DYNE").replace(" 1 2 3 4 5 6\n", " 1 2 3 5 6\n")
+    spy = _Spy(monkeypatch)
+    got = _arrays(text, "big.dat")
+    assert (spy.built, spy.gave_up) == (0, 1) and got[0] == "job"
+    assert got == _per_statement(text, "big.dat")

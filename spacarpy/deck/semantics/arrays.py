@@ -1,5 +1,5 @@
-"""Deck semantics on arrays: the nodes, elements, DYNE and ESTIFF lines of a valid deck, all
-at once.
+"""Deck semantics on arrays: the nodes, elements, DYNE, ESTIFF and EM lines of a valid deck,
+all at once.
 
 A deck of 10^5 elements has one X line per node and one BEAM line per element; turning each
 line into records and checking them one by one took most of the time of reading it. Here
@@ -7,7 +7,7 @@ those lines come as arrays (the parser's :class:`~spacarpy.deck.parser.PlainTabl
 rows made from the statements of the lines that are not plain), and the checks of
 :mod:`.topology` and :mod:`.element_data` are made for all of them at once: doubly defined
 nodes and elements, undefined nodes, position versus orientation nodes, zero lengths,
-orientation vectors, the usual DYNE and ESTIFF lines, flexible modes without stiffness,
+orientation vectors, the usual DYNE, ESTIFF and EM lines, flexible modes without stiffness,
 unconnected nodes. The other keywords (FIX, loads, settings, ...) and the unusual element
 data lines go through the parts of the per-statement semantics, which see the elements
 through mappings that make an element's record when one is asked for.
@@ -18,6 +18,10 @@ report (any error or warning), :func:`build_arrays` returns None and
 :mod:`.build` runs the per-statement semantics on the same statements, which give every
 message exactly as before; a deck with a problem is therefore read twice. The model built
 here equals the per-statement one (tests/test_deck_arrays.py).
+
+The module is a little longer than 600 lines: it mirrors the checks of :mod:`.topology` and
+:mod:`.element_data` for arrays, and the mappings through which the per-statement parts see
+them; split, the two halves would have to change together.
 """
 from __future__ import annotations
 
@@ -48,13 +52,16 @@ from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.job import Job
 from spacarpy.model import FLEXIBLE, RIGID, ElementSet, Model
 
-__all__ = ["MIN_LINES", "TABLE_KEYWORDS", "build_arrays"]
+__all__ = ["MAX_LEFT", "MIN_LINES", "TABLE_KEYWORDS", "build_arrays"]
 
 #: The keywords whose plain lines the parser gives as tables for this module.
-TABLE_KEYWORDS = frozenset(("X", "DYNE", "ESTIFF") + ELEMENT_KEYWORDS)
+TABLE_KEYWORDS = frozenset(("X", "DYNE", "ESTIFF", "EM") + ELEMENT_KEYWORDS)
 #: Decks of fewer lines are read the per-statement way (``spacarpy.deck.job_from_text``):
 #: for them the arrays' fixed costs outweigh what they save.
 MIN_LINES = 1024
+#: Element data lines left to the per-statement part beyond this many: the per-statement
+#: semantics build the deck (a record per element would cost more than they do).
+MAX_LEFT = 4096
 
 
 class _GiveUp(Exception):
@@ -214,6 +221,7 @@ class _Kind:
         self.mass = np.zeros((n, kind.n_em))
         self.dyne_row = np.full(n, -1, dtype=np.int64)      # the DYNE line of each, or -1
         self.estiff_row = np.full(n, -1, dtype=np.int64)    # the ESTIFF line of each, or -1
+        self.em_row = np.full(n, -1, dtype=np.int64)        # the EM line of each, or -1
 
     def field_columns(self, fields: list) -> np.ndarray:
         """The node numbers of the given field indices (1-based, as KIND_INFO counts)."""
@@ -225,8 +233,9 @@ class _Elements(Mapping):
     arrays (and kept: the per-statement parts may change it; :meth:`write_back` puts the
     changes into the arrays)."""
 
-    def __init__(self, kinds: list[_Kind], dyne: _Lines | None, estiff: _Lines | None):
-        self.kinds, self.dyne, self.estiff = kinds, dyne, estiff
+    def __init__(self, kinds: list[_Kind], dyne: _Lines | None, estiff: _Lines | None,
+                 em: _Lines | None):
+        self.kinds, self.dyne, self.estiff, self.em = kinds, dyne, estiff, em
         ids = np.concatenate([k.ids for k in kinds]) if kinds else np.zeros(0, np.int64)
         self.which = np.concatenate([np.full(len(k.ids), i) for i, k in enumerate(kinds)]) \
             if kinds else np.zeros(0, np.int64)
@@ -254,6 +263,10 @@ class _Elements(Mapping):
         if kind.estiff_row[row] >= 0:
             rec.estiff = self.estiff.statement(int(kind.estiff_row[row]))
             rec.stiffness = tuple(kind.stiffness[row].tolist())
+        if kind.em_row[row] >= 0:
+            rec.em = self.em.statement(int(kind.em_row[row]))
+            values = rec.em.fields[1:6]
+            rec.mass = tuple(values) + (0.0,) * (5 - len(values))
         self.records[e] = rec
         return rec
 
@@ -442,6 +455,37 @@ def _element_data_rows(kinds: list[_Kind], elements: _Elements, dyne: _Lines | N
     return [st for _, st in rest_dyne], [st for _, st in rest_estiff]
 
 
+def _em_rows(kinds: list[_Kind], elements: _Elements, em: _Lines | None) -> list:
+    """Apply the usual EM lines (an element's only one, of a kind with mass, as many values
+    as the kind takes, the first four not negative) to the arrays; return the statements
+    of the others, in deck order."""
+    if em is None or not len(em):
+        return []
+    e = em.ints(0)
+    i, found = elements.search.find(e)
+    ids, counts = np.unique(e, return_counts=True)
+    usual = found & (counts[np.searchsorted(ids, e)] == 1) & (em.width >= 2)
+    with np.errstate(invalid="ignore"):
+        usual &= ~(em.values[:, 1:5] < 0).any(axis=1)
+    which, row = elements.which[i], elements.row[i]
+    handled = np.zeros(len(em), dtype=bool)
+    for k, kind in enumerate(kinds):
+        info = kind.info
+        if not info["has_mass"]:
+            continue
+        mine = usual & (which == k)
+        if "n_em" in info:
+            mine &= em.width - 1 <= info["n_em"]
+        if not mine.any():
+            continue
+        values = np.nan_to_num(em.values[mine, 1:6], nan=0.0)
+        values = np.pad(values, ((0, 0), (0, 5 - values.shape[1])))
+        kind.mass[row[mine]] = values[:, :kind.mass.shape[1]]
+        kind.em_row[row[mine]] = np.flatnonzero(mine)
+        handled |= mine
+    return [em.statement(j) for j in np.flatnonzero(~handled).tolist()]
+
+
 def _check_flexible_stiffness(kinds: list[_Kind]) -> None:
     """Every flexible mode of an element but a hinge has an ESTIFF line and a stiffness that
     is not zero (:meth:`.element_data._ElementDataPass.check_flexible_stiffness`)."""
@@ -500,7 +544,7 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
 
     positions = _positions(lines.get("X", _Lines([], [])))
     kinds = [_Kind(kw, lines[kw]) for kw in ELEMENT_KEYWORDS if kw in lines]
-    elements = _Elements(kinds, lines.get("DYNE"), lines.get("ESTIFF"))
+    elements = _Elements(kinds, lines.get("DYNE"), lines.get("ESTIFF"), lines.get("EM"))
     if not _unique(elements.ids):
         raise _GiveUp
     _check_elements(kinds, positions)
@@ -514,6 +558,13 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
         by_kw["DYNE"] = rest_dyne           # in deck order, RLSE among them
     if rest_estiff:
         by_kw["ESTIFF"] = rest_estiff
+    rest_em = _em_rows(kinds, elements, lines.get("EM"))
+    if rest_em:
+        by_kw["EM"] = rest_em
+    left = len(rest_dyne) + len(rest_estiff) + len(rest_em) + \
+        sum(len(by_kw.get(kw, ())) for kw in ("EDAMP", "ESIG", "STARTDE"))
+    if left > MAX_LEFT:
+        raise _GiveUp
     element_data = _element_data_pass(by_kw, ctx, errors, topology)
     constraints = _constraints.from_statements(by_kw, ctx, errors, topology)
     loads = _loads.from_statements(by_kw, ctx, errors, topology, constraints)
