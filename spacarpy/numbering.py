@@ -232,6 +232,36 @@ def _rows(ids: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     return rows.astype(np.int64)
 
 
+class _RowOf:
+    """``n in rows`` and ``rows[n]``: the row of node n among distinct node numbers, by binary
+    search."""
+
+    def __init__(self, ids: np.ndarray):
+        self.order = np.argsort(ids, kind="stable")
+        self.sorted = ids[self.order]
+
+    def _find(self, n: int) -> int:
+        k = int(np.searchsorted(self.sorted, n))
+        return k if k < self.sorted.size and self.sorted[k] == n else -1
+
+    def __contains__(self, n: int) -> bool:
+        return self._find(n) >= 0
+
+    def __getitem__(self, n: int) -> int:
+        k = self._find(n)
+        if k < 0:
+            raise KeyError(n)
+        return int(self.order[k])
+
+
+def _row_of(ids: np.ndarray):
+    """The row of each node number: a dict for a small model (its lookups are the
+    cheapest), a :class:`_RowOf` for a large one."""
+    if ids.size <= 4096:
+        return dict(zip(ids.tolist(), range(ids.size)))
+    return _RowOf(ids)
+
+
 def number_model(model: Model) -> Numbering:
     """Build the :class:`Numbering` of a validated model."""
     pos_ids, rot_ids = model.position_ids, model.orientation_ids
@@ -249,8 +279,9 @@ def number_model(model: Model) -> Numbering:
     x0[pos_idx] = model.position_x0
     x0[rot_idx[:, 0]] = 1.0
 
-    pos_row = dict(zip(pos_ids.tolist(), range(pos_ids.size)))
-    rot_row = dict(zip(rot_ids.tolist(), range(rot_ids.size)))
+    # the row of a node among the position or orientation nodes, for the few nodes that the
+    # fixes and prescribed motions name (a dict of all nodes cost more than the lookups)
+    pos_row, rot_row = _row_of(pos_ids), _row_of(rot_ids)
 
     groups = []
     offset = 0

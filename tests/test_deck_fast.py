@@ -38,6 +38,13 @@ END
 """
 
 
+def _scanned(monkeypatch):
+    """Read every text as a large one: its lines scanned with numpy (spacarpy/deck/linescan.py)
+    and every run of simple lines appended to the batches at once."""
+    monkeypatch.setattr(parser, "_SCAN_LINES", 0)
+    monkeypatch.setattr(parser, "_RUN_LINES", 1)
+
+
 def _general(monkeypatch):
     """Switch the fast path off: every line is lexed by Lark and checked field by field."""
     monkeypatch.setattr(parser, "_plain_kinds", lambda *args: None)
@@ -111,10 +118,12 @@ ODD_LINES = [
 
 @pytest.mark.parametrize("line", ODD_LINES)
 @pytest.mark.parametrize("where", ["kinematics", "data", "after the end", "continued"])
-@pytest.mark.parametrize("batch", ["numpy", "line by line"])
+@pytest.mark.parametrize("batch", ["numpy", "line by line", "scanned"])
 def test_odd_lines_read_as_the_general_path_reads_them(monkeypatch, line, where, batch):
     # a batch of this small deck is converted line by line unless told otherwise
-    monkeypatch.setattr(parser, "_SMALL_BATCH", 0 if batch == "numpy" else 10**9)
+    monkeypatch.setattr(parser, "_SMALL_BATCH", 10**9 if batch == "line by line" else 0)
+    if batch == "scanned":              # as a large deck: lines scanned and taken in runs
+        _scanned(monkeypatch)
     lines = BASE.splitlines()
     if where == "kinematics":
         lines.insert(2, line)
@@ -180,6 +189,10 @@ def test_every_deck_reads_the_same_both_ways(monkeypatch):
             general = _outcome(text, str(path))
         for small in (0, 10**9):        # batches converted with numpy, and line by line
             monkeypatch.setattr(parser, "_SMALL_BATCH", small)
+            assert _outcome(text, str(path)) == general, path.name
+        with monkeypatch.context() as m:  # scanned as a large deck
+            _scanned(m)
+            m.setattr(parser, "_SMALL_BATCH", 0)
             assert _outcome(text, str(path)) == general, path.name
 
 

@@ -22,8 +22,16 @@ from __future__ import annotations
 from spacarpy.deck.api import ModelBuilder
 from spacarpy.deck.check import DeckSummary, check_deck
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED
-from spacarpy.deck.parser import Statement, gc_paused, parse_deck, read_deck_text
+from spacarpy.deck.parser import (
+    Statement,
+    gc_paused,
+    parse_deck,
+    parse_deck_tables,
+    read_deck_text,
+)
+from spacarpy.deck.semantics import arrays as _arrays
 from spacarpy.deck.semantics import build_job, build_model
+from spacarpy.deck.semantics.build import build_job_parsed
 from spacarpy.deck.visualization import CrossSection, CrossSections, cross_sections
 from spacarpy.deck.writer import model_to_deck
 from spacarpy.job import Job
@@ -75,6 +83,13 @@ def job_from_text(text: str, name: str = "<text>", *, deformations: str | None =
     # one pause of the garbage collector for both steps (see gc_paused), ending after the
     # statements are gone: the collection that follows has only the model to look at
     with gc_paused():
+        if text.count("\n") >= _arrays.MIN_LINES:
+            # the nodes, elements, DYNE and ESTIFF lines of a large deck as arrays (see
+            # spacarpy.deck.semantics.arrays)
+            parsed = parse_deck_tables(text, name, overrides=overrides,
+                                       keywords=_arrays.TABLE_KEYWORDS)
+            return build_job_parsed(parsed, text=text, path=name, deformations=deformations,
+                                    analysis=analysis)
         return build_job(parse_deck(text, name, overrides=overrides), text=text, path=name,
                          deformations=deformations, analysis=analysis)
 

@@ -44,12 +44,14 @@ from spacarpy.deck.keywords import (
     FieldSpec,
     KeywordSpec,
 )
+from spacarpy.deck.linescan import LineScan
 from spacarpy.errors import DeckError, SourceLoc
 
 if TYPE_CHECKING:                      # Lark is imported only when a line needs it
     from lark import Token
 
-__all__ = ["MAX_RANGE", "Statement", "parse_deck", "read_deck_text", "read_text"]
+__all__ = ["MAX_RANGE", "ParsedDeck", "PlainTable", "Statement", "parse_deck", "parse_deck_tables",
+           "read_deck_text", "read_text"]
 
 logger = logging.getLogger(__name__)
 
@@ -115,6 +117,10 @@ _GENERAL_KEYWORDS = frozenset({"END", "HALT", "INCLUDE", "SET", "VISUALIZATION"}
 _INT_LIMIT = 2**31 - 1
 #: Batches of fewer lines are converted line by line (see _Batch.convert).
 _SMALL_BATCH = 16
+#: Texts of fewer lines are read line by line; in longer ones, runs of at least _RUN_LINES
+#: simple lines are appended to their batches at once (_Reader.run).
+_SCAN_LINES = 2048
+_RUN_LINES = 32
 #: Most numbers a single range (``1:48``) may stand for.
 MAX_RANGE = 1_000_000
 #: Deepest chain of INCLUDEs (cycles are reported before this is reached).
@@ -265,6 +271,8 @@ class Statement:
 #: before it fills the memory (``run /dev/urandom``, a log file given by mistake).
 MAX_DECK_BYTES = 512 * 2**20
 _SNIFF_BYTES = 8192
+#: The source of tables that make their statements without reading their line again.
+_NO_SOURCE = None
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 
@@ -355,7 +363,22 @@ def parse_deck(text: str, filename: str = "<deck>", *,
     DeckError
         With every problem found, each with file:line:column, in deck order.
     """
-    reader = _Reader(overrides)
+    return _parse(text, filename, overrides, frozenset()).statements
+
+
+def parse_deck_tables(text: str, filename: str = "<deck>", *,
+                      overrides: Mapping[str, object] | None = None,
+                      keywords=frozenset()) -> ParsedDeck:
+    """:func:`parse_deck`, with the plain lines of ``keywords`` (a keyword and numbers, many
+    of them, simply correct) given as :class:`PlainTable` s instead of one statement each:
+    the deck semantics read a large deck's nodes and elements as arrays
+    (:mod:`spacarpy.deck.semantics.arrays`). ``ParsedDeck.materialize()`` gives what
+    :func:`parse_deck` gives; the errors are the same."""
+    return _parse(text, filename, overrides, frozenset(keywords))
+
+
+def _parse(text: str, filename: str, overrides, keywords: frozenset) -> ParsedDeck:
+    reader = _Reader(overrides, keywords)
     path = None if filename.startswith("<") else Path(filename)
     with gc_paused():
         reader.read(text, filename, path)
@@ -364,7 +387,7 @@ def parse_deck(text: str, filename: str = "<deck>", *,
     if reader.errors:
         reader.errors.sort(key=lambda it: it[0])
         raise DeckError([it[1:] for it in reader.errors])
-    return reader.out
+    return ParsedDeck(reader.out, reader.tables)
 
 
 @contextlib.contextmanager
@@ -446,6 +469,14 @@ def _simple_tokens(line: str, number: int):
         tok.end_column = m.end() + 1
         tokens.append(tok)
     return tokens
+
+
+def _scan(text: str, raw: list) -> LineScan | None:
+    """The :class:`~spacarpy.deck.linescan.LineScan` of a large ASCII text, else None (a few
+    lines are cheaper read one by one)."""
+    if len(raw) < _SCAN_LINES or not text.isascii():
+        return None
+    return LineScan(text)
 
 
 def _plain_fields(line: str):
@@ -599,6 +630,134 @@ class _RangeStatement(Statement):
         self._src = None
 
 
+def _numbers(texts: list):
+    """``(values, ok)`` of the texts of numbers, two arrays: a text of the characters of
+    numbers only is a NUMBER exactly when float() (or _number, for a Fortran exponent) reads
+    it; any other text is checked against the grammar's NUMBER (0 and not ok if it is
+    none)."""
+    ok = np.ones(len(texts), dtype=bool)
+    try:
+        if _NOT_NUMBER_CHAR.search("".join(texts)):
+            raise ValueError
+        values = list(map(float, texts))
+    except ValueError:              # a Fortran exponent, or a field that is no NUMBER
+        values = []
+        for i, text in enumerate(texts):
+            try:
+                if _NUMBER.fullmatch(text) is None:
+                    raise ValueError
+                values.append(_number(text))
+            except ValueError:
+                values.append(0.0)
+                ok[i] = False
+    return np.array(values, dtype=float), ok
+
+
+def _row_tuples(table: np.ndarray, kinds: tuple) -> list:
+    """The fields tuple of every row of a table of a plain keyword: Python floats and ints
+    (those of whole-number fields), as the general path converts them."""
+    columns = [table[:, j].tolist() if kind == "float" else table[:, j].astype(np.int64).tolist()
+               for j, (kind, _) in enumerate(kinds)]
+    return list(zip(*columns))
+
+
+class PlainTable:
+    """The plain lines (a keyword and numbers, simply correct) of one keyword, field count,
+    module and file, as arrays: what :func:`parse_deck_tables` gives instead of one
+    :class:`Statement` per line.
+
+    Attributes
+    ----------
+    keyword : str
+    kinds : tuple of (kind, positive)
+        Of each field (``"int"`` or ``"float"``).
+    module : int
+    file : str
+        The file name shown in messages.
+    slots : (n,) int
+        The position of each line's statement among the deck's statements.
+    lines : (n,) int
+        The line number of each line.
+    values : (n, n_fields) float
+        The fields (whole numbers as floats: exact, at most 2^31 - 1 in magnitude).
+    """
+
+    __slots__ = ("keyword", "kinds", "module", "source", "file", "slots", "lines", "values")
+
+    def __init__(self, keyword, kinds, module, source, slots, lines, values):
+        self.keyword, self.kinds, self.module, self.source = keyword, kinds, module, source
+        self.file = source.name if source is not None else None
+        self.slots, self.lines, self.values = slots, lines, values
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def statement(self, i: int) -> Statement:
+        """The statement of row i, as :func:`parse_deck` gives it."""
+        return _PlainStatement(self.keyword, _row_tuples(self.values[i:i + 1], self.kinds)[0],
+                               self.module, self.source, int(self.lines[i]))
+
+    def statements(self) -> list:
+        """The statements of all rows."""
+        keyword, module, src, make = self.keyword, self.module, self.source, _PlainStatement
+        return [make(keyword, fields, module, src, line) for fields, line in
+                zip(_row_tuples(self.values, self.kinds), self.lines.tolist())]
+
+
+class _RangeTable(PlainTable):
+    """The statements of a range line (``DYNE 1:100000 1 2 3 4 5 6``) as a table: row i is
+    the statement of the i-th number, with the places of the line (see :meth:`_Reader.emit`)."""
+
+    __slots__ = ("first",)
+
+    def __init__(self, first: Statement, kinds, slots, values):
+        super().__init__(first.keyword, kinds, first.module, _NO_SOURCE, slots,
+                         np.full(len(values), first.line, dtype=np.int64), values)
+        self.first, self.file = first, first.file
+
+    def statement(self, i: int) -> Statement:
+        if i == 0:
+            return self.first
+        return _RangeStatement(self.first, _row_tuples(self.values[i:i + 1], self.kinds)[0])
+
+    def statements(self) -> list:
+        rows = _row_tuples(self.values[1:], self.kinds)
+        return [self.first] + [_RangeStatement(self.first, fields) for fields in rows]
+
+
+class _RangeRows:
+    """What :meth:`_Reader.check_fields` gives for a long range of a table keyword: the
+    numbers of the range and the other fields, not yet one tuple per number."""
+
+    def __init__(self, numbers: range, rest: tuple, locs: tuple):
+        self.numbers, self.rest, self.locs = numbers, rest, locs
+
+
+class ParsedDeck:
+    """What :func:`parse_deck_tables` gives: the statements in deck order, with None where a
+    line is a row of one of the tables."""
+
+    def __init__(self, statements: list, tables: list):
+        self.statements, self.tables = statements, tables
+
+    def general(self) -> list[tuple[int, Statement]]:
+        """``(position, statement)`` of the statements that are no table rows, in deck
+        order."""
+        rows = np.zeros(len(self.statements), dtype=bool)
+        for table in self.tables:
+            rows[table.slots] = True
+        statements = self.statements
+        return [(i, statements[i]) for i in np.flatnonzero(~rows).tolist()]
+
+    def materialize(self) -> list[Statement]:
+        """All statements in deck order, as :func:`parse_deck` gives them."""
+        out = list(self.statements)
+        for table in self.tables:
+            for slot, st in zip(table.slots.tolist(), table.statements()):
+                out[slot] = st
+        return out
+
+
 class _Batch:
     """The lines of one keyword, field count, module and file that may be plain (a keyword
     and numbers), their numbers converted together (:meth:`convert`)."""
@@ -607,50 +766,76 @@ class _Batch:
         self.keyword, self.kinds, self.module, self.source = keyword, kinds, module, source
         self.where: list[tuple] = []    # (output slot, record order, line number) per line
         self.texts: list[str] = []      # the fields' texts, line after line
+        # lines appended in runs (_Reader.read with a LineScan): (where (m, 3), the token
+        # indices of their fields (m, n_fields), the scan)
+        self.bulk: list[tuple] = []
+
+    def __len__(self) -> int:
+        return len(self.where) + sum(len(w) for w, _, _ in self.bulk)
+
+    def rows(self) -> np.ndarray:
+        """(slot, order, line number) of every line, (n, 3): the lines appended one by one,
+        then those appended in runs (the order of :meth:`table` and :meth:`convert`)."""
+        parts = [np.array(self.where, dtype=np.int64).reshape(-1, 3)]
+        parts += [w for w, _, _ in self.bulk]
+        return np.concatenate(parts) if self.bulk else parts[0]
+
+    def unbulk(self) -> None:
+        """The lines appended in runs as lines appended one by one (their texts cut from
+        the text)."""
+        for where, tokens, scan in self.bulk:
+            text, start, end = scan.text, scan.tok_start, scan.tok_end
+            self.where.extend(map(tuple, where.tolist()))
+            self.texts.extend(text[i:j] for i, j in zip(start[tokens.ravel()].tolist(),
+                                                         end[tokens.ravel()].tolist()))
+        self.bulk = []
 
     def convert(self):
         """``(fields, ok)``: the fields tuple of every line, and for each whether it is a
         plain line (a keyword and NUMBERs) and simply correct (None: all are). Converts as
         :meth:`_Reader.convert` converts a NUMBER: float fields finite, int fields whole, at
-        most _INT_LIMIT in magnitude, and at least 1 where positive. A text of the characters
-        of numbers only is a NUMBER exactly when float() (or _number, for a Fortran exponent)
-        reads it; any other text is checked against the grammar's NUMBER."""
-        n_fields, n_rows = len(self.kinds), len(self.where)
+        most _INT_LIMIT in magnitude, and at least 1 where positive (see :meth:`table`)."""
+        n_fields, n_rows = len(self.kinds), len(self) if self.bulk else len(self.where)
         if n_fields == 0:
             return [()] * n_rows, None
-        texts = self.texts
         if n_rows < _SMALL_BATCH:
+            if self.bulk:
+                self.unbulk()
             return self.convert_lines()
-        ok = np.ones(n_rows, dtype=bool)
-        try:
-            if _NOT_NUMBER_CHAR.search("".join(texts)):
-                raise ValueError
-            values = list(map(float, texts))
-        except ValueError:              # a Fortran exponent, or a field that is no NUMBER
-            values = []
-            for i, text in enumerate(texts):
-                try:
-                    if _NUMBER.fullmatch(text) is None:
-                        raise ValueError
-                    values.append(_number(text))
-                except ValueError:
-                    values.append(0.0)
-                    ok[i // n_fields] = False
-        table = np.array(values, dtype=float).reshape(n_rows, n_fields)
-        columns = []
+        table, ok = self.table()
+        return _row_tuples(table, self.kinds), (None if ok.all() else ok.tolist())
+
+    def table(self):
+        """``(table, ok)``: the numbers of every line as floats, (n_rows, n_fields), and for
+        each line whether it is plain and simply correct (a bool array; the rows of the lines
+        that are not hold 0 where a whole number was expected). A text of the characters of
+        numbers only is a NUMBER exactly when float() (or _number, for a Fortran exponent)
+        reads it; any other text is checked against the grammar's NUMBER."""
+        n_fields = len(self.kinds)
+        values, good = _numbers(self.texts)
+        tables = [values.reshape(-1, n_fields)]
+        oks = [np.ones(len(tables[0]), dtype=bool) if good.all() else
+               good.reshape(-1, n_fields).all(axis=1)]
+        for _, tokens, scan in self.bulk:
+            values, good, texts = scan.numbers(tokens)
+            if texts:
+                values[~good], good[~good] = _numbers(texts)
+            tables.append(values)
+            oks.append(good.all(axis=1))
+        table, ok = (np.concatenate(tables), np.concatenate(oks)) if self.bulk else \
+            (tables[0], oks[0])
         with np.errstate(invalid="ignore"):
             for j, (kind, positive) in enumerate(self.kinds):
                 col = table[:, j]
                 if kind == "float":
                     ok &= np.isfinite(col)
-                    columns.append(values[j::n_fields])
                     continue
                 good = (np.floor(col) == col) & (np.abs(col) <= _INT_LIMIT)
                 if positive:
                     good &= col >= 1
                 ok &= good
-                columns.append(np.where(good, col, 0.0).astype(np.int64).tolist())
-        return list(zip(*columns)), (None if ok.all() else ok.tolist())
+                col[~good] = 0.0
+        return table, ok
 
     def convert_lines(self):
         """:meth:`convert` line by line (a few lines: cheaper than numpy's calls)."""
@@ -680,9 +865,11 @@ class _Batch:
 class _Reader:
     """Reads files record by record: module structure, parameters, includes, all errors."""
 
-    def __init__(self, overrides):
+    def __init__(self, overrides, table_keywords=frozenset()):
         self.errors: list = []          # (sort key, loc, message, source line)
         self.out: list[Statement] = []
+        self.table_keywords = table_keywords   # plain lines of these become PlainTables
+        self.tables: list[PlainTable] = []
         self.params: dict[str, float] = {}
         self.param_locs: dict[str, SourceLoc] = {}
         self.overrides = {str(k): v for k, v in (overrides or {}).items()}
@@ -726,9 +913,28 @@ class _Reader:
         order, module = self.order, self.module
         fast = not (self.visual or self.closed)
         last_fast = 0                   # the last line batched since the last general record
+        # a large deck: runs of simple lines appended to their batches at once (see run)
+        scan = _scan(text, raw)
+        events: dict = {}
         try:
-            number = 0
-            for line in raw:
+            number, n_lines = 0, len(raw)
+            while number < n_lines:
+                if scan is not None and fast:
+                    data = module >= 1
+                    if data not in events:
+                        events[data] = self.events(scan, data)
+                    ev = events[data]
+                    k = int(np.searchsorted(ev, number))
+                    end = int(ev[k]) if k < len(ev) else n_lines
+                    if end - number >= _RUN_LINES:
+                        lines = number + np.flatnonzero(scan.n_tokens[number:end] > 0)
+                        if len(lines):
+                            self.run(scan, lines, order, module, source, batch_of)
+                            order += len(lines)
+                            last_fast = int(lines[-1]) + 1
+                        number = end
+                        continue
+                line = raw[number]
                 number += 1
                 if "#" in line or "%" in line:
                     data = _COMMENT_START.split(line, 1)[0]
@@ -779,6 +985,33 @@ class _Reader:
             if path is not None:
                 self.stack.pop()
 
+    def events(self, scan: LineScan, data_module: bool) -> np.ndarray:
+        """The lines (0-based, ascending) :meth:`run` does not take in a module of the kind
+        given: lines that are not simple, and simple lines that take the general path."""
+        batchable = np.array([_plain_kinds(word, data_module, n - 1) is not None
+                              for word, n in scan.combos] + [False], dtype=bool)
+        blank = (scan.n_tokens == 0) & scan.simple
+        return np.flatnonzero(~blank & ~batchable[scan.combo])
+
+    def run(self, scan: LineScan, lines: np.ndarray, order: int, module: int, source: _Source,
+            batch_of: dict) -> None:
+        """Append simple lines (0-based numbers, ascending, all of batches: see
+        :meth:`events`) to their batches, as the loop of :meth:`read` would one by one."""
+        out = self.out
+        combos = scan.combo[lines]
+        where = np.stack([np.arange(len(out), len(out) + len(lines)),
+                          order + 1 + np.arange(len(lines)), lines + 1], axis=1)
+        for c in np.unique(combos).tolist():
+            word, n = scan.combos[c]
+            key = (word, n, module)
+            batch = batch_of.get(key, False)
+            if batch is False:
+                batch = batch_of[key] = self.batch(word, n - 1, source)
+            mine = combos == c
+            tokens = scan.first_tok[lines[mine]][:, None] + np.arange(1, n)
+            batch.bulk.append((where[mine], tokens, scan))
+        out.extend([None] * len(lines))
+
     def batch(self, word: str, n_fields: int, source: _Source):
         """The batch of the lines of ``word`` with n fields in the current module of
         ``source``, or None if such lines take the general path."""
@@ -798,20 +1031,34 @@ class _Reader:
         reports what is wrong."""
         again = []
         out = self.out
+        tables = []
         for batch in self.batches.values():
+            if batch.keyword in self.table_keywords and len(batch) >= _SMALL_BATCH \
+                    and batch.kinds:
+                table, ok = batch.table()
+                where = batch.rows()
+                if not ok.all():
+                    again.extend((order, slot, number, batch) for (slot, order, number) in
+                                 where[~ok].tolist())
+                    where, table = where[ok], table[ok]
+                tables.append(PlainTable(batch.keyword, batch.kinds, batch.module, batch.source,
+                                         where[:, 0], where[:, 2], table))
+                continue
             fields, ok = batch.convert()
             make = _PlainStatement
             keyword, module, src = batch.keyword, batch.module, batch.source
+            where = batch.rows().tolist() if batch.bulk else batch.where
             if ok is None:
-                for (slot, _, number), row in zip(batch.where, fields):
+                for (slot, _, number), row in zip(where, fields):
                     out[slot] = make(keyword, row, module, src, number)
                 continue
-            for good, (slot, order, number), row in zip(ok, batch.where, fields):
+            for good, (slot, order, number), row in zip(ok, where, fields):
                 if good:
                     out[slot] = make(keyword, row, module, src, number)
                 else:
                     again.append((order, slot, number, batch))
         self.batches.clear()
+        self.tables.extend(tables)
         if not again:
             return
         order = self.order
@@ -829,6 +1076,12 @@ class _Reader:
                 if converted is not None:
                     self.emit(rec, keyword, converted, batch.module)
             out[slot] = self.out
+        if self.tables:                 # the slots of the table rows after the flattening
+            sizes = np.fromiter((len(item) if isinstance(item, list) else 1 for item in out),
+                                dtype=np.int64, count=len(out))
+            start = np.cumsum(sizes) - sizes
+            for table in self.tables:
+                table.slots = start[table.slots]
         self.order, self.out = order, [x for item in out for x in
                                        (item if isinstance(item, list) else (item,))]
 
@@ -957,6 +1210,19 @@ class _Reader:
         ``(fields, field_locs)``, one per statement (see check_fields)."""
         loc = self.loc(rec, rec.head)
         source_line = rec.source.line(rec.head.line) or ""
+        if isinstance(converted, _RangeRows):      # a table: one row per number
+            numbers, rest = converted.numbers, converted.rest
+            first = Statement(keyword, (numbers[0],) + rest, loc, converted.locs, source_line,
+                              module)
+            values = np.empty((len(numbers), 1 + len(rest)))
+            values[:, 0] = np.arange(numbers.start, numbers.stop, numbers.step)
+            values[:, 1:] = rest
+            kinds = (("int", False),) + tuple(("int" if type(v) is int else "float", False)
+                                              for v in rest)
+            slots = np.arange(len(self.out), len(self.out) + len(numbers), dtype=np.int64)
+            self.tables.append(_RangeTable(first, kinds, slots, values))
+            self.out.extend([None] * len(numbers))
+            return
         first = Statement(keyword, converted[0][0], loc, converted[0][1], source_line, module)
         self.out.append(first)
         if len(converted) > 1:          # a range: one statement per number, the same places
@@ -1136,6 +1402,10 @@ class _Reader:
         if first_range is None:
             return [(tuple(values), locs)]
         rest = tuple(values[1:])
+        if keyword in self.table_keywords and not self.visual and \
+                len(first_range) >= _SMALL_BATCH and \
+                all(type(v) in (int, float) for v in rest):
+            return _RangeRows(first_range, rest, locs)
         return [((k,) + rest, locs) for k in first_range]
 
     def expression(self, tok: Token, index: int, text: str | None = None,

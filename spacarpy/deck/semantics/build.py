@@ -23,6 +23,7 @@ import numpy as np
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import UNSUPPORTED, unsupported_message
 from spacarpy.deck.parser import Statement, gc_paused, parse_deck
+from spacarpy.deck.semantics import arrays as _arrays
 from spacarpy.deck.semantics import constraints as _constraints
 from spacarpy.deck.semantics import element_data as _element_data
 from spacarpy.deck.semantics import loads as _loads
@@ -36,7 +37,7 @@ from spacarpy.errors import DeckError
 from spacarpy.job import Job
 from spacarpy.model import ElementSet, Model
 
-__all__ = ["build_job", "build_model"]
+__all__ = ["build_job", "build_job_parsed", "build_model"]
 
 logger = logging.getLogger(__name__)
 
@@ -194,6 +195,24 @@ def build_job(statements, *, text: str, path: str, deformations: str | None = No
     if overrides:
         statements = parse_deck(text, path, overrides=overrides)
     with gc_paused():
+        return _semantics(list(statements), path, text, deformations, analysis)
+
+
+def build_job_parsed(parsed, *, text: str, path: str, deformations: str | None = None,
+                     analysis: str | None = None) -> Job:
+    """:func:`build_job` for a :class:`~spacarpy.deck.parser.ParsedDeck` of
+    :func:`~spacarpy.deck.parser.parse_deck_tables` (with the keywords of
+    :data:`.arrays.TABLE_KEYWORDS`): a deck with tables (many plain lines of one keyword) is
+    built on arrays (:mod:`.arrays`) unless that path gives up; then, and for every other
+    deck, by the per-statement semantics, with the same result and the same errors."""
+    with gc_paused():
+        if parsed.tables:
+            job = _arrays.build_arrays(parsed, path, text, deformations, analysis)
+            if job is not None:
+                return job
+            statements = parsed.materialize()
+        else:
+            statements = parsed.statements
         return _semantics(list(statements), path, text, deformations, analysis)
 
 
