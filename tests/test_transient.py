@@ -458,3 +458,41 @@ def test_chord_iterations_and_the_predictor_keep_the_tip_history():
     err, err_newton = np.abs(tip - tip_fine).max(), np.abs(tip_newton - tip_fine).max()
     assert err > 1e-3 * amplitude                       # the step's own error, not round-off
     assert abs(err - err_newton) < 1e-4 * err_newton
+
+
+def test_a_step_whose_chord_iterations_fail_is_retried_with_new_matrices(monkeypatch):
+    """A chord increment that wrecks the state (here: in one step's first attempt, every
+    position moved by 1e200 m, the rotations left alone, so that it passes the size check;
+    the residual overflows) makes the step fail; it
+    is taken again at the same time step with a new matrix at every iteration, not halved:
+    the run makes 101 step attempts for its 100 steps and ends where a run without chord
+    iterations does (to 1e-6 of the tip's amplitude)."""
+    from spacarpy.solvers import transient
+    tip_newton, res_newton = _bench_tip_history(100, reuse_matrix=False)
+    rot = res_newton.problem.rot_mask[res_newton.problem.free]
+    chord, step_fn = transient.KeptMatrix.chord, transient._step
+    calls = {"bad": 0, "steps": 0, "failed": []}
+
+    def poisoned(self, ev, x, r):
+        step = chord(self, ev, x, r)
+        if step is not None and calls["steps"] == 10 and not calls["failed"]:
+            calls["bad"] += 1                        # the 10th step's first attempt
+            return np.where(rot, 0.0, 1e200), step[1]
+        return step
+
+    def counted(tp, *args):
+        calls["steps"] += 1
+        try:
+            return step_fn(tp, *args)
+        except transient.StepFailed as fail:
+            calls["failed"].append(fail.chord)
+            raise
+
+    monkeypatch.setattr(transient.KeptMatrix, "chord", poisoned)
+    monkeypatch.setattr(transient, "_step", counted)
+    with np.errstate(over="ignore", invalid="ignore"):     # the wrecked state overflows
+        tip, res = _bench_tip_history(100)
+    assert calls["bad"] >= 1
+    assert calls["failed"] == [True]                 # the poisoned step, once
+    assert calls["steps"] == 101 and res.n_steps_taken == 100
+    assert np.abs(tip - tip_newton).max() < 1e-6 * np.abs(tip_newton).max()
