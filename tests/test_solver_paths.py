@@ -381,3 +381,31 @@ def test_dense_and_sparse_kinematic_substitution_give_the_same_path(n_elem, monk
     assert [s.iterations for s in dense.steps] == [s.iterations for s in sparse.steps]
     for a, b in zip(dense.steps, sparse.steps):
         assert np.abs(a.x - b.x).max() <= 1e-12 * np.abs(b.x).max()
+
+
+def test_the_sparse_eigen_solver_says_when_it_gives_fewer_modes_than_asked(monkeypatch):
+    """Where the sparse solver's modes come back infinite (not resolved, or without
+    inertia) fewer modes are stored: a warning names how many of how many, never a silent
+    shorter list; with all ten resolved there is no warning."""
+    from spacarpy.bench import eigen_cantilever_deck
+    from spacarpy.solvers import eigen
+    from spacarpy.solvers.linearize import MassAssembler, linearize
+    model = model_from_text(eigen_cantilever_deck(60), "<e>")
+    prob = StaticProblem(model)
+    x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)
+    lin = linearize(prob, x, mu, prob.loads.at(0.0, 0.0), mass=MassAssembler(model, prob.num))
+    warnings = []
+    monkeypatch.setattr(eigen.log, "warning", lambda *a: warnings.append(a))
+    full = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10)
+    assert full.frequency.size == 10 and warnings == []
+    found = eigen.lowest_modes
+
+    def seven_left(*args, **kw):
+        lam, vec = found(*args, **kw)
+        lam = lam.astype(complex)
+        lam[7:] = complex(np.inf, 0.0)              # all but the lowest seven
+        return lam, vec
+    monkeypatch.setattr(eigen, "lowest_modes", seven_left)
+    short = eigen.eigenmodes(lin, prob.num, prob.free, n_modes=10)
+    assert short.frequency.size == 7
+    assert len(warnings) == 1 and warnings[0][1:] == (short.frequency.size, 10)

@@ -224,6 +224,12 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
     finite = np.isfinite(lam)
     n_available = int(finite.sum()) if dense else None
     lam, vec = lam[finite], vec[:, finite]             # infinite: not modes of the model
+    if not dense and lam.size < min(n_modes, n_x):
+        # the sparse solvers cannot tell a motion without inertia from a mode they did not
+        # resolve: say so, rather than store fewer modes without a word
+        log.warning("the sparse eigen solver gives %d of the %d mode(s) asked for: the "
+                    "others are infinite (motions without inertia) or were not resolved",
+                    int(lam.size), n_modes)
     key = np.abs(lam.real)
     order = canonical_order(key, lam.real, -lam.imag)
     lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
