@@ -153,51 +153,54 @@ class _SortedIds:
         return None
 
 
-class _Positions(Mapping):
+class _SortedMapping(Mapping):
+    """A mapping over distinct numbers ``keys`` (an array), looked up by binary search; the
+    value of the i-th key is ``self.value(i)``, made when asked for."""
+
+    def __init__(self, keys: np.ndarray):
+        self.keys_array = keys
+        self.search = _SortedIds(keys)
+
+    def value(self, i: int):
+        raise NotImplementedError
+
+    def __getitem__(self, n):
+        i = self.search.index(n)
+        if i is None:
+            raise KeyError(n)
+        return self.value(i)
+
+    def __contains__(self, n) -> bool:
+        return self.search.index(n) is not None
+
+    def __iter__(self):
+        return iter(self.keys_array.tolist())
+
+    def __len__(self) -> int:
+        return len(self.keys_array)
+
+
+class _Positions(_SortedMapping):
     """Position node -> ((x, y, z), its X statement), as :class:`.topology.Topology` keeps
     them, made from the arrays when asked for."""
 
     def __init__(self, lines: _Lines, ids: np.ndarray, xyz: np.ndarray):
+        super().__init__(ids)
         self.lines, self.ids, self.xyz = lines, ids, xyz
-        self.search = _SortedIds(ids)
 
-    def __getitem__(self, n):
-        i = self.search.index(n)
-        if i is None:
-            raise KeyError(n)
+    def value(self, i: int):
         return tuple(self.xyz[i].tolist()), self.lines.statement(i)
 
-    def __contains__(self, n) -> bool:
-        return self.search.index(n) is not None
 
-    def __iter__(self):
-        return iter(self.ids.tolist())
-
-    def __len__(self) -> int:
-        return len(self.ids)
-
-
-class _FirstUse(Mapping):
+class _FirstUse(_SortedMapping):
     """Orientation node -> the first element line using it."""
 
     def __init__(self, nodes: np.ndarray, statement):
-        self.nodes, self.statement = nodes, statement      # nodes: sorted, distinct
-        self.search = _SortedIds(nodes)
+        super().__init__(nodes)                            # nodes: sorted, distinct
+        self.nodes, self.statement = nodes, statement
 
-    def __getitem__(self, n):
-        i = self.search.index(n)
-        if i is None:
-            raise KeyError(n)
+    def value(self, i: int):
         return self.statement(i)
-
-    def __contains__(self, n) -> bool:
-        return self.search.index(n) is not None
-
-    def __iter__(self):
-        return iter(self.nodes.tolist())
-
-    def __len__(self) -> int:
-        return len(self.nodes)
 
 
 class _Kind:
@@ -305,24 +308,25 @@ class _ArrayTopology(Topology):
             positions, orientation_use, elements
 
 
-class _RowLocs(Sequence):
-    """The locations of the element lines of a kind (``ElementSet.locs``), made when asked
-    for."""
+class StatementLocs(Sequence):
+    """The locations of ``count`` statements (``ElementSet.locs``), ``statement(i)`` the
+    i-th, made when asked for: most runs never look at them (see
+    :class:`spacarpy.deck.parser.Statement`)."""
 
-    def __init__(self, lines: _Lines):
-        self._lines = lines
+    def __init__(self, count: int, statement):
+        self._count, self._statement = count, statement
 
     def __len__(self) -> int:
-        return len(self._lines)
+        return self._count
 
     def __getitem__(self, i):
         if isinstance(i, slice):
-            return [self._lines.statement(k).loc for k in range(len(self))[i]]
+            return [self._statement(k).loc for k in range(self._count)[i]]
         if i < 0:
-            i += len(self)
-        if not 0 <= i < len(self):
+            i += self._count
+        if not 0 <= i < self._count:
             raise IndexError(i)
-        return self._lines.statement(i).loc
+        return self._statement(i).loc
 
     def __eq__(self, other) -> bool:
         return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
@@ -585,7 +589,8 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
     sets = {kind.keyword: ElementSet(
         kind=kind.keyword, ids=kind.ids, nodes=kind.nodes, vector=kind.vector,
         def_class=kind.def_class, stiffness=kind.stiffness, has_stiffness=kind.has_stiffness,
-        mass=kind.mass, locs=_RowLocs(kind.lines)) for kind in kinds if len(kind.ids)}
+        mass=kind.mass, locs=StatementLocs(len(kind.lines), kind.lines.statement))
+        for kind in kinds if len(kind.ids)}
     model = Model(
         position_ids=positions.ids,
         position_x0=positions.xyz,

@@ -14,7 +14,6 @@ are none, the warnings are logged and the parts are assembled into the model and
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
 from dataclasses import replace
 from itertools import chain
 
@@ -55,27 +54,6 @@ def _table(rows, dtype) -> np.ndarray:
                        count=len(rows) * width).reshape(len(rows), width)
 
 
-class _Locs(Sequence):
-    """The locations of the element lines (``ElementSet.locs``), made when asked for: most
-    runs never look at them (see :class:`spacarpy.deck.parser.Statement`)."""
-
-    def __init__(self, statements: list):
-        self._statements = statements
-
-    def __len__(self) -> int:
-        return len(self._statements)
-
-    def __getitem__(self, i):
-        if isinstance(i, slice):
-            return [st.loc for st in self._statements[i]]
-        return self._statements[i].loc
-
-    def __eq__(self, other) -> bool:
-        return list(self) == list(other) if isinstance(other, Sequence) else NotImplemented
-
-    __hash__ = None
-
-
 def _element_sets(topology: _topology.Topology) -> dict:
     """The element records as one :class:`ElementSet` per kind, in the registry's order."""
     by_kind: dict[str, list] = {}
@@ -93,7 +71,8 @@ def _element_sets(topology: _topology.Topology) -> dict:
                 def_class=_table([b.def_class for b in els], np.int8),
                 stiffness=_table([b.stiffness for b in els], float),
                 has_stiffness=[b.estiff is not None for b in els],
-                mass=_table([b.mass for b in els], float), locs=_Locs([b.st for b in els]))
+                mass=_table([b.mass for b in els], float),
+                locs=_arrays.StatementLocs(len(els), lambda i, els=els: els[i].st))
     return sets
 
 
