@@ -122,7 +122,7 @@ class ReducedNewton:
                                     + [self.unknown_of[self.eu]], upper=True)
         self.factor = SPDFactorization()
         self._quick_misses = 0                  # see _refine
-        self._last = None                       # see simplified_increment
+        self._last = None                       # see last and chord
         self.negative_pivots = None             # see step
 
     def basis(self, q: np.ndarray) -> np.ndarray:
@@ -251,16 +251,6 @@ class ReducedNewton:
         # are nonzero), plus the Euler-node diagonal 2 mu
         rhs = -(r_full + self._k_times(k_rot, euler_diag, z, invariant=invariant))[self.keep]
         return r_full, z, rhs
-
-    def simplified_increment(self, ev, x, residual=None):
-        """The simplified Newton increment at a new state (x, ``ev``): the last
-        :meth:`step`'s factorization and element blocks applied to the new residual, over
-        the free coordinates, without refinement; None when no step was taken since (or its
-        factorization failed). Its size estimates the Newton increment that state still
-        needs (Deuflhard's simplified Newton correction): a convergence test that costs
-        one solve instead of a new tangent and factorization."""
-        out = self.chord(self.last, ev, x, residual)
-        return None if out is None else out[0]
 
     @property
     def last(self):

@@ -713,7 +713,6 @@ class KeptMatrix:
 
     m_max: float                     # largest entry of the mass blocks it was formed with
     solve: Callable                  # (ev, x, r over the free coordinates) -> (dx, dmu)|None
-    first: tuple | None = None       # the Newton increment of the iteration that formed it
 
     def chord(self, ev, x, r):
         """The increment ``(dx over the free coordinates, dmu)`` this matrix gives for the
@@ -728,20 +727,24 @@ class KeptMatrix:
                 / max(level, 1e-300))
 
 
-def _usable(prob, free, dx, dmu) -> bool:
-    """Whether a chord increment is finite and turns no node by more than 0.5 (else the
-    kept matrix is dropped and a new one formed)."""
-    return bool(np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))
-                and np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) <= 0.5)
+def _increment_fault(prob, free, dx, dmu) -> str | None:
+    """What is wrong with a Newton increment (not finite, or an Euler-parameter change above
+    0.5), or None: a new matrix's increment then fails the step, a chord increment drops
+    the kept matrix."""
+    if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
+        return "non-finite Newton increment"
+    if np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) > 0.5:
+        return "Newton increment too large"
+    return None
 
 
-def _iteration_matrix(tp, opts, it, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
-                      damp_blocks, motion, W, beta_p, gamma_p) -> KeptMatrix:
+def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
+                      damp_blocks, motion, W, beta_p, gamma_p) -> tuple[KeptMatrix, tuple]:
     """Form and factorize the iteration matrix at (x1, v1, a1, mu1): the tangent-space
     LDL^T of the static solver (solvers/reduced.py) where it applies, else the bordered
     SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
-    SLOW_CONTRACTION (switches the exact inertia tangent on). Its ``first`` is the Newton
-    increment for the residual r."""
+    SLOW_CONTRACTION (switches the exact inertia tangent on). Returns the matrix and its
+    Newton increment ``(dx, dmu)`` for the residual r."""
     num, free, prob = tp.num, tp.free, tp.prob
     n_x = prob.pattern.n_x
     tp.n_matrices += 1
@@ -788,7 +791,7 @@ def _iteration_matrix(tp, opts, it, slow_newton, t1, x1, v1, a1, mu1, ev, r, blo
                 full = np.zeros(num.n_coord)
                 full[free] = r
                 return prob.reduced.chord(last, ev, x, residual=full)
-            return KeptMatrix(m_max, solve, step)
+            return KeptMatrix(m_max, solve), step
     scale = max(prob.scale, beta_p * m_max)
     S = prob.matrix(ev, mu1, extra=extra, scale=scale)
     if motion is not None:
@@ -805,7 +808,7 @@ def _iteration_matrix(tp, opts, it, slow_newton, t1, x1, v1, a1, mu1, ev, r, blo
     def solve(ev, x, r):                                # the bordered SuperLU's
         dz = lu.solve(-np.concatenate([r, scale * ev.c]))
         return dz[:n_x], dz[n_x:] * scale
-    return KeptMatrix(m_max, solve, solve(ev, x1, r))
+    return KeptMatrix(m_max, solve), solve(ev, x1, r)
 
 
 def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
@@ -897,31 +900,26 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         step = None
         if kept is not None and chord_ok:
             step = kept.chord(ev, x1, r)
-            if step is not None and not _usable(prob, free, *step):
-                step = None
-            if step is None:
-                kept = None
+            if step is None or _increment_fault(prob, free, *step):
+                step = kept = None
         last_chord = step is not None
         used_chord = used_chord or last_chord
         if step is None:
             slow_newton = (fresh_last and it >= 2
                            and history[-1] > SLOW_CONTRACTION * history[-2] > 0.0)
             try:
-                kept = _iteration_matrix(
-                    tp, opts, it, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
+                kept, step = _iteration_matrix(
+                    tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
                     damp_blocks, motion, W, beta_p, gamma_p)
             except StepFailed as fail:
                 raise StepFailed(fail.reason, history, chord=used_chord) from None
             if it == 0:
                 floor_dyn = kept.floor(beta_p, num.length_scale, tp.level)
-            step = kept.first
-            kept.first = None
+            fault = _increment_fault(prob, free, *step)
+            if fault:
+                raise StepFailed(fault, history, chord=used_chord)
         dx, dmu = step
-        if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
-            raise StepFailed("non-finite Newton increment", history, chord=used_chord)
         dx_norm = prob.increment_norm(dx)
-        if np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) > 0.5:
-            raise StepFailed("Newton increment too large", history, chord=used_chord)
         x1[free] += dx
         v1[free] += gamma_p * dx
         a1[free] += beta_p * dx
