@@ -335,8 +335,9 @@ def load_with_expectations(path, *, deformations: str | None = None,
         statements = parse_deck("\n".join(lines), str(path), overrides=overrides)
     if input_files is not None:
         input_files.append(str(path))
-        input_files.extend(dict.fromkeys(st.loc.file for st in statements
-                                         if st.loc is not None and st.loc.file != str(path)))
+        # (``file``, not ``loc.file``: a fast-path statement makes its locations when asked)
+        input_files.extend(dict.fromkeys(st.file for st in statements
+                                         if st.file is not None and st.file != str(path)))
     job = build_job(statements, text=text, path=str(path), deformations=deformations,
                     analysis=analysis)
     expects = expectations(statements)
