@@ -39,6 +39,11 @@ ZERO_TOL = 1e-10
 #: (mirror images; an equilibrium's energy is stationary, so its round-off is of the order
 #: of the squared position error: 1e-12 at a tolerance of 1e-6).
 ENERGY_TIE = 1e-10
+#: Relative difference of distance (to the state the path came from) below which two
+#: equally good branches count as equally near: the mirror images of the leaf-spring
+#: guidance are 1e-5 apart in distance from its symmetric state (the misalignment), the
+#: side it is already on is more than 1.5 times nearer than the other.
+DIST_TIE = 1e-3
 #: Perturbation amplitudes tried, as fractions of the model's length scale.
 AMPLITUDES = (1e-4, 1e-3, 1e-2, 0.03, 0.1)
 
@@ -136,7 +141,8 @@ def potential_energy(prob, x, mu, load: LoadState, states=None) -> float:
     return elastic - float(load.force @ x)
 
 
-def switch_branch(prob, x, mu, load: LoadState, opts, stab: Stability, step: int):
+def switch_branch(prob, x, mu, load: LoadState, opts, stab: Stability, step: int,
+                  near=None):
     """Try to leave an unstable equilibrium for a stable(r) one at the same load.
 
     Every eigenvector of a negative eigenvalue is tried with both signs, each with the
@@ -146,7 +152,10 @@ def switch_branch(prob, x, mu, load: LoadState, opts, stab: Stability, step: int
     agree to 15 digits on the leaf-spring guidance), so energies within :data:`ENERGY_TIE`
     count as equal and the first candidate tried wins, with the eigenvectors' signs made
     canonical (:func:`canonical_sign`): the branch chosen does not depend on round-off.
-    Returns (x, mu, stability), the given state when no perturbation lowers the index.
+    ``near``: the state the path came from; of tied candidates the one nearest to it is
+    taken (the side of a mirror pair the structure is already on), distances within
+    :data:`DIST_TIE` counting as equal. Returns (x, mu, stability), the given state when
+    no perturbation lowers the index.
     """
     num = prob.num
     free = ~num.fixed_mask
@@ -176,7 +185,12 @@ def switch_branch(prob, x, mu, load: LoadState, opts, stab: Stability, step: int
     index = min(c[0] for c in found)
     lowest = min(c[1] for c in found if c[0] == index)
     tie = ENERGY_TIE * max(abs(lowest), 1e-300)
-    _, _, xb, mub, sb = next(c for c in found if c[0] == index and c[1] <= lowest + tie)
+    tied = [c for c in found if c[0] == index and c[1] <= lowest + tie]
+    if near is not None and len(tied) > 1:
+        dist = [prob.increment_norm((c[2] - near)[free]) for c in tied]
+        closest = min(dist)
+        tied = [c for c, d in zip(tied, dist) if d <= closest * (1 + DIST_TIE)]
+    _, _, xb, mub, sb = tied[0]
     log.info("step %d: switched from an unstable equilibrium (%d negative stiffness "
              "eigenvalue(s)) to a branch with %d", step, stab.index, index)
     return xb, mub, sb
@@ -251,7 +265,54 @@ class PathStability:
             prob.commit(xs, mus, load)
         return xs, mus, p, ss
 
+    #: Sub-steps in which the path from the last stored state is followed when a step's
+    #: index rose.
+    SUBSTEPS = 8
+
+    def _follow(self, params, step):
+        """Follow the path from the last stored (stable) state to ``params`` in
+        :attr:`SUBSTEPS` sub-steps, the index checked after each; where it rose, switch
+        there (perturbation trials at that sub-step's load, ties broken towards the state
+        before it) and go on from the new branch. A step whose index rose because Newton
+        landed on another, unstable, equilibrium (the predictor of one large step from a
+        buckled state) then needs no switch at all. Returns (x, mu, stability), or None
+        when a sub-step fails or no stable branch is found (then the bisection does it)."""
+        if self.last is None:
+            return None
+        prob = self.prob
+        x, mu, p0, _ = self.last
+        p0, target = np.asarray(p0, float), np.asarray(params, float)
+        self.predictor(x, mu, prob.loads.at(*p0))
+        sj = None
+        for j in range(1, self.SUBSTEPS + 1):
+            p_prev = p0 + (j - 1) / self.SUBSTEPS * (target - p0)
+            pj = p0 + j / self.SUBSTEPS * (target - p0)
+            try:
+                xj, muj, *_ = self.advance(x, mu, p_prev, pj, 1, step)
+            except ConvergenceError:
+                return None
+            xj = prob.normalize(xj)
+            sj = self._stability(xj, muj, pj)
+            if sj.index > self.index:
+                load = prob.loads.at(*pj)
+                xj, muj, sj = switch_branch(prob, xj, muj, load, self.opts, sj, step, near=x)
+                if sj.index > self.index:
+                    return None
+                if prob.has_commit:
+                    prob.commit(xj, muj, load)
+            x, mu = xj, muj
+        return x, mu, sj
+
     def _switch(self, x, mu, params, stab, step):
+        """Follow the step in sub-steps (:meth:`_follow`); where that fails, the bisection
+        (:meth:`_bisect_switch`)."""
+        followed = self._follow(params, step)
+        if followed is not None:
+            return followed
+        self.predictor(x, mu, self.prob.loads.at(*np.asarray(params, float)))
+        return self._bisect_switch(x, mu, params, stab, step)
+
+    def _bisect_switch(self, x, mu, params, stab, step):
         """Bisect back towards the critical point, switch there and come back to ``params``
         along the new branch (repeatedly, when several eigenvalues cross within the step);
         as a last resort switch at ``params`` itself."""
