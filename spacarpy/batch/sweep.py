@@ -140,8 +140,18 @@ def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise BatchInputError(f"sweep: a parameter is swept twice ({', '.join(names)})")
-    _check_parameters(deck, [(a.name, f"{a.values[0]:.17g}") for a in axes] + list(fixed))
     shape = tuple(len(a.values) for a in axes)
+    if dask is None:
+        # the local workers import spacarpy while the deck is checked here
+        from spacarpy.batch.workers import close_workers, prestart
+        prestart(min(max(1, jobs or 1), math.prod(shape)))
+    try:
+        _check_parameters(deck, [(a.name, f"{a.values[0]:.17g}") for a in axes]
+                          + list(fixed))
+    except BaseException:
+        if dask is None:
+            close_workers()
+        raise
     collect = tuple(collect) if collect else DEFAULT_COLLECT
     tasks = []
     for idx in itertools.product(*(range(n) for n in shape)):

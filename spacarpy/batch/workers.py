@@ -13,7 +13,9 @@ one JSON line per answer on its original stdout (``{"rc", "stdout", "stderr"}``)
 file descriptor 1 is pointed at its stderr, so stray output of native code cannot corrupt the
 answers. :func:`worker` gives each calling thread its own worker (the local backend runs one
 thread per job; a Dask worker process keeps its workers between tasks);
-:func:`close_workers` ends them all.
+:func:`close_workers` ends them all. :func:`prestart` starts workers ahead of their threads,
+so that their start-up (about half a second of imports) runs while the caller still checks
+its input; a thread takes a started one before it starts its own.
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ import subprocess
 import sys
 import threading
 
-__all__ = ["Worker", "WorkerDied", "close_workers", "worker"]
+__all__ = ["Worker", "WorkerDied", "close_workers", "prestart", "worker"]
 
 
 class WorkerDied(RuntimeError):
@@ -77,14 +79,18 @@ class Worker:
             raise WorkerDied(f"the worker process ended (exit code {self.proc.returncode})")
         return json.loads(line)
 
+    def release(self) -> None:
+        """Close the worker's stdin: it ends its loop and exits (:meth:`close` waits)."""
+        with contextlib.suppress(OSError, ValueError):
+            self.proc.stdin.close()
+
     def _kill_for_timeout(self) -> None:
         self.timed_out = True
         self.proc.kill()
 
     def close(self) -> None:
         """End the worker (closing its stdin ends its loop; a stuck one is killed)."""
-        with contextlib.suppress(OSError, ValueError):
-            self.proc.stdin.close()
+        self.release()
         try:
             self.proc.wait(timeout=5)
         except subprocess.TimeoutExpired:
@@ -96,24 +102,47 @@ class Worker:
 
 _LOCAL = threading.local()
 _ALL: list[Worker] = []
+_SPARE: list[Worker] = []           # started by prestart(), not yet taken by a thread
 _ALL_LOCK = threading.Lock()
 
 
+def prestart(n: int) -> None:
+    """Start ``n`` workers now (fewer where some are already waiting), for the next threads
+    that ask :func:`worker` for one."""
+    with _ALL_LOCK:
+        missing = n - len(_SPARE)
+    for _ in range(max(missing, 0)):
+        w = Worker()
+        with _ALL_LOCK:
+            _SPARE.append(w)
+            _ALL.append(w)
+
+
 def worker() -> Worker:
-    """This thread's worker, started (or restarted after it died) on demand."""
+    """This thread's worker: a started one (:func:`prestart`) if one is waiting, else started
+    (or restarted after it died) on demand."""
     w = getattr(_LOCAL, "worker", None)
     if w is None or not w.alive():
-        w = Worker()
-        _LOCAL.worker = w
+        w = None
         with _ALL_LOCK:
-            _ALL.append(w)
+            while _SPARE and w is None:
+                spare = _SPARE.pop(0)
+                w = spare if spare.alive() else None
+        if w is None:
+            w = Worker()
+            with _ALL_LOCK:
+                _ALL.append(w)
+        _LOCAL.worker = w
     return w
 
 
 def close_workers() -> None:
-    """End every worker this process started."""
+    """End every worker this process started: all are told to exit first, then each is
+    waited for (their exits overlap)."""
     with _ALL_LOCK:
-        workers, _ALL[:] = list(_ALL), []
+        workers, _ALL[:], _SPARE[:] = list(_ALL), [], []
+    for w in workers:
+        w.release()
     for w in workers:
         w.close()
 
