@@ -55,6 +55,12 @@ def _element_products(k, idx, z, shift):
     return batch_matvec(k, relative_positions(z[idx], shift))
 
 
+def _radial_rows(k, idx, z, shift, starts):
+    """The rows ``starts`` of ``k_e z_e`` (n, len(starts)), z_e as in
+    :func:`_element_products`."""
+    return batch_matvec(k[:, starts], relative_positions(z[idx], shift))
+
+
 def applies(prob) -> bool:
     """Whether the model's Newton steps can use :class:`ReducedNewton`: every constraint is
     the normalization of a node with four free Euler parameters, no rigid modes, no moment
@@ -109,6 +115,11 @@ class ReducedNewton:
         # for each group and quaternion slot: which Euler node (index into self.nodes)
         self.slot_nodes = [[node_of[g.idx[:, s]] for s in starts]
                            for g, starts in zip(num.groups, self.slots)]
+        # the same, (element, slot) flattened, a fixed orientation node (-1) in an extra
+        # bin (see _radial_times)
+        self.slot_flat = [np.where(f < 0, self.nodes.size, f) for f in
+                          (np.stack(nodes, axis=1).ravel() if nodes else
+                           np.zeros(0, dtype=np.int64) for nodes in self.slot_nodes)]
         # reduced unknowns: the free coordinates without the radial (lambda0) slot of each
         # Euler node, whose component follows from the constraint
         keep = ~num.fixed_mask
@@ -169,6 +180,36 @@ class ReducedNewton:
             radial = self.eu[:, 0]
             kz[radial] += euler_diag * z[radial]
         return kz
+
+    def _radial_columns(self, k_rot, euler_diag, zr):
+        """``K z`` (n_coord,) for a z whose only entries are ``zr`` (n_eu,) on the radial
+        slots (the particular solution of the Euler constraints): the radial columns of the
+        element blocks, the Euler-node diagonal on the radial slots (what :meth:`_k_times`
+        gives for such a z, without its products with zeros)."""
+        num = self.prob.num
+        kz = np.zeros(num.n_coord)
+        zr_all = np.append(zr, 0.0)          # a fixed orientation node (-1): no entry
+        for g, k, starts, nodes in zip(num.groups, k_rot, self.slots, self.slot_nodes):
+            if starts.size:
+                ke = k[:, :, starts[0]] * zr_all[nodes[0]][:, None]
+                for s, nd in zip(starts[1:], nodes[1:]):
+                    ke += k[:, :, s] * zr_all[nd][:, None]
+                kz += scatter_add(num.n_coord, g.idx, ke)
+        kz[self.eu[:, 0]] += euler_diag * zr
+        return kz
+
+    def _radial_times(self, k_rot, euler_diag, z, invariant: bool = True):
+        """``(K z)`` on the radial slots only (n_eu,): the radial rows of :meth:`_k_times`,
+        without the other rows of the element products."""
+        num = self.prob.num
+        out = euler_diag * z[self.eu[:, 0]]
+        for g, k, starts, nodes in zip(num.groups, k_rot, self.slots, self.slot_flat):
+            if starts.size:
+                shift = g.kind.position_starts if invariant else np.zeros(0, dtype=np.int64)
+                rows = in_chunks(partial(_radial_rows, z=z, shift=shift, starts=starts),
+                                 len(k), k, g.idx)
+                out += np.bincount(nodes, weights=rows.ravel(), minlength=out.size + 1)[:-1]
+        return out
 
     def _reduced_times(self, k_rot, euler_diag, y, invariant: bool = True):
         """The reduced matrix times y (over the reduced unknowns), element by element."""
@@ -249,7 +290,7 @@ class ReducedNewton:
         z[self.eu[:, 0]] = -c_eu / (2.0 * nq)
         # K z for that particular solution, element by element (only radial entries of z
         # are nonzero), plus the Euler-node diagonal 2 mu
-        rhs = -(r_full + self._k_times(k_rot, euler_diag, z, invariant=invariant))[self.keep]
+        rhs = -(r_full + self._radial_columns(k_rot, euler_diag, z[self.eu[:, 0]]))[self.keep]
         return r_full, z, rhs
 
     @property
@@ -277,8 +318,8 @@ class ReducedNewton:
         except FactorizationError:
             return None
         radial = self.eu[:, 0]
-        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
-            radial]) / (2.0 * nq)
+        dmu = -(r_full[radial] + self._radial_times(k_rot, euler_diag, z, invariant)) / (
+            2.0 * nq)
         z[self.eu] = np.einsum("nab,nb->na", b, z[self.eu])
         return z[self.free], np.concatenate([np.zeros(self.prob.num.n_rigid), dmu])
 
@@ -342,14 +383,14 @@ class ReducedNewton:
         if load is not None:
             zb = np.zeros(num.n_coord)
             zb[self.keep] = yb
-            b_mu = (l_full[radial] - self._k_times(k_rot, euler_diag, zb,
-                                                   invariant=invariant)[radial]) / (2.0 * nq)
+            b_mu = (l_full[radial] - self._radial_times(k_rot, euler_diag, zb,
+                                                        invariant)) / (2.0 * nq)
             zb[self.eu] = np.einsum("nab,nb->na", b, zb[self.eu])
         z[self.keep] = y
         # back to the Euler parameters, and the multiplier increments from the radial rows:
         # (K z)_radial + 2 |q| dmu = -r_radial
-        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
-            radial]) / (2.0 * nq)
+        dmu = -(r_full[radial] + self._radial_times(k_rot, euler_diag, z, invariant)) / (
+            2.0 * nq)
         dq = np.einsum("nab,nb->na", b, z[self.eu])
         z[self.eu] = dq
         step = z[self.free], np.concatenate([np.zeros(num.n_rigid), dmu])
