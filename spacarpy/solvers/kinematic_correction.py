@@ -170,6 +170,7 @@ class KinematicCorrector:
                        else NormalEquations(num))
         self.free = ~num.fixed_mask
         self._solve = None                    # the step() of the kept factorization
+        self._rate = None                     # the last contraction of the mismatch
         # round-off level of the scaled deformation mismatch: the coordinates' round-off
         # relative to the shortest element scale
         min_scale = min([float(np.min(g.scale, initial=np.inf)) for g in num.groups]
@@ -275,10 +276,19 @@ class KinematicCorrector:
         done = None
         worst0 = prev = back = None
         n_factor, reused = 0, False
+        rate = self._rate
         for _ in range(max_iter):
             t0 = time.perf_counter()
-            states, g_e, g_q, worst = mismatch(
-                x, self._solve is None or kin.jacobian_each_step)
+            full = self._solve is None or kin.jacobian_each_step
+            if not full and return_states and prev is not None and rate is not None:
+                # the last mismatch's states are the next residual's: where the last
+                # contraction says this one ends the iterations, compute them whole (a guess
+                # that errs costs the difference of the two kernels once, a miss the states
+                # once more; e is the same either way, so the iterations never change)
+                full = prev * rate <= max(self.kin_floor, 1e-9 * worst0)
+            states, g_e, g_q, worst = mismatch(x, full)
+            if prev is not None and prev > 0:
+                rate = self._rate = worst / prev
             worst0 = worst if worst0 is None else worst0
             log.debug("kinematic correction: mismatch %.3g (matrix %s)", worst,
                       "kept" if self._solve is not None else "new")

@@ -253,8 +253,6 @@ class ReducedNewton:
         rz = r @ z
         method = "conjugate gradients"
         for it in range(max_iter):  # noqa: B007 (it is logged after the loop)
-            if np.linalg.norm(r) <= tol:
-                break
             ap = matvec(p)
             pap = p @ ap
             if not pap > 0.0 or not rz > 0.0:
@@ -270,6 +268,9 @@ class ReducedNewton:
             alpha = rz / pap
             y = y + alpha * p
             r = r - alpha * ap
+            if np.linalg.norm(r) <= tol:          # (before the solve the next step needs)
+                it += 1
+                break
             z = solve(r)
             rz, rz_old = r @ z, rz
             p = z + (rz / rz_old) * p
