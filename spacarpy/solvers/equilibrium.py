@@ -95,6 +95,11 @@ class StaticProblem:
         self._states_at = None                  # (x, kernel states at x), see evaluate()
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
+        # the norms' weights, made once: forces (moments divided by the length scale) over
+        # all and over the free coordinates, increments (positions divided by it)
+        self._force_w = np.where(self.rot_mask, 1.0 / num.length_scale, 1.0)
+        self._force_w_free = self._force_w[self.free]
+        self._increment_w = np.where(self.rot_mask[self.free], 1.0, 1.0 / num.length_scale)
         # balances the constraint rows of the saddle-point matrix and sets the residual's
         # round-off floor: the largest element stiffness entry (N/m)
         smax = max([float(np.abs(g.S).max(initial=0.0)) for g in num.groups] + [0.0])
@@ -226,7 +231,7 @@ class StaticProblem:
     def force_level(self, *forces) -> float:
         """Largest entry of the given force vectors (n_coord,), the generalized forces on
         Euler parameters (moments) divided by the length scale."""
-        w = np.where(self.rot_mask, 1.0 / self.num.length_scale, 1.0)
+        w = self._force_w
         return max([float(np.abs(f * w).max(initial=0.0)) for f in forces] + [0.0])
 
     def residual_norm(self, r, c, f_int, f_ext, level: float | None = None
@@ -240,11 +245,9 @@ class StaticProblem:
         the largest of the model's size and its distance from the origin); a residual below
         it cannot be reduced further by any iteration.
         """
-        L = self.num.length_scale
-        w = np.where(self.rot_mask, 1.0 / L, 1.0)
         if level is None:
             level = self.force_level(f_ext, f_int)
-        rr = np.abs(r * w[self.free]).max(initial=0.0)
+        rr = np.abs(r * self._force_w_free).max(initial=0.0)
         rel = rr / level if level > 0 else (0.0 if rr == 0 else np.inf)
         cw = self.constraint_weight
         floor = (_FLOOR_FACTOR * np.finfo(float).eps * getattr(self, "scale", 0.0)
@@ -252,8 +255,7 @@ class StaticProblem:
         return max(rel, np.abs(c * cw).max(initial=0.0)), floor
 
     def increment_norm(self, dx) -> float:
-        w = np.where(self.rot_mask[self.free], 1.0, 1.0 / self.num.length_scale)
-        return float(np.abs(dx * w).max(initial=0.0))
+        return float(np.abs(dx * self._increment_w).max(initial=0.0))
 
     # ------------------------------------------------------------------ reactions
     def _reaction_setup(self):

@@ -94,7 +94,7 @@ class SquareJacobian:
 
         def step(g_e, g_q, w_e, wq):
             out = solve(np.concatenate([v.ravel() for v in g_e] + [g_q]))
-            if not np.all(np.isfinite(out)):
+            if not np.isfinite(out).all():
                 raise FactorizationError("non-finite Gauss-Newton step")
             return out
         return step
@@ -169,6 +169,8 @@ class KinematicCorrector:
         self.system = (SquareJacobian(num) if SquareJacobian.applies(num)
                        else NormalEquations(num))
         self.free = ~num.fixed_mask
+        self.eu = num.rot_idx[num.euler_nodes]
+        self.inv_scale = [1.0 / g.scale for g in num.groups]
         self._solve = None                    # the step() of the kept factorization
         self._rate = None                     # the last contraction of the mismatch
         # round-off level of the scaled deformation mismatch: the coordinates' round-off
@@ -234,14 +236,14 @@ class KinematicCorrector:
         <spacarpy.solvers.equilibrium.StaticProblem.increment_norm>`).
         """
         num = self.num
-        eu = num.rot_idx[num.euler_nodes]
+        eu = self.eu
         xd = np.zeros(num.n_coord)
         xd[self.free] = dx
         targets = [st.e + batch_matvec(st.D, xd[g.idx]) for g, st in zip(num.groups, st_old)]
         if rigid_target is not None:          # move prescribed deformations to new values
             for g, t in zip(num.groups, targets):
                 t[g.rigid_elem, g.rigid_mode] = rigid_target[g.rigid_slice]
-        inv_scale = [1.0 / g.scale for g in num.groups]
+        inv_scale = self.inv_scale
 
         def state_of(g, x):
             return g.kind.state(x[g.idx], g.ref, self.variant, g.prev)
@@ -262,7 +264,8 @@ class KinematicCorrector:
                      g.kind.deformations(x[g.idx], g.ref, self.variant, g.prev)
                      for g in num.groups]
             g_e = [(t - ei) * w for t, ei, w in zip(targets, e, inv_scale)]
-            g_q = 1.0 - np.sum(x[eu] ** 2, axis=1)
+            q = x[eu]
+            g_q = 1.0 - (q * q).sum(axis=1)
             worst = max([np.abs(v).max(initial=0.0) for v in g_e]
                         + [np.abs(g_q).max(initial=0.0)])
             return states, g_e, g_q, (worst if np.isfinite(worst) else np.inf)

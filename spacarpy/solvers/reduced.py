@@ -24,6 +24,7 @@ bordered system with SuperLU instead.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from functools import partial
 
@@ -38,6 +39,14 @@ from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
 
 log = logging.getLogger(__name__)
+
+
+_EYE4 = np.eye(4)
+
+
+def _norm(v: np.ndarray) -> float:
+    """The 2-norm of a vector, as ``np.linalg.norm`` computes it (without its overhead)."""
+    return math.sqrt(v @ v)
 
 
 def _rotate_blocks(k, *bases, starts):
@@ -136,9 +145,11 @@ class ReducedNewton:
         self._last = None                       # see last and chord
         self.negative_pivots = None             # see step
 
-    def basis(self, q: np.ndarray) -> np.ndarray:
-        """B(q) = [q/|q|, Lambda(q)^T/|q|], (n, 4, 4) orthonormal for every q != 0."""
-        nq = np.linalg.norm(q, axis=1)
+    def basis(self, q: np.ndarray, nq: np.ndarray | None = None) -> np.ndarray:
+        """B(q) = [q/|q|, Lambda(q)^T/|q|], (n, 4, 4) orthonormal for every q != 0 (``nq``:
+        the norms |q| where the caller has them)."""
+        if nq is None:
+            nq = np.linalg.norm(q, axis=1)
         b = np.empty(q.shape + (4,))
         b[:, :, 0] = q / nq[:, None]
         b[:, :, 1:] = lambda_matrix(q).transpose(0, 2, 1) / nq[:, None, None]
@@ -237,17 +248,17 @@ class ReducedNewton:
         after three misses in a row that test is no longer made. The accuracy reported and
         checked at the end is CG's updated residual (GMRES's true one)."""
         y = solve(rhs)
-        b_norm = np.linalg.norm(rhs)
+        b_norm = _norm(rhs)
         if b_norm == 0.0:
             return y
         tol = 1e-10 * b_norm
         if quick_matvec is not None and self._quick_misses < 3:
-            if np.linalg.norm(rhs - quick_matvec(y)) <= tol:
+            if _norm(rhs - quick_matvec(y)) <= tol:
                 self._quick_misses = 0
                 return y
             self._quick_misses += 1      # three in a row: a model that needs the iterations
         r = rhs - matvec(y)
-        if np.linalg.norm(r) <= tol:
+        if _norm(r) <= tol:
             return y
         p = z = solve(r)
         rz = r @ z
@@ -268,13 +279,13 @@ class ReducedNewton:
             alpha = rz / pap
             y = y + alpha * p
             r = r - alpha * ap
-            if np.linalg.norm(r) <= tol:          # (before the solve the next step needs)
+            if _norm(r) <= tol:          # (before the solve the next step needs)
                 it += 1
                 break
             z = solve(r)
             rz, rz_old = r @ z, rz
             p = z + (rz / rz_old) * p
-        final = np.linalg.norm(r) / b_norm          # (CG's updated residual, or GMRES's)
+        final = _norm(r) / b_norm          # (CG's updated residual, or GMRES's)
         log.debug("%s: %d iterations, relative residual %.2e", method, it, final)
         if not final <= 1e-3:
             return None
@@ -312,7 +323,7 @@ class ReducedNewton:
         k_rot, euler_diag, invariant, solve = last
         q = x[self.eu]
         nq = np.linalg.norm(q, axis=1)
-        b = self.basis(q)
+        b = self.basis(q, nq)
         r_full, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
         try:
             z[self.keep] = solve(rhs)
@@ -344,11 +355,11 @@ class ReducedNewton:
         t0 = time.perf_counter()
         q = x[self.eu]
         nq = np.linalg.norm(q, axis=1)
-        b = self.basis(q)
+        b = self.basis(q, nq)
         k_rot = self._rotate(k_el, b)
         r_full, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
         self._last = None
-        diag = np.broadcast_to(euler_diag[:, None, None] * np.eye(4), (self.nodes.size, 4, 4))
+        diag = np.broadcast_to(euler_diag[:, None, None] * _EYE4, (self.nodes.size, 4, 4))
         t1 = time.perf_counter()
         a = self.pattern.assemble(k_rot + [diag])
         t2 = time.perf_counter()
