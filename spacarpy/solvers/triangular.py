@@ -24,7 +24,11 @@ a unit lower triangular matrix in the block order, with the pattern of W. A solv
 ``x = L^-1 (B^-1 b)`` by scipy's compiled sparse triangular solve, or, up to
 :data:`DENSE_MAX` unknowns, by LAPACK's dense ``dtrtrs`` on L filled into a dense array
 (scipy's ``spsolve_triangular`` spends about 100 us per call on checks and copies, more
-than the arithmetic of a small model; the measurements are at :data:`DENSE_MAX`).
+than the arithmetic of a small model; the measurements are at :data:`DENSE_MAX`). Where L
+is banded in the block order (a chain: each block row reaches back to the block before
+it), the dense path keeps only the band, in LAPACK's band storage, and solves with BLAS's
+``dtbsv``: 7 against 46 us for the 700 unknowns of a 100-element cantilever, and no
+(n, n) array to fill at each factorization.
 Where a diagonal block is singular the whole matrix is (its determinant is the product of
 the blocks'), and :class:`~spacarpy.solvers.sparse.FactorizationError` is raised as SuperLU
 would.
