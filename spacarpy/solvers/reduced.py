@@ -42,6 +42,9 @@ log = logging.getLogger(__name__)
 
 
 _EYE4 = np.eye(4)
+#: ``[q, Lambda(q)^T]`` (4, 4) flattened = ``q @ _BASIS_FORM``: (4, 16).
+_BASIS_FORM = np.stack([np.concatenate([e[:, None], lambda_matrix(e).T], axis=1).ravel()
+                        for e in np.eye(4)])
 
 
 def _norm(v: np.ndarray) -> float:
@@ -150,9 +153,10 @@ class ReducedNewton:
         the norms |q| where the caller has them)."""
         if nq is None:
             nq = np.linalg.norm(q, axis=1)
-        b = np.empty(q.shape + (4,))
-        b[:, :, 0] = q / nq[:, None]
-        b[:, :, 1:] = lambda_matrix(q).transpose(0, 2, 1) / nq[:, None, None]
+        # [q, Lambda(q)^T] is linear in q, its entries signed copies of q's: one product
+        # with a constant (exact), then the division
+        b = (q @ _BASIS_FORM).reshape(q.shape + (4,))
+        b /= nq[:, None, None]
         return b
 
     def _rotate(self, k_el, b):
