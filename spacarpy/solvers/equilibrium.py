@@ -230,7 +230,7 @@ class StaticProblem:
         if material_only:
             euler_diag, mom_blocks = np.zeros(num.euler_nodes.size), np.zeros((n_m, 4, 4))
         else:
-            euler_diag = 2.0 * mu[num.n_rigid:]
+            euler_diag = 2.0 * mu[self._n_rigid:]
             mom_blocks = -2.0 * moment_matrix(ev.load.moment) if n_m else np.zeros((0, 4, 4))
         return k_el, euler_diag, mom_blocks
 

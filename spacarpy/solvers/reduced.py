@@ -122,6 +122,7 @@ class ReducedNewton:
         self.nodes = num.euler_nodes                       # orientation-node indices
         self.eu = num.rot_idx[self.nodes]                  # (n_eu, 4) coordinate indices
         self.slots = _quaternion_slots(num)
+        self.n_rigid = num.n_rigid                         # (0 where it applies)
         node_of = np.full(num.n_coord, -1, dtype=np.int64)
         node_of[self.eu[:, 0]] = np.arange(self.nodes.size)
         # for each group and quaternion slot: which Euler node (index into self.nodes)
@@ -302,7 +303,7 @@ class ReducedNewton:
         r_full = (ev.f_int - ev.f_ext) if residual is None else residual.copy()
         r_full[self.eu] = np.einsum("nab,na->nb", b, r_full[self.eu])
         z = np.zeros(num.n_coord)
-        c_eu = ev.c[num.n_rigid:]
+        c_eu = ev.c[self.n_rigid:]
         z[self.eu[:, 0]] = -c_eu / (2.0 * nq)
         # K z for that particular solution, element by element (only radial entries of z
         # are nonzero), plus the Euler-node diagonal 2 mu
@@ -337,7 +338,7 @@ class ReducedNewton:
         dmu = -(r_full[radial] + self._radial_times(k_rot, euler_diag, z, invariant)) / (
             2.0 * nq)
         z[self.eu] = np.einsum("nab,nb->na", b, z[self.eu])
-        return z[self.free], np.concatenate([np.zeros(self.prob.num.n_rigid), dmu])
+        return z[self.free], np.concatenate([np.zeros(self.n_rigid), dmu])
 
     def step(self, ev, x, mu, k_el, euler_diag, residual=None, invariant: bool = True,
              load=None):
@@ -409,7 +410,7 @@ class ReducedNewton:
             2.0 * nq)
         dq = np.einsum("nab,nb->na", b, z[self.eu])
         z[self.eu] = dq
-        step = z[self.free], np.concatenate([np.zeros(num.n_rigid), dmu])
+        step = z[self.free], np.concatenate([np.zeros(self.n_rigid), dmu])
         if load is None:
             return step
-        return step + (zb[self.free], np.concatenate([np.zeros(num.n_rigid), b_mu]))
+        return step + (zb[self.free], np.concatenate([np.zeros(self.n_rigid), b_mu]))
