@@ -180,14 +180,15 @@ class KinematicCorrector:
         self.kin_floor = 64 * np.finfo(float).eps * num.length_scale / (
             min_scale if np.isfinite(min_scale) and min_scale > 0 else 1.0)
 
-    def _stationary(self, states, x, g_e, g_q) -> bool:
+    def _stationary(self, states, x, g_e, g_q, w_e=None) -> bool:
         """Whether x is a least-squares solution of the targets to round-off: the
         Gauss-Newton step there (with the kept factorization and the current W, which the
         normal equations' right side needs) is below the round-off level
         :attr:`kin_floor` (positions relative to the length scale, Euler parameters as they
-        are)."""
-        eu = self.num.rot_idx[self.num.euler_nodes]
-        step = self._solve(g_e, g_q, self.jacobian_blocks(states, x)[0], 2.0 * x[eu])
+        are); ``w_e`` the element blocks of W at x where the caller has them."""
+        if w_e is None:
+            w_e = self.jacobian_blocks(states, x)[0]
+        step = self._solve(g_e, g_q, w_e, 2.0 * x[self.eu])
         rot = self.num.is_rotation_coord[self.free]
         size = max(float(np.abs(step[~rot]).max(initial=0.0)) / self.num.length_scale,
                    float(np.abs(step[rot]).max(initial=0.0)))
@@ -196,8 +197,8 @@ class KinematicCorrector:
     def jacobian_blocks(self, states, x):
         """The Jacobian W at x by blocks: ``D / scale`` per element group and the Euler rows
         ``2 q`` (see :class:`SquareJacobian`)."""
-        return ([st.D * (1.0 / g.scale)[:, :, None] for g, st in zip(self.num.groups, states)],
-                2.0 * x[self.num.rot_idx[self.num.euler_nodes]])
+        return ([st.D * w[:, :, None] for w, st in zip(self.inv_scale, states)],
+                2.0 * x[self.eu])
 
     def regular(self, states, x) -> bool:
         """Whether W at x is square, block triangular and regular (see
@@ -298,16 +299,19 @@ class KinematicCorrector:
             if worst <= max(self.kin_floor, 1e-9 * worst0):
                 done = states
                 break
+            w_e = None                       # W's element blocks at x, once made
             if prev is not None and not worst <= 0.05 * prev:
-                if kin.jacobian_each_step and self._solve is not None and self._stationary(
-                        states, x, g_e, g_q):
-                    # least squares: the mismatch has stopped falling because x is the
-                    # closest fit to the targets; another step would not move it
-                    done = states
-                    break
+                if kin.jacobian_each_step and self._solve is not None:
+                    w_e = self.jacobian_blocks(states, x)[0]
+                    if self._stationary(states, x, g_e, g_q, w_e):
+                        # least squares: the mismatch has stopped falling because x is the
+                        # closest fit to the targets; another step would not move it
+                        done = states
+                        break
                 if reused:
                     # the kept matrix was too stale: undo its step, refactorize there
                     x, states, g_e, g_q, worst = back
+                    w_e = None
                     self._solve = None
                 elif n_factor >= 2:
                     # two fresh Gauss-Newton steps and still no fast contraction: targets
@@ -319,8 +323,7 @@ class KinematicCorrector:
                     self._solve = None        # far from the targets: a fresh matrix here
             reused = self._solve is not None
             wq = 2.0 * x[eu]
-            w_e = None
-            if not reused or kin.jacobian_each_step:
+            if w_e is None and (not reused or kin.jacobian_each_step):
                 if states is None:
                     states = full_states(x)
                 w_e = self.jacobian_blocks(states, x)[0]
