@@ -121,3 +121,28 @@ def test_the_correction_hands_its_last_states_on_and_they_are_exact(monkeypatch)
     solve_static(prob.model, problem=prob, options=StaticOptions(n_steps=10, tol=1e-8))
     assert len(ends) >= 30
     assert sum(ends) >= 0.6 * len(ends)        # (all of them ended without, before)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_band_storage_solves_shuffled_matrices_with_padded_blocks(seed):
+    """Band storage forced on matrices of mixed block sizes (padded blocks, rows and
+    columns shuffled, a wide band): the same solutions as a dense solver."""
+    rng = np.random.default_rng(100 + seed)
+    sizes = rng.integers(1, 6, int(rng.integers(3, 30)))
+    start = np.concatenate([[0], np.cumsum(sizes)])
+    n = int(start[-1])
+    a = np.zeros((n, n))
+    for k in range(sizes.size):
+        r = slice(start[k], start[k + 1])
+        a[r, r] = rng.standard_normal((sizes[k], sizes[k])) + 3.0 * np.eye(sizes[k])
+        if k:
+            j = int(rng.integers(0, k))
+            a[r, start[j]:start[j + 1]] = rng.standard_normal((sizes[k], sizes[j]))
+    a = a[rng.permutation(n)][:, rng.permutation(n)]
+    rows, cols = np.nonzero(a)
+    bt = BlockTriangular(rows, cols, n, band=True)
+    assert bt.band is not None and (sizes.min() == sizes.max() or not bt.unpadded)
+    solve = bt.factorize(a[rows, cols])
+    b = rng.standard_normal(n)
+    x = solve(b)
+    assert np.abs(x - np.linalg.solve(a, b)).max() < 1e-10 * max(1.0, np.abs(x).max())
