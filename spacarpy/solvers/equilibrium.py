@@ -39,6 +39,7 @@ from spacarpy.solvers.loads import Loads, LoadState
 from spacarpy.solvers.reduced import ReducedNewton
 from spacarpy.solvers.reduced import applies as reduced_applies
 
+_EPS = float(np.finfo(float).eps)
 #: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
 _FLOOR_FACTOR = 10.0
 
@@ -95,6 +96,13 @@ class StaticProblem:
         self._states_at = None                  # (x, kernel states at x), see evaluate()
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
+        self._eu = num.rot_idx[num.euler_nodes]             # (n_eu, 4) coordinate indices
+        self._n_rigid = num.n_rigid
+        # the norms' weights, made once: forces (moments divided by the length scale) over
+        # all and over the free coordinates, increments (positions divided by it)
+        self._force_w = np.where(self.rot_mask, 1.0 / num.length_scale, 1.0)
+        self._force_w_free = self._force_w[self.free]
+        self._increment_w = np.where(self.rot_mask[self.free], 1.0, 1.0 / num.length_scale)
         # balances the constraint rows of the saddle-point matrix and sets the residual's
         # round-off floor: the largest element stiffness entry (N/m)
         smax = max([float(np.abs(g.S).max(initial=0.0)) for g in num.groups] + [0.0])
@@ -131,7 +139,8 @@ class StaticProblem:
             sigma = batch_matvec(g.S, st.e)
             if g.sigma0 is not None:            # ESIG pre-stress: sigma = sigma0 + S e
                 sigma += g.sigma0
-            sigma[g.rigid_elem, g.rigid_mode] = mu[g.rigid_slice]
+            if g.rigid_elem.size:
+                sigma[g.rigid_elem, g.rigid_mode] = mu[g.rigid_slice]
             states.append(st)
             sigmas.append(sigma)
             forces.append((sigma[:, None, :] @ st.D)[:, 0, :])
@@ -139,11 +148,14 @@ class StaticProblem:
         # keeps a persistent state that commit() updates)
         self._states_at = None if self.has_commit else (x.copy(), states)
         t1 = time.perf_counter()
-        f_int = np.zeros(num.n_coord)
-        for g, f_el in zip(num.groups, forces):
+        groups = num.groups
+        f_int = (scatter_add(num.n_coord, groups[0].idx, forces[0]) if groups
+                 else np.zeros(num.n_coord))
+        for g, f_el in zip(groups[1:], forces[1:]):
             f_int += scatter_add(num.n_coord, g.idx, f_el)
-        q_eu = x[num.rot_idx[num.euler_nodes]]
-        f_int[num.rot_idx[num.euler_nodes]] += 2.0 * q_eu * mu[num.n_rigid:, None]
+        eu = self._eu
+        q_eu = x[eu]
+        f_int[eu] += 2.0 * q_eu * mu[self._n_rigid:, None]
         f_ext = load.force.copy()
         loads = self.loads
         if loads.moment_rot.size:
@@ -163,8 +175,8 @@ class StaticProblem:
                 gk.append(kg)
         r = (f_int - f_ext)[self.free]
         c = np.concatenate([st.e[g.rigid_elem, g.rigid_mode] - load.rigid_target[g.rigid_slice]
-                            for g, st in zip(num.groups, states)]
-                           + [np.sum(q_eu * q_eu, axis=1) - 1.0])
+                            for g, st in zip(num.groups, states) if g.rigid_elem.size]
+                           + [(q_eu * q_eu).sum(axis=1) - 1.0])
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
         return Evaluation(states=states, sigmas=sigmas, r=r, c=c, f_int=f_int, f_ext=f_ext,
@@ -218,7 +230,7 @@ class StaticProblem:
         if material_only:
             euler_diag, mom_blocks = np.zeros(num.euler_nodes.size), np.zeros((n_m, 4, 4))
         else:
-            euler_diag = 2.0 * mu[num.n_rigid:]
+            euler_diag = 2.0 * mu[self._n_rigid:]
             mom_blocks = -2.0 * moment_matrix(ev.load.moment) if n_m else np.zeros((0, 4, 4))
         return k_el, euler_diag, mom_blocks
 
@@ -226,7 +238,7 @@ class StaticProblem:
     def force_level(self, *forces) -> float:
         """Largest entry of the given force vectors (n_coord,), the generalized forces on
         Euler parameters (moments) divided by the length scale."""
-        w = np.where(self.rot_mask, 1.0 / self.num.length_scale, 1.0)
+        w = self._force_w
         return max([float(np.abs(f * w).max(initial=0.0)) for f in forces] + [0.0])
 
     def residual_norm(self, r, c, f_int, f_ext, level: float | None = None
@@ -240,20 +252,17 @@ class StaticProblem:
         the largest of the model's size and its distance from the origin); a residual below
         it cannot be reduced further by any iteration.
         """
-        L = self.num.length_scale
-        w = np.where(self.rot_mask, 1.0 / L, 1.0)
         if level is None:
             level = self.force_level(f_ext, f_int)
-        rr = np.abs(r * w[self.free]).max(initial=0.0)
+        rr = np.abs(r * self._force_w_free).max(initial=0.0)
         rel = rr / level if level > 0 else (0.0 if rr == 0 else np.inf)
         cw = self.constraint_weight
-        floor = (_FLOOR_FACTOR * np.finfo(float).eps * getattr(self, "scale", 0.0)
+        floor = (_FLOOR_FACTOR * _EPS * getattr(self, "scale", 0.0)
                  * self.position_magnitude / level if level > 0 else 0.0)
         return max(rel, np.abs(c * cw).max(initial=0.0)), floor
 
     def increment_norm(self, dx) -> float:
-        w = np.where(self.rot_mask[self.free], 1.0, 1.0 / self.num.length_scale)
-        return float(np.abs(dx * w).max(initial=0.0))
+        return float(np.abs(dx * self._increment_w).max(initial=0.0))
 
     # ------------------------------------------------------------------ reactions
     def _reaction_setup(self):

@@ -94,7 +94,7 @@ class SquareJacobian:
 
         def step(g_e, g_q, w_e, wq):
             out = solve(np.concatenate([v.ravel() for v in g_e] + [g_q]))
-            if not np.all(np.isfinite(out)):
+            if not np.isfinite(out).all():
                 raise FactorizationError("non-finite Gauss-Newton step")
             return out
         return step
@@ -169,7 +169,10 @@ class KinematicCorrector:
         self.system = (SquareJacobian(num) if SquareJacobian.applies(num)
                        else NormalEquations(num))
         self.free = ~num.fixed_mask
+        self.eu = num.rot_idx[num.euler_nodes]
+        self.inv_scale = [1.0 / g.scale for g in num.groups]
         self._solve = None                    # the step() of the kept factorization
+        self._rate = None                     # the last contraction of the mismatch
         # round-off level of the scaled deformation mismatch: the coordinates' round-off
         # relative to the shortest element scale
         min_scale = min([float(np.min(g.scale, initial=np.inf)) for g in num.groups]
@@ -177,14 +180,15 @@ class KinematicCorrector:
         self.kin_floor = 64 * np.finfo(float).eps * num.length_scale / (
             min_scale if np.isfinite(min_scale) and min_scale > 0 else 1.0)
 
-    def _stationary(self, states, x, g_e, g_q) -> bool:
+    def _stationary(self, states, x, g_e, g_q, w_e=None) -> bool:
         """Whether x is a least-squares solution of the targets to round-off: the
         Gauss-Newton step there (with the kept factorization and the current W, which the
         normal equations' right side needs) is below the round-off level
         :attr:`kin_floor` (positions relative to the length scale, Euler parameters as they
-        are)."""
-        eu = self.num.rot_idx[self.num.euler_nodes]
-        step = self._solve(g_e, g_q, self.jacobian_blocks(states, x)[0], 2.0 * x[eu])
+        are); ``w_e`` the element blocks of W at x where the caller has them."""
+        if w_e is None:
+            w_e = self.jacobian_blocks(states, x)[0]
+        step = self._solve(g_e, g_q, w_e, 2.0 * x[self.eu])
         rot = self.num.is_rotation_coord[self.free]
         size = max(float(np.abs(step[~rot]).max(initial=0.0)) / self.num.length_scale,
                    float(np.abs(step[rot]).max(initial=0.0)))
@@ -193,8 +197,8 @@ class KinematicCorrector:
     def jacobian_blocks(self, states, x):
         """The Jacobian W at x by blocks: ``D / scale`` per element group and the Euler rows
         ``2 q`` (see :class:`SquareJacobian`)."""
-        return ([st.D * (1.0 / g.scale)[:, :, None] for g, st in zip(self.num.groups, states)],
-                2.0 * x[self.num.rot_idx[self.num.euler_nodes]])
+        return ([st.D * w[:, :, None] for w, st in zip(self.inv_scale, states)],
+                2.0 * x[self.eu])
 
     def regular(self, states, x) -> bool:
         """Whether W at x is square, block triangular and regular (see
@@ -233,14 +237,14 @@ class KinematicCorrector:
         <spacarpy.solvers.equilibrium.StaticProblem.increment_norm>`).
         """
         num = self.num
-        eu = num.rot_idx[num.euler_nodes]
+        eu = self.eu
         xd = np.zeros(num.n_coord)
         xd[self.free] = dx
         targets = [st.e + batch_matvec(st.D, xd[g.idx]) for g, st in zip(num.groups, st_old)]
         if rigid_target is not None:          # move prescribed deformations to new values
             for g, t in zip(num.groups, targets):
                 t[g.rigid_elem, g.rigid_mode] = rigid_target[g.rigid_slice]
-        inv_scale = [1.0 / g.scale for g in num.groups]
+        inv_scale = self.inv_scale
 
         def state_of(g, x):
             return g.kind.state(x[g.idx], g.ref, self.variant, g.prev)
@@ -261,7 +265,8 @@ class KinematicCorrector:
                      g.kind.deformations(x[g.idx], g.ref, self.variant, g.prev)
                      for g in num.groups]
             g_e = [(t - ei) * w for t, ei, w in zip(targets, e, inv_scale)]
-            g_q = 1.0 - np.sum(x[eu] ** 2, axis=1)
+            q = x[eu]
+            g_q = 1.0 - (q * q).sum(axis=1)
             worst = max([np.abs(v).max(initial=0.0) for v in g_e]
                         + [np.abs(g_q).max(initial=0.0)])
             return states, g_e, g_q, (worst if np.isfinite(worst) else np.inf)
@@ -275,26 +280,38 @@ class KinematicCorrector:
         done = None
         worst0 = prev = back = None
         n_factor, reused = 0, False
+        rate = self._rate
         for _ in range(max_iter):
             t0 = time.perf_counter()
-            states, g_e, g_q, worst = mismatch(
-                x, self._solve is None or kin.jacobian_each_step)
+            full = self._solve is None or kin.jacobian_each_step
+            if not full and return_states and prev is not None and rate is not None:
+                # the last mismatch's states are the next residual's: where the last
+                # contraction says this one ends the iterations, compute them whole (a guess
+                # that errs costs the difference of the two kernels once, a miss the states
+                # once more; e is the same either way, so the iterations never change)
+                full = prev * rate <= max(self.kin_floor, 1e-9 * worst0)
+            states, g_e, g_q, worst = mismatch(x, full)
+            if prev is not None and prev > 0:
+                rate = self._rate = worst / prev
             worst0 = worst if worst0 is None else worst0
             log.debug("kinematic correction: mismatch %.3g (matrix %s)", worst,
                       "kept" if self._solve is not None else "new")
             if worst <= max(self.kin_floor, 1e-9 * worst0):
                 done = states
                 break
+            w_e = None                       # W's element blocks at x, once made
             if prev is not None and not worst <= 0.05 * prev:
-                if kin.jacobian_each_step and self._solve is not None and self._stationary(
-                        states, x, g_e, g_q):
-                    # least squares: the mismatch has stopped falling because x is the
-                    # closest fit to the targets; another step would not move it
-                    done = states
-                    break
+                if kin.jacobian_each_step and self._solve is not None:
+                    w_e = self.jacobian_blocks(states, x)[0]
+                    if self._stationary(states, x, g_e, g_q, w_e):
+                        # least squares: the mismatch has stopped falling because x is the
+                        # closest fit to the targets; another step would not move it
+                        done = states
+                        break
                 if reused:
                     # the kept matrix was too stale: undo its step, refactorize there
                     x, states, g_e, g_q, worst = back
+                    w_e = None
                     self._solve = None
                 elif n_factor >= 2:
                     # two fresh Gauss-Newton steps and still no fast contraction: targets
@@ -306,8 +323,7 @@ class KinematicCorrector:
                     self._solve = None        # far from the targets: a fresh matrix here
             reused = self._solve is not None
             wq = 2.0 * x[eu]
-            w_e = None
-            if not reused or kin.jacobian_each_step:
+            if w_e is None and (not reused or kin.jacobian_each_step):
                 if states is None:
                     states = full_states(x)
                 w_e = self.jacobian_blocks(states, x)[0]

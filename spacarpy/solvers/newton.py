@@ -88,7 +88,7 @@ def newton(prob, x, mu, load: LoadState, opts, states=None):
             prob.timings.solve += time.perf_counter() - t0
             dx = dz[: prob.pattern.n_x]
             dmu = dz[prob.pattern.n_x:] * prob.scale
-        if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
+        if not (np.isfinite(dx).all() and np.isfinite(dmu).all()):
             raise StepFailed("non-finite increment", history)
         dx_norm = prob.increment_norm(dx)
         if dx_norm > 0.5 and prob.num.n_unknown:

@@ -24,6 +24,7 @@ bordered system with SuperLU instead.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from functools import partial
 
@@ -40,6 +41,17 @@ from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
 log = logging.getLogger(__name__)
 
 
+_EYE4 = np.eye(4)
+#: ``[q, Lambda(q)^T]`` (4, 4) flattened = ``q @ _BASIS_FORM``: (4, 16).
+_BASIS_FORM = np.stack([np.concatenate([e[:, None], lambda_matrix(e).T], axis=1).ravel()
+                        for e in np.eye(4)])
+
+
+def _norm(v: np.ndarray) -> float:
+    """The 2-norm of a vector, as ``np.linalg.norm`` computes it (without its overhead)."""
+    return math.sqrt(v @ v)
+
+
 def _rotate_blocks(k, *bases, starts):
     """``B_e^T k B_e`` for blocks k (n, n_ldof, n_ldof) whose Euler quadruples start at the
     local slots ``starts``, with the bases (n, 4, 4) of those nodes (k is overwritten)."""
@@ -53,6 +65,12 @@ def _element_products(k, idx, z, shift):
     """``k_e z_e`` (n, n_ldof) with ``z_e = z[idx_e]``, the position triples starting at the
     local slots ``shift`` taken relative to the first of them (see ReducedNewton._k_times)."""
     return batch_matvec(k, relative_positions(z[idx], shift))
+
+
+def _radial_rows(k, idx, z, shift, starts):
+    """The rows ``starts`` of ``k_e z_e`` (n, len(starts)), z_e as in
+    :func:`_element_products`."""
+    return batch_matvec(k[:, starts], relative_positions(z[idx], shift))
 
 
 def applies(prob) -> bool:
@@ -104,11 +122,17 @@ class ReducedNewton:
         self.nodes = num.euler_nodes                       # orientation-node indices
         self.eu = num.rot_idx[self.nodes]                  # (n_eu, 4) coordinate indices
         self.slots = _quaternion_slots(num)
+        self.n_rigid = num.n_rigid                         # (0 where it applies)
         node_of = np.full(num.n_coord, -1, dtype=np.int64)
         node_of[self.eu[:, 0]] = np.arange(self.nodes.size)
         # for each group and quaternion slot: which Euler node (index into self.nodes)
         self.slot_nodes = [[node_of[g.idx[:, s]] for s in starts]
                            for g, starts in zip(num.groups, self.slots)]
+        # the same, (element, slot) flattened, a fixed orientation node (-1) in an extra
+        # bin (see _radial_times)
+        self.slot_flat = [np.where(f < 0, self.nodes.size, f) for f in
+                          (np.stack(nodes, axis=1).ravel() if nodes else
+                           np.zeros(0, dtype=np.int64) for nodes in self.slot_nodes)]
         # reduced unknowns: the free coordinates without the radial (lambda0) slot of each
         # Euler node, whose component follows from the constraint
         keep = ~num.fixed_mask
@@ -125,12 +149,15 @@ class ReducedNewton:
         self._last = None                       # see last and chord
         self.negative_pivots = None             # see step
 
-    def basis(self, q: np.ndarray) -> np.ndarray:
-        """B(q) = [q/|q|, Lambda(q)^T/|q|], (n, 4, 4) orthonormal for every q != 0."""
-        nq = np.linalg.norm(q, axis=1)
-        b = np.empty(q.shape + (4,))
-        b[:, :, 0] = q / nq[:, None]
-        b[:, :, 1:] = lambda_matrix(q).transpose(0, 2, 1) / nq[:, None, None]
+    def basis(self, q: np.ndarray, nq: np.ndarray | None = None) -> np.ndarray:
+        """B(q) = [q/|q|, Lambda(q)^T/|q|], (n, 4, 4) orthonormal for every q != 0 (``nq``:
+        the norms |q| where the caller has them)."""
+        if nq is None:
+            nq = np.linalg.norm(q, axis=1)
+        # [q, Lambda(q)^T] is linear in q, its entries signed copies of q's: one product
+        # with a constant (exact), then the division
+        b = (q @ _BASIS_FORM).reshape(q.shape + (4,))
+        b /= nq[:, None, None]
         return b
 
     def _rotate(self, k_el, b):
@@ -170,6 +197,36 @@ class ReducedNewton:
             kz[radial] += euler_diag * z[radial]
         return kz
 
+    def _radial_columns(self, k_rot, euler_diag, zr):
+        """``K z`` (n_coord,) for a z whose only entries are ``zr`` (n_eu,) on the radial
+        slots (the particular solution of the Euler constraints): the radial columns of the
+        element blocks, the Euler-node diagonal on the radial slots (what :meth:`_k_times`
+        gives for such a z, without its products with zeros)."""
+        num = self.prob.num
+        kz = np.zeros(num.n_coord)
+        zr_all = np.append(zr, 0.0)          # a fixed orientation node (-1): no entry
+        for g, k, starts, nodes in zip(num.groups, k_rot, self.slots, self.slot_nodes):
+            if starts.size:
+                ke = k[:, :, starts[0]] * zr_all[nodes[0]][:, None]
+                for s, nd in zip(starts[1:], nodes[1:]):
+                    ke += k[:, :, s] * zr_all[nd][:, None]
+                kz += scatter_add(num.n_coord, g.idx, ke)
+        kz[self.eu[:, 0]] += euler_diag * zr
+        return kz
+
+    def _radial_times(self, k_rot, euler_diag, z, invariant: bool = True):
+        """``(K z)`` on the radial slots only (n_eu,): the radial rows of :meth:`_k_times`,
+        without the other rows of the element products."""
+        num = self.prob.num
+        out = euler_diag * z[self.eu[:, 0]]
+        for g, k, starts, nodes in zip(num.groups, k_rot, self.slots, self.slot_flat):
+            if starts.size:
+                shift = g.kind.position_starts if invariant else np.zeros(0, dtype=np.int64)
+                rows = in_chunks(partial(_radial_rows, z=z, shift=shift, starts=starts),
+                                 len(k), k, g.idx)
+                out += np.bincount(nodes, weights=rows.ravel(), minlength=out.size + 1)[:-1]
+        return out
+
     def _reduced_times(self, k_rot, euler_diag, y, invariant: bool = True):
         """The reduced matrix times y (over the reduced unknowns), element by element."""
         z = np.zeros(self.prob.num.n_coord)
@@ -196,24 +253,22 @@ class ReducedNewton:
         after three misses in a row that test is no longer made. The accuracy reported and
         checked at the end is CG's updated residual (GMRES's true one)."""
         y = solve(rhs)
-        b_norm = np.linalg.norm(rhs)
+        b_norm = _norm(rhs)
         if b_norm == 0.0:
             return y
         tol = 1e-10 * b_norm
         if quick_matvec is not None and self._quick_misses < 3:
-            if np.linalg.norm(rhs - quick_matvec(y)) <= tol:
+            if _norm(rhs - quick_matvec(y)) <= tol:
                 self._quick_misses = 0
                 return y
             self._quick_misses += 1      # three in a row: a model that needs the iterations
         r = rhs - matvec(y)
-        if np.linalg.norm(r) <= tol:
+        if _norm(r) <= tol:
             return y
         p = z = solve(r)
         rz = r @ z
         method = "conjugate gradients"
         for it in range(max_iter):  # noqa: B007 (it is logged after the loop)
-            if np.linalg.norm(r) <= tol:
-                break
             ap = matvec(p)
             pap = p @ ap
             if not pap > 0.0 or not rz > 0.0:
@@ -229,10 +284,13 @@ class ReducedNewton:
             alpha = rz / pap
             y = y + alpha * p
             r = r - alpha * ap
+            if _norm(r) <= tol:          # (before the solve the next step needs)
+                it += 1
+                break
             z = solve(r)
             rz, rz_old = r @ z, rz
             p = z + (rz / rz_old) * p
-        final = np.linalg.norm(r) / b_norm          # (CG's updated residual, or GMRES's)
+        final = _norm(r) / b_norm          # (CG's updated residual, or GMRES's)
         log.debug("%s: %d iterations, relative residual %.2e", method, it, final)
         if not final <= 1e-3:
             return None
@@ -245,11 +303,11 @@ class ReducedNewton:
         r_full = (ev.f_int - ev.f_ext) if residual is None else residual.copy()
         r_full[self.eu] = np.einsum("nab,na->nb", b, r_full[self.eu])
         z = np.zeros(num.n_coord)
-        c_eu = ev.c[num.n_rigid:]
+        c_eu = ev.c[self.n_rigid:]
         z[self.eu[:, 0]] = -c_eu / (2.0 * nq)
         # K z for that particular solution, element by element (only radial entries of z
         # are nonzero), plus the Euler-node diagonal 2 mu
-        rhs = -(r_full + self._k_times(k_rot, euler_diag, z, invariant=invariant))[self.keep]
+        rhs = -(r_full + self._radial_columns(k_rot, euler_diag, z[self.eu[:, 0]]))[self.keep]
         return r_full, z, rhs
 
     @property
@@ -270,17 +328,17 @@ class ReducedNewton:
         k_rot, euler_diag, invariant, solve = last
         q = x[self.eu]
         nq = np.linalg.norm(q, axis=1)
-        b = self.basis(q)
+        b = self.basis(q, nq)
         r_full, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
         try:
             z[self.keep] = solve(rhs)
         except FactorizationError:
             return None
         radial = self.eu[:, 0]
-        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
-            radial]) / (2.0 * nq)
+        dmu = -(r_full[radial] + self._radial_times(k_rot, euler_diag, z, invariant)) / (
+            2.0 * nq)
         z[self.eu] = np.einsum("nab,nb->na", b, z[self.eu])
-        return z[self.free], np.concatenate([np.zeros(self.prob.num.n_rigid), dmu])
+        return z[self.free], np.concatenate([np.zeros(self.n_rigid), dmu])
 
     def step(self, ev, x, mu, k_el, euler_diag, residual=None, invariant: bool = True,
              load=None):
@@ -302,11 +360,11 @@ class ReducedNewton:
         t0 = time.perf_counter()
         q = x[self.eu]
         nq = np.linalg.norm(q, axis=1)
-        b = self.basis(q)
+        b = self.basis(q, nq)
         k_rot = self._rotate(k_el, b)
         r_full, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
         self._last = None
-        diag = np.broadcast_to(euler_diag[:, None, None] * np.eye(4), (self.nodes.size, 4, 4))
+        diag = np.broadcast_to(euler_diag[:, None, None] * _EYE4, (self.nodes.size, 4, 4))
         t1 = time.perf_counter()
         a = self.pattern.assemble(k_rot + [diag])
         t2 = time.perf_counter()
@@ -342,17 +400,17 @@ class ReducedNewton:
         if load is not None:
             zb = np.zeros(num.n_coord)
             zb[self.keep] = yb
-            b_mu = (l_full[radial] - self._k_times(k_rot, euler_diag, zb,
-                                                   invariant=invariant)[radial]) / (2.0 * nq)
+            b_mu = (l_full[radial] - self._radial_times(k_rot, euler_diag, zb,
+                                                        invariant)) / (2.0 * nq)
             zb[self.eu] = np.einsum("nab,nb->na", b, zb[self.eu])
         z[self.keep] = y
         # back to the Euler parameters, and the multiplier increments from the radial rows:
         # (K z)_radial + 2 |q| dmu = -r_radial
-        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
-            radial]) / (2.0 * nq)
+        dmu = -(r_full[radial] + self._radial_times(k_rot, euler_diag, z, invariant)) / (
+            2.0 * nq)
         dq = np.einsum("nab,nb->na", b, z[self.eu])
         z[self.eu] = dq
-        step = z[self.free], np.concatenate([np.zeros(num.n_rigid), dmu])
+        step = z[self.free], np.concatenate([np.zeros(self.n_rigid), dmu])
         if load is None:
             return step
-        return step + (zb[self.free], np.concatenate([np.zeros(num.n_rigid), b_mu]))
+        return step + (zb[self.free], np.concatenate([np.zeros(self.n_rigid), b_mu]))

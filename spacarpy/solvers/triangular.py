@@ -24,7 +24,11 @@ a unit lower triangular matrix in the block order, with the pattern of W. A solv
 ``x = L^-1 (B^-1 b)`` by scipy's compiled sparse triangular solve, or, up to
 :data:`DENSE_MAX` unknowns, by LAPACK's dense ``dtrtrs`` on L filled into a dense array
 (scipy's ``spsolve_triangular`` spends about 100 us per call on checks and copies, more
-than the arithmetic of a small model; the measurements are at :data:`DENSE_MAX`).
+than the arithmetic of a small model; the measurements are at :data:`DENSE_MAX`). Where L
+is banded in the block order (a chain: each block row reaches back to the block before
+it), the dense path keeps only the band, in LAPACK's band storage, and solves with BLAS's
+``dtbsv``: 7 against 46 us for the 700 unknowns of a 100-element cantilever, and no
+(n, n) array to fill at each factorization.
 Where a diagonal block is singular the whole matrix is (its determinant is the product of
 the blocks'), and :class:`~spacarpy.solvers.sparse.FactorizationError` is raised as SuperLU
 would.
@@ -36,7 +40,7 @@ from functools import partial
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from spacarpy.elements.chunks import in_chunks
@@ -57,7 +61,8 @@ class BlockTriangular:
     or its largest diagonal block has more than ``max_block`` rows (the dense block
     inverses would then cost more than a sparse LU)."""
 
-    def __init__(self, rows, cols, n: int, max_block: int = 16, dense: bool | None = None):
+    def __init__(self, rows, cols, n: int, max_block: int = 16, dense: bool | None = None,
+                 band: bool | None = None):
         rows = np.asarray(rows, dtype=np.int64)
         cols = np.asarray(cols, dtype=np.int64)
         self.n = n
@@ -96,6 +101,7 @@ class BlockTriangular:
         self.rhs_rows[block, local] = np.arange(n)
         self.rhs_valid = np.zeros((n_blocks, s), dtype=bool)
         self.rhs_valid[block, local] = True
+        self.unpadded = bool(self.rhs_valid.all())
 
         # diagonal-block entries -> (block, i, j); padding rows/columns carry 1 on the
         # diagonal so that every padded block is invertible exactly when the true one is
@@ -138,9 +144,18 @@ class BlockTriangular:
         # the dense path (``dense``: forced on or off; None: up to DENSE_MAX unknowns):
         # the flat positions of L's entries in an (n, n) Fortran-ordered array
         self.dense = n <= DENSE_MAX if dense is None else bool(dense)
+        # ... and there, where L is banded in the block order (a chain of elements: each
+        # block row reaches back to the block before it), in LAPACK's band storage
+        # (``band``: forced on or off; None: where the band is less than half of L)
+        self.band = None                           # the lower bandwidth, where banded
         if self.dense:
             l_col = np.repeat(np.arange(n), np.diff(self.l_indptr))
-            self.l_flat = self.l_indices.astype(np.int64) + n * l_col
+            kd = int((self.l_indices - l_col).max(initial=0))
+            if (kd + 1 < n // 2) if band is None else band:
+                self.band = kd
+                self.l_flat = self.l_indices.astype(np.int64) - l_col + (kd + 1) * l_col
+            else:
+                self.l_flat = self.l_indices.astype(np.int64) + n * l_col
 
     def _diagonal_blocks(self, data) -> np.ndarray:
         """The dense diagonal blocks (n_blocks, s, s) of the matrix with entries ``data``,
@@ -175,7 +190,14 @@ class BlockTriangular:
         products = (inv @ below).reshape(-1)[self.product_at]
         l_data = np.concatenate([products, np.ones(self.n)])[self.l_source]
         rhs_rows, rhs_valid, col_order = self.rhs_rows, self.rhs_valid, self.col_order
-        if self.dense:
+        if self.band is not None:
+            kd = self.band
+            ab = np.zeros((kd + 1, self.n), order="F")
+            ab.reshape(-1, order="F")[self.l_flat] = l_data
+
+            def triangular(rhs):
+                return blas.dtbsv(kd, ab, rhs, lower=1, diag=1, overwrite_x=1)
+        elif self.dense:
             dense = np.zeros((self.n, self.n), order="F")
             dense.reshape(-1, order="F")[self.l_flat] = l_data
 
@@ -192,6 +214,17 @@ class BlockTriangular:
                 # (L holds its unit diagonal, so the solver's setdiag(1) leaves it as it is)
                 return spla.spsolve_triangular(lower, rhs, lower=True, unit_diagonal=True,
                                                overwrite_A=True, overwrite_b=True)
+
+        if self.unpadded:                          # blocks of one size: no padding
+            rhs_rows = rhs_rows.reshape(-1)
+
+            def solve(b):
+                bb = np.asarray(b, dtype=float)[rhs_rows].reshape(inv.shape[:2] + (1,))
+                y = triangular((inv @ bb).reshape(-1))       # in block order
+                x = np.empty(self.n)
+                x[col_order] = y
+                return x
+            return solve
 
         def solve(b):
             bb = np.where(rhs_valid, np.asarray(b, dtype=float)[rhs_rows], 0.0)
