@@ -110,32 +110,52 @@ class RotatingFrame:
         rate about its own axis (the least-norm solution), nodes that all coincide none at
         all. A kinematic fit, every node counting alike: nodal masses need not be where the
         mass is (a rigid rod's sits on one end node and its orientation)."""
+        return self.motion(*self.fit(x, v))
+
+    def fit(self, x: np.ndarray, v: np.ndarray):
+        """``(omega, c, u)`` of :meth:`rate` (the rate about the centroid, the centroid and
+        its velocity), without the screw axis: what a step needs to decide whether its
+        frame turns at all (:meth:`motion` completes it). The 3 x 3 algebra is done on
+        Python floats: at every step of a model that does not turn fast this is all the
+        frame costs, and numpy's fixed cost per call was most of it."""
         p, vel = x[self.pos], v[self.pos]
-        c, u = p.mean(axis=0), vel.mean(axis=0)
-        r, du = p - c, vel - u
-        rtu = r.T @ du                               # H = sum of r x du, from its skew part
-        H = np.array([rtu[1, 2] - rtu[2, 1], rtu[2, 0] - rtu[0, 2], rtu[0, 1] - rtu[1, 0]])
-        rr = np.sum(r * r, axis=1)
+        n = len(p)
+        c, u = p.sum(axis=0) / n, vel.sum(axis=0) / n
+        r = p - c
+        # r^T r and r^T du (du = vel - u; r sums to zero, so r^T u vanishes) in one product
+        m = (r.T @ np.concatenate((r, vel - u), axis=1)).tolist()
+        (a00, a01, a02, b00, b01, b02), (_, a11, a12, b10, b11, b12), \
+            (_, _, a22, b20, b21, b22) = m
+        # H = sum of r x du, from the skew part of r^T du
+        h0, h1, h2 = b12 - b21, b20 - b02, b01 - b10
         # the nodes' spread against their distance from the origin: below round-off
         # they coincide and show no rotation
-        tiny = 1e-20 * (len(p) * float(np.max(np.sum(p * p, axis=1))) + 1e-300)
+        tiny = 1e-20 * (n * float(np.einsum("ij,ij->i", p, p).max()) + 1e-300)
         if self.planar:
-            izz = float(np.sum(r[:, 0] ** 2 + r[:, 1] ** 2))
-            omega = np.array([0.0, 0.0, H[2] / izz if izz > tiny else 0.0])
-        else:
-            inertia = np.eye(3) * float(rr.sum()) - r.T @ r
-            lam, vec = np.linalg.eigh(inertia)
-            # a rate about an axis the nodes hardly spread across (a nearly straight beam's
-            # own axis) is not seen by their velocities: the fit leaves it out rather
-            # than divide a small moment by a small spread
-            keep = lam > max(SPREAD * float(lam[-1]), tiny)
-            omega = vec[:, keep] @ ((vec[:, keep].T @ H) / lam[keep])
+            izz = a00 + a11
+            omega = np.array([0.0, 0.0, h2 / izz if izz > tiny else 0.0])
+            return omega, c, u
+        tr = a00 + a11 + a22
+        inertia = np.array([[tr - a00, -a01, -a02], [-a01, tr - a11, -a12],
+                            [-a02, -a12, tr - a22]])
+        lam, vec = np.linalg.eigh(inertia)
+        # a rate about an axis the nodes hardly spread across (a nearly straight beam's
+        # own axis) is not seen by their velocities: the fit leaves it out rather
+        # than divide a small moment by a small spread
+        keep = lam > max(SPREAD * float(lam[-1]), tiny)
+        vk = vec[:, keep]
+        omega = vk @ ((np.array([h0, h1, h2]) @ vk) / lam[keep])
+        return omega, c, u
+
+    def motion(self, omega: np.ndarray, c: np.ndarray, u: np.ndarray) -> Motion:
+        """The :class:`Motion` of a fitted ``(omega, c, u)`` (:meth:`fit`): for a model with
+        held nodes (fixed or driven), which do not turn with the frame, the turn is about
+        the fitted motion's instantaneous screw axis (its point nearest to c, sliding along
+        it), so that a model pinned on that axis keeps its held nodes where the frame has
+        them."""
         w2 = float(omega @ omega)
         if self.floating or w2 == 0.0:
             return Motion(omega, c, u)
-        # held nodes (fixed or driven) do not turn with the frame: turn about the fitted
-        # motion's instantaneous screw axis (its point nearest to c, sliding along it), so
-        # that a model pinned on that axis keeps its held nodes where the frame has them
         return Motion(omega, c + np.cross(omega, u) / w2, (u @ omega) / w2 * omega)
 
     def _shift(self, z: np.ndarray, offset: np.ndarray) -> np.ndarray:

@@ -56,6 +56,26 @@ def _tiled(data, reps: int):
     return np.concatenate([data] * reps)
 
 
+#: Stacked copies of a group's reference data (:func:`_tiled`) are kept for the next call
+#: up to this many rows: the central differences of a small model's kinds without analytic
+#: convective terms (RBEAM) tile the same few elements at every residual.
+TILE_CACHE_ROWS = 4096
+
+
+def _tiler(ref, mass) -> Callable:
+    """``tiles(reps) -> (ref, mass)`` tiled ``reps`` times, kept for reuse where small."""
+    cache = {1: (ref, mass)}
+
+    def tiles(reps: int):
+        hit = cache.get(reps)
+        if hit is None:
+            hit = (_tiled(ref, reps), _tiled(mass, reps))
+            if len(mass) * reps <= TILE_CACHE_ROWS:
+                cache[reps] = hit
+        return hit
+    return tiles
+
+
 class Inertia:
     """Mass matrix and inertia forces of a model over all ``n_coord`` coordinates."""
 
@@ -108,8 +128,10 @@ class Inertia:
         one vectorized kernel call)."""
         out = []
         for g in self.groups:
-            def mass_of(xl, reps, g=g):
-                return g.kind.mass(xl, _tiled(g.ref, reps), _tiled(g.mass, reps), self.rotary)
+            tiles = _tiler(g.ref, g.mass)
+
+            def mass_of(xl, reps, g=g, tiles=tiles):
+                return g.kind.mass(xl, *tiles(reps), self.rotary)
             # local Euler-parameter coordinates: the only ones the mass matrix depends on
             rot = np.concatenate([np.arange(4) + sum(3 if t == "pos" else 4
                                                      for t in g.kind.slots[:j])
@@ -117,13 +139,11 @@ class Inertia:
                                  + [np.zeros(0, np.int64)]).astype(np.int64)
             conv_of = force_of = None
             if g.kind.convective is not None:
-                def conv_of(xl, vl, reps, g=g):
-                    return g.kind.convective(xl, vl, _tiled(g.ref, reps), _tiled(g.mass, reps),
-                                             self.rotary)
+                def conv_of(xl, vl, reps, g=g, tiles=tiles):
+                    return g.kind.convective(xl, vl, *tiles(reps), self.rotary)
             if g.kind.inertia_force is not None:
-                def force_of(xl, vl, al, reps, g=g):
-                    return g.kind.inertia_force(xl, vl, al, _tiled(g.ref, reps),
-                                                _tiled(g.mass, reps), self.rotary)
+                def force_of(xl, vl, al, reps, g=g, tiles=tiles):
+                    return g.kind.inertia_force(xl, vl, al, *tiles(reps), self.rotary)
             out.append(_Batch(mass_of, g.idx, rot, conv_of, force_of))
         pm, jr = self.point_mass, self.rot_inertia
         out.append(_Batch((lambda xl, reps: _tiled(pm, reps)[:, None, None] * np.eye(3)),
