@@ -134,6 +134,6 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
 def tangent_part(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     """Rates (n, 4) of Euler parameters q (n, 4) without their component along q: the rates
     of a unit quaternion satisfy ``q . dq = 0``; the radial part only changes the length."""
-    qq = np.sum(q * q, axis=-1, keepdims=True)
-    return qd - np.sum(q * qd, axis=-1, keepdims=True) / qq * q
+    qq = (q * q).sum(axis=-1, keepdims=True)          # (methods: no dispatch wrapper)
+    return qd - (q * qd).sum(axis=-1, keepdims=True) / qq * q
 

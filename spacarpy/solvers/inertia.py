@@ -199,19 +199,21 @@ class Inertia:
         Newton matrix needs it)."""
         v = self.physical(x, v)
         n = self.num.n_coord
-        out, force = [], np.zeros(n)
+        out, force = [], None
         for b in self.batches:
-            xl, vl, al = x[b.idx], v[b.idx], a[b.idx]
-            if not xl.shape[0]:
-                out.append(np.zeros((0, xl.shape[1], xl.shape[1])))
+            idx = b.idx
+            if not idx.shape[0]:                     # (no gathers for an empty batch)
+                out.append(np.zeros((0, idx.shape[1], idx.shape[1])))
                 continue
+            xl, vl, al = x[idx], v[idx], a[idx]
             if not blocks and b.force_of is not None:
                 m, f = None, b.force_of(xl, vl, al, 1)
             else:
                 m, f = self._local(b, xl, vl, al, 1)
             out.append(m)
-            force += scatter_add(n, b.idx, f)
-        return out, force
+            f = scatter_add(n, idx, f)
+            force = f if force is None else force + f
+        return out, np.zeros(n) if force is None else force
 
     def complete(self, x: np.ndarray, blocks: list) -> list:
         """The mass blocks of :meth:`forces` with those it left out (None) evaluated at x."""
@@ -313,9 +315,9 @@ class Inertia:
         v = self.physical(x, v)
         total = 0.0
         for b in self.batches:
-            xl, vl = x[b.idx], v[b.idx]
-            if not xl.shape[0]:
+            if not b.idx.shape[0]:
                 continue
+            xl, vl = x[b.idx], v[b.idx]
             if b.force_of is not None:
                 mv = b.force_of(xl, np.zeros_like(vl), vl, 1)
             else:

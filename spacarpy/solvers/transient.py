@@ -218,7 +218,10 @@ class TransientProblem:
         to the next and kick the stiff axial modes, which nothing damps at ``RHOINF 1``."""
         if not self.opts.rotating_frame or not self.frame.usable:
             return None
-        omega, centre, velocity = self.frame.fit(x, v)
+        fit = self.frame.fit_above(x, v, FRAME_MIN_TURN / h)
+        if fit is None:                  # surely turns by less than FRAME_MIN_TURN
+            return None
+        omega, centre, velocity = fit
         turn = math.sqrt(float(omega @ omega)) * h
         if turn <= FRAME_MIN_TURN:
             return None
@@ -704,10 +707,10 @@ def _gauge(num, x, v, a, a_tilde):
         return
     q = x[ri]
     v[ri] = qd = tangent_part(q, v[ri])
-    qq = np.sum(q * q, axis=1, keepdims=True)
-    centripetal = -np.sum(qd * qd, axis=1, keepdims=True) / qq
+    qq = (q * q).sum(axis=1, keepdims=True)
+    centripetal = -(qd * qd).sum(axis=1, keepdims=True) / qq
     for acc in (a, a_tilde):
-        acc[ri] += (centripetal - np.sum(q * acc[ri], axis=1, keepdims=True) / qq) * q
+        acc[ri] += (centripetal - (q * acc[ri]).sum(axis=1, keepdims=True) / qq) * q
 
 
 def _simplified_norm(prob, kept, ev, x, r) -> float:
