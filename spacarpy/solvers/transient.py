@@ -191,6 +191,10 @@ class TransientProblem:
         self.num = self.prob.num
         self.inertia = Inertia(model, self.num, rotary=opts.rotary_inertia)
         self.free = self.prob.free
+        # the free coordinates as indices (a boolean mask costs a search per use) and
+        # which of them are Euler parameters
+        self.free_idx = np.flatnonzero(self.free)
+        self.free_rot = self.prob.rot_mask[self.free]
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
         self.level = 0.0                 # largest force level of the accepted states
         # the exact inertia tangent, switched on for the rest of the run at the first
@@ -266,10 +270,11 @@ class TransientProblem:
     def prescribed(self, t: float):
         """(indices, x, v, a) of the prescribed coordinates at time t: the load path's
         values at ``phi(t)``, plus ``v0 t + a0 t^2/2`` of the 5-field INPUTX lines."""
+        if not self.presc_idx.size:                  # (the same at every step)
+            x = np.zeros(0)
+            return self.presc_idx, x, x, x
         phi, dphi, ddphi = self.opts.phi(t)
         idx, x = self.num.prescribed_state(1.0, phi)
-        if not idx.size:
-            return idx, x, x, x
         eps = 1e-4
         _, xp = self.num.prescribed_state(1.0, phi + eps)
         _, xm = self.num.prescribed_state(1.0, phi - eps)
@@ -331,7 +336,7 @@ class TransientProblem:
         f_damp, damp_blocks = self.damping_forces(x, v, ev.states, blocks)
         if f_damp is not None:
             f_in = f_in + f_damp                   # (damping counted with the inertia)
-        r = ev.r + f_in[self.free]
+        r = ev.r + f_in[self.free_idx]
         level = self.prob.force_level(ev.f_ext, ev.f_int, f_in)
         ref = max(self.level, level if trial_level is None else trial_level)
         res, floor = self.prob.residual_norm(r, ev.c, None, None, level=ref if ref > 0 else 1.0)
@@ -747,13 +752,13 @@ class KeptMatrix:
                 / max(level, 1e-300))
 
 
-def _increment_fault(prob, free, dx, dmu) -> str | None:
+def _increment_fault(tp, dx, dmu) -> str | None:
     """What is wrong with a Newton increment (not finite, or an Euler-parameter change above
     0.5), or None: a new matrix's increment then fails the step, a chord increment drops
     the kept matrix."""
     if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
         return "non-finite Newton increment"
-    if np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) > 0.5:
+    if np.abs(dx[tp.free_rot]).max(initial=0.0) > 0.5:
         return "Newton increment too large"
     return None
 
@@ -765,7 +770,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
     SLOW_CONTRACTION (switches the exact inertia tangent on). Returns the matrix and its
     Newton increment ``(dx, dmu)`` for the residual r."""
-    num, free, prob = tp.num, tp.free, tp.prob
+    num, prob = tp.num, tp.prob
     n_x = prob.pattern.n_x
     tp.n_matrices += 1
     blocks = tp.inertia.complete(x1, blocks)             # the mass blocks
@@ -801,7 +806,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
         # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
         k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
         r_full = np.zeros(num.n_coord)
-        r_full[free] = r
+        r_full[tp.free_idx] = r
         step = prob.reduced.step(ev, x1, mu1, k_el, euler_diag, residual=r_full,
                                   invariant=False)
         if step is not None:
@@ -809,7 +814,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
 
             def solve(ev, x, r):                    # the tangent-space LDL^T's
                 full = np.zeros(num.n_coord)
-                full[free] = r
+                full[tp.free_idx] = r
                 return prob.reduced.chord(last, ev, x, residual=full)
             return KeptMatrix(m_max, solve), step
     scale = max(prob.scale, beta_p * m_max)
@@ -834,7 +839,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
 def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     """One generalized-alpha step from t to t + h (Arnold & Brüls 2007)."""
     am, af, gamma, beta = params
-    num, free, prob = tp.num, tp.free, tp.prob
+    num, free, prob, fi = tp.num, tp.free, tp.prob, tp.free_idx
     t1 = t + h
     motion = tp.frame_rate(x, v, h)
     if motion is None:
@@ -863,7 +868,8 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         x1, v1, a1 = tp.frame.from_frame(motion, h, x1, v1, a1)
         W = tp.frame.matrix(motion.omega, free)
     idx, xp, vp, ap = tp.prescribed(t1)
-    x1[idx], v1[idx], a1[idx] = xp, vp, ap
+    if idx.size:
+        x1[idx], v1[idx], a1[idx] = xp, vp, ap
     # (no normalization of the predicted Euler parameters: Newton's correction of q.q = 1
     # must pass through the velocity and acceleration updates, which gives them their
     # centripetal radial parts)
@@ -920,7 +926,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         step = None
         if kept is not None and chord_ok:
             step = kept.chord(ev, x1, r)
-            if step is None or _increment_fault(prob, free, *step):
+            if step is None or _increment_fault(tp, *step):
                 step = kept = None
         last_chord = step is not None
         used_chord = used_chord or last_chord
@@ -935,18 +941,18 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
                 raise StepFailed(fail.reason, history, chord=used_chord) from None
             if it == 0:
                 floor_dyn = kept.floor(beta_p, num.length_scale, tp.level)
-            fault = _increment_fault(prob, free, *step)
+            fault = _increment_fault(tp, *step)
             if fault:
                 raise StepFailed(fault, history, chord=used_chord)
         dx, dmu = step
         dx_norm = prob.increment_norm(dx)
-        x1[free] += dx
-        v1[free] += gamma_p * dx
-        a1[free] += beta_p * dx
+        x1[fi] += dx
+        v1[fi] += gamma_p * dx
+        a1[fi] += beta_p * dx
         if motion is not None:
             wd = W @ dx
-            v1[free] += wd
-            a1[free] += 2 * gamma_p * wd + W @ wd
+            v1[fi] += wd
+            a1[fi] += 2 * gamma_p * wd + W @ wd
         mu1 = mu1 + dmu
     hist = ", ".join(f"{v:.2e}" for v in history)
     raise StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})",
