@@ -308,17 +308,23 @@ class Inertia:
         nodal = self.nodal_pattern.assemble(parts[n_g:]) if self.has_nodal else None
         return extra, nodal
 
-    def kinetic_energy(self, x: np.ndarray, v: np.ndarray) -> float:
+    def kinetic_energy(self, x: np.ndarray, v: np.ndarray, blocks: list | None = None
+                       ) -> float:
         """``1/2 v^T M(x) v`` (physical velocities), batch by batch: ``M v`` is the inertia
         force at zero velocity and acceleration v, which a kind with ``inertia_force``
-        evaluates without its mass matrix."""
+        evaluates without its mass matrix. ``blocks``: the mass blocks of :meth:`forces` at
+        this x where the caller has them (a step's last residual; None entries are
+        evaluated)."""
         v = self.physical(x, v)
         total = 0.0
-        for b in self.batches:
+        for i, b in enumerate(self.batches):
             if not b.idx.shape[0]:
                 continue
             xl, vl = x[b.idx], v[b.idx]
-            if b.force_of is not None:
+            m = None if blocks is None else blocks[i]
+            if m is not None:
+                mv = np.einsum("nij,nj->ni", m, vl)
+            elif b.force_of is not None:
                 mv = b.force_of(xl, np.zeros_like(vl), vl, 1)
             else:
                 mv = np.einsum("nij,nj->ni", b.mass_of(xl, 1), vl)

@@ -454,11 +454,11 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in)
 
-    def store(t, x, v, a, mu, its, res, ev):
+    def store(t, x, v, a, mu, its, res, ev, blocks):
         deformation, stress = prob.element_results(ev)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res,
-                             kinetic_energy=tp.inertia.kinetic_energy(x, v),
+                             kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
                              deformation=deformation, stress=stress)
@@ -466,7 +466,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
         if on_step is not None:
             on_step(step)
 
-    store(0.0, x, v, a, mu, 0, res, ev)
+    store(0.0, x, v, a, mu, 0, res, ev, start.blocks)
     h_out = opts.t_end / opts.n_steps
     h_int = h_out / max(int(opts.substeps), 1)
     t = 0.0
@@ -495,7 +495,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
                 h /= 2
                 continue
-            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp = out
+            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp, blocks = out
             grow = 2.0
             if opts.error is not None:
                 # local error estimate of the position update (Zienkiewicz & Xie's
@@ -529,7 +529,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
-        store(t_target, x, v, a, mu, its, res, ev)
+        store(t_target, x, v, a, mu, its, res, ev, blocks)
         if progress is not None:
             progress(t_target, opts.t_end)
     result.wall_time = time.perf_counter() - t_wall
@@ -911,7 +911,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             _gauge(num, x1, v1, a1, a_tilde_new)
             tp.accept_level(level)
             tp.fresh_only = False
-            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp
+            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp, blocks
         if it == opts.max_iter:
             break
         # Chord iterations: the step's iteration matrix serves again while each of its
