@@ -24,6 +24,7 @@ accelerations) load the free coordinates through the coupling terms.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -74,6 +75,18 @@ def _tiler(ref, mass) -> Callable:
                 cache[reps] = hit
         return hit
     return tiles
+
+
+@cache
+def _unit_steps(k: int, rot: tuple) -> np.ndarray:
+    """The steps ``[0; e_j; -e_j]`` (2 r + 1, k) of the central differences in the local
+    Euler-parameter slots ``rot`` (a constant per batch; read-only)."""
+    r = len(rot)
+    unit = np.zeros((r, k))
+    unit[np.arange(r), list(rot)] = 1.0
+    steps = np.concatenate([np.zeros((1, k)), unit, -unit])
+    steps.flags.writeable = False
+    return steps
 
 
 class Inertia:
@@ -175,9 +188,7 @@ class Inertia:
         # do not enter M) in one call: the central differences give dM/dt v and
         # d(v^T M v)/dx exactly (M is quadratic in the Euler parameters)
         r = rot.size
-        unit = np.zeros((r, k))
-        unit[np.arange(r), rot] = 1.0
-        steps = np.concatenate([np.zeros((1, k)), unit, -unit])
+        steps = _unit_steps(k, tuple(rot.tolist()))
         shifted = np.concatenate([xl[None] + steps[:, None, :],
                                   (xl + vl)[None], (xl - vl)[None]])
         ms = mass_of(shifted.reshape(-1, k), (2 * r + 3) * reps).reshape(2 * r + 3, n_b, k, k)
