@@ -88,13 +88,9 @@ def rotation_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def lambda_matrix(q: np.ndarray) -> np.ndarray:
-    """Lambda(q) = [-lambda, lambda0 I + [lambda~]], shape (..., 3, 4), Eq. (10)."""
-    l0 = q[..., 0]
-    lam = q[..., 1:]
-    out = np.zeros(q.shape[:-1] + (3, 4))
-    out[..., :, 0] = -lam
-    out[..., :, 1:] = l0[..., None, None] * np.eye(3) + skew(lam)
-    return out
+    """Lambda(q) = [-lambda, lambda0 I + [lambda~]], shape (..., 3, 4), Eq. (10): one
+    product with a constant (Lambda is linear in q, its entries are +-q_i, exactly)."""
+    return (q @ _LAMBDA_TENSOR).reshape(q.shape[:-1] + (3, 4))
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -107,6 +103,18 @@ def skew(v: np.ndarray) -> np.ndarray:
     out[..., 2, 0] = -v[..., 1]
     out[..., 2, 1] = v[..., 0]
     return out
+
+
+def _lambda_entries(q: np.ndarray) -> np.ndarray:
+    """Lambda(q) entry by entry (for the constant of :func:`lambda_matrix`)."""
+    out = np.zeros((3, 4))
+    out[:, 0] = -q[1:]
+    out[:, 1:] = q[0] * np.eye(3) + skew(q[1:])
+    return out
+
+
+#: ``Lambda(q) = (q @ _LAMBDA_TENSOR).reshape(3, 4)``.
+_LAMBDA_TENSOR = np.stack([_lambda_entries(e).ravel() for e in np.eye(4)])
 
 
 def moment_matrix(t: np.ndarray) -> np.ndarray:
@@ -134,6 +142,6 @@ def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
 def tangent_part(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     """Rates (n, 4) of Euler parameters q (n, 4) without their component along q: the rates
     of a unit quaternion satisfy ``q . dq = 0``; the radial part only changes the length."""
-    qq = np.sum(q * q, axis=-1, keepdims=True)
-    return qd - np.sum(q * qd, axis=-1, keepdims=True) / qq * q
+    qq = (q * q).sum(axis=-1, keepdims=True)          # (methods: no dispatch wrapper)
+    return qd - (q * qd).sum(axis=-1, keepdims=True) / qq * q
 

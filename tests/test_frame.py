@@ -100,6 +100,42 @@ def test_the_fitted_rate_of_a_straight_line_of_nodes(planar):
     np.testing.assert_allclose(frame.rate(x, v).omega, omega, atol=1e-12)
 
 
+@pytest.mark.parametrize("shape", ["cloud", "line", "flat", "point"])
+def test_the_rate_bound_never_hides_a_rate_above_it(shape):
+    """fit_above (a step's test whether its frame turns) answers None only where the fitted
+    rate is at most the limit, and otherwise gives the fit itself; for a vibrating beam
+    (nodes on a line, velocities across it) it decides without the eigendecomposition
+    when the limit is a few times the rate."""
+    rng = np.random.default_rng(7)
+    n = 12
+    frame = RotatingFrame(pos=np.arange(3 * n).reshape(n, 3), rot=np.zeros((0, 4), int),
+                          planar=False, n_coord=3 * n, floating=False)
+    decided = 0
+    for _ in range(200):
+        X = rng.normal(size=(n, 3)) + 5.0
+        if shape == "line":
+            X = np.outer(np.linspace(0, 1, n), rng.normal(size=3)) + 1e-9 * X
+        elif shape == "flat":
+            X[:, 2] = 2.0
+        elif shape == "point":
+            X = np.broadcast_to(X[0], (n, 3)).copy()
+        # a rigid rate plus a deformation (a mode shape across the line)
+        V = np.cross(rng.normal(size=3), X) + rng.normal(size=(n, 3)) * rng.uniform(0, 2)
+        x, v = X.ravel(), V.ravel()
+        omega, c, u = frame.fit(x, v)
+        rate = float(np.linalg.norm(omega))
+        for limit in (0.5 * rate, 0.99 * rate, 1.01 * rate, 3.0 * rate, 30.0 * rate):
+            got = frame.fit_above(x, v, limit)
+            if got is None:
+                assert rate <= limit
+                decided += limit <= 3.0 * rate
+            else:
+                np.testing.assert_array_equal(got[0], omega)
+                np.testing.assert_array_equal(got[1], c)
+    if shape == "line":
+        assert decided > 0          # the bound decides where the rate is a third of it
+
+
 def test_a_pinned_model_turns_about_its_screw_axis():
     """With held nodes (floating=False) the frame turns about the fitted motion's screw
     axis: a rigid rotation about an axis through a held point (a beam on a hub) is again a

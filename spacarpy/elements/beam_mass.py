@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from spacarpy.elements.beam_layout import QP, QQ, RP, RQ
-from spacarpy.elements.nodal import nodal_jacobians
+from spacarpy.elements.nodal import TQ_VEC, nodal_jacobians
 from spacarpy.rotation import quadratic_form
 
 #: int_0^1 h_i h_j dxi for the Hermite functions h1..h4 (Eq. 59, times 420).
@@ -64,7 +64,13 @@ def rotary_weights(rotary: str) -> np.ndarray:
 
 
 def g_matrix(q: np.ndarray) -> np.ndarray:
-    """G(q) = [-lambda, lambda0 I - [lambda~]], shape (..., 3, 4): omega_body = 2 G q_dot."""
+    """G(q) = [-lambda, lambda0 I - [lambda~]], shape (..., 3, 4): omega_body = 2 G q_dot;
+    one product with a constant (G is linear in q, its entries are +-q_i, exactly)."""
+    return (q @ _G_TENSOR).reshape(q.shape[:-1] + (3, 4))
+
+
+def _g_entries(q: np.ndarray) -> np.ndarray:
+    """G(q) entry by entry (for the constant of :func:`g_matrix`)."""
     l0 = q[..., 0]
     lam = q[..., 1:]
     out = np.zeros(q.shape[:-1] + (3, 4))
@@ -80,7 +86,7 @@ def g_matrix(q: np.ndarray) -> np.ndarray:
 
 
 #: ``G(q) = (q @ _G_TENSOR).reshape(3, 4)`` (G is linear in q).
-_G_TENSOR = np.stack([g_matrix(e).ravel() for e in np.eye(4)])
+_G_TENSOR = np.stack([_g_entries(e).ravel() for e in np.eye(4)])
 
 
 def section_inertia(mass: np.ndarray) -> np.ndarray:
@@ -126,6 +132,9 @@ def _rotary_weights8(rotary: str) -> np.ndarray:
     return _ROTARY_WEIGHTS8[rotary]
 
 
+#: [2 H_k(e_j) | G]: the two maps linear in the Euler parameters that the inertia force
+#: takes of each node's q and of its rate, in one product (:func:`beam_inertia_force`).
+_TQ_G = np.concatenate([TQ_VEC, _G_TENSOR], axis=1)
 #: The section inertia J (3x3, element axes) as a product with the EM values
 #: ``[rho(Iy+Iz), rhoIy, rhoIz, rhoIyz]``: (4, 9).
 _SECTION_FORMS = np.zeros((4, 3, 3))
@@ -233,36 +242,47 @@ def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarr
     2 G(v_a)^T J omega_b)`` (for the lumped weights the rigid body's ``J alpha + omega x J
     omega`` mapped onto its Euler parameters). ``section`` as for :func:`beam_mass_matrix`."""
     n = x.shape[0]
-    v2, a2 = v.reshape(n, 2, 7), a.reshape(n, 2, 7)
-    q4 = np.concatenate([x.reshape(n, 2, 7)[:, :, 3:], v2[:, :, 3:]], axis=1)  # q^p q^q v^p v^q
-    b = nodal_jacobians(q4, nx[:, None])                        # B(q), dB/dt (n, 4, 3, 4)
-    bq = b[:, :2]
-    # N a + (dN/dt) v per Hermite function: [a_r^p, l0 t^p, a_r^q, l0 t^q] (n, 4, 3)
+    x2, v2, a2 = x.reshape(n, 2, 7), v.reshape(n, 2, 7), a.reshape(n, 2, 7)
+    q4 = np.concatenate([x2[:, :, 3:], v2[:, :, 3:]], axis=1)  # q^p q^q v^p v^q (n, 4, 4)
+    rotary_on = _has_rotary(mass, section)
+    # the maps linear in q of all four: 2 H_k(e_j) q (for B) and, with rotary inertia, G
+    lin = q4.reshape(4 * n, 4) @ (_TQ_G if rotary_on else TQ_VEC)
+    b = (nx[:, None, None] @ lin[:, :36].reshape(n, 4, 3, 12)).reshape(n, 4, 3, 4)
+    if rotary_on:
+        # B(q), G(q) and B(v) applied to [v_q, a_q] of both nodes in one product
+        g = lin[:, 36:].reshape(n, 4, 3, 4)
+        mats = np.concatenate([b[:, :2], g[:, :2], b[:, 2:]], axis=2)   # (n, 2, 9, 4)
+        prod = mats @ np.stack([v2[:, :, 3:], a2[:, :, 3:]], axis=3)   # (n, 2, 9, 2)
+        t = prod[:, :, :3, 1] + prod[:, :, 6:, 0]
+    else:
+        t = (b[:, :2] @ a2[:, :, 3:, None] + b[:, 2:] @ v2[:, :, 3:, None])[..., 0]
+    # N a + (dN/dt) v per Hermite function: [a_r^p, l0 t^p, a_r^q, l0 t^q] (n, 4, 3), with
+    # t = B(q) a_q + B(v_q) v_q
     z = np.empty((n, 2, 2, 3))
     z[:, :, 0] = a2[:, :, :3]
-    t = bq @ a2[:, :, 3:, None]
-    t += b[:, 2:] @ v2[:, :, 3:, None]
-    np.multiply(t[..., 0], l0[:, None, None], out=z[:, :, 1])
+    np.multiply(t, l0[:, None, None], out=z[:, :, 1])
     w = (z.reshape(n, 4, 3).transpose(0, 2, 1) @ HERMITE_MASS)      # C z (n, 3, 4)
     w *= (mass[:, 0] * l0)[:, None, None]
     w = w.transpose(0, 2, 1).reshape(n, 2, 2, 3)                # [node, (position, tangent)]
     f = np.empty((n, 14))
     f2 = f.reshape(n, 2, 7)
     f2[:, :, :3] = w[:, :, 0]
-    fq = (bq.transpose(0, 1, 3, 2) @ w[:, :, 1, :, None])[..., 0]     # B^T (C z)_tangent
-    np.multiply(fq, l0[:, None, None], out=f2[:, :, 3:])
-    if _has_rotary(mass, section):
-        c_ab = rotary_weights(rotary)
-        jg = _section_global(nx, ny, nz, mass, section)
-        g = (q4.reshape(4 * n, 4) @ _G_TENSOR).reshape(n, 4, 3, 4)  # G(q^p) G(q^q) G(v^p) ..
-        gq, gv = g[:, :2], g[:, 2:]
-        # body angular velocity and acceleration of both nodes, mixed by c_ab, times J
-        oa = np.concatenate([gq @ v2[:, :, 3:, None], gq @ a2[:, :, 3:, None]], axis=3)
-        joa = jg[:, None] @ (c_ab @ oa.reshape(n, 2, 6)).reshape(n, 2, 3, 2)
-        rot = gq.transpose(0, 1, 3, 2) @ joa[..., 1:]
-        rot += gv.transpose(0, 1, 3, 2) @ (2.0 * joa[..., :1])
-        rot *= (4.0 * l0)[:, None, None, None]
-        f2[:, :, 3:] += rot[..., 0]
+    if not rotary_on:
+        fq = (b[:, :2].transpose(0, 1, 3, 2) @ w[:, :, 1, :, None])[..., 0]
+        np.multiply(fq, l0[:, None, None], out=f2[:, :, 3:])
+        return f
+    c_ab = rotary_weights(rotary)
+    jg = _section_global(nx, ny, nz, mass, section)
+    # body angular velocity and acceleration of both nodes (G(q) [v_q, a_q]), mixed by
+    # c_ab, times J; then l0 B^T (C z)_tangent + 4 l0 (G(q)^T J alpha + 2 G(v)^T J omega)
+    # as one product of the stacked vectors with [B(q); G(q); G(v)]
+    oa = prod[:, :, 3:6]                                          # (n, 2, 3, 2)
+    joa = jg[:, None] @ (c_ab @ oa.reshape(n, 2, 6)).reshape(n, 2, 3, 2)
+    l4 = (4.0 * l0)[:, None, None]
+    rhs = np.concatenate([w[:, :, 1] * l0[:, None, None], joa[..., 1] * l4,
+                          joa[..., 0] * (2.0 * l4)], axis=2)       # (n, 2, 9)
+    left = np.concatenate([b[:, :2], g[:, :2], g[:, 2:]], axis=2)   # (n, 2, 9, 4)
+    f2[:, :, 3:] = (rhs[:, :, None] @ left)[:, :, 0]
     return f
 
 

@@ -37,6 +37,7 @@ here: one rotation shared by the model.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -53,6 +54,54 @@ SPREAD = 1e-4
 #: steps keep the global frame and its cheaper symmetric Newton matrix.
 FRAME_MIN_TURN = 0.015
 FRAME_FULL_TURN = 3.0
+
+
+def _surely_below(a: list, tiny: float, h: tuple, du2: float, max_rate: float) -> bool:
+    """Whether the rate the fit gives for the second moment ``a`` (nested lists, 3 x 3,
+    positive semi-definite), the moment ``h`` of the relative velocities and their squared
+    norm ``du2`` is at most ``max_rate`` for certain, on Python floats.
+
+    The eigenvalues come from their closed form (Smith 1961). Where the fit keeps all three
+    (each above ``SPREAD`` times the largest and above ``tiny``) the rate is ``I^-1 H``,
+    here by the adjugate (its round-off at most about ``1e4 eps`` relative, the kept
+    eigenvalues being at least 1e-4 of the largest); where it leaves some out, the bound
+    ``|omega|^2 <= du2 / lambda_min`` of :meth:`RotatingFrame.fit_above` serves. False
+    (undecided: the fit decides) where an eigenvalue lies within 1 % of the threshold
+    (the closed form's round-off, at most about 1e-7 of the largest eigenvalue for a
+    double one, must not decide which are kept), or near ``max_rate`` itself."""
+    (a00, a01, a02), (_, a11, a12), (_, _, a22) = a
+    q = (a00 + a11 + a22) / 3.0
+    p1 = a01 * a01 + a02 * a02 + a12 * a12
+    p2 = (a00 - q) ** 2 + (a11 - q) ** 2 + (a22 - q) ** 2 + 2.0 * p1
+    if p2 <= 0.0:
+        lam = (q, q, q)
+    else:
+        pp = math.sqrt(p2 / 6.0)
+        b00, b11, b22 = (a00 - q) / pp, (a11 - q) / pp, (a22 - q) / pp
+        b01, b02, b12 = a01 / pp, a02 / pp, a12 / pp
+        det = (b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02)
+               + b02 * (b01 * b12 - b11 * b02))
+        phi = math.acos(min(max(0.5 * det, -1.0), 1.0)) / 3.0
+        top = q + 2.0 * pp * math.cos(phi)
+        low = q + 2.0 * pp * math.cos(phi + 2.0 * math.pi / 3.0)
+        lam = (top, 3.0 * q - top - low, low)
+    thr = max(SPREAD * max(lam), tiny)
+    if any(0.99 * thr < e < 1.01 * thr for e in lam):
+        return False
+    kept = [e for e in lam if e > thr]
+    if not kept:
+        return True                                 # coincident nodes: no rate at all
+    limit = max_rate * (1.0 - 1e-6)
+    if len(kept) < 3:
+        return du2 <= limit * limit * min(kept)
+    c00, c01, c02 = a11 * a22 - a12 * a12, a02 * a12 - a01 * a22, a01 * a12 - a02 * a11
+    c11, c12, c22 = a00 * a22 - a02 * a02, a01 * a02 - a00 * a12, a00 * a11 - a01 * a01
+    det_a = a00 * c00 + a01 * c01 + a02 * c02
+    h0, h1, h2 = h
+    w0 = c00 * h0 + c01 * h1 + c02 * h2
+    w1 = c01 * h0 + c11 * h1 + c12 * h2
+    w2 = c02 * h0 + c12 * h1 + c22 * h2
+    return w0 * w0 + w1 * w1 + w2 * w2 <= (limit * det_a) ** 2
 
 
 def _quat_rate(w: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -110,32 +159,73 @@ class RotatingFrame:
         rate about its own axis (the least-norm solution), nodes that all coincide none at
         all. A kinematic fit, every node counting alike: nodal masses need not be where the
         mass is (a rigid rod's sits on one end node and its orientation)."""
+        return self.motion(*self.fit(x, v))
+
+    def fit(self, x: np.ndarray, v: np.ndarray):
+        """``(omega, c, u)`` of :meth:`rate` (the rate about the centroid, the centroid and
+        its velocity), without the screw axis: what a step needs to decide whether its
+        frame turns at all (:meth:`motion` completes it). The 3 x 3 algebra is done on
+        Python floats: at every step of a model that does not turn fast this is all the
+        frame costs, and numpy's fixed cost per call was most of it."""
+        return self._fit(x, v, None)
+
+    def _fit(self, x: np.ndarray, v: np.ndarray, max_rate: float | None):
+        """:meth:`fit`; with ``max_rate``, None where the fitted rate is surely at most that
+        (:meth:`fit_above`)."""
         p, vel = x[self.pos], v[self.pos]
-        c, u = p.mean(axis=0), vel.mean(axis=0)
-        r, du = p - c, vel - u
-        rtu = r.T @ du                               # H = sum of r x du, from its skew part
-        H = np.array([rtu[1, 2] - rtu[2, 1], rtu[2, 0] - rtu[0, 2], rtu[0, 1] - rtu[1, 0]])
-        rr = np.sum(r * r, axis=1)
+        n = len(p)
+        c, u = p.sum(axis=0) / n, vel.sum(axis=0) / n
+        r = p - c
+        rd = np.concatenate((r, vel - u), axis=1)
+        # r^T r, r^T du and du^T du (du = vel - u) in one product
+        (a00, a01, a02, b00, b01, b02), (_, a11, a12, b10, b11, b12), \
+            (_, _, a22, b20, b21, b22), (*_, d00, _, _), (*_, d11, _), (*_, d22) = \
+            (rd.T @ rd).tolist()
+        # H = sum of r x du, from the skew part of r^T du
+        h0, h1, h2 = b12 - b21, b20 - b02, b01 - b10
         # the nodes' spread against their distance from the origin: below round-off
         # they coincide and show no rotation
-        tiny = 1e-20 * (len(p) * float(np.max(np.sum(p * p, axis=1))) + 1e-300)
+        tiny = 1e-20 * (n * float(np.einsum("ij,ij->i", p, p).max()) + 1e-300)
         if self.planar:
-            izz = float(np.sum(r[:, 0] ** 2 + r[:, 1] ** 2))
-            omega = np.array([0.0, 0.0, H[2] / izz if izz > tiny else 0.0])
-        else:
-            inertia = np.eye(3) * float(rr.sum()) - r.T @ r
-            lam, vec = np.linalg.eigh(inertia)
-            # a rate about an axis the nodes hardly spread across (a nearly straight beam's
-            # own axis) is not seen by their velocities: the fit leaves it out rather
-            # than divide a small moment by a small spread
-            keep = lam > max(SPREAD * float(lam[-1]), tiny)
-            omega = vec[:, keep] @ ((vec[:, keep].T @ H) / lam[keep])
+            izz = a00 + a11
+            omega = np.array([0.0, 0.0, h2 / izz if izz > tiny else 0.0])
+            return omega, c, u
+        tr = a00 + a11 + a22
+        inertia = [[tr - a00, -a01, -a02], [-a01, tr - a11, -a12], [-a02, -a12, tr - a22]]
+        if max_rate is not None and _surely_below(inertia, tiny, (h0, h1, h2),
+                                                  d00 + d11 + d22, max_rate):
+            return None
+        lam, vec = np.linalg.eigh(np.array(inertia))
+        # a rate about an axis the nodes hardly spread across (a nearly straight beam's
+        # own axis) is not seen by their velocities: the fit leaves it out rather
+        # than divide a small moment by a small spread
+        keep = lam > max(SPREAD * float(lam[-1]), tiny)
+        vk = vec[:, keep]
+        omega = vk @ ((np.array([h0, h1, h2]) @ vk) / lam[keep])
+        return omega, c, u
+
+    def fit_above(self, x: np.ndarray, v: np.ndarray, max_rate: float):
+        """:meth:`fit`, or None where the fitted rate is at most ``max_rate`` for certain.
+
+        The test needs the second moment's eigenvalues only, in closed form
+        (:func:`_surely_below`): where the fit keeps every axis the rate is ``I^-1 H``;
+        where it leaves some out it is the projection of the relative velocities ``du``
+        onto the rigid rotations about the kept axes (eigenvectors e_i of I, the fields
+        ``e_i x r`` orthogonal with squared norms ``lambda_i``), so ``|omega|^2 <= sum
+        |du|^2 / lambda_min`` (lambda_min the least kept one). A vibrating structure then
+        needs no eigendecomposition at its steps; where the test is undecided the fit
+        decides."""
+        return self._fit(x, v, max_rate)
+
+    def motion(self, omega: np.ndarray, c: np.ndarray, u: np.ndarray) -> Motion:
+        """The :class:`Motion` of a fitted ``(omega, c, u)`` (:meth:`fit`): for a model with
+        held nodes (fixed or driven), which do not turn with the frame, the turn is about
+        the fitted motion's instantaneous screw axis (its point nearest to c, sliding along
+        it), so that a model pinned on that axis keeps its held nodes where the frame has
+        them."""
         w2 = float(omega @ omega)
         if self.floating or w2 == 0.0:
             return Motion(omega, c, u)
-        # held nodes (fixed or driven) do not turn with the frame: turn about the fitted
-        # motion's instantaneous screw axis (its point nearest to c, sliding along it), so
-        # that a model pinned on that axis keeps its held nodes where the frame has them
         return Motion(omega, c + np.cross(omega, u) / w2, (u @ omega) / w2 * omega)
 
     def _shift(self, z: np.ndarray, offset: np.ndarray) -> np.ndarray:

@@ -24,6 +24,7 @@ accelerations) load the free coordinates through the coupling terms.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -54,6 +55,38 @@ def _tiled(data, reps: int):
         return {k: _tiled(v, reps) if isinstance(v, np.ndarray) else v
                 for k, v in data.items()}
     return np.concatenate([data] * reps)
+
+
+#: Stacked copies of a group's reference data (:func:`_tiled`) are kept for the next call
+#: up to this many rows: the central differences of a small model's kinds without analytic
+#: convective terms (RBEAM) tile the same few elements at every residual.
+TILE_CACHE_ROWS = 4096
+
+
+def _tiler(ref, mass) -> Callable:
+    """``tiles(reps) -> (ref, mass)`` tiled ``reps`` times, kept for reuse where small."""
+    cache = {1: (ref, mass)}
+
+    def tiles(reps: int):
+        hit = cache.get(reps)
+        if hit is None:
+            hit = (_tiled(ref, reps), _tiled(mass, reps))
+            if len(mass) * reps <= TILE_CACHE_ROWS:
+                cache[reps] = hit
+        return hit
+    return tiles
+
+
+@cache
+def _unit_steps(k: int, rot: tuple) -> np.ndarray:
+    """The steps ``[0; e_j; -e_j]`` (2 r + 1, k) of the central differences in the local
+    Euler-parameter slots ``rot`` (a constant per batch; read-only)."""
+    r = len(rot)
+    unit = np.zeros((r, k))
+    unit[np.arange(r), list(rot)] = 1.0
+    steps = np.concatenate([np.zeros((1, k)), unit, -unit])
+    steps.flags.writeable = False
+    return steps
 
 
 class Inertia:
@@ -108,8 +141,10 @@ class Inertia:
         one vectorized kernel call)."""
         out = []
         for g in self.groups:
-            def mass_of(xl, reps, g=g):
-                return g.kind.mass(xl, _tiled(g.ref, reps), _tiled(g.mass, reps), self.rotary)
+            tiles = _tiler(g.ref, g.mass)
+
+            def mass_of(xl, reps, g=g, tiles=tiles):
+                return g.kind.mass(xl, *tiles(reps), self.rotary)
             # local Euler-parameter coordinates: the only ones the mass matrix depends on
             rot = np.concatenate([np.arange(4) + sum(3 if t == "pos" else 4
                                                      for t in g.kind.slots[:j])
@@ -117,13 +152,11 @@ class Inertia:
                                  + [np.zeros(0, np.int64)]).astype(np.int64)
             conv_of = force_of = None
             if g.kind.convective is not None:
-                def conv_of(xl, vl, reps, g=g):
-                    return g.kind.convective(xl, vl, _tiled(g.ref, reps), _tiled(g.mass, reps),
-                                             self.rotary)
+                def conv_of(xl, vl, reps, g=g, tiles=tiles):
+                    return g.kind.convective(xl, vl, *tiles(reps), self.rotary)
             if g.kind.inertia_force is not None:
-                def force_of(xl, vl, al, reps, g=g):
-                    return g.kind.inertia_force(xl, vl, al, _tiled(g.ref, reps),
-                                                _tiled(g.mass, reps), self.rotary)
+                def force_of(xl, vl, al, reps, g=g, tiles=tiles):
+                    return g.kind.inertia_force(xl, vl, al, *tiles(reps), self.rotary)
             out.append(_Batch(mass_of, g.idx, rot, conv_of, force_of))
         pm, jr = self.point_mass, self.rot_inertia
         out.append(_Batch((lambda xl, reps: _tiled(pm, reps)[:, None, None] * np.eye(3)),
@@ -155,9 +188,7 @@ class Inertia:
         # do not enter M) in one call: the central differences give dM/dt v and
         # d(v^T M v)/dx exactly (M is quadratic in the Euler parameters)
         r = rot.size
-        unit = np.zeros((r, k))
-        unit[np.arange(r), rot] = 1.0
-        steps = np.concatenate([np.zeros((1, k)), unit, -unit])
+        steps = _unit_steps(k, tuple(rot.tolist()))
         shifted = np.concatenate([xl[None] + steps[:, None, :],
                                   (xl + vl)[None], (xl - vl)[None]])
         ms = mass_of(shifted.reshape(-1, k), (2 * r + 3) * reps).reshape(2 * r + 3, n_b, k, k)
@@ -179,19 +210,21 @@ class Inertia:
         Newton matrix needs it)."""
         v = self.physical(x, v)
         n = self.num.n_coord
-        out, force = [], np.zeros(n)
+        out, force = [], None
         for b in self.batches:
-            xl, vl, al = x[b.idx], v[b.idx], a[b.idx]
-            if not xl.shape[0]:
-                out.append(np.zeros((0, xl.shape[1], xl.shape[1])))
+            idx = b.idx
+            if not idx.shape[0]:                     # (no gathers for an empty batch)
+                out.append(np.zeros((0, idx.shape[1], idx.shape[1])))
                 continue
+            xl, vl, al = x[idx], v[idx], a[idx]
             if not blocks and b.force_of is not None:
                 m, f = None, b.force_of(xl, vl, al, 1)
             else:
                 m, f = self._local(b, xl, vl, al, 1)
             out.append(m)
-            force += scatter_add(n, b.idx, f)
-        return out, force
+            f = scatter_add(n, idx, f)
+            force = f if force is None else force + f
+        return out, np.zeros(n) if force is None else force
 
     def complete(self, x: np.ndarray, blocks: list) -> list:
         """The mass blocks of :meth:`forces` with those it left out (None) evaluated at x."""
@@ -286,17 +319,23 @@ class Inertia:
         nodal = self.nodal_pattern.assemble(parts[n_g:]) if self.has_nodal else None
         return extra, nodal
 
-    def kinetic_energy(self, x: np.ndarray, v: np.ndarray) -> float:
+    def kinetic_energy(self, x: np.ndarray, v: np.ndarray, blocks: list | None = None
+                       ) -> float:
         """``1/2 v^T M(x) v`` (physical velocities), batch by batch: ``M v`` is the inertia
         force at zero velocity and acceleration v, which a kind with ``inertia_force``
-        evaluates without its mass matrix."""
+        evaluates without its mass matrix. ``blocks``: the mass blocks of :meth:`forces` at
+        this x where the caller has them (a step's last residual; None entries are
+        evaluated)."""
         v = self.physical(x, v)
         total = 0.0
-        for b in self.batches:
-            xl, vl = x[b.idx], v[b.idx]
-            if not xl.shape[0]:
+        for i, b in enumerate(self.batches):
+            if not b.idx.shape[0]:
                 continue
-            if b.force_of is not None:
+            xl, vl = x[b.idx], v[b.idx]
+            m = None if blocks is None else blocks[i]
+            if m is not None:
+                mv = np.einsum("nij,nj->ni", m, vl)
+            elif b.force_of is not None:
                 mv = b.force_of(xl, np.zeros_like(vl), vl, 1)
             else:
                 mv = np.einsum("nij,nj->ni", b.mass_of(xl, 1), vl)

@@ -35,6 +35,7 @@ Euler-parameter rates work on the same state and are kept together.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -190,6 +191,10 @@ class TransientProblem:
         self.num = self.prob.num
         self.inertia = Inertia(model, self.num, rotary=opts.rotary_inertia)
         self.free = self.prob.free
+        # the free coordinates as indices (a boolean mask costs a search per use) and
+        # which of them are Euler parameters
+        self.free_idx = np.flatnonzero(self.free)
+        self.free_rot = self.prob.rot_mask[self.free]
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
         self.level = 0.0                 # largest force level of the accepted states
         # the exact inertia tangent, switched on for the rest of the run at the first
@@ -200,6 +205,7 @@ class TransientProblem:
         # (h, a) of the last accepted step's start: the predictor's extrapolation
         self.previous_acceleration: tuple[float, np.ndarray] | None = None
         self.n_matrices = 0              # iteration matrices formed (factorizations)
+        self._load_at = None             # (t, LoadState) of the last loads(t)
 
     @cached_property
     def frame(self) -> RotatingFrame:
@@ -216,10 +222,14 @@ class TransientProblem:
         to the next and kick the stiff axial modes, which nothing damps at ``RHOINF 1``."""
         if not self.opts.rotating_frame or not self.frame.usable:
             return None
-        motion = self.frame.rate(x, v)
-        turn = float(np.linalg.norm(motion.omega)) * h
+        fit = self.frame.fit_above(x, v, FRAME_MIN_TURN / h)
+        if fit is None:                  # surely turns by less than FRAME_MIN_TURN
+            return None
+        omega, centre, velocity = fit
+        turn = math.sqrt(float(omega @ omega)) * h
         if turn <= FRAME_MIN_TURN:
             return None
+        motion = self.frame.motion(omega, centre, velocity)
         if not self.frame_on:
             log.info("the model turns by %.3g rad per step: the steps are taken in a "
                      "frame turning with it", turn)
@@ -260,10 +270,11 @@ class TransientProblem:
     def prescribed(self, t: float):
         """(indices, x, v, a) of the prescribed coordinates at time t: the load path's
         values at ``phi(t)``, plus ``v0 t + a0 t^2/2`` of the 5-field INPUTX lines."""
+        if not self.presc_idx.size:                  # (the same at every step)
+            x = np.zeros(0)
+            return self.presc_idx, x, x, x
         phi, dphi, ddphi = self.opts.phi(t)
         idx, x = self.num.prescribed_state(1.0, phi)
-        if not idx.size:
-            return idx, x, x, x
         eps = 1e-4
         _, xp = self.num.prescribed_state(1.0, phi + eps)
         _, xm = self.num.prescribed_state(1.0, phi - eps)
@@ -293,10 +304,13 @@ class TransientProblem:
     def loads(self, t: float) -> LoadState:
         """The load at time t: XF and gravity, ``phi(t)`` times DELXF, and the prescribed
         deformations at ``phi(t)`` (plus the motion of the 5-field INPUTE lines)."""
+        if self._load_at is not None and self._load_at[0] == t:
+            return self._load_at[1]                  # a step's iterations share its time
         load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
         if self.num.rigid_rate.size:                 # 5-field INPUTE: + v0 t + a0 t^2/2
             load = replace(load, rigid_target=load.rigid_target
                            + self.num.input_motion(t, rigid=True)[0])
+        self._load_at = (t, load)
         return load
 
     # ---------------------------------------------------------------- residual
@@ -322,7 +336,7 @@ class TransientProblem:
         f_damp, damp_blocks = self.damping_forces(x, v, ev.states, blocks)
         if f_damp is not None:
             f_in = f_in + f_damp                   # (damping counted with the inertia)
-        r = ev.r + f_in[self.free]
+        r = ev.r + f_in[self.free_idx]
         level = self.prob.force_level(ev.f_ext, ev.f_int, f_in)
         ref = max(self.level, level if trial_level is None else trial_level)
         res, floor = self.prob.residual_norm(r, ev.c, None, None, level=ref if ref > 0 else 1.0)
@@ -440,11 +454,11 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in)
 
-    def store(t, x, v, a, mu, its, res, ev):
+    def store(t, x, v, a, mu, its, res, ev, blocks):
         deformation, stress = prob.element_results(ev)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res,
-                             kinetic_energy=tp.inertia.kinetic_energy(x, v),
+                             kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
                              deformation=deformation, stress=stress)
@@ -452,7 +466,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
         if on_step is not None:
             on_step(step)
 
-    store(0.0, x, v, a, mu, 0, res, ev)
+    store(0.0, x, v, a, mu, 0, res, ev, start.blocks)
     h_out = opts.t_end / opts.n_steps
     h_int = h_out / max(int(opts.substeps), 1)
     t = 0.0
@@ -481,7 +495,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
                 h /= 2
                 continue
-            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp = out
+            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp, blocks = out
             grow = 2.0
             if opts.error is not None:
                 # local error estimate of the position update (Zienkiewicz & Xie's
@@ -510,17 +524,28 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             q_prev, x, mu, p_damp = q_new, x_new, mu_new, p_new
             result.n_newton += its
             if prob.has_commit:
-                prob.commit(x, mu, tp.loads(t + h))
+                _commit(prob, ev.states)
             t += h
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
-        store(t_target, x, v, a, mu, its, res, ev)
+        store(t_target, x, v, a, mu, its, res, ev, blocks)
         if progress is not None:
             progress(t_target, opts.t_end)
     result.wall_time = time.perf_counter() - t_wall
     result.n_matrices = tp.n_matrices
     return result
+
+
+def _commit(prob, states) -> None:
+    """Let the element kinds update their persistent state (a hinge's turn count) after a
+    converged step: :meth:`StaticProblem.commit
+    <spacarpy.solvers.equilibrium.StaticProblem.commit>` with the kernel states of the
+    step's last residual, which are those of the accepted x (evaluating them again cost a
+    fifth of the rigid pendulum's steps)."""
+    for g, st in zip(prob.num.groups, states):
+        if g.kind.commit is not None:
+            g.kind.commit(st, g.prev)
 
 
 def _initial_velocities(tp, x, v, given: dict):
@@ -687,10 +712,10 @@ def _gauge(num, x, v, a, a_tilde):
         return
     q = x[ri]
     v[ri] = qd = tangent_part(q, v[ri])
-    qq = np.sum(q * q, axis=1, keepdims=True)
-    centripetal = -np.sum(qd * qd, axis=1, keepdims=True) / qq
+    qq = (q * q).sum(axis=1, keepdims=True)
+    centripetal = -(qd * qd).sum(axis=1, keepdims=True) / qq
     for acc in (a, a_tilde):
-        acc[ri] += (centripetal - np.sum(q * acc[ri], axis=1, keepdims=True) / qq) * q
+        acc[ri] += (centripetal - (q * acc[ri]).sum(axis=1, keepdims=True) / qq) * q
 
 
 def _simplified_norm(prob, kept, ev, x, r) -> float:
@@ -727,13 +752,13 @@ class KeptMatrix:
                 / max(level, 1e-300))
 
 
-def _increment_fault(prob, free, dx, dmu) -> str | None:
+def _increment_fault(tp, dx, dmu) -> str | None:
     """What is wrong with a Newton increment (not finite, or an Euler-parameter change above
     0.5), or None: a new matrix's increment then fails the step, a chord increment drops
     the kept matrix."""
     if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
         return "non-finite Newton increment"
-    if np.abs(dx[prob.rot_mask[free]]).max(initial=0.0) > 0.5:
+    if np.abs(dx[tp.free_rot]).max(initial=0.0) > 0.5:
         return "Newton increment too large"
     return None
 
@@ -745,7 +770,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
     SLOW_CONTRACTION (switches the exact inertia tangent on). Returns the matrix and its
     Newton increment ``(dx, dmu)`` for the residual r."""
-    num, free, prob = tp.num, tp.free, tp.prob
+    num, prob = tp.num, tp.prob
     n_x = prob.pattern.n_x
     tp.n_matrices += 1
     blocks = tp.inertia.complete(x1, blocks)             # the mass blocks
@@ -781,7 +806,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
         # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
         k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
         r_full = np.zeros(num.n_coord)
-        r_full[free] = r
+        r_full[tp.free_idx] = r
         step = prob.reduced.step(ev, x1, mu1, k_el, euler_diag, residual=r_full,
                                   invariant=False)
         if step is not None:
@@ -789,7 +814,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
 
             def solve(ev, x, r):                    # the tangent-space LDL^T's
                 full = np.zeros(num.n_coord)
-                full[free] = r
+                full[tp.free_idx] = r
                 return prob.reduced.chord(last, ev, x, residual=full)
             return KeptMatrix(m_max, solve), step
     scale = max(prob.scale, beta_p * m_max)
@@ -814,7 +839,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
 def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     """One generalized-alpha step from t to t + h (Arnold & Brüls 2007)."""
     am, af, gamma, beta = params
-    num, free, prob = tp.num, tp.free, tp.prob
+    num, free, prob, fi = tp.num, tp.free, tp.prob, tp.free_idx
     t1 = t + h
     motion = tp.frame_rate(x, v, h)
     if motion is None:
@@ -843,7 +868,8 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         x1, v1, a1 = tp.frame.from_frame(motion, h, x1, v1, a1)
         W = tp.frame.matrix(motion.omega, free)
     idx, xp, vp, ap = tp.prescribed(t1)
-    x1[idx], v1[idx], a1[idx] = xp, vp, ap
+    if idx.size:
+        x1[idx], v1[idx], a1[idx] = xp, vp, ap
     # (no normalization of the predicted Euler parameters: Newton's correction of q.q = 1
     # must pass through the velocity and acceleration updates, which gives them their
     # centripetal radial parts)
@@ -885,7 +911,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
             _gauge(num, x1, v1, a1, a_tilde_new)
             tp.accept_level(level)
             tp.fresh_only = False
-            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp
+            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp, blocks
         if it == opts.max_iter:
             break
         # Chord iterations: the step's iteration matrix serves again while each of its
@@ -900,7 +926,7 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
         step = None
         if kept is not None and chord_ok:
             step = kept.chord(ev, x1, r)
-            if step is None or _increment_fault(prob, free, *step):
+            if step is None or _increment_fault(tp, *step):
                 step = kept = None
         last_chord = step is not None
         used_chord = used_chord or last_chord
@@ -915,18 +941,18 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
                 raise StepFailed(fail.reason, history, chord=used_chord) from None
             if it == 0:
                 floor_dyn = kept.floor(beta_p, num.length_scale, tp.level)
-            fault = _increment_fault(prob, free, *step)
+            fault = _increment_fault(tp, *step)
             if fault:
                 raise StepFailed(fault, history, chord=used_chord)
         dx, dmu = step
         dx_norm = prob.increment_norm(dx)
-        x1[free] += dx
-        v1[free] += gamma_p * dx
-        a1[free] += beta_p * dx
+        x1[fi] += dx
+        v1[fi] += gamma_p * dx
+        a1[fi] += beta_p * dx
         if motion is not None:
             wd = W @ dx
-            v1[free] += wd
-            a1[free] += 2 * gamma_p * wd + W @ wd
+            v1[fi] += wd
+            a1[fi] += 2 * gamma_p * wd + W @ wd
         mu1 = mu1 + dmu
     hist = ", ".join(f"{v:.2e}" for v in history)
     raise StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})",
