@@ -1,4 +1,4 @@
 """``python -m spacarpy``: the same entry point as the ``spacarpy`` console script."""
-from spacarpy.cli import main
+from spacarpy.cli import console
 
-raise SystemExit(main())
+console()

@@ -44,3 +44,5 @@ def serve() -> None:
 
 if __name__ == "__main__":
     serve()
+    from spacarpy.cli import exit_process
+    exit_process(0)             # no interpreter teardown: the caller waits for this exit
