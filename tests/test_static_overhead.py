@@ -74,7 +74,7 @@ def test_banded_full_and_sparse_substitution_agree(n_nodes):
     b = rng.standard_normal(n)
     x_band = bt.factorize(data)(b)
     x_full = BlockTriangular(rows, cols, n, band=False).factorize(data)(b)
-    x_sparse = BlockTriangular(rows, cols, n, dense=False, band=False).factorize(data)(b)
+    x_sparse = BlockTriangular(rows, cols, n, dense=False).factorize(data)(b)
     a = np.zeros((n, n))
     a[rows, cols] = data
     x_ref = np.linalg.solve(a, b)

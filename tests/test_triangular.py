@@ -28,7 +28,7 @@ def test_solves_shuffled_block_triangular_matrices_like_a_dense_solver(seed, den
     rng = np.random.default_rng(seed)
     a = _block_triangular(rng, n_blocks=int(rng.integers(1, 40)))
     rows, cols = np.nonzero(a)
-    bt = BlockTriangular(rows, cols, a.shape[0], dense=dense, band=None if dense else False)
+    bt = BlockTriangular(rows, cols, a.shape[0], dense=dense)
     assert bt.shape[1] <= 5                    # the structure was found, not one big block
     solve = bt.factorize(a[rows, cols])
     for _ in range(2):                         # a factorization serves several solves
@@ -92,47 +92,17 @@ def _chain(rng, n_nodes, s=7):
 @pytest.mark.parametrize("n_nodes", [DENSE_MAX // 7, DENSE_MAX // 7 + 1])
 def test_dense_and_sparse_substitution_agree_at_the_threshold(n_nodes):
     """Just below and just above DENSE_MAX unknowns the default takes the dense and the
-    sparse storage in turn, a chain's L as a band either way; forced to the full dense
-    array or the sparse solve, both give the dense solver's solution and agree with each
-    other and with the band to round-off."""
+    sparse triangular solve in turn; forced either way, both give the dense solver's
+    solution and agree with each other to round-off."""
     rng = np.random.default_rng(n_nodes)
     rows, cols, data, n = _chain(rng, n_nodes)
-    default = BlockTriangular(rows, cols, n)
-    assert default.dense == (n <= DENSE_MAX)
-    assert default.band is not None and default.band < 14
+    assert BlockTriangular(rows, cols, n).dense == (n <= DENSE_MAX)
     b = rng.standard_normal(n)
-    x_dense = BlockTriangular(rows, cols, n, dense=True, band=False).factorize(data)(b)
-    x_sparse = BlockTriangular(rows, cols, n, dense=False, band=False).factorize(data)(b)
-    x_band = default.factorize(data)(b)
+    x_dense = BlockTriangular(rows, cols, n, dense=True).factorize(data)(b)
+    x_sparse = BlockTriangular(rows, cols, n, dense=False).factorize(data)(b)
     a = np.zeros((n, n))
     a[rows, cols] = data
     x_ref = np.linalg.solve(a, b)
     scale = np.abs(x_ref).max()
     assert np.abs(x_dense - x_sparse).max() < 1e-12 * scale
-    assert np.abs(x_band - x_sparse).max() < 1e-12 * scale
     assert np.abs(x_dense - x_ref).max() < 1e-10 * scale
-
-
-def test_above_dense_max_a_wide_band_keeps_the_sparse_solve():
-    """A star of 7x7 blocks (every block row reaches back to the first block) above
-    DENSE_MAX unknowns: its band would be almost the whole triangle, far more than
-    BAND_FILL times L's entries, so the sparse solve is kept, and it solves correctly."""
-    rng = np.random.default_rng(3)
-    s, n_nodes = 7, DENSE_MAX // 7 + 10
-    n = s * n_nodes
-    rows, cols = [], []
-    for k in range(n_nodes):
-        r = np.arange(k * s, (k + 1) * s)
-        for c in ([r] if k == 0 else [r, np.arange(s)]):
-            rr, cc = np.meshgrid(r, c, indexing="ij")
-            rows.append(rr.ravel())
-            cols.append(cc.ravel())
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    data = rng.standard_normal(rows.size) + 4.0 * (rows == cols)
-    bt = BlockTriangular(rows, cols, n)
-    assert not bt.dense and bt.band is None
-    a = np.zeros((n, n))
-    a[rows, cols] = data
-    b = rng.standard_normal(n)
-    x_ref = np.linalg.solve(a, b)
-    assert np.abs(bt.factorize(data)(b) - x_ref).max() < 1e-10 * np.abs(x_ref).max()

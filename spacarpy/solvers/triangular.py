@@ -28,9 +28,7 @@ than the arithmetic of a small model; the measurements are at :data:`DENSE_MAX`)
 is banded in the block order (a chain: each block row reaches back to the block before
 it), the dense path keeps only the band, in LAPACK's band storage, and solves with BLAS's
 ``dtbsv``: 7 against 46 us for the 700 unknowns of a 100-element cantilever, and no
-(n, n) array to fill at each factorization. Above DENSE_MAX the band replaces the sparse
-solve too where it is narrow (:data:`BAND_FILL`): 83 against 501 us per solve at 7000
-unknowns.
+(n, n) array to fill at each factorization.
 Where a diagonal block is singular the whole matrix is (its determinant is the product of
 the blocks'), and :class:`~spacarpy.solvers.sparse.FactorizationError` is raised as SuperLU
 would.
@@ -53,13 +51,6 @@ from spacarpy.solvers.sparse import FactorizationError
 #: cantilever), one factorization and two solves: dense 46 / 352 / 592 / 1286 us against
 #: sparse 282 / 434 / 573 / 717 us at 70 / 700 / 1001 / 1400 unknowns.
 DENSE_MAX = 800
-
-#: Above :data:`DENSE_MAX` unknowns, L is kept as a band where the band holds at most this
-#: many times L's entries. Measured on the 2-core machine, the 1000- and 10^4-element
-#: cantilevers' L (bandwidth 13, the band 1.75 times L's entries): a solve 83 / 543 us
-#: banded against 501 / 2741 us sparse; filling the band costs 118 / 1787 us per
-#: factorization.
-BAND_FILL = 2.0
 
 
 class BlockTriangular:
@@ -156,19 +147,15 @@ class BlockTriangular:
         # ... and there, where L is banded in the block order (a chain of elements: each
         # block row reaches back to the block before it), in LAPACK's band storage
         # (``band``: forced on or off; None: where the band is less than half of L)
-        # Above DENSE_MAX the band is taken where it holds at most BAND_FILL times L's
-        # entries (a chain: 1.75), else the sparse solve (a tree of many branches).
         self.band = None                           # the lower bandwidth, where banded
-        l_col = np.repeat(np.arange(n), np.diff(self.l_indptr))
-        kd = int((self.l_indices - l_col).max(initial=0))
-        if band is None:
-            band = (kd + 1 < n // 2) if self.dense else (
-                (kd + 1) * n <= BAND_FILL * self.l_indices.size)
-        if band:
-            self.band = kd
-            self.l_flat = self.l_indices.astype(np.int64) - l_col + (kd + 1) * l_col
-        elif self.dense:
-            self.l_flat = self.l_indices.astype(np.int64) + n * l_col
+        if self.dense:
+            l_col = np.repeat(np.arange(n), np.diff(self.l_indptr))
+            kd = int((self.l_indices - l_col).max(initial=0))
+            if (kd + 1 < n // 2) if band is None else band:
+                self.band = kd
+                self.l_flat = self.l_indices.astype(np.int64) - l_col + (kd + 1) * l_col
+            else:
+                self.l_flat = self.l_indices.astype(np.int64) + n * l_col
 
     def _diagonal_blocks(self, data) -> np.ndarray:
         """The dense diagonal blocks (n_blocks, s, s) of the matrix with entries ``data``,
