@@ -67,12 +67,6 @@ def _element_products(k, idx, z, shift):
     return batch_matvec(k, relative_positions(z[idx], shift))
 
 
-def _radial_rows(k, idx, z, shift, starts):
-    """The rows ``starts`` of ``k_e z_e`` (n, len(starts)), z_e as in
-    :func:`_element_products`."""
-    return batch_matvec(k[:, starts], relative_positions(z[idx], shift))
-
-
 def applies(prob) -> bool:
     """Whether the model's Newton steps can use :class:`ReducedNewton`: every constraint is
     the normalization of a node with four free Euler parameters, no rigid modes, no moment
@@ -128,11 +122,6 @@ class ReducedNewton:
         # for each group and quaternion slot: which Euler node (index into self.nodes)
         self.slot_nodes = [[node_of[g.idx[:, s]] for s in starts]
                            for g, starts in zip(num.groups, self.slots)]
-        # the same, (element, slot) flattened, a fixed orientation node (-1) in an extra
-        # bin (see _radial_times)
-        self.slot_flat = [np.where(f < 0, self.nodes.size, f) for f in
-                          (np.stack(nodes, axis=1).ravel() if nodes else
-                           np.zeros(0, dtype=np.int64) for nodes in self.slot_nodes)]
         # reduced unknowns: the free coordinates without the radial (lambda0) slot of each
         # Euler node, whose component follows from the constraint
         keep = ~num.fixed_mask
@@ -213,19 +202,6 @@ class ReducedNewton:
                 kz += scatter_add(num.n_coord, g.idx, ke)
         kz[self.eu[:, 0]] += euler_diag * zr
         return kz
-
-    def _radial_times(self, k_rot, euler_diag, z, invariant: bool = True):
-        """``(K z)`` on the radial slots only (n_eu,): the radial rows of :meth:`_k_times`,
-        without the other rows of the element products."""
-        num = self.prob.num
-        out = euler_diag * z[self.eu[:, 0]]
-        for g, k, starts, nodes in zip(num.groups, k_rot, self.slots, self.slot_flat):
-            if starts.size:
-                shift = g.kind.position_starts if invariant else np.zeros(0, dtype=np.int64)
-                rows = in_chunks(partial(_radial_rows, z=z, shift=shift, starts=starts),
-                                 len(k), k, g.idx)
-                out += np.bincount(nodes, weights=rows.ravel(), minlength=out.size + 1)[:-1]
-        return out
 
     def _reduced_times(self, k_rot, euler_diag, y, invariant: bool = True):
         """The reduced matrix times y (over the reduced unknowns), element by element."""
@@ -335,8 +311,8 @@ class ReducedNewton:
         except FactorizationError:
             return None
         radial = self.eu[:, 0]
-        dmu = -(r_full[radial] + self._radial_times(k_rot, euler_diag, z, invariant)) / (
-            2.0 * nq)
+        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
+            radial]) / (2.0 * nq)
         z[self.eu] = np.einsum("nab,nb->na", b, z[self.eu])
         return z[self.free], np.concatenate([np.zeros(self.n_rigid), dmu])
 
@@ -400,14 +376,14 @@ class ReducedNewton:
         if load is not None:
             zb = np.zeros(num.n_coord)
             zb[self.keep] = yb
-            b_mu = (l_full[radial] - self._radial_times(k_rot, euler_diag, zb,
-                                                        invariant)) / (2.0 * nq)
+            b_mu = (l_full[radial] - self._k_times(k_rot, euler_diag, zb,
+                                                   invariant=invariant)[radial]) / (2.0 * nq)
             zb[self.eu] = np.einsum("nab,nb->na", b, zb[self.eu])
         z[self.keep] = y
         # back to the Euler parameters, and the multiplier increments from the radial rows:
         # (K z)_radial + 2 |q| dmu = -r_radial
-        dmu = -(r_full[radial] + self._radial_times(k_rot, euler_diag, z, invariant)) / (
-            2.0 * nq)
+        dmu = -(r_full[radial] + self._k_times(k_rot, euler_diag, z, invariant=invariant)[
+            radial]) / (2.0 * nq)
         dq = np.einsum("nab,nb->na", b, z[self.eu])
         z[self.eu] = dq
         step = z[self.free], np.concatenate([np.zeros(self.n_rigid), dmu])
