@@ -318,10 +318,15 @@ class StaticProblem:
     def commit(self, x, mu, load: LoadState):
         """Let the element kinds update their persistent state after a converged step."""
         ev = self.evaluate(x, mu, load)
-        for g, st in zip(self.num.groups, ev.states):
+        self.commit_states(ev.states)
+        return ev
+
+    def commit_states(self, states) -> None:
+        """:meth:`commit` with the kernel states of the converged x already in hand (per
+        element group), as a transient step has them from its last residual."""
+        for g, st in zip(self.num.groups, states):
             if g.kind.commit is not None:
                 g.kind.commit(st, g.prev)
-        return ev
 
     def element_results(self, ev: Evaluation) -> tuple[dict, dict]:
         """The deformations and stress resultants of every element kind at an evaluated

@@ -524,7 +524,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             q_prev, x, mu, p_damp = q_new, x_new, mu_new, p_new
             result.n_newton += its
             if prob.has_commit:
-                _commit(prob, ev.states)
+                prob.commit_states(ev.states)
             t += h
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
@@ -535,17 +535,6 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     result.wall_time = time.perf_counter() - t_wall
     result.n_matrices = tp.n_matrices
     return result
-
-
-def _commit(prob, states) -> None:
-    """Let the element kinds update their persistent state (a hinge's turn count) after a
-    converged step: :meth:`StaticProblem.commit
-    <spacarpy.solvers.equilibrium.StaticProblem.commit>` with the kernel states of the
-    step's last residual, which are those of the accepted x (evaluating them again cost a
-    fifth of the rigid pendulum's steps)."""
-    for g, st in zip(prob.num.groups, states):
-        if g.kind.commit is not None:
-            g.kind.commit(st, g.prev)
 
 
 def _initial_velocities(tp, x, v, given: dict):
