@@ -2,8 +2,9 @@
 
 Fixtures live in conftest.py; this module holds what is called, not injected: deck-error
 collection, finite differences, an independent planar four-bar solution, the arguments of the
-documented sweep, a results writer process killed with SIGKILL and the perfect column's
-arc-length path. No test module imports another test module.
+documented sweep, a results writer process killed with SIGKILL, the perfect column's
+arc-length path and the kinematic correction's pattern of a chain. No test module imports
+another test module.
 """
 from __future__ import annotations
 
@@ -220,3 +221,19 @@ def run_and_kill(tmp_path, n_elem: int, pause: float, kill_after: int = 3, on_ru
         proc.stdout.close()
         proc.stderr.close()
     return out, reported
+
+
+def kinematic_chain_pattern(rng, n_nodes, s=7):
+    """The kinematic correction's pattern for a chain of beams: each node's ``s``
+    coordinates (a diagonal block) depend on the previous node's (below the diagonal).
+    Returns ``(rows, cols, data, n)``, the data random with a dominant diagonal."""
+    import numpy as np
+    rows, cols = [], []
+    for k in range(n_nodes):
+        r = np.arange(k * s, (k + 1) * s)
+        for c in ([r] if k == 0 else [r, r - s]):
+            rr, cc = np.meshgrid(r, c, indexing="ij")
+            rows.append(rr.ravel())
+            cols.append(cc.ravel())
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    return rows, cols, rng.standard_normal(rows.size) + 4.0 * (rows == cols), n_nodes * s

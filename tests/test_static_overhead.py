@@ -8,6 +8,8 @@ from spacarpy.deck import model_from_text
 from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
 from spacarpy.solvers.triangular import BlockTriangular
 
+from helpers import kinematic_chain_pattern
+
 
 def cantilever(n, n_steps=10):
     return model_from_text(cantilever_deck(n, n_steps=n_steps, tol=1e-9, compact=True),
@@ -46,24 +48,12 @@ def test_radial_products_equal_the_full_element_products(invariant):
     assert np.abs(cols - full).max() <= 1e-14 * scale
 
 
-def _chain(rng, n_nodes, s=7):
-    rows, cols = [], []
-    for k in range(n_nodes):
-        r = np.arange(k * s, (k + 1) * s)
-        for c in ([r] if k == 0 else [r, r - s]):
-            rr, cc = np.meshgrid(r, c, indexing="ij")
-            rows.append(rr.ravel())
-            cols.append(cc.ravel())
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    return rows, cols, rng.standard_normal(rows.size) + 4.0 * (rows == cols), n_nodes * s
-
-
 @pytest.mark.parametrize("n_nodes", [5, 40, 100])
 def test_banded_full_and_sparse_substitution_agree(n_nodes):
     """A chain's L is banded (the block before): the default takes the band storage, and
     band, full dense and sparse solves all give the dense solver's solution."""
     rng = np.random.default_rng(n_nodes)
-    rows, cols, data, n = _chain(rng, n_nodes)
+    rows, cols, data, n = kinematic_chain_pattern(rng, n_nodes)
     bt = BlockTriangular(rows, cols, n)
     assert bt.band is not None and bt.band < 14 and bt.unpadded
     b = rng.standard_normal(n)

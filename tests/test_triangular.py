@@ -5,6 +5,8 @@ import pytest
 from spacarpy.solvers.sparse import FactorizationError
 from spacarpy.solvers.triangular import DENSE_MAX, BlockTriangular
 
+from helpers import kinematic_chain_pattern
+
 
 def _block_triangular(rng, n_blocks, max_size=5, density=0.3):
     """A random block lower triangular matrix with well-conditioned diagonal blocks, its
@@ -76,26 +78,13 @@ def test_patterns_without_small_blocks_or_without_a_matching_are_refused():
         BlockTriangular([0, 1], [0, 0], 2)          # column 1 is empty
 
 
-def _chain(rng, n_nodes, s=7):
-    """The kinematic correction's pattern for a chain of beams (rows, cols, data, n)."""
-    rows, cols = [], []
-    for k in range(n_nodes):
-        r = np.arange(k * s, (k + 1) * s)
-        for c in ([r] if k == 0 else [r, r - s]):
-            rr, cc = np.meshgrid(r, c, indexing="ij")
-            rows.append(rr.ravel())
-            cols.append(cc.ravel())
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    return rows, cols, rng.standard_normal(rows.size) + 4.0 * (rows == cols), n_nodes * s
-
-
 @pytest.mark.parametrize("n_nodes", [DENSE_MAX // 7, DENSE_MAX // 7 + 1])
 def test_dense_and_sparse_substitution_agree_at_the_threshold(n_nodes):
     """Just below and just above DENSE_MAX unknowns the default takes the dense and the
     sparse triangular solve in turn; forced either way, both give the dense solver's
     solution and agree with each other to round-off."""
     rng = np.random.default_rng(n_nodes)
-    rows, cols, data, n = _chain(rng, n_nodes)
+    rows, cols, data, n = kinematic_chain_pattern(rng, n_nodes)
     assert BlockTriangular(rows, cols, n).dense == (n <= DENSE_MAX)
     b = rng.standard_normal(n)
     x_dense = BlockTriangular(rows, cols, n, dense=True).factorize(data)(b)
