@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import spacarpy.deck.parser as parser
 from spacarpy.deck import job_from_text, parse_deck
@@ -207,19 +209,39 @@ def test_terminals_read_from_the_grammar_are_larks():
 @pytest.mark.parametrize("line", [
     "", "END", "  DEFORMATIONS modified  # the paper's", 'TIMEFUNCTION expr "1 - t"#c',
     "EXPECT run.exit_code 1", "X 1 -2.5e3 .5 +3. 1D-3", "X 1 {2} 3", "X 1:3", "X 1abc",
-    '"open', "A_b.c-d 1", "\t% only a comment", "X \u0661"])
-def test_lines_of_words_and_numbers_are_lexed_as_lark_lexes_them(line):
+    '"open', "A_b.c-d 1", "\t% only a comment", "X \u0661", "DYNE 1:10 1 2 3#c",
+    "X 1:2:47 {n}:1", "X 1:{n} {a # b}", "X 1:2:3:4", "X 1: 2", "X {a}b", "X {a}:b",
+    "X 1::2", "X {a}:{b}:{c}%c", 'X "a # b" 1:2'])
+def test_lines_of_readable_fields_are_lexed_as_lark_lexes_them(line):
+    _same_tokens_as_lark(line)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.sampled_from(["1", "12", ":", "{", "}", "a", "X", ".", "-", "e", " ", "\t",
+                                 "#", "%", '"', "n", "+"]), max_size=14).map("".join))
+def test_any_line_is_lexed_as_lark_lexes_it_or_left_to_lark(line):
+    _same_tokens_as_lark(line)
+
+
+def _same_tokens_as_lark(line: str) -> None:
+    """The tokens of parser._simple_tokens are Lark's; a line it leaves to Lark has a BAD one."""
     mine = parser._simple_tokens(line, 7)
     theirs = list(parser._lark().lex(line))
     if mine is None:                        # not such a line: Lark's
-        assert any(t.type not in ("WORD", "NUMBER", "STRING") for t in theirs)
+        assert any(t.type == "BAD" for t in theirs), line
         return
     assert [(t.type, str(t), t.line, t.column, t.end_column) for t in mine] == \
-        [(t.type, str(t), 7, t.column, t.end_column) for t in theirs]
+        [(t.type, str(t), 7, t.column, t.end_column) for t in theirs], line
 
 
-def test_a_deck_of_plain_lines_is_read_without_lark():
+@pytest.mark.parametrize("ranges", [False, True])
+def test_a_deck_of_plain_lines_or_ranges_is_read_without_lark(ranges, tmp_path):
     deck = ROOT / "decks" / "table1_cantilever_8el_modified.dat"
+    if ranges:                          # properties given to elements 1:8 (a compact deck)
+        from spacarpy.cases import cantilever_deck
+        deck = tmp_path / "compact.dat"
+        deck.write_text(cantilever_deck(8, n_steps=2, compact=True))
+        assert ":" in deck.read_text().split("ESTIFF", 1)[1].split("\n", 1)[0]
     code = ("import sys; from spacarpy.deck import load; load(sys.argv[1]); "
             "print(sorted(m for m in sys.modules if m == 'lark' or m.startswith('lark.')))")
     out = subprocess.run([sys.executable, "-c", code, str(deck)], capture_output=True,

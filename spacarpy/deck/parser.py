@@ -12,7 +12,7 @@ and column; Lark's own exceptions never escape.
 A line of a keyword and plain numbers (nearly every line of a large deck) takes a fast path
 that gives the same statements: its numbers are converted in a batch with the other lines of
 its keyword (:class:`_Batch`), and its statement makes its locations only when asked for. Lines
-of words, numbers and strings are lexed without Lark (:func:`_simple_tokens`); Lark and the
+of readable fields are lexed without Lark (:func:`_simple_tokens`); Lark and the
 expressions are imported at the first line that needs them.
 
 The module is longer than most (about 1200 lines) because the general path and the fast path
@@ -92,7 +92,7 @@ def _grammar_terminals(names) -> dict:
 # columns Lark would give. Every other line (strings, {expressions}, ranges, unreadable fields,
 # ...) and every plain line that is not simply correct is lexed and checked by the general
 # code, which reports all errors.
-_TERMINALS = _grammar_terminals(("WORD", "NUMBER", "STRING", "COMMENT"))
+_TERMINALS = _grammar_terminals(("WORD", "NUMBER", "STRING", "RANGE", "EXPR", "COMMENT"))
 _PLAIN_LINE = re.compile(r"{ws}*(?P<data>{word}(?:{ws}+{number})*){ws}*(?:{comment})?".format(
     ws=r"[^\S\n]", word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"],
     comment=_TERMINALS["COMMENT"]))
@@ -102,10 +102,12 @@ _NUMBER = re.compile(_TERMINALS["NUMBER"])
 #: A character that no NUMBER of the fast path has (see _Batch.convert).
 _NOT_NUMBER_CHAR = re.compile(r"[^0-9+\-.eEdD]")
 _COMMENT_START = re.compile(r"[#%]")
-#: A line of words, numbers and strings (see _simple_tokens), and one such token.
-_SIMPLE_TOKEN = re.compile("(?P<STRING>{string})|(?P<WORD>{word})|(?P<NUMBER>{number})".format(
-    string=_TERMINALS["STRING"], word=_TERMINALS["WORD"], number=_TERMINALS["NUMBER"]))
-_ANY_SIMPLE = "(?:{})|(?:{})|(?:{})".format(*(_TERMINALS[k] for k in ("STRING", "WORD", "NUMBER")))
+#: A line of readable fields only (see _simple_tokens), and one such token: the grammar's
+#: terminals but BAD. At any place at most one of them matches (each must end at a blank, a
+#: comment or the line's end), so their order here cannot differ from Lark's priorities.
+_SIMPLE_KINDS = ("RANGE", "EXPR", "STRING", "WORD", "NUMBER")
+_SIMPLE_TOKEN = re.compile("|".join(f"(?P<{k}>{_TERMINALS[k]})" for k in _SIMPLE_KINDS))
+_ANY_SIMPLE = "|".join(f"(?:{_TERMINALS[k]})" for k in _SIMPLE_KINDS)
 _SIMPLE_LINE = re.compile(r"{ws}*(?P<data>(?:{tok})(?:{ws}+(?:{tok}))*)?{ws}*(?:{comment})?".format(
     ws=r"[^\S\n]", tok=_ANY_SIMPLE, comment=_TERMINALS["COMMENT"]))
 _BLANK_LINE = re.compile(r"{ws}*(?:{comment})?".format(ws=r"[^\S\n]",
@@ -454,9 +456,11 @@ class _Token(str):
 
 
 def _simple_tokens(line: str, number: int):
-    """The tokens of a line of words, numbers and strings only (``DEFORMATIONS modified``,
-    ``END``, ``EXPECT run.exit_code 1``), as Lark lexes them, without Lark; None for any
-    other line (expressions, ranges, unreadable fields): Lark lexes those."""
+    """The tokens of a line of readable fields only (``DEFORMATIONS modified``, ``END``,
+    ``EXPECT run.exit_code 1``, ``DYNE 1:10 1 2 3``, ``X 3 {L/2} 0 0``), as Lark lexes them,
+    without Lark; None for a line with an unreadable field (BAD): Lark lexes those, for its
+    error's column. (Importing Lark and building its lexer takes 30 ms: a tenth of the whole
+    run of a small deck whose elements are given as ranges.)"""
     simple = _SIMPLE_LINE.fullmatch(line)
     if simple is None:
         return None
@@ -1462,7 +1466,10 @@ class _Reader:
     def whole(self, value: float, tok: Token, spec: FieldSpec, keyword: str, index: int) -> int:
         # int: a float with zero fractional part is accepted (SPACAR writes 5.000000); an
         # expression may be off by round-off ({0.1*30} is 3)
-        ivalue = _expr().whole_number(value, 0.0 if tok.type == "NUMBER" else 1e-9)
+        if tok.type == "NUMBER":        # finite here; exactly whole (no Lark needed)
+            ivalue = int(value) if value.is_integer() else None
+        else:
+            ivalue = _expr().whole_number(value, 1e-9)
         if ivalue is None:
             if tok.type == "EXPR":
                 raise _FieldError(index, f"{keyword}: the {spec.name} must be a whole number, "
