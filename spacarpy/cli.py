@@ -459,8 +459,22 @@ def _terminate_like_interrupt():
 
 def console() -> None:
     """The ``spacarpy`` command (console script and ``python -m spacarpy``): :func:`main`,
-    then :func:`exit_process` with its exit code."""
+    then :func:`exit_process` with its exit code.
+
+    For the commands that analyse in this process and in its main thread only (``run``,
+    ``check``), numpy's submodules that no analysis uses are made lazy first
+    (:mod:`spacarpy.lazy_imports`), after the BLAS thread count is set: that import of numpy
+    is the process's first. (Not for ``batch`` and ``sweep``, whose Dask backend has threads:
+    Python 3.11's lazy modules are not safe to load from two threads at once.)"""
+    if _command_name(None) in _LAZY_NUMPY_COMMANDS:
+        from spacarpy.lazy_imports import defer_numpy_submodules
+        _single_blas_thread()
+        defer_numpy_submodules()
     exit_process(main())
+
+
+#: The commands for which :func:`console` makes numpy's unused submodules lazy.
+_LAZY_NUMPY_COMMANDS = ("run", "check")
 
 
 def exit_process(code: int) -> None:

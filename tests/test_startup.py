@@ -154,3 +154,56 @@ def test_the_results_package_gives_every_public_name_on_first_use():
     assert results.ResultsWriter is writer.ResultsWriter
     with pytest.raises(AttributeError, match="no attribute 'nothing'"):
         results.nothing  # noqa: B018
+
+
+def test_spacarpy_run_does_not_load_numpys_unused_submodules_or_lark(tmp_path):
+    """``spacarpy run`` (the console entry point) leaves numpy.testing, f2py, ma, ... unloaded
+    (spacarpy.lazy_imports) and reads a deck of ranges without Lark; -X importtime lists
+    every module the process really executed."""
+    from spacarpy.cases import cantilever_deck
+    deck = tmp_path / "compact.dat"
+    deck.write_text(cantilever_deck(4, n_steps=2, compact=True))     # ESTIFF 1:4 ...
+    proc = subprocess.run([sys.executable, "-X", "importtime", "-m", "spacarpy", "run",
+                           str(deck), "-q", "-o", str(tmp_path / "c.h5")], capture_output=True,
+                          text=True, cwd=tmp_path, timeout=300, env=_cache_env(tmp_path))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    executed = {line.rsplit("|", 1)[-1].strip() for line in proc.stderr.splitlines()
+                if line.startswith("import time:")}
+    assert {"spacarpy.run", "scipy.sparse", "numpy.random"} <= executed   # not vacuous
+    from spacarpy.lazy_imports import DEFERRED
+    unused = [f"numpy.{name}" for name in DEFERRED] + ["lark"]
+    loaded = sorted(m for m in executed if ".".join(m.split(".")[:2]) in unused
+                    or m.split(".")[0] == "lark")
+    assert not loaded, f"spacarpy run executed {loaded}"
+    assert (tmp_path / "c.h5").read_bytes()[:8] == b"\x89HDF\r\n\x1a\n"
+
+
+_LAZY_NUMPY = """
+import sys
+from spacarpy.lazy_imports import defer_numpy_submodules
+done = defer_numpy_submodules()
+import scipy.sparse.linalg
+assert "numpy.f2py.crackfortran" not in sys.modules and "numpy.ma.core" not in sys.modules
+import numpy as np
+import numpy.ma
+from numpy.polynomial import Polynomial
+from numpy.testing import assert_allclose
+assert_allclose(Polynomial([1, 2, 3])(2.0), 17.0)
+assert float(np.ma.masked_array([1.0, 5.0], mask=[0, 1]).sum()) == 1.0
+assert np.testing.assert_allclose is assert_allclose and np.char.upper("ab") == "AB"
+print(" ".join(done))
+"""
+
+
+def test_deferred_numpy_submodules_load_on_first_use_and_work():
+    proc = subprocess.run([sys.executable, "-c", _LAZY_NUMPY], capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert {"numpy.testing", "numpy.f2py", "numpy.ma"} <= set(proc.stdout.split())
+
+
+def test_deferring_numpy_submodules_changes_nothing_once_scipy_is_imported():
+    import scipy.sparse  # noqa: F401
+
+    from spacarpy.lazy_imports import defer_numpy_submodules
+    assert defer_numpy_submodules() == []
