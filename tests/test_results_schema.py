@@ -235,3 +235,27 @@ def test_buckling_kind_is_stored_and_derived_for_older_files(tmp_path):
         f.attrs["schema_version"] = np.array([2, 1], dtype=np.int32)
     with open_results(out, verify=False) as res:
         np.testing.assert_array_equal(res.buckling.kind[-1], kind)
+
+
+def test_attributes_written_low_level_equal_h5pys_own(tmp_path):
+    """h5file.new_attrs writes exactly what ``ds.attrs[name] = value`` writes: the same HDF5
+    type and scalar space, read back as the same Python value and type."""
+    from spacarpy.results.h5file import new_attrs
+
+    values = {"units": "N m", "long_name": "Größe, µm", "empty": "", "crc32": np.int64(-7)}
+    with h5py.File(tmp_path / "a.h5", "w") as f:
+        theirs = f.create_dataset("theirs", data=np.zeros(3))
+        mine = f.create_dataset("mine", data=np.zeros(3))
+        for name, value in values.items():
+            theirs.attrs[name] = value
+        new_attrs(mine, values)
+        for name in values:
+            a = h5py.h5a.open(theirs.id, name.encode())
+            b = h5py.h5a.open(mine.id, name.encode())
+            assert a.get_type() == b.get_type(), name
+            assert a.get_space().get_simple_extent_type() == \
+                b.get_space().get_simple_extent_type() == h5py.h5s.SCALAR, name
+            assert mine.attrs[name] == theirs.attrs[name] == values[name], name
+            assert type(mine.attrs[name]) is type(theirs.attrs[name]), name
+        with pytest.raises(TypeError, match="str or np.int64"):
+            new_attrs(mine, {"scale": 1.5})
