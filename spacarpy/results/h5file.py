@@ -7,9 +7,8 @@ This module's one job is the HDF5 file itself, below the schema's meaning:
   never replaced by a broken one (:func:`fsync` makes both durable);
 - step datasets grow by one row per step (:func:`create_extendable`) and a step is
   *committed* by appending its scale value (load factor, time, linearized step) after its
-  rows have been flushed (:class:`StepAppender`): the scale's length
-  is the number of committed steps, rows beyond it belong to a step that was being
-  written when the process died;
+  rows have been flushed (:class:`StepAppender`): the scale's length is the number of
+  committed steps, rows beyond it belong to a step being written when the process died;
 - after the groups are created the file is switched to HDF5 single-writer/multiple-reader
   (SWMR) mode, which orders the metadata flushes so that the file on disk never points to
   unwritten data. A killed writer leaves the "open for SWMR write" mark in the superblock:
@@ -22,8 +21,7 @@ This module's one job is the HDF5 file itself, below the schema's meaning:
 - :class:`SchemaFile` reads any supported schema version through the 2.0 dataset names
   (:data:`spacarpy.results.schema.LEGACY_NAMES` for 1.x files).
 
-Every created dataset carries the ``units`` and ``long_name`` of its
-:data:`~spacarpy.results.schema.DATASETS` entry.
+Every created dataset carries the ``units`` and ``long_name`` of its schema entry.
 """
 from __future__ import annotations
 
@@ -316,18 +314,15 @@ def fsync(path: Path) -> None:
 
 
 @functools.cache
-def _attr_types():
-    """The HDF5 type and space of the scalar attributes :func:`new_attrs` writes."""
-    return {str: h5py.h5t.py_create(h5py.string_dtype("utf-8"), logical=True),
+def _attr_types():      # the HDF5 types and space of new_attrs' attributes
+    return {str: h5py.h5t.py_create(h5py.string_dtype(), logical=True),
             np.int64: h5py.h5t.STD_I64LE}, h5py.h5s.create(h5py.h5s.SCALAR)
 
 
 def new_attrs(obj, values: dict) -> None:
-    """Write scalar attributes that ``obj`` does not have yet (those of a dataset just
-    created): ``str`` as variable-length UTF-8 and ``np.int64``, exactly as ``obj.attrs[name]
-    = value`` writes them, with h5py's low-level calls. (Its high-level path checks, guesses
-    and converts for 60-80 us an attribute; a small run's file has about 150 of them, a
-    tenth of the CPU of writing it.)"""
+    """New scalar attributes of ``obj`` (``str`` or ``np.int64``), as ``obj.attrs[name] =
+    value`` writes them, with h5py's low-level calls: its high-level path costs 60-80 us an
+    attribute, and a small run's file has about 150."""
     types, scalar = _attr_types()
     for name, value in values.items():
         kind = str if isinstance(value, str) else np.int64
@@ -335,30 +330,25 @@ def new_attrs(obj, values: dict) -> None:
             raise TypeError(f"attribute {name!r}: str or np.int64 expected, got {value!r}")
         attr = h5py.h5a.create(obj.id, name.encode(), types[kind], scalar)
         try:
-            attr.write(np.array(value, dtype=h5py.string_dtype("utf-8") if kind is str
-                                else "<i8"))
+            attr.write(np.array(value, dtype=h5py.string_dtype() if kind is str else "<i8"))
         finally:
             attr.close()
 
 
 def set_cf_attrs(ds: h5py.Dataset, extra: dict | None = None) -> None:
-    """``units`` and ``long_name`` of a new dataset from the schema table (and ``extra``
-    attributes)."""
+    """``units``, ``long_name`` (the schema's) and ``extra`` attributes of a new dataset."""
     spec = DATASETS[ds.name.lstrip("/")]
     new_attrs(ds, {"units": spec.units, "long_name": spec.long_name, **(extra or {})})
 
 
 def create(group: h5py.Group, name: str, data, dtype=None) -> h5py.Dataset:
     """Create a fixed-size dataset with its CF attributes and its ``crc32`` (not for
-    variable-length strings such as ``/deck``, whose SHA-256 is a root attribute). The
-    checksum is of the values as stored: the data converted to the dataset's type, as h5py
-    converts them (read back where that conversion is not numpy's)."""
+    variable-length strings such as ``/deck``, whose SHA-256 is a root attribute), of the
+    values as h5py stores them (numbers: the data converted by numpy; else read back)."""
     ds = group.create_dataset(name, data=data, dtype=dtype)
-    extra = None
-    if ds.dtype.kind != "O":
-        stored = np.asarray(data, dtype=ds.dtype) if ds.dtype.kind in "biuf" else ds[()]
-        extra = {CRC_ATTR: np.int64(crc32(stored))}
-    set_cf_attrs(ds, extra)
+    kind = ds.dtype.kind
+    stored = np.asarray(data, dtype=ds.dtype) if kind in "biuf" else ds[()]  # numbers: no read
+    set_cf_attrs(ds, None if kind == "O" else {CRC_ATTR: np.int64(crc32(stored))})
     return ds
 
 
