@@ -11,6 +11,7 @@ completely fixed. See docs/solver.md.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -182,9 +183,18 @@ class Numbering:
         v0, a0 = va[:, 0], va[:, 1]
         return v0 * t + 0.5 * a0 * t * t, v0 + a0 * t, a0.copy()
 
-    @property
+    # Derived from the fields above, which do not change after number_model; made once on
+    # first use (the solvers read them every iteration).
+    @functools.cached_property
     def n_rigid(self) -> int:
+        """Number of rigid-mode constraints (over all element groups)."""
         return int(sum(g.rigid_elem.size for g in self.groups))
+
+    @functools.cached_property
+    def euler_coords(self) -> np.ndarray:
+        """(n_euler, 4) int: the coordinate indices of the Euler parameters of each node in
+        :attr:`euler_nodes` (``rot_idx[euler_nodes]``)."""
+        return self.rot_idx[self.euler_nodes]
 
     @property
     def n_constraint(self) -> int:

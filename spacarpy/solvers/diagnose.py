@@ -264,8 +264,8 @@ def mechanism_error(prob, A, states, k: int = 8, lu=None) -> ModelError | None:
     rot = num.is_rotation_coord[prob.free]
     size = (np.abs(cand[~rot]).max(axis=0, initial=0.0) / num.length_scale
             + np.abs(cand[rot]).max(axis=0, initial=0.0))
-    q = num.x0[num.rot_idx[num.euler_nodes]]
-    euler = np.abs(np.einsum("na,nak->nk", q, full[num.rot_idx[num.euler_nodes]])).max(
+    q = num.x0[num.euler_coords]
+    euler = np.abs(np.einsum("na,nak->nk", q, full[num.euler_coords])).max(
         axis=0, initial=0.0)
     # a motion that deforms nothing to first order but that A resists (the geometric
     # stiffness of a pre-stress, ESIG: a taut string's transverse motion) is no mechanism;

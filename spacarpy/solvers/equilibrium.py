@@ -96,8 +96,6 @@ class StaticProblem:
         self._states_at = None                  # (x, kernel states at x), see evaluate()
         self.free = ~num.fixed_mask
         self.rot_mask = num.is_rotation_coord
-        self._eu = num.rot_idx[num.euler_nodes]             # (n_eu, 4) coordinate indices
-        self._n_rigid = num.n_rigid
         # the norms' weights, made once: forces (moments divided by the length scale) over
         # all and over the free coordinates, increments (positions divided by it)
         self._force_w = np.where(self.rot_mask, 1.0 / num.length_scale, 1.0)
@@ -153,9 +151,9 @@ class StaticProblem:
                  else np.zeros(num.n_coord))
         for g, f_el in zip(groups[1:], forces[1:]):
             f_int += scatter_add(num.n_coord, g.idx, f_el)
-        eu = self._eu
+        eu = self.num.euler_coords
         q_eu = x[eu]
-        f_int[eu] += 2.0 * q_eu * mu[self._n_rigid:, None]
+        f_int[eu] += 2.0 * q_eu * mu[self.num.n_rigid:, None]
         f_ext = load.force.copy()
         loads = self.loads
         if loads.moment_rot.size:
@@ -230,7 +228,7 @@ class StaticProblem:
         if material_only:
             euler_diag, mom_blocks = np.zeros(num.euler_nodes.size), np.zeros((n_m, 4, 4))
         else:
-            euler_diag = 2.0 * mu[self._n_rigid:]
+            euler_diag = 2.0 * mu[self.num.n_rigid:]
             mom_blocks = -2.0 * moment_matrix(ev.load.moment) if n_m else np.zeros((0, 4, 4))
         return k_el, euler_diag, mom_blocks
 
@@ -346,7 +344,7 @@ class StaticProblem:
     def normalize(self, x):
         """Project Euler parameters exactly onto q.q = 1 (after convergence)."""
         x = x.copy()
-        idx = self.num.rot_idx[self.num.euler_nodes]
+        idx = self.num.euler_coords
         q = x[idx]
         x[idx] = q / np.linalg.norm(q, axis=1)[:, None]
         return x

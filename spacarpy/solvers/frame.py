@@ -136,7 +136,7 @@ class RotatingFrame:
 
     @classmethod
     def of(cls, num, free: np.ndarray, planar: bool):
-        pos_all, rot_all = num.pos_idx, num.rot_idx[num.euler_nodes]
+        pos_all, rot_all = num.pos_idx, num.euler_coords
         if planar:                     # x, y (z is fixed) and lambda0, lambda3
             pos_ok = free[pos_all[:, 0]] & free[pos_all[:, 1]]
             rot_ok = free[rot_all[:, 0]] & free[rot_all[:, 3]]

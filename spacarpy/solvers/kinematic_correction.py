@@ -56,7 +56,7 @@ class SquareJacobian:
             cols.append(np.broadcast_to(num.unknown_of[g.idx][:, None, :],
                                         (n_e, n_def, g.idx.shape[1])).ravel())
             off += n_e * n_def
-        eu = num.rot_idx[num.euler_nodes]
+        eu = num.euler_coords
         rows.append(np.repeat(off + np.arange(eu.shape[0]), 4))
         cols.append(num.unknown_of[eu].ravel())
         rows, cols = np.concatenate(rows), np.concatenate(cols)
@@ -134,7 +134,7 @@ class NormalEquations:
     def __init__(self, num):
         self.num = num
         self.free = ~num.fixed_mask
-        self.eu = num.rot_idx[num.euler_nodes]
+        self.eu = num.euler_coords
         self.pattern = BlockPattern(
             num.n_unknown, [num.unknown_of[g.idx] for g in num.groups]
             + [num.unknown_of[self.eu]], upper=True)
@@ -169,7 +169,7 @@ class KinematicCorrector:
         self.system = (SquareJacobian(num) if SquareJacobian.applies(num)
                        else NormalEquations(num))
         self.free = ~num.fixed_mask
-        self.eu = num.rot_idx[num.euler_nodes]
+        self.eu = num.euler_coords
         self.inv_scale = [1.0 / g.scale for g in num.groups]
         self._solve = None                    # the step() of the kept factorization
         self._rate = None                     # the last contraction of the mismatch

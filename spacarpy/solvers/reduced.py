@@ -75,7 +75,7 @@ def applies(prob) -> bool:
     if num.n_rigid or prob.loads.moment_rot.size or not num.euler_nodes.size:
         return False
     free = ~num.fixed_mask
-    if not free[num.rot_idx[num.euler_nodes]].all():
+    if not free[num.euler_coords].all():
         return False
     try:
         _quaternion_slots(num)
@@ -114,7 +114,7 @@ class ReducedNewton:
         self.prob = prob
         num = prob.num
         self.nodes = num.euler_nodes                       # orientation-node indices
-        self.eu = num.rot_idx[self.nodes]                  # (n_eu, 4) coordinate indices
+        self.eu = num.euler_coords                         # (n_eu, 4) coordinate indices
         self.slots = _quaternion_slots(num)
         self.n_rigid = num.n_rigid                         # (0 where it applies)
         node_of = np.full(num.n_coord, -1, dtype=np.int64)

@@ -680,8 +680,8 @@ def _constraint_rates(prob, x, v):
         st = g.kind.state(x[g.idx], g.ref, prob.variant, g.prev)
         d = np.einsum("nkj,nj->nk", st.D, v[g.idx])
         rates.append(d[g.rigid_elem, g.rigid_mode])
-    q = x[num.rot_idx[num.euler_nodes]]
-    qd = v[num.rot_idx[num.euler_nodes]]
+    q = x[num.euler_coords]
+    qd = v[num.euler_coords]
     rates.append(2.0 * np.sum(q * qd, axis=1))
     return np.concatenate(rates)
 
@@ -696,7 +696,7 @@ def _gauge(num, x, v, a, a_tilde):
     ``q.ddq = -|dq|^2``; setting them after every step removes the drift without touching
     the orientation or the angular velocity.
     """
-    ri = num.rot_idx[num.euler_nodes]
+    ri = num.euler_coords
     if not ri.size:
         return
     q = x[ri]
