@@ -227,7 +227,6 @@ def kinematic_chain_pattern(rng, n_nodes, s=7):
     """The kinematic correction's pattern for a chain of beams: each node's ``s``
     coordinates (a diagonal block) depend on the previous node's (below the diagonal).
     Returns ``(rows, cols, data, n)``, the data random with a dominant diagonal."""
-    import numpy as np
     rows, cols = [], []
     for k in range(n_nodes):
         r = np.arange(k * s, (k + 1) * s)
@@ -237,3 +236,12 @@ def kinematic_chain_pattern(rng, n_nodes, s=7):
             cols.append(cc.ravel())
     rows, cols = np.concatenate(rows), np.concatenate(cols)
     return rows, cols, rng.standard_normal(rows.size) + 4.0 * (rows == cols), n_nodes * s
+
+
+def dense_reference(rows, cols, data, n: int, b) -> tuple[np.ndarray, float]:
+    """The solution of the ``n x n`` system with entries ``data`` at ``(rows, cols)`` and
+    right side ``b`` by numpy's dense solver, and its largest magnitude (for tolerances)."""
+    a = np.zeros((n, n))
+    a[rows, cols] = data
+    x = np.linalg.solve(a, b)
+    return x, float(np.abs(x).max())
