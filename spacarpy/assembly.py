@@ -53,7 +53,7 @@ class BorderedPattern:
         n_x = num.n_unknown
         self.n_x = n_x
         self.n = n_x + num.n_constraint
-        eu = u[num.euler_coords]                   # (n_eu, 4)
+        eu = u[num.euler_coords]                               # (n_eu, 4)
         mu_ = u[num.rot_idx[moment_rot]]                       # (n_m, 4)
         erow = (n_x + num.n_rigid + np.arange(num.euler_nodes.size))[:, None]
         # (rows, columns) of every batch of blocks, in the order assemble() lists the values

@@ -320,9 +320,8 @@ def _attr_types():      # the HDF5 types and space of new_attrs' attributes
 
 
 def new_attrs(obj, values: dict) -> None:
-    """New scalar attributes of ``obj`` (``str`` or ``np.int64``), as ``obj.attrs[name] =
-    value`` writes them, with h5py's low-level calls: its high-level path costs 60-80 us an
-    attribute, and a small run's file has about 150."""
+    """New ``str``/``np.int64`` attributes of ``obj`` as ``obj.attrs[name] = value`` writes
+    them, by low-level calls (h5py's path: 60-80 us each; a small run's file has ~150)."""
     types, scalar = _attr_types()
     for name, value in values.items():
         kind = str if isinstance(value, str) else np.int64
@@ -342,13 +341,14 @@ def set_cf_attrs(ds: h5py.Dataset, extra: dict | None = None) -> None:
 
 
 def create(group: h5py.Group, name: str, data, dtype=None) -> h5py.Dataset:
-    """Create a fixed-size dataset with its CF attributes and its ``crc32`` (not for
-    variable-length strings such as ``/deck``, whose SHA-256 is a root attribute), of the
-    values as h5py stores them (numbers: the data converted by numpy; else read back)."""
+    """Create a fixed-size dataset with its CF attributes and, but for variable-length
+    strings (``/deck``: its SHA-256 is a root attribute), the ``crc32`` of its stored values."""
     ds = group.create_dataset(name, data=data, dtype=dtype)
-    kind = ds.dtype.kind
-    stored = np.asarray(data, dtype=ds.dtype) if kind in "biuf" else ds[()]  # numbers: no read
-    set_cf_attrs(ds, None if kind == "O" else {CRC_ATTR: np.int64(crc32(stored))})
+    kind, crc = ds.dtype.kind, None
+    if kind != "O":         # numbers: the data as numpy converts them, not read back
+        stored = np.asarray(data, dtype=ds.dtype) if kind in "biuf" else ds[()]
+        crc = {CRC_ATTR: np.int64(crc32(stored))}
+    set_cf_attrs(ds, crc)
     return ds
 
 

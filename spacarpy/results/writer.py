@@ -474,7 +474,7 @@ class ResultsWriter:
                 scale_label = spec.shape[0]
                 if not lin:
                     ds.make_scale(name)
-                _label(ds, 0, spec.shape[0])
+                _label(ds, 0, scale_label)
                 entry["scale"] = ds
                 continue
             _label(ds, 0, spec.shape[0])
