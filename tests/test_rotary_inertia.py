@@ -250,7 +250,14 @@ def test_the_convergence_table_of_the_docs_is_this_one(convergence):
             if np.isnan(col[i]):
                 assert shown == "—"
             else:
-                assert float(shown) == pytest.approx(col[i], rel=6e-3, abs=1e-12), (n, shown)
+                # below ROUNDOFF the eigen solve's round-off decides the digits (the 32-element
+                # lumped bending f1 read +5.79e-09 on one CPU, +6.07e-09 on another)
+                assert float(shown) == pytest.approx(col[i], rel=6e-3, abs=ROUNDOFF), (n, shown)
+
+
+#: Relative frequency errors below this are the eigen solution's round-off, not the mesh's
+#: (EA = 1e6 EI): they move by a few 1e-10 from one CPU or BLAS to another.
+ROUNDOFF = 1e-9
 
 
 def test_the_rayleigh_reference_is_euler_bernoulli_without_rotary_inertia():
