@@ -1,4 +1,4 @@
-"""Per-step appends of :class:`spacarpy.results.h5file.StepAppender` (issue 20): the low-level
+"""Per-step appends of :class:`spacarpy.results.steps.StepAppender` (issue 20): the low-level
 writes store the same bytes as h5py's ``resize`` + ``__setitem__``, in every dtype and row
 shape of the step datasets, and a step is committed by its scale entry after its rows."""
 from __future__ import annotations
@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from spacarpy.results import h5file
+from spacarpy.results.steps import StepAppender, checksum_row
 
 #: (trailing shape, dtype) of step datasets as the schema has them: a scalar per step, a
 #: vector, a matrix, a kind without elements (empty rows), int8 codes.
@@ -34,6 +35,8 @@ def _rows(rng, k):
         # float64 rows for integer datasets: converted as h5py converts them
         rows[f"d{i}"] = values if dtype == "f8" else np.round(values)
     rows["d1"] = k                          # a Python int for a scalar dataset
+    if k % 2:       # not in C order: converted first (the others are written as they are)
+        rows["d2"] = np.asfortranarray(rows["d2"])
     return rows
 
 
@@ -49,7 +52,7 @@ def test_low_level_appends_store_the_bytes_of_h5py_writes(tmp_path):
             scale.resize(k + 1, axis=0)
             scale[k] = 0.5 * k
     with h5py.File(tmp_path / "low.h5", "w", libver=h5file.LIBVER) as f:
-        appender = h5file.StepAppender(f, _datasets(f), _scale(f))
+        appender = StepAppender(f, _datasets(f), _scale(f))
         f.swmr_mode = True
         for k, rows in enumerate(steps):
             appender.append(rows, 0.5 * k, k)
@@ -70,10 +73,10 @@ def test_a_step_is_committed_by_its_scale_after_its_rows(tmp_path):
                                     maxshape=(None, len(SHAPES) + 1), chunks=(3, 7),
                                     dtype="i8")
         columns = [h5file.SCALE_COLUMN, *ds]
-        appender = h5file.StepAppender(f, ds, scale, (checksum, columns))
+        appender = StepAppender(f, ds, scale, (checksum, columns))
         rows = _rows(np.random.default_rng(1), 0)
         appender.append(rows, 0.25, 0)
-        assert checksum[0].tolist() == h5file.checksum_row(np.float64(0.25), rows,
+        assert checksum[0].tolist() == checksum_row(np.float64(0.25), rows,
                                                            columns).tolist()
         with pytest.raises(ValueError, match="d2: a row of shape"):
             appender.append({**rows, "d2": np.zeros(4)}, 0.5, 1)

@@ -31,7 +31,7 @@ import numpy as np
 
 from spacarpy.model import Model
 from spacarpy.results import h5file
-from spacarpy.results.h5file import ascii_array, create, create_extendable, partial_path_for
+from spacarpy.results.h5file import ascii_array, create, partial_path_for
 from spacarpy.results.schema import (
     CRITICAL_POINT_NAMES,
     DATASETS,
@@ -43,6 +43,7 @@ from spacarpy.results.schema import (
     SCHEMA_VERSION,
     n_def,
 )
+from spacarpy.results.steps import StepAppender, create_extendable
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
@@ -490,8 +491,10 @@ class ResultsWriter:
         checksum.attrs["columns"] = " ".join(columns)
         _label(checksum, 0, scale_label)
         entry["checksum"] = (checksum, columns)
-        entry["appender"] = h5file.StepAppender(f, entry["datasets"], entry["scale"],
-                                                entry["checksum"])
+        entry["appender"] = StepAppender(f, entry["datasets"], entry["scale"],
+                                         entry["checksum"])
+        entry["rows"] = [(name, entry["dtypes"][name], entry["shapes"][name])
+                         for name in entry["datasets"]]
         if not lin:
             for name, ds in [*entry["datasets"].items(), ("checksum", checksum)]:
                 ds.dims[0].attach_scale(entry["scale"])
@@ -513,22 +516,22 @@ class ResultsWriter:
             if not isinstance(values, dict):
                 raise TypeError(f"{group}_step: {what} must be a dict kind -> (n, n_def) "
                                 f"array, e.g. {{'BEAM': e}}")
-            extra = sorted(set(values) - set(self.kinds))
-            if extra:
+            if not values.keys() <= self.kinds.keys():
+                extra = sorted(set(values) - set(self.kinds))
                 raise ValueError(f"{group}_step: {what} of {extra}, which the model has not")
             for kind, n in self.kinds.items():
                 # a kind the model has no elements of (the BEAM group is always written)
                 given[f"elements/{kind}/{what}"] = values.get(
                     kind, np.zeros((0, n_def(kind))) if n == 0 else None)
         rows = {}
-        for name in entry["datasets"]:
+        for name, dtype, shape in entry["rows"]:
             data = given.get(name)
             if data is None:
                 raise ValueError(f"{group}_step: {name} is missing")
-            row = np.asarray(data, dtype=entry["dtypes"][name])
-            if row.shape != entry["shapes"][name]:
+            row = np.asarray(data, dtype=dtype)
+            if row.shape != shape:
                 raise ValueError(f"{group}_step: {name} has shape {row.shape}, "
-                                 f"expected {entry['shapes'][name]}")
+                                 f"expected {shape}")
             rows[name] = row
         k = entry["n"]
         entry["appender"].append(rows, value, k)
