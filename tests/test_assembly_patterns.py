@@ -177,3 +177,40 @@ def test_assembled_matrices_are_independent_and_valid(seed, bincount, monkeypatc
     full = before + np.triu(before, 1).T
     np.testing.assert_allclose(pat.symmetric_matvec(a.data, y), full @ y,
                                rtol=1e-13, atol=1e-13 * max(1.0, np.abs(full).max()))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_principal_part_is_scipys_fancy_indexing(seed):
+    """principal_part's structure and selection give template[keep][:, keep] exactly: the
+    same entries (explicit zeros of the pattern included) in the same order, any mask."""
+    import scipy.sparse as sp
+
+    from spacarpy.assembly import csc_with_data, principal_part
+    rng = np.random.default_rng(seed)
+    n = 12
+    a = sp.random(n, n, density=0.4, format="csc", random_state=seed)
+    a.data[rng.random(a.nnz) < 0.2] = 0.0          # explicit zeros stay in the pattern
+    a.sort_indices()
+    keep = rng.random(n) < 0.6
+    keep[0] = True
+    sub, sel = principal_part(a, keep)
+    got = csc_with_data(sub, a.data[sel])
+    want = a[keep][:, keep].tocsc()
+    assert got.shape == want.shape
+    np.testing.assert_array_equal(got.indptr, want.indptr)
+    np.testing.assert_array_equal(got.indices, want.indices)
+    np.testing.assert_array_equal(got.data, want.data)
+
+
+def test_padding_of_the_nodal_block_is_block_diag():
+    """The transient iteration matrix's nodal block padded to the bordered size equals
+    scipy's block_diag([a, 0]) entry for entry (csc or csr input)."""
+    import scipy.sparse as sp
+
+    from spacarpy.solvers.transient import _padded
+    a = sp.random(7, 7, density=0.5, format="csr", random_state=3)
+    want = sp.block_diag([a, sp.csc_matrix((4, 4))], format="csc")
+    for given in (a, a.tocsc()):
+        got = _padded(given, 11)
+        assert got.shape == (11, 11) and (got != want).nnz == 0
+        np.testing.assert_array_equal(got.toarray(), want.toarray())

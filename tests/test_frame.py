@@ -180,3 +180,14 @@ def test_the_framed_newton_matrix_matches_finite_differences():
     framed = base + sp.csr_matrix(tp.frame_terms(blocks, c_h, W, gamma_p)).toarray()
     assert np.abs(framed - fd).max() < 1e-8 * scale
     assert np.abs(base - fd).max() > 1e-6 * scale
+
+
+@pytest.mark.parametrize("shapes", [((5, 3), (5, 3)), ((3,), (7, 3)), ((4, 2, 3), (2, 3)),
+                                    ((0, 3), (0, 3)), ((3,), (3,))])
+def test_cross3_is_numpys_cross_bit_for_bit(shapes):
+    """The frame's cross product (spacarpy.linalg.cross3) gives np.cross's bits."""
+    from spacarpy.linalg import cross3
+    rng = np.random.default_rng(len(shapes[0]) + 10 * shapes[1][0])
+    a, b = rng.standard_normal(shapes[0]), rng.standard_normal(shapes[1])
+    assert np.array_equal(cross3(a, b), np.cross(a, b))
+    assert np.array_equal(cross3(b, a), np.cross(b, a))

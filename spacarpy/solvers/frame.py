@@ -44,6 +44,8 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
+from spacarpy.linalg import cross3
+
 #: Axes about which the nodes' second moment is below this fraction of the largest are
 #: left out of the fitted rate (their radius of gyration below 1 % of the largest).
 SPREAD = 1e-4
@@ -108,7 +110,7 @@ def _quat_rate(w: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``1/2 (0, w) q`` for rows q of Euler parameters (lambda0, lambda1..3)."""
     out = np.empty_like(q)
     out[:, 0] = -0.5 * (q[:, 1:] @ w)
-    out[:, 1:] = 0.5 * (q[:, :1] * w + np.cross(w, q[:, 1:]))
+    out[:, 1:] = 0.5 * (q[:, :1] * w + cross3(w, q[:, 1:]))
     return out
 
 
@@ -226,7 +228,7 @@ class RotatingFrame:
         w2 = float(omega @ omega)
         if self.floating or w2 == 0.0:
             return Motion(omega, c, u)
-        return Motion(omega, c + np.cross(omega, u) / w2, (u @ omega) / w2 * omega)
+        return Motion(omega, c + cross3(omega, u) / w2, (u @ omega) / w2 * omega)
 
     def _shift(self, z: np.ndarray, offset: np.ndarray) -> np.ndarray:
         """z with ``offset`` (3,) subtracted from the turning positions."""
@@ -240,7 +242,7 @@ class RotatingFrame:
         """``W z`` over all coordinates (zero on the coordinates that do not turn)."""
         out = np.zeros_like(z)
         if self.pos.size:
-            out[self.pos] = np.cross(omega, z[self.pos])
+            out[self.pos] = cross3(omega, z[self.pos])
         if self.rot.size:
             out[self.rot] = _quat_rate(omega, z[self.rot])
         return out
@@ -259,14 +261,14 @@ class RotatingFrame:
         if self.pos.size:
             p = z[self.pos]
             c, sn = np.cos(angle), np.sin(angle)
-            out[self.pos] = (c * p + sn * np.cross(axis, p)
+            out[self.pos] = (c * p + sn * cross3(axis, p)
                              + (1 - c) * (p @ axis)[:, None] * axis)
         if self.rot.size:
             q = z[self.rot]
             r0, rv = np.cos(angle / 2), np.sin(angle / 2) * axis
             res = np.empty_like(q)
             res[:, 0] = r0 * q[:, 0] - q[:, 1:] @ rv
-            res[:, 1:] = r0 * q[:, 1:] + q[:, :1] * rv + np.cross(rv, q[:, 1:])
+            res[:, 1:] = r0 * q[:, 1:] + q[:, :1] * rv + cross3(rv, q[:, 1:])
             out[self.rot] = res
         return out
 
@@ -274,7 +276,7 @@ class RotatingFrame:
         """``W`` as a sparse matrix over the free coordinates."""
         n = self.n_coord
         rows, cols, vals = [], [], []
-        for idx, size, op in ((self.pos, 3, np.cross), (self.rot, 4, _quat_rate)):
+        for idx, size, op in ((self.pos, 3, cross3), (self.rot, 4, _quat_rate)):
             if not idx.size:
                 continue
             for j in range(size):                       # column j of the node block
