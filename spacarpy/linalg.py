@@ -26,8 +26,13 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def property_columns(values, n_cols: int, name: str) -> np.ndarray:
     """Element property values (n_elem,) or (n_elem, k <= n_cols) -> (n_elem, n_cols); missing
-    and NaN trailing values are 0 (ESTIFF / EM lines may leave values out)."""
+    and NaN trailing values are 0 (ESTIFF / EM lines may leave values out). Values that are
+    that already (float, all columns, no NaN: what a model's groups hold) are returned as
+    they are, not copied (the mass kernels call this at every evaluation); callers only
+    read the result."""
     v = np.asarray(values, dtype=float)
+    if v.ndim == 2 and v.shape[1] == n_cols and not np.isnan(v).any():
+        return v
     if v.ndim == 1:
         v = v[:, None]
     if v.ndim != 2 or v.shape[1] > n_cols:

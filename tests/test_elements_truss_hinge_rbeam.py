@@ -417,3 +417,22 @@ def test_rbeam_mass_equals_rigid_beam_kinetic_energy():
     mb1 = beam_mass_matrix(xb, nx, ny, nz, l0, np.column_stack([mass[:, 0], np.zeros((n, 4))]))
     np.testing.assert_allclose(0.5 * np.einsum("ni,nij,nj->n", xdot, m1, xdot),
                                0.5 * np.einsum("ni,nij,nj->n", xbdot, mb1, xbdot), rtol=1e-12)
+
+
+def test_property_columns_pads_missing_and_nan_values_and_keeps_full_rows():
+    """EM/ESTIFF values as the kernels take them: short rows padded with zeros, NaN read as
+    0, a full float table without NaN handed back as it is (no copy per kernel call)."""
+    from spacarpy.linalg import property_columns
+    np.testing.assert_array_equal(property_columns(np.array([2.0, 3.0]), 3, "t"),
+                                  [[2, 0, 0], [3, 0, 0]])
+    np.testing.assert_array_equal(property_columns(np.array([[1.0, np.nan]]), 3, "t"),
+                                  [[1, 0, 0]])
+    full = np.array([[1.0, 2.0, 3.0]])
+    assert property_columns(full, 3, "t") is full
+    with_nan = np.array([[1.0, np.nan, 3.0]])
+    got = property_columns(with_nan, 3, "t")
+    np.testing.assert_array_equal(got, [[1, 0, 3]])
+    assert np.isnan(with_nan[0, 1])                  # the input is not changed
+    np.testing.assert_array_equal(property_columns([[4, 5, 6]], 3, "t"), [[4, 5, 6]])
+    with pytest.raises(ValueError, match="t: expected"):
+        property_columns(np.ones((2, 4)), 3, "t")
