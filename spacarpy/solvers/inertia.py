@@ -274,7 +274,9 @@ class Inertia:
             xs = (xl[None] + dx[:, None, :]).reshape(-1, k)
             vs = (vl[None] + dv[:, None, :]).reshape(-1, k)
             as_ = np.broadcast_to(al[None], (reps, n_b, k)).reshape(-1, k)
-            f = self._local(b, xs, vs, as_, reps)[1].reshape(reps, n_b, k)
+            # (the force alone: the mass blocks of these copies are not needed)
+            f = (b.force_of(xs, vs, as_, reps) if b.force_of is not None
+                 else self._local(b, xs, vs, as_, reps)[1]).reshape(reps, n_b, k)
             jx = np.zeros((n_b, k, k))
             jx[:, :, rot] = (0.5 * (f[:r] - f[r:2 * r])).transpose(1, 2, 0)
             if conv:
