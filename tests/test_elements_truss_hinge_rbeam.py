@@ -436,3 +436,33 @@ def test_property_columns_pads_missing_and_nan_values_and_keeps_full_rows():
     np.testing.assert_array_equal(property_columns([[4, 5, 6]], 3, "t"), [[4, 5, 6]])
     with pytest.raises(ValueError, match="t: expected"):
         property_columns(np.ones((2, 4)), 3, "t")
+
+
+def test_rbeam_inertia_force_is_lagranges_equations_of_its_mass_matrix():
+    """``M a + dM/dt v - 1/2 d(v^T M v)/dx`` of rbeam_mass_matrix, by central differences
+    (exact: M is quadratic in the Euler parameters and does not depend on positions),
+    against rbeam_inertia_force at random states (Euler parameters not normalized, full
+    section inertia with a product term)."""
+    from spacarpy.elements.rbeam import rbeam_inertia_force, rbeam_mass_matrix, rbeam_reference
+    rng = np.random.default_rng(11)
+    n = 5
+    xp = rng.standard_normal((n, 3))
+    xq = xp + rng.standard_normal((n, 3))
+    nx, ny, nz, l0 = rbeam_reference(xp, xq, np.full((n, 3), np.nan))
+    x = np.concatenate([xp, rng.standard_normal((n, 4)), xq], axis=1)
+    v, a = rng.standard_normal((n, 10)), rng.standard_normal((n, 10))
+    em = np.abs(rng.standard_normal((n, 5)))
+
+    def mass(xx):
+        return rbeam_mass_matrix(xx, nx, ny, nz, l0, em)
+
+    want = np.einsum("nij,nj->ni", mass(x), a)
+    want += np.einsum("nij,nj->ni", 0.5 * (mass(x + v) - mass(x - v)), v)
+    for j in range(10):
+        e = np.zeros(10)
+        e[j] = 1.0
+        vmv = [np.einsum("ni,nij,nj->n", v, mass(x + s * e), v) for s in (1.0, -1.0)]
+        want[:, j] -= 0.25 * (vmv[0] - vmv[1])
+    got = rbeam_inertia_force(x, v, a, nx, ny, nz, l0, em)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+    assert np.all(got[:, 7:] == 0.0)                    # node q carries no mass

@@ -29,8 +29,9 @@ convective(x_local, v_local, ref, mass, rotary="lumped") -> (dM/dt v, d(v^T M v)
     The two parts of the convective terms; without it the transient solver differences the
     mass matrix.
 inertia_force(x_local, v_local, a_local, ref, mass, rotary="lumped") -> (n, n_ldof), optional
-    The whole inertia force ``M a + h`` without forming M (the BEAM's is much cheaper than
-    the mass matrix times a plus ``convective``); needs ``convective``.
+    The whole inertia force ``M a + h`` without forming M (the BEAM's and the RBEAM's are
+    much cheaper than the mass matrix times a plus the convective terms); the transient
+    solver differences it for its tangent where the kind has no ``convective``.
 commit(state, prev) -> None, optional
     Update the kind's persistent state after a converged step (the hinge's turn count).
 check(state, ref) -> (element row, message) or None, optional

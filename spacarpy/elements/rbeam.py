@@ -79,7 +79,7 @@ from spacarpy.elements.base import (
 from spacarpy.elements.beam import reference_triads
 from spacarpy.elements.beam_mass import g_matrix, section_inertia, tangent_gravity
 from spacarpy.elements.nodal import TQ_H2, nodal_jacobians
-from spacarpy.linalg import property_columns
+from spacarpy.linalg import batch_matvec, property_columns
 from spacarpy.rotation import vector_jacobians
 
 N_LDOF = 10
@@ -194,14 +194,55 @@ def rbeam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndar
     out[:, QP, RP] = mb.transpose(0, 2, 1)
     out[:, QP, QP] = (m * half * half)[:, None, None] * (b.transpose(0, 2, 1) @ b)
     # inertia about the centre, element axes -> initial global axes
+    jg = _centre_inertia(em, l0, m, nx, ny, nz)
+    g = g_matrix(qp)
+    out[:, QP, QP] += 4.0 * (g.transpose(0, 2, 1) @ jg @ g)
+    return out
+
+
+def rbeam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarray,
+                        ny: np.ndarray, nz: np.ndarray, l0: np.ndarray,
+                        mass: np.ndarray) -> np.ndarray:
+    """The inertia force ``M a + h`` (n_elem, 10) of :func:`rbeam_mass_matrix`'s rigid body
+    at (x, v, a), without forming M.
+
+    Lagrange's equations of ``T = 1/2 m |c'|^2 + 2 q'^T G^T J G q'`` (centre ``c = r^p + h
+    n_x(q)``, ``h = l0 / 2``, J the inertia about the centre in initial global axes):
+    ``n_x`` is quadratic in q with the linear Jacobian ``B(q)``, so ``c'' = r^p'' + h (B(q)
+    q'' + B(q') q')`` and the translation gives ``m c''`` on r^p and ``m h B(q)^T c''`` on q
+    (the gradient part cancels); the rotation gives ``4 G^T J G q'' + 8 G(q')^T J G q'``
+    (``G(q) p = -G(p) q``, ``G(p) p = 0``; the BEAM's :func:`~spacarpy.elements.beam_mass.
+    beam_inertia_force` for one node). Node q carries no mass."""
+    n = x.shape[0]
+    em = property_columns(mass, 5, "RBEAM EM")
+    m = em[:, 0] * l0
+    half = 0.5 * l0
+    qv = np.stack([x[:, QP], v[:, QP]], axis=1)                    # q, q' (n, 2, 4)
+    b = vector_jacobians(qv.reshape(2 * n, 4), np.repeat(nx, 2, axis=0)[:, None, :])
+    b = b.reshape(n, 2, 3, 4)                                      # B(q), B(q')
+    aq = a[:, QP]
+    cdd = a[:, RP] + half[:, None] * (batch_matvec(b[:, 0], aq) + batch_matvec(b[:, 1],
+                                                                               v[:, QP]))
+    f = np.zeros((n, N_LDOF))
+    f[:, RP] = m[:, None] * cdd
+    jg = _centre_inertia(em, l0, m, nx, ny, nz)
+    g = g_matrix(qv)                                               # G(q), G(q') (n, 2, 3, 4)
+    omega = batch_matvec(g[:, 0], v[:, QP])                        # G q' (half the rate)
+    alpha = batch_matvec(g[:, 0], aq)
+    f[:, QP] = ((m * half)[:, None] * batch_matvec(b[:, 0].transpose(0, 2, 1), cdd)
+                + 4.0 * batch_matvec(g[:, 0].transpose(0, 2, 1), batch_matvec(jg, alpha))
+                + 8.0 * batch_matvec(g[:, 1].transpose(0, 2, 1), batch_matvec(jg, omega)))
+    return f
+
+
+def _centre_inertia(em, l0, m, nx, ny, nz) -> np.ndarray:
+    """The rigid rod's inertia about its centre in initial global axes (n, 3, 3): the
+    section's ``l0 J`` plus ``m l0^2 / 12`` about the two cross axes."""
     jc = l0[:, None, None] * section_inertia(em)
     jc[:, 1, 1] += m * l0 * l0 / 12.0
     jc[:, 2, 2] += m * l0 * l0 / 12.0
     e = np.stack([nx, ny, nz], axis=2)                             # columns n_x n_y n_z
-    jg = e @ jc @ e.transpose(0, 2, 1)
-    g = g_matrix(qp)
-    out[:, QP, QP] += 4.0 * (g.transpose(0, 2, 1) @ jg @ g)
-    return out
+    return e @ jc @ e.transpose(0, 2, 1)
 
 
 # ------------------------------------------------------------------------------ the kind
@@ -256,6 +297,9 @@ class RBeam(ElementKind):
 
     def mass(self, x, ref, m, rotary="lumped"):    # one rigid body: exact for either choice
         return rbeam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m)
+
+    def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
+        return rbeam_inertia_force(x, v, a, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m)
 
     def gravity(self, x, ref, mass, g):
         return rbeam_gravity(x, ref, mass, g)
