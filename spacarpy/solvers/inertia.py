@@ -15,7 +15,9 @@ taken as central differences with unit step on each element's local coordinates:
 round-off), vectorized over the elements, and valid for every kernel without writing its
 convective terms by hand. A kind that provides ``convective`` (the BEAM, whose 19
 mass-matrix evaluations per residual dominated the transient runs) has ``dM/dt v`` and
-``d(v^T M v)/dx`` computed analytically, and M is evaluated once.
+``d(v^T M v)/dx`` computed analytically, and M is evaluated once; a kind with
+``inertia_force`` (the BEAM, the RBEAM) gives ``M a + h`` without M, which is then formed
+only for an iteration matrix.
 
 Unlike :class:`spacarpy.solvers.linearize.MassAssembler` (free coordinates only), the matrix
 here spans all coordinates, so prescribed motions (INPUTX, INPUTR with their velocities and
