@@ -243,6 +243,12 @@ class BlockPattern:
         self._template = sp.csc_matrix((np.zeros(self.nnz), self.indices, self.indptr),
                                        shape=(n, n))
 
+    def principal_part(self, keep: np.ndarray) -> tuple:
+        """:func:`principal_part` of this pattern: ``(sub, sel)`` such that the submatrix
+        over the coordinates ``keep`` of an assembled matrix A is ``csc_with_data(sub,
+        A.data[sel])``."""
+        return principal_part(self._template, keep)
+
     def assemble(self, blocks, diag_shift: float = 0.0) -> sp.csc_matrix:
         """Fill the pattern with ``blocks`` (one (n_b, k_b, k_b) array per batch)."""
         data = np.bincount(self.kept_scatter, minlength=self.nnz, weights=np.concatenate(

@@ -53,8 +53,8 @@ class StepAppender:
     and a row is one ``set_extent``, one hyperslab and one ``write`` (about 10 us). The
     bytes written are the same: every row is converted to its dataset's dtype first, as
     h5py would. A row that already has the dataset's dtype and row shape in C order (what
-    :class:`~spacarpy.results.writer.ResultsWriter` hands over) is written as it is, without
-    the conversion's calls (:func:`_write_row`'s).
+    :class:`~spacarpy.results.writer.ResultsWriter` hands over) is written as it is
+    (:func:`_put_row`), without the conversion of :func:`_write_row`.
 
     Parameters
     ----------
@@ -91,12 +91,8 @@ class StepAppender:
             if (type(row) is not np.ndarray or row.dtype != dtype or row.shape != trailing
                     or mspace is None or not row.flags.c_contiguous):
                 _write_row(dsid, trailing, dtype, maxshape, mtype, mspace, fspace, row, k, name)
-                continue
-            shape = (k + 1,) + trailing         # _write_row's calls for a row as it is
-            dsid.set_extent(shape)
-            fspace.set_extent_simple(shape, maxshape)
-            fspace.select_hyperslab((k,) + (0,) * len(trailing), (1,) + trailing)
-            dsid.write(mspace, fspace, row, mtype)
+            else:                               # as it is: no conversion to make
+                _put_row(dsid, trailing, maxshape, mtype, mspace, fspace, row, k)
         self._file.flush()
         _write_row(*self._scale, value, k, "scale")
         self._file.flush()
@@ -130,10 +126,18 @@ def _write_row(dsid, trailing: tuple, dtype, maxshape, mtype, mspace, fspace, ro
         except ValueError:
             raise ValueError(f"{name}: a row of shape {row.shape}, expected {trailing}") \
                 from None
+    if mspace is None:               # an empty row: nothing to write (as h5py does)
+        dsid.set_extent((k + 1,) + trailing)
+        return
+    _put_row(dsid, trailing, maxshape, mtype, mspace, fspace, row, k)
+
+
+def _put_row(dsid, trailing: tuple, maxshape, mtype, mspace, fspace, row: np.ndarray,
+             k: int) -> None:
+    """Grow the dataset to ``k + 1`` rows and write the C-ordered ``row`` (of the row shape,
+    in the memory type ``mtype``) into row ``k``: the four HDF5 calls of a row."""
     shape = (k + 1,) + trailing
     dsid.set_extent(shape)
-    if mspace is None:               # an empty row: nothing to write (as h5py does)
-        return
     fspace.set_extent_simple(shape, maxshape)
     fspace.select_hyperslab((k,) + (0,) * len(trailing), (1,) + trailing)
     dsid.write(mspace, fspace, row, mtype)

@@ -46,7 +46,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from spacarpy.assembly import csc_with_data, principal_part, scatter_add
+from spacarpy.assembly import csc_with_data, scatter_add
 from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import FLEXIBLE, Model
 from spacarpy.rotation import tangent_part
@@ -271,9 +271,10 @@ class TransientProblem:
 
     @cached_property
     def _free_part(self) -> tuple:
-        """:func:`~spacarpy.assembly.principal_part` of the inertia pattern over the free
-        coordinates (:meth:`frame_terms`' submatrices)."""
-        return principal_part(self.inertia.pattern._template, self.free)
+        """The inertia pattern's principal part over the free coordinates
+        (:meth:`~spacarpy.assembly.BlockPattern.principal_part`; :meth:`frame_terms`'
+        submatrices)."""
+        return self.inertia.pattern.principal_part(self.free)
 
     # ---------------------------------------------------------------- time-dependent data
     def prescribed(self, t: float):
