@@ -309,7 +309,7 @@ def deck_case(case: str, repeat: int) -> dict:
     import tempfile
     from pathlib import Path
 
-    decks = Path(__file__).resolve().parents[1] / "decks"
+    decks = Path(__file__).resolve().parents[2] / "decks"
     words = [w.format(deck=decks) for w in DECK_CASES[case]]
     command = "spacarpy " + " ".join(w.replace(str(decks), "decks") for w in words)
     if not Path(words[1]).is_file():
