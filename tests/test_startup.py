@@ -21,7 +21,7 @@ DECK = ROOT / "decks" / "table1_cantilever_8el_modified.dat"
 #: peers, scipy submodules a static solve does not use).
 NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.signal",
                "scipy.io", "scipy.optimize", "scipy.integrate", "scipy.interpolate",
-               "spacarpy.batch", "spacarpy.bench", "spacarpy.bench.peers", "spacarpy.bench.cases",
+               "spacarpy.batch", "spacarpy.bench",
                "spacarpy.results.plot", "spacarpy.results.plot_base",
                "spacarpy.results.plot_shapes", "spacarpy.results.export",
                "spacarpy.results.tables",
