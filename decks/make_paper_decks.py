@@ -2,11 +2,11 @@
 the linearized analyses.
 
 Run from anywhere: ``python decks/make_paper_decks.py``. The deck text comes from
-:mod:`spacarpy.cases`; the committed decks must equal what this script writes (a test checks).
+:mod:`spacarpy.bench.cases`; the committed decks must equal what this script writes (a test checks).
 """
 from pathlib import Path
 
-from spacarpy.cases import (
+from spacarpy.bench.cases import (
     bend_deck,
     cantilever_deck,
     cantilever_modes_deck,

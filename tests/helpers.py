@@ -98,7 +98,7 @@ def perfect_column(n: int = 10, setting: str = "switch"):
     """(model, settings) of the straight clamped column at 1.5 times its Euler load with
     EIy = 2 EIz (one buckling mode, a bifurcation at the load factor 1/1.5), followed by arc
     length with ``BIFURCATION setting``."""
-    from spacarpy.cases import arclength_column_deck
+    from spacarpy.bench.cases import arclength_column_deck
     from spacarpy.deck import job_from_text
     text = arclength_column_deck(n, imperfection=0.0, ds0=0.02).replace(
         "ARCLENGTH 200 0.02", "ARCLENGTH 200 0.02 0.0001 0.02").replace(

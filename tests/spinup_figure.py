@@ -12,8 +12,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from spacarpy.peers.exudyn_spinup import spinup
-from spacarpy.spinup import iteration_stats, run_spacarpy
+from spacarpy.bench.peers.exudyn_spinup import spinup
+from spacarpy.bench.spinup import iteration_stats, run_spacarpy
 
 CASES = [(4.0, 0.05, 0.5), (6.0, 0.05, 0.5), (4.0, 0.1, 0.5)]
 FIGURE = Path(__file__).resolve().parents[1] / "docs" / "spinup_lag.png"

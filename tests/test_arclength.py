@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from spacarpy.bench import convergence_order
-from spacarpy.cases import arclength_column_deck
+from spacarpy.bench.cases import arclength_column_deck
+from spacarpy.bench.runner import convergence_order
 from spacarpy.cli import main
 from spacarpy.deck import job_from_text, load
 from spacarpy.errors import ModelError

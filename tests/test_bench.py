@@ -33,7 +33,7 @@ def test_bench_case_sizes_are_checked(capsys):
 
 @pytest.mark.slow
 def test_bench_pendulum_case_times_the_whole_spacarpy_run(capsys):
-    from spacarpy.bench import run_bench
+    from spacarpy.bench.runner import run_bench
     rows = run_bench(cases=("pendulum",), repeat=1)["pendulum"]
     assert len(rows) == 1 and "error" not in rows[0], rows
     assert rows[0]["command"] == "spacarpy run decks/pendulum_rigid_90deg.dat"
@@ -45,8 +45,8 @@ def test_bench_pendulum_case_times_the_whole_spacarpy_run(capsys):
 def test_bench_spinup_case_reports_steps_iterations_and_the_peer(capsys):
     """The spinup case to t = 1 s (20 steps of 0.05 s) on 4 elements, beside Exudyn when it is
     installed: steps, Newton iterations per step, and the lag both codes reach by then."""
-    from spacarpy.bench import run_bench
-    from spacarpy.peers.exudyn_cantilever import available
+    from spacarpy.bench.peers.exudyn_cantilever import available
+    from spacarpy.bench.runner import run_bench
     peer = "exudyn" if available()[0] else None
     rows = run_bench(cases=("spinup",), sizes={"spinup": (4,)}, peer=peer,
                      spinup_t_end=1.0)["spinup"]

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from spacarpy.cases import BEND, bend_deck
+from spacarpy.bench.cases import BEND, bend_deck
 from spacarpy.deck import (
     ModelBuilder,
     build_job,

@@ -238,7 +238,7 @@ def _same_tokens_as_lark(line: str) -> None:
 def test_a_deck_of_plain_lines_or_ranges_is_read_without_lark(ranges, tmp_path):
     deck = ROOT / "decks" / "table1_cantilever_8el_modified.dat"
     if ranges:                          # properties given to elements 1:8 (a compact deck)
-        from spacarpy.cases import cantilever_deck
+        from spacarpy.bench.cases import cantilever_deck
         deck = tmp_path / "compact.dat"
         deck.write_text(cantilever_deck(8, n_steps=2, compact=True))
         assert ":" in deck.read_text().split("ESTIFF", 1)[1].split("\n", 1)[0]

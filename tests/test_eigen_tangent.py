@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from spacarpy.bench import eigen_cantilever_deck
+from spacarpy.bench.decks import eigen_cantilever_deck
 from spacarpy.deck import model_from_text
 from spacarpy.solvers import eigen as E
 from spacarpy.solvers import eigen_tangent as ET
@@ -34,7 +34,7 @@ def _lin(text, loaded=False):
 def _loaded_deck(n):
     """The eigen cantilever under a quarter of Table 1's tip force (a deflection of about
     0.4 m: a stressed, strongly rotated state)."""
-    from spacarpy.cases import cantilever_deck
+    from spacarpy.bench.cases import cantilever_deck
     text = cantilever_deck(n, n_steps=5, tol=1e-9, compact=True, shear=10.0)
     lines = [ln for ln in text.splitlines() if not ln.startswith("EXPECT")]
     text = "\n".join(lines).replace("MODE static", "MODE eigen")

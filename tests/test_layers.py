@@ -110,7 +110,7 @@ def violations(importer_layers, forbidden_layers) -> list[str]:
 def test_the_graph_sees_deferred_and_relative_imports():
     edges = import_edges()
     assert len(edges) > 50
-    assert any(a == "spacarpy.cli" and b.startswith("spacarpy.deck") for a, b, _ in edges)
+    assert any(a.startswith("spacarpy.cli") and b.startswith("spacarpy.deck") for a, b, _ in edges)
 
 
 def test_no_import_cycles():

@@ -256,7 +256,7 @@ def test_sparse_eigenvalues_of_a_fine_mesh_are_exact_rayleigh_quotients():
     directions (8e-6 too high for the lowest frequency of a 5000-element cantilever); the
     Rayleigh quotient with the element-by-element material energy is converged like the
     coarse mesh's, to the 1e-9 the two meshes differ by."""
-    from spacarpy.bench import eigen_cantilever_deck
+    from spacarpy.bench.decks import eigen_cantilever_deck
     from spacarpy.deck import model_from_text
     from spacarpy.solvers import eigen as E
     from spacarpy.solvers.linearize import MassAssembler, linearize

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from spacarpy.cases import LATERAL, LATERAL_BUCKLING_CONSTANT
+from spacarpy.bench.cases import LATERAL, LATERAL_BUCKLING_CONSTANT
 from spacarpy.cli import main
 from spacarpy.results import read_results, validate_file
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from spacarpy.cases import TABLE1
+from spacarpy.bench.cases import TABLE1
 from spacarpy.cli import main
 from spacarpy.deck import job_from_text
 from spacarpy.elements.registry import KINDS

@@ -285,7 +285,7 @@ def test_history_load_factor_labels_stand_over_their_steps(files):
 def test_progress_bar_clears_its_line_for_a_log_line():
     import io
 
-    from spacarpy.cli import _ProgressBar
+    from spacarpy.cli.run import _ProgressBar
 
     stream = io.StringIO()
     bar = _ProgressBar(stream)

@@ -12,7 +12,7 @@ import scipy.sparse as sp
 
 import spacarpy.solvers.sparse as sparse_mod
 from spacarpy.batch.compare import _compare
-from spacarpy.cases import cantilever_deck
+from spacarpy.bench.cases import cantilever_deck
 from spacarpy.deck import job_from_text, model_from_text
 from spacarpy.solvers import kinematic_check
 from spacarpy.solvers.kinematic_correction import NormalEquations, SquareJacobian
@@ -158,7 +158,7 @@ def test_analytic_convective_terms_equal_the_differenced_ones(rotary):
     md = np.einsum("nij,nj->ni", dm, v)
     assert np.allclose(mdot_v, md, rtol=1e-12, atol=1e-12 * np.abs(md).max())
 
-    from spacarpy.bench import transient_cantilever_deck
+    from spacarpy.bench.decks import transient_cantilever_deck
     text = transient_cantilever_deck(5, 10)
     model = model_from_text(text, "<t>")
     prob = StaticProblem(model)
@@ -182,7 +182,7 @@ def test_analytic_convective_terms_equal_the_differenced_ones(rotary):
 
 
 def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatch):
-    from spacarpy.bench import transient_cantilever_deck
+    from spacarpy.bench.decks import transient_cantilever_deck
     from spacarpy.solvers import equilibrium as equilibrium_mod
     from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
     text = transient_cantilever_deck(6, 30)
@@ -205,7 +205,7 @@ def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatc
 
 
 def test_few_modes_of_a_mid_size_model_come_from_the_sparse_solver_unchanged():
-    from spacarpy.bench import eigen_cantilever_deck
+    from spacarpy.bench.decks import eigen_cantilever_deck
     from spacarpy.solvers import eigen
     from spacarpy.solvers.linearize import MassAssembler, linearize
     text = eigen_cantilever_deck(60)                     # 420 free coordinates
@@ -387,7 +387,7 @@ def test_the_sparse_eigen_solver_says_when_it_gives_fewer_modes_than_asked(monke
     """Where the sparse solver's modes come back infinite (not resolved, or without
     inertia) fewer modes are stored: a warning names how many of how many, never a silent
     shorter list; with all ten resolved there is no warning."""
-    from spacarpy.bench import eigen_cantilever_deck
+    from spacarpy.bench.decks import eigen_cantilever_deck
     from spacarpy.solvers import eigen
     from spacarpy.solvers.linearize import MassAssembler, linearize
     model = model_from_text(eigen_cantilever_deck(60), "<e>")

@@ -1,8 +1,8 @@
 """Simo & Vu-Quoc's spin-up against Exudyn's geometrically exact beam (issue 21, validation).
 
 The problem of decks/spinup_beam.dat (L = 10 m, EA = 2.8e7 N, EI = 1.4e4 N m^2, rho A = 1.2
-kg/m; hub angle rate * phi(t), TIMEFUNCTION spinup 15): spacarpy (:mod:`spacarpy.spinup`,
-3D DDM beams, 10 elements) and Exudyn (:mod:`spacarpy.peers.exudyn_spinup`, 2D Reissner
+kg/m; hub angle rate * phi(t), TIMEFUNCTION spinup 15): spacarpy (:mod:`spacarpy.bench.spinup`,
+3D DDM beams, 10 elements) and Exudyn (:mod:`spacarpy.bench.peers.exudyn_spinup`, 2D Reissner
 beams with GA = 10 EA, 20 elements). Compared: the tip's peak lag in the hub's rotating frame
 during the spin-up and the time of that peak; checked: the oscillation after t = 20 s (at
 constant speed) is small.
@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from spacarpy.spinup import lag_summary, run_spacarpy, spinup_deck
+from spacarpy.bench.spinup import lag_summary, run_spacarpy, spinup_deck
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -56,10 +56,10 @@ TOL_T_PEAK = {0.05: 0.01, 0.1: 0.25}
 
 def _exudyn():
     try:
-        from spacarpy.peers.exudyn_spinup import spinup
+        from spacarpy.bench.peers.exudyn_spinup import spinup
     except ImportError as exc:                            # pragma: no cover
-        pytest.skip(f"spacarpy.peers.exudyn_spinup: {exc}")
-    from spacarpy.peers.exudyn_cantilever import available
+        pytest.skip(f"spacarpy.bench.peers.exudyn_spinup: {exc}")
+    from spacarpy.bench.peers.exudyn_cantilever import available
     ok, why = available()
     if not ok:
         pytest.skip(f"Exudyn is not installed ({why}); pip install 'spacarpy[bench]'")
@@ -119,7 +119,7 @@ def test_the_lag_is_the_tip_s_offset_along_the_hub_s_y_axis(tmp_path):
     of the tip with theta = rate phi(t), the hub's prescribed angle (the deck's own phi)."""
     import h5py
 
-    from spacarpy.spinup import spinup_phi
+    from spacarpy.bench.spinup import spinup_phi
     out = tmp_path / "spin.h5"
     r = run_spacarpy(4, 0.05, 0.5, 6.0, t_end=4.0, out=out)
     assert r["ok"] and r["steps"] == 80

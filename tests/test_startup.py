@@ -21,7 +21,7 @@ DECK = ROOT / "decks" / "table1_cantilever_8el_modified.dat"
 #: peers, scipy submodules a static solve does not use).
 NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.signal",
                "scipy.io", "scipy.optimize", "scipy.integrate", "scipy.interpolate",
-               "spacarpy.batch", "spacarpy.bench", "spacarpy.peers", "spacarpy.cases",
+               "spacarpy.batch", "spacarpy.bench",
                "spacarpy.results.plot", "spacarpy.results.plot_base",
                "spacarpy.results.plot_shapes", "spacarpy.results.export",
                "spacarpy.results.tables",
@@ -69,7 +69,7 @@ def test_spacarpy_run_imports_no_plotting_batch_peers_or_unused_scipy(tmp_path):
 
 
 def test_plot_and_extract_still_list_their_choices(capsys):
-    from spacarpy.cli import build_parser, main
+    from spacarpy.cli.main import build_parser, main
     assert main(["plot", "--help"]) == 0
     assert "load-displacement" in capsys.readouterr().out
     assert main(["extract", "--help"]) == 0
@@ -160,7 +160,7 @@ def test_spacarpy_run_does_not_load_numpys_unused_submodules_or_lark(tmp_path):
     """``spacarpy run`` (the console entry point) leaves numpy.testing, f2py, ma, ... unloaded
     (spacarpy.lazy_imports) and reads a deck of ranges without Lark; -X importtime lists
     every module the process really executed."""
-    from spacarpy.cases import cantilever_deck
+    from spacarpy.bench.cases import cantilever_deck
     deck = tmp_path / "compact.dat"
     deck.write_text(cantilever_deck(4, n_steps=2, compact=True))     # ESTIFF 1:4 ...
     proc = subprocess.run([sys.executable, "-X", "importtime", "-m", "spacarpy", "run",

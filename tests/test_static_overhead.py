@@ -3,7 +3,7 @@ per-iteration overhead"): each gives what the general path gives, to round-off."
 import numpy as np
 import pytest
 
-from spacarpy.cases import cantilever_deck
+from spacarpy.bench.cases import cantilever_deck
 from spacarpy.deck import model_from_text
 from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
 from spacarpy.solvers.triangular import BlockTriangular

@@ -424,7 +424,7 @@ def _bench_tip_history(n_steps, substeps=1, **kw):
     """The bench cantilever's transient (spacarpy.bench: 10 elements, load raised in 20 ms,
     rho_inf 0.5, tolerance 1e-8) over 0.1 s: the tip's y at every stored step and the
     result."""
-    from spacarpy.bench import transient_cantilever_deck
+    from spacarpy.bench.decks import transient_cantilever_deck
     from spacarpy.deck import job_from_text
     from spacarpy.solvers.transient import TransientOptions, solve_transient
     job = job_from_text(transient_cantilever_deck(10, 100), "<bench>")

@@ -46,5 +46,5 @@ if __name__ == "__main__":
     from spacarpy.lazy_imports import defer_numpy_submodules
     defer_numpy_submodules()    # one thread, runs as `spacarpy run` does (cli.console)
     serve()
-    from spacarpy.cli import exit_process
+    from spacarpy.cli.process import exit_process
     exit_process(0)             # no interpreter teardown: the caller waits for this exit

@@ -1,6 +1,6 @@
 """``spacarpy bench`` problems solved with the peer code Exudyn (``spacarpy bench --peer exudyn``).
 
-Four problems, set up like spacarpy's (``spacarpy.cases``, ``spacarpy.bench``):
+Four problems, set up like spacarpy's (``spacarpy.bench.cases``, ``spacarpy.bench``):
 
 * :func:`cantilever` - Table 1 of Jonker & Meijaard (2013): straight steel cantilever, L = 2 m
   along x, square 0.1 m section, dead tip force 3 E I / L^2 along +y in ``n_steps`` equal load
@@ -81,7 +81,7 @@ import warnings
 
 import numpy as np
 
-from spacarpy.cases import BEND, CANTILEVER
+from spacarpy.bench.cases import BEND, CANTILEVER
 
 #: steel density of the transient and eigenvalue benches (kg/m^3), as spacarpy.bench
 RHO = 7850.0

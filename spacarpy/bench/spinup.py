@@ -9,7 +9,7 @@ spectral radius and the final rate as parameters, storing every step. :func:`run
 runs it and returns the tip's lag in the hub's rotating frame
 (:func:`spacarpy.results.rotating.displacement_in_frame`) with the Newton iterations of every
 step; :func:`lag_summary` reduces a lag history to the numbers compared with Exudyn
-(:mod:`spacarpy.peers.exudyn_spinup`) in ``tests/test_spinup_validation.py`` and
+(:mod:`spacarpy.bench.peers.exudyn_spinup`) in ``tests/test_spinup_validation.py`` and
 docs/transient.md. :func:`bench_row` is the bench's row (the Exudyn row is made in
 :mod:`spacarpy.bench`, which imports both codes).
 """
@@ -47,7 +47,7 @@ def spinup_deck(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float 
     n_steps = int(round(t_end / h))
     b = BEAM
     return "\n".join([
-        "# Simo & Vu-Quoc's spin-up (spacarpy.spinup.spinup_deck; decks/spinup_beam.dat)",
+        "# Simo & Vu-Quoc's spin-up (spacarpy.bench.spinup.spinup_deck; decks/spinup_beam.dat)",
         "MODE transient", f"RHOINF {rho_inf!r}", f"TIMEFUNCTION spinup {b['T']:g}",
         f"SET n {int(n)}", f"SET L {b['L']:g}", "X 1 0 0 0", "X 3 {L} 0 0",
         "BEAMS 1 1 2 3 4 {n} 0 1 0", "DYNE 1:{n} 1 2 3 4 5 6", "INPUTR 2 0 0 1", "FIX 1",

@@ -1,7 +1,7 @@
 """Simo & Vu-Quoc's spin-up solved with the peer code Exudyn (``spacarpy bench --peer exudyn``,
 ``tests/test_spinup_validation.py``).
 
-The problem is that of ``decks/spinup_beam.dat`` (:mod:`spacarpy.spinup` writes the same deck
+The problem is that of ``decks/spinup_beam.dat`` (:mod:`spacarpy.bench.spinup` writes the same deck
 for spacarpy): a beam of L = 10 m clamped to a hub at the origin, EA = 2.8e7 N, EI = 1.4e4
 N m^2, rho A = 1.2 kg/m, section rotary inertia rho I_z = 6e-4 kg m (the deck's EM line), at
 rest at t = 0; the hub's angle about z is ``rate * phi(t)`` with phi the ``TIMEFUNCTION
@@ -18,7 +18,7 @@ Exudyn model:
   ``NodeRigidBodyRxyz`` would carry Tait-Bryan angles; the 2D beam has half the unknowns.
   The GJ and the out-of-plane EI of the deck play no part in the planar motion.
 * Shear: Exudyn's beam cannot be shear rigid; GA = ``shear_factor`` EA (default 10, as
-  :mod:`spacarpy.peers.exudyn_cantilever`). GA = 100 EA changes the peak lag by 1e-5 m.
+  :mod:`spacarpy.bench.peers.exudyn_cantilever`). GA = 100 EA changes the peak lag by 1e-5 m.
 * **The hub** is the first node: its x and y are held at zero and its angle is prescribed
   by three ``CoordinateConstraint`` objects between the node's coordinates and a ground
   coordinate (Lagrange multipliers, index 3, as Exudyn's generalized-alpha solves them);
@@ -35,7 +35,7 @@ Exudyn model:
   function.
 
 Exudyn is imported lazily, so the module imports without it. :func:`spinup` returns a dict
-shaped as :func:`spacarpy.spinup.run_spacarpy`'s.
+shaped as :func:`spacarpy.bench.spinup.run_spacarpy`'s.
 """
 from __future__ import annotations
 
@@ -43,8 +43,8 @@ import time
 
 import numpy as np
 
-from spacarpy.peers.exudyn_cantilever import _not_available, _quiet, _result, _solve_dynamic
-from spacarpy.spinup import BEAM, lag_summary, spinup_phi
+from spacarpy.bench.peers.exudyn_cantilever import _not_available, _quiet, _result, _solve_dynamic
+from spacarpy.bench.spinup import BEAM, lag_summary, spinup_phi
 
 #: Exudyn's beam is shear deformable: GA = SHEAR_FACTOR * EA stands in for "shear rigid"
 SHEAR_FACTOR = 10.0

@@ -1,0 +1,183 @@
+"""The tables of ``spacarpy bench``: columns per case, as text and as Markdown, the
+machine's summary line, and the generated part of docs/performance.md."""
+from __future__ import annotations
+
+import datetime
+import platform
+
+import numpy as np
+
+from spacarpy.bench.decks import DECK_CASES, TITLES
+
+
+def _columns(case: str, peer: bool):
+    """(header, width, format function) per column."""
+    def f(key, fmt, scale=1.0):
+        def get(r):
+            v = r.get(key)
+            if v is None or (isinstance(v, float) and np.isnan(v)):
+                return "-"
+            return format(v, fmt) if fmt == "d" else format(v * scale, fmt)
+        return get
+    if case in DECK_CASES:
+        return [("command", 72, lambda r: r.get("command", "-")),
+                ("whole min s", 11, f("whole", ".3f")), ("median s", 9, f("median", ".3f"))]
+    if case == "spinup":                        # one whole run: solve and results file
+        cols = [("elements", 9, f("n", "d")), ("run s", 8, f("total", ".2f")),
+                ("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
+                ("its t>16s", 9, f("its_constant", ".2f")),
+                ("ms/step", 8, f("per_step", ".2f", 1e3)),
+                ("peak lag (m)", 12, f("result", ".4f")), ("t peak (s)", 10, f("t_peak", ".2f"))]
+        if not peer:
+            return cols
+        return cols + [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
+                       ("Exudyn its/step", 15, lambda r: _peer_get(r, "iters_per_step", ".2f")),
+                       ("Exudyn its t>16s", 16, lambda r: _peer_get(r, "its_constant", ".2f")),
+                       ("Exudyn peak (m)", 15, lambda r: _peer_get(r, "result", ".4f")),
+                       ("Exudyn t peak (s)", 17, lambda r: _peer_get(r, "t_peak", ".2f")),
+                       ("ratio", 6, _ratio)]
+    cols = [("elements", 9, f("n", "d")), ("unknowns", 9, f("unknowns", "d")),
+            ("setup s", 8, f("setup", ".2f")), ("solve min s", 11, f("total", ".3f")),
+            ("median s", 9, f("median", ".3f"))]
+    if case in ("cantilever", "bend"):
+        cols += [("iters", 6, f("iterations", "d")), ("LU", 5, f("factorizations", "d")),
+                 ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
+                 ("kernels", 8, f("kernels", ".2f", 1e3)),
+                 ("assembly", 9, f("assembly", ".2f", 1e3)),
+                 ("solve", 7, f("solve", ".2f", 1e3)), ("other", 7, f("other", ".2f", 1e3)),
+                 ("tip y (m)" if case == "cantilever" else "tip y (m)", 11,
+                  f("result", ".6f" if case == "cantilever" else ".4f"))]
+    elif case == "eigen":
+        cols += [("f1 (Hz)", 9, f("f1", ".4f")), ("f10 (Hz)", 9, f("f10", ".3f"))]
+    elif case == "arclength":
+        cols += [("points", 7, f("points", "d")), ("iters", 6, f("iterations", "d")),
+                 ("iters/point", 11, f("iters_per_point", ".2f")),
+                 ("ms/iter", 8, f("per_iter", ".2f", 1e3)), ("order r", 7, f("order", ".2f")),
+                 ("order dx", 8, f("order_dx", ".2f")), ("r floor", 8, f("floor", ".0e")),
+                 ("tip y (m)", 10, f("result", ".4f"))]
+    else:
+        cols += [("steps", 6, f("steps", "d")), ("iters/step", 10, f("iters_per_step", ".2f")),
+                 ("LU/step", 7, f("lu_per_step", ".2f")),
+                 ("ms/step", 8, f("per_step", ".2f", 1e3)),
+                 ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
+                 ("tip u_y (m)", 11, f("result", ".6f"))]
+    cols += [("peak MB", 8, f("peak_mb", ".0f"))]
+    if case == "cantilever":
+        cols += [("whole s", 8, f("whole", ".3f"))]
+    if peer:
+        unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)"}.get(case, "tip u_y (m)")
+        cols += [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
+                 ("Exudyn its", 10, lambda r: _peer_get(r, "iterations", "d")),
+                 (f"Exudyn {unit}", 16, lambda r: _peer_get(
+                     r, "result", ".4f" if case in ("eigen", "bend") else ".6f")),
+                 ("ratio", 6, _ratio)]
+        if case == "cantilever":
+            cols += [("Exudyn whole s", 14, lambda r: _peer_get(r, "whole", ".3f")),
+                     ("whole ratio", 11, _whole_ratio)]
+    return cols
+
+
+def _peer_get(row, key, fmt):
+    p = row.get("peer")
+    if not p:
+        return "-"
+    if not p.get("ok"):
+        return "n/a"
+    v = p.get(key)
+    return "-" if v is None or (isinstance(v, float) and np.isnan(v)) else format(v, fmt)
+
+
+def _whole_ratio(row):
+    """spacarpy's whole-process time over the peer's."""
+    p = row.get("peer") or {}
+    if row.get("whole") is None or not p.get("whole"):
+        return "-"
+    return f"{row['whole'] / p['whole']:.2f}"
+
+
+def _ratio(row):
+    p = row.get("peer")
+    if not p or not p.get("ok") or not p.get("total") or row.get("total") is None:
+        return "-"
+    return f"{row['total'] / p['total']:.2f}"
+
+
+def _text_table(case: str, rows: list[dict], peer: bool) -> list[str]:
+    cols = _columns(case, peer)
+    header = " ".join(f"{h:>{w}}" for h, w, _ in cols)
+    lines = [header, "-" * len(header)]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"{r.get('command') or r['n']:>9}  failed: {r['error']}")
+            continue
+        lines.append(" ".join(f"{get(r):>{w}}" for _, w, get in cols))
+    return lines
+
+
+def _markdown_table(case: str, rows: list[dict], peer: bool) -> list[str]:
+    cols = _columns(case, peer)
+    lines = ["| " + " | ".join(h for h, _, _ in cols) + " |",
+             "|" + "|".join("---:" for _ in cols) + "|"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r.get('command') or r['n']} | failed: {r['error']} |"
+                         + " |" * (len(cols) - 2))
+            continue
+        lines.append("| " + " | ".join(get(r) for _, _, get in cols) + " |")
+    notes = [f"- {r['n']} elements, Exudyn: {r['peer']['reason']}" for r in rows
+             if r.get("peer") and not r["peer"].get("ok") and r["peer"].get("reason")]
+    return lines + ([""] + notes if notes else [])
+
+
+def machine_summary() -> str:
+    import numpy
+    import scipy
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    import os
+
+    from spacarpy import __version__
+    return (f"spacarpy {__version__}, Python {platform.python_version()}, numpy "
+            f"{numpy.__version__}, scipy {scipy.__version__}; {cpu}, {os.cpu_count()} cores")
+
+
+
+def _title(case: str, transient_steps: int, spinup_t_end: float = 30.0) -> str:
+    return TITLES[case].format(steps=transient_steps, t_end=spinup_t_end)
+
+
+#: The generated part of docs/performance.md lies between these lines; the rest of the page
+#: is written by hand and kept.
+MARKDOWN_BEGIN = "<!-- spacarpy bench: generated tables begin -->"
+MARKDOWN_END = "<!-- spacarpy bench: generated tables end -->"
+
+
+def write_markdown(path: str, results: dict, peer: bool, n_steps: int, transient_steps: int,
+                   spinup_t_end: float = 30.0):
+    """Write the tables into the Markdown page ``path`` (docs/performance.md): between
+    :data:`MARKDOWN_BEGIN` and :data:`MARKDOWN_END` where the page has them (the page's
+    hand-written text, what the columns mean and what was measured beyond the tables, is
+    kept), else a new page with the tables alone."""
+    from pathlib import Path
+    parts = [f"Generated by `spacarpy bench` on {datetime.date.today().isoformat()} "
+             f"({machine_summary()}). Do not edit the tables by hand: run the command "
+             f"again.\n"]
+    for case, rows in results.items():
+        parts.append(f"## {_title(case, transient_steps, spinup_t_end)}\n")
+        parts.append("\n".join(_markdown_table(case, rows, peer)) + "\n")
+    block = "\n".join([MARKDOWN_BEGIN, *parts, MARKDOWN_END])
+    page = Path(path)
+    old = page.read_text() if page.exists() else ""
+    if MARKDOWN_BEGIN in old and MARKDOWN_END in old:
+        head, rest = old.split(MARKDOWN_BEGIN, 1)
+        text = head + block + rest.split(MARKDOWN_END, 1)[1]
+    else:
+        text = "# Performance\n\n" + block + "\n"
+    page.write_text(text)

@@ -1,0 +1,55 @@
+"""``spacarpy export``: XDMF or VTK files for ParaView, the state space for MATLAB."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from spacarpy.cli.common import _output_path, _verbosity
+from spacarpy.errors import EXIT_INPUT, EXIT_OK
+
+
+def add_parser(sub) -> None:
+    """The ``export`` subcommand's arguments."""
+    exp = sub.add_parser("export", help="files for ParaView: an XDMF sidecar (reads the "
+                                        "HDF5 directly) or VTK .vtu/.pvd (needs meshio)")
+    exp.add_argument("file", type=Path, help="result file (.h5)")
+    exp.add_argument("--xdmf", action="store_true", help="write <file>.xdmf (the default)")
+    exp.add_argument("--vtk", action="store_true",
+                     help="write <file>.pvd and one .vtu per step")
+    exp.add_argument("-o", "--output", type=_output_path, default=None,
+                     help="name of the .xdmf or .pvd file (with only one of --xdmf, --vtk)")
+    exp.add_argument("--state-space", type=_output_path, default=None, metavar="FILE.mat",
+                     help="write the linearized state space A, B, C, D (SPACAR mode 9) with "
+                          "its names as a MATLAB file, for ss(A, B, C, D)")
+    exp.add_argument("--step", type=int, default=None,
+                     help="--state-space: the static step (0 = initial state; default and -1: "
+                          "the last linearized one)")
+    _verbosity(exp)
+
+
+def cmd_export(args) -> int:
+    """``spacarpy export FILE --xdmf | --vtk | --state-space FILE.mat``: files for ParaView,
+    and the state space for MATLAB."""
+    from spacarpy.results.export import (
+        check_export_output,
+        write_state_space_mat,
+        write_vtk,
+        write_xdmf,
+    )
+
+    if args.state_space is not None:
+        check_export_output(args.state_space, ".mat")
+        print(write_state_space_mat(args.file, args.state_space, step=args.step))
+        if not (args.xdmf or args.vtk):
+            return EXIT_OK
+    want_xdmf = args.xdmf or not args.vtk
+    if args.output is not None and want_xdmf and args.vtk:
+        print("export: -o names one file; give only one of --xdmf and --vtk", file=sys.stderr)
+        return EXIT_INPUT
+    if args.output is not None:          # before any work
+        check_export_output(args.output, ".pvd" if args.vtk else ".xdmf")
+    if want_xdmf:
+        print(write_xdmf(args.file, args.output))
+    if args.vtk:
+        print(write_vtk(args.file, args.output))
+    return EXIT_OK

@@ -1,0 +1,84 @@
+"""``spacarpy plot``: a figure or an animation of a result file."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from spacarpy.cli.common import _dof, _output_path, _positive_int, _selection, _verbosity
+from spacarpy.errors import EXIT_OK
+
+
+def add_parser(sub, vocabularies: bool = True) -> None:
+    """The ``plot`` subcommand's arguments. ``vocabularies``: False when another
+    subcommand is being parsed; plot is then listed with its help but without its
+    (imported) list of plot kinds."""
+    if vocabularies:
+        from spacarpy.results.plot import PLOTS
+    else:
+        PLOTS = {}
+
+    plot = sub.add_parser("plot", help="draw a figure (PNG, PDF or SVG; needs matplotlib)",
+                          formatter_class=argparse.RawDescriptionHelpFormatter,
+                          epilog="plots:\n" + "\n".join(f"  {k:<18} {v}"
+                                                       for k, v in PLOTS.items()))
+    plot.add_argument("file", type=Path, help="result file (.h5)")
+    plot.add_argument("kind", choices=list(PLOTS), metavar="KIND", nargs="?", default="shape",
+                      help="what to draw (default: shape; listed below)")
+    _selection(plot)
+    _dof(plot)
+    plot.add_argument("--all-steps", action="store_true",
+                      help="shape: draw every step, not only --step (default: the last)")
+    plot.add_argument("--quantity", default="displacement",
+                      help="history: the quantity (default: displacement)")
+    plot.add_argument("--time", type=float, nargs="+", default=None, metavar="T",
+                      help="shape: draw the stored time steps of /transient nearest to these "
+                           "times (s)")
+    plot.add_argument("--scale", type=float, default=None,
+                      help="shape, animate: displacement magnification (default: automatic "
+                           "when the displacements are small, stated in the legend; 1 = true "
+                           "scale); mode: amplitude of the mode shape (default: 15%% of the "
+                           "model size)")
+    plot.add_argument("--x", dest="x_axis", choices=("auto", "prescribed", "load-factor"),
+                      default="auto",
+                      help="frequency, buckling, load-displacement: the load axis: the "
+                           "quantity the run prescribes (a DELINPE angle in mrad, a DELXF "
+                           "force in N), or the load factor (default auto: the prescribed "
+                           "quantity where there is one)")
+    plot.add_argument("--fps", type=float, default=20.0,
+                      help="animate: frames per second (default 20)")
+    plot.add_argument("--frames", type=_positive_int, default=200,
+                      help="animate: at most this many frames, spread over the steps "
+                           "(default 200)")
+    plot.add_argument("--view", type=float, nargs=2, default=None, metavar=("ELEV", "AZIM"),
+                      help="shape, mode: camera elevation and azimuth in degrees (default "
+                           "30 -60)")
+    plot.add_argument("-o", "--output", type=_output_path, default=None,
+                      help="image file; the suffix picks the format: .png, .pdf, .svg; "
+                           "animate: .gif, .mp4 (default: <file>_<kind>.png, .gif)")
+    _verbosity(plot)
+
+
+def cmd_plot(args) -> int:
+    """``spacarpy plot FILE [KIND]``: an image file."""
+    from spacarpy.results import open_results
+    from spacarpy.results.plot import animate, make_figure, save
+    from spacarpy.results.plot_base import ANIMATION_SUFFIXES, IMAGE_SUFFIXES, check_output
+
+    animation = args.kind == "animate"
+    out = args.output or args.file.with_name(
+        f"{args.file.stem}_{args.kind}{'.gif' if animation else '.png'}")
+    out = check_output(out, ANIMATION_SUFFIXES if animation else IMAGE_SUFFIXES,
+                       f"plot {args.kind}")          # before any work
+    step = "all" if args.all_steps else args.step
+    with open_results(args.file) as res:
+        if animation:
+            animate(res, out, fps=args.fps, max_frames=args.frames, scale=args.scale,
+                    view=args.view)
+        else:
+            fig = make_figure(res, args.kind, node=args.node, element=args.element,
+                              step=step, mode=args.mode, quantity=args.quantity,
+                              scale=args.scale, view=args.view, time=args.time,
+                              x=args.x_axis, dof=args.dof)
+            save(fig, out)
+    print(out)
+    return EXIT_OK

@@ -1,0 +1,86 @@
+"""The process around a command: one BLAS thread, SIGTERM handled like Ctrl-C, errors
+printed as capped, printable messages, and the exit without the interpreter's teardown."""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+
+from spacarpy.errors import SpacarError, Terminated
+
+
+def _single_blas_thread() -> None:
+    """One BLAS thread unless the user says otherwise (OPENBLAS_NUM_THREADS etc. override).
+
+    spacarpy's dense work is many small matrices (6x6 element blocks, small reductions) and
+    sparse factorizations, where a multithreaded BLAS spends more time synchronising than
+    computing; batch runs and sweeps use one process per core anyway. Set here rather than
+    on ``import spacarpy``, since a library must not change its host's environment; it takes
+    effect only because nothing imported so far by this module has imported numpy.
+    """
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+
+
+def _on_sigterm(signum, frame):
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # a second SIGTERM ends it at once
+    raise Terminated("terminated by SIGTERM")
+
+
+def _terminate_like_interrupt():
+    """SIGTERM (job schedulers, ``kill``) ends a command the way Ctrl-C does: the result file
+    is closed with ``error`` set and without its SWMR mark, then exit 143. Only in the main
+    thread (``signal`` allows no other), and not where SIGTERM is ignored (``nohup``-like).
+    Returns the previous handler (restored when :func:`main` returns), or None."""
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous is signal.SIG_IGN:
+        return None
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    return previous
+
+
+def exit_process(code: int) -> None:
+    """End the process with exit code ``code``, without the interpreter's teardown.
+
+    After numpy, scipy and h5py are imported, Python's finalization (tearing down every
+    module and collecting every object once more) takes 60-100 ms of CPU on the 2-core
+    machine: more than the whole solve of a small model, and 15 % of the 8-element Table 1
+    deck's run. Nothing spacarpy writes needs it: every result file and export is closed
+    before :func:`main` returns. The exit handlers (the batch workers, logging, h5py) still
+    run and the standard streams are flushed; then ``os._exit``. Only for a process that
+    ends here: :func:`main` itself (tests, the batch workers' loop) returns normally."""
+    import atexit
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):   # a closed pipe (``spacarpy ... | head``)
+            pass
+    os._exit(int(code or 0))
+
+
+#: Deck errors printed at most; the rest are counted.
+MAX_PRINTED_ERRORS = 50
+
+
+def _capped(exc: SpacarError) -> str:
+    """The message of ``exc``; of a DeckError with many items only the first
+    :data:`MAX_PRINTED_ERRORS`, then ``... and N more errors``."""
+    from spacarpy.errors import DeckError
+    items = getattr(exc, "items", None)
+    if not isinstance(exc, DeckError) or len(items) <= MAX_PRINTED_ERRORS:
+        return str(exc)
+    head = str(DeckError(items[:MAX_PRINTED_ERRORS])).rsplit("\n", 1)[0]   # no "50 errors"
+    return (f"{head}\n... and {len(items) - MAX_PRINTED_ERRORS} more errors "
+            f"({len(items)} errors)")
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters (other than newline and tab) escaped as ``\\xNN``,
+    so that a message quoting a binary or damaged input never drives the terminal."""
+    return "".join(c if c.isprintable() or c in "\n\t" else
+                   (f"\\x{ord(c):02x}" if ord(c) < 256 else f"\\u{ord(c):04x}")
+                   for c in text)
