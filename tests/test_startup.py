@@ -24,7 +24,7 @@ NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.s
                "spacarpy.batch", "spacarpy.bench",
                "spacarpy.results.plot", "spacarpy.results.plot_base",
                "spacarpy.results.plot_shapes", "spacarpy.results.export",
-               "spacarpy.results.tables",
+               "spacarpy.results.tables", "spacarpy.results.summary",
                # the readers and the validator: a run writes its file, its EXPECT lines
                # read it with h5py
                "spacarpy.results.reader", "spacarpy.results.eager",

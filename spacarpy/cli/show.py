@@ -17,9 +17,9 @@ def add_parser(sub) -> None:
 
 
 def cmd_show(args) -> int:
-    """``spacarpy show FILE``: the summary of :func:`spacarpy.results.tables.summary`."""
+    """``spacarpy show FILE``: the summary of :func:`spacarpy.results.summary.summary`."""
     from spacarpy.results import open_results
-    from spacarpy.results.tables import summary
+    from spacarpy.results.summary import summary
 
     with open_results(args.file) as res:
         sys.stdout.write(summary(res))

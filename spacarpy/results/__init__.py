@@ -7,8 +7,9 @@ one table of datasets, schema 2.0, and the map of 1.x names), :mod:`~spacarpy.re
 :mod:`~spacarpy.results.validate` (:func:`validate_file`), :mod:`~spacarpy.results.reader`
 (the eager :func:`read_results` and the lazy :func:`open_results`),
 :mod:`~spacarpy.results.stress` (section forces and surface stresses),
-:mod:`~spacarpy.results.tables` (``show`` and ``extract``), :mod:`~spacarpy.results.plot`
-(matplotlib figures) and :mod:`~spacarpy.results.export` (XDMF and VTK files for ParaView).
+:mod:`~spacarpy.results.summary` (``show``), :mod:`~spacarpy.results.tables` (``extract``),
+:mod:`~spacarpy.results.plot` (matplotlib figures) and :mod:`~spacarpy.results.export`
+(XDMF and VTK files for ParaView).
 The names below are imported from their modules on first use.
 """
 #: Where each public name lives: imported on first use (PEP 562), so that writing a file

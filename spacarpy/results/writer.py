@@ -13,14 +13,11 @@ fsync) is :mod:`spacarpy.results.h5file`'s.
 - A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
   cleanly with ``completed = False`` and the error message; the partial file is kept.
 
-The module is longer than 600 lines because it is one class with one method per step group
-(static, transient, eigen, buckling, compliance, state space, critical points), all sharing
-the commit protocol above; split over modules, that protocol would have to be shared too.
+The empty groups and the header the writer appends to are made by
+:mod:`spacarpy.results.layout`.
 """
 from __future__ import annotations
 
-import datetime as _dt
-import hashlib
 import logging
 import operator
 import os
@@ -32,18 +29,12 @@ import numpy as np
 from spacarpy.model import Model
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, partial_path_for
+from spacarpy.results.layout import create_step_group, write_header
 from spacarpy.results.schema import (
-    CRITICAL_POINT_NAMES,
     DATASETS,
-    DEFORMATION_CLASS_NAMES,
-    FILETYPE,
-    MODE_KIND_NAMES,
-    PROGRAM,
     REACTION_COMPONENTS,
-    SCHEMA_VERSION,
     n_def,
 )
-from spacarpy.results.steps import StepAppender, create_extendable
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
@@ -53,7 +44,6 @@ __all__ = ["ResultsWriter"]
 _INTERRUPTED = "interrupted by user"
 _NOT_FINISHED = "results writer closed without finish()"
 _STRESS = ("max_normal_stress", "max_von_mises_stress")
-_COLUMNS = {"stiffness": "EA GJ EIy EIz cy cz", "mass": "rhoA rho(Iy+Iz) rhoIy rhoIz rhoIyz"}
 
 
 class ResultsWriter:
@@ -457,52 +447,9 @@ class ResultsWriter:
         return self._sizes[dim]
 
     def _create_step_group(self, f, group: str, n_mode: int = 0) -> None:
-        g = f.create_group(group)
-        scale_name = {"static": "load_factor", "transient": "time"}.get(group, "step")
-        entry = {"datasets": {}, "shapes": {}, "dtypes": {}, "n": 0}
-        lin = scale_name == "step"
-        if lin:
-            g.attrs["n_mode"] = np.int32(n_mode)
-        for path, spec in self._specs(group):
-            name = path[len(group) + 1:]
-            if name == "checksum":
-                continue
-            trailing = tuple(self._size(d, spec.kind, n_mode) for d in spec.shape[1:])
-            parent = g.require_group(name.rsplit("/", 1)[0]) if "/" in name else g
-            ds = create_extendable(parent, name.rsplit("/", 1)[-1], trailing,
-                                   np.dtype(spec.dtype))
-            if name == scale_name:
-                scale_label = spec.shape[0]
-                if not lin:
-                    ds.make_scale(name)
-                _label(ds, 0, scale_label)
-                entry["scale"] = ds
-                continue
-            _label(ds, 0, spec.shape[0])
-            if name == "kind":
-                ds.attrs["kind_names"] = ", ".join(MODE_KIND_NAMES)
-            if name == "point_type":
-                ds.attrs["type_names"] = ", ".join(CRITICAL_POINT_NAMES)
-            entry["datasets"][name] = ds
-            entry["shapes"][name] = trailing
-            entry["dtypes"][name] = np.dtype(spec.dtype)
-        columns = [h5file.SCALE_COLUMN] + list(entry["datasets"])
-        checksum = create_extendable(g, "checksum", (len(columns),), np.dtype("i8"))
-        checksum.attrs["columns"] = " ".join(columns)
-        _label(checksum, 0, scale_label)
-        entry["checksum"] = (checksum, columns)
-        entry["appender"] = StepAppender(f, entry["datasets"], entry["scale"],
-                                         entry["checksum"])
-        entry["rows"] = [(name, entry["dtypes"][name], entry["shapes"][name])
-                         for name in entry["datasets"]]
-        if not lin:
-            for name, ds in [*entry["datasets"].items(), ("checksum", checksum)]:
-                ds.dims[0].attach_scale(entry["scale"])
-                spec = DATASETS[f"{group}/{name}"]
-                for axis, label in enumerate(spec.shape[1:], start=1):
-                    if isinstance(label, str):
-                        _label(ds, axis, label)
-        self._groups[group] = entry
+        self._groups[group] = create_step_group(
+            f, group, self._specs(group), lambda dim, kind: self._size(dim, kind, n_mode),
+            n_mode)
 
     def _step(self, group: str, value: float, given: dict, deformation, stress) -> None:
         self._require_open(f"{group}_step")
@@ -604,47 +551,6 @@ class ResultsWriter:
             self._close()
 
     def _write_header(self, f: h5py.File) -> None:
-        model = self.model
-        text = model.source_text or ""
-        a = f.attrs
-        a["completed"] = np.bool_(False)    # first, so that any partial file says "incomplete"
-        a["filetype"] = FILETYPE
-        a["schema_version"] = np.array(SCHEMA_VERSION, dtype=np.int32)
-        a["program"] = PROGRAM
-        a["program_version"] = self.program_version
-        a["created"] = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
-        a["deck_path"] = _absolute_deck_path(model.source_path)
-        a["deck_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()
-        a["deck_text"] = text    # also here, so the run is identified from the root alone
-        a["analysis"] = self.analysis
-        a["deformations"] = self.deformations
-        if self.rotary_inertia is not None:
-            a["rotary_inertia"] = self.rotary_inertia
-        create(f, "deck", text, dtype=h5py.string_dtype("utf-8"))
-        for path, value in self.model_data.items():
-            if path not in DATASETS:
-                raise ValueError(f"model data {path!r} is not a dataset of the schema")
-            value = np.asarray(value)
-            dtype = (h5py.string_dtype("ascii", max(value.dtype.itemsize, 1))
-                     if value.dtype.kind == "S" else None)
-            parent, name = path.rsplit("/", 1)
-            ds = create(f.require_group(parent), name, value, dtype=dtype)
-            what = name
-            if what == "deformation_class":
-                ds.attrs["class_names"] = ", ".join(DEFORMATION_CLASS_NAMES)
-            elif what in _COLUMNS and path.startswith("model/elements/BEAM/"):
-                ds.attrs["columns"] = _COLUMNS[what]
-
-
-def _absolute_deck_path(source_path: str) -> str:
-    """Absolute deck path; pseudo names such as ``<model>`` or ``<string>`` are kept."""
-    source_path = str(source_path)
-    if source_path.startswith("<"):
-        return source_path
-    return os.path.abspath(source_path)
-
-
-def _label(ds: h5py.Dataset, axis: int, label: str) -> None:
-    """``ds.dims[axis].label = label`` without h5py's dimension proxies (which ask HDF5 for
-    the rank and the scales first: 50 us a label, about 40 labels in a static run)."""
-    h5py.h5ds.set_label(ds.id, axis, label.encode())
+        write_header(f, self.model, self.model_data, program_version=self.program_version,
+                     analysis=self.analysis, deformations=self.deformations,
+                     rotary_inertia=self.rotary_inertia)
