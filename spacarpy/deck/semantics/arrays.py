@@ -3,7 +3,7 @@ all at once.
 
 A deck of 10^5 elements has one X line per node and one BEAM line per element; turning each
 line into records and checking them one by one took most of the time of reading it. Here
-those lines come as arrays (the parser's :class:`~spacarpy.deck.parser.PlainTable` s, and
+those lines come as arrays (the parser's :class:`~spacarpy.deck.fastpath.PlainTable` s, and
 rows made from the statements of the lines that are not plain), and the checks of
 :mod:`.topology` and :mod:`.element_data` are made for all of them at once: doubly defined
 nodes and elements, undefined nodes, position versus orientation nodes, zero lengths,
@@ -311,7 +311,7 @@ class _ArrayTopology(Topology):
 class StatementLocs(Sequence):
     """The locations of ``count`` statements (``ElementSet.locs``), ``statement(i)`` the
     i-th, made when asked for: most runs never look at them (see
-    :class:`spacarpy.deck.parser.Statement`)."""
+    :class:`spacarpy.deck.statement.Statement`)."""
 
     def __init__(self, count: int, statement):
         self._count, self._statement = count, statement
@@ -512,7 +512,7 @@ def _unconnected(kinds: list[_Kind], positions: _Positions, ctx: DeckContext) ->
 
 
 def build_arrays(parsed, path: str, text: str, deformations, analysis) -> Job | None:
-    """The job of a parsed deck (:class:`~spacarpy.deck.parser.ParsedDeck` with the tables
+    """The job of a parsed deck (:class:`~spacarpy.deck.fastpath.ParsedDeck` with the tables
     of :data:`TABLE_KEYWORDS`), or None if the per-statement semantics must build it (see the
     module docstring)."""
     try:
