@@ -2,7 +2,7 @@
 semantics (spacarpy/deck/semantics/build.py), the reference.
 
 The array path reads the X, element, DYNE and ESTIFF lines of a large deck as arrays (the
-parser's tables, spacarpy/deck/parser.py) and builds the model only for a deck without
+parser's tables, spacarpy/deck/fastpath.py) and builds the model only for a deck without
 problems; for anything else it gives up and the per-statement semantics run. Every test here
 compares the two: the same model and settings, or the same error text; and checks that the
 array path was taken where it should be, so that the comparison is not between one path and
@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import spacarpy.deck.fastpath as fastpath
+import spacarpy.deck.fields as fields
 import spacarpy.deck.parser as parser
 import spacarpy.deck.semantics.arrays as arrays
 from spacarpy.deck import build_job, job_from_text, parse_deck
@@ -95,7 +97,8 @@ def _corpus():
 def _check_corpus(monkeypatch, decks):
     # every batch of plain lines a table: the array path for every deck it can take; the
     # lines read one by one, and scanned as in a large deck
-    monkeypatch.setattr(parser, "_SMALL_BATCH", 0)
+    monkeypatch.setattr(fastpath, "_SMALL_BATCH", 0)
+    monkeypatch.setattr(fields, "_SMALL_BATCH", 0)
     monkeypatch.setattr(arrays, "MIN_LINES", 0)
     spy = _Spy(monkeypatch)
     for path in decks:
@@ -103,7 +106,7 @@ def _check_corpus(monkeypatch, decks):
         reference = _per_statement(text, str(path))
         assert _arrays(text, str(path)) == reference, path.name
         with monkeypatch.context() as m:
-            m.setattr(parser, "_SCAN_LINES", 0)
+            m.setattr(fastpath, "_SCAN_LINES", 0)
             m.setattr(parser, "_RUN_LINES", 1)
             assert _arrays(text, str(path)) == reference, path.name
     spy.built //= 2
@@ -184,7 +187,7 @@ MIXED_DATA = ["ESTIFF 5001 1e5", "ESTIFF 5002 {2e9} 1e6 1e6 1e6", "EM 5001 2.0",
 
 
 def test_a_mixed_deck_builds_the_same_on_arrays(monkeypatch):
-    monkeypatch.setattr(parser, "_SCAN_LINES", 0)
+    monkeypatch.setattr(fastpath, "_SCAN_LINES", 0)
     spy = _Spy(monkeypatch)
     n = 400
     text = _cantilever(n, extra=MIXED_BODY, data_extra=MIXED_DATA)
@@ -234,7 +237,7 @@ BAD = {
 
 @pytest.mark.parametrize("case", sorted(BAD))
 def test_a_bad_line_in_a_large_deck_gives_the_per_statement_error(monkeypatch, case):
-    monkeypatch.setattr(parser, "_SCAN_LINES", 0)      # read as the large deck it stands for
+    monkeypatch.setattr(fastpath, "_SCAN_LINES", 0)      # read as the large deck it stands for
     text = _cut(_cantilever(N), *BAD[case])
     spy = _Spy(monkeypatch)
     got = _arrays(text, "big.dat")

@@ -1,4 +1,4 @@
-"""The fast path of the deck reader (spacarpy/deck/parser.py): plain lines (a keyword and
+"""The fast path of the deck reader (spacarpy/deck/fastpath.py): plain lines (a keyword and
 numbers) converted in batches with their locations made on demand, lines of words and
 numbers lexed without Lark, and the short ways of the semantics for the usual element.
 
@@ -17,6 +17,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import spacarpy.deck.fastpath as fastpath
+import spacarpy.deck.fields as fields
+import spacarpy.deck.lexer as lexer
 import spacarpy.deck.parser as parser
 from spacarpy.deck import job_from_text, parse_deck
 from spacarpy.errors import DeckError
@@ -43,14 +46,20 @@ END
 def _scanned(monkeypatch):
     """Read every text as a large one: its lines scanned with numpy (spacarpy/deck/linescan.py)
     and every run of simple lines appended to the batches at once."""
-    monkeypatch.setattr(parser, "_SCAN_LINES", 0)
-    monkeypatch.setattr(parser, "_RUN_LINES", 1)
+    monkeypatch.setattr(fastpath, "_SCAN_LINES", 0)
+    monkeypatch.setattr(parser, "_RUN_LINES", 1)      # read by the parser's loop
 
 
 def _general(monkeypatch):
     """Switch the fast path off: every line is lexed by Lark and checked field by field."""
-    monkeypatch.setattr(parser, "_plain_kinds", lambda *args: None)
-    monkeypatch.setattr(parser, "_simple_tokens", lambda *args: None)
+    monkeypatch.setattr(fastpath, "_plain_kinds", lambda *args: None)
+    monkeypatch.setattr(lexer, "_simple_tokens", lambda *args: None)
+
+
+def _small_batch(monkeypatch, small: int) -> None:
+    """Batches (and ranges) of fewer lines than ``small`` are converted line by line."""
+    monkeypatch.setattr(fastpath, "_SMALL_BATCH", small)
+    monkeypatch.setattr(fields, "_SMALL_BATCH", small)
 
 
 def _outcome(text: str, name: str = "deck.dat", build: bool = False):
@@ -123,7 +132,7 @@ ODD_LINES = [
 @pytest.mark.parametrize("batch", ["numpy", "line by line", "scanned"])
 def test_odd_lines_read_as_the_general_path_reads_them(monkeypatch, line, where, batch):
     # a batch of this small deck is converted line by line unless told otherwise
-    monkeypatch.setattr(parser, "_SMALL_BATCH", 10**9 if batch == "line by line" else 0)
+    _small_batch(monkeypatch, 10**9 if batch == "line by line" else 0)
     if batch == "scanned":              # as a large deck: lines scanned and taken in runs
         _scanned(monkeypatch)
     lines = BASE.splitlines()
@@ -173,36 +182,62 @@ def test_fields_locations_and_lines_of_plain_statements():
     assert beam == beam.replace() and hash(beam) == hash(beam.replace())
 
 
+def _shipped():
+    return sorted((ROOT / "decks").rglob("*.dat"))
+
+
 def _corpus():
-    decks = sorted((ROOT / "decks").glob("*.dat"))
-    if CORPUS.is_dir():
-        decks += sorted(CORPUS.glob("*.dat"))
-    return decks
+    if not CORPUS.is_dir():
+        return [pytest.param(None, marks=pytest.mark.skip(
+            reason=f"the SPACAR deck corpus {CORPUS} is absent (../shared not beside the repo)"))]
+    return sorted(CORPUS.rglob("*.dat"))
 
 
-@pytest.mark.slow
-def test_every_deck_reads_the_same_both_ways(monkeypatch):
-    """The decks of the repository (and the SPACAR corpus beside it, when there): the same
-    statements with the same places, or the same errors, with and without the fast path."""
-    for path in _corpus():
-        text = path.read_text(encoding="utf-8", errors="replace")
+def test_there_are_shipped_decks_to_compare():
+    assert len(_shipped()) >= 40        # decks/*.dat: the comparison below is not vacuous
+
+
+def test_the_general_path_switch_takes_effect(monkeypatch):
+    """_general really switches the fast path off (else the comparisons could not fail)."""
+    assert any(type(st).__name__ == "_PlainStatement" for st in parse_deck(BASE, "d.dat"))
+    with monkeypatch.context() as m:
+        _general(m)
+        statements = parse_deck(BASE, "d.dat")
+    assert statements and all(type(st).__name__ == "Statement" for st in statements)
+
+
+def _reads_the_same_both_ways(monkeypatch, path: Path) -> None:
+    """The same statements with the same places, or the same errors, with and without the
+    fast path: its batches converted with numpy, line by line, and scanned as a large deck."""
+    text = path.read_text(encoding="utf-8", errors="replace")
+    with monkeypatch.context() as m:
+        _general(m)
+        general = _outcome(text, str(path))
+    for small in (0, 10**9):        # batches converted with numpy, and line by line
         with monkeypatch.context() as m:
-            _general(m)
-            general = _outcome(text, str(path))
-        for small in (0, 10**9):        # batches converted with numpy, and line by line
-            monkeypatch.setattr(parser, "_SMALL_BATCH", small)
+            _small_batch(m, small)
             assert _outcome(text, str(path)) == general, path.name
-        with monkeypatch.context() as m:  # scanned as a large deck
-            _scanned(m)
-            m.setattr(parser, "_SMALL_BATCH", 0)
-            assert _outcome(text, str(path)) == general, path.name
+    with monkeypatch.context() as m:  # scanned as a large deck
+        _scanned(m)
+        _small_batch(m, 0)
+        assert _outcome(text, str(path)) == general, path.name
+
+
+@pytest.mark.parametrize("path", _shipped(), ids=lambda p: p.name)
+def test_every_shipped_deck_reads_the_same_both_ways(monkeypatch, path):
+    _reads_the_same_both_ways(monkeypatch, path)
+
+
+@pytest.mark.parametrize("path", _corpus(), ids=lambda p: getattr(p, "name", "corpus"))
+def test_every_corpus_deck_reads_the_same_both_ways(monkeypatch, path):
+    _reads_the_same_both_ways(monkeypatch, path)
 
 
 def test_terminals_read_from_the_grammar_are_larks():
     from lark import Lark
-    lark = Lark(parser._GRAMMAR.read_text(encoding="utf-8"), parser="lalr", lexer="basic")
+    lark = Lark(lexer._GRAMMAR.read_text(encoding="utf-8"), parser="lalr", lexer="basic")
     compiled = {t.name: t.pattern.to_regexp() for t in lark.terminals}
-    for name, pattern in parser._TERMINALS.items():     # Lark writes \n as a line end
+    for name, pattern in lexer._TERMINALS.items():     # Lark writes \n as a line end
         assert compiled[name] == pattern.replace("\\n", "\n"), name
 
 
@@ -224,9 +259,9 @@ def test_any_line_is_lexed_as_lark_lexes_it_or_left_to_lark(line):
 
 
 def _same_tokens_as_lark(line: str) -> None:
-    """The tokens of parser._simple_tokens are Lark's; a line it leaves to Lark has a BAD one."""
-    mine = parser._simple_tokens(line, 7)
-    theirs = list(parser._lark().lex(line))
+    """The tokens of lexer._simple_tokens are Lark's; a line it leaves to Lark has a BAD one."""
+    mine = lexer._simple_tokens(line, 7)
+    theirs = list(lexer._lark().lex(line))
     if mine is None:                        # not such a line: Lark's
         assert any(t.type == "BAD" for t in theirs), line
         return

@@ -232,8 +232,8 @@ def test_binary_input_is_refused_from_its_first_bytes(tmp_path, capsys):
 
 
 def test_oversized_deck_is_refused(tmp_path, monkeypatch, capsys):
-    import spacarpy.deck.parser as parser
-    monkeypatch.setattr(parser, "MAX_DECK_BYTES", 10_000)
+    import spacarpy.deck.textfile as textfile
+    monkeypatch.setattr(textfile, "MAX_DECK_BYTES", 10_000)
     deck = tmp_path / "big.dat"
     deck.write_text("% padding\n" * 2000)
     assert main(["run", str(deck), "-q"]) == 2

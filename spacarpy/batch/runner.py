@@ -89,7 +89,8 @@ class TaskResult:
 def _expected_exit_code(deck: str, overrides) -> int | None:
     """The value of the deck's ``EXPECT run.exit_code`` line, if any (None if unreadable)."""
     from spacarpy.deck.expect import expectations
-    from spacarpy.deck.parser import parse_deck, read_deck_text
+    from spacarpy.deck.parser import parse_deck
+    from spacarpy.deck.textfile import read_deck_text
 
     try:
         statements = parse_deck(read_deck_text(deck), deck, overrides=dict(overrides) or None)

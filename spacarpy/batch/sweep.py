@@ -194,7 +194,8 @@ def _check_parameters(deck: Path, overrides) -> None:
     "no 'SET name' line" errors stop the sweep (they name the parameter and the deck's SET
     names). Any other deck error is left to the runs, which report it per point.
     """
-    from spacarpy.deck.parser import parse_deck, read_deck_text
+    from spacarpy.deck.parser import parse_deck
+    from spacarpy.deck.textfile import read_deck_text
     from spacarpy.errors import DeckError
 
     try:

@@ -22,16 +22,12 @@ from __future__ import annotations
 from spacarpy.deck.api import ModelBuilder
 from spacarpy.deck.check import DeckSummary, check_deck
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED
-from spacarpy.deck.parser import (
-    Statement,
-    gc_paused,
-    parse_deck,
-    parse_deck_tables,
-    read_deck_text,
-)
+from spacarpy.deck.parser import gc_paused, parse_deck, parse_deck_tables
 from spacarpy.deck.semantics import arrays as _arrays
 from spacarpy.deck.semantics import build_job, build_model
 from spacarpy.deck.semantics.build import build_job_parsed
+from spacarpy.deck.statement import Statement
+from spacarpy.deck.textfile import read_deck_text
 from spacarpy.deck.visualization import CrossSection, CrossSections, cross_sections
 from spacarpy.deck.writer import model_to_deck
 from spacarpy.job import Job

@@ -19,8 +19,10 @@ import numpy as np
 
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import GENERATORS, KEYWORDS, UNSUPPORTED_PATTERN
-from spacarpy.deck.parser import Statement, parse_deck, read_deck_text
+from spacarpy.deck.parser import parse_deck
 from spacarpy.deck.semantics import build_job
+from spacarpy.deck.statement import Statement
+from spacarpy.deck.textfile import read_deck_text
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.errors import DeckError
 from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Model

@@ -315,8 +315,9 @@ def load_with_expectations(path, *, deformations: str | None = None,
         The model and the analysis settings.
     expects : list of Expect
     """
-    from spacarpy.deck.parser import parse_deck, read_deck_text
+    from spacarpy.deck.parser import parse_deck
     from spacarpy.deck.semantics import build_job
+    from spacarpy.deck.textfile import read_deck_text
 
     text = read_deck_text(path)
     try:

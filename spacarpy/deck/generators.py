@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from spacarpy.deck.keywords import GENERATORS, KEYWORDS, VISUALIZATION_KEYWORDS
-from spacarpy.deck.parser import Statement
+from spacarpy.deck.statement import Statement
 
 __all__ = ["MAX_GENERATED", "arc_points", "expand_generators", "line_points", "max_node_number"]
 

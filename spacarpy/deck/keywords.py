@@ -54,7 +54,7 @@ class FieldSpec:
         The range of a number field, inclusive (None: unbounded).
 
     ``short`` is also the field's name for named access (:meth:`Statement.value
-    <spacarpy.deck.parser.Statement.value>`). The choices and ranges are checked by the deck
+    <spacarpy.deck.statement.Statement.value>`). The choices and ranges are checked by the deck
     semantics, each with its own message.
     """
 

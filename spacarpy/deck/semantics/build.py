@@ -21,7 +21,7 @@ import numpy as np
 
 from spacarpy.deck.generators import expand_generators
 from spacarpy.deck.keywords import UNSUPPORTED, unsupported_message
-from spacarpy.deck.parser import Statement, gc_paused, parse_deck
+from spacarpy.deck.parser import gc_paused, parse_deck
 from spacarpy.deck.semantics import arrays as _arrays
 from spacarpy.deck.semantics import constraints as _constraints
 from spacarpy.deck.semantics import element_data as _element_data
@@ -30,6 +30,7 @@ from spacarpy.deck.semantics import settings as _settings
 from spacarpy.deck.semantics import signals as _signals
 from spacarpy.deck.semantics import topology as _topology
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
+from spacarpy.deck.statement import Statement
 from spacarpy.deck.visualization import collect_cross_sections
 from spacarpy.elements.registry import PLANAR_KINDS
 from spacarpy.errors import DeckError
@@ -179,7 +180,7 @@ def build_job(statements, *, text: str, path: str, deformations: str | None = No
 
 def build_job_parsed(parsed, *, text: str, path: str, deformations: str | None = None,
                      analysis: str | None = None) -> Job:
-    """:func:`build_job` for a :class:`~spacarpy.deck.parser.ParsedDeck` of
+    """:func:`build_job` for a :class:`~spacarpy.deck.fastpath.ParsedDeck` of
     :func:`~spacarpy.deck.parser.parse_deck_tables` (with the keywords of
     :data:`.arrays.TABLE_KEYWORDS`): a deck with tables (many plain lines of one keyword) is
     built on arrays (:mod:`.arrays`) unless that path gives up; then, and for every other

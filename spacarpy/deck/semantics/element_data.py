@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from itertools import repeat
 
-from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import ElementRecord, Topology, UsesTopology
+from spacarpy.deck.statement import Statement
 from spacarpy.model import FLEXIBLE, RELEASED, RIGID
 
 __all__ = ["ElementData", "from_statements"]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import re
 
-from spacarpy.deck.parser import Statement
+from spacarpy.deck.statement import Statement
 from spacarpy.errors import SourceLoc
 
 __all__ = ["DeckContext", "ErrorCollector", "Part"]

@@ -12,10 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.constraints import Constraints
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
+from spacarpy.deck.statement import Statement
 from spacarpy.model import Load, NodalMass
 
 __all__ = ["Loads", "from_statements"]

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
+from spacarpy.deck.statement import Statement
 from spacarpy.settings import (
     DEFORMATION_VARIANTS,
     AnalysisSettings,

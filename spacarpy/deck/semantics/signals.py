@@ -12,9 +12,9 @@ four output keywords share one numbering, as in SPACAR's output vector).
 """
 from __future__ import annotations
 
-from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
+from spacarpy.deck.statement import Statement
 from spacarpy.settings import SystemSignal
 
 __all__ = ["INPUT_KEYWORDS", "OUTPUT_KEYWORDS", "from_statements"]

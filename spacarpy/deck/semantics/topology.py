@@ -14,8 +14,8 @@ import operator
 import numpy as np
 
 from spacarpy.deck.keywords import KEYWORDS, UNKNOWN_LAYOUT_ELEMENTS, UNSUPPORTED_ELEMENTS
-from spacarpy.deck.parser import Statement
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector, Part
+from spacarpy.deck.statement import Statement
 from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.errors import SourceLoc
 from spacarpy.model import RIGID
