@@ -8,8 +8,8 @@ normalizations), as in the static solver (docs/solver.md):
     M(x) a + h(x, v) + D^T sigma + C^T mu - f(t, x) = 0     (free coordinates)
     c(x, t) = 0
 
-with the inertia forces of :mod:`spacarpy.solvers.inertia` (Eq. 60), the elastic and
-constraint forces and the tangent of :class:`~spacarpy.solvers.equilibrium.StaticProblem`,
+with the inertia forces of :mod:`spacarpy.solvers.dynamics.inertia` (Eq. 60), the elastic and
+constraint forces and the tangent of :class:`~spacarpy.solvers.statics.equilibrium.StaticProblem`,
 and the loads ``XF + phi(t) DELXF`` (prescribed coordinates and deformations likewise
 follow ``phi(t)`` times their increments,
 :class:`~spacarpy.time_functions.TimeFunction`). The constraints are kept at
@@ -22,9 +22,9 @@ and shear modes of beams) while keeping the low ones.
 Each step is solved by Newton's method on (x, mu) with the iteration matrix
 ``[K_t + beta' M + K_h + gamma' C_h, C^T; C, 0]`` (K_t the static tangent including
 geometric terms, ``K_h = d(M a + h)/dx`` and ``C_h = dh/dv`` the exact derivatives of the
-inertia forces, :meth:`~spacarpy.solvers.inertia.Inertia.tangent`): Newton converges
+inertia forces, :meth:`~spacarpy.solvers.dynamics.inertia.Inertia.tangent`): Newton converges
 quadratically at any angular velocity (docs/transient.md). A step of a model that turns
-fast is taken in a frame turning with it (:mod:`spacarpy.solvers.frame`: exact for a rigid
+fast is taken in a frame turning with it (:mod:`spacarpy.solvers.dynamics.frame`: exact for a rigid
 rotation, which keeps the scheme stable at any ``rho_inf``). A step whose Newton iterations
 fail is halved (up to ``max_cuts`` times) and retried; it is never skipped.
 
@@ -51,14 +51,14 @@ from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import FLEXIBLE, Model
 from spacarpy.rotation import tangent_part
 from spacarpy.settings import AnalysisSettings
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.errors import StepFailed
-from spacarpy.solvers.frame import FRAME_FULL_TURN, FRAME_MIN_TURN, RotatingFrame
-from spacarpy.solvers.inertia import Inertia
-from spacarpy.solvers.kinematic_check import check_initial
-from spacarpy.solvers.loads import LoadState
-from spacarpy.solvers.nodal import node_rows
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.dynamics.frame import FRAME_FULL_TURN, FRAME_MIN_TURN, RotatingFrame
+from spacarpy.solvers.dynamics.inertia import Inertia
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.errors import StepFailed
+from spacarpy.solvers.statics.kinematic_check import check_initial
+from spacarpy.solvers.statics.loads import LoadState
+from spacarpy.solvers.statics.nodal import node_rows
+from spacarpy.solvers.statics.static import solve_static
 from spacarpy.time_functions import TIME_FUNCTIONS, TimeFunction
 
 log = logging.getLogger(__name__)
@@ -94,7 +94,7 @@ class TransientOptions:
     #: high angular velocity, kept to measure the difference)
     exact_tangent: bool = True
     #: take each step in a frame turning with the model once it rotates by more than
-    #: FRAME_MIN_TURN per step (solvers/frame.py); False: always in the global frame (the
+    #: FRAME_MIN_TURN per step (solvers/dynamics/frame.py); False: always in the global frame (the
     #: former scheme, unstable with little numerical damping at fast rotation)
     rotating_frame: bool = True
     #: a step's later Newton iterations reuse its iteration matrix while that contracts
@@ -210,7 +210,7 @@ class TransientProblem:
 
     @cached_property
     def frame(self) -> RotatingFrame:
-        """The nodes that may turn with a step's rotating frame (solvers/frame.py)."""
+        """The nodes that may turn with a step's rotating frame (solvers/dynamics/frame.py)."""
         return RotatingFrame.of(self.num, self.free, self.model.planar)
 
     def frame_rate(self, x, v, h: float):
@@ -765,7 +765,7 @@ def _increment_fault(tp, dx, dmu) -> str | None:
 def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
                       damp_blocks, motion, W, beta_p, gamma_p) -> tuple[KeptMatrix, tuple]:
     """Form and factorize the iteration matrix at (x1, v1, a1, mu1): the tangent-space
-    LDL^T of the static solver (solvers/reduced.py) where it applies, else the bordered
+    LDL^T of the static solver (solvers/statics/reduced.py) where it applies, else the bordered
     SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
     SLOW_CONTRACTION (switches the exact inertia tangent on). Returns the matrix and its
     Newton increment ``(dx, dmu)`` for the residual r."""
@@ -779,7 +779,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     # 1/h^2), which keeps the saddle-point system well conditioned
     # beta' M + gamma' C: the Rayleigh alpha M rides on the mass blocks, the stiffness-
     # proportional and deformation-rate damping are element blocks
-    # with the exact tangent: + d(M a + h)/dx + gamma' d h/dv (solvers/inertia.py), not
+    # with the exact tangent: + d(M a + h)/dx + gamma' d h/dv (solvers/dynamics/inertia.py), not
     # symmetric, so the bordered system below takes it (the reduced step's LDL^T needs
     # a symmetric matrix)
     # The tangent costs kernel evaluations and the LDL^T path; where the former matrix
@@ -801,7 +801,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     for i, cb in damp_blocks.items():
         extra[i] = extra.get(i, 0.0) + gamma_p * cb
     if prob.reduced is not None and nodal is None and not exact and motion is None:
-        # the static solver's tangent-space step (solvers/reduced.py) with the inertia
+        # the static solver's tangent-space step (solvers/statics/reduced.py) with the inertia
         # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
         k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
         r_full = np.zeros(num.n_coord)
@@ -851,7 +851,8 @@ def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
     if motion is None:
         yd, ydd, aty = v, a, a_tilde
     else:
-        # the step in the frame turning with the model (solvers/frame.py): y = x at its start
+        # the step in the frame turning with the model (solvers/dynamics/frame.py):
+        # y = x at its start
         yd, ydd, aty = tp.frame.to_frame(motion, x, v, a, a_tilde)
     at_new = (af * ydd - am * aty) / (1 - am)          # a_tilde with a_{n+1} = 0
     # predictor: the accelerations extrapolated linearly from the last two steps, which
