@@ -1,9 +1,9 @@
 """The start of a transient: a consistent initial state, the initial velocities of 5-field
-inputs and STARTDE rates, and the initial acceleration."""
+inputs and STARTDE rates, and the initial acceleration. ``tp`` is the TransientProblem of
+transient.py (not imported: transient.py imports this module)."""
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -12,9 +12,6 @@ import scipy.sparse.linalg as spla
 from spacarpy.errors import SpacarError
 from spacarpy.model import FLEXIBLE
 from spacarpy.solvers.statics.nodal import node_rows
-
-if TYPE_CHECKING:
-    from spacarpy.solvers.dynamics.transient import TransientProblem
 
 log = logging.getLogger(__name__)
 
@@ -104,7 +101,7 @@ def _flexible_rows(tp, states, given: dict, v=None):
     return E, np.concatenate(targets)
 
 
-def _initial_acceleration(tp: TransientProblem, x, v, mu, a_presc, t: float = 0.0):
+def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0):
     """Consistent accelerations and multipliers at time t (default 0) from
     ``[M C^T; C 0] [a; mu] = [f - f_el - h - M_fp a_p; -(C_p a_p + (dC/dt) v - c_tt)]``;
     zero accelerations (and the given multipliers) when the mass matrix is singular on the

@@ -1,11 +1,11 @@
 """One generalized-alpha time step: its Newton iteration (iteration matrix, kept matrices,
-simplified norms) and its local error estimate."""
+simplified norms) and its local error estimate. ``tp`` is the TransientProblem of
+transient.py (not imported: transient.py imports this module)."""
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -14,9 +14,6 @@ import scipy.sparse.linalg as spla
 from spacarpy.rotation import tangent_part
 from spacarpy.solvers.dynamics.transient_records import KEEP_CONTRACTION, SLOW_CONTRACTION
 from spacarpy.solvers.statics.errors import StepFailed
-
-if TYPE_CHECKING:
-    from spacarpy.solvers.dynamics.transient import TransientProblem
 
 log = logging.getLogger(__name__)
 
@@ -182,7 +179,7 @@ def _padded(a, n: int) -> sp.csc_matrix:
     return sp.csc_matrix((a.data, a.indices, indptr), shape=(n, n))
 
 
-def _step(tp: TransientProblem, t, h, x, v, a, a_tilde, mu, params, opts):
+def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
     """One generalized-alpha step from t to t + h (Arnold & Brüls 2007)."""
     am, af, gamma, beta = params
     num, free, prob, fi = tp.num, tp.free, tp.prob, tp.free_idx
