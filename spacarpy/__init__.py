@@ -3,7 +3,7 @@
 Reads SPACAR-style decks, solves with the discrete-deformation-mode beam element of
 Jonker & Meijaard (2013), writes HDF5 results. Entry points: the ``spacarpy`` command
 (:mod:`spacarpy.cli`), :func:`spacarpy.deck.load` (a deck's model and analysis settings),
-:func:`spacarpy.run.run_job`, :func:`spacarpy.solvers.static.solve_static` and
+:func:`spacarpy.run.run_job`, :func:`spacarpy.solvers.statics.static.solve_static` and
 :func:`spacarpy.open_results` (reading a result file; imported on first use, so
 ``import spacarpy`` stays light).
 """

@@ -24,18 +24,19 @@ buckling (SPACAR 8)
 state_space (SPACAR 9)
     The static load path, and at every stored step the linearized equations in the degrees
     of freedom (M0, C0, K0, B0) and the first-order system A, B, C, D of the deck's INPUTF
-    and OUT* lines (:mod:`spacarpy.solvers.state_space`).
+    and OUT* lines (:mod:`spacarpy.solvers.linear.state_space`).
 
 With ``compliance_node`` any of them also stores the 6x6 compliance of that node wherever it
 linearizes (for a static run: the final step, or every step with ``modes_per_step``).
 
 transient (SPACAR 1)
     With START static the static load path first (stored in /static), then the time
-    integration of TIMESTEP (:mod:`spacarpy.solvers.transient`), every time step appended to
+    integration of TIMESTEP (:mod:`spacarpy.solvers.dynamics.transient`), every time step
+    appended to
     /transient as it is computed.
 transient_linearized (SPACAR 3)
     The transient, and at every stored time step the linearized equations about the state
-    of the trajectory (:mod:`spacarpy.solvers.trajectory`) in /state_space, whose ``step``
+    of the trajectory (:mod:`spacarpy.solvers.dynamics.trajectory`) in /state_space, whose ``step``
     is the row of /transient and ``time`` its time.
 """
 from __future__ import annotations
@@ -50,9 +51,9 @@ from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.static import solve_static
 
 log = logging.getLogger(__name__)
 
@@ -106,7 +107,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
     if analysis == "check":
-        from spacarpy.solvers.kinematic_check import dof_report
+        from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
     mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     if any(model.gravity) and not mass.has_mass:
@@ -224,12 +225,16 @@ def run_model(model: Model, settings: AnalysisSettings, out,
 
 def _run_transient(model, settings, problem, writer, on_static_step, opts, summary,
                    ss_layout=None):
-    from spacarpy.solvers.transient import TransientOptions, TransientProblem, solve_transient
+    from spacarpy.solvers.dynamics.transient import (
+        TransientOptions,
+        TransientProblem,
+        solve_transient,
+    )
     num = problem.num
     topts = TransientOptions.from_settings(settings)
     along = None
     if ss_layout is not None:                   # SPACAR 3: linearize every stored time step
-        from spacarpy.solvers.trajectory import TrajectoryLinearizer
+        from spacarpy.solvers.dynamics.trajectory import TrajectoryLinearizer
         along = TrajectoryLinearizer(TransientProblem(model, topts, problem), ss_layout,
                                      settings.linearized.inputs, settings.linearized.outputs)
     n_steps = topts.n_steps
@@ -263,10 +268,10 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
 
 def _eigen_columns(problem, mass, n_modes: int) -> int:
     """The modes stored per linearized step: ``n_modes``, or fewer when the model has fewer
-    (:func:`spacarpy.solvers.eigen.finite_mode_count` in the initial configuration; the
+    (:func:`spacarpy.solvers.linear.eigen.finite_mode_count` in the initial configuration; the
     number at each step is stored in /eigen/n_modes_available). Not counted where the
     eigen solver is the sparse one (a few modes of a larger model)."""
-    from spacarpy.solvers.eigen import default_dense_limit, finite_mode_count
+    from spacarpy.solvers.linear.eigen import default_dense_limit, finite_mode_count
     num = problem.num
     if num.n_unknown > default_dense_limit(num.n_unknown, n_modes):
         return n_modes
@@ -290,9 +295,9 @@ def _eigen_columns(problem, mass, n_modes: int) -> int:
 def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_buckling,
                      compliance_rows, summary):
     # imported here: a run without linearized steps does not need them (start-up)
-    from spacarpy.solvers.buckling import buckling_modes
-    from spacarpy.solvers.compliance import nodal_compliance
-    from spacarpy.solvers.eigen import KIND_NAMES, eigenmodes
+    from spacarpy.solvers.linear.buckling import buckling_modes
+    from spacarpy.solvers.linear.compliance import nodal_compliance
+    from spacarpy.solvers.linear.eigen import KIND_NAMES, eigenmodes
     num = problem.num
     lin = linearize(problem, step.x, step.mu, problem.loads.at(1.0, step.load_factor),
                     mass=mass if want_eigen else None)
@@ -323,7 +328,7 @@ def _state_space_setup(problem, settings):
     """The degrees of freedom of the state space (chosen at the deck's configuration, so a
     model without SPACAR's degrees of freedom stops before any step) and the names the
     result file stores."""
-    from spacarpy.solvers.state_space import dof_layout
+    from spacarpy.solvers.linear.state_space import dof_layout
     num = problem.num
     lin = linearize(problem, num.x0.copy(), np.zeros(num.n_constraint),
                     problem.loads.at(1.0, 0.0))
@@ -337,7 +342,7 @@ def _state_space_setup(problem, settings):
 
 
 def _state_space_step(problem, mass, step, k, writer, settings, layout) -> str:
-    from spacarpy.solvers.state_space import state_space
+    from spacarpy.solvers.linear.state_space import state_space
     lin = linearize(problem, step.x, step.mu, problem.loads.at(1.0, step.load_factor),
                     mass=mass)
     ss = state_space(lin, problem.num, problem.free, problem.model, layout,
@@ -346,7 +351,7 @@ def _state_space_step(problem, mass, step, k, writer, settings, layout) -> str:
     return f"  state space: {ss.A.shape[0]} states, {ss.B.shape[1]} inputs, {ss.C.shape[0]} outputs"
 def _critical_point(num, free, step, k, writer) -> str:
     """Store the critical point refined at stored step ``k`` and describe it."""
-    from spacarpy.solvers.arclength import CRITICAL_KINDS
+    from spacarpy.solvers.path.arclength import CRITICAL_KINDS
     cp = step.critical
     shape_pos, shape_rot = _node_shapes(num, free, cp.shape[:, None])
     writer.critical_step(k, cp.kind, cp.load_factor, cp.arc_length, shape_pos[0], shape_rot[0])
@@ -356,7 +361,8 @@ def _critical_point(num, free, step, k, writer) -> str:
 def step_line(k: int, n_steps: int, step, tol: float) -> str:
     """The progress line of stored load step ``k``. A step is also accepted when its residual
     stays above the tolerance at its round-off floor while the increments are below the
-    tolerance (solvers/newton.py); the line then says so, so that a residual of 5e-4 beside a
+    tolerance (solvers/statics/newton.py); the line then says so, so that a residual of 5e-4
+    beside a
     tolerance of 1e-9 is not read as a failed convergence."""
     if getattr(step, "arc_length", None) is not None:     # ARCLENGTH: points, not steps
         line = (f"point {k:>3}  arc length {step.arc_length:.4g}  load factor "

@@ -129,7 +129,7 @@ class ArcLength:
     n_max : int
         At most this many points after the initial state (critical points included).
     ds0 : float
-        The first arc length, in the scaled norm of :mod:`spacarpy.solvers.arclength`.
+        The first arc length, in the scaled norm of :mod:`spacarpy.solvers.path.arclength`.
     ds_min, ds_max : float or None
         Bounds of the adaptive arc length (None: ``ds0 / 1000`` and ``10 ds0``).
     """
@@ -242,7 +242,7 @@ class AnalysisSettings:
         ``"modified"`` (Eq. 48, default) or ``"basic"`` (Eq. 7).
     bifurcation : str
         ``"off"``, ``"warn"`` (say when the path turns unstable) or ``"switch"`` (also switch
-        to a stable branch), see :mod:`spacarpy.solvers.stability`.
+        to a stable branch), see :mod:`spacarpy.solvers.path.stability`.
     rotary_inertia : str
         ``"lumped"`` (SPACAR's, default) or ``"consistent"``: how the beams' section rotary
         inertia enters the mass (:mod:`spacarpy.elements.beam_mass`); used by every analysis

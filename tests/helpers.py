@@ -110,9 +110,9 @@ def perfect_column(n: int = 10, setting: str = "switch"):
 def perfect_column_path(setting: str = "warn"):
     """The perfect column (:func:`perfect_column`) solved along its arc-length path:
     ``(prob, path, steps)`` with its ``ArcLengthPath`` and every fourth stored step after
-    the first (for :func:`spacarpy.solvers.arclength.point_at`)."""
-    from spacarpy.solvers.arclength import ArcLengthPath
-    from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+    the first (for :func:`spacarpy.solvers.path.arclength.point_at`)."""
+    from spacarpy.solvers.path.arclength import ArcLengthPath
+    from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
     model, settings = perfect_column(setting=setting)
     prob = StaticProblem(model)
     res = solve_static(model, settings, problem=prob)

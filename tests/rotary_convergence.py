@@ -17,9 +17,9 @@ import numpy as np
 from scipy.optimize import brentq
 
 from spacarpy.deck import job_from_text
-from spacarpy.solvers.eigen import eigenmodes
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.linearize import MassAssembler, linearize
+from spacarpy.solvers.linear.eigen import eigenmodes
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.statics.equilibrium import StaticProblem
 
 MESHES = (1, 2, 4, 8, 16, 32, 64)
 EI, RHO_A, RHO_I = 1.0, 1.0, 1e-3

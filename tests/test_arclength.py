@@ -1,4 +1,4 @@
-"""Arc-length continuation (ARCLENGTH, spacarpy/solvers/arclength.py) and the load-stepping
+"""Arc-length continuation (ARCLENGTH, spacarpy/solvers/path/arclength.py) and the load-stepping
 snap-through warning, on the shallow two-bar (von Mises) truss whose equilibrium path is
 known in closed form, and on a column (quadratic convergence, bifurcation, branch switch).
 
@@ -27,8 +27,8 @@ from spacarpy.cli import main
 from spacarpy.deck import job_from_text, load
 from spacarpy.errors import ModelError
 from spacarpy.results.validate import validate_file
-from spacarpy.solvers.arclength import ArcLengthPath, point_at
-from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+from spacarpy.solvers.path.arclength import ArcLengthPath, point_at
+from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 ARC_DECK = DECKS / "two_bar_truss_arclength.dat"
@@ -133,8 +133,8 @@ def test_a_smooth_load_path_gives_no_jump_warning(tmp_path, capsys):
 def test_a_failure_leaves_a_valid_file_with_the_points_reached(tmp_path, monkeypatch):
     """A failure in the middle of the path (simulated: the corrector gives up from the 30th
     call on): the partial file is valid and holds every point stored before it."""
-    from spacarpy.solvers import arclength
-    from spacarpy.solvers.errors import StepFailed
+    from spacarpy.solvers.path import arclength
+    from spacarpy.solvers.statics.errors import StepFailed
     calls = {"n": 0}
     real = arclength.ArcLengthPath.correct
 
@@ -158,7 +158,7 @@ def test_a_failure_leaves_a_valid_file_with_the_points_reached(tmp_path, monkeyp
 
 
 def test_an_interrupt_leaves_a_valid_file(tmp_path, monkeypatch):
-    from spacarpy.solvers import arclength
+    from spacarpy.solvers.path import arclength
     calls = {"n": 0}
     real = arclength.ArcLengthPath.correct
 

@@ -1,5 +1,6 @@
-"""The arc-length corrector's two linear solvers (spacarpy/solvers/arclength.py): the
-tangent-space LDL^T of spacarpy/solvers/reduced.py, used where the only constraints are Euler
+"""The arc-length corrector's two linear solvers (spacarpy/solvers/path/arclength.py): the
+tangent-space LDL^T of spacarpy/solvers/statics/reduced.py, used where the only constraints are
+Euler
 normalizations, and the bordered system by SuperLU (the fallback). Both solve the same Newton
 equations exactly, so on a small column they must give the same path points and the same
 critical points; the determinant sign taken from the LDL^T's negative pivots,
@@ -10,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import spacarpy.solvers.arclength as arclength
-from spacarpy.solvers.arclength import determinant_sign, point_at
-from spacarpy.solvers.stability import stability
-from spacarpy.solvers.static import StaticProblem, solve_static
+import spacarpy.solvers.path.arclength as arclength
+from spacarpy.solvers.path.arclength import determinant_sign, point_at
+from spacarpy.solvers.path.stability import stability
+from spacarpy.solvers.statics.static import StaticProblem, solve_static
 
 from helpers import perfect_column, perfect_column_path
 

@@ -8,7 +8,7 @@ import pytest
 from spacarpy.assembly import BlockPattern, BorderedPattern, _csc_pattern
 from spacarpy.deck import load_deck
 from spacarpy.numbering import number_model
-from spacarpy.solvers.static import Loads
+from spacarpy.solvers.statics.static import Loads
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -207,7 +207,7 @@ def test_padding_of_the_nodal_block_is_block_diag():
     scipy's block_diag([a, 0]) entry for entry (csc or csr input)."""
     import scipy.sparse as sp
 
-    from spacarpy.solvers.transient import _padded
+    from spacarpy.solvers.dynamics.transient import _padded
     a = sp.random(7, 7, density=0.5, format="csr", random_state=3)
     want = sp.block_diag([a, sp.csc_matrix((4, 4))], format="csc")
     for given in (a, a.tocsc()):

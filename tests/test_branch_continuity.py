@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from spacarpy.deck import load
-from spacarpy.solvers.newton import Predictor, newton
-from spacarpy.solvers.stability import stability
-from spacarpy.solvers.static import StaticOptions, solve_static
+from spacarpy.solvers.path.stability import stability
+from spacarpy.solvers.statics.newton import Predictor, newton
+from spacarpy.solvers.statics.static import StaticOptions, solve_static
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 

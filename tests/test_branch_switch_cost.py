@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from spacarpy.deck import load
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.kinematic_correction import NormalEquations
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.kinematic_correction import NormalEquations
+from spacarpy.solvers.statics.static import solve_static
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -21,7 +21,7 @@ def _solve(job, stationary_check: bool, caplog):
     if not stationary_check:
         prob.corrector._stationary = lambda *a: False
     caplog.clear()
-    with caplog.at_level(logging.DEBUG, logger="spacarpy.solvers.kinematic_correction"):
+    with caplog.at_level(logging.DEBUG, logger="spacarpy.solvers.statics.kinematic_correction"):
         res = solve_static(job.model, job.settings, problem=prob)
     evaluations = sum(r.getMessage().startswith("kinematic correction: mismatch")
                       for r in caplog.records)

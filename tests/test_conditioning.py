@@ -1,4 +1,4 @@
-"""The conditioning limit before a run (spacarpy/solvers/conditioning.py) and the message
+"""The conditioning limit before a run (spacarpy/solvers/statics/conditioning.py) and the message
 instead of a traceback when memory runs out anyway: the 10^6-element cantilever of issue 20
 stops before the solve. No 10^6 model is built here: the limit scales with the square of
 the number of elements and is checked on small decks."""
@@ -9,7 +9,7 @@ import pytest
 
 from spacarpy.cli import main
 from spacarpy.deck import model_from_text
-from spacarpy.solvers import conditioning
+from spacarpy.solvers.statics import conditioning
 
 #: The Table 1 cantilever as the issue writes it: BEAMS ... {n}, 2 load steps.
 DECK = """# Table 1 cantilever, n elements by BEAMS, 2 load steps

@@ -24,7 +24,7 @@ from spacarpy.deck.generators import arc_points, line_points
 from spacarpy.errors import DeckError
 from spacarpy.expressions import ExpressionError, evaluate
 from spacarpy.model import FLEXIBLE
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.statics.static import solve_static
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT.parent / "shared" / "spacar-decks"

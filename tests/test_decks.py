@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from spacarpy.deck import build_model, parse_deck
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.statics.static import solve_static
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,5 +1,5 @@
 """The sparse eigen solver in the tangent space of the Euler normalizations
-(spacarpy/solvers/eigen_tangent.py): the same modes as the dense solve and as the bordered
+(spacarpy/solvers/linear/eigen_tangent.py): the same modes as the dense solve and as the bordered
 shift-invert solver it replaces, unloaded and loaded, accurate element-wise products, and
 the fallback where the reduced tangent is not positive definite."""
 from __future__ import annotations
@@ -10,10 +10,10 @@ import scipy.sparse as sp
 
 from spacarpy.bench.decks import eigen_cantilever_deck
 from spacarpy.deck import model_from_text
-from spacarpy.solvers import eigen as E
-from spacarpy.solvers import eigen_tangent as ET
-from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+from spacarpy.solvers.linear import eigen as E
+from spacarpy.solvers.linear import eigen_tangent as ET
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
 
 
 def _lin(text, loaded=False):

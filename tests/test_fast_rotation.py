@@ -1,7 +1,7 @@
 """Issue 21, fast rotation: the spin-up of decks/spinup_beam.dat (Simo & Vu-Quoc) is
 stable at every numerical dissipation, and a free spinning beam keeps its energy and
 angular momentum at RHOINF 1, because each step is taken in a frame turning with the
-model (spacarpy/solvers/frame.py). In the global frame the same runs fail
+model (spacarpy/solvers/dynamics/frame.py). In the global frame the same runs fail
 (docs/transient.md, "Fast rotation")."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 
 from spacarpy.deck import job_from_text
 from spacarpy.errors import ConvergenceError
-from spacarpy.solvers.transient import TransientOptions, solve_transient
+from spacarpy.solvers.dynamics.transient import TransientOptions, solve_transient
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -101,8 +101,8 @@ def free_spinning_beam(n_el: int, h: float, revolutions: float, rate: float = 4.
     ``rate`` through its centre, with a small in-plane and flapwise velocity on top (a
     tilt about y: the motion is a spin with a slow precession), ``RHOINF 1``. Returns the
     times, T + U and the angular momentum (3,) about the origin at every stored step."""
-    from spacarpy.solvers.frame import RotatingFrame
-    from spacarpy.solvers.inertia import Inertia
+    from spacarpy.solvers.dynamics.frame import RotatingFrame
+    from spacarpy.solvers.dynamics.inertia import Inertia
 
     length = 10.0
     xs = np.linspace(-length / 2, length / 2, n_el + 1)

@@ -1,10 +1,10 @@
-"""The rotating frame of a generalized-alpha step (spacarpy/solvers/frame.py): exact for a
+"""The rotating frame of a generalized-alpha step (spacarpy/solvers/dynamics/frame.py): exact for a
 rigid motion, its operators consistent with each other."""
 import numpy as np
 import pytest
 
 from spacarpy.rotation import rotate
-from spacarpy.solvers.frame import Motion, RotatingFrame
+from spacarpy.solvers.dynamics.frame import Motion, RotatingFrame
 
 
 def _frame(n_pos=3, n_rot=2, planar=False):

@@ -19,9 +19,9 @@ import pytest
 
 from spacarpy.cli import main
 from spacarpy.deck import load_deck
-from spacarpy.solvers.diagnose import canonical_motions, dependent_rows, numerical_rank
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.kinematic_check import kinematic_analysis
+from spacarpy.solvers.statics.diagnose import canonical_motions, dependent_rows, numerical_rank
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.kinematic_check import kinematic_analysis
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 PARALLELOGRAM = DECKS / "parallelogram_four_bar_3d.dat"

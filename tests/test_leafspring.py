@@ -12,7 +12,7 @@ from spacarpy.cli import main
 from spacarpy.deck import job_from_text
 from spacarpy.results.reader import open_results
 from spacarpy.results.tables import extract
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.statics.static import solve_static
 
 from helpers import deck_errors
 
@@ -216,7 +216,7 @@ def test_branch_choice_does_not_depend_on_the_eigenvector_sign_or_round_off():
     """Mirror-image post-buckling branches have equal energy to round-off; the switch takes
     the first one tried along the eigenvector with a canonical sign, so neither the eigen
     solver's arbitrary sign nor the last digits of the energies decide the branch."""
-    from spacarpy.solvers.stability import ENERGY_TIE, canonical_sign
+    from spacarpy.solvers.path.stability import ENERGY_TIE, canonical_sign
     rng = np.random.default_rng(7)
     v = rng.standard_normal((30, 3))
     assert np.array_equal(canonical_sign(v), canonical_sign(-v))

@@ -8,10 +8,10 @@ from spacarpy.elements.beam_mass import beam_mass_matrix
 from spacarpy.job import Job
 from spacarpy.model import ElementSet, Fix, Load, Model, NodalMass
 from spacarpy.settings import AnalysisSettings, IterStep
-from spacarpy.solvers.buckling import buckling_modes
-from spacarpy.solvers.eigen import ELASTIC, RIGID_BODY, UNSTABLE, eigenmodes
-from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.linear.buckling import buckling_modes
+from spacarpy.solvers.linear.eigen import ELASTIC, RIGID_BODY, UNSTABLE, eigenmodes
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.statics.static import solve_static
 
 F_TH_CONSTANT = 4.012599344          # NOTES.md: the corrected lateral-buckling constant
 
@@ -218,7 +218,7 @@ def test_euler_loads_from_buckling_analysis(support, exact):
 
 
 def test_nodal_compliance_of_a_cantilever_tip_equals_the_closed_form():
-    from spacarpy.solvers.compliance import nodal_compliance
+    from spacarpy.solvers.linear.compliance import nodal_compliance
     EA, GJ, EIy, EIz, L = 100.0, 3.0, 2.0, 5.0, 1.7
     prob, lin = linearized_final_state(straight(4, L=L, stiffness=(EA, GJ, EIy, EIz, 0, 0)),
                                        with_mass=False)
@@ -236,7 +236,7 @@ def test_nodal_compliance_of_a_cantilever_tip_equals_the_closed_form():
 def test_compliance_under_load_is_expressed_in_the_rotated_body_axes():
     """Under a tip moment the tip rotates by theta about z: the local compliance equals the
     global one rotated by R(theta)^T, and the axial compliance stays L/EA in local axes."""
-    from spacarpy.solvers.compliance import nodal_compliance
+    from spacarpy.solvers.linear.compliance import nodal_compliance
     model = straight(16, stiffness=(1e4, 1.0, 1.0, 1.0, 0, 0), loads=[(34, (0, 0, 0.8))])
     prob, lin = linearized_final_state(model, with_mass=False)
     c_glob, c_loc = nodal_compliance(lin, prob.num, prob.free, 16, 16)
@@ -258,9 +258,9 @@ def test_sparse_eigenvalues_of_a_fine_mesh_are_exact_rayleigh_quotients():
     coarse mesh's, to the 1e-9 the two meshes differ by."""
     from spacarpy.bench.decks import eigen_cantilever_deck
     from spacarpy.deck import model_from_text
-    from spacarpy.solvers import eigen as E
-    from spacarpy.solvers.linearize import MassAssembler, linearize
-    from spacarpy.solvers.static import StaticProblem
+    from spacarpy.solvers.linear import eigen as E
+    from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+    from spacarpy.solvers.statics.static import StaticProblem
     f1 = {}
     for n in (300, 5000):
         model = model_from_text(eigen_cantilever_deck(n), f"<cantilever {n}>")

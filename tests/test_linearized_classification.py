@@ -13,8 +13,8 @@ import pytest
 import scipy.sparse as sp
 
 from spacarpy.batch.compare import INFINITE_MULTIPLIER, canonical_multipliers
-from spacarpy.solvers import buckling as B
-from spacarpy.solvers import eigen as E
+from spacarpy.solvers.linear import buckling as B
+from spacarpy.solvers.linear import eigen as E
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 EPS = np.finfo(float).eps

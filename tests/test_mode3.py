@@ -1,5 +1,5 @@
 """SPACAR mode 3 (analysis ``transient_linearized``): the linearized equations at every
-stored time step of a transient (spacarpy.solvers.trajectory).
+stored time step of a transient (spacarpy.solvers.dynamics.trajectory).
 
 (a) A rigid rod (uniform, m = 2 kg, L = 1 m) on a free hinge, released from the horizontal
 under gravity: with phi the hinge angle from the horizontal, I phi'' + m g (L/2) cos phi = 0,

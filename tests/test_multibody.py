@@ -6,9 +6,9 @@ from scipy.optimize import brentq
 
 from spacarpy.model import FLEXIBLE, RIGID, ElementSet, Fix, Load, Model, NodalMass
 from spacarpy.settings import AnalysisSettings, IterStep
-from spacarpy.solvers.eigen import eigenmodes
-from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.linear.eigen import eigenmodes
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.statics.static import solve_static
 
 NAN3 = (np.nan, np.nan, np.nan)
 

@@ -10,9 +10,9 @@ from spacarpy.cli import main
 from spacarpy.deck import job_from_text
 from spacarpy.elements.registry import KINDS
 from spacarpy.rotation import from_axis_angle
-from spacarpy.solvers.eigen import eigenmodes
-from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.linear.eigen import eigenmodes
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.statics.static import solve_static
 
 from helpers import deck_errors, fd_columns, planar_four_bar_equilibrium
 

@@ -19,9 +19,9 @@ from spacarpy.deck import job_from_text, load
 from spacarpy.elements.beam_mass import beam_mass_matrix
 from spacarpy.results import open_results
 from spacarpy.run import run_model
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.static import solve_static
 
 CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "spacar-decks"
 CROSSHINGE = CORPUS / "oopspa_crosshinge.dat"

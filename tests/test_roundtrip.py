@@ -206,7 +206,7 @@ def test_the_round_trip_decks_cover_every_kind():
 @pytest.mark.parametrize("name", ["four_bar_linkage", "two_bar_truss", "planar_four_bar",
                                   "slider_crank_flexible", "leafspring_guidance_buckling"])
 def test_rewritten_deck_gives_the_same_static_results(name):
-    from spacarpy.solvers.static import solve_static
+    from spacarpy.solvers.statics.static import solve_static
 
     job = load(DECKS / f"{name}.dat")
     again = job_from_text(model_to_deck(*job), "<written>")

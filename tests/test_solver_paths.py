@@ -1,6 +1,6 @@
 """The static solver's fast paths give the same answers as the plain ones.
 
-- the tangent-space Newton step (spacarpy.solvers.reduced) equals the bordered one;
+- the tangent-space Newton step (spacarpy.solvers.statics.reduced) equals the bordered one;
 - the LDL^T factorization (qdldl) and its SuperLU fallback solve the same SPD systems;
 - the kinematic correction with a kept factorization converges like a fresh one;
 - an untouched configuration is never accepted on the residual's round-off floor alone;
@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import spacarpy.solvers.sparse as sparse_mod
+import spacarpy.solvers.linalg.sparse as sparse_mod
 from spacarpy.batch.compare import _compare
 from spacarpy.bench.cases import cantilever_deck
 from spacarpy.deck import job_from_text, model_from_text
-from spacarpy.solvers import kinematic_check
-from spacarpy.solvers.kinematic_correction import NormalEquations, SquareJacobian
-from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
-from spacarpy.solvers.triangular import DENSE_MAX, BlockTriangular
+from spacarpy.solvers.linalg.triangular import DENSE_MAX, BlockTriangular
+from spacarpy.solvers.statics import kinematic_check
+from spacarpy.solvers.statics.kinematic_correction import NormalEquations, SquareJacobian
+from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
 
 
 def cantilever(n, **kw):
@@ -139,7 +139,7 @@ def test_analytic_convective_terms_equal_the_differenced_ones(rotary):
     import copy
 
     from spacarpy.elements import beam, beam_mass
-    from spacarpy.solvers.inertia import Inertia
+    from spacarpy.solvers.dynamics.inertia import Inertia
     rng = np.random.default_rng(3)
     n = 7
     x, v = rng.standard_normal((n, 14)), rng.standard_normal((n, 14))
@@ -183,8 +183,8 @@ def test_analytic_convective_terms_equal_the_differenced_ones(rotary):
 
 def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatch):
     from spacarpy.bench.decks import transient_cantilever_deck
-    from spacarpy.solvers import equilibrium as equilibrium_mod
-    from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
+    from spacarpy.solvers.dynamics.transient import TimeFunction, TransientOptions, solve_transient
+    from spacarpy.solvers.statics import equilibrium as equilibrium_mod
     text = transient_cantilever_deck(6, 30)
 
     def run():
@@ -206,8 +206,8 @@ def test_transient_steps_in_the_tangent_space_equal_the_bordered_ones(monkeypatc
 
 def test_few_modes_of_a_mid_size_model_come_from_the_sparse_solver_unchanged():
     from spacarpy.bench.decks import eigen_cantilever_deck
-    from spacarpy.solvers import eigen
-    from spacarpy.solvers.linearize import MassAssembler, linearize
+    from spacarpy.solvers.linear import eigen
+    from spacarpy.solvers.linear.linearize import MassAssembler, linearize
     text = eigen_cantilever_deck(60)                     # 420 free coordinates
     model = model_from_text(text, "<e>")
     prob = StaticProblem(model)
@@ -368,7 +368,7 @@ def test_dense_and_sparse_kinematic_substitution_give_the_same_path(n_elem, monk
     DENSE_MAX unknowns (7 per cantilever element) and a sparse one above: just below and
     just above the threshold, each path forced, the static solve takes the same Newton
     iterations in every load step and reaches the same states to round-off."""
-    import spacarpy.solvers.triangular as tri
+    import spacarpy.solvers.linalg.triangular as tri
     model = cantilever(n_elem, n_steps=3)
     runs = []
     for limit in (10**9, 0):                              # dense, then sparse
@@ -388,8 +388,8 @@ def test_the_sparse_eigen_solver_says_when_it_gives_fewer_modes_than_asked(monke
     inertia) fewer modes are stored: a warning names how many of how many, never a silent
     shorter list; with all ten resolved there is no warning."""
     from spacarpy.bench.decks import eigen_cantilever_deck
-    from spacarpy.solvers import eigen
-    from spacarpy.solvers.linearize import MassAssembler, linearize
+    from spacarpy.solvers.linear import eigen
+    from spacarpy.solvers.linear.linearize import MassAssembler, linearize
     model = model_from_text(eigen_cantilever_deck(60), "<e>")
     prob = StaticProblem(model)
     x, mu = prob.num.x0.copy(), np.zeros(prob.num.n_constraint)

@@ -19,7 +19,7 @@ Tolerances, from the errors measured here (6 elements, h = 0.01 s):
   flapwise frequency by 2.6 % at W = 3 w0.
 
 RHO_INF is a parameter, the default 0.9 (the deck has no RHOINF line): the steps are taken in
-the frame turning with the beam (spacarpy/solvers/frame.py). With it the transient's errors
+the frame turning with the beam (spacarpy/solvers/dynamics/frame.py). With it the transient's errors
 at h = 0.01 s are below 2e-3 at every rate (the largest, flapwise at W = w0, -1.9e-3, is the
 same at h/2: the fit, not the step), and the lead-lag's step error above is gone.
 """

@@ -17,7 +17,7 @@ from spacarpy.deck import load, model_from_text
 from spacarpy.deck.check import check_deck
 from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, UNSUPPORTED_PATTERN
 from spacarpy.errors import DeckError
-from spacarpy.solvers.transient import TransientOptions, solve_transient
+from spacarpy.solvers.dynamics.transient import TransientOptions, solve_transient
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT.parent / "shared" / "spacar-decks"

@@ -18,8 +18,8 @@ import pytest
 from spacarpy.deck import job_from_text, model_from_text
 from spacarpy.deck.writer import model_to_deck
 from spacarpy.errors import DeckError
-from spacarpy.solvers.static import solve_static
-from spacarpy.solvers.transient import TransientOptions, solve_transient
+from spacarpy.solvers.dynamics.transient import TransientOptions, solve_transient
+from spacarpy.solvers.statics.static import solve_static
 
 
 def run_transient(text: str):

@@ -135,8 +135,8 @@ def test_the_lag_is_the_tip_s_offset_along_the_hub_s_y_axis(tmp_path):
 def test_a_failed_spin_up_returns_the_steps_it_kept(monkeypatch):
     """run_spacarpy on a run whose 11th step fails: ok is False, the reason is the solver's,
     and the lag of the 10 completed steps (read from the partial file) is returned."""
-    import spacarpy.solvers.transient as transient
-    from spacarpy.solvers.errors import StepFailed
+    import spacarpy.solvers.dynamics.transient as transient
+    from spacarpy.solvers.statics.errors import StepFailed
 
     step, calls = transient._step, []
 

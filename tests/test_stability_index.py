@@ -1,4 +1,4 @@
-"""The stability check of spacarpy/solvers/stability.py counts the index from the eigenvalues
+"""The stability check of spacarpy/solvers/path/stability.py counts the index from the eigenvalues
 alone and decomposes the eigenvectors only when a branch switch asks for them; both must be
 exactly what one dense ``eigh`` of the Jacobi-scaled reduced tangent gives (the index, and
 the modes bit for bit), and a branch's potential energy from the check's kernel states must
@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from spacarpy.solvers.arclength import point_at
-from spacarpy.solvers.eigen import null_space_basis
-from spacarpy.solvers.linearize import linearize
-from spacarpy.solvers.stability import ZERO_TOL, canonical_sign, potential_energy, stability
+from spacarpy.solvers.linear.eigen import null_space_basis
+from spacarpy.solvers.linear.linearize import linearize
+from spacarpy.solvers.path.arclength import point_at
+from spacarpy.solvers.path.stability import ZERO_TOL, canonical_sign, potential_energy, stability
 
 from helpers import perfect_column_path
 

@@ -30,9 +30,9 @@ NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.s
                "spacarpy.results.reader", "spacarpy.results.eager",
                "spacarpy.results.views", "spacarpy.results.validate",
                # the linearized analyses of run.py's branches a static run does not take
-               "spacarpy.solvers.buckling", "spacarpy.solvers.compliance",
-               "spacarpy.solvers.state_space", "spacarpy.solvers.trajectory",
-               "spacarpy.solvers.transient",
+               "spacarpy.solvers.linear.buckling", "spacarpy.solvers.linear.compliance",
+               "spacarpy.solvers.linear.state_space", "spacarpy.solvers.dynamics.trajectory",
+               "spacarpy.solvers.dynamics.transient",
                # ldconfig's search for the C library (spacarpy.memory loads libc.so.6)
                "ctypes.util")
 
@@ -65,7 +65,8 @@ def test_spacarpy_run_imports_no_plotting_batch_peers_or_unused_scipy(tmp_path):
                  if m == banned or m.startswith(banned + "."))
     assert not bad, f"spacarpy run imported {bad}"
     # the guard is not vacuous: the run did load what a static solve needs
-    assert {"spacarpy.run", "spacarpy.solvers.static", "h5py", "spacarpy.deck.parser"} <= loaded
+    assert {"spacarpy.run", "spacarpy.solvers.statics.static", "h5py",
+            "spacarpy.deck.parser"} <= loaded
 
 
 def test_plot_and_extract_still_list_their_choices(capsys):

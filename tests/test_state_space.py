@@ -1,4 +1,4 @@
-"""The linearized state space of SPACAR mode 9 (spacarpy.solvers.state_space) and SPACAR's
+"""The linearized state space of SPACAR mode 9 (spacarpy.solvers.linear.state_space) and SPACAR's
 mode numbers on the command line.
 
 The three verifications of the state space, on decks/state_space_cantilever.dat (a preloaded
@@ -24,10 +24,10 @@ from spacarpy.errors import EXIT_INPUT, EXIT_MODEL, DeckError
 from spacarpy.results import open_results, read_results
 from spacarpy.run import RunOptions, run_model
 from spacarpy.settings import resolve_analysis, spacar_mode_refusal
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.linearize import MassAssembler, linearize
-from spacarpy.solvers.state_space import dof_layout, state_space
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+from spacarpy.solvers.linear.state_space import dof_layout, state_space
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.static import solve_static
 
 DECK = Path(__file__).resolve().parents[1] / "decks" / "state_space_cantilever.dat"
 

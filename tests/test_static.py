@@ -10,7 +10,7 @@ from spacarpy.errors import ConvergenceError, ModelError, SolverError
 from spacarpy.model import RIGID, ElementSet, Fix, Load, Model
 from spacarpy.rotation import from_axis_angle, rotation_matrix
 from spacarpy.settings import AnalysisSettings, IterStep
-from spacarpy.solvers.static import StaticOptions, solve_static
+from spacarpy.solvers.statics.static import StaticOptions, solve_static
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
@@ -194,7 +194,7 @@ def test_newton_matrix_equals_finite_differences_of_the_residual():
     the constraint gradients, at a deformed state with random multipliers and a moment."""
     model, _ = moment_cantilever(3, "modified", 0.7, EA=50.0)
     model.loads.append(Load(5, "DELXF", (0.3, -0.2, 0.4)))
-    from spacarpy.solvers.static import StaticProblem
+    from spacarpy.solvers.statics.static import StaticProblem
     prob = StaticProblem(model)
     num = prob.num
     rng = np.random.default_rng(5)
@@ -258,7 +258,7 @@ def test_stiff_fine_mesh_is_not_mistaken_for_a_mechanism():
 def test_a_tolerance_below_round_off_fails_with_a_hint_and_a_value_that_works(tmp_path,
                                                                                 capsys):
     from spacarpy.cli import main
-    from spacarpy.solvers.static import ROUNDOFF_TOL, roundoff_hint
+    from spacarpy.solvers.statics.static import ROUNDOFF_TOL, roundoff_hint
 
     assert ROUNDOFF_TOL == pytest.approx(2.220446e-14)
     assert roundoff_hint(1e-9, [1.0, 1e-10]) == ""             # a reachable tolerance
@@ -281,7 +281,7 @@ def test_a_tolerance_below_round_off_fails_with_a_hint_and_a_value_that_works(tm
 
 def test_a_step_accepted_at_its_round_off_floor_says_so():
     """D12: a step whose residual stays above the tolerance at its round-off floor (accepted
-    on its increments, solvers/newton.py) says so in the progress line; others do not."""
+    on its increments, solvers/statics/newton.py) says so in the progress line; others do not."""
     from types import SimpleNamespace
 
     from spacarpy.run import step_line

@@ -5,8 +5,8 @@ import pytest
 
 from spacarpy.bench.cases import cantilever_deck
 from spacarpy.deck import model_from_text
-from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
-from spacarpy.solvers.triangular import BlockTriangular
+from spacarpy.solvers.linalg.triangular import BlockTriangular
+from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
 
 from helpers import dense_reference, kinematic_chain_pattern
 

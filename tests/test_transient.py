@@ -13,8 +13,8 @@ from spacarpy.errors import DeckError
 from spacarpy.numbering import number_model
 from spacarpy.results import validate_file
 from spacarpy.rotation import from_axis_angle
-from spacarpy.solvers.inertia import Inertia
-from spacarpy.solvers.transient import TIME_FUNCTIONS, TimeFunction, alpha_parameters
+from spacarpy.solvers.dynamics.inertia import Inertia
+from spacarpy.solvers.dynamics.transient import TIME_FUNCTIONS, TimeFunction, alpha_parameters
 
 from helpers import MIXED_MASS_DECK
 
@@ -426,7 +426,7 @@ def _bench_tip_history(n_steps, substeps=1, **kw):
     result."""
     from spacarpy.bench.decks import transient_cantilever_deck
     from spacarpy.deck import job_from_text
-    from spacarpy.solvers.transient import TransientOptions, solve_transient
+    from spacarpy.solvers.dynamics.transient import TransientOptions, solve_transient
     job = job_from_text(transient_cantilever_deck(10, 100), "<bench>")
     opts = TransientOptions(t_end=0.1, n_steps=n_steps, substeps=substeps, rho_inf=0.5,
                             tol=1e-8, phi=TimeFunction(*job.settings.transient.time_function),
@@ -467,7 +467,7 @@ def test_a_step_whose_chord_iterations_fail_is_retried_with_new_matrices(monkeyp
     is taken again at the same time step with a new matrix at every iteration, not halved:
     the run makes 101 step attempts for its 100 steps and ends where a run without chord
     iterations does (to 1e-6 of the tip's amplitude)."""
-    from spacarpy.solvers import transient
+    from spacarpy.solvers.dynamics import transient
     tip_newton, res_newton = _bench_tip_history(100, reuse_matrix=False)
     rot = res_newton.problem.rot_mask[res_newton.problem.free]
     chord, step_fn = transient.KeptMatrix.chord, transient._step

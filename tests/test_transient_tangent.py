@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import spacarpy.solvers.transient as transient
+import spacarpy.solvers.dynamics.transient as transient
 from spacarpy.deck import job_from_text, load, model_from_text
 from spacarpy.numbering import number_model
 from spacarpy.rotation import from_axis_angle
-from spacarpy.solvers.inertia import Inertia
-from spacarpy.solvers.transient import TransientOptions, TransientProblem, solve_transient
+from spacarpy.solvers.dynamics.inertia import Inertia
+from spacarpy.solvers.dynamics.transient import TransientOptions, TransientProblem, solve_transient
 
 from helpers import MIXED_MASS_DECK
 
@@ -191,7 +191,7 @@ def test_newton_converges_quadratically_at_steady_spin():
     left out; r_3 at the round-off floor on another machine could only raise the estimate).
     Exact matrix: 2.5; the former one (without the inertia tangent): 1.6, and it needs a
     fifth iteration. In the global frame: the steps in the rotating frame (the default,
-    solvers/frame.py) start so close to the solution that the third residual is at the
+    solvers/dynamics/frame.py) start so close to the solution that the third residual is at the
     round-off floor and gives no order (its Newton matrix is checked against differences
     in tests/test_frame.py)."""
     text = (DECKS / "spinup_beam.dat").read_text()
@@ -215,7 +215,7 @@ def test_a_failed_transient_names_the_time_steps_kept_and_the_time_reached(
     import h5py
 
     from spacarpy.cli import main
-    from spacarpy.solvers.errors import StepFailed
+    from spacarpy.solvers.statics.errors import StepFailed
 
     step, calls = transient._step, []
 

@@ -1,9 +1,9 @@
-"""Block forward substitution of square sparse matrices (spacarpy.solvers.triangular)."""
+"""Block forward substitution of square sparse matrices (spacarpy.solvers.linalg.triangular)."""
 import numpy as np
 import pytest
 
-from spacarpy.solvers.sparse import FactorizationError
-from spacarpy.solvers.triangular import DENSE_MAX, BlockTriangular
+from spacarpy.solvers.linalg.sparse import FactorizationError
+from spacarpy.solvers.linalg.triangular import DENSE_MAX, BlockTriangular
 
 from helpers import dense_reference, kinematic_chain_pattern
 

@@ -16,7 +16,7 @@ decide a comparison). ``/buckling/load_multiplier``: in each row a value that is
 larger in magnitude than :data:`INFINITE_MULTIPLIER` is infinite (a 1.x baseline may hold a
 round-off 4.9e16 where the solver now stores NaN); each row of both files is put in the
 solver's canonical order (finite ones by magnitude, ``+mu, -mu`` pairs by signed value, see
-:mod:`spacarpy.solvers.buckling`; then the infinite ones as NaN), so a pair that round-off
+:mod:`spacarpy.solvers.linear.buckling`; then the infinite ones as NaN), so a pair that round-off
 stored swapped compares equal and a different number of infinite multipliers is a
 difference. ``/eigen/eigenvalue_*`` and ``/eigen/frequency`` compare only where both files'
 ``/eigen/kind`` agree and the mode is neither infinite nor complex; ``/eigen/kind`` itself
@@ -39,13 +39,13 @@ IGNORED = ("/static/residual", "/static/iterations", "/transient/residual",
            "/transient/iterations", "/*/shape_position", "/*/shape_euler")
 
 #: A stored buckling multiplier above this magnitude is infinite: 1 / (SAFETY eps) of the
-#: solver's bound (:mod:`spacarpy.solvers.buckling`) with ``|v^T K v| / ||G||`` taken as 1;
+#: solver's bound (:mod:`spacarpy.solvers.linear.buckling`) with ``|v^T K v| / ||G||`` taken as 1;
 #: a load 4.5e13 times smaller than the one that buckles the structure is round-off.
 INFINITE_MULTIPLIER = 1.0 / (100.0 * np.finfo(float).eps)
 #: Datasets compared only where ``/eigen/kind`` agrees and is finite (elastic, rigid-body,
 #: unstable).
 _EIGEN_VALUES = ("/eigen/eigenvalue_real", "/eigen/eigenvalue_imag", "/eigen/frequency")
-_EIGEN_NOT_FINITE = (3, 4)          # complex, infinite (spacarpy.solvers.eigen.KIND_NAMES)
+_EIGEN_NOT_FINITE = (3, 4)          # complex, infinite (spacarpy.solvers.linear.eigen.KIND_NAMES)
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,7 @@ def _numeric_datasets(f) -> dict:
 def canonical_multipliers(mult: np.ndarray) -> np.ndarray:
     """Buckling multipliers (..., n_mode) with every row in the canonical order, infinite
     ones (NaN, inf, beyond :data:`INFINITE_MULTIPLIER`) as NaN at the end."""
-    from spacarpy.solvers.eigen import canonical_order
+    from spacarpy.solvers.linear.eigen import canonical_order
 
     mult = np.asarray(mult, dtype=float)
     out = np.full(mult.shape, np.nan)

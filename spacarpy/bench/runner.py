@@ -84,7 +84,7 @@ def _peak_mb() -> float:
 
 def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
     from spacarpy.bench.cases import bend_deck, cantilever_deck
-    from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+    from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
     text = (cantilever_deck(n, n_steps=n_steps, tol=1e-8, compact=True, shear=SHEAR)
             if case == "cantilever"
             else bend_deck(n, n_steps=n_steps, tol=1e-8))
@@ -113,9 +113,9 @@ def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
 
 
 def _eigen_row(n: int, repeat: int) -> dict:
-    from spacarpy.solvers.eigen import ELASTIC, eigenmodes
-    from spacarpy.solvers.linearize import MassAssembler, linearize
-    from spacarpy.solvers.static import StaticProblem
+    from spacarpy.solvers.linear.eigen import ELASTIC, eigenmodes
+    from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+    from spacarpy.solvers.statics.static import StaticProblem
     t0 = time.perf_counter()
     model, settings = job_from_text(eigen_cantilever_deck(n), f"<eigen cantilever {n}>")
     prob = StaticProblem(model, deformations=settings.deformations)
@@ -137,7 +137,7 @@ def _eigen_row(n: int, repeat: int) -> dict:
 
 
 def _transient_row(n: int, n_steps: int) -> dict:
-    from spacarpy.solvers.transient import TimeFunction, TransientOptions, solve_transient
+    from spacarpy.solvers.dynamics.transient import TimeFunction, TransientOptions, solve_transient
     t0 = time.perf_counter()
     model, settings = job_from_text(transient_cantilever_deck(n, n_steps),
                                     f"<transient cantilever {n}>")
@@ -171,8 +171,8 @@ def convergence_order(history, floor: float = 0.0) -> float:
 
 
 def _arclength_row(n: int) -> dict:
-    from spacarpy.solvers.arclength import ArcLengthPath, point_at
-    from spacarpy.solvers.static import StaticOptions, StaticProblem, solve_static
+    from spacarpy.solvers.path.arclength import ArcLengthPath, point_at
+    from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
     t0 = time.perf_counter()
     model, settings = job_from_text(arclength_deck(n), f"<arclength column {n}>")
     prob = StaticProblem(model, deformations=settings.deformations)

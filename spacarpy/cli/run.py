@@ -83,7 +83,7 @@ def add_parser(sub) -> None:
                      help="run even when the memory estimate exceeds the available memory")
     run.add_argument("--ignore-conditioning-limit", action="store_true",
                      help="run even when the beams are too finely meshed for double "
-                          "precision (spacarpy.solvers.conditioning)")
+                          "precision (spacarpy.solvers.statics.conditioning)")
     _set_option(run)
     _verbosity(run)
 
@@ -112,7 +112,7 @@ def _run_locked(args, out) -> int:
     _require_elements(model, args.deck)
     from spacarpy.memory import check_memory
     check_memory(model.n_elem, ignore=args.ignore_memory_limit)
-    from spacarpy.solvers.conditioning import check_conditioning
+    from spacarpy.solvers.statics.conditioning import check_conditioning
     check_conditioning(model, ignore=args.ignore_conditioning_limit)
     # the command line makes new settings; the deck's stay as they were read
     settings = job.settings.override(analysis=args.mode, deformations=args.deformations,

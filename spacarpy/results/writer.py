@@ -360,7 +360,7 @@ class ResultsWriter:
     def state_space_step(self, step: int, ss, time: float = np.nan) -> None:
         """Append the linearized equations of one static step (or, with ``time``, of row
         ``step`` of /transient, SPACAR mode 3): ``ss`` has the attributes M0, C0, K0, B0, A,
-        B, C, D (:class:`spacarpy.solvers.state_space.StateSpace`)."""
+        B, C, D (:class:`spacarpy.solvers.linear.state_space.StateSpace`)."""
         values = {name: getattr(ss, name)
                   for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")}
         values["time"] = time

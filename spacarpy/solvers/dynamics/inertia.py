@@ -19,7 +19,7 @@ mass-matrix evaluations per residual dominated the transient runs) has ``dM/dt v
 ``inertia_force`` (the BEAM, the RBEAM) gives ``M a + h`` without M, which is then formed
 only for an iteration matrix.
 
-Unlike :class:`spacarpy.solvers.linearize.MassAssembler` (free coordinates only), the matrix
+Unlike :class:`spacarpy.solvers.linear.linearize.MassAssembler` (free coordinates only), the matrix
 here spans all coordinates, so prescribed motions (INPUTX, INPUTR with their velocities and
 accelerations) load the free coordinates through the coupling terms.
 """
@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from spacarpy.assembly import BlockPattern, scatter_add
 from spacarpy.elements.beam_mass import nodal_rotary_mass
 from spacarpy.rotation import tangent_part
-from spacarpy.solvers.nodal import nodal_masses
+from spacarpy.solvers.statics.nodal import nodal_masses
 
 
 class _Batch(NamedTuple):
@@ -250,7 +250,7 @@ class Inertia:
 
         ``velocity_part``, a list, receives the blocks of ``d/dv`` alone per batch (zero
         blocks where the force does not depend on v; the rotating frame of a step needs
-        them, solvers/frame.py).
+        them, solvers/dynamics/frame.py).
         """
         vp = self.physical(x, v)
         out = []

@@ -2,7 +2,7 @@
 mode 9).
 
 About an equilibrium, the linearized equations over the free coordinates dx, subject to the
-linearized constraints ``C dx = 0`` (:mod:`spacarpy.solvers.linearize`), are
+linearized constraints ``C dx = 0`` (:mod:`spacarpy.solvers.linear.linearize`), are
 
     M ddx + C_d dx' + K dx = F u,      y = [O_x dx + O_v dx'],
 
@@ -17,7 +17,7 @@ Then
 
     M0 = Phi^T M Phi,  C0 = Phi^T C_d Phi,  K0 = Phi^T K Phi,  B0 = Phi^T F,
 
-the eigenvalues of (K0, M0) are those of :mod:`spacarpy.solvers.eigen`, and the state
+the eigenvalues of (K0, M0) are those of :mod:`spacarpy.solvers.linear.eigen`, and the state
 ``z = [q; q']`` gives ``A = [[0, I], [-M0^-1 K0, -M0^-1 C0]]``, ``B = [[0], [M0^-1 B0]]``,
 ``C = [O_x Phi, O_v Phi]`` and ``D = 0``.
 
@@ -43,7 +43,7 @@ import scipy.sparse as sp
 from spacarpy.elements.base import FLEXIBLE, RELEASED
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.rotation import lambda_matrix
-from spacarpy.solvers.eigen import null_space_basis
+from spacarpy.solvers.linear.eigen import null_space_basis
 
 __all__ = ["DofLayout", "StateSpace", "StateSpaceError", "dof_layout", "dof_map", "first_order",
            "input_columns", "output_rows", "state_space"]

@@ -47,7 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.elements.base import relative_positions
-from spacarpy.solvers.eigen_tangent import lowest_modes
+from spacarpy.solvers.linear.eigen_tangent import lowest_modes
 
 log = logging.getLogger(__name__)
 

@@ -18,7 +18,7 @@ assembled on a fixed sparsity pattern (documented in docs/solver.md).
 
 :class:`StaticProblem` holds the model's fixed data (numbering, patterns, scales, the
 kinematic corrector); the load is an argument of every evaluation (a
-:class:`~spacarpy.solvers.loads.LoadState`), never a field of the problem.
+:class:`~spacarpy.solvers.statics.loads.LoadState`), never a field of the problem.
 """
 from __future__ import annotations
 
@@ -34,10 +34,10 @@ from spacarpy.linalg import batch_matvec
 from spacarpy.model import Model
 from spacarpy.numbering import Numbering, number_model
 from spacarpy.rotation import lambda_matrix, moment_matrix
-from spacarpy.solvers.kinematic_correction import KinematicCorrector
-from spacarpy.solvers.loads import Loads, LoadState
-from spacarpy.solvers.reduced import ReducedNewton
-from spacarpy.solvers.reduced import applies as reduced_applies
+from spacarpy.solvers.statics.kinematic_correction import KinematicCorrector
+from spacarpy.solvers.statics.loads import Loads, LoadState
+from spacarpy.solvers.statics.reduced import ReducedNewton
+from spacarpy.solvers.statics.reduced import applies as reduced_applies
 
 _EPS = float(np.finfo(float).eps)
 #: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
@@ -338,7 +338,7 @@ class StaticProblem:
     def correct_kinematics(self, x_lin, dx, states, **kw):
         """The kinematic correction of a Newton update ``dx`` (see
         :meth:`KinematicCorrector.correct
-        <spacarpy.solvers.kinematic_correction.KinematicCorrector.correct>`)."""
+        <spacarpy.solvers.statics.kinematic_correction.KinematicCorrector.correct>`)."""
         return self.corrector.correct(x_lin, dx, states, self.increment_norm(dx), **kw)
 
     def normalize(self, x):

@@ -25,11 +25,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from spacarpy.errors import ConvergenceError
-from spacarpy.solvers.eigen import DENSE_LIMIT, null_space_basis
-from spacarpy.solvers.errors import StepFailed
-from spacarpy.solvers.linearize import linearize
-from spacarpy.solvers.loads import LoadState
-from spacarpy.solvers.newton import newton
+from spacarpy.solvers.linear.eigen import DENSE_LIMIT, null_space_basis
+from spacarpy.solvers.linear.linearize import linearize
+from spacarpy.solvers.statics.errors import StepFailed
+from spacarpy.solvers.statics.loads import LoadState
+from spacarpy.solvers.statics.newton import newton
 
 log = logging.getLogger(__name__)
 
@@ -199,7 +199,7 @@ def switch_branch(prob, x, mu, load: LoadState, opts, stab: Stability, step: int
 class PathStability:
     """``BIFURCATION warn|switch``: the index of the tangent after every stored step, with a
     warning when it rises and (switch) branch switching, see
-    :mod:`spacarpy.solvers.stability`.
+    :mod:`spacarpy.solvers.path.stability`.
 
     Switching happens close to the critical point, where the new branch is still near the
     old one: the load interval of the step is bisected (``BISECTIONS`` times) down to a
@@ -207,7 +207,7 @@ class PathStability:
     the unstable eigenvector, and from the equilibrium found the step is completed along
     the new branch in sub-steps.
 
-    ``predictor`` is the load path's :class:`~spacarpy.solvers.newton.Predictor`;
+    ``predictor`` is the load path's :class:`~spacarpy.solvers.statics.newton.Predictor`;
     ``advance(x, mu, p_from, p_to, n_sub, stored_step)`` follows the path between two load
     parameters with step cutting (the static solver's).
     """

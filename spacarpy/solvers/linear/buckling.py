@@ -37,7 +37,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from spacarpy.solvers.eigen import DENSE_LIMIT, canonical_sign, null_space_basis
+from spacarpy.solvers.linear.eigen import DENSE_LIMIT, canonical_sign, null_space_basis
 
 log = logging.getLogger(__name__)
 

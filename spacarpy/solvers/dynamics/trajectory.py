@@ -1,9 +1,9 @@
 """The linearized equations along a transient trajectory (SPACAR mode 3).
 
-At a stored time step (t, x, v, a, mu) of :mod:`spacarpy.solvers.transient` the equations
+At a stored time step (t, x, v, a, mu) of :mod:`spacarpy.solvers.dynamics.transient` the equations
 of motion over the free coordinates are ``r(x, v, a, mu) = 0`` with ``c(x) = 0``. A
 neighbouring motion ``x + dx`` that keeps the constraints has ``dx = Phi(x) dq`` to first
-order, with Phi the map of the degrees of freedom q of :func:`spacarpy.solvers.state_space.
+order, with Phi the map of the degrees of freedom q of :func:`spacarpy.solvers.linear.state_space.
 dof_map` (the DYNE/RLSE deformation modes, ``C Phi = 0, E Phi = I``). Along the trajectory
 Phi changes with time, so
 
@@ -25,7 +25,7 @@ integrator's (its recurrences leave an error in the acceleration of driven coord
 undamped with RHOINF 1, and in the multipliers, whose tension enters K_x).
 
 How they are computed (documented approximation): r is evaluated by
-:meth:`spacarpy.solvers.transient.TransientProblem.residual`; ``M Phi`` exactly (r is
+:meth:`spacarpy.solvers.dynamics.transient.TransientProblem.residual`; ``M Phi`` exactly (r is
 linear in a), ``K_x Phi`` and ``C_v Phi``, ``C_v Phi'`` by central differences along those
 directions (step 1e-6 of the model's length scale, an error near 1e-10 relative), and Phi'
 and Phi'' by central differences of ``Phi(x + s v + s^2 a / 2)`` in s, the coordinates'
@@ -39,8 +39,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from spacarpy.solvers.linearize import linearize
-from spacarpy.solvers.state_space import (
+from spacarpy.solvers.linear.linearize import linearize
+from spacarpy.solvers.linear.state_space import (
     dof_map,
     first_order,
     input_columns,
@@ -58,7 +58,7 @@ PATH_STEP = 1e-3
 
 
 class TrajectoryLinearizer:
-    """Linearizes a transient problem ``tp`` (a :class:`~spacarpy.solvers.transient.
+    """Linearizes a transient problem ``tp`` (a :class:`~spacarpy.solvers.dynamics.transient.
     TransientProblem`) in the degrees of freedom ``layout`` at its stored steps."""
 
     def __init__(self, tp, layout, inputs, outputs):
@@ -95,11 +95,11 @@ class TrajectoryLinearizer:
 
     def consistent_state(self, t, x, v, mu):
         """The accelerations and multipliers of the equations of motion at the stored
-        (t, x, v) (:func:`spacarpy.solvers.transient._initial_acceleration` at time t). The
+        (t, x, v) (:func:`spacarpy.solvers.dynamics.transient._initial_acceleration` at time t). The
         stored ones are the integrator's: its recurrences leave an error in the acceleration
         of constraint-driven coordinates (undamped with RHOINF 1) and in the multipliers,
         whose tension enters K_x."""
-        from spacarpy.solvers.transient import _initial_acceleration
+        from spacarpy.solvers.dynamics.transient import _initial_acceleration
         a_presc = self.tp.prescribed(t)[3]
         return _initial_acceleration(self.tp, x, v, mu, a_presc, t=t)
 
@@ -118,8 +118,8 @@ class TrajectoryLinearizer:
         return (rp - rm) / (2 * h)
 
     def __call__(self, step):
-        """The :class:`~spacarpy.solvers.state_space.StateSpace` at a stored
-        :class:`~spacarpy.solvers.transient.TransientStep`."""
+        """The :class:`~spacarpy.solvers.linear.state_space.StateSpace` at a stored
+        :class:`~spacarpy.solvers.dynamics.transient.TransientStep`."""
         tp = self.tp
         t, x, v, a, mu = step.time, step.x, step.v, step.a, step.mu
         load = tp.loads(t)

@@ -19,7 +19,7 @@ linearized constraint, one factorization per iteration (docs/path.md, "Method"):
   back-substitutes twice, ``K a = -r`` and ``K b = q``; the load factor increment follows
   from the linear constraint, so there is no quadratic root to choose. Where the only
   constraints are Euler normalizations the tangent-space LDL^T of
-  :mod:`spacarpy.solvers.reduced` solves both (accurate on slender models with 10^4
+  :mod:`spacarpy.solvers.statics.reduced` solves both (accurate on slender models with 10^4
   elements); elsewhere, or where its refined solution is inaccurate, SuperLU solves the
   bordered matrix.
 - **Step control.** A point whose chord from the last point is longer than
@@ -56,10 +56,10 @@ import scipy.sparse as sp
 
 from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.rotation import moment_matrix
-from spacarpy.solvers.eigen import DENSE_LIMIT
-from spacarpy.solvers.errors import StepFailed
-from spacarpy.solvers.newton import bordered_solve, newton
-from spacarpy.solvers.stability import canonical_sign, stability
+from spacarpy.solvers.linear.eigen import DENSE_LIMIT
+from spacarpy.solvers.path.stability import canonical_sign, stability
+from spacarpy.solvers.statics.errors import StepFailed
+from spacarpy.solvers.statics.newton import bordered_solve, newton
 
 log = logging.getLogger(__name__)
 
@@ -79,7 +79,7 @@ MAX_CHORD = 1.25
 ALONG_EIGENVECTOR = 0.5
 #: Largest number of refinement iterations of one critical point.
 MAX_REFINE = 60
-#: Solve with the tangent-space LDL^T of :mod:`spacarpy.solvers.reduced` where it applies
+#: Solve with the tangent-space LDL^T of :mod:`spacarpy.solvers.statics.reduced` where it applies
 #: (False: always the bordered system by SuperLU; the tests compare the two).
 USE_REDUCED = True
 #: Kinds of critical points (codes stored in /critical/point_type).
@@ -163,7 +163,7 @@ def check_applies(prob) -> None:
 
 
 def point_at(path, step) -> _Point:
-    """A stored :class:`~spacarpy.solvers.static.StaticStep` of an arc-length run as a
+    """A stored :class:`~spacarpy.solvers.statics.static.StaticStep` of an arc-length run as a
     path point with its tangent (to take one more step from it, e.g. in the benchmark)."""
     p = _Point(x=step.x, mu=step.mu, s=step.load_factor, arc=step.arc_length or 0.0)
     path.tangent(p)
@@ -172,7 +172,7 @@ def point_at(path, step) -> _Point:
 
 class ArcLengthPath:
     """The continuation of one problem (see the module docstring). ``opts``: a
-    :class:`~spacarpy.solvers.static.StaticOptions` (max_iter, tol, bifurcation);
+    :class:`~spacarpy.solvers.statics.static.StaticOptions` (max_iter, tol, bifurcation);
     ``arc``: the deck's :class:`~spacarpy.settings.ArcLength`."""
 
     def __init__(self, prob, opts, arc):

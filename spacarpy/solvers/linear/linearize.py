@@ -25,7 +25,7 @@ import scipy.sparse as sp
 
 from spacarpy.assembly import BlockPattern
 from spacarpy.elements.beam_mass import nodal_rotary_mass
-from spacarpy.solvers.nodal import nodal_masses
+from spacarpy.solvers.statics.nodal import nodal_masses
 
 
 @dataclass
@@ -54,7 +54,7 @@ class Linearization:
         The state.
     reduced : ReducedNewton or None
         The static problem's tangent-space Newton solver, where it applies and a mass is
-        given (:mod:`spacarpy.solvers.eigen_tangent` solves the lowest modes with it).
+        given (:mod:`spacarpy.solvers.linear.eigen_tangent` solves the lowest modes with it).
     blocks : (list, ndarray) or None
         With ``reduced``: per element group ``(D, S, H)``, the deformation derivatives, the
         stiffness and the load-dependent block ``H`` (the stress resultants' Hessian, less
@@ -128,8 +128,8 @@ class MassAssembler:
 
 
 def linearize(prob, x, mu, load, mass: MassAssembler | None = None) -> Linearization:
-    """Linearized matrices of a :class:`~spacarpy.solvers.equilibrium.StaticProblem` at
-    (x, mu) under ``load`` (a :class:`~spacarpy.solvers.loads.LoadState`; the state should
+    """Linearized matrices of a :class:`~spacarpy.solvers.statics.equilibrium.StaticProblem` at
+    (x, mu) under ``load`` (a :class:`~spacarpy.solvers.statics.loads.LoadState`; the state should
     be an equilibrium of that load)."""
     ev = prob.evaluate(x, mu, load)
     n_x = prob.pattern.n_x

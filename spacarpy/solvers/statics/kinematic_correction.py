@@ -18,8 +18,8 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import BlockPattern, scatter_add
 from spacarpy.linalg import batch_matvec
-from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
-from spacarpy.solvers.triangular import BlockTriangular
+from spacarpy.solvers.linalg.sparse import FactorizationError, SPDFactorization
+from spacarpy.solvers.linalg.triangular import BlockTriangular
 
 log = logging.getLogger(__name__)
 
@@ -31,7 +31,7 @@ class SquareJacobian:
     is solved as ``W step = g`` instead of through the normal equations ``W^T W``, whose
     condition number is that of W squared: on a 10^5-element cantilever W^T W is beyond
     double precision and its steps are noise. A tree's W is block triangular, and is solved
-    by block forward substitution (:class:`~spacarpy.solvers.triangular.BlockTriangular`,
+    by block forward substitution (:class:`~spacarpy.solvers.linalg.triangular.BlockTriangular`,
     several times faster than a sparse LU of the same matrix); other square patterns by
     SuperLU's LU with partial pivoting (:class:`SparseLU`).
 
@@ -102,7 +102,7 @@ class SquareJacobian:
 
 class SparseLU:
     """SuperLU (partial pivoting, COLAMD) for square matrices with the pattern ``(rows,
-    cols)``; the same interface as :class:`~spacarpy.solvers.triangular.BlockTriangular`:
+    cols)``; the same interface as :class:`~spacarpy.solvers.linalg.triangular.BlockTriangular`:
     ``factorize(data) -> solve``."""
 
     def __init__(self, rows, cols, n: int):
@@ -125,7 +125,7 @@ class SparseLU:
 class NormalEquations:
     """The kinematic correction's Gauss-Newton step from the normal equations
     ``W^T W step = W^T g`` (least squares: closed loops, more deformations than unknowns),
-    factorized by QDLDL (:class:`~spacarpy.solvers.sparse.SPDFactorization`). Same interface
+    factorized by QDLDL (:class:`~spacarpy.solvers.linalg.sparse.SPDFactorization`). Same interface
     as :class:`SquareJacobian`; the right side is formed with the current W."""
 
     stale_after = 1e-3
@@ -161,7 +161,7 @@ class KinematicCorrector:
     :class:`SquareJacobian` where W is square, else :class:`NormalEquations`) and the
     factorization kept from one call to the next (a chord iteration).
 
-    ``timings`` (a :class:`~spacarpy.solvers.equilibrium.Timings`) books the kernel,
+    ``timings`` (a :class:`~spacarpy.solvers.statics.equilibrium.Timings`) books the kernel,
     assembly and solve time of the correction."""
 
     def __init__(self, num, variant: str, timings):
@@ -234,7 +234,7 @@ class KinematicCorrector:
         at the returned configuration come along (None when not computed there), so that
         the next residual evaluation does not repeat them. ``size`` is the scaled norm of
         ``dx`` (:meth:`StaticProblem.increment_norm
-        <spacarpy.solvers.equilibrium.StaticProblem.increment_norm>`).
+        <spacarpy.solvers.statics.equilibrium.StaticProblem.increment_norm>`).
         """
         num = self.num
         eu = self.eu

@@ -1,5 +1,5 @@
 """The rotating frame of a generalized-alpha step: the change of variables that lets the
-transient solver (:mod:`spacarpy.solvers.transient`) represent a rigid rotation exactly.
+transient solver (:mod:`spacarpy.solvers.dynamics.transient`) represent a rigid rotation exactly.
 
 Generalized-alpha updates the coordinates linearly, ``x1 = x + h v + h^2 (...)``. For nodes
 that turn fast about an axis (a spinning beam) that update moves them along the chord of

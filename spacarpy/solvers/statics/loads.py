@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spacarpy.solvers.nodal import nodal_masses, node_rows
+from spacarpy.solvers.statics.nodal import nodal_masses, node_rows
 
 
 @dataclass(frozen=True)

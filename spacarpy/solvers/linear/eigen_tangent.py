@@ -1,16 +1,16 @@
 """The lowest modes of a large model in the tangent space of its Euler normalizations.
 
 Where the static solver's Newton steps run without the Euler constraints
-(:mod:`spacarpy.solvers.reduced`: every constraint is the normalization of an orientation
+(:mod:`spacarpy.solvers.statics.reduced`: every constraint is the normalization of an orientation
 node with four free Euler parameters, no rigid modes, no moment loads), the linearized
 pencil ``(K, M)`` restricted to the null space of C is the same pencil in the tangent
-coordinates of :class:`~spacarpy.solvers.reduced.ReducedNewton`: with ``T`` the orthonormal
+coordinates of :class:`~spacarpy.solvers.statics.reduced.ReducedNewton`: with ``T`` the orthonormal
 map from them to the free coordinates (identity on positions, ``Lambda(q)^T / |q|`` on
 each Euler quadruple), ``K_r = T^T K T`` and ``M_r = T^T M T``. ``K_r`` is the static
 solver's reduced tangent, symmetric and, at a stable state, positive definite.
 :func:`lowest_modes` then
 
-1. factorizes ``K_r`` once (the LDL^T of :class:`~spacarpy.solvers.sparse.SPDFactorization`,
+1. factorizes ``K_r`` once (the LDL^T of :class:`~spacarpy.solvers.linalg.sparse.SPDFactorization`,
    AMD ordering) and runs ARPACK's Lanczos in shift-invert mode about 0 (``eigsh``), each
    operator application one pair of triangular solves;
 2. refines the Ritz vectors by Rayleigh-Ritz steps on ``[V, K_r^-1 R]`` (R the residuals
@@ -52,7 +52,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.elements.base import relative_positions
-from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
+from spacarpy.solvers.linalg.sparse import FactorizationError, SPDFactorization
 
 log = logging.getLogger(__name__)
 
@@ -187,8 +187,8 @@ class _Tangent:
 
 def applies(lin) -> bool:
     """Whether :func:`lowest_modes` can work on ``lin``: a mass, the static solver's reduced
-    form (:func:`spacarpy.solvers.reduced.applies`) and the element blocks kept by
-    :func:`~spacarpy.solvers.linearize.linearize`."""
+    form (:func:`spacarpy.solvers.statics.reduced.applies`) and the element blocks kept by
+    :func:`~spacarpy.solvers.linear.linearize.linearize`."""
     return lin.M is not None and getattr(lin, "reduced", None) is not None \
         and getattr(lin, "blocks", None) is not None
 

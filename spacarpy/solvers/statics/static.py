@@ -3,16 +3,16 @@
 
 Step 0 is the equilibrium under the initial load XF, reached in ``n_init`` internal
 sub-steps of its factor ``a``; steps 1..n_steps add the DELXF increments (factor ``s``) in
-equal parts. Every sub-step starts from the :class:`~spacarpy.solvers.newton.Predictor` and
-is solved by :func:`~spacarpy.solvers.newton.newton` on the equations of
-:class:`~spacarpy.solvers.equilibrium.StaticProblem` under a
-:class:`~spacarpy.solvers.loads.LoadState`. A failing step (no convergence within
+equal parts. Every sub-step starts from the :class:`~spacarpy.solvers.statics.newton.Predictor` and
+is solved by :func:`~spacarpy.solvers.statics.newton.newton` on the equations of
+:class:`~spacarpy.solvers.statics.equilibrium.StaticProblem` under a
+:class:`~spacarpy.solvers.statics.loads.LoadState`. A failing step (no convergence within
 ``max_iter``, divergence, a non-finite value, a singular Newton matrix) is cut in half and
 retried, down to ``1/2**max_cuts`` of the requested increment, then a
 :class:`~spacarpy.errors.ConvergenceError` names the step and the residual history. After
 each stored step the stability of the path is checked where asked
-(:class:`~spacarpy.solvers.stability.PathStability`). Before the first load the model's
-kinematics are checked (:mod:`spacarpy.solvers.kinematic_check`). The formulation is in
+(:class:`~spacarpy.solvers.path.stability.PathStability`). Before the first load the model's
+kinematics are checked (:mod:`spacarpy.solvers.statics.kinematic_check`). The formulation is in
 docs/solver.md.
 """
 from __future__ import annotations
@@ -26,13 +26,13 @@ import numpy as np
 from spacarpy.errors import ConvergenceError
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
-from spacarpy.solvers.arclength import ArcLengthPath
-from spacarpy.solvers.equilibrium import StaticProblem, Timings
-from spacarpy.solvers.errors import StepFailed
-from spacarpy.solvers.kinematic_check import check_initial
-from spacarpy.solvers.loads import Loads, LoadState
-from spacarpy.solvers.newton import Predictor, newton
-from spacarpy.solvers.stability import PathStability
+from spacarpy.solvers.path.arclength import ArcLengthPath
+from spacarpy.solvers.path.stability import PathStability
+from spacarpy.solvers.statics.equilibrium import StaticProblem, Timings
+from spacarpy.solvers.statics.errors import StepFailed
+from spacarpy.solvers.statics.kinematic_check import check_initial
+from spacarpy.solvers.statics.loads import Loads, LoadState
+from spacarpy.solvers.statics.newton import Predictor, newton
 
 log = logging.getLogger(__name__)
 

@@ -13,7 +13,7 @@ one in exact arithmetic (a null-space elimination, not an approximation).
 When every constraint of a model is of this kind and no dead moment loads it (their
 derivative is skew-symmetric), the remaining matrix is the symmetric tangent stiffness in
 rotation-like coordinates, which is positive definite at a stable equilibrium and is
-factorized by the LDL^T of :class:`~spacarpy.solvers.sparse.SPDFactorization` with its
+factorized by the LDL^T of :class:`~spacarpy.solvers.linalg.sparse.SPDFactorization` with its
 ordering and symbolic analysis done once per model (the bordered matrix has zero diagonal
 blocks and needs SuperLU's pivoting instead). A step is checked by its residual in the
 reduced system; an inaccurate one (an LDL^T without pivoting on an indefinite matrix near a
@@ -36,7 +36,7 @@ from spacarpy.elements.base import relative_positions
 from spacarpy.elements.chunks import in_chunks
 from spacarpy.linalg import batch_matvec
 from spacarpy.rotation import lambda_matrix
-from spacarpy.solvers.sparse import FactorizationError, SPDFactorization
+from spacarpy.solvers.linalg.sparse import FactorizationError, SPDFactorization
 
 log = logging.getLogger(__name__)
 
@@ -107,8 +107,8 @@ def _quaternion_slots(num):
 
 
 class ReducedNewton:
-    """Newton steps of a :class:`~spacarpy.solvers.equilibrium.StaticProblem` without its Euler
-    constraints (see the module docstring); build only where :func:`applies`."""
+    """Newton steps of a :class:`~spacarpy.solvers.statics.equilibrium.StaticProblem` without
+    its Euler constraints (see the module docstring); build only where :func:`applies`."""
 
     def __init__(self, prob):
         self.prob = prob

@@ -2,9 +2,9 @@
 that carries a converged state to the next load.
 
 Each Newton iteration solves the bordered system ``[[K_T, C^T], [C, 0]]`` (SuperLU, or the
-tangent-space LDL^T of :mod:`spacarpy.solvers.reduced` where the only constraints are
+tangent-space LDL^T of :mod:`spacarpy.solvers.statics.reduced` where the only constraints are
 Euler normalizations) and then moves the linear update onto the predicted deformations
-(:mod:`spacarpy.solvers.kinematic_correction`). A step is converged when the scaled
+(:mod:`spacarpy.solvers.statics.kinematic_correction`). A step is converged when the scaled
 residual and the scaled last increment are both below the tolerance (forces relative to
 the load and internal-force level, moments divided by the model's length scale; positions
 relative to that length, Euler parameters absolute), see docs/solver.md.
@@ -18,8 +18,8 @@ import time
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from spacarpy.solvers.errors import StepFailed
-from spacarpy.solvers.loads import LoadState
+from spacarpy.solvers.statics.errors import StepFailed
+from spacarpy.solvers.statics.loads import LoadState
 
 log = logging.getLogger(__name__)
 
@@ -40,9 +40,9 @@ def bordered_solve(prob, A, rhs):
 
 def newton(prob, x, mu, load: LoadState, opts, states=None):
     """Newton iterations from (x, mu) under ``load`` (``opts``: max_iter, tol; a
-    :class:`~spacarpy.solvers.static.StaticOptions`). ``states`` are the kernel states at
+    :class:`~spacarpy.solvers.statics.static.StaticOptions`). ``states`` are the kernel states at
     exactly this x where the caller has them (:meth:`Predictor.with_states`). Returns (x,
-    mu, its, res, history) on success, raises :class:`~spacarpy.solvers.errors.StepFailed`
+    mu, its, res, history) on success, raises :class:`~spacarpy.solvers.statics.errors.StepFailed`
     otherwise."""
     history = []
     dx_norm = np.inf

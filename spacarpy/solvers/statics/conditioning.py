@@ -1,9 +1,9 @@
 """The conditioning limit of slender beam models, estimated before a run.
 
 The static solver factorizes the assembled tangent (QDLDL) and refines its solutions by
-conjugate gradients with an element-by-element product (:mod:`spacarpy.solvers.reduced`);
+conjugate gradients with an element-by-element product (:mod:`spacarpy.solvers.statics.reduced`);
 the sparse eigen solver does the same with its Ritz vectors
-(:mod:`spacarpy.solvers.eigen_tangent`). Both need the factorization to be a fair
+(:mod:`spacarpy.solvers.linear.eigen_tangent`). Both need the factorization to be a fair
 approximation in every direction. In the soft bending directions of a finely meshed
 slender beam it is not exact: the round-off of an axial entry ``EA / l`` of the assembled
 matrix is ``eps EA / l``, and the softest bending stiffness of the structure is about

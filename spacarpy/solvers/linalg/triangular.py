@@ -30,7 +30,7 @@ it), the dense path keeps only the band, in LAPACK's band storage, and solves wi
 ``dtbsv``: 7 against 46 us for the 700 unknowns of a 100-element cantilever, and no
 (n, n) array to fill at each factorization.
 Where a diagonal block is singular the whole matrix is (its determinant is the product of
-the blocks'), and :class:`~spacarpy.solvers.sparse.FactorizationError` is raised as SuperLU
+the blocks'), and :class:`~spacarpy.solvers.linalg.sparse.FactorizationError` is raised as SuperLU
 would.
 """
 from __future__ import annotations
@@ -44,7 +44,7 @@ from scipy.linalg import blas, lapack
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from spacarpy.elements.chunks import in_chunks
-from spacarpy.solvers.sparse import FactorizationError
+from spacarpy.solvers.linalg.sparse import FactorizationError
 
 #: Largest number of unknowns solved with a dense triangular L. Measured on the 2-core
 #: machine (CPU time, best of 5), a chain of 7x7 blocks (the kinematic correction of a

@@ -2,7 +2,7 @@
 mechanism, or over-constrained? And the degree-of-freedom report of ``MODE check``.
 
 The check factorizes the unloaded Newton matrix; a singular one is diagnosed
-(:mod:`spacarpy.solvers.diagnose`) into a :class:`~spacarpy.errors.ModelError` naming the
+(:mod:`spacarpy.solvers.statics.diagnose`) into a :class:`~spacarpy.errors.ModelError` naming the
 free motions or the redundant deformation modes. A statically determinate tree with stiff
 or rigid modes only is recognised from its kinematic Jacobian, without that factorization.
 """
@@ -14,7 +14,7 @@ import numpy as np
 
 from spacarpy.errors import ModelError
 from spacarpy.model import RIGID
-from spacarpy.solvers.diagnose import (
+from spacarpy.solvers.statics.diagnose import (
     NONZERO,
     Rank,
     _fmt,
@@ -23,7 +23,7 @@ from spacarpy.solvers.diagnose import (
     numerical_rank,
     unit_rows,
 )
-from spacarpy.solvers.newton import bordered_solve
+from spacarpy.solvers.statics.newton import bordered_solve
 
 #: Largest model (free coordinates plus constraints) that gets the dense rank analysis of
 #: :func:`kinematic_analysis` (two SVDs: about a second at this size on one core). Larger
@@ -33,7 +33,7 @@ KINEMATIC_LIMIT = 1200
 
 def check_initial(prob, allow_mechanism: bool = False) -> ModelError | None:
     """Factorize the unloaded Newton matrix of ``prob`` (a
-    :class:`~spacarpy.solvers.equilibrium.StaticProblem`) in the initial configuration.
+    :class:`~spacarpy.solvers.statics.equilibrium.StaticProblem`) in the initial configuration.
 
     This is the kinematic check: a mechanism or redundant constraints make it singular,
     and they are reported (with the nodes/elements involved) before any load step, even
@@ -56,7 +56,7 @@ def check_initial(prob, allow_mechanism: bool = False) -> ModelError | None:
         return None
     A = prob.matrix(ev, mu)
     _, lu = bordered_solve(prob, A, np.ones(prob.pattern.n))
-    from spacarpy.solvers.diagnose import mechanism_error, singular_matrix_error
+    from spacarpy.solvers.statics.diagnose import mechanism_error, singular_matrix_error
     # The LU may exist, but round-off can hide an exact singularity behind tiny pivots:
     # look for deformation-free motions among the smallest modes (robust against the
     # huge but legitimate condition numbers of finely meshed stiff structures).
@@ -103,12 +103,12 @@ def determinate(prob, states, x) -> bool:
     """Whether the model is a tree whose every deformation mode is rigid or carries a
     positive definite stiffness, with a regular square kinematic Jacobian W at x (its
     diagonal blocks well conditioned, :meth:`BlockTriangular.regular
-    <spacarpy.solvers.triangular.BlockTriangular.regular>`). Such a model has no free motion
+    <spacarpy.solvers.linalg.triangular.BlockTriangular.regular>`). Such a model has no free motion
     (W v = 0 only for v = 0: every motion deforms a stiff or a rigid mode or breaks an Euler
     normalization) and no redundant constraint (W's rows are independent), so its unloaded
     Newton matrix is regular: the initial check needs no LU of it, which for large trees
     costs several times this test."""
-    from spacarpy.solvers.kinematic_correction import SquareJacobian
+    from spacarpy.solvers.statics.kinematic_correction import SquareJacobian
     if not isinstance(prob.corrector.system, SquareJacobian):
         return False
     for g in prob.num.groups:
@@ -134,7 +134,7 @@ class KinematicAnalysis:
     Euler parameter per unit rate of the driver, zero on fixed ones); ``redundant``:
     (keyword, element, mode) of the rigid modes that repeat others (an Euler
     normalization: ("EULER", node, 0)); ``rank``/``motion_rank``: the two rank decisions
-    (:class:`~spacarpy.solvers.diagnose.Rank`).
+    (:class:`~spacarpy.solvers.statics.diagnose.Rank`).
     """
 
     n_unknown: int
@@ -160,7 +160,7 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
     TRUSS, RBEAM, ...), then those of the joints (HINGE, PLHINGE), each kind by element:
     the last ones of a dependent set are named, so a joint's mode rather than a body's.
     The free motions get a basis that moves one released mode each
-    (:func:`~spacarpy.solvers.diagnose.canonical_motions`).
+    (:func:`~spacarpy.solvers.statics.diagnose.canonical_motions`).
     """
     num, model = prob.num, prob.model
     x = num.x0.copy()

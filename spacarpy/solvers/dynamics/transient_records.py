@@ -1,0 +1,134 @@
+"""The records of a transient: its options (TransientOptions), one time step's output
+(TransientStep), the run's result (TransientResult), the residual parts (Residual) and the
+generalized-alpha parameters of RHOINF (alpha_parameters)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from spacarpy.settings import AnalysisSettings
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.loads import LoadState
+from spacarpy.time_functions import TimeFunction
+
+#: A Newton iteration whose residual falls by less than this factor switches the exact
+#: inertia tangent on for the rest of the run (see _step).
+SLOW_CONTRACTION = 0.1
+
+#: A step's iteration matrix serves its chord iterations (see _step) as long as each of
+#: their increments reduces the scaled residual by at least this factor.
+KEEP_CONTRACTION = 0.1
+
+
+@dataclass
+class TransientOptions:
+    """Settings of a transient run (deck: TIMESTEP, RHOINF, START, TIMEFUNCTION, ITERSTEP)."""
+
+    t_end: float = 1.0
+    n_steps: int = 100                       # stored steps
+    substeps: int = 1                        # integration steps per stored step
+    rho_inf: float = 0.9
+    tol: float = 1e-8
+    max_iter: int = 20
+    max_cuts: int = 10
+    start: str = "deck"                      # "deck" (at rest) or "static" (equilibrium)
+    phi: TimeFunction = field(default_factory=TimeFunction)
+    error: tuple | None = None               # ERROR (abs, rel): adaptive step size
+    deformations: str = "modified"
+    rotary_inertia: str = "lumped"           # ROTARYINERTIA: the beams' section inertia
+    initial_velocities: dict = field(default_factory=dict)   # node -> (3,) VELOCITY
+    #: the derivatives of the inertia forces (convective terms, dM/dx a) in the Newton
+    #: matrix; False leaves them out (the former iteration matrix: linear convergence at
+    #: high angular velocity, kept to measure the difference)
+    exact_tangent: bool = True
+    #: take each step in a frame turning with the model once it rotates by more than
+    #: FRAME_MIN_TURN per step (solvers/dynamics/frame.py); False: always in the global frame (the
+    #: former scheme, unstable with little numerical damping at fast rotation)
+    rotating_frame: bool = True
+    #: a step's later Newton iterations reuse its iteration matrix while that contracts
+    #: (chord iterations); False forms a new one at every iteration
+    reuse_matrix: bool = True
+
+    @classmethod
+    def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:
+        """The options of a deck's settings: TIMESTEP, SUBSTEPS, ERROR, RHOINF, START,
+        TIMEFUNCTION, VELOCITY, and ITERSTEP's tolerance (at most 1e-10) and iteration limit
+        (at least 20)."""
+        tr, it = settings.transient, settings.static.iterstep
+        t_end, n_steps = tr.timestep
+        return cls(t_end=t_end, n_steps=n_steps, substeps=tr.substeps, error=tr.error_tol,
+                   rho_inf=tr.rho_inf, tol=min(it.tol, 1e-10), max_iter=max(it.max_iter, 20),
+                   start=tr.start, phi=TimeFunction(*tr.time_function),
+                   deformations=settings.deformations,
+                   rotary_inertia=settings.rotary_inertia,
+                   initial_velocities=dict(tr.initial_velocities))
+
+
+@dataclass
+class TransientStep:
+    """One stored time step (arrays over all coordinates / elements of each kind)."""
+
+    time: float
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    mu: np.ndarray
+    iterations: int
+    residual: float
+    kinetic_energy: float
+    elastic_energy: float
+    external_work: float
+    dissipated_energy: float
+    deformation: dict                        # element keyword -> (n_elem, n_def)
+    stress: dict                             # keyword -> (n_elem, n_def) stress resultants
+
+    @property
+    def energy_balance(self) -> float:
+        """T + U + D - W (D the energy the damping dissipated): constant up to the
+        integration error."""
+        return (self.kinetic_energy + self.elastic_energy + self.dissipated_energy
+                - self.external_work)
+
+
+@dataclass
+class TransientResult:
+    steps: list = field(default_factory=list)
+    static: object = None                    # the StaticResult of START static
+    n_steps_taken: int = 0                   # integration steps (adaptive: accepted ones)
+    n_rejected: int = 0                      # steps rejected by the error control
+    problem: StaticProblem | None = None
+    wall_time: float = 0.0
+    n_newton: int = 0
+    n_matrices: int = 0                      # Newton iteration matrices formed
+
+
+class Residual(NamedTuple):
+    """The equations of motion evaluated at one (t, x, v, a, mu), see
+    :meth:`TransientProblem.residual`."""
+
+    ev: object                   # the static part (an equilibrium Evaluation)
+    blocks: list                 # mass blocks per inertia batch
+    f_in: np.ndarray             # (n_coord,) inertia and damping forces
+    r: np.ndarray                # force residual over the free coordinates
+    res: float                   # scaled residual norm
+    floor: float                 # its round-off floor
+    load: LoadState
+    f_damp: np.ndarray | None    # (n_coord,) damping forces, None without damping
+    damp_blocks: dict            # velocity derivative of the damping per element group
+    level: float                 # force level of this state
+
+
+def alpha_parameters(rho_inf: float) -> tuple[float, float, float, float]:
+    """(alpha_m, alpha_f, gamma, beta) of the generalized-alpha method for a spectral radius
+    rho_inf at infinite frequency (Chung & Hulbert 1993)."""
+    if not 0.0 <= rho_inf <= 1.0:
+        raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf}")
+    am = (2 * rho_inf - 1) / (rho_inf + 1)
+    af = rho_inf / (rho_inf + 1)
+    gamma = 0.5 + af - am
+    beta = 0.25 * (gamma + 0.5) ** 2
+    return am, af, gamma, beta
+
+

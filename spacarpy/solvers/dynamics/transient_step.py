@@ -1,0 +1,305 @@
+"""One generalized-alpha time step: its Newton iteration (iteration matrix, kept matrices,
+simplified norms) and its local error estimate. ``tp`` is the TransientProblem of
+transient.py (not imported: transient.py imports this module)."""
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from spacarpy.rotation import tangent_part
+from spacarpy.solvers.dynamics.transient_records import KEEP_CONTRACTION, SLOW_CONTRACTION
+from spacarpy.solvers.statics.errors import StepFailed
+
+log = logging.getLogger(__name__)
+
+def _error_norm(tp, h, beta, a_tilde_old, a_tilde_new, x, tol) -> float:
+    """Largest local error of a step relative to the tolerance ``abs + rel |x|`` over the
+    free coordinates that carry mass (positions in m, Euler parameters as they are).
+
+    Coordinates without mass (a rod's massless end node, the length of an Euler-parameter
+    vector) are algebraic: their accelerations follow the constraints, not the dynamics,
+    and the integrator's recurrences let them oscillate from step to step whatever the step
+    size, so they say nothing about the local error and are left out."""
+    free = tp.free
+    d = tp.inertia.physical(x, a_tilde_new - a_tilde_old)        # no radial Euler part
+    e = h * h * abs(beta - 1.0 / 6.0) * d[free]
+    massive = tp.mass_diagonal[free] > 1e-12 * max(float(tp.mass_diagonal.max()), 1e-300)
+    scale = tol[0] + tol[1] * np.abs(x[free])
+    return float(np.abs(e / scale)[massive].max(initial=0.0))
+
+
+def _gauge(num, x, v, a, a_tilde):
+    """Give the Euler parameters' radial rates their exact values, in place.
+
+    The length of q is a gauge freedom (the orientation is that of q/|q|); its constraint
+    ``q.q = 1`` is kept at position level, but the integrator's recurrences for the radial
+    velocity and acceleration are only marginally stable (a two-step oscillation that small
+    time steps amplify). Their exact values follow from the constraint: ``q.dq = 0`` and
+    ``q.ddq = -|dq|^2``; setting them after every step removes the drift without touching
+    the orientation or the angular velocity.
+    """
+    ri = num.euler_coords
+    if not ri.size:
+        return
+    q = x[ri]
+    v[ri] = qd = tangent_part(q, v[ri])
+    qq = (q * q).sum(axis=1, keepdims=True)
+    centripetal = -(qd * qd).sum(axis=1, keepdims=True) / qq
+    for acc in (a, a_tilde):
+        acc[ri] += (centripetal - (q * acc[ri]).sum(axis=1, keepdims=True) / qq) * q
+
+
+def _simplified_norm(prob, kept, ev, x, r) -> float:
+    """Size (:meth:`StaticProblem.increment_norm`) of the simplified Newton increment at the
+    state (x, ``ev``) with the force residual r (over the free coordinates): the last
+    iteration matrix's factorization (``kept``, a :class:`KeptMatrix`) applied to the new
+    residual (Deuflhard's simplified Newton correction), an estimate of the increment that
+    state still needs, for one solve instead of a new tangent, factorization and residual;
+    inf where there is no estimate."""
+    step = None if kept is None else kept.chord(ev, x, r)
+    if step is None or not np.all(np.isfinite(step[0])):
+        return np.inf
+    return prob.increment_norm(step[0])
+
+
+@dataclass
+class KeptMatrix:
+    """A step's factorized iteration matrix, kept for its chord (modified Newton)
+    iterations and the simplified Newton increment."""
+
+    m_max: float                     # largest entry of the mass blocks it was formed with
+    solve: Callable                  # (ev, x, r over the free coordinates) -> (dx, dmu)|None
+
+    def chord(self, ev, x, r):
+        """The increment ``(dx over the free coordinates, dmu)`` this matrix gives for the
+        residual r at the state (x, ``ev``), or None where its solve fails."""
+        return self.solve(ev, x, r)
+
+    def floor(self, beta_p: float, length_scale: float, level: float) -> float:
+        """Round-off floor of the force residual: the inertia term beta' M of the iteration
+        matrix times the round-off of the coordinates (as the static solver's floor with
+        its stiffness)."""
+        return (100 * np.finfo(float).eps * beta_p * self.m_max * length_scale
+                / max(level, 1e-300))
+
+
+def _increment_fault(tp, dx, dmu) -> str | None:
+    """What is wrong with a Newton increment (not finite, or an Euler-parameter change above
+    0.5), or None: a new matrix's increment then fails the step, a chord increment drops
+    the kept matrix."""
+    if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(dmu))):
+        return "non-finite Newton increment"
+    if np.abs(dx[tp.free_rot]).max(initial=0.0) > 0.5:
+        return "Newton increment too large"
+    return None
+
+
+def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
+                      damp_blocks, motion, W, beta_p, gamma_p) -> tuple[KeptMatrix, tuple]:
+    """Form and factorize the iteration matrix at (x1, v1, a1, mu1): the tangent-space
+    LDL^T of the static solver (solvers/statics/reduced.py) where it applies, else the bordered
+    SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
+    SLOW_CONTRACTION (switches the exact inertia tangent on). Returns the matrix and its
+    Newton increment ``(dx, dmu)`` for the residual r."""
+    num, prob = tp.num, tp.prob
+    n_x = prob.pattern.n_x
+    tp.n_matrices += 1
+    blocks = tp.inertia.complete(x1, blocks)             # the mass blocks
+    m_max = max([float(np.abs(b).max(initial=0.0)) for b in blocks] + [0.0])
+    # iteration matrix [K_t + beta' M, C^T; C, 0] on the Newton matrix's fixed pattern;
+    # the constraint rows scaled like its largest entry (the inertia term grows as
+    # 1/h^2), which keeps the saddle-point system well conditioned
+    # beta' M + gamma' C: the Rayleigh alpha M rides on the mass blocks, the stiffness-
+    # proportional and deformation-rate damping are element blocks
+    # with the exact tangent: + d(M a + h)/dx + gamma' d h/dv (solvers/dynamics/inertia.py), not
+    # symmetric, so the bordered system below takes it (the reduced step's LDL^T needs
+    # a symmetric matrix)
+    # The tangent costs kernel evaluations and the LDL^T path; where the former matrix
+    # converges quadratically anyway (no fast rotation) it brings nothing. So it is taken
+    # from the first iteration whose residual fell by less than SLOW_CONTRACTION on
+    # (Newton without it converges linearly there), and then for the rest of the run.
+    if opts.exact_tangent and not tp.exact_tangent_on and slow_newton:
+        tp.exact_tangent_on = True
+        log.info("the convective inertia terms slow Newton down at t = %.6g s: the "
+                 "exact iteration matrix is used from here on", t1)
+    if motion is not None and opts.exact_tangent:
+        tp.exact_tangent_on = True   # the frame's W terms are not symmetric anyway
+    c_h = [] if motion is not None else None
+    tangent = (tp.inertia.tangent(x1, v1, a1, gamma_p, velocity_part=c_h)
+               if opts.exact_tangent and tp.exact_tangent_on else None)
+    exact = tangent is not None and any(t is not None for t in tangent)
+    extra, nodal = tp.inertia.iteration_parts(
+        blocks, beta_p + gamma_p * tp.model.damping[0], tangent)
+    for i, cb in damp_blocks.items():
+        extra[i] = extra.get(i, 0.0) + gamma_p * cb
+    if prob.reduced is not None and nodal is None and not exact and motion is None:
+        # the static solver's tangent-space step (solvers/statics/reduced.py) with the inertia
+        # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
+        k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
+        r_full = np.zeros(num.n_coord)
+        r_full[tp.free_idx] = r
+        step = prob.reduced.step(ev, x1, mu1, k_el, euler_diag, residual=r_full,
+                                  invariant=False)
+        if step is not None:
+            last = prob.reduced.last
+
+            def solve(ev, x, r):                    # the tangent-space LDL^T's
+                full = np.zeros(num.n_coord)
+                full[tp.free_idx] = r
+                return prob.reduced.chord(last, ev, x, residual=full)
+            return KeptMatrix(m_max, solve), step
+    scale = max(prob.scale, beta_p * m_max)
+    S = prob.matrix(ev, mu1, extra=extra, scale=scale)
+    if motion is not None:
+        coriolis = tp.frame_terms(blocks, c_h, W, gamma_p)
+        nodal = coriolis if nodal is None else nodal + coriolis
+    if nodal is not None:
+        S = S + _padded(nodal, S.shape[0])
+    try:
+        lu = spla.splu(S, permc_spec="COLAMD")
+    except RuntimeError:
+        raise StepFailed("singular iteration matrix") from None
+
+    def solve(ev, x, r):                                # the bordered SuperLU's
+        dz = lu.solve(-np.concatenate([r, scale * ev.c]))
+        return dz[:n_x], dz[n_x:] * scale
+    return KeptMatrix(m_max, solve), solve(ev, x1, r)
+
+
+def _padded(a, n: int) -> sp.csc_matrix:
+    """``block_diag([a, 0])`` of size n (n x n, ``a`` in its leading block), made from a's
+    arrays without scipy's ``block_diag`` (a COO round trip: 0.5 ms a call)."""
+    a = sp.csc_matrix(a)
+    indptr = np.concatenate([a.indptr, np.full(n - a.shape[1], a.indptr[-1])])
+    return sp.csc_matrix((a.data, a.indices, indptr), shape=(n, n))
+
+
+def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
+    """One generalized-alpha step from t to t + h (Arnold & Brüls 2007)."""
+    am, af, gamma, beta = params
+    num, free, prob, fi = tp.num, tp.free, tp.prob, tp.free_idx
+    t1 = t + h
+    motion = tp.frame_rate(x, v, h)
+    if motion is None:
+        yd, ydd, aty = v, a, a_tilde
+    else:
+        # the step in the frame turning with the model (solvers/dynamics/frame.py):
+        # y = x at its start
+        yd, ydd, aty = tp.frame.to_frame(motion, x, v, a, a_tilde)
+    at_new = (af * ydd - am * aty) / (1 - am)          # a_tilde with a_{n+1} = 0
+    # predictor: the accelerations extrapolated linearly from the last two steps, which
+    # leaves Newton a residual 3 to 30 times smaller than a_{n+1} = 0 does; but not where
+    # the exact inertia tangent is on (fast rotation, a turning frame): there Newton from
+    # such a predictor overshoots (measured: 3.2 -> 4.3 iterations per step), from
+    # a_{n+1} = 0 it converges quadratically
+    smooth = not tp.exact_tangent_on and motion is None
+    a1 = np.zeros_like(a)
+    if smooth:
+        a1 += a
+        if tp.previous_acceleration is not None:
+            h_prev, a_prev = tp.previous_acceleration
+            a1 += (h / h_prev) * (a - a_prev)
+    at_pred = at_new + (1 - af) / (1 - am) * a1
+    x1 = x + h * yd + h * h * (0.5 - beta) * aty + h * h * beta * at_pred
+    v1 = yd + h * (1 - gamma) * aty + h * gamma * at_pred
+    W = None
+    if motion is not None:
+        x1, v1, a1 = tp.frame.from_frame(motion, h, x1, v1, a1)
+        W = tp.frame.matrix(motion.omega, free)
+    idx, xp, vp, ap = tp.prescribed(t1)
+    if idx.size:
+        x1[idx], v1[idx], a1[idx] = xp, vp, ap
+    # (no normalization of the predicted Euler parameters: Newton's correction of q.q = 1
+    # must pass through the velocity and acceleration updates, which gives them their
+    # centripetal radial parts)
+    mu1 = mu.copy()
+    beta_p = (1 - am) / (h * h * beta * (1 - af))
+    gamma_p = gamma / (h * beta)
+    dx_norm = np.inf
+    history = []
+    trial_level = None               # the force level of the step's predictor
+    floor_dyn = 0.0                  # round-off floor of the inertia forces (iteration 0)
+    kept = None                      # the step's last iteration matrix (KeptMatrix)
+    chord_ok = opts.reuse_matrix and not tp.fresh_only and smooth
+    last_chord = False               # whether the last increment came from a kept matrix
+    used_chord = False
+    for it in range(opts.max_iter + 1):
+        ev, blocks, f_in, r, res, floor, _, f_damp, damp_blocks, level = tp.residual(
+            t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
+        trial_level = level if trial_level is None else trial_level
+        history.append(res)
+        if not np.isfinite(res):
+            raise StepFailed("non-finite residual", history, chord=used_chord)
+        # converged: residual and last increment below the tolerance, or a residual so far
+        # below it that the equations hold to round-off (the increments of directions the
+        # residual hardly sees, such as Euler parameters of nearly massless nodes, may then
+        # stall above the tolerance without meaning anything)
+        # A residual below the tolerance whose last increment was not yet is tested by the
+        # simplified Newton increment (the last factorization applied to this residual:
+        # one solve, where a full iteration costs a tangent, a factorization and another
+        # residual), which estimates the increment this state still needs
+        if it > 0 and res <= max(opts.tol, floor, floor_dyn) and (
+                dx_norm <= max(opts.tol, 1e-13) or res <= 1e-3 * opts.tol
+                or _simplified_norm(prob, kept, ev, x1, r) <= max(opts.tol, 1e-13)):
+            if motion is None:
+                a_tilde_new = at_new + (1 - af) / (1 - am) * a1
+            else:
+                y1, yd1, ydd1 = tp.frame.back(motion, h, x1, v1, a1)
+                a_tilde_new = tp.frame.from_frame(
+                    motion, h, y1, yd1, at_new + (1 - af) / (1 - am) * ydd1)[2]
+            _gauge(num, x1, v1, a1, a_tilde_new)
+            tp.accept_level(level)
+            tp.fresh_only = False
+            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp, blocks
+        if it == opts.max_iter:
+            break
+        # Chord iterations: the step's iteration matrix serves again while each of its
+        # increments reduces the residual by KEEP_CONTRACTION at least (or the next one
+        # at that rate reaches the tolerance); a new one is formed where it does not. A
+        # chord iteration costs a residual and one solve, a Newton iteration also the
+        # tangent, the mass blocks and a factorization.
+        if (last_chord and history[-1] > KEEP_CONTRACTION * history[-2]
+                and history[-1] ** 2 > opts.tol * history[-2]):
+            kept = None
+        fresh_last = it > 0 and not last_chord
+        step = None
+        if kept is not None and chord_ok:
+            step = kept.chord(ev, x1, r)
+            if step is None or _increment_fault(tp, *step):
+                step = kept = None
+        last_chord = step is not None
+        used_chord = used_chord or last_chord
+        if step is None:
+            slow_newton = (fresh_last and it >= 2
+                           and history[-1] > SLOW_CONTRACTION * history[-2] > 0.0)
+            try:
+                kept, step = _iteration_matrix(
+                    tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
+                    damp_blocks, motion, W, beta_p, gamma_p)
+            except StepFailed as fail:
+                raise StepFailed(fail.reason, history, chord=used_chord) from None
+            if it == 0:
+                floor_dyn = kept.floor(beta_p, num.length_scale, tp.level)
+            fault = _increment_fault(tp, *step)
+            if fault:
+                raise StepFailed(fault, history, chord=used_chord)
+        dx, dmu = step
+        dx_norm = prob.increment_norm(dx)
+        x1[fi] += dx
+        v1[fi] += gamma_p * dx
+        a1[fi] += beta_p * dx
+        if motion is not None:
+            wd = W @ dx
+            v1[fi] += wd
+            a1[fi] += 2 * gamma_p * wd + W @ wd
+        mu1 = mu1 + dmu
+    hist = ", ".join(f"{v:.2e}" for v in history)
+    raise StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})",
+                     history, chord=used_chord)
+
+
