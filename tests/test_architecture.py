@@ -38,12 +38,12 @@ def test_every_module_says_its_job():
     assert not silent, "modules without a docstring: " + ", ".join(silent)
 
 
-def test_modules_over_600_lines_say_why():
-    long = [p for p in (REPO / "spacarpy").rglob("*.py") if len(p.read_text().splitlines()) > 600]
-    for p in long:
-        doc = ast.get_docstring(ast.parse(p.read_text()))
-        assert re.search(r"(?i)longer than|over 600|600 lines", doc), \
-            f"{p.relative_to(REPO)} has {len(p.read_text().splitlines())} lines and no reason"
+def test_no_module_is_over_600_lines():
+    """Issue 31: a module that outgrows 600 lines is split where its seams are; no reason
+    excuses it (tests aside)."""
+    long = {str(p.relative_to(REPO)): n for p in sorted((REPO / "spacarpy").rglob("*.py"))
+            if (n := len(p.read_text().splitlines())) > 600}
+    assert not long, f"modules over 600 lines: {long}"
 
 
 @pytest.mark.slow
