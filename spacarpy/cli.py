@@ -888,54 +888,15 @@ def _jobs(args) -> int:
 
 
 def cmd_batch(args) -> int:
-    """``spacarpy batch PATH...``: the table on stdout, reports; exit 1 when a deck changed or
-    failed, 0 otherwise (new decks without a baseline do not fail the batch)."""
-    import shlex
-
-    from spacarpy.batch.report import format_table, write_report
-    from spacarpy.batch.runner import run_batch
-
-    if args.update_baseline and args.baseline is None:
-        print("batch: --update-baseline needs --baseline DIR", file=sys.stderr)
-        return EXIT_INPUT
-    outcomes = run_batch(args.paths, baseline=args.baseline, jobs=_jobs(args), rtol=args.rtol,
-                         atol=args.atol, timeout=args.timeout or None,
-                         update_baseline=args.update_baseline, output_dir=args.output_dir,
-                         run_args=shlex.split(args.run_args), dask=args.dask,
-                         progress=_Progress(args.quiet))
-    sys.stdout.write(format_table(outcomes))
-    for path in args.report:
-        log.info("%s written", write_report(outcomes, path))
-    bad = any(o.status in ("changed", "failed") for o in outcomes)
-    return 1 if bad else EXIT_OK
+    """``spacarpy batch PATH...``: :func:`spacarpy.batch.commands.batch_command`."""
+    from spacarpy.batch.commands import batch_command
+    return batch_command(args, _jobs(args), _Progress(args.quiet))
 
 
 def cmd_sweep(args) -> int:
-    """``spacarpy sweep DECK --set NAME=START:STOP:COUNT ...``: one HDF5 file and a table on
-    stdout; exit 1 when any run failed."""
-    import shlex
-
-    from spacarpy.batch.sweep import SweepAxis, format_sweep_table, run_sweep, write_sweep
-
-    axes = [s for s in args.sweep_sets if isinstance(s, SweepAxis)]
-    fixed = [s for s in args.sweep_sets if not isinstance(s, SweepAxis)]
-    if not axes:
-        print("sweep: give at least one swept parameter, --set NAME=START:STOP:COUNT",
-              file=sys.stderr)
-        return EXIT_INPUT
-    result = run_sweep(args.deck, axes, fixed=fixed, collect=args.collect or None,
-                       jobs=_jobs(args), timeout=args.timeout or None,
-                       run_args=shlex.split(args.run_args), dask=args.dask,
-                       progress=_Progress(args.quiet))
-    out = args.output or args.deck.with_name(args.deck.stem + "_sweep.h5")
-    write_sweep(result, out)
-    sys.stdout.write(format_sweep_table(result, args.columns))
-    if args.csv is not None:
-        args.csv.write_text(format_sweep_table(result, args.columns, csv=True),
-                            encoding="utf-8")
-    n_bad = int((result.status != 0).sum())
-    log.info("%s written: %d runs, %d failed", out, result.status.size, n_bad)
-    return 1 if n_bad else EXIT_OK
+    """``spacarpy sweep DECK --set ...``: :func:`spacarpy.batch.commands.sweep_command`."""
+    from spacarpy.batch.commands import sweep_command
+    return sweep_command(args, _jobs(args), _Progress(args.quiet))
 
 
 _RESULT_COMMANDS = {"validate": cmd_validate, "show": cmd_show, "extract": cmd_extract,
