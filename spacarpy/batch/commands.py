@@ -83,7 +83,10 @@ def sweep_command(args, jobs: int, progress=None) -> int:
     if not deck.is_file():
         from spacarpy.batch.runner import BatchInputError
         raise BatchInputError(f"sweep: no deck '{deck}'")
-    check_output_path(out, "-o", inputs=[deck], warn=False)   # before taking the lock
+    # at once (the INCLUDE files are known once run_sweep has read the deck; it checks again)
+    check_output_path(out, "-o", inputs=[deck], warn=False)
+    if args.csv is not None:
+        check_output_path(args.csv, "--csv", inputs=[deck], warn=False)
     with OutputLock(out):
         try:
             result = run_sweep(deck, axes, fixed=fixed, collect=args.collect or None,

@@ -8,7 +8,9 @@ finished point is written and flushed at once: ``/sweep/status`` starts as
 start as NaN. An interrupted sweep (Ctrl-C, SIGTERM) closes the partial file with the root
 attributes ``completed = False``, ``error`` (why) and ``n_done`` (the finished points), and
 keeps it: every finished point is there, and ``/sweep/status == -2`` marks the missing
-ones. The layout is that of docs/batch.md.
+ones. The file uses HDF5's earliest format, which has no "open for writing" mark, so it can
+be read while the sweep runs (as of its last flush, one point ago) and after a sweep was
+killed outright. The layout is that of docs/batch.md.
 """
 from __future__ import annotations
 
@@ -48,7 +50,7 @@ class SweepFile:
     def __init__(self, path, deck, axes):
         import h5py
 
-        from spacarpy.results.h5file import LIBVER, partial_path_for
+        from spacarpy.results.h5file import partial_path_for
 
         self.final_path = Path(path)
         self.partial_path = partial_path_for(self.final_path)
@@ -56,7 +58,9 @@ class SweepFile:
         self.shape = tuple(len(a.values) for a in self.axes)
         if self.partial_path.exists():
             log.info("replacing the stale partial file %s", self.partial_path)
-        self._f = h5py.File(self.partial_path, "w", libver=LIBVER)
+        # HDF5's earliest file format: no "open for writing" mark in the superblock, so the
+        # partial file can be read while the sweep runs, and after a kill
+        self._f = h5py.File(self.partial_path, "w", libver="earliest")
         f = self._f
         f.attrs["filetype"] = "spacarpy-sweep"
         f.attrs["deck_path"] = str(Path(deck).resolve())
