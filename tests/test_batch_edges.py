@@ -361,3 +361,15 @@ def test_a_large_sweep_says_how_many_points_and_the_size(tmp_path, caplog):
     caplog.clear()
     _announce(21, (21,), ())
     assert "sweep: 21 points (21)" in caplog.text and "very large" not in caplog.text
+
+
+def test_docs_count_the_shipped_baselines():
+    """docs/batch.md's "(N of the M decks, about X MB" is the repository's state now."""
+    import re
+    text = (ROOT / "docs" / "batch.md").read_text()
+    m = re.search(r"\((\d+) of the (\d+) decks, about ([\d.]+) MB", text)
+    assert m, "docs/batch.md no longer counts the baselines"
+    files = list((DECKS / "baseline").glob("*.h5"))
+    assert int(m.group(1)) == len(files)
+    assert int(m.group(2)) == len(list(DECKS.glob("*.dat")))
+    assert abs(float(m.group(3)) - sum(p.stat().st_size for p in files) / 1e6) < 0.5
