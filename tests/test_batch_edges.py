@@ -373,3 +373,24 @@ def test_docs_count_the_shipped_baselines():
     assert int(m.group(1)) == len(files)
     assert int(m.group(2)) == len(list(DECKS.glob("*.dat")))
     assert abs(float(m.group(3)) - sum(p.stat().st_size for p in files) / 1e6) < 0.5
+
+
+@pytest.mark.slow
+def test_a_sweep_file_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys):
+    """A full disk in the middle of a sweep: exit 2, a message, the partial file closed."""
+    import errno
+
+    from spacarpy.batch.sweep_file import SweepFile
+
+    def full(self, *args):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(SweepFile, "_add", full)
+    shutil.copy(DECKS / SWEEP, tmp_path / "s.dat")
+    assert main(["sweep", str(tmp_path / "s.dat"), "--set", "ratio=-0.5,-0.4", "-q", "-j", "1",
+                 "-o", str(tmp_path / "out.h5")]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write the sweep file {tmp_path}/out.partial.h5: No space left" in err
+    assert "Traceback" not in err and not (tmp_path / "out.h5").exists()
+    with h5py.File(tmp_path / "out.partial.h5") as f:
+        assert not f.attrs["completed"] and "stopped after 0 of 2 points" in f.attrs["error"]

@@ -10,6 +10,7 @@ sweep keeps its finished points. Every output is checked before any point runs.
 """
 from __future__ import annotations
 
+import contextlib
 import csv as csv_module
 import io
 import itertools
@@ -221,6 +222,14 @@ def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
             kept = sink.abort(f"{what} after {done} of {n_points} points")
         raise SweepInterrupted(_result(deck, axes, collect, rows, status, errors), kept,
                                exc) from None
+    except Exception:                   # the sweep file could not be written (a full disk)
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()
+        if sink is not None:
+            with contextlib.suppress(Exception):
+                sink.abort(f"stopped after {done} of {n_points} points")
+        raise
     if sink is not None:
         sink.finish()
     return _result(deck, axes, collect, rows, status, errors)

@@ -34,6 +34,12 @@ def estimated_size(n_points: int, n_values: int) -> int:
     return int(n_points) * (4 + 16 + 8 * max(int(n_values), 1))
 
 
+def _cannot_write(path: Path, exc: OSError):
+    from spacarpy.outputs import OutputError
+    reason = getattr(exc, "strerror", None) or str(exc)
+    return OutputError(f"cannot write the sweep file {path}: {reason}")
+
+
 class SweepFile:
     """One sweep file being written: :meth:`add` per finished point, then :meth:`finish`
     (complete: moved into place) or :meth:`abort` (interrupted: the partial file kept).
@@ -60,7 +66,10 @@ class SweepFile:
             log.info("replacing the stale partial file %s", self.partial_path)
         # HDF5's earliest file format: no "open for writing" mark in the superblock, so the
         # partial file can be read while the sweep runs, and after a kill
-        self._f = h5py.File(self.partial_path, "w", libver="earliest")
+        try:
+            self._f = h5py.File(self.partial_path, "w", libver="earliest")
+        except OSError as exc:
+            raise _cannot_write(self.partial_path, exc) from None
         f = self._f
         f.attrs["filetype"] = "spacarpy-sweep"
         f.attrs["deck_path"] = str(Path(deck).resolve())
@@ -98,7 +107,14 @@ class SweepFile:
 
     def add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
         """Write one finished point and flush: its exit code, message and collected rows
-        (a row whose shape differs from the dataset's first one stays NaN)."""
+        (a row whose shape differs from the dataset's first one stays NaN). A write that
+        fails (a full disk) is an :class:`~spacarpy.outputs.OutputError`."""
+        try:
+            self._add(idx, status, error, rows)
+        except OSError as exc:
+            raise _cannot_write(self.partial_path, exc) from None
+
+    def _add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
         for path, row in rows.items():
             ds = self._dataset(path, row)
             if ds.shape[len(self.shape):] == row.shape:
