@@ -3,13 +3,15 @@
 :func:`check_output_path` refuses, before any solve or benchmark, an output path that cannot
 be written (empty, an existing directory, a directory that does not exist or is read-only)
 or that names one of the run's input files, so that a run never ends in a traceback after
-the work is done and never replaces its own deck. :class:`OutputLock` holds an advisory
-lock (``fcntl.flock``) on a lock file beside the output, ``out.h5.lock``, for the whole
-run: a second ``spacarpy run`` writing the same file stops at once with the other run's
-process id, instead of both writing the same partial file. Creating the lock file also
-proves that the directory is writable. The lock is advisory and local: it protects
-spacarpy runs from each other, not from other programs, and on network file systems only
-as far as they support ``flock``.
+the work is done and never replaces its own deck (nor a device node: ``-o /dev/null`` as
+root would replace it); :func:`check_output_dir` does the same for an output directory and
+:func:`write_atomically` writes a file that is never left half-written. :class:`OutputLock`
+holds an advisory lock (``fcntl.flock``) on a lock file beside the output, ``out.h5.lock``,
+for the whole run: a second ``spacarpy run`` writing the same file stops at once with the
+other run's process id, instead of both writing the same partial file. Creating the lock
+file also proves that the directory is writable. The lock is advisory and local: it
+protects spacarpy runs from each other, not from other programs, and on network file
+systems only as far as they support ``flock``.
 """
 from __future__ import annotations
 
@@ -69,6 +71,9 @@ def check_output_path(path, what: str = "output file", inputs=(), warn: bool = T
     p = Path(text)
     if p.is_dir():
         raise OutputError(f"{what} {p}: is a directory; give a file name, e.g. {p / 'out'}")
+    if p.exists() and not p.is_file():
+        raise OutputError(f"{what} {p}: is not a regular file (a device, pipe or socket); "
+                          "give a file name")
     parent = p.parent
     if not parent.exists():
         raise OutputError(f"{what} {p}: the directory {parent} does not exist")
@@ -87,6 +92,58 @@ def check_output_path(path, what: str = "output file", inputs=(), warn: bool = T
     if warn and p.is_file() and not p.stat().st_mode & 0o222:     # by its mode bits, also for root
         log.warning("%s is write-protected; it will be replaced by the new results", p)
     return p
+
+
+def check_output_dir(path, what: str = "output directory") -> Path:
+    """Check that ``path`` is, or can be made as, a writable directory before the work.
+
+    The directory itself may not exist yet (it is created by the command, as one level
+    only); its parent must exist and be writable: a mistyped path never makes a tree of
+    directories silently.
+
+    Raises
+    ------
+    OutputError
+        Empty path, an existing file, a read-only directory, or a missing or read-only
+        parent directory.
+    """
+    text = os.fspath(path)
+    if not str(text).strip():
+        raise OutputError(f"{what}: the directory name is empty")
+    p = Path(text)
+    if p.exists() or p.is_symlink():
+        if not p.is_dir():
+            raise OutputError(f"{what} {p}: is a file, not a directory")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise OutputError(f"{what} {p}: the directory is not writable")
+        return p
+    parent = p.parent
+    if not parent.exists():
+        raise OutputError(f"{what} {p}: the directory {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputError(f"{what} {p}: {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{what} {p}: cannot be created: the directory {parent} is not "
+                          "writable")
+    return p
+
+
+def write_atomically(path, data: bytes | str) -> Path:
+    """Write ``path`` through a temporary file beside it and ``os.replace``: an interrupted
+    write never leaves a half-written file in its place. Errors are :class:`OutputError`."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data.encode("utf-8") if isinstance(data, str) else data)
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"cannot write {path}: {_reason(exc)}") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
 
 
 class OutputLock:

@@ -10,16 +10,19 @@ import xml.etree.ElementTree as ET
 from collections import Counter
 from pathlib import Path
 
-__all__ = ["format_table", "summary_line", "to_json", "to_junit", "write_report"]
+__all__ = ["check_report_paths", "format_table", "summary_line", "to_json", "to_junit",
+           "write_report"]
 
-_ORDER = ("failed", "changed", "new", "pass")
+_ORDER = ("failed", "changed", "new", "pass", "not run")
 
 
 def summary_line(outcomes) -> str:
-    """``30 decks: 28 pass, 1 changed, 1 failed, 0 new``."""
+    """``30 decks: 28 pass, 1 changed, 1 failed, 0 new`` (``, 3 not run`` after an
+    interruption)."""
     c = Counter(o.status for o in outcomes)
+    not_run = f", {c['not run']} not run (interrupted)" if c["not run"] else ""
     return (f"{len(outcomes)} deck{'s' * (len(outcomes) != 1)}: {c['pass']} pass, "
-            f"{c['changed']} changed, {c['failed']} failed, {c['new']} new")
+            f"{c['changed']} changed, {c['failed']} failed, {c['new']} new{not_run}")
 
 
 def format_table(outcomes) -> str:
@@ -55,12 +58,13 @@ def to_json(outcomes) -> str:
 
 def to_junit(outcomes, suite: str = "spacarpy batch") -> str:
     """JUnit XML: one ``testcase`` per deck; changed decks are ``failure``s, failed decks
-    ``error``s, new decks ``skipped`` (no baseline)."""
+    ``error``s, new decks ``skipped`` (no baseline), as are the decks an interrupted batch
+    did not run."""
     c = Counter(o.status for o in outcomes)
     root = ET.Element("testsuites")
     ts = ET.SubElement(root, "testsuite", name=suite, tests=str(len(outcomes)),
                        failures=str(c["changed"]), errors=str(c["failed"]),
-                       skipped=str(c["new"]),
+                       skipped=str(c["new"] + c["not run"]),
                        time=f"{sum(o.seconds for o in outcomes):.3f}")
     for o in outcomes:
         tc = ET.SubElement(ts, "testcase", classname="spacarpy.batch", name=o.name,
@@ -74,16 +78,26 @@ def to_junit(outcomes, suite: str = "spacarpy batch") -> str:
             el.text = o.message
         elif o.status == "new":
             ET.SubElement(tc, "skipped", message="no baseline")
+        elif o.status == "not run":
+            ET.SubElement(tc, "skipped", message="not run: the batch was interrupted")
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, "unicode") + "\n"
 
 
+def check_report_paths(paths, inputs=()) -> list[Path]:
+    """Refuse, before any deck runs, a ``--report`` file that cannot be written (a
+    directory, a missing or read-only directory, a deck): :func:`spacarpy.outputs.
+    check_output_path`. Raises :class:`spacarpy.outputs.OutputError` (exit 2)."""
+    from spacarpy.outputs import check_output_path
+    return [check_output_path(p, "--report", inputs=inputs) for p in paths]
+
+
 def write_report(outcomes, path) -> Path:
-    """Write the report to ``path``; the suffix picks the format (.xml, .json, else text)."""
+    """Write the report to ``path`` atomically; the suffix picks the format (.xml, .json,
+    else text). Its directory must exist (:func:`check_report_paths`)."""
+    from spacarpy.outputs import write_atomically
     path = Path(path)
     suffix = path.suffix.lower()
     text = (to_junit(outcomes) if suffix == ".xml" else
             to_json(outcomes) if suffix == ".json" else format_table(outcomes))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
-    return path
+    return write_atomically(path, text)

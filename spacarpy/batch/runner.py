@@ -5,7 +5,8 @@ fresh child process and a temporary directory, so a crash, a hang (killed at the
 an exhausted memory cannot take the batch down; it returns the result file as bytes, so that
 the client (possibly on another machine, with Dask) writes every file. :func:`run_batch` finds
 the decks, runs them through a backend (:mod:`spacarpy.batch.backends`) and compares each
-result with its baseline (:mod:`spacarpy.batch.compare`).
+result with its baseline (:mod:`spacarpy.batch.compare`); a damaged baseline fails its deck
+only, and an interrupted batch still hands back the decks that finished.
 """
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ from pathlib import Path
 
 from spacarpy.errors import EXIT_INPUT, DeckError, SpacarError
 
-__all__ = ["BatchInputError", "DeckOutcome", "Task", "TaskResult", "find_decks", "run_batch",
+__all__ = ["BatchInputError", "BatchInterrupted", "DeckOutcome", "baseline_problem",
+           "check_batch_outputs", "Task", "TaskResult", "find_decks", "run_batch",
            "run_task"]
 
 #: Exit code of a run whose EXPECT lines failed (spacarpy.deck.expect.EXIT_EXPECTATION).
@@ -216,7 +218,8 @@ class DeckOutcome:
     name : str
         Relative deck path (the baseline key).
     status : str
-        ``"pass"``, ``"changed"``, ``"failed"`` or ``"new"`` (no baseline).
+        ``"pass"``, ``"changed"``, ``"failed"``, ``"new"`` (no baseline) or ``"not run"``
+        (the batch was interrupted first).
     message : str
     seconds : float
     diffs : list of DatasetDiff
@@ -245,14 +248,82 @@ def _verdict(res: TaskResult, baseline: Path | None, rtol, atol) -> DeckOutcome:
         tolerances = load_tolerances(tol_file) if tol_file.exists() else None
     except ValueError as exc:
         return DeckOutcome(res.key, "failed", f"baseline tolerances: {exc}", res.seconds)
-    diffs = compare_files(io.BytesIO(res.data), baseline, rtol=rtol, atol=atol,
-                          tolerances=tolerances)
+    problem = baseline_problem(baseline)
+    if problem is None:
+        from spacarpy.results.h5file import ResultsFormatError, reading
+        try:
+            with reading(baseline):
+                diffs = compare_files(io.BytesIO(res.data), baseline, rtol=rtol, atol=atol,
+                                      tolerances=tolerances)
+        except ResultsFormatError as exc:
+            problem = _reason_of(exc, baseline)
+    if problem is not None:
+        return DeckOutcome(res.key, "failed", f"damaged baseline: {problem} ({baseline})",
+                           res.seconds)
     if diffs:
         worst = max(diffs, key=lambda d: d.rel_diff)
         msg = (f"{len(diffs)} dataset{'s' * (len(diffs) > 1)} changed "
                f"({', '.join(d.path for d in diffs)}); worst {worst.message}")
         return DeckOutcome(res.key, "changed", msg, res.seconds, diffs)
     return DeckOutcome(res.key, "pass", "", res.seconds)
+
+
+def _reason_of(exc, path) -> str:
+    text = str(exc)
+    for prefix in (f"{os.fspath(path)}: ", "damaged results file: "):
+        text = text.removeprefix(prefix)
+    return text.replace("\n", " ")
+
+
+def baseline_problem(path) -> str | None:
+    """Why the baseline file ``path`` cannot be compared with (None when it can): read
+    through the integrity layer every command uses (:mod:`spacarpy.results.h5file`): a
+    truncated, non-HDF5 (a Git LFS pointer ...), foreign or schema-violating file."""
+    from spacarpy.results.h5file import ResultsFormatError, open_for_reading
+    from spacarpy.results.validate import check_readable
+
+    try:
+        with open_for_reading(path) as f:
+            check_readable(f, os.fspath(path))
+    except ResultsFormatError as exc:
+        return _reason_of(exc, path)
+    return None
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """A batch stopped by Ctrl-C or SIGTERM: ``outcomes`` holds every deck, those that did
+    not finish as ``"not run"``; ``cause`` is the interrupt (re-raised once the table and
+    reports are written, for exit code 130 or 143)."""
+
+    def __init__(self, outcomes, cause):
+        super().__init__(str(cause))
+        self.outcomes, self.cause = outcomes, cause
+
+
+def check_batch_outputs(baseline=None, update_baseline: bool = False,
+                        output_dir=None) -> None:
+    """Refuse, before any deck runs, an output directory that cannot be written
+    (:func:`spacarpy.outputs.check_output_dir`): ``--output-dir`` and, with
+    ``--update-baseline``, ``--baseline``."""
+    from spacarpy.outputs import check_output_dir
+
+    if output_dir is not None:
+        check_output_dir(output_dir, "--output-dir")
+    if baseline is not None and update_baseline:
+        check_output_dir(baseline, "--baseline")
+
+
+def _keep(data: bytes, root: Path, key: str, what: str) -> None:
+    """Write a result under ``root`` (its subdirectories made as needed), atomically."""
+    from spacarpy.outputs import OutputError, write_atomically
+
+    dst = root / Path(key).with_suffix(".h5")
+    try:
+        dst.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{what}: cannot create {dst.parent}: "
+                          f"{exc.strerror or exc}") from None
+    write_atomically(dst, data)
 
 
 def run_batch(paths, *, baseline: str | os.PathLike | None = None, jobs: int = 1,
@@ -289,30 +360,52 @@ def run_batch(paths, *, baseline: str | os.PathLike | None = None, jobs: int = 1
     -------
     list of DeckOutcome
         Sorted by deck name.
+
+    Raises
+    ------
+    BatchInputError, spacarpy.outputs.OutputError
+        Before any deck runs: no deck, no baseline directory, an output directory that
+        cannot be written.
+    BatchInterrupted
+        On Ctrl-C or SIGTERM, with the outcomes of the decks that finished.
     """
     from spacarpy.batch.backends import execute
+    from spacarpy.outputs import OutputError
 
     decks = find_decks(paths)
     base = Path(baseline) if baseline is not None else None
     if base is not None and not base.is_dir() and not update_baseline:
         raise BatchInputError(f"batch: the baseline directory '{base}' does not exist (use "
                               "--update-baseline to create it)")
+    check_batch_outputs(base, update_baseline, output_dir)
     tasks = [Task(rel, str(deck), args=tuple(run_args), timeout=timeout) for deck, rel in decks]
     outcomes = []
-    for res in execute(run_task, tasks, jobs=jobs, dask=dask):
-        target = base / Path(res.key).with_suffix(".h5") if base is not None else None
-        outcome = _verdict(res, target, rtol, atol)
-        if res.data is not None:
-            if output_dir is not None:
-                dst = Path(output_dir) / Path(res.key).with_suffix(".h5")
-                dst.parent.mkdir(parents=True, exist_ok=True)
-                dst.write_bytes(res.data)
-            if update_baseline and target is not None and res.status == "ok":
-                target.parent.mkdir(parents=True, exist_ok=True)
-                target.write_bytes(res.data)
-                outcome.message = (outcome.message + "; " if outcome.message else "") + \
-                    "baseline written"
-        outcomes.append(outcome)
-        if progress is not None:
-            progress(len(outcomes), len(tasks), outcome)
+    results = execute(run_task, tasks, jobs=jobs, dask=dask)
+    try:
+        for res in results:
+            target = base / Path(res.key).with_suffix(".h5") if base is not None else None
+            outcome = _verdict(res, target, rtol, atol)
+            if res.data is not None:
+                try:
+                    if output_dir is not None:
+                        _keep(res.data, Path(output_dir), res.key, "--output-dir")
+                    if update_baseline and target is not None and res.status == "ok":
+                        _keep(res.data, base, res.key, "--baseline")
+                        outcome.message = (outcome.message + "; " if outcome.message
+                                           else "") + "baseline written"
+                except OutputError as exc:       # e.g. the disk filled up: this deck only
+                    outcome.status = "failed"
+                    outcome.message = (outcome.message + "; " if outcome.message
+                                       else "") + str(exc)
+            outcomes.append(outcome)
+            if progress is not None:
+                progress(len(outcomes), len(tasks), outcome)
+    except KeyboardInterrupt as exc:
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()                     # cancel the rest, end the workers
+        done = {o.name for o in outcomes}
+        outcomes += [DeckOutcome(t.key, "not run", "interrupted before it finished")
+                     for t in tasks if t.key not in done]
+        raise BatchInterrupted(sorted(outcomes, key=lambda o: o.name), exc) from None
     return sorted(outcomes, key=lambda o: o.name)

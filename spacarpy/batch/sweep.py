@@ -4,13 +4,17 @@
 grid (the Cartesian product of the axes), each run a :class:`spacarpy.batch.runner.Task` with
 ``--set`` overrides, in parallel (local processes or Dask). The client collects the **last
 row** of chosen datasets of every result (the final load step, or the last linearized step)
-into one HDF5 file whose leading axes are the parameters (see docs/batch.md for the layout).
+into one HDF5 file whose leading axes are the parameters (see docs/batch.md for the layout),
+written point by point as the runs finish (:mod:`spacarpy.batch.sweep_file`): an interrupted
+sweep keeps its finished points. Every output is checked before any point runs.
 """
 from __future__ import annotations
 
+import contextlib
 import csv as csv_module
 import io
 import itertools
+import logging
 import math
 import re
 from dataclasses import dataclass, field
@@ -19,9 +23,15 @@ from pathlib import Path
 import numpy as np
 
 from spacarpy.batch.runner import BatchInputError, Task, run_task
+from spacarpy.batch.sweep_file import NOT_RUN, SweepFile, estimated_size
 
-__all__ = ["DEFAULT_COLLECT", "SweepAxis", "SweepResult", "format_sweep_table",
-           "parse_sweep_axis", "run_sweep", "write_sweep"]
+__all__ = ["DEFAULT_COLLECT", "LARGE_SWEEP", "SweepAxis", "SweepInterrupted", "SweepResult",
+           "format_sweep_table", "parse_sweep_axis", "run_sweep", "write_sweep"]
+
+log = logging.getLogger(__name__)
+
+#: A sweep of more points than this is announced with a warning and its estimated size.
+LARGE_SWEEP = 10_000
 
 #: Datasets collected when none are named: every linearized result, the final load factor.
 DEFAULT_COLLECT = ("/static/load_factor", "/eigen/frequency", "/buckling/load_multiplier",
@@ -80,7 +90,7 @@ class SweepResult:
         Dataset path -> array of shape ``grid + row shape`` (NaN where a run failed or lacked
         the dataset).
     status : ndarray of int, shape ``grid``
-        Exit code of each run (0 ok, -1 timeout).
+        Exit code of each run (0 ok, -1 timeout, -2 not run: the sweep was interrupted).
     errors : ndarray of str, shape ``grid``
         The error message of each failed run ("" when it succeeded).
     """
@@ -94,6 +104,16 @@ class SweepResult:
     @property
     def shape(self) -> tuple:
         return tuple(len(a.values) for a in self.axes)
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """A sweep stopped by Ctrl-C or SIGTERM: ``result`` holds the finished points (the
+    others have status -2), ``kept`` the partial sweep file (or None), ``cause`` the
+    interrupt, re-raised by the command once the table is written (exit 130 or 143)."""
+
+    def __init__(self, result, kept, cause):
+        super().__init__(str(cause))
+        self.result, self.kept, self.cause = result, kept, cause
 
 
 def _last_rows(data: bytes, collect) -> dict:
@@ -110,7 +130,7 @@ def _last_rows(data: bytes, collect) -> dict:
 
 def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
               timeout: float | None = 600.0, run_args=(), dask: str | None = None,
-              progress=None) -> SweepResult:
+              progress=None, output=None, outputs=()) -> SweepResult:
     """Run ``deck`` at every grid point of ``axes`` and collect the last rows of datasets.
 
     Parameters
@@ -126,12 +146,25 @@ def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
         As for :func:`spacarpy.batch.runner.run_batch`.
     progress : callable, optional
         ``progress(done, total, task_result)``.
+    output : path-like, optional
+        The sweep file, written point by point (:class:`~spacarpy.batch.sweep_file.
+        SweepFile`) and moved into place when every point has run.
+    outputs : sequence of (str, path-like)
+        Further files the caller writes afterwards (``("--csv", path)``), checked with
+        ``output`` before any point runs.
 
     Returns
     -------
     SweepResult
+
+    Raises
+    ------
+    BatchInputError, spacarpy.outputs.OutputError, spacarpy.batch.backends.DaskError
+        Before any point runs.
+    SweepInterrupted
+        On Ctrl-C or SIGTERM: the finished points, and the partial sweep file kept.
     """
-    from spacarpy.batch.backends import execute
+    from spacarpy.batch.backends import check_dask_address, execute
 
     deck = Path(deck)
     if not deck.is_file():
@@ -140,40 +173,80 @@ def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise BatchInputError(f"sweep: a parameter is swept twice ({', '.join(names)})")
+    if dask is not None:
+        check_dask_address(dask)
     shape = tuple(len(a.values) for a in axes)
+    n_points = math.prod(shape)
+    collect = tuple(collect) if collect else DEFAULT_COLLECT
     if dask is None:
         # the local workers import spacarpy while the deck is checked here
         from spacarpy.batch.workers import close_workers, prestart
-        prestart(min(max(1, jobs or 1), math.prod(shape)))
+        prestart(min(max(1, jobs or 1), n_points))
     try:
-        _check_parameters(deck, [(a.name, f"{a.values[0]:.17g}") for a in axes]
-                          + list(fixed))
+        inputs = _check_parameters(deck, [(a.name, f"{a.values[0]:.17g}") for a in axes]
+                                   + list(fixed))
+        _check_outputs(output, outputs, inputs)
+        _announce(n_points, shape, collect)
+        results = execute(run_task, _tasks(deck, axes, fixed, run_args, timeout), jobs=jobs,
+                          dask=dask)
+        sink = SweepFile(output, deck, axes) if output is not None else None
     except BaseException:
         if dask is None:
             close_workers()
         raise
-    collect = tuple(collect) if collect else DEFAULT_COLLECT
+    rows: dict = {}
+    status = np.full(shape, NOT_RUN, dtype=np.int32)
+    errors = np.full(shape, "", dtype=object)
+    done = 0
+    try:
+        for res in results:
+            idx = tuple(int(i) for i in res.key.split(",")) if res.key else ()
+            status[idx] = -1 if res.returncode is None else res.returncode
+            if res.status != "ok":
+                errors[idx] = res.message
+            if res.data is not None:
+                rows[idx] = _last_rows(res.data, collect)
+            if sink is not None:
+                sink.add(idx, int(status[idx]), errors[idx], rows.get(idx, {}))
+            done += 1
+            if progress is not None:
+                progress(done, n_points, res)
+    except KeyboardInterrupt as exc:
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()                     # cancel the rest, end the workers
+        kept = None
+        if sink is not None:
+            what = "terminated (SIGTERM)" if type(exc).__name__ == "Terminated" \
+                else "interrupted"
+            kept = sink.abort(f"{what} after {done} of {n_points} points")
+        raise SweepInterrupted(_result(deck, axes, collect, rows, status, errors), kept,
+                               exc) from None
+    except Exception:                   # the sweep file could not be written (a full disk)
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()
+        if sink is not None:
+            with contextlib.suppress(Exception):
+                sink.abort(f"stopped after {done} of {n_points} points")
+        raise
+    if sink is not None:
+        sink.finish()
+    return _result(deck, axes, collect, rows, status, errors)
+
+
+def _tasks(deck: Path, axes, fixed, run_args, timeout) -> list:
+    shape = tuple(len(a.values) for a in axes)
     tasks = []
     for idx in itertools.product(*(range(n) for n in shape)):
         over = tuple(fixed) + tuple((a.name, f"{a.values[i]:.17g}") for a, i in zip(axes, idx))
         tasks.append(Task(",".join(map(str, idx)), str(deck.resolve()), over, tuple(run_args),
                           timeout))
-    rows: dict = {}
-    status = np.zeros(shape, dtype=np.int32)
-    errors = np.full(shape, "", dtype=object)
-    done = 0
-    for res in execute(run_task, tasks, jobs=jobs, dask=dask):
-        idx = tuple(int(i) for i in res.key.split(",")) if res.key else ()
-        status[idx] = -1 if res.returncode is None else res.returncode
-        if res.status not in ("ok", "expect"):
-            errors[idx] = res.message
-        elif res.status == "expect":
-            errors[idx] = res.message
-        if res.data is not None:
-            rows[idx] = _last_rows(res.data, collect)
-        done += 1
-        if progress is not None:
-            progress(done, len(tasks), res)
+    return tasks
+
+
+def _result(deck, axes, collect, rows, status, errors) -> SweepResult:
+    shape = tuple(len(a.values) for a in axes)
     result = SweepResult(str(deck), axes, status=status, errors=errors)
     for path in collect:
         tails = [r[path].shape for r in rows.values() if path in r]
@@ -187,8 +260,36 @@ def run_sweep(deck, axes, *, fixed=(), collect=None, jobs: int = 1,
     return result
 
 
-def _check_parameters(deck: Path, overrides) -> None:
-    """Refuse, before any point runs, a ``--set`` name the deck does not SET.
+def _check_outputs(output, outputs, inputs) -> None:
+    """The sweep file (and its partial file) and the caller's other files: writable, not a
+    directory or device, not the deck or one of its INCLUDE files (symlinks resolved)."""
+    from spacarpy.outputs import check_output_path
+    from spacarpy.results.h5file import partial_path_for
+
+    if output is not None:
+        check_output_path(output, "-o", inputs=inputs)
+        check_output_path(partial_path_for(output), "-o (its partial file)", inputs=inputs,
+                          warn=False)
+    for what, path in outputs:
+        if path is not None:
+            check_output_path(path, what, inputs=inputs)
+
+
+def _announce(n_points: int, shape: tuple, collect) -> None:
+    """Say how many points the sweep has; warn when that is very many, with the size."""
+    grid = " x ".join(map(str, shape))
+    if n_points > LARGE_SWEEP:
+        size = estimated_size(n_points, max(len(collect), 1))
+        log.warning("sweep: %d points (%s): a very large sweep; the sweep file will take "
+                    "at least %.1f MB (more for vector datasets such as frequencies), and "
+                    "Ctrl-C keeps the finished points", n_points, grid, size / 1e6)
+    else:
+        log.info("sweep: %d point%s (%s)", n_points, "s" * (n_points != 1), grid)
+
+
+def _check_parameters(deck: Path, overrides) -> list[str]:
+    """Refuse, before any point runs, a ``--set`` name the deck does not SET; return the
+    deck's input files (the deck and its INCLUDEs), which no output may overwrite.
 
     The deck is parsed once with the first grid point's overrides; only the parser's
     "no 'SET name' line" errors stop the sweep (they name the parameter and the deck's SET
@@ -199,52 +300,30 @@ def _check_parameters(deck: Path, overrides) -> None:
     from spacarpy.errors import DeckError
 
     try:
-        parse_deck(read_deck_text(deck), str(deck), overrides=dict(overrides))
+        statements = parse_deck(read_deck_text(deck), str(deck), overrides=dict(overrides))
     except DeckError as exc:
         unknown = [msg for _, msg, *_ in exc.items if msg.startswith("--set ")]
         if unknown:
             raise BatchInputError("sweep: " + "; ".join(unknown)) from None
+        return [str(deck)]
+    return [str(deck)] + list(dict.fromkeys(st.file for st in statements
+                                            if st.file is not None and st.file != str(deck)))
 
 
 def write_sweep(result: SweepResult, out) -> Path:
-    """Write a sweep to one HDF5 file.
-
-    Layout: root attributes ``filetype = "spacarpy-sweep"``, ``deck_path``, ``parameters``
-    (the swept names, in axis order); ``/deck`` the deck text; ``/parameters/<name>`` the
-    values of each axis (dimension scales); for every collected dataset, the same path
-    (``/eigen/frequency``...) with shape ``grid + row shape``, its leading axes attached to
-    the parameter scales; ``/sweep/status`` (exit code per point, -1 timeout) and
-    ``/sweep/error`` (message per point, "" when it ran).
-    """
-    import h5py
-
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with h5py.File(out, "w") as f:
-        f.attrs["filetype"] = "spacarpy-sweep"
-        f.attrs["deck_path"] = str(Path(result.deck).resolve())
-        f.attrs["parameters"] = [a.name for a in result.axes]
-        try:
-            f["deck"] = Path(result.deck).read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            pass
-        scales = []
-        for a in result.axes:
-            ds = f.create_dataset(f"parameters/{a.name}", data=np.asarray(a.values, float))
-            ds.attrs["long_name"] = f"value of the SET parameter {a.name}"
-            ds.attrs["units"] = "1"
-            ds.make_scale(a.name)
-            scales.append(ds)
-        for path, arr in result.data.items():
-            ds = f.create_dataset(path, data=arr)
-            ds.attrs["long_name"] = f"last row of {path} of each run"
-            for k, sc in enumerate(scales):
-                ds.dims[k].attach_scale(sc)
-                ds.dims[k].label = result.axes[k].name
-        f.create_dataset("sweep/status", data=result.status)
-        f.create_dataset("sweep/error", data=result.errors.astype(object),
-                         dtype=h5py.string_dtype())
-    return out
+    """Write a whole sweep to one HDF5 file (the layout of :mod:`spacarpy.batch.sweep_file`,
+    which :func:`run_sweep` writes point by point as the runs finish)."""
+    sink = SweepFile(out, result.deck, result.axes)
+    try:
+        for idx in itertools.product(*(range(n) for n in result.shape)):
+            if result.status[idx] == NOT_RUN:
+                continue
+            rows = {path: arr[idx] for path, arr in result.data.items()}
+            sink.add(idx, int(result.status[idx]), str(result.errors[idx] or ""), rows)
+    except BaseException:
+        sink.abort("not all points written")
+        raise
+    return sink.finish()
 
 
 def _columns(result: SweepResult, n_values: int = 3):
@@ -264,7 +343,9 @@ def _columns(result: SweepResult, n_values: int = 3):
 
 def format_sweep_table(result: SweepResult, n_values: int = 3, csv: bool = False) -> str:
     """One row per grid point: the parameter values, then each collected scalar and the first
-    ``n_values`` values of each collected vector (e.g. frequency[1..3]); ``csv`` for CSV."""
+    ``n_values`` values of each collected vector (e.g. frequency[1..3]); ``csv`` for CSV.
+    The points an interrupted sweep did not run are counted below the table (and are rows
+    with status ``not run`` in the CSV)."""
     cols = _columns(result, n_values)
     head = [a.name for a in result.axes] + [c for c, _ in cols] + ["status"]
     rows = []
@@ -272,10 +353,11 @@ def format_sweep_table(result: SweepResult, n_values: int = 3, csv: bool = False
         row = [f"{a.values[i]:.10g}" for a, i in zip(result.axes, idx)]
         row += [f"{arr[idx]:.10g}" for _, arr in cols]
         row.append("ok" if result.status[idx] == 0 else
-                   "timeout" if result.status[idx] == -1 else f"exit {result.status[idx]}")
+                   "timeout" if result.status[idx] == -1 else
+                   "not run" if result.status[idx] == NOT_RUN else f"exit {result.status[idx]}")
         rows.append(row)
-    reasons = [failure_reason(str(result.errors[idx])) if result.status[idx] != 0 and
-               result.errors is not None else ""
+    reasons = [failure_reason(str(result.errors[idx])) if result.status[idx] not in
+               (0, NOT_RUN) and result.errors is not None else ""
                for idx in itertools.product(*(range(n) for n in result.shape))]
     if csv:
         buf = io.StringIO()
@@ -283,9 +365,15 @@ def format_sweep_table(result: SweepResult, n_values: int = 3, csv: bool = False
         writer.writerow(head + ["error"])
         writer.writerows(r + [why] for r, why in zip(rows, reasons))
         return buf.getvalue()
-    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(head)]
+    n_not_run = sum(r[-1] == "not run" for r in rows)
+    if n_not_run:                       # an interrupted sweep: its finished points only
+        rows = [r for r in rows if r[-1] != "not run"]
+    widths = [max([len(h)] + [len(r[k]) for r in rows]) for k, h in enumerate(head)]
     fmt = "  ".join(f"{{:>{w}}}" for w in widths)
     text = "\n".join(fmt.format(*r) for r in [head] + rows) + "\n"
+    if n_not_run:
+        text += (f"{n_not_run} of {len(reasons)} points not run (the sweep was "
+                 "interrupted)\n")
     failed = [(r, why) for r, why in zip(rows, reasons) if why]
     if failed:
         text += "failed runs:\n" + "".join(

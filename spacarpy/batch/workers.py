@@ -136,12 +136,16 @@ def worker() -> Worker:
     return w
 
 
-def close_workers() -> None:
+def close_workers(kill: bool = False) -> None:
     """End every worker this process started: all are told to exit first, then each is
-    waited for (their exits overlap)."""
+    waited for (their exits overlap). ``kill``: kill them at once, a run in progress
+    included (an interrupted batch or sweep does not wait for its running decks)."""
     with _ALL_LOCK:
         workers, _ALL[:], _SPARE[:] = list(_ALL), [], []
     for w in workers:
+        if kill:
+            with contextlib.suppress(OSError):
+                w.proc.kill()
         w.release()
     for w in workers:
         w.close()

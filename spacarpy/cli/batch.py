@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import logging
-import sys
 from pathlib import Path
 
 from spacarpy.cli.common import (
@@ -12,7 +11,6 @@ from spacarpy.cli.common import (
     _Progress,
     _verbosity,
 )
-from spacarpy.errors import EXIT_INPUT, EXIT_OK
 
 log = logging.getLogger("spacarpy")
 
@@ -41,23 +39,6 @@ def add_parser(sub) -> None:
 
 
 def cmd_batch(args) -> int:
-    """``spacarpy batch PATH...``: the table on stdout, reports; exit 1 when a deck changed or
-    failed, 0 otherwise (new decks without a baseline do not fail the batch)."""
-    import shlex
-
-    from spacarpy.batch.report import format_table, write_report
-    from spacarpy.batch.runner import run_batch
-
-    if args.update_baseline and args.baseline is None:
-        print("batch: --update-baseline needs --baseline DIR", file=sys.stderr)
-        return EXIT_INPUT
-    outcomes = run_batch(args.paths, baseline=args.baseline, jobs=_jobs(args), rtol=args.rtol,
-                         atol=args.atol, timeout=args.timeout or None,
-                         update_baseline=args.update_baseline, output_dir=args.output_dir,
-                         run_args=shlex.split(args.run_args), dask=args.dask,
-                         progress=_Progress(args.quiet))
-    sys.stdout.write(format_table(outcomes))
-    for path in args.report:
-        log.info("%s written", write_report(outcomes, path))
-    bad = any(o.status in ("changed", "failed") for o in outcomes)
-    return 1 if bad else EXIT_OK
+    """``spacarpy batch PATH...``: :func:`spacarpy.batch.commands.batch_command`."""
+    from spacarpy.batch.commands import batch_command
+    return batch_command(args, _jobs(args), _Progress(args.quiet))

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import sys
 from pathlib import Path
 
 from spacarpy.cli.common import (
@@ -15,7 +14,6 @@ from spacarpy.cli.common import (
     _Progress,
     _verbosity,
 )
-from spacarpy.errors import EXIT_INPUT, EXIT_OK
 
 log = logging.getLogger("spacarpy")
 
@@ -55,28 +53,6 @@ def add_parser(sub) -> None:
 
 
 def cmd_sweep(args) -> int:
-    """``spacarpy sweep DECK --set NAME=START:STOP:COUNT ...``: one HDF5 file and a table on
-    stdout; exit 1 when any run failed."""
-    import shlex
-
-    from spacarpy.batch.sweep import SweepAxis, format_sweep_table, run_sweep, write_sweep
-
-    axes = [s for s in args.sweep_sets if isinstance(s, SweepAxis)]
-    fixed = [s for s in args.sweep_sets if not isinstance(s, SweepAxis)]
-    if not axes:
-        print("sweep: give at least one swept parameter, --set NAME=START:STOP:COUNT",
-              file=sys.stderr)
-        return EXIT_INPUT
-    result = run_sweep(args.deck, axes, fixed=fixed, collect=args.collect or None,
-                       jobs=_jobs(args), timeout=args.timeout or None,
-                       run_args=shlex.split(args.run_args), dask=args.dask,
-                       progress=_Progress(args.quiet))
-    out = args.output or args.deck.with_name(args.deck.stem + "_sweep.h5")
-    write_sweep(result, out)
-    sys.stdout.write(format_sweep_table(result, args.columns))
-    if args.csv is not None:
-        args.csv.write_text(format_sweep_table(result, args.columns, csv=True),
-                            encoding="utf-8")
-    n_bad = int((result.status != 0).sum())
-    log.info("%s written: %d runs, %d failed", out, result.status.size, n_bad)
-    return 1 if n_bad else EXIT_OK
+    """``spacarpy sweep DECK --set ...``: :func:`spacarpy.batch.commands.sweep_command`."""
+    from spacarpy.batch.commands import sweep_command
+    return sweep_command(args, _jobs(args), _Progress(args.quiet))

@@ -1,0 +1,148 @@
+"""The sweep file, written crash-safely point by point as the runs of a sweep finish.
+
+Like a run's result file (:mod:`spacarpy.results.h5file`), a sweep writes
+``<stem>.partial.h5`` and moves it into place (``os.replace``, after an ``fsync``) only when
+every point has run, so a good sweep file is never replaced by an unfinished one. Each
+finished point is written and flushed at once: ``/sweep/status`` starts as
+:data:`NOT_RUN` (-2) everywhere and gets the point's exit code, the collected datasets
+start as NaN. An interrupted sweep (Ctrl-C, SIGTERM) closes the partial file with the root
+attributes ``completed = False``, ``error`` (why) and ``n_done`` (the finished points), and
+keeps it: every finished point is there, and ``/sweep/status == -2`` marks the missing
+ones. The file uses HDF5's earliest format, which has no "open for writing" mark, so it can
+be read while the sweep runs (as of its last flush, one point ago) and after a sweep was
+killed outright. The layout is that of docs/batch.md.
+"""
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["NOT_RUN", "SweepFile", "estimated_size"]
+
+log = logging.getLogger(__name__)
+
+#: ``/sweep/status`` of a point that has not run (yet, or ever: an interrupted sweep).
+NOT_RUN = -2
+
+
+def estimated_size(n_points: int, n_values: int) -> int:
+    """Bytes of a sweep file of ``n_points`` with ``n_values`` collected numbers per point
+    (status, error reference and the values; HDF5's own overhead aside)."""
+    return int(n_points) * (4 + 16 + 8 * max(int(n_values), 1))
+
+
+def _cannot_write(path: Path, exc: OSError):
+    from spacarpy.outputs import OutputError
+    reason = getattr(exc, "strerror", None) or str(exc)
+    return OutputError(f"cannot write the sweep file {path}: {reason}")
+
+
+class SweepFile:
+    """One sweep file being written: :meth:`add` per finished point, then :meth:`finish`
+    (complete: moved into place) or :meth:`abort` (interrupted: the partial file kept).
+
+    Parameters
+    ----------
+    path : path-like
+        The final sweep file (checked by the caller, :func:`spacarpy.outputs.
+        check_output_path`).
+    deck : path-like
+    axes : sequence of SweepAxis
+    """
+
+    def __init__(self, path, deck, axes):
+        import h5py
+
+        from spacarpy.results.h5file import partial_path_for
+
+        self.final_path = Path(path)
+        self.partial_path = partial_path_for(self.final_path)
+        self.axes = list(axes)
+        self.shape = tuple(len(a.values) for a in self.axes)
+        if self.partial_path.exists():
+            log.info("replacing the stale partial file %s", self.partial_path)
+        # HDF5's earliest file format: no "open for writing" mark in the superblock, so the
+        # partial file can be read while the sweep runs, and after a kill
+        try:
+            self._f = h5py.File(self.partial_path, "w", libver="earliest")
+        except OSError as exc:
+            raise _cannot_write(self.partial_path, exc) from None
+        f = self._f
+        f.attrs["filetype"] = "spacarpy-sweep"
+        f.attrs["deck_path"] = str(Path(deck).resolve())
+        f.attrs["parameters"] = [a.name for a in self.axes]
+        f.attrs["completed"] = np.bool_(False)
+        f.attrs["n_points"] = np.int64(int(np.prod(self.shape)))
+        f.attrs["n_done"] = np.int64(0)
+        try:
+            f["deck"] = Path(deck).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            pass
+        self._scales = []
+        for a in self.axes:
+            ds = f.create_dataset(f"parameters/{a.name}", data=np.asarray(a.values, float))
+            ds.attrs["long_name"] = f"value of the SET parameter {a.name}"
+            ds.attrs["units"] = "1"
+            ds.make_scale(a.name)
+            self._scales.append(ds)
+        st = f.create_dataset("sweep/status", data=np.full(self.shape, NOT_RUN, np.int32))
+        st.attrs["long_name"] = ("exit code of each run (0 ok, -1 timeout, -2 not run: "
+                                 "the sweep was interrupted first)")
+        f.create_dataset("sweep/error", shape=self.shape, dtype=h5py.string_dtype())
+        self._n_done = 0
+        f.flush()
+
+    def _dataset(self, path: str, row: np.ndarray):
+        f = self._f
+        if path not in f:
+            ds = f.create_dataset(path, data=np.full(self.shape + row.shape, np.nan))
+            ds.attrs["long_name"] = f"last row of {path} of each run"
+            for k, sc in enumerate(self._scales):
+                ds.dims[k].attach_scale(sc)
+                ds.dims[k].label = self.axes[k].name
+        return f[path]
+
+    def add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
+        """Write one finished point and flush: its exit code, message and collected rows
+        (a row whose shape differs from the dataset's first one stays NaN). A write that
+        fails (a full disk) is an :class:`~spacarpy.outputs.OutputError`."""
+        try:
+            self._add(idx, status, error, rows)
+        except OSError as exc:
+            raise _cannot_write(self.partial_path, exc) from None
+
+    def _add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
+        for path, row in rows.items():
+            ds = self._dataset(path, row)
+            if ds.shape[len(self.shape):] == row.shape:
+                ds[idx] = row
+        if error:
+            self._f["sweep/error"][idx] = error
+        self._f["sweep/status"][idx] = np.int32(status)
+        self._n_done += 1
+        self._f.attrs["n_done"] = np.int64(self._n_done)
+        self._f.flush()
+
+    def finish(self) -> Path:
+        """Mark the file complete, make it durable and move it into place."""
+        from spacarpy.results.h5file import fsync
+
+        self._f.attrs["completed"] = np.bool_(True)
+        self._f.close()
+        fsync(self.partial_path)
+        os.replace(self.partial_path, self.final_path)
+        fsync(self.final_path.parent)
+        return self.final_path
+
+    def abort(self, reason: str) -> Path:
+        """Close the partial file as incomplete (``error`` = ``reason``) and keep it."""
+        from spacarpy.results.h5file import fsync
+
+        if self._f.id.valid:
+            self._f.attrs["error"] = reason
+            self._f.close()
+        fsync(self.partial_path)
+        return self.partial_path
