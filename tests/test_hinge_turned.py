@@ -126,3 +126,17 @@ def test_hinge_constraint_keeps_full_rank_at_every_angle():
             dq = quat_mul(qq[i], np.concatenate([[0.0], u / 2]))
             rates = st.D[i, :, 4:] @ dq
             np.testing.assert_allclose(rates, np.eye(3)[k], atol=1e-12)
+
+
+@pytest.mark.parametrize("deg", [90.0, 180.0, 270.0, 405.0])
+def test_plhinge_moment_of_a_turned_rod_is_the_closed_form(deg):
+    """The planar rod (PLBEAM, rigid) on a PLHINGE turned by t under gravity -y: the joint
+    moment is the weight's moment about the pivot, -M g L/2 cos t, through full turns."""
+    t = float(np.radians(deg))
+    text = (f"X 1 0 0\nX 3 {L} 0\nPLBEAM 1 1 4 3 5\nPLHINGE 10 2 4\nINPUTE 10 1\nFIX 1\n"
+            f"FIX 2\nEND\nHALT\nEM 1 {M / L}\nGRAVITY 0 {-G} 0\nDELINPE 10 1 {t!r}\n"
+            f"ITERSTEP 20 8 1e-12\nEND\nEND\n")
+    model, settings = job_from_text(text, "plrod.dat")
+    st = solve_static(model, settings).steps[-1]
+    assert st.deformation["PLHINGE"][0, 0] == pytest.approx(t, abs=1e-12)
+    assert st.stress["PLHINGE"][0, 0] == pytest.approx(-MGL2 * np.cos(t), abs=1e-11)

@@ -68,20 +68,30 @@ def unit_rows(M) -> np.ndarray:
     return M / np.where(norm > 0, norm, 1.0)[:, None]
 
 
-def equilibrate(M, sweeps: int = 30, tol: float = 1e-3):
+def equilibrate(M, groups=None, sweeps: int = 30, tol: float = 1e-3):
     """Ruiz equilibration: ``(S, r, c)`` with ``S = diag(1/r) M diag(1/c)`` whose nonzero rows
-    and columns all have a largest entry of about one (within ``tol``, or after ``sweeps``
-    passes). The rank and the left null space of ``S`` are those of ``M``; a right null
-    vector ``n`` of ``S`` is ``diag(1/c) n`` of ``M``. The scaling removes what units, the
-    model's length scale and the lengths of its elements do to the singular values, so the
-    rank decision sees only the geometry."""
+    and column groups all have a largest entry of about one (within ``tol``, or after
+    ``sweeps`` passes). The rank and the left null space of ``S`` are those of ``M``; a right
+    null vector ``n`` of ``S`` is ``diag(1/c) n`` of ``M``. The scaling removes what units,
+    the model's length scale and the lengths of its elements do to the singular values, so
+    the rank decision sees only the geometry.
+
+    ``groups`` (one integer label per column, e.g. the position or the Euler parameters of
+    one node) shares one factor among the columns of a group: a direction in which nothing
+    constrains a node near a dead point must stay small, not be blown up to one."""
     S = np.array(M, dtype=float)
     r, c = np.ones(S.shape[0]), np.ones(S.shape[1])
     if S.size == 0:
         return S, r, c
+    if groups is None:
+        groups = np.arange(S.shape[1])
+    _, label = np.unique(np.asarray(groups), return_inverse=True)
     A = np.abs(S)
     for _ in range(sweeps):
-        rm, cm = A.max(axis=1), A.max(axis=0)
+        rm = A.max(axis=1)
+        cm = np.zeros(label.max() + 1)
+        np.maximum.at(cm, label, A.max(axis=0))
+        cm = cm[label]
         rs = np.sqrt(np.where(rm > 0, rm, 1.0))
         cs = np.sqrt(np.where(cm > 0, cm, 1.0))
         S /= rs[:, None]
