@@ -266,8 +266,10 @@ def hinge_one_element(qp, qq, a, b, c):
     """Plain transcription of the hinge deformations for one element."""
     ap, bp, cp = rot(qp) @ a, rot(qp) @ b, rot(qp) @ c
     aq, bq, cq = rot(qq) @ a, rot(qq) @ b, rot(qq) @ c
-    return np.array([np.arctan2(cp @ bq - bp @ cq, bp @ bq + cp @ cq),
-                     (ap @ cq - cp @ aq) / 2, (bp @ aq - ap @ bq) / 2])
+    th = np.arctan2(cp @ bq - bp @ cq, bp @ bq + cp @ cq)
+    # q's triad turned back by the joint angle about its axis
+    bq_, cq_ = np.cos(th) * bq - np.sin(th) * cq, np.cos(th) * cq + np.sin(th) * bq
+    return np.array([th, (ap @ cq_ - cp @ aq) / 2, (bp @ aq - ap @ bq_) / 2])
 
 
 def test_hinge_vectorized_kernel_equals_one_element_reference():

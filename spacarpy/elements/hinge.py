@@ -37,23 +37,52 @@ Deformations (1-based, as SPACAR's DYNE/RLSE number them)
    the state of ``e1_previous`` and the current one. ``HingeState.turns`` returns the k used.
    e1 is insensitive to the scale of the Euler parameters. The dual stress resultant is the
    moment about the hinge axis (N m).
-2. ``e2 = (a^p.c^q - c^p.a^q) / 2``: a small relative rotation about ``b``; for a relative
-   rotation by phi about b, ``e2 = sin(phi)`` (dimensionless, ~ rad).
-3. ``e3 = (b^p.a^q - a^p.b^q) / 2``: a small relative rotation about ``c``; for a relative
-   rotation by psi about c, ``e3 = sin(psi)`` (dimensionless, ~ rad).
+2. ``e2 = (a^p.cbar^q - c^p.a^q) / 2``: a small relative rotation about ``b^p``;
+3. ``e3 = (b^p.a^q - a^p.bbar^q) / 2``: a small relative rotation about ``c^p``;
+
+   with ``bbar^q = cos(e1) b^q - sin(e1) c^q`` and ``cbar^q = cos(e1) c^q + sin(e1) b^q``:
+   the triad of q turned back by the joint angle about its axis (cos e1 = c/rho,
+   sin e1 = s/rho with rho^2 = s^2 + c^2; no branch enters: they are functions of the
+   configuration). At e1 = 0 these are the classic ``(a^p.c^q - c^p.a^q) / 2`` and
+   ``(b^p.a^q - a^p.b^q) / 2``: for a relative rotation by phi about b (psi about c) alone,
+   ``e2 = sin(phi)`` (``e3 = sin(psi)``), dimensionless, ~ rad.
 
 Modes 2 and 3 are normally rigid (not listed in DYNE/RLSE): together they make the revolute
 joint constraint. e1 is singular only where ``s = c = 0``, i.e. when the axis of q is turned
 over by 180 degrees with respect to that of p, far away from a working hinge.
 
+Why the turned-back triad (every joint angle)
+---------------------------------------------
+The classic forms (those above with ``b^q, c^q`` for ``bbar^q, cbar^q``) have, on the joint
+(q = p turned by t about a), gradients that are relative rotations about the axes b and c
+turned by t/2, of length ``|cos(t/2)|``: a relative rotation dphi of q about b^p changes
+them by ``dphi cos^2(t/2)`` and ``-dphi sin(t)/2``. Their stress resultants are then the
+physical moments divided by cos(t/2) (1e17 N m at 180 degrees) and the joint constraint
+loses its rank there. With the turned-back triad, on the joint ``bbar^q = b^p`` and
+``cbar^q = c^p``, and the derivative of (cos e1, sin e1) multiplies ``a^p.b^q`` and
+``a^p.c^q``, which vanish on the joint; so the gradients are those of the classic forms at
+t = 0: exactly the relative rotations about b^p and c^p, of unit length at every angle
+(``de2 = (omega^q - omega^p).b^p``, likewise e3 with c^p). The dual stress resultants sigma_2,
+sigma_3 are the joint's moments about b^p and c^p (N m), and the 2 x 8 constraint Jacobian
+has the same singular values at every angle. (Rotating the classic forms' gradient pair back
+by t/2 about a and dividing by cos(t/2) gives the same modes; the result has no t/2, so it does
+not depend on the branch of e1.)
+
 Derivatives (exact)
 -------------------
-Each of ``f = [s, c, e2, e3]`` is bilinear in the nodal vectors: ``f = sum_ij C_f[i, j]
-u_i^p . u_j^q`` with ``u = (a, b, c)`` and constant 3x3 matrices C_f. Every nodal vector is a
-quadratic form in its Euler parameters, ``u^p = q^p^T H(u) q^p`` (:mod:`spacarpy.rotation`),
-so ``du^p/dq^p = 2 H(u) q^p`` and ``d^2u^p/dq^p^2 = 2 H(u)``. For ``e1 = atan2(s, c)``, with
-``rho^2 = s^2 + c^2``: ``de1 = (c ds - s dc) / rho^2`` and ``d^2 e1 = (c d^2s - s d^2c) / rho^2
-+ [ds dc] A [ds dc]^T`` with ``A = [[-2 s c, s^2 - c^2], [s^2 - c^2, 2 s c]] / rho^4``.
+Each of the six forms ``f = [s, c, a^p.b^q, a^p.c^q, b^p.a^q, c^p.a^q]`` is bilinear in the
+nodal vectors: ``f = sum_ij C_f[i, j] u_i^p . u_j^q`` with ``u = (a, b, c)`` and constant 3x3
+matrices C_f. Every nodal vector is a quadratic form in its Euler parameters, ``u^p = q^p^T
+H(u) q^p`` (:mod:`spacarpy.rotation`), so ``du^p/dq^p = 2 H(u) q^p`` and ``d^2u^p/dq^p^2 = 2
+H(u)``. For ``e1 = atan2(s, c)``: ``de1 = (c ds - s dc) / rho^2`` and ``d^2 e1 = (c d^2s - s
+d^2c) / rho^2 + [ds dc] A [ds dc]^T`` with ``A = [[-2 s c, s^2 - c^2], [s^2 - c^2, 2 s c]] /
+rho^4``. With ``k = cos e1``, ``n = sin e1`` (``dk = -n de1``, ``dn = k de1``) and the forms
+``A_b = a^p.b^q``, ``A_c = a^p.c^q``, ``B_a``, ``C_a``:
+``e2 = (k A_c + n A_b - C_a)/2``, ``de2 = (k dA_c + n dA_b - dC_a)/2 + alpha_2 de1``,
+``alpha_2 = (k A_b - n A_c)/2``; ``d^2 e2 = (k d^2A_c + n d^2A_b - d^2C_a)/2 + alpha_2
+d^2e1 + de1 g_2^T + g_2 de1^T - beta_2 de1 de1^T`` with ``g_2 = (k dA_b - n dA_c)/2``,
+``beta_2 = (k A_c + n A_b)/2``; and ``e3 = (B_a - k A_b + n A_c)/2``, ``alpha_3 = (n A_b +
+k A_c)/2``, ``g_3 = (n dA_b + k dA_c)/2``, ``beta_3 = (n A_c - k A_b)/2``.
 
 Properties
 ----------
@@ -79,24 +108,31 @@ QP, QQ = slice(0, 4), slice(4, 8)
 
 
 def _bilinear_forms() -> np.ndarray:
-    """C[f] (4, 3, 3) with ``f = sum_ij C[f, i, j] u_i^p . u_j^q`` for f = s, c, e2, e3 and the
-    nodal vectors u = (a, b, c)."""
-    cf = np.zeros((4, 3, 3))
+    """C[f] (6, 3, 3) with ``f = sum_ij C[f, i, j] u_i^p . u_j^q`` for the forms
+    f = s, c, a^p.b^q, a^p.c^q, b^p.a^q, c^p.a^q and the nodal vectors u = (a, b, c)."""
+    cf = np.zeros((6, 3, 3))
     cf[0, 2, 1], cf[0, 1, 2] = 1.0, -1.0          # s  = c^p.b^q - b^p.c^q
     cf[1, 1, 1], cf[1, 2, 2] = 1.0, 1.0           # c  = b^p.b^q + c^p.c^q
-    cf[2, 0, 2], cf[2, 2, 0] = 0.5, -0.5          # e2 = (a^p.c^q - c^p.a^q) / 2
-    cf[3, 1, 0], cf[3, 0, 1] = 0.5, -0.5          # e3 = (b^p.a^q - a^p.b^q) / 2
+    cf[2, 0, 1] = 1.0                             # a^p.b^q
+    cf[3, 0, 2] = 1.0                             # a^p.c^q
+    cf[4, 1, 0] = 1.0                             # b^p.a^q
+    cf[5, 2, 0] = 1.0                             # c^p.a^q
     return cf
 
 
 C_FORMS = _bilinear_forms()
+N_FORMS = C_FORMS.shape[0]
 
 
-
-
-
-
-
+def _bending(f: np.ndarray):
+    """``cos e1``, ``sin e1`` and the bending modes e2, e3 (each (n,)) from the forms f (n, 6).
+    """
+    s, co = f[:, 0], f[:, 1]
+    rho = np.sqrt(s * s + co * co)
+    kap, sig = co / rho, s / rho
+    e2 = 0.5 * (kap * f[:, 3] + sig * f[:, 2] - f[:, 5])
+    e3 = 0.5 * (f[:, 4] - kap * f[:, 2] + sig * f[:, 3])
+    return kap, sig, e2, e3
 
 
 def hinge_reference(axis: np.ndarray):
@@ -123,20 +159,22 @@ class HingeState(NamedTuple):
     e: np.ndarray          # (n, 3)
     D: np.ndarray          # (n, 3, 8)
     turns: np.ndarray      # (n,) int: e1 = atan2(s, c) + 2 pi turns
-    f: np.ndarray          # (n, 4) the bilinear forms [s, c, e2, e3]
-    J: np.ndarray          # (n, 4, 8) df/dx
+    f: np.ndarray          # (n, 6) the bilinear forms [s, c, a.b, a.c, b.a, c.a]
+    J: np.ndarray          # (n, 6, 8) df/dx
     v: np.ndarray          # (n, 2, 3, 3) rows a, b, c of node p, then of node q
     Y: np.ndarray          # (n, 2, 9, 4) d[a, b, c]/dq of node p, then of node q
     u: np.ndarray          # (n, 3, 3) rows a, b, c (reference triad)
-    m: np.ndarray          # (n, 4, 4) rows: de1, de2, de3 and the companion of de1, in f
+    m: np.ndarray          # (n, 4, 6) rows: de1, de2, de3 and the companion of de1, in f
     mj: np.ndarray         # (n, 4, 8) the same in x (its first three rows are D)
+    ks: np.ndarray         # (n, 2) cos e1, sin e1
 
 
 #: ``sum_ij C[f, i, j] u_j^q`` and ``sum_i C[f, i, j] u_i^p`` side by side: the gradients of
-#: the forms with respect to the vectors of node p, then of node q (2, 12, 3).
-_C_PQ = np.stack([C_FORMS.reshape(12, 3), C_FORMS.transpose(0, 2, 1).reshape(12, 3)])
-#: The combined forms ``C(w_f)`` of weights w_f (n, 4) and their transposes: (4, 18).
-_C_W = np.hstack([C_FORMS.reshape(4, 9), C_FORMS.transpose(0, 2, 1).reshape(4, 9)])
+#: the forms with respect to the vectors of node p, then of node q (2, 18, 3).
+_C_PQ = np.stack([C_FORMS.reshape(3 * N_FORMS, 3),
+                  C_FORMS.transpose(0, 2, 1).reshape(3 * N_FORMS, 3)])
+#: The combined forms ``C(w_f)`` of weights w_f (n, 6) and their transposes: (6, 18).
+_C_W = np.hstack([C_FORMS.reshape(N_FORMS, 9), C_FORMS.transpose(0, 2, 1).reshape(N_FORMS, 9)])
 _SIGN_CS = np.array([1.0, -1.0])
 
 
@@ -163,50 +201,54 @@ def hinge_state(x: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
     Y = nodal_jacobians(q2, u)                                     # (n, 2, 9, 4)
     v = (Y @ q2[..., None]).reshape(n, 2, 3, 3)
     v *= 0.5
-    # gradients of the four bilinear forms with respect to the vectors of p and of q
-    g = (_C_PQ @ v[:, ::-1]).reshape(n, 2, 4, 9)
-    f = (g[:, 0] @ v[:, 0].reshape(n, 9, 1))[:, :, 0]              # (n, 4)
-    J = (g @ Y).transpose(0, 2, 1, 3).reshape(n, 4, N_LDOF)        # (n, 4, 8)
+    # gradients of the bilinear forms with respect to the vectors of p and of q
+    g = (_C_PQ @ v[:, ::-1]).reshape(n, 2, N_FORMS, 9)
+    f = (g[:, 0] @ v[:, 0].reshape(n, 9, 1))[:, :, 0]              # (n, 6)
+    J = (g @ Y).transpose(0, 2, 1, 3).reshape(n, N_FORMS, N_LDOF)  # (n, 6, 8)
     s, co = f[:, 0], f[:, 1]
     phi = np.arctan2(s, co)
-    e = f[:, 1:].copy()
+    kap, sig, e2, e3 = _bending(f)
+    e = np.empty((n, N_DEF))
+    e[:, 1], e[:, 2] = e2, e3
     if e1_previous is None:
         turns = np.zeros(n, dtype=np.int64)
         e[:, 0] = phi
     else:
         turns = np.floor((e1_previous - phi) / (2.0 * np.pi) + 0.5).astype(np.int64)
         e[:, 0] = phi + 2.0 * np.pi * turns
-    # de1 = (c ds - s dc) / rho^2 = [p, q] . [ds, dc]; with de2, de3 and the companion
-    # [q, -p] . [ds, dc] of de1 (the curvature of atan2, see hinge_weighted_hessian) as the
-    # rows of M (n, 4, 4) applied to df/dx
+    # de1 = (c ds - s dc) / rho^2 = [p, q] . [ds, dc]; the companion [q, -p] . [ds, dc] of
+    # de1 (the curvature of atan2, see hinge_weighted_hessian); de2 and de3 (module
+    # docstring): their terms in cos e1 and sin e1 plus alpha_2,3 de1. The rows of
+    # M = de/df (n, 4, 6), applied to df/dx.
     pq = f[:, 1::-1] * _SIGN_CS
     pq /= (s * s + co * co)[:, None]
-    m = (pq @ _M_PQ).reshape(n, 4, 4)
-    m += _M_CONST
+    m = np.zeros((n, 4, N_FORMS))
+    m[:, 0, :2] = pq
+    m[:, 3, 0], m[:, 3, 1] = pq[:, 1], -pq[:, 0]
+    al2 = 0.5 * (kap * f[:, 2] - sig * f[:, 3])
+    al3 = 0.5 * (sig * f[:, 2] + kap * f[:, 3])
+    m[:, 1, :2] = al2[:, None] * pq
+    m[:, 2, :2] = al3[:, None] * pq
+    m[:, 1, 2], m[:, 1, 3], m[:, 1, 5] = 0.5 * sig, 0.5 * kap, -0.5
+    m[:, 2, 2], m[:, 2, 3], m[:, 2, 4] = -0.5 * kap, 0.5 * sig, 0.5
     mj = m @ J                                                     # de1, de2, de3, companion
-    return HingeState(e=e, D=mj[:, :3], turns=turns, f=f, J=J, v=v, Y=Y, u=u, m=m, mj=mj)
-
-
-#: The rows [de1, de2, de3, companion of de1] of M = dq/df as products with [p, q].
-_M_PQ = np.zeros((2, 4, 4))
-_M_PQ[0, 0, 0] = _M_PQ[1, 0, 1] = _M_PQ[1, 3, 0] = 1.0
-_M_PQ[0, 3, 1] = -1.0
-_M_PQ = _M_PQ.reshape(2, 16)
-_M_CONST = np.zeros((4, 4))
-_M_CONST[1, 2] = _M_CONST[2, 3] = 1.0
+    return HingeState(e=e, D=mj[:, :3], turns=turns, f=f, J=J, v=v, Y=Y, u=u, m=m, mj=mj,
+                      ks=np.stack([kap, sig], axis=1))
 
 
 def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
     """``sum_i w_i d^2 e_i / dx^2`` at the state ``st``; w (n_elem, 3) -> (n_elem, 8, 8).
 
-    The forms f are bilinear in the nodal vectors, so with the weights ``w_f`` on f (w_1
-    times de1/df for s and c) their second derivatives are ``2 H`` combinations on each
-    node's block and ``Y_p^T (C(w_f) (x) I3) Y_q`` between the nodes. The curvature of
-    ``e1 = atan2(s, c)`` in (s, c) is ``[[2pq, q^2-p^2], [q^2-p^2, -2pq]]`` with
-    ``[p, q] = [c, -s] / rho^2``, which is ``r_perp r^T + r r_perp^T``: in x the symmetric
-    product of de1/dx and its companion (rows 0 and 3 of the state's ``mj``)."""
+    The forms f are bilinear in the nodal vectors, so with the weights ``w_f = w . de/df``
+    on f their second derivatives are ``2 H`` combinations on each node's block and
+    ``Y_p^T (C(w_f) (x) I3) Y_q`` between the nodes. The curvature of ``e1 = atan2(s, c)``
+    in (s, c) is ``[[2pq, q^2-p^2], [q^2-p^2, -2pq]]`` with ``[p, q] = [c, -s] / rho^2``,
+    which is ``r_perp r^T + r r_perp^T``: in x the symmetric product of de1/dx and its
+    companion (rows 0 and 3 of the state's ``mj``), weighted by ``W1 = w_1 + w_2 alpha_2 +
+    w_3 alpha_3``. The products of cos e1, sin e1 with the forms of e2 and e3 add
+    ``de1 G^T + G de1^T - (w_2 beta_2 + w_3 beta_3) de1 de1^T`` (module docstring)."""
     n = w.shape[0]
-    wf = (w[:, None, :] @ st.m[:, :3])[:, 0]                      # weights on f (n, 4)
+    wf = (w[:, None, :] @ st.m[:, :3])[:, 0]                      # weights on f (n, 6)
     cw = (wf @ _C_W).reshape(n, 2, 3, 3)                          # C(w_f), C(w_f)^T
     # coefficients of the nodal-vector Hessians 2 H(u): node p sum_j C_ij u_j^q, node q ...
     m = (cw @ st.v[:, ::-1]).transpose(0, 1, 3, 2) @ st.u[:, None]   # (n, 2, 3, 3)
@@ -219,9 +261,22 @@ def hinge_weighted_hessian(st: HingeState, w: np.ndarray) -> np.ndarray:
     pq = yp.transpose(0, 2, 1) @ (cw[:, 0] @ yq.reshape(n, 3, 12)).reshape(n, 9, 4)
     hx[:, QP, QQ] = pq
     hx[:, QQ, QP] = pq.transpose(0, 2, 1)
-    # curvature of atan2: w_1 (a b^T + b a^T) with b = de1/dx, a its companion
-    ab = st.mj[:, ::3]                                            # (n, 2, 8): b, a
-    hx += (ab * w[:, :1, None]).transpose(0, 2, 1) @ ab[:, ::-1]
+    # de1 (x) t + t (x) de1 with t = W1 companion + G - (w2 beta2 + w3 beta3)/2 de1
+    f, kap, sig = st.f, st.ks[:, 0], st.ks[:, 1]
+    w2, w3 = w[:, 1], w[:, 2]
+    al2 = 0.5 * (kap * f[:, 2] - sig * f[:, 3])
+    al3 = 0.5 * (sig * f[:, 2] + kap * f[:, 3])
+    be2 = 0.5 * (kap * f[:, 3] + sig * f[:, 2])
+    be3 = 0.5 * (sig * f[:, 3] - kap * f[:, 2])
+    w1 = w[:, 0] + w2 * al2 + w3 * al3
+    gb = 0.5 * (w2 * kap + w3 * sig)                              # G = gb dA_b + gc dA_c
+    gc = 0.5 * (w3 * kap - w2 * sig)
+    de1 = st.mj[:, 0]
+    t = (w1[:, None] * st.mj[:, 3] + gb[:, None] * st.J[:, 2] + gc[:, None] * st.J[:, 3]
+         - (0.5 * (w2 * be2 + w3 * be3))[:, None] * de1)
+    outer = de1[:, :, None] * t[:, None, :]
+    hx += outer
+    hx += outer.transpose(0, 2, 1)
     return hx
 
 
@@ -243,11 +298,11 @@ def hinge_deformations(x, a, b, c, e1_previous=None, u=None) -> np.ndarray:
         e[:, 0] = phi
     else:
         e[:, 0] = phi + 2.0 * np.pi * np.floor((e1_previous - phi) / (2.0 * np.pi) + 0.5)
-    e[:, 1:] = f[:, 2:]
+    _, _, e[:, 1], e[:, 2] = _bending(f)
     return e
 
 
-_C_FLAT_T = np.ascontiguousarray(C_FORMS.reshape(4, 9).T)
+_C_FLAT_T = np.ascontiguousarray(C_FORMS.reshape(N_FORMS, 9).T)
 
 
 def hinge_stiffness(props: np.ndarray) -> np.ndarray:
@@ -271,7 +326,8 @@ class Hinge(ElementKind):
     stress_units = ("N m",) * 3
     deformation_meaning = ("HINGE deformations: 1 the joint angle (rad), 2-3 the small relative "
                            "rotations (1)")
-    stress_meaning = "HINGE stress resultants: the joint moment and the constraint moments"
+    stress_meaning = ("HINGE stress resultants: the joint moment about the axis and the "
+                      "constraint moments about b and c of node p")
     length_modes = (False,) * 3
     estiff = Fields(("k", "k2", "k3"), ("N m/rad",) * 3, 0, 3, "k [k2 k3]")
     mode_stiffness = (0, 1, 2)

@@ -20,8 +20,10 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.errors import ModelError
 
-#: Largest bordered system diagnosed with a dense SVD.
-DENSE_LIMIT = 4000
+#: Largest bordered system diagnosed with a dense SVD (about 10 s at this size on one
+#: loaded core; larger ones get the sparse inverse iteration, which the equilibration
+#: and the gap test make reliable for chains of 1000 beams).
+DENSE_LIMIT = 2000
 
 #: The rank decision of :func:`numerical_rank`: on a matrix whose rows are scaled to unit
 #: norm, a singular value below ``ZERO * s_max`` is zero and one above ``NONZERO * s_max``
@@ -64,6 +66,60 @@ def unit_rows(M) -> np.ndarray:
     M = np.asarray(M, dtype=float)
     norm = np.linalg.norm(M, axis=1)
     return M / np.where(norm > 0, norm, 1.0)[:, None]
+
+
+def equilibrate(M, groups=None, sweeps: int = 30, tol: float = 1e-3):
+    """Ruiz equilibration: ``(S, r, c)`` with ``S = diag(1/r) M diag(1/c)`` whose nonzero rows
+    and column groups all have a largest entry of about one (within ``tol``, or after
+    ``sweeps`` passes). The rank and the left null space of ``S`` are those of ``M``; a right
+    null vector ``n`` of ``S`` is ``diag(1/c) n`` of ``M``. The scaling removes what units,
+    the model's length scale and the lengths of its elements do to the singular values, so
+    the rank decision sees only the geometry.
+
+    ``groups`` (one integer label per column, e.g. the position or the Euler parameters of
+    one node) shares one factor among the columns of a group: a direction in which nothing
+    constrains a node near a dead point must stay small, not be blown up to one."""
+    S = np.array(M, dtype=float)
+    r, c = np.ones(S.shape[0]), np.ones(S.shape[1])
+    if S.size == 0:
+        return S, r, c
+    if groups is None:
+        groups = np.arange(S.shape[1])
+    _, label = np.unique(np.asarray(groups), return_inverse=True)
+    A = np.abs(S)
+    for _ in range(sweeps):
+        rm = A.max(axis=1)
+        cm = np.zeros(label.max() + 1)
+        np.maximum.at(cm, label, A.max(axis=0))
+        cm = cm[label]
+        rs = np.sqrt(np.where(rm > 0, rm, 1.0))
+        cs = np.sqrt(np.where(cm > 0, cm, 1.0))
+        S /= rs[:, None]
+        S /= cs[None, :]
+        A = np.abs(S)
+        r *= rs
+        c *= cs
+        if max(abs(1 - rs).max(), abs(1 - cs).max()) < tol:
+            break
+    return S, r, c
+
+
+def symmetric_scaling(A, sweeps: int = 30, tol: float = 1e-3) -> np.ndarray:
+    """d (n,) with ``diag(d) A diag(d)`` (A sparse, structurally symmetric) of rows and
+    columns whose largest entry is about one (Ruiz). Null vectors of the scaled matrix are
+    ``diag(1/d)`` times those of A. The Newton matrix mixes stiffnesses (N/m, N m), lengths
+    and unit-free Euler rows; scaled, its singular values no longer depend on units, on the
+    model's size or on the number of elements through those scales."""
+    A = abs(sp.csr_matrix(A))
+    d = np.ones(A.shape[0])
+    for _ in range(sweeps):
+        S = sp.diags(d) @ A @ sp.diags(d)
+        m = np.asarray(S.max(axis=1).todense()).ravel()
+        f = 1.0 / np.sqrt(np.where(m > 0, m, 1.0))
+        d *= f
+        if abs(1 - f).max() < tol:
+            break
+    return d
 
 
 def numerical_rank(M, right: bool = True, left: bool = False):
@@ -161,6 +217,8 @@ def _first_independent(G, scale, d) -> list:
 def singular_matrix_error(prob, A, x) -> ModelError:
     """Build the :class:`ModelError` describing why the Newton matrix ``A`` is singular."""
     n = A.shape[0]
+    d = symmetric_scaling(A)
+    A = sp.diags(d) @ A @ sp.diags(d)
     if n > DENSE_LIMIT:
         right = left = _sparse_null_vectors(A)
         if right is None:
@@ -172,10 +230,43 @@ def singular_matrix_error(prob, A, x) -> ModelError:
             return err
     else:
         u, s, vt = np.linalg.svd(A.toarray())
-        smax = s[0] if s.size and s[0] > 0 else 1.0
-        null = s <= 1e-10 * smax
+        null = null_mask(s)
         right, left = vt[null], u[:, null].T
-    return _report(prob, right, left)
+    # back to the unknowns of the unscaled matrix (right: diag(d) v; left: diag(d) w)
+    return _report(prob, _unit(right * d), _unit(left * d))
+
+
+#: A singular value of an (equilibrated) matrix is round-off beside the next larger one
+#: when they differ by this factor: exact zeros come out near eps times the largest, the
+#: smallest genuine ones of long chains (scaled) fall like 1/n^2 but stay far above.
+GAP = 1e4
+
+
+def null_mask(s, smax: float | None = None, loose: float = 1e-8) -> np.ndarray:
+    """Which singular values ``s`` are zero: those below the lowest gap (a ratio of at
+    least :data:`GAP` between neighbours) that lies under ``loose * smax``; without such a
+    gap, those below ``1e-10 * smax``. The decision looks at the spectrum itself, not at a
+    fixed fraction of its largest value, so it does not move with the number of elements
+    (a chain of 1000 beams has genuine singular values far below those of 10)."""
+    s = np.asarray(s, dtype=float)
+    if smax is None:
+        smax = float(s.max(initial=0.0))
+    smax = smax if smax > 0 else 1.0
+    order = np.sort(s)                                   # ascending
+    small = order[order <= loose * smax]
+    if small.size:
+        nxt = order[1:small.size + 1] if small.size < order.size else np.append(
+            order[1:], np.inf)
+        ratio = nxt / np.maximum(small, np.finfo(float).tiny)
+        gaps = np.flatnonzero(ratio >= GAP)
+        if gaps.size:                                    # the lowest: above the round-off
+            return s <= small[gaps[0]]
+    return s <= 1e-10 * smax
+
+
+def _unit(V) -> np.ndarray:
+    """The rows of V scaled to unit norm."""
+    return V / np.maximum(np.linalg.norm(V, axis=1, keepdims=True), 1e-300)
 
 
 def _report(prob, right, left) -> ModelError:
@@ -279,7 +370,7 @@ def mechanism_error(prob, A, states, k: int = 8, lu=None) -> ModelError | None:
     return _report(prob, right, np.zeros((0, A.shape[0])))
 
 
-def _sparse_null_vectors(A, k: int = 12, iterations: int = 4):
+def _sparse_null_vectors(A, k: int = 12, iterations: int = 6):
     """Null vectors of a large, singular, symmetric sparse matrix by block inverse iteration.
 
     ``A + delta I`` (delta tiny against the matrix scale) is regular; repeated solves with it
@@ -290,7 +381,9 @@ def _sparse_null_vectors(A, k: int = 12, iterations: int = 4):
     """
     n = A.shape[0]
     scale = float(abs(A).max())
-    shift = 1e-9 * scale
+    # small against the genuine singular values of long chains (1e-11 of the scaled
+    # matrix at 1000 beams), so that the iteration separates them from the zeros
+    shift = 1e-12 * scale
     try:
         lu = spla.splu((A + shift * sp.eye(n, format="csc")).tocsc())
     except RuntimeError:
@@ -300,7 +393,7 @@ def _sparse_null_vectors(A, k: int = 12, iterations: int = 4):
     for _ in range(iterations):
         v, _ = np.linalg.qr(lu.solve(v))
     _, sing, wt = np.linalg.svd(A @ v, full_matrices=False)
-    null = sing <= 1e-7 * scale
+    null = null_mask(sing, scale, loose=1e-7)
     return (v @ wt[null].T).T
 
 

@@ -20,6 +20,7 @@ from spacarpy.solvers.statics.diagnose import (
     _fmt,
     canonical_motions,
     dependent_rows,
+    equilibrate,
     numerical_rank,
     unit_rows,
 )
@@ -188,16 +189,21 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
                              1 if g.stiff_mask[e, k] else 2)
     J = np.array(rows).reshape(len(rows), num.n_coord)[:, free] / col
     kinds = np.array(kinds, dtype=int)
-    C = unit_rows(J[kinds == 0])
+    node_of = num.node_of_coord(model)[free]
+    # one column factor for the position and one for the Euler parameters of each node
+    groups = 2 * node_of + num.is_rotation_coord[free]
+    C, _, _ = equilibrate(J[kinds == 0], groups)
     rank, _, L = numerical_rank(C, right=False, left=True)
     dep, clear = dependent_rows(L)
     rank.clear &= clear
     cnames = [n for n, k in zip(names, kinds) if k == 0]
-    motion_rank, N, _ = numerical_rank(unit_rows(J[kinds <= 1]))
+    S, _, cs = equilibrate(J[kinds <= 1], groups)
+    motion_rank, N, _ = numerical_rank(S)
+    if N.shape[1]:                        # the null space in the coordinates of J
+        N, _ = np.linalg.qr(N / cs[:, None])
     released = np.flatnonzero(kinds == 2)
     drivers = np.vstack([J[released], np.diag(col)])       # rates in physical units
     V, chosen = canonical_motions(N, drivers)
-    node_of = num.node_of_coord(model)[free]
     motions = []
     for j, c in enumerate(chosen):
         velocity = np.zeros(num.n_coord)
