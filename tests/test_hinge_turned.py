@@ -9,7 +9,7 @@ from spacarpy.elements.hinge import hinge_reference, hinge_state
 from spacarpy.results import open_results
 from spacarpy.rotation import from_axis_angle
 from spacarpy.run import run_job
-from spacarpy.solvers.static import solve_static
+from spacarpy.solvers.statics.static import solve_static
 from spacarpy.time_functions import TimeFunction
 
 M, G, L = 1.0, 9.81, 1.0

@@ -18,9 +18,9 @@ import pytest
 
 from spacarpy.deck import job_from_text
 from spacarpy.errors import ModelError
-from spacarpy.solvers.diagnose import equilibrate, null_mask
-from spacarpy.solvers.equilibrium import StaticProblem
-from spacarpy.solvers.kinematic_check import KINEMATIC_LIMIT, dof_report, kinematic_analysis
+from spacarpy.solvers.statics.diagnose import equilibrate, null_mask
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.kinematic_check import KINEMATIC_LIMIT, dof_report, kinematic_analysis
 
 
 def arch(n, rigid, end_fix="1 2 3", extra="", radius=100.0, released=()):
