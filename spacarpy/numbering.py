@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.elements.base import ElementKind
+from spacarpy.elements.base import ElementKind, Reference
 from spacarpy.elements.registry import KINDS
 from spacarpy.model import RIGID, Model
 
@@ -39,8 +39,9 @@ class ElementGroup:
         Modes whose stress resultant is S e (flexible, or released with ESTIFF).
     S : (n, n_def, n_def)
         Stiffness with the rows/columns of modes without stiffness zeroed.
-    ref : dict
-        Kind-specific reference data (triads, lengths, axes).
+    ref : Reference
+        The kind's reference record (:attr:`ElementKind.reference_type`: triads, lengths,
+        axes).
     scale : (n, n_def)
         Length (or 1 for angles) that makes each deformation dimensionless.
     mass : (n, n_em)
@@ -60,7 +61,7 @@ class ElementGroup:
     def_class: np.ndarray
     stiff_mask: np.ndarray
     S: np.ndarray
-    ref: dict
+    ref: Reference
     scale: np.ndarray
     mass: np.ndarray
     rigid_elem: np.ndarray
@@ -384,7 +385,7 @@ def number_model(model: Model) -> Numbering:
                    else np.zeros(0, dtype=np.int64))
 
     span = np.ptp(model.position_x0, axis=0) if pos_ids.size else np.zeros(3)
-    lengths = [g.ref["l0"].max() for g in groups if "l0" in g.ref and g.n_elem]
+    lengths = [g.ref.l0.max() for g in groups if hasattr(g.ref, "l0") and g.n_elem]
     length_scale = float(np.linalg.norm(span)) or (max(lengths) if lengths else 1.0)
     return Numbering(n_coord=n_coord, x0=x0, pos_idx=pos_idx, rot_idx=rot_idx, groups=groups,
                      fixed_mask=fixed, unknown_of=unknown_of, n_unknown=int((~fixed).sum()),

@@ -10,6 +10,7 @@ from test_beam import random_elements
 from spacarpy.elements.beam import (
     DENSE_MAX,
     Beam,
+    BeamReference,
     beam_deformations,
     beam_state,
     beam_tangent,
@@ -74,14 +75,14 @@ def test_the_kind_takes_the_dense_path_for_small_groups_only():
     n = DENSE_MAX + 1
     x, ny, nz, l0 = random_elements(rng, n)
     kind = Beam()
-    ref = dict(ny=ny, nz=nz, l0=l0, u=np.stack([ny, nz], axis=1))
+    ref = BeamReference(np.cross(ny, nz), ny, nz, l0, u=np.stack([ny, nz], axis=1))
     st = kind.state(x, ref, "modified", {})
     np.testing.assert_array_equal(st.e, beam_deformations(x, ny, nz, l0, "modified"))
     w = rng.normal(size=(n, 6))
     s = np.tile(np.eye(6), (n, 1, 1))
     big = kind.tangent(st, s, w)
     np.testing.assert_array_equal(big, beam_tangent(st, s, w, dense=False))
-    small_ref = {k: v[:DENSE_MAX] for k, v in ref.items()}
+    small_ref = ref.take(slice(DENSE_MAX))
     small = kind.tangent(kind.state(x[:DENSE_MAX], small_ref, "modified", {}), s[:DENSE_MAX],
                          w[:DENSE_MAX])
     np.testing.assert_allclose(small, big[:DENSE_MAX], rtol=0,

@@ -62,7 +62,7 @@ def _reference_mass(res, problem, x):
     M = np.zeros((num.n_coord, num.n_coord))
     g = next(g for g in num.groups if g.keyword == "BEAM")
     em = np.asarray(g.mass, dtype=float)
-    trans = beam_mass_matrix(x[g.idx], g.ref["nx"], g.ref["ny"], g.ref["nz"], g.ref["l0"],
+    trans = beam_mass_matrix(x[g.idx], g.ref.nx, g.ref.ny, g.ref.nz, g.ref.l0,
                              np.column_stack([em[:, 0], np.zeros((len(em), 4))]))
     for e in range(g.n_elem):
         M[np.ix_(g.idx[e], g.idx[e])] += trans[e]

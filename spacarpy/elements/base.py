@@ -8,9 +8,10 @@ trailing vector) and *wraps* the kind's pure array kernels in a uniform interfac
 solvers call element group by element group (element index first everywhere):
 
 reference(x0_slots, vector) -> (ref, scale)
-    Reference data from the initial configuration (a dict: triads, lengths, axes) and the
-    per-mode scale (n, n_def) that makes deformations dimensionless (a length for
-    length-like modes, 1 for angles); used to weigh residuals and the kinematic correction.
+    Reference data from the initial configuration (a record of the kind's
+    ``reference_type``, a :class:`Reference`: triads, lengths, axes) and the per-mode scale
+    (n, n_def) that makes deformations dimensionless (a length for length-like modes, 1 for
+    angles); used to weigh residuals and the kinematic correction.
 state(x_local, ref, variant, prev) -> state with ``.e`` (n, n_def) and ``.D`` (n, n_def, n_ldof)
 deformations(x_local, ref, variant, prev) -> e (n, n_def), optional
     ``state(...).e`` without the derivatives, where that is much cheaper (the BEAM).
@@ -46,7 +47,7 @@ the deck writer and the kernels' users share them without importing one another.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import cached_property
 from typing import NamedTuple
 
@@ -99,6 +100,31 @@ SECTION_MASS = Fields(("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz", "rhoIyz"),
                       "rhoA [rho(Iy+Iz) rhoIy rhoIz rhoIyz]")
 
 
+@dataclass(frozen=True, slots=True, eq=False, weakref_slot=True)
+class Reference:
+    """The base of the kinds' reference records: one element group's data from its initial
+    configuration, as read by the kind's kernels.
+
+    A kind declares its record (``reference_type``) beside its kernels: a subclass, itself a
+    ``@dataclass(frozen=True, slots=True, eq=False)``, whose fields are arrays with the
+    element index first (documented with units and shapes), or None where a field is
+    optional. Records compare and hash by identity (a kernel may key a cache on one)."""
+
+    def _map(self, op) -> Reference:
+        return type(self)(*(None if v is None else op(v)
+                            for v in (getattr(self, f.name) for f in fields(self))))
+
+    def take(self, rows) -> Reference:
+        """The record of the elements ``rows`` (an index array, a mask or a slice)."""
+        return self._map(lambda v: v[rows])
+
+    def tile(self, reps: int) -> Reference:
+        """The record of ``reps`` stacked copies of the elements (itself for 1)."""
+        if reps == 1:
+            return self
+        return self._map(lambda v: np.concatenate([v] * reps))
+
+
 class ElementKind:
     """Base class of the element kinds; one instance per kind lives in the registry.
 
@@ -137,6 +163,9 @@ class ElementKind:
         The same for the three optional trailing numbers (empty when ``vector`` is None).
     planar : bool
         A planar kind (a model with one is planar and may have planar kinds only).
+    reference_type : type
+        The kind's :class:`Reference` record, what ``reference`` returns and the kernels
+        read.
     """
 
     keyword: str = ""
@@ -156,6 +185,7 @@ class ElementKind:
     node_fields: tuple = ()
     vector_fields: tuple = ()
     planar: bool = False
+    reference_type: type = Reference
 
     # optional kernels: None where the kind has none
     tangent: Callable | None = None

@@ -50,6 +50,8 @@ of the basic ones (Eq. 48b), differentiated once more by the chain rule.
 """
 from __future__ import annotations
 
+import weakref
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -63,6 +65,7 @@ from spacarpy.elements.base import (
     Y_AXIS_FIELDS,
     ElementKind,
     Fields,
+    Reference,
 )
 from spacarpy.elements.beam_blocks import blocked_hessian
 from spacarpy.elements.beam_layout import BEND_SIGN, BEND_Y, N_LDOF
@@ -433,10 +436,10 @@ _TQ_H14 = _TQ_H14.reshape(18, N_LDOF * N_LDOF)
 MAX_BEAM_ROTATION = 0.95
 
 
-def check_saturation(st: BeamState, ref: dict):
+def check_saturation(st: BeamState, ref: BeamReference):
     """(element row, message) of the most rotated element past :data:`MAX_BEAM_ROTATION`,
     or None."""
-    rel = np.abs(st.e_hat[:, 1:]) / ref["l0"][:, None]
+    rel = np.abs(st.e_hat[:, 1:]) / ref.l0[:, None]
     if rel.size and rel.max() > MAX_BEAM_ROTATION:
         i, k = np.unravel_index(np.argmax(rel), rel.shape)
         return int(i), (
@@ -447,31 +450,75 @@ def check_saturation(st: BeamState, ref: dict):
     return None
 
 
-def beam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
+def beam_gravity(x: np.ndarray, ref: BeamReference, mass: np.ndarray, g: np.ndarray):
     """Hermite centre line (Eq. 57): int r = l0 [r^p/2 + l0 n_x^p/12 + r^q/2 - l0 n_x^q/12]."""
     n = x.shape[0]
-    m = mass[:, 0] * ref["l0"]
+    m = mass[:, 0] * ref.l0
     f = np.zeros((n, 14))
     k = np.zeros((n, 14, 14))
     f[:, 0:3] = f[:, 7:10] = 0.5 * m[:, None] * g
     for qs, sign in ((slice(3, 7), 1.0), (slice(10, 14), -1.0)):
-        fq, kq = tangent_gravity(x[:, qs], ref["nx"], g, sign * m * ref["l0"] / 12.0)
+        fq, kq = tangent_gravity(x[:, qs], ref.nx, g, sign * m * ref.l0 / 12.0)
         f[:, qs] = fq
         k[:, qs, qs] = kq
     return f, k
 
 
-def _section(ref: dict, m: np.ndarray):
-    """The section inertia forms (:func:`~spacarpy.elements.beam_mass.section_axes`) of a
-    group's reference data, made on first use and kept in it (they depend on the element
-    axes alone), or None for EM values without section inertia."""
+@dataclass(frozen=True, slots=True, eq=False)
+class BeamReference(Reference):
+    """A BEAM group's reference data (also the PLBEAM's), from :meth:`Beam.reference`.
+
+    nx, ny, nz : (n_elem, 3)
+        The reference triad (unit vectors, see :func:`reference_triads`).
+    l0 : (n_elem,)
+        Initial lengths (m).
+    axes : (n_elem, 3, 3) or None
+        ``[nx, ny, nz]`` stacked as rows once (the mass kernels' section forms).
+    u : (n_elem, 2, 3) or None
+        ``[ny, nz]`` stacked (the kernels' nodal vectors); None: stacked at each call.
+    """
+
+    nx: np.ndarray
+    ny: np.ndarray
+    nz: np.ndarray
+    l0: np.ndarray
+    axes: np.ndarray | None = None
+    u: np.ndarray | None = None
+
+    def take(self, rows) -> BeamReference:
+        return _with_forms(self, Reference.take(self, rows), lambda f: f[rows])
+
+    def tile(self, reps: int) -> BeamReference:
+        if reps == 1:
+            return self
+        return _with_forms(self, Reference.tile(self, reps),
+                           lambda f: np.concatenate([f] * reps))
+
+
+#: The section inertia forms (:func:`~spacarpy.elements.beam_mass.section_axes`) of a
+#: :class:`BeamReference`, made on first use and kept beside the record (keyed by its
+#: identity, dropped with it) rather than in it: they depend on the element axes alone, but
+#: most beams have no section inertia and the forms are twice the record's size.
+_SECTION_FORMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _with_forms(ref: BeamReference, out: BeamReference, op) -> BeamReference:
+    """``out`` (a part or copies of ``ref``) with ``op`` of ref's section forms, if made."""
+    forms = _SECTION_FORMS.get(ref)
+    if forms is not None:
+        _SECTION_FORMS[out] = op(forms)
+    return out
+
+
+def _section(ref: BeamReference, m: np.ndarray):
+    """The section inertia forms of a group's reference data (made on first use, see
+    :data:`_SECTION_FORMS`), or None for EM values without section inertia."""
     if not np.count_nonzero(m[:, 1:]):
         return None
-    forms = ref.get("section_axes")
+    forms = _SECTION_FORMS.get(ref)
     if forms is None:
-        axes = ref.get("axes")
-        forms = ref["section_axes"] = section_axes(
-            np.stack([ref["nx"], ref["ny"], ref["nz"]], axis=1) if axes is None else axes)
+        forms = _SECTION_FORMS[ref] = section_axes(
+            np.stack([ref.nx, ref.ny, ref.nz], axis=1) if ref.axes is None else ref.axes)
     return forms
 
 
@@ -502,22 +549,23 @@ class Beam(ElementKind):
     summary = "spatial beam element between two position nodes"
     node_fields = (POS_P, ROT_AT_P, POS_Q, ROT_AT_Q)
     vector_fields = Y_AXIS_FIELDS
+    reference_type = BeamReference
 
     def reference(self, x0, vector):
         nx, ny, nz, l0 = reference_triads(x0[0], x0[2], vector)
         # the axes stacked once here rather than at every kernel call: axes = [n_x, n_y, n_z]
         # (rows) and u = [n_y, n_z]
         axes = np.stack([nx, ny, nz], axis=1)
-        return (dict(nx=nx, ny=ny, nz=nz, l0=l0, axes=axes, u=axes[:, 1:]),
+        return (BeamReference(nx, ny, nz, l0, axes, axes[:, 1:]),
                 np.repeat(l0[:, None], 6, axis=1))
 
     def state(self, x, ref, variant, prev):
-        return in_chunks(beam_state, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant,
-                         ref.get("u"), len(x) <= DENSE_MAX)
+        return in_chunks(beam_state, len(x), x, ref.ny, ref.nz, ref.l0, variant,
+                         ref.u, len(x) <= DENSE_MAX)
 
     def deformations(self, x, ref, variant, prev):
-        return in_chunks(beam_deformations, len(x), x, ref["ny"], ref["nz"], ref["l0"], variant,
-                         ref.get("u"))
+        return in_chunks(beam_deformations, len(x), x, ref.ny, ref.nz, ref.l0, variant,
+                         ref.u)
 
     def hessian(self, st, w):
         return in_chunks(beam_weighted_hessian, len(w), st, w, len(w) <= DENSE_MAX)
@@ -526,19 +574,19 @@ class Beam(ElementKind):
         return in_chunks(beam_tangent, len(w), st, S, w, len(w) <= DENSE_MAX)
 
     def stiffness(self, props, ref):
-        return stiffness_matrix(props, ref["l0"])
+        return stiffness_matrix(props, ref.l0)
 
     def mass(self, x, ref, m, rotary="lumped"):
-        return in_chunks(beam_mass_matrix, len(x), x, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary, _section(ref, m))
+        return in_chunks(beam_mass_matrix, len(x), x, ref.nx, ref.ny, ref.nz,
+                         ref.l0, m, rotary, _section(ref, m))
 
     def convective(self, x, v, ref, m, rotary="lumped"):
-        return in_chunks(beam_convective, len(x), x, v, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary, _section(ref, m))
+        return in_chunks(beam_convective, len(x), x, v, ref.nx, ref.ny, ref.nz,
+                         ref.l0, m, rotary, _section(ref, m))
 
     def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
-        return in_chunks(beam_inertia_force, len(x), x, v, a, ref["nx"], ref["ny"], ref["nz"],
-                         ref["l0"], m, rotary, _section(ref, m))
+        return in_chunks(beam_inertia_force, len(x), x, v, a, ref.nx, ref.ny, ref.nz,
+                         ref.l0, m, rotary, _section(ref, m))
 
     def check(self, st, ref):
         return check_saturation(st, ref)

@@ -92,11 +92,12 @@ A hinge has no mass (use XM on the orientation nodes).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from spacarpy.elements.base import ROT_P, ROT_Q, ElementKind, Fields
+from spacarpy.elements.base import ROT_P, ROT_Q, ElementKind, Fields, Reference
 from spacarpy.elements.nodal import TQ_H2, nodal_jacobians
 from spacarpy.linalg import property_columns
 
@@ -313,6 +314,22 @@ def hinge_stiffness(props: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ the kind
+@dataclass(frozen=True, slots=True, eq=False)
+class HingeReference(Reference):
+    """A HINGE group's reference data (also the PLHINGE's), from :meth:`Hinge.reference`.
+
+    a, b, c : (n_elem, 3)
+        The reference triad (unit vectors, a along the axis; see :func:`hinge_reference`).
+    u : (n_elem, 3, 3) or None
+        ``[a, b, c]`` stacked (the kernels' nodal vectors); None: stacked at each call.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    u: np.ndarray | None = None
+
+
 class Hinge(ElementKind):
     """``HINGE e r s [ax ay az]``: a revolute joint between two orientation nodes (kernels
     above). Its persistent state is the joint angle of the last converged step
@@ -337,17 +354,18 @@ class Hinge(ElementKind):
     vector_fields = (("x component of the hinge axis", "ax"),
                      ("y component of the hinge axis", "ay"),
                      ("z component of the hinge axis", "az"))
+    reference_type = HingeReference
 
     def reference(self, x0, vector):
         a, b, c = hinge_reference(vector)
         # u = [a, b, c] stacked once here rather than at every kernel call
-        return dict(a=a, b=b, c=c, u=np.stack([a, b, c], axis=1)), np.ones((a.shape[0], 3))
+        return HingeReference(a, b, c, np.stack([a, b, c], axis=1)), np.ones((a.shape[0], 3))
 
     def state(self, x, ref, variant, prev):
-        return hinge_state(x, ref["a"], ref["b"], ref["c"], prev.get("e1"), ref.get("u"))
+        return hinge_state(x, ref.a, ref.b, ref.c, prev.get("e1"), ref.u)
 
     def deformations(self, x, ref, variant, prev):
-        return hinge_deformations(x, ref["a"], ref["b"], ref["c"], prev.get("e1"), ref.get("u"))
+        return hinge_deformations(x, ref.a, ref.b, ref.c, prev.get("e1"), ref.u)
 
     def hessian(self, st, w):
         return hinge_weighted_hessian(st, w)

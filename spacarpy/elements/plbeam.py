@@ -62,6 +62,7 @@ class PlBeam(ElementKind):
     planar = True
     summary = "planar beam element (x-y plane)"
     node_fields = (POS_P, ROT_AT_P, POS_Q, ROT_AT_Q)
+    reference_type = Beam.reference_type          # the spatial kernel's record
 
     def reference(self, x0, vector):
         # the local y-axis lies in the plane: z x (element axis)

@@ -28,6 +28,7 @@ class PlHinge(ElementKind):
     planar = True
     summary = "planar hinge element (axis z)"
     node_fields = (ROT_P, ROT_Q)
+    reference_type = Hinge.reference_type          # the spatial kernel's record
 
     def reference(self, x0, vector):
         n = len(vector)

@@ -63,6 +63,7 @@ differently) does not apply, and both give this matrix for a rigid motion.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -75,6 +76,7 @@ from spacarpy.elements.base import (
     Y_AXIS_FIELDS,
     ElementKind,
     Fields,
+    Reference,
 )
 from spacarpy.elements.beam import reference_triads
 from spacarpy.elements.beam_mass import g_matrix, section_inertia, tangent_gravity
@@ -246,14 +248,33 @@ def _centre_inertia(em, l0, m, nx, ny, nz) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ the kind
-def rbeam_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
+@dataclass(frozen=True, slots=True, eq=False)
+class RBeamReference(Reference):
+    """An RBEAM group's reference data, from :meth:`RBeam.reference`.
+
+    nx, ny, nz : (n_elem, 3)
+        The reference triad (unit vectors, see :func:`rbeam_reference`).
+    l0 : (n_elem,)
+        Lengths (m).
+    u : (n_elem, 3, 3) or None
+        ``[nx, ny, nz]`` stacked (the kernels' nodal vectors); None: stacked at each call.
+    """
+
+    nx: np.ndarray
+    ny: np.ndarray
+    nz: np.ndarray
+    l0: np.ndarray
+    u: np.ndarray | None = None
+
+
+def rbeam_gravity(x: np.ndarray, ref: RBeamReference, mass: np.ndarray, g: np.ndarray):
     """Rigid rod: its mass at the centre r^p + R(q^p) n_x l0 / 2."""
     n = x.shape[0]
-    m = mass[:, 0] * ref["l0"]
+    m = mass[:, 0] * ref.l0
     f = np.zeros((n, 10))
     k = np.zeros((n, 10, 10))
     f[:, 0:3] = m[:, None] * g
-    fq, kq = tangent_gravity(x[:, 3:7], ref["nx"], g, m * ref["l0"] / 2.0)
+    fq, kq = tangent_gravity(x[:, 3:7], ref.nx, g, m * ref.l0 / 2.0)
     f[:, 3:7] = fq
     k[:, 3:7, 3:7] = kq
     return f, k
@@ -279,15 +300,16 @@ class RBeam(ElementKind):
     summary = "rigid beam carried by the orientation node of p"
     node_fields = (POS_P, ROT_AT_P, POS_Q)
     vector_fields = Y_AXIS_FIELDS
+    reference_type = RBeamReference
 
     def reference(self, x0, vector):
         nx, ny, nz, l0 = rbeam_reference(x0[0], x0[2], vector)
         # u = [n_x, n_y, n_z] stacked once here rather than at every kernel call
-        return (dict(nx=nx, ny=ny, nz=nz, l0=l0, u=np.stack([nx, ny, nz], axis=1)),
+        return (RBeamReference(nx, ny, nz, l0, np.stack([nx, ny, nz], axis=1)),
                 np.repeat(l0[:, None], 3, axis=1))
 
     def state(self, x, ref, variant, prev):
-        return rbeam_state(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"], ref.get("u"))
+        return rbeam_state(x, ref.nx, ref.ny, ref.nz, ref.l0, ref.u)
 
     def hessian(self, st, w):
         return rbeam_weighted_hessian(st, w)
@@ -296,10 +318,10 @@ class RBeam(ElementKind):
         return rbeam_stiffness(props[:, :3])
 
     def mass(self, x, ref, m, rotary="lumped"):    # one rigid body: exact for either choice
-        return rbeam_mass_matrix(x, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m)
+        return rbeam_mass_matrix(x, ref.nx, ref.ny, ref.nz, ref.l0, m)
 
     def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
-        return rbeam_inertia_force(x, v, a, ref["nx"], ref["ny"], ref["nz"], ref["l0"], m)
+        return rbeam_inertia_force(x, v, a, ref.nx, ref.ny, ref.nz, ref.l0, m)
 
     def gravity(self, x, ref, mass, g):
         return rbeam_gravity(x, ref, mass, g)

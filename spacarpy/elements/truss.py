@@ -29,11 +29,12 @@ kinetic energy of any velocity field that is linear along the truss (rigid motio
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from spacarpy.elements.base import POS_P, POS_Q, ElementKind, Fields
+from spacarpy.elements.base import POS_P, POS_Q, ElementKind, Fields, Reference
 from spacarpy.linalg import property_columns
 
 N_LDOF = 6
@@ -54,6 +55,17 @@ def truss_reference(xp: np.ndarray, xq: np.ndarray) -> np.ndarray:
     if np.any(l0 <= 0.0):
         raise ValueError("TRUSS of zero length: its end nodes coincide")
     return l0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class TrussReference(Reference):
+    """A TRUSS group's reference data (also the PLTRUSS's and the worked example's SPRING's).
+
+    l0 : (n_elem,)
+        Initial lengths (m), from :func:`truss_reference`.
+    """
+
+    l0: np.ndarray
 
 
 class TrussState(NamedTuple):
@@ -108,11 +120,11 @@ def truss_mass_matrix(mass: np.ndarray, l0: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ the kind
-def truss_gravity(x: np.ndarray, ref: dict, mass: np.ndarray, g: np.ndarray):
+def truss_gravity(x: np.ndarray, ref: TrussReference, mass: np.ndarray, g: np.ndarray):
     """Half the truss's mass ``rhoA l0`` on each end node; the forces are constant."""
     n = x.shape[0]
     f = np.zeros((n, 6))
-    f[:, 0:3] = f[:, 3:6] = 0.5 * (mass[:, 0] * ref["l0"])[:, None] * g
+    f[:, 0:3] = f[:, 3:6] = 0.5 * (mass[:, 0] * ref.l0)[:, None] * g
     return f, np.zeros((n, 6, 6))
 
 
@@ -134,22 +146,23 @@ class Truss(ElementKind):
     em = Fields(("rhoA",), ("kg/m",), 1, None, "rhoA")
     summary = "truss (rod) element between two position nodes"
     node_fields = (POS_P, POS_Q)
+    reference_type = TrussReference
 
     def reference(self, x0, vector):
         l0 = truss_reference(x0[0], x0[1])
-        return dict(l0=l0), l0[:, None].copy()
+        return TrussReference(l0), l0[:, None].copy()
 
     def state(self, x, ref, variant, prev):
-        return truss_state(x, ref["l0"])
+        return truss_state(x, ref.l0)
 
     def hessian(self, st, w):
         return truss_weighted_hessian(st, w)
 
     def stiffness(self, props, ref):
-        return truss_stiffness(props[:, :1], ref["l0"])
+        return truss_stiffness(props[:, :1], ref.l0)
 
     def mass(self, x, ref, m, rotary="lumped"):       # rotary: no section inertia
-        return truss_mass_matrix(m[:, :1], ref["l0"])
+        return truss_mass_matrix(m[:, :1], ref.l0)
 
     def gravity(self, x, ref, mass, g):
         return truss_gravity(x, ref, mass, g)

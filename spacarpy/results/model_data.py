@@ -56,8 +56,10 @@ def model_datasets(model: Model, num=None) -> dict:
     b = "model/elements/BEAM"
     group = num.group("BEAM")
     idx = group.idx if group is not None else np.zeros((0, 14), np.int64)
-    ref = group.ref if group is not None else {k: np.zeros((0, 3)) for k in ("nx", "ny", "nz")}
-    l0 = ref["l0"] if group is not None else np.zeros(0)
+    if group is not None:
+        l0, axes = group.ref.l0, np.stack([group.ref.nx, group.ref.ny, group.ref.nz], axis=1)
+    else:
+        l0, axes = np.zeros(0), np.zeros((0, 3, 3))
     row_of = np.full(num.n_coord, -1, dtype=np.int64)
     row_of[num.pos_idx[:, 0]] = np.arange(num.pos_idx.shape[0])
     if model.cross_sections is not None:
@@ -69,7 +71,7 @@ def model_datasets(model: Model, num=None) -> dict:
         f"{b}/nodes": np.asarray(beams.nodes, dtype=np.int64).reshape(-1, 4),
         f"{b}/position_rows": row_of[idx[:, [0, 7]]].reshape(n, 2),
         f"{b}/length": np.asarray(l0, dtype=np.float64),
-        f"{b}/axes": np.stack([ref["nx"], ref["ny"], ref["nz"]], axis=1).reshape(n, 3, 3),
+        f"{b}/axes": axes.reshape(n, 3, 3),
         f"{b}/deformation_class": beams.def_class.astype(np.int8),
         f"{b}/stiffness": beams.stiffness.astype(np.float64),
         f"{b}/mass": beams.mass.astype(np.float64),

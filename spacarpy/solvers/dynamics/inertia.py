@@ -48,20 +48,17 @@ class _Batch(NamedTuple):
     force_of: Callable | None     # (x_local, v_local, a_local, reps) -> M a + h, or None
 
 
-def _tiled(data, reps: int):
-    """Per-element data (an array, or a dict of arrays and other values) for ``reps``
-    stacked copies of the elements."""
+def _tiled(data: np.ndarray, reps: int) -> np.ndarray:
+    """Per-element data (element index first) for ``reps`` stacked copies of the
+    elements."""
     if reps == 1:
         return data
-    if isinstance(data, dict):
-        return {k: _tiled(v, reps) if isinstance(v, np.ndarray) else v
-                for k, v in data.items()}
     return np.concatenate([data] * reps)
 
 
-#: Stacked copies of a group's reference data (:func:`_tiled`) are kept for the next call
-#: up to this many rows: the central differences of a small model's kinds without analytic
-#: convective terms (RBEAM) tile the same few elements at every residual.
+#: Stacked copies of a group's reference record (its ``tile``) and EM values are kept for
+#: the next call up to this many rows: the central differences of a small model's kinds
+#: without analytic convective terms (RBEAM) tile the same few elements at every residual.
 TILE_CACHE_ROWS = 4096
 
 
@@ -72,7 +69,7 @@ def _tiler(ref, mass) -> Callable:
     def tiles(reps: int):
         hit = cache.get(reps)
         if hit is None:
-            hit = (_tiled(ref, reps), _tiled(mass, reps))
+            hit = (ref.tile(reps), _tiled(mass, reps))
             if len(mass) * reps <= TILE_CACHE_ROWS:
                 cache[reps] = hit
         return hit

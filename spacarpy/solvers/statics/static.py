@@ -209,7 +209,7 @@ def _strain_warnings(num, states, step) -> list:
     for g, st in zip(num.groups, states):
         if g.keyword not in ("BEAM", "TRUSS") or not g.n_elem:
             continue
-        strain = np.abs(st.e[:, 0]) / g.ref["l0"]
+        strain = np.abs(st.e[:, 0]) / g.ref.l0
         i = int(np.argmax(strain))
         if strain[i] > MAX_AXIAL_STRAIN:
             msg = (f"step {step}: {g.keyword} {int(g.ids[i])} has an axial strain of "
