@@ -190,7 +190,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 deformation=step.deformation,
                 stress_resultant=step.stress,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
-                arc_length=step.arc_length, **surface_stress(step.stress.get("BEAM")))
+                arc_length=step.arc_length, converged_by=int(step.converged_by == "floor"),
+                **surface_stress(step.stress.get("BEAM")))
             summary.n_steps += 1
             if step.warning:
                 writer.add_warning(step.warning)
@@ -355,9 +356,9 @@ def _critical_point(num, free, step, k, writer) -> str:
 
 def step_line(k: int, n_steps: int, step, tol: float) -> str:
     """The progress line of stored load step ``k``. A step is also accepted when its residual
-    stays above the tolerance at its round-off floor while the increments are below the
-    tolerance (solvers/newton.py); the line then says so, so that a residual of 5e-4 beside a
-    tolerance of 1e-9 is not read as a failed convergence."""
+    stays above the tolerance within its round-off floor measured at that state while the
+    increments are below the tolerance (solvers/newton.py); the line then says so, so that
+    a residual of 5e-4 beside a tolerance of 1e-9 is not read as a failed convergence."""
     if getattr(step, "arc_length", None) is not None:     # ARCLENGTH: points, not steps
         line = (f"point {k:>3}  arc length {step.arc_length:.4g}  load factor "
                 f"{step.load_factor:.6f}  {step.iterations:2d} iterations  residual "
@@ -366,9 +367,9 @@ def step_line(k: int, n_steps: int, step, tol: float) -> str:
         line = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
                 f"{step.load_factor:.4f}  {step.iterations:2d} iterations  residual "
                 f"{step.residual:.2e}")
-    if step.residual > tol:
-        line += (f" (at its round-off floor, above the tolerance {tol:.0e}: the increments "
-                 "are below it)")
+    if getattr(step, "converged_by", "tolerance") == "floor":
+        line += (f" (above the tolerance {tol:.0e}, within its round-off floor measured at "
+                 "this state; the increments are below the tolerance)")
     return line
 
 

@@ -52,6 +52,7 @@ class StaticStep:
     arc_length: float | None = None   # ARCLENGTH: the scaled arc length from step 0
     critical: object = None           # ARCLENGTH: a CriticalPoint refined at this step
     warning: str | None = None        # load stepping: the step jumped (snap-through)
+    converged_by: str = "tolerance"   # or "floor": within the measured round-off floor
 
 
 @dataclass
@@ -130,7 +131,8 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
 
     warned = []
 
-    def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None):
+    def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None,
+              by="tolerance"):
         ev = prob.evaluate(x, mu, prob.loads.at(1.0, load_factor))
         if not warned:
             warned.extend(_strain_warnings(num, ev.states, len(result.steps)))
@@ -138,7 +140,7 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=deformation,
                           stress=stress, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
                           iterations=its, residual=res, mu=mu.copy(), arc_length=arc,
-                          critical=critical, warning=warning)
+                          critical=critical, warning=warning, converged_by=by)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -150,23 +152,23 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
 
     path = PathStability(prob, opts, predictor, advance)
     # phase A: reach XF (a: 0 -> 1) at s = 0
-    x, mu, its, res = advance(x, mu, (0.0, 0.0), (1.0, 0.0),
-                              opts.n_init if prob.loads.has_xf else 1, stored_step=0)
+    x, mu, its, res, by = advance(x, mu, (0.0, 0.0), (1.0, 0.0),
+                                  opts.n_init if prob.loads.has_xf else 1, stored_step=0)
     x, mu = path.check(prob.normalize(x), mu, (1.0, 0.0), 0)
     if opts.arclength is not None:
-        store(0.0, x, mu, its, res, arc=0.0)
+        store(0.0, x, mu, its, res, arc=0.0, by=by)
         ArcLengthPath(prob, opts, opts.arclength).follow(x, mu, store)
         prob.timings.total = time.perf_counter() - t_start
         return result
-    store(0.0, x, mu, its, res)
+    store(0.0, x, mu, its, res, by=by)
     # phase B: DELXF in n_steps stored increments
     jumps = JumpCheck(prob)
     for k in range(1, opts.n_steps + 1):
         s0, s1 = (k - 1) / opts.n_steps, k / opts.n_steps
         x_old = x
-        x, mu, its, res = advance(x, mu, (1.0, s0), (1.0, s1), 1, stored_step=k)
+        x, mu, its, res, by = advance(x, mu, (1.0, s0), (1.0, s1), 1, stored_step=k)
         x, mu = path.check(prob.normalize(x), mu, (1.0, s1), k)
-        store(s1, x, mu, its, res, warning=jumps(x_old, x, k, s1))
+        store(s1, x, mu, its, res, warning=jumps(x_old, x, k, s1), by=by)
     prob.timings.total = time.perf_counter() - t_start
     return result
 
@@ -251,14 +253,14 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
     dt_nominal = 1.0 / max(n_sub, 1)
     dt = dt_nominal
     min_dt = dt_nominal / 2 ** opts.max_cuts
-    total_its, last_res = 0, 0.0
+    total_its, last_res, last_by = 0, 0.0, "tolerance"
     while t < t_end - 1e-14:
         dt = min(dt, t_end - t)
         p = p_from + (t + dt) * (p_to - p_from)
         try:
             load = prob.loads.at(*p)
             x_start, states = predictor.with_states(x, mu, load)
-            x_new, mu_new, its, res, _ = newton(prob, x_start, mu, load, opts, states)
+            x_new, mu_new, its, res, hist = newton(prob, x_start, mu, load, opts, states)
         except StepFailed as fail:
             if dt / 2 < min_dt:
                 lf = p_from[1] + t * (p_to[1] - p_from[1])
@@ -277,10 +279,10 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
         if prob.has_commit:
             prob.commit(x, mu, load)
         total_its += its
-        last_res = res
+        last_res, last_by = res, hist.converged_by
         t += dt
         dt = min(dt * 2, dt_nominal)            # grow back after a successful cut step
-    return x, mu, total_its, last_res
+    return x, mu, total_its, last_res, last_by
 
 
 __all__ = ["solve_static", "StaticProblem", "StaticStep", "StaticOptions", "StaticResult",
