@@ -312,7 +312,9 @@ class StaticProblem:
         That state is its own equilibrium by definition (every deformation is zero); its
         residual is pure round-off, measured against :attr:`force_scale`."""
         num = self.num
+        idx, target = num.prescribed_state(load.a, load.s)
         return bool(not np.any(load.force) and not np.any(load.moment)
+                    and np.array_equal(num.x0[idx], target)
                     and not (self.loads.has_gravity and load.gravity_factor)
                     and not np.any(load.rigid_target) and not self.has_commit
                     and all(g.sigma0 is None or not np.any(g.sigma0) for g in num.groups)

@@ -246,6 +246,70 @@ def roundoff_hint(tol: float, history) -> str:
             f"default is {StaticOptions.tol:.0e})")
 
 
+#: The lowest eigenvalue of the reduced tangent, relative to that of the material
+#: stiffness alone, below which a state where step cutting failed is taken to be at a
+#: limit point when no second state tells the trend (the failure came on the first
+#: sub-step of a load step).
+LIMIT_EIGENVALUE = 1e-3
+
+
+def _softest(prob, x, mu, params) -> tuple[float, float] | None:
+    """Lowest eigenvalues of the reduced tangent and of the reduced material stiffness at
+    a state (dense; None for a model above the dense limit)."""
+    import scipy.linalg as sla
+
+    from spacarpy.solvers.eigen import DENSE_LIMIT, null_space_basis
+    from spacarpy.solvers.linearize import linearize
+    n_x = prob.pattern.n_x
+    if n_x > DENSE_LIMIT:
+        return None
+    lin = linearize(prob, x, mu, prob.loads.at(*params))
+    T = null_space_basis(lin.C, n_x)
+    if T.shape[1] == 0:
+        return None
+    out = []
+    for k in (lin.K, lin.K_mat):
+        k = T.T @ (k @ T)
+        out.append(float(sla.eigvalsh(0.5 * (k + k.T))[0]))
+    return out[0], out[1]
+
+
+def limit_point(prob, start, last, p_from, p_to, t, dt) -> str | None:
+    """The message of a load-control failure at a limit point, or None.
+
+    Step cutting failed at the load parameter ``t + dt`` of the way from ``p_from`` to
+    ``p_to``, after the state ``last`` converged at ``t`` (``start`` at 0). Near a limit
+    point the lowest eigenvalue of the reduced tangent goes to zero like the square root
+    of the distance to it, so its square is linear in the load: extrapolated from the two
+    states it vanishes before twice the failed increment (with one state: it is below
+    :data:`LIMIT_EIGENVALUE` times the material stiffness's). A state with a negative
+    eigenvalue (an unstable branch, a passed bifurcation) is not a limit point of this
+    path; a model above the dense limit is not judged."""
+    moving = 1 if p_to[1] != p_from[1] else 0          # phase B moves DELXF, A moves XF
+    q = [p_from[moving] + f * (p_to[moving] - p_from[moving]) for f in (0.0, t, t + dt)]
+    par = [p_from + f * (p_to - p_from) for f in (0.0, t)]
+    soft_c = _softest(prob, *last, par[1])
+    if soft_c is None or not soft_c[0] >= 0:
+        return None
+    lam_c = soft_c[0]
+    if t > 0:
+        soft_s = _softest(prob, *start, par[0])
+        if soft_s is None or not soft_s[0] > lam_c:
+            return None
+        lam_s = soft_s[0]
+        q_zero = q[1] + lam_c ** 2 * (q[1] - q[0]) / (lam_s ** 2 - lam_c ** 2)
+        log.debug("limit point test: lowest eigenvalue %.3g at %.6g, %.3g at %.6g: zero "
+                  "at %.6g; failed at %.6g", lam_s, q[0], lam_c, q[1], q_zero, q[2])
+        if not q_zero <= q[2] + (q[2] - q[1]):
+            return None
+    elif not lam_c < LIMIT_EIGENVALUE * soft_c[1]:
+        return None
+    name = "DELXF" if moving else "XF"
+    return (f"limit point at load factor {q[1]:.3g} ({name} factor; the last converged state "
+            f"is at {q[1]:.6g}, where the tangent's lowest eigenvalue goes to zero): the load "
+            f"cannot be raised further on this path; add ARCLENGTH to follow it")
+
+
 def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
     """Move the load parameters (a, s) from p_from to p_to, cutting steps on failure."""
     p_from, p_to = np.asarray(p_from, float), np.asarray(p_to, float)
@@ -254,6 +318,7 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
     dt = dt_nominal
     min_dt = dt_nominal / 2 ** opts.max_cuts
     total_its, last_res, last_by = 0, 0.0, "tolerance"
+    start = (x, mu)
     while t < t_end - 1e-14:
         dt = min(dt, t_end - t)
         p = p_from + (t + dt) * (p_to - p_from)
@@ -264,6 +329,9 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
         except StepFailed as fail:
             if dt / 2 < min_dt:
                 lf = p_from[1] + t * (p_to[1] - p_from[1])
+                limit = limit_point(prob, start, (x, mu), p_from, p_to, t, dt)
+                if limit is not None:
+                    raise ConvergenceError(f"static step {stored_step}: {limit}") from None
                 hist = ", ".join(f"{h:.3e}" for h in fail.history)
                 raise ConvergenceError(
                     f"static step {stored_step} did not converge ({fail.reason}) after "
