@@ -163,3 +163,44 @@ def test_a_failure_away_from_a_limit_point_is_not_called_one(tmp_path):
     with pytest.raises(ConvergenceError) as exc:
         _solve(deck)
     assert "did not converge" in str(exc.value) and "limit point" not in str(exc.value)
+
+
+# --- a static run of a mechanism ---------------------------------------------------------------
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "spacar-decks"
+
+
+def test_a_static_run_of_a_loaded_mechanism_is_refused_with_the_mode_to_use(capsys, tmp_path):
+    """The rigid pendulum under gravity run with --mode static: no static equilibrium;
+    exit 3 before any load step, naming the moving nodes and --mode 1 (the deck has
+    TIMESTEP)."""
+    assert main(["run", str(DECKS / "pendulum_rigid_90deg.dat"), "--mode", "static", "-o",
+                 str(tmp_path / "p.h5")]) == 3
+    err = capsys.readouterr().err
+    assert "the model has no static equilibrium: it is a mechanism" in err
+    assert "nodes that move: 3, 4" in err
+    assert "the deck has TIMESTEP: run it with --mode 1 (transient)" in err
+    assert "step 0" not in err
+
+
+@pytest.mark.skipif(not (SHARED / "oopspa_slidercrank.dat").exists(),
+                    reason="needs ../shared/spacar-decks")
+def test_the_spacar_slider_crank_run_plainly_names_mode_1(capsys, tmp_path):
+    """SPACAR's slider-crank (TIMESTEP, no mode line, a pre-stress ESIG on its crank hinge)
+    run plainly: it used to fail at static step 0 with 'increment too large'."""
+    assert main(["run", str(SHARED / "oopspa_slidercrank.dat"), "-o",
+                 str(tmp_path / "s.h5")]) == 3
+    err = capsys.readouterr().err
+    assert "no static equilibrium" in err and "motion 1 driven by HINGE 1 mode 1" in err
+    assert "--mode 1 (transient)" in err and "increment too large" not in err
+
+
+def test_an_unloaded_free_free_model_says_what_is_done(capsys, tmp_path):
+    """N11: the free-free eigen deck is unloaded: its free motions are reported as a neutral
+    equilibrium, not as 'cannot be solved ... Add FIX lines'; it runs (exit 0)."""
+    assert main(["run", str(DECKS / "free_free_beam_8el.dat"), "-o",
+                 str(tmp_path / "f.h5")]) == 0
+    text = capsys.readouterr().err
+    assert "unloaded model with free motions (6 free motion(s)" in text
+    assert "initial configuration is taken as the equilibrium" in text
+    assert "cannot be solved" not in text and "Add FIX" not in text

@@ -23,13 +23,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.errors import ConvergenceError
+from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.arclength import ArcLengthPath
 from spacarpy.solvers.equilibrium import StaticProblem, Timings
 from spacarpy.solvers.errors import StepFailed
-from spacarpy.solvers.kinematic_check import check_initial
+from spacarpy.solvers.kinematic_check import check_initial, free_motions
 from spacarpy.solvers.loads import Loads, LoadState
 from spacarpy.solvers.newton import Predictor, newton
 from spacarpy.solvers.stability import PathStability
@@ -119,15 +119,23 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
     mu = np.zeros(num.n_constraint)
     result = StaticResult(problem=prob)
     if prob.loads.any:
-        check_initial(prob)
+        try:
+            check_initial(prob)
+        except ModelError as exc:
+            raise _no_equilibrium(exc, settings) from None
     else:
         # no load at all: the initial configuration is the equilibrium, also for a
         # free-floating structure or a mechanism (neutral equilibrium, e.g. before an
-        # eigenfrequency analysis): warn instead of refusing. Redundant constraints are
-        # an error with or without load.
+        # eigenfrequency analysis): say so instead of refusing, unless something else
+        # (a pre-stress ESIG) drives it. Redundant constraints are an error with or
+        # without load.
         exc = check_initial(prob, allow_mechanism=True)
         if exc is not None:
-            log.warning("unloaded model: %s", exc)
+            if _driven(prob, opts.tol):
+                raise _no_equilibrium(exc, settings)
+            log.warning("unloaded model with free motions (%s): no load drives them, so its "
+                        "initial configuration is taken as the equilibrium (a neutral one)",
+                        free_motions(exc))
 
     warned = []
 
@@ -171,6 +179,36 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         store(s1, x, mu, its, res, warning=jumps(x_old, x, k, s1), by=by)
     prob.timings.total = time.perf_counter() - t_start
     return result
+
+
+def _driven(prob, tol: float) -> bool:
+    """Whether an unloaded model is out of equilibrium in its initial configuration at
+    the start or the end of its load path (a pre-stress ESIG acting)."""
+    num = prob.num
+    mu = np.zeros(num.n_constraint)
+    for s in (0.0, 1.0):
+        ev = prob.evaluate(num.x0, mu, prob.loads.at(1.0, s))
+        if prob.null_state(num.x0, ev.load):
+            continue
+        if prob.residual_norm(ev.r, ev.c, ev.f_int, ev.f_ext)[0] > tol:
+            return True
+    return False
+
+
+def _no_equilibrium(exc, settings) -> ModelError:
+    """A static run of a mechanism under its loads: it has no static equilibrium. The
+    error names the free motion(s) and the analysis the deck's lines suggest (exit 3)."""
+    if not getattr(exc, "mechanism", True) or getattr(exc, "over_constrained", False):
+        return exc
+    hint = ("add FIX lines or flexible (DYNE with ESTIFF) deformation modes that hold the "
+            "free motions, or run it as a mechanism")
+    if settings.transient.timestep is not None:
+        hint = "the deck has TIMESTEP: run it with --mode 1 (transient)"
+    err = ModelError(f"the model has no static equilibrium: it is a mechanism whose loads "
+                     f"drive its free motions ({free_motions(exc)}); a static run cannot "
+                     f"solve it: {hint}")
+    err.mechanism, err.over_constrained = True, False
+    return err
 
 
 #: A load step whose scaled increment exceeds this many times the largest one before it
