@@ -67,10 +67,13 @@ class AnalysisInputError(SpacarError):
 class RunOptions:
     """How to run, beyond the analysis settings: ``compliance_node``: (position node,
     orientation node) deck numbers whose 6x6 compliance is computed at every linearized step;
-    ``progress``: a callback of the transient run."""
+    ``progress``: a callback of the transient run; ``ignore_conditioning``: only warn where
+    the residual's round-off floor exceeds its limit
+    (:func:`~spacarpy.solvers.conditioning.check_residual_floor`)."""
 
     compliance_node: tuple | None = None
     progress: object = None          # transient: progress(t, t_end), e.g. a terminal bar
+    ignore_conditioning: bool = False
 
 
 @dataclass
@@ -108,6 +111,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "check":
         from spacarpy.solvers.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
+    if problem.loads.any:
+        from spacarpy.solvers.conditioning import check_residual_floor
+        check_residual_floor(problem, ignore=opts.ignore_conditioning)
     mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     if any(model.gravity) and not mass.has_mass:
         log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
