@@ -197,16 +197,16 @@ def _driven(prob, tol: float) -> bool:
 
 def _no_equilibrium(exc, settings) -> ModelError:
     """A static run of a mechanism under its loads: it has no static equilibrium. The
-    error names the free motion(s) and the analysis the deck's lines suggest (exit 3)."""
+    kinematic check's error (the free motions, their nodes and drivers) gets a line that
+    says so and names the analysis the deck's lines suggest (exit 3)."""
     if not getattr(exc, "mechanism", True) or getattr(exc, "over_constrained", False):
         return exc
-    hint = ("add FIX lines or flexible (DYNE with ESTIFF) deformation modes that hold the "
-            "free motions, or run it as a mechanism")
+    hint = ("to follow its motion, run it as a transient (--mode 1, with TIMESTEP and "
+            "masses)")
     if settings.transient.timestep is not None:
         hint = "the deck has TIMESTEP: run it with --mode 1 (transient)"
-    err = ModelError(f"the model has no static equilibrium: it is a mechanism whose loads "
-                     f"drive its free motions ({free_motions(exc)}); a static run cannot "
-                     f"solve it: {hint}")
+    err = ModelError(f"{exc}\n  a mechanism under its loads has no static equilibrium, and "
+                     f"a static run cannot solve it: {hint}")
     err.mechanism, err.over_constrained = True, False
     return err
 
