@@ -98,9 +98,10 @@ def far_nodes(model) -> str | None:
     x0 = np.asarray(model.position_x0, dtype=float)
     if x0.shape[0] < 3 or not np.all(np.isfinite(x0)):
         return None
-    centre = np.median(x0, axis=0)
+    mid = x0.shape[0] // 2                 # medians by sorting (np.median loads numpy.ma)
+    centre = np.sort(x0, axis=0)[mid]
     dist = np.linalg.norm(x0 - centre, axis=1)
-    size = float(np.median(dist))
+    size = float(np.sort(dist)[mid])
     if size == 0:
         size = float(np.sort(dist)[x0.shape[0] // 2 + 1:][:1].sum()) or 1.0
     far = np.flatnonzero(dist > FAR_NODE * size)
