@@ -32,8 +32,7 @@ linearizes (for a static run: the final step, or every step with ``modes_per_ste
 transient (SPACAR 1)
     With START static the static load path first (stored in /static), then the time
     integration of TIMESTEP (:mod:`spacarpy.solvers.dynamics.transient`), every time step
-    appended to
-    /transient as it is computed.
+    appended to /transient as it is computed.
 transient_linearized (SPACAR 3)
     The transient, and at every stored time step the linearized equations about the state
     of the trajectory (:mod:`spacarpy.solvers.dynamics.trajectory`) in /state_space, whose ``step``
@@ -68,10 +67,13 @@ class AnalysisInputError(SpacarError):
 class RunOptions:
     """How to run, beyond the analysis settings: ``compliance_node``: (position node,
     orientation node) deck numbers whose 6x6 compliance is computed at every linearized step;
-    ``progress``: a callback of the transient run."""
+    ``progress``: a callback of the transient run; ``ignore_conditioning``: only warn where
+    the residual's round-off floor exceeds its limit
+    (:func:`~spacarpy.solvers.statics.conditioning.check_residual_floor`)."""
 
     compliance_node: tuple | None = None
     progress: object = None          # transient: progress(t, t_end), e.g. a terminal bar
+    ignore_conditioning: bool = False
 
 
 @dataclass
@@ -109,6 +111,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "check":
         from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
+    if problem.loads.any:
+        from spacarpy.solvers.statics.conditioning import check_residual_floor
+        check_residual_floor(problem, ignore=opts.ignore_conditioning)
     mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     if any(model.gravity) and not mass.has_mass:
         log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
@@ -191,7 +196,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 deformation=step.deformation,
                 stress_resultant=step.stress,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
-                arc_length=step.arc_length, **surface_stress(step.stress.get("BEAM")))
+                arc_length=step.arc_length, converged_by=int(step.converged_by == "floor"),
+                **surface_stress(step.stress.get("BEAM")))
             summary.n_steps += 1
             if step.warning:
                 writer.add_warning(step.warning)
@@ -360,10 +366,9 @@ def _critical_point(num, free, step, k, writer) -> str:
 
 def step_line(k: int, n_steps: int, step, tol: float) -> str:
     """The progress line of stored load step ``k``. A step is also accepted when its residual
-    stays above the tolerance at its round-off floor while the increments are below the
-    tolerance (solvers/statics/newton.py); the line then says so, so that a residual of 5e-4
-    beside a
-    tolerance of 1e-9 is not read as a failed convergence."""
+    stays above the tolerance within its round-off floor measured at that state while the
+    increments are below the tolerance (solvers/statics/newton.py); the line then says so, so that
+    a residual of 5e-4 beside a tolerance of 1e-9 is not read as a failed convergence."""
     if getattr(step, "arc_length", None) is not None:     # ARCLENGTH: points, not steps
         line = (f"point {k:>3}  arc length {step.arc_length:.4g}  load factor "
                 f"{step.load_factor:.6f}  {step.iterations:2d} iterations  residual "
@@ -372,9 +377,9 @@ def step_line(k: int, n_steps: int, step, tol: float) -> str:
         line = (f"step {k:>{len(str(n_steps))}}/{n_steps}  load factor "
                 f"{step.load_factor:.4f}  {step.iterations:2d} iterations  residual "
                 f"{step.residual:.2e}")
-    if step.residual > tol:
-        line += (f" (at its round-off floor, above the tolerance {tol:.0e}: the increments "
-                 "are below it)")
+    if getattr(step, "converged_by", "tolerance") == "floor":
+        line += (f" (above the tolerance {tol:.0e}, within its round-off floor measured at "
+                 "this state; the increments are below the tolerance)")
     return line
 
 

@@ -100,3 +100,60 @@ def test_out_of_memory_in_the_solve_is_a_message_not_a_traceback(tmp_path, capsy
     assert main(["run", str(deck), "-q"]) == 1
     err = capsys.readouterr().err
     assert err.startswith("error: out of memory") and "Traceback" not in err
+
+
+# --- issue 34: the residual's round-off floor, for every element kind ------------------------
+
+def _floor(text):
+    from spacarpy.deck import job_from_text
+    from spacarpy.solvers.statics.equilibrium import StaticProblem
+    model, _ = job_from_text(text, "<deck>")
+    return conditioning.residual_floor(StaticProblem(model))
+
+
+def test_the_residual_floor_grows_with_the_cube_of_the_elements_and_knows_shear():
+    """The shear-rigid Table 1 cantilever: the prospective floor is 3.55e-3 of the load at
+    10^4 beams (the solver measured 2e-3 to 4e-3 at the solution), so 3.55e-6 at 10^3 and
+    3.55e-9 at 10^2: the cube of the number of beams. The bench's GA = 10 EA has a third of
+    it. An unloaded model has none."""
+    rel_100, along = _floor(DECK.format(n=100))
+    rel_1000, _ = _floor(DECK.format(n=1000))
+    assert along == pytest.approx(100, rel=1e-9)
+    assert rel_1000 == pytest.approx(3.55e-6, rel=0.02)
+    assert rel_1000 / rel_100 == pytest.approx(1000, rel=0.02)
+    shear = DECK.format(n=1000).replace("1725000 1725000 0 0", "1725000 1725000 8.333e-5 "
+                                                               "8.333e-5")
+    assert _floor(shear)[0] == pytest.approx(1.18e-6, rel=0.03)
+    assert _floor(DECK.format(n=10).replace("DELXF 3 0 1293750 0", "")) is None
+
+
+def test_a_floor_above_the_limit_stops_the_run_with_the_size_where_it_falls(
+        tmp_path, capsys, monkeypatch):
+    """With FLOOR_LIMIT lowered to 1e-6 (as the 10^5 shear-rigid deck's 3.6 exceeds the real
+    2): the 1000-beam deck (3.55e-6) stops before the solve, exit 2, with the size where the
+    limit falls: 1000 (1e-6 / 3.55e-6)^(1/3) = 656, given as 660."""
+    monkeypatch.setattr(conditioning, "FLOOR_LIMIT", 1e-6)
+    deck = tmp_path / "cantilever.dat"
+    deck.write_text(DECK.format(n=1000))
+    assert main(["run", str(deck), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "its round-off floor is 3.5" in err and "times the applied load" in err
+    assert "the limit is at about 660 beams" in err and "Traceback" not in err
+    assert main(["run", str(deck), "-q", "--ignore-conditioning-limit"]) == 0
+
+
+def test_a_node_far_outside_the_model_is_named(tmp_path, capsys):
+    """N11: X 5 1e20 0 0 used to give 'round-off leaves 2664...728.0 relative error ... at
+    about 6.13e-15 elements; use longer elements'. The cause is named, the numbers sane."""
+    import re
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "decks"
+            / "table1_cantilever_8el_modified.dat").read_text()
+    deck = tmp_path / "far.dat"
+    deck.write_text(text.replace("X 9 1 0 0", "X 9 1e20 0 0"))
+    assert main(["run", str(deck), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "node 9 lies 1e+20 m from the rest of the model" in err
+    assert "check the X line" in err and "longer elements" not in err
+    assert not re.search(r"\d{12}", err)
+    assert conditioning.far_nodes(model_from_text(DECK.format(n=8), "<ok>")) is None

@@ -97,7 +97,7 @@ def test_layout_follows_schema(tmp_path):
     write_run(out, chain_model())
     with h5py.File(out, "r") as f:
         assert f.attrs["schema_version"].dtype == np.int32
-        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 6]
+        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 7]
         assert f["deck"].shape == ()
         assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
         info = h5py.check_string_dtype(f["model/elements/BEAM/cross_section_type"].dtype)
@@ -123,8 +123,8 @@ def test_layout_follows_schema(tmp_path):
         assert units["static/elements/BEAM/stress_resultant"] == "N"
         assert units["static/reaction"] == "N | N m (see reaction_component)"
         assert units["model/position_nodes"] == "1"
-        assert len(units) == 16 + 14 + 1  # the 1.0 datasets but element_type, the 1.1 ones,
-        # /static/checksum (2.1)
+        assert len(units) == 16 + 14 + 1 + 1  # the 1.0 datasets but element_type, the 1.1
+        # ones, /static/checksum (2.1), /static/converged_by (2.7)
 
 
 def test_overwrites_existing_output_only_when_finished(tmp_path):
@@ -149,7 +149,7 @@ def test_newer_major_version_is_refused(tmp_path):
     with pytest.raises(ResultsFormatError) as info:
         read_results(out)
     message = str(info.value)
-    assert "99.0" in message and "2.6" in message
+    assert "99.0" in message and "2.7" in message
     assert isinstance(info.value, SpacarError) and info.value.exit_code == EXIT_INPUT
     problems = validate_file(out)
     assert len(problems) == 1 and "99" in problems[0]

@@ -108,12 +108,8 @@ def test_fine_cantilever_converges_quadratically_with_few_factorizations():
 def test_an_untouched_configuration_is_not_accepted_on_the_round_off_floor(monkeypatch):
     model = cantilever(4, n_steps=1)
     prob = StaticProblem(model)
-    real = prob.residual_norm
-
-    def huge_floor(*args, **kw):               # as with 10^5 elements: floor > change
-        res, _ = real(*args, **kw)
-        return res, 10.0
-    monkeypatch.setattr(prob, "residual_norm", huge_floor)
+    # as with 10^5 elements: every equation "within its floor"
+    monkeypatch.setattr(prob, "at_floor", lambda *args, **kw: True)
     res = solve_static(model, problem=prob, options=StaticOptions(max_iter=20, tol=1e-9))
     assert res.steps[-1].iterations >= 1
     assert res.steps[-1].x[prob.num.pos_idx[-1]][1] > 1.0     # it did move (u_y ~ 1.22 m)

@@ -280,14 +280,17 @@ def test_a_tolerance_below_round_off_fails_with_a_hint_and_a_value_that_works(tm
 
 
 def test_a_step_accepted_at_its_round_off_floor_says_so():
-    """D12: a step whose residual stays above the tolerance at its round-off floor (accepted
-    on its increments, solvers/statics/newton.py) says so in the progress line; others do not."""
+    """D12: a step accepted within its measured round-off floor (above the tolerance, on
+    converged increments, solvers/statics/newton.py) says so in the progress line; a step whose
+    residual met the tolerance does not, and neither does one merely above it (never
+    accepted that way any more: the line follows the stored reason, not the number)."""
     from types import SimpleNamespace
 
     from spacarpy.run import step_line
 
-    step = SimpleNamespace(load_factor=0.5, iterations=4, residual=5e-4)
+    step = SimpleNamespace(load_factor=0.5, iterations=4, residual=5e-4, converged_by="floor")
     line = step_line(3, 10, step, 1e-9)
     assert "residual 5.00e-04" in line and "round-off floor" in line and "1e-09" in line
-    assert "round-off" not in step_line(3, 10, SimpleNamespace(load_factor=0.5, iterations=4,
-                                                               residual=1e-10), 1e-9)
+    for res, by in ((1e-10, "tolerance"), (5e-4, "tolerance")):
+        assert "round-off" not in step_line(3, 10, SimpleNamespace(
+            load_factor=0.5, iterations=4, residual=res, converged_by=by), 1e-9)

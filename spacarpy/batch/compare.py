@@ -32,10 +32,12 @@ import numpy as np
 __all__ = ["IGNORED", "INFINITE_MULTIPLIER", "DatasetDiff", "compare_files",
            "load_tolerances"]
 
-#: Dataset paths (fnmatch patterns) not compared: the Newton residual and iteration counts
-#: of static and transient runs (they depend on round-off), and mode shapes (their sign, and
+#: Dataset paths (fnmatch patterns) not compared: the Newton residual, iteration counts and
+#: acceptance rule (``converged_by``: a residual near the tolerance may meet it or not) of
+#: static and transient runs (they depend on round-off), and mode shapes (their sign, and
 #: the basis of repeated eigenvalues, are arbitrary).
-IGNORED = ("/static/residual", "/static/iterations", "/transient/residual",
+IGNORED = ("/static/residual", "/static/iterations", "/static/converged_by",
+           "/transient/residual",
            "/transient/iterations", "/*/shape_position", "/*/shape_euler")
 
 #: A stored buckling multiplier above this magnitude is infinite: 1 / (SAFETY eps) of the

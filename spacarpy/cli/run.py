@@ -128,8 +128,9 @@ def _run_locked(args, out) -> int:
     handlers = logging.getLogger().handlers if progress is not None else []
     for handler in handlers:         # a log line first clears the bar's line
         handler.addFilter(progress.clear_line)
-    summary = run_model(model, settings, out, RunOptions(compliance_node=args.compliance,
-                                                         progress=progress))
+    summary = run_model(model, settings, out, RunOptions(
+        compliance_node=args.compliance, progress=progress,
+        ignore_conditioning=args.ignore_conditioning_limit))
     if progress is not None:
         progress.close()
     for handler in handlers:

@@ -47,6 +47,9 @@ class StaticResults:
     reaction_component : list of str, length n_reac
     iterations : (n_step,) int32
     residual : (n_step,) float64
+    converged_by : (n_step,) int8 or None
+        0: the residual met the tolerance, 1: within its round-off floor (schema 2.7; None
+        for an older file).
     max_normal_stress, max_von_mises_stress : (n_step, n_elem) float64 or None
         Largest surface stresses of the BEAM elements (Pa); ``None`` without cross-sections.
     elements : dict
@@ -64,6 +67,7 @@ class StaticResults:
     reaction_component: list
     iterations: np.ndarray
     residual: np.ndarray
+    converged_by: np.ndarray | None = None
     max_normal_stress: np.ndarray | None = None
     max_von_mises_stress: np.ndarray | None = None
     elements: dict = field(default_factory=dict)

@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 6)
+SCHEMA_VERSION = (2, 7)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -189,6 +189,10 @@ def _spec_list() -> list[DatasetSpec]:
           "reaction force or moment of each reaction component"),
         S("static/iterations", "i4", ("step",), "1", "Newton iterations used in the load step"),
         S("static/residual", "f8", ("step",), "1", "final relative residual of the load step"),
+        S("static/converged_by", "i1", ("step",), "1",
+          "how the load step was accepted: 0 its residual meets the tolerance, 1 it is above "
+          "the tolerance but within its round-off floor measured at that state, with "
+          "converged increments (docs/solver.md, Convergence)", (2, 7), optional=True),
         S("static/arc_length", "f8", ("step",), "1",
           "arc length from step 0 in the scaled norm of the arc-length method (present in "
           "ARCLENGTH runs)", (2, 4), optional=True),

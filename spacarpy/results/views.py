@@ -373,6 +373,14 @@ class StaticView(_StepView):
         return self._res._read("static/load_factor")
 
     @property
+    def converged_by(self) -> np.ndarray:
+        """(n_step,) int: 0 where the step's residual met the tolerance, 1 where it was
+        accepted within its measured round-off floor; -1 for a file older than 2.7."""
+        if not self._res._has("static/converged_by"):
+            return np.full(self.n_step, -1, dtype=np.int8)
+        return self._series("converged_by")
+
+    @property
     def has_stress(self) -> bool:
         """Whether surface stresses were stored (some element has a known cross-section)."""
         return self._res._has("static/elements/BEAM/max_normal_stress")

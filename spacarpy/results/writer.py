@@ -261,7 +261,7 @@ class ResultsWriter:
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
                     max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length: float | None = None) -> None:
+                    arc_length: float | None = None, converged_by: int = 0) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
@@ -286,10 +286,14 @@ class ResultsWriter:
             cross-sections (:class:`spacarpy.results.stress.SurfaceStress` computes them).
         arc_length : float, optional
             The arc length from step 0 (required in an arc-length run).
+        converged_by : int
+            0: the residual met the tolerance; 1: it lies within its measured round-off
+            floor (``/static/converged_by``).
         """
         given = {"position": position, "euler": euler, "reaction": reaction,
                  "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
+                 "converged_by": operator.index(converged_by),
                  "elements/BEAM/max_normal_stress": max_normal_stress,
                  "elements/BEAM/max_von_mises_stress": max_von_mises_stress}
         self._step("static", float(load_factor), given, deformation, stress_resultant)

@@ -42,6 +42,11 @@ from spacarpy.solvers.statics.reduced import applies as reduced_applies
 _EPS = float(np.finfo(float).eps)
 #: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
 _FLOOR_FACTOR = 10.0
+#: A residual above the tolerance is accepted only within this many times its measured
+#: round-off floor (:meth:`StaticProblem.roundoff_floor`), and only with converged
+#: increments: the floor is a sum of absolute values (an upper bound of the accumulated
+#: round-off), the kernels add a few roundings per term.
+FLOOR_MULTIPLE = 10.0
 
 
 def _material_stiffness(D, S):
@@ -258,6 +263,68 @@ class StaticProblem:
         floor = (_FLOOR_FACTOR * _EPS * getattr(self, "scale", 0.0)
                  * self.position_magnitude / level if level > 0 else 0.0)
         return max(rel, np.abs(c * cw).max(initial=0.0)), floor
+
+    def roundoff_floor(self, ev: Evaluation, x, mu) -> tuple[np.ndarray, np.ndarray]:
+        """The residual's round-off floor measured at one state, per equation: what double
+        precision cannot resolve in each free coordinate's force balance and each
+        constraint (docs/solver.md, "Convergence").
+
+        A force residual ``r_i = sum_e (D_e^T sigma_e)_i - f_ext_i`` carries the round-off
+        of its sum, ``eps sum_e |D_e|^T |sigma_e|``, and that of the stress resultants
+        computed from coordinates stored to ``eps |x|``: ``eps sum_e |D_e|^T |S_e| |D_e|
+        |x_e|``; a constraint carries ``eps |D_c| |x|`` (rigid modes) or ``4 eps`` (an
+        Euler normalization). Returns ``(floor_r, floor_c)`` in the units of ``ev.r`` and
+        ``ev.c``, without a safety factor."""
+        num = self.num
+        floor = np.abs(ev.f_ext).copy()
+        floor_c = []
+        for g, st, sigma in zip(num.groups, ev.states, ev.sigmas):
+            if not len(st.D):
+                continue
+            d_abs = np.abs(st.D)
+            x_abs = np.abs(x[g.idx])
+            de = batch_matvec(d_abs, x_abs)                    # round-off of e / eps
+            ds = np.abs(sigma) + batch_matvec(np.abs(g.S), de)
+            floor += scatter_add(num.n_coord, g.idx, (ds[:, None, :] @ d_abs)[:, 0, :])
+            if g.rigid_elem.size:
+                floor_c.append(de[g.rigid_elem, g.rigid_mode])
+        eu = num.euler_coords
+        if eu.size:
+            floor[eu] += 2.0 * np.abs(ev.q_eu) * np.abs(mu[num.n_rigid:, None])
+        floor_c.append(np.full(num.euler_nodes.size, 4.0))
+        return _EPS * floor[self.free], _EPS * np.concatenate(floor_c)
+
+    def at_floor(self, ev: Evaluation, x, mu, tol: float) -> bool:
+        """Whether every equation of ``ev`` meets the tolerance (scaled as in
+        :meth:`residual_norm`) or lies within :data:`FLOOR_MULTIPLE` times its measured
+        round-off floor (:meth:`roundoff_floor`): the residual cannot be reduced further."""
+        floor_r, floor_c = self.roundoff_floor(ev, x, mu)
+        level = self.force_level(ev.f_ext, ev.f_int)
+        r_ok = (np.abs(ev.r) * self._force_w_free <= tol * level) | (
+            np.abs(ev.r) <= FLOOR_MULTIPLE * floor_r)
+        c_ok = (np.abs(ev.c) * self.constraint_weight <= tol) | (
+            np.abs(ev.c) <= FLOOR_MULTIPLE * floor_c)
+        return bool(r_ok.all() and c_ok.all())
+
+    def null_state(self, x, load: LoadState) -> bool:
+        """Whether (x, load) is the unloaded initial configuration of a model without
+        pre-stress or history: no force, moment or gravity, no prescribed motion, x = x0.
+        That state is its own equilibrium by definition (every deformation is zero); its
+        residual is pure round-off, measured against :attr:`force_scale`."""
+        num = self.num
+        idx, target = num.prescribed_state(load.a, load.s)
+        return bool(not np.any(load.force) and not np.any(load.moment)
+                    and np.array_equal(num.x0[idx], target)
+                    and not (self.loads.has_gravity and load.gravity_factor)
+                    and not np.any(load.rigid_target) and not self.has_commit
+                    and all(g.sigma0 is None or not np.any(g.sigma0) for g in num.groups)
+                    and np.array_equal(x, num.x0))
+
+    @property
+    def force_scale(self) -> float:
+        """The model's internal force scale (N): the largest element stiffness entry times
+        the length scale, the force of a unit strain of the stiffest element."""
+        return self.scale * self.num.length_scale
 
     def increment_norm(self, dx) -> float:
         return float(np.abs(dx * self._increment_w).max(initial=0.0))

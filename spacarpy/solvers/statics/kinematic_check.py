@@ -100,6 +100,16 @@ def analysis_error(prob, ka: KinematicAnalysis) -> ModelError | None:
     return err
 
 
+def free_motions(exc) -> str:
+    """The description of a mechanism's free motions in a :class:`ModelError` (nodes and
+    drivers), without the model-error framing and the advice to fix it."""
+    text = str(exc).split("\n")[0]
+    text = text.removeprefix("the model cannot be solved: ").removeprefix("mechanism: ")
+    for advice in (". Add FIX lines", ". Fix them", "; add FIX"):
+        text = text.split(advice)[0]
+    return text.rstrip(". ")
+
+
 def determinate(prob, states, x) -> bool:
     """Whether the model is a tree whose every deformation mode is rigid or carries a
     positive definite stiffness, with a regular square kinematic Jacobian W at x (its

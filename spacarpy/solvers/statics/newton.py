@@ -38,56 +38,88 @@ def bordered_solve(prob, A, rhs):
     return dz, lu
 
 
+#: The last allowed iteration is tested with one more increment only where its own
+#: increment was already this small (quadratic convergence: the next one is below tol).
+_LAST_INCREMENT = 1e-3
+
+
+class History(list):
+    """The scaled residuals of the iterations; ``converged_by`` says how the converged
+    state was accepted: "tolerance" (the residual meets it) or "floor" (above it, within
+    the residual's measured round-off floor, increments converged)."""
+
+    converged_by: str | None = None
+
+
+def _increment(prob, ev, x, mu, r, c):
+    """The Newton increment ``(dx, dmu)`` at an evaluated state, None where the Newton
+    matrix is singular."""
+    if prob.reduced is not None:
+        t0 = time.perf_counter()
+        k_el, euler_diag, _ = prob.element_blocks(ev, mu)
+        prob.timings.kernels += time.perf_counter() - t0
+        step = prob.reduced.step(ev, x, mu, k_el, euler_diag)
+        if step is not None:
+            return step
+    A = prob.matrix(ev, mu)
+    t0 = time.perf_counter()
+    rhs = -np.concatenate([r, prob.scale * c])
+    dz, _ = bordered_solve(prob, A, rhs)
+    if dz is None:
+        return None
+    prob.timings.solve += time.perf_counter() - t0
+    return dz[: prob.pattern.n_x], dz[prob.pattern.n_x:] * prob.scale
+
+
 def newton(prob, x, mu, load: LoadState, opts, states=None):
     """Newton iterations from (x, mu) under ``load`` (``opts``: max_iter, tol; a
     :class:`~spacarpy.solvers.statics.static.StaticOptions`). ``states`` are the kernel states at
     exactly this x where the caller has them (:meth:`Predictor.with_states`). Returns (x,
     mu, its, res, history) on success, raises :class:`~spacarpy.solvers.statics.errors.StepFailed`
     otherwise."""
-    history = []
+    history = History()
     dx_norm = np.inf
     for it in range(opts.max_iter + 1):
         ev = prob.evaluate(x, mu, load, states)
         r, c = ev.r, ev.c
-        res, floor = prob.residual_norm(r, c, ev.f_int, ev.f_ext)
+        # the unloaded initial configuration: its forces are pure round-off, measured
+        # against the model's internal force scale instead of against themselves
+        level = prob.force_scale if it == 0 and prob.null_state(x, load) else None
+        res, _ = prob.residual_norm(r, c, ev.f_int, ev.f_ext, level=level)
         history.append(res)
-        log.debug("iteration %d: residual %.3g (floor %.3g), last increment %.3g",
-                  it, res, floor, dx_norm)
+        log.debug("iteration %d: residual %.3g, last increment %.3g", it, res, dx_norm)
         if not np.isfinite(res):
             raise StepFailed("non-finite residual", history)
-        # converged: the last increment below the tolerance and the residual below the
-        # tolerance or at its round-off floor (with very short, stiff elements the force
-        # residual cannot be resolved better, while positions still are)
-        # (an untouched configuration needs the residual itself below the tolerance:
-        # with millions of elements the round-off floor can exceed the load change)
-        if (res <= opts.tol or (it > 0 and res <= floor)) and (
-                it == 0 or dx_norm <= opts.tol):
+        # converged: the residual below the tolerance and the last increment too (an
+        # untouched configuration needs no increment); or, with converged increments, every
+        # equation within a small multiple of its round-off floor measured at this state
+        # (short, stiff elements: the force residual cannot be resolved better, while the
+        # positions are), docs/solver.md
+        by = None
+        if res <= opts.tol and (it == 0 or dx_norm <= opts.tol):
+            by = "tolerance"
+        elif it > 0 and dx_norm <= opts.tol and prob.at_floor(ev, x, mu, opts.tol):
+            by = "floor"
+        elif it == opts.max_iter and res <= opts.tol and dx_norm <= _LAST_INCREMENT:
+            # the last allowed iteration meets the tolerance, its increment not yet: one
+            # more Newton increment tells whether it has converged (it is not applied)
+            dx_next = _increment(prob, ev, x, mu, r, c)
+            if dx_next is not None and prob.increment_norm(dx_next[0]) <= opts.tol:
+                by = "tolerance"
+        if by is not None:
             prob.check_element_range(ev.states)
+            history.converged_by = by
             return x, mu, it, res, history
         if it == opts.max_iter:
             break
         if it >= 3 and res > 1e3 * history[1] and res > 1e3 * opts.tol:
             raise StepFailed("diverging", history)
         prob.timings.iterations += 1
-        step = None
-        if prob.reduced is not None:
-            t0 = time.perf_counter()
-            k_el, euler_diag, _ = prob.element_blocks(ev, mu)
-            prob.timings.kernels += time.perf_counter() - t0
-            step = prob.reduced.step(ev, x, mu, k_el, euler_diag)
-        if step is not None:
-            dx, dmu = step
-        else:
-            A = prob.matrix(ev, mu)
-            t0 = time.perf_counter()
-            rhs = -np.concatenate([r, prob.scale * c])
-            dz, _ = bordered_solve(prob, A, rhs)
-            if dz is None:
-                # a limit point, a bifurcation or a bad iterate
-                raise StepFailed("singular Newton matrix", history)
-            prob.timings.solve += time.perf_counter() - t0
-            dx = dz[: prob.pattern.n_x]
-            dmu = dz[prob.pattern.n_x:] * prob.scale
+        step = _increment(prob, ev, x, mu, r, c)
+        if step is None:
+            # a limit point, a bifurcation or a bad iterate
+            raise StepFailed("singular Newton matrix", history)
+        dx, dmu = step
         if not (np.isfinite(dx).all() and np.isfinite(dmu).all()):
             raise StepFailed("non-finite increment", history)
         dx_norm = prob.increment_norm(dx)
@@ -144,4 +176,4 @@ class Predictor:
                                        return_states=True)
 
 
-__all__ = ["Predictor", "bordered_solve", "newton"]
+__all__ = ["History", "Predictor", "bordered_solve", "newton"]

@@ -23,14 +23,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.errors import ConvergenceError
+from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.path.arclength import ArcLengthPath
 from spacarpy.solvers.path.stability import PathStability
 from spacarpy.solvers.statics.equilibrium import StaticProblem, Timings
 from spacarpy.solvers.statics.errors import StepFailed
-from spacarpy.solvers.statics.kinematic_check import check_initial
+from spacarpy.solvers.statics.kinematic_check import check_initial, free_motions
 from spacarpy.solvers.statics.loads import Loads, LoadState
 from spacarpy.solvers.statics.newton import Predictor, newton
 
@@ -52,6 +52,7 @@ class StaticStep:
     arc_length: float | None = None   # ARCLENGTH: the scaled arc length from step 0
     critical: object = None           # ARCLENGTH: a CriticalPoint refined at this step
     warning: str | None = None        # load stepping: the step jumped (snap-through)
+    converged_by: str = "tolerance"   # or "floor": within the measured round-off floor
 
 
 @dataclass
@@ -118,19 +119,30 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
     mu = np.zeros(num.n_constraint)
     result = StaticResult(problem=prob)
     if prob.loads.any:
-        check_initial(prob)
+        try:
+            check_initial(prob)
+        except ModelError as exc:
+            raise _no_equilibrium(exc, settings) from None
     else:
         # no load at all: the initial configuration is the equilibrium, also for a
         # free-floating structure or a mechanism (neutral equilibrium, e.g. before an
-        # eigenfrequency analysis): warn instead of refusing. Redundant constraints are
-        # an error with or without load.
+        # eigenfrequency analysis): say so instead of refusing, unless something else
+        # (a pre-stress ESIG) drives it. Redundant constraints are an error with or
+        # without load.
         exc = check_initial(prob, allow_mechanism=True)
         if exc is not None:
-            log.warning("unloaded model: %s", exc)
+            if _driven(prob, opts.tol):
+                raise _no_equilibrium(exc, settings)
+            log.warning("unloaded model with free motions (%s): no load drives them, so its "
+                        "initial configuration is taken as the equilibrium (a neutral one)",
+                        free_motions(exc))
 
     warned = []
 
-    def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None):
+    def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None,
+              by=None):
+        if by is None:          # an arc-length point: above tol only on its floor
+            by = "tolerance" if res <= opts.tol else "floor"
         ev = prob.evaluate(x, mu, prob.loads.at(1.0, load_factor))
         if not warned:
             warned.extend(_strain_warnings(num, ev.states, len(result.steps)))
@@ -138,7 +150,7 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=deformation,
                           stress=stress, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
                           iterations=its, residual=res, mu=mu.copy(), arc_length=arc,
-                          critical=critical, warning=warning)
+                          critical=critical, warning=warning, converged_by=by)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -150,25 +162,55 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
 
     path = PathStability(prob, opts, predictor, advance)
     # phase A: reach XF (a: 0 -> 1) at s = 0
-    x, mu, its, res = advance(x, mu, (0.0, 0.0), (1.0, 0.0),
-                              opts.n_init if prob.loads.has_xf else 1, stored_step=0)
+    x, mu, its, res, by = advance(x, mu, (0.0, 0.0), (1.0, 0.0),
+                                  opts.n_init if prob.loads.has_xf else 1, stored_step=0)
     x, mu = path.check(prob.normalize(x), mu, (1.0, 0.0), 0)
     if opts.arclength is not None:
-        store(0.0, x, mu, its, res, arc=0.0)
+        store(0.0, x, mu, its, res, arc=0.0, by=by)
         ArcLengthPath(prob, opts, opts.arclength).follow(x, mu, store)
         prob.timings.total = time.perf_counter() - t_start
         return result
-    store(0.0, x, mu, its, res)
+    store(0.0, x, mu, its, res, by=by)
     # phase B: DELXF in n_steps stored increments
     jumps = JumpCheck(prob)
     for k in range(1, opts.n_steps + 1):
         s0, s1 = (k - 1) / opts.n_steps, k / opts.n_steps
         x_old = x
-        x, mu, its, res = advance(x, mu, (1.0, s0), (1.0, s1), 1, stored_step=k)
+        x, mu, its, res, by = advance(x, mu, (1.0, s0), (1.0, s1), 1, stored_step=k)
         x, mu = path.check(prob.normalize(x), mu, (1.0, s1), k)
-        store(s1, x, mu, its, res, warning=jumps(x_old, x, k, s1))
+        store(s1, x, mu, its, res, warning=jumps(x_old, x, k, s1), by=by)
     prob.timings.total = time.perf_counter() - t_start
     return result
+
+
+def _driven(prob, tol: float) -> bool:
+    """Whether an unloaded model is out of equilibrium in its initial configuration at
+    the start or the end of its load path (a pre-stress ESIG acting)."""
+    num = prob.num
+    mu = np.zeros(num.n_constraint)
+    for s in (0.0, 1.0):
+        ev = prob.evaluate(num.x0, mu, prob.loads.at(1.0, s))
+        if prob.null_state(num.x0, ev.load):
+            continue
+        if prob.residual_norm(ev.r, ev.c, ev.f_int, ev.f_ext)[0] > tol:
+            return True
+    return False
+
+
+def _no_equilibrium(exc, settings) -> ModelError:
+    """A static run of a mechanism under its loads: it has no static equilibrium. The
+    kinematic check's error (the free motions, their nodes and drivers) gets a line that
+    says so and names the analysis the deck's lines suggest (exit 3)."""
+    if not getattr(exc, "mechanism", True) or getattr(exc, "over_constrained", False):
+        return exc
+    hint = ("to follow its motion, run it as a transient (--mode 1, with TIMESTEP and "
+            "masses)")
+    if settings.transient.timestep is not None:
+        hint = "the deck has TIMESTEP: run it with --mode 1 (transient)"
+    err = ModelError(f"{exc}\n  a mechanism under its loads has no static equilibrium, and "
+                     f"a static run cannot solve it: {hint}")
+    err.mechanism, err.over_constrained = True, False
+    return err
 
 
 #: A load step whose scaled increment exceeds this many times the largest one before it
@@ -244,6 +286,70 @@ def roundoff_hint(tol: float, history) -> str:
             f"default is {StaticOptions.tol:.0e})")
 
 
+#: The lowest eigenvalue of the reduced tangent, relative to that of the material
+#: stiffness alone, below which a state where step cutting failed is taken to be at a
+#: limit point when no second state tells the trend (the failure came on the first
+#: sub-step of a load step).
+LIMIT_EIGENVALUE = 1e-3
+
+
+def _softest(prob, x, mu, params) -> tuple[float, float] | None:
+    """Lowest eigenvalues of the reduced tangent and of the reduced material stiffness at
+    a state (dense; None for a model above the dense limit)."""
+    import scipy.linalg as sla
+
+    from spacarpy.solvers.linear.eigen import DENSE_LIMIT, null_space_basis
+    from spacarpy.solvers.linear.linearize import linearize
+    n_x = prob.pattern.n_x
+    if n_x > DENSE_LIMIT:
+        return None
+    lin = linearize(prob, x, mu, prob.loads.at(*params))
+    T = null_space_basis(lin.C, n_x)
+    if T.shape[1] == 0:
+        return None
+    out = []
+    for k in (lin.K, lin.K_mat):
+        k = T.T @ (k @ T)
+        out.append(float(sla.eigvalsh(0.5 * (k + k.T))[0]))
+    return out[0], out[1]
+
+
+def limit_point(prob, start, last, p_from, p_to, t, dt) -> str | None:
+    """The message of a load-control failure at a limit point, or None.
+
+    Step cutting failed at the load parameter ``t + dt`` of the way from ``p_from`` to
+    ``p_to``, after the state ``last`` converged at ``t`` (``start`` at 0). Near a limit
+    point the lowest eigenvalue of the reduced tangent goes to zero like the square root
+    of the distance to it, so its square is linear in the load: extrapolated from the two
+    states it vanishes before twice the failed increment (with one state: it is below
+    :data:`LIMIT_EIGENVALUE` times the material stiffness's). A state with a negative
+    eigenvalue (an unstable branch, a passed bifurcation) is not a limit point of this
+    path; a model above the dense limit is not judged."""
+    moving = 1 if p_to[1] != p_from[1] else 0          # phase B moves DELXF, A moves XF
+    q = [p_from[moving] + f * (p_to[moving] - p_from[moving]) for f in (0.0, t, t + dt)]
+    par = [p_from + f * (p_to - p_from) for f in (0.0, t)]
+    soft_c = _softest(prob, *last, par[1])
+    if soft_c is None or not soft_c[0] >= 0:
+        return None
+    lam_c = soft_c[0]
+    if t > 0:
+        soft_s = _softest(prob, *start, par[0])
+        if soft_s is None or not soft_s[0] > lam_c:
+            return None
+        lam_s = soft_s[0]
+        q_zero = q[1] + lam_c ** 2 * (q[1] - q[0]) / (lam_s ** 2 - lam_c ** 2)
+        log.debug("limit point test: lowest eigenvalue %.3g at %.6g, %.3g at %.6g: zero "
+                  "at %.6g; failed at %.6g", lam_s, q[0], lam_c, q[1], q_zero, q[2])
+        if not q_zero <= q[2] + (q[2] - q[1]):
+            return None
+    elif not lam_c < LIMIT_EIGENVALUE * soft_c[1]:
+        return None
+    name = "DELXF" if moving else "XF"
+    return (f"limit point at load factor {q[1]:.3g} ({name} factor; the last converged state "
+            f"is at {q[1]:.6g}, where the tangent's lowest eigenvalue goes to zero): the load "
+            f"cannot be raised further on this path; add ARCLENGTH to follow it")
+
+
 def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
     """Move the load parameters (a, s) from p_from to p_to, cutting steps on failure."""
     p_from, p_to = np.asarray(p_from, float), np.asarray(p_to, float)
@@ -251,17 +357,21 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
     dt_nominal = 1.0 / max(n_sub, 1)
     dt = dt_nominal
     min_dt = dt_nominal / 2 ** opts.max_cuts
-    total_its, last_res = 0, 0.0
+    total_its, last_res, last_by = 0, 0.0, "tolerance"
+    start = (x, mu)
     while t < t_end - 1e-14:
         dt = min(dt, t_end - t)
         p = p_from + (t + dt) * (p_to - p_from)
         try:
             load = prob.loads.at(*p)
             x_start, states = predictor.with_states(x, mu, load)
-            x_new, mu_new, its, res, _ = newton(prob, x_start, mu, load, opts, states)
+            x_new, mu_new, its, res, hist = newton(prob, x_start, mu, load, opts, states)
         except StepFailed as fail:
             if dt / 2 < min_dt:
                 lf = p_from[1] + t * (p_to[1] - p_from[1])
+                limit = limit_point(prob, start, (x, mu), p_from, p_to, t, dt)
+                if limit is not None:
+                    raise ConvergenceError(f"static step {stored_step}: {limit}") from None
                 hist = ", ".join(f"{h:.3e}" for h in fail.history)
                 raise ConvergenceError(
                     f"static step {stored_step} did not converge ({fail.reason}) after "
@@ -277,10 +387,10 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
         if prob.has_commit:
             prob.commit(x, mu, load)
         total_its += its
-        last_res = res
+        last_res, last_by = res, hist.converged_by
         t += dt
         dt = min(dt * 2, dt_nominal)            # grow back after a successful cut step
-    return x, mu, total_its, last_res
+    return x, mu, total_its, last_res, last_by
 
 
 __all__ = ["solve_static", "StaticProblem", "StaticStep", "StaticOptions", "StaticResult",

@@ -1,0 +1,207 @@
+"""Convergence means converged (issue 34 items 2 and 4): a step above its tolerance is
+accepted only within its round-off floor measured at that state, with converged increments,
+and the stored /static/converged_by says which rule accepted it; the unloaded initial
+configuration is its own equilibrium (N10); the last allowed iteration is tested (N11); a
+load-control failure at a limit point is named with its load factor."""
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from spacarpy.cli import main
+from spacarpy.deck import load
+from spacarpy.errors import ConvergenceError
+from spacarpy.solvers.statics import equilibrium, newton
+from spacarpy.solvers.statics.equilibrium import FLOOR_MULTIPLE, StaticProblem
+from spacarpy.solvers.statics.static import StaticOptions, solve_static
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
+
+
+def _deck(name: str, tmp_path, *replace) -> Path:
+    text = (DECKS / name).read_text()
+    for old, new in replace:
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / name
+    path.write_text("\n".join(ln for ln in text.splitlines() if not ln.startswith("EXPECT")))
+    return path
+
+
+def _solve(path):
+    model, settings = load(path)
+    return solve_static(model, settings)
+
+
+# --- the floor is measured --------------------------------------------------------------------
+
+def test_the_measured_floor_bounds_the_residual_of_a_converged_state_and_no_more():
+    """At the converged Table 1 state (8 beams) every force residual lies within the
+    measured floor, within 1/FLOOR_MULTIPLE of it even; a position off by 1e-9 of the length
+    (a real, if small, imbalance) is outside it for most of the equations it touches."""
+    res = _solve(DECKS / "table1_cantilever_8el_modified.dat")
+    prob, step = res.problem, res.steps[-1]
+    ev = prob.evaluate(step.x, step.mu, prob.loads.at(1.0, 1.0))
+    floor_r, floor_c = prob.roundoff_floor(ev, step.x, step.mu)
+    level = prob.force_level(ev.f_ext, ev.f_int)
+    assert np.all(floor_r >= 0) and np.all(floor_c > 0)
+    assert np.all(ev.r[floor_r == 0] == 0)                 # out of plane: exactly nothing
+    # the floor is round-off of the forces: 4.6e-12 of the load level here
+    assert 1e-12 < floor_r.max() / level < 1e-11
+    assert np.all(np.abs(ev.r) <= floor_r * FLOOR_MULTIPLE / 10)      # measured: below 1x
+    assert prob.at_floor(ev, step.x, step.mu, tol=0.0)
+    x = step.x.copy()
+    x[prob.num.pos_idx[4, 1]] += 1e-9 * prob.num.length_scale
+    ev = prob.evaluate(x, step.mu, prob.loads.at(1.0, 1.0))
+    assert not prob.at_floor(ev, x, step.mu, tol=0.0)
+    assert not prob.at_floor(ev, x, step.mu, tol=1e-12)
+    assert prob.at_floor(ev, x, step.mu, tol=1e-3)                   # the tolerance still counts
+
+
+def test_a_step_below_its_floor_is_accepted_by_it_and_stored_so(tmp_path):
+    """The 128-beam Table 1 cantilever with ITERSTEP tolerance 1e-12: the residual stops
+    near 8e-10 (its round-off floor), the increments converge: both steps are accepted on the
+    floor, and /static/converged_by stores 1 for them, 0 for step 0."""
+    deck = _deck("table1_cantilever_128el_modified.dat", tmp_path,
+                 ("ITERSTEP 20 10 1e-09", "ITERSTEP 20 2 1e-12"))
+    out = tmp_path / "floor.h5"
+    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    with h5py.File(out, "r") as f:
+        assert f["static/converged_by"][()].tolist() == [0, 1, 1]
+        res = f["static/residual"][()]
+    assert res[0] == 0.0 and np.all((res[1:] > 1e-12) & (res[1:] < 1e-8))
+    # at the default tolerance it meets the tolerance everywhere
+    out = tmp_path / "tol.h5"
+    assert main(["run", str(DECKS / "table1_cantilever_8el_modified.dat"), "-o", str(out),
+                 "-q"]) == 0
+    with h5py.File(out, "r") as f:
+        assert not f["static/converged_by"][()].any()
+        assert f["static/residual"][()].max() <= 1e-9
+
+
+def test_a_residual_outside_its_measured_floor_is_not_accepted(tmp_path, monkeypatch):
+    """The same run with the floor measured a thousand times too small: no step passes on it
+    (the rule is the measurement, not an assumption)."""
+    deck = _deck("table1_cantilever_128el_modified.dat", tmp_path,
+                 ("ITERSTEP 20 10 1e-09", "ITERSTEP 12 1 1e-12"))
+    real = equilibrium.StaticProblem.roundoff_floor
+
+    def small(self, *args):
+        fr, fc = real(self, *args)
+        return fr / 1e3, fc / 1e3
+    monkeypatch.setattr(equilibrium.StaticProblem, "roundoff_floor", small)
+    with pytest.raises(ConvergenceError, match="did not converge"):
+        _solve(deck)
+
+
+# --- N10, N11 --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("deck", ["table2_bend_8el_modified.dat", "bistable_curved_beam.dat"])
+def test_step_0_of_an_unloaded_curved_model_is_its_own_equilibrium(deck):
+    """N10: step 0 of a curved model at zero load needs no iteration; its residual is the
+    round-off of its internal forces relative to the model's force scale (it was 1.0:
+    round-off over round-off), met by the tolerance."""
+    model, settings = load(DECKS / deck)
+    prob = StaticProblem(model)
+    step = solve_static(model, settings, problem=prob,
+                        options=StaticOptions.from_settings(settings, n_steps=1)).steps[0]
+    assert step.iterations == 0 and step.converged_by == "tolerance"
+    assert step.residual < 1e-15
+    assert prob.null_state(prob.num.x0, prob.loads.at(1.0, 0.0))
+    assert not prob.null_state(prob.num.x0, prob.loads.at(1.0, 0.5))      # loaded
+
+
+def test_the_last_allowed_iteration_is_tested(monkeypatch, tmp_path):
+    """N11: ITERSTEP 3 1 1e-9 with a 5e7 N tip load on the 8-beam cantilever: every
+    sub-step's third iteration reaches about 1e-11, its increment is tested by one more
+    Newton increment, and the run finishes (it failed with 'no convergence in 3
+    iterations'). Without that test it fails again."""
+    deck = _deck("table1_cantilever_8el_modified.dat", tmp_path,
+                 ("DELXF 17 0 1293750 0", "DELXF 17 0 5e7 0"),
+                 ("ITERSTEP 20 10 1e-09", "ITERSTEP 3 1 1e-9"))
+    res = _solve(deck)
+    assert res.steps[-1].load_factor == 1.0 and res.steps[-1].residual <= 1e-9
+    assert res.steps[-1].converged_by == "tolerance"
+    monkeypatch.setattr(newton, "_LAST_INCREMENT", -1.0)
+    with pytest.raises(ConvergenceError, match="no convergence in 3 iterations"):
+        _solve(deck)
+
+
+# --- item 4: limit points in load control ----------------------------------------------------
+
+#: The two-bar truss's limit load factor (tests/test_arclength.py, closed form).
+LAMBDA_MAX = 0.4765145996
+
+
+def test_a_limit_point_in_load_control_is_named(tmp_path, capsys):
+    """The shallow two-bar truss of decks/two_bar_truss_arclength.dat without ARCLENGTH, in
+    10 load steps of 0.05 with at most 6 iterations (too few to jump onto the far branch):
+    step cutting closes in on the limit point 0.4765 and the run ends with its load factor
+    to 3 digits and the advice, exit 1, steps 0-4 kept."""
+    deck = _deck("two_bar_truss_arclength.dat", tmp_path, ("ITERSTEP 20 20 1e-12",
+                                                            "ITERSTEP 6 10 1e-10"),
+                 ("ARCLENGTH 400 0.02", ""))
+    out = tmp_path / "lc.h5"
+    assert main(["run", str(deck), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert (f"static step 5: limit point at load factor {LAMBDA_MAX:.3g} (DELXF factor"
+            in err)
+    assert "the load cannot be raised further on this path; add ARCLENGTH to follow it" in err
+    last = float(err.split("the last converged state is at ")[1].split(",")[0])
+    assert LAMBDA_MAX - 1e-4 < last <= LAMBDA_MAX
+    with h5py.File(tmp_path / "lc.partial.h5", "r") as f:
+        assert f["static/load_factor"][()].tolist() == pytest.approx([0, .1, .2, .3, .4])
+
+
+def test_a_failure_away_from_a_limit_point_is_not_called_one(tmp_path):
+    """The 8-beam cantilever with 1 iteration per step cannot follow a 5e7 N load: step
+    cutting fails on a stiff, stable path; the message stays 'did not converge'."""
+    deck = _deck("table1_cantilever_8el_modified.dat", tmp_path,
+                 ("DELXF 17 0 1293750 0", "DELXF 17 0 5e7 0"),
+                 ("ITERSTEP 20 10 1e-09", "ITERSTEP 1 1 1e-9"))
+    with pytest.raises(ConvergenceError) as exc:
+        _solve(deck)
+    assert "did not converge" in str(exc.value) and "limit point" not in str(exc.value)
+
+
+# --- a static run of a mechanism ---------------------------------------------------------------
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "spacar-decks"
+
+
+def test_a_static_run_of_a_loaded_mechanism_is_refused_with_the_mode_to_use(capsys, tmp_path):
+    """The rigid pendulum under gravity run with --mode static: no static equilibrium;
+    exit 3 before any load step, naming the moving nodes and --mode 1 (the deck has
+    TIMESTEP)."""
+    assert main(["run", str(DECKS / "pendulum_rigid_90deg.dat"), "--mode", "static", "-o",
+                 str(tmp_path / "p.h5")]) == 3
+    err = capsys.readouterr().err
+    assert "mechanism: 1 free motion(s)" in err
+    assert "a mechanism under its loads has no static equilibrium" in err
+    assert "nodes that move: 3, 4" in err
+    assert "the deck has TIMESTEP: run it with --mode 1 (transient)" in err
+    assert "step 0" not in err
+
+
+@pytest.mark.skipif(not (SHARED / "oopspa_slidercrank.dat").exists(),
+                    reason="needs ../shared/spacar-decks")
+def test_the_spacar_slider_crank_run_plainly_names_mode_1(capsys, tmp_path):
+    """SPACAR's slider-crank (TIMESTEP, no mode line, a pre-stress ESIG on its crank hinge)
+    run plainly: it used to fail at static step 0 with 'increment too large'."""
+    assert main(["run", str(SHARED / "oopspa_slidercrank.dat"), "-o",
+                 str(tmp_path / "s.h5")]) == 3
+    err = capsys.readouterr().err
+    assert "no static equilibrium" in err and "motion 1 driven by HINGE 1 mode 1" in err
+    assert "--mode 1 (transient)" in err and "increment too large" not in err
+
+
+def test_an_unloaded_free_free_model_says_what_is_done(capsys, tmp_path):
+    """N11: the free-free eigen deck is unloaded: its free motions are reported as a neutral
+    equilibrium, not as 'cannot be solved ... Add FIX lines'; it runs (exit 0)."""
+    assert main(["run", str(DECKS / "free_free_beam_8el.dat"), "-o",
+                 str(tmp_path / "f.h5")]) == 0
+    text = capsys.readouterr().err
+    assert "unloaded model with free motions (6 free motion(s)" in text
+    assert "initial configuration is taken as the equilibrium" in text
+    assert "cannot be solved" not in text and "Add FIX" not in text
