@@ -20,6 +20,7 @@ from spacarpy.cli import batch, bench, check, export, extract, plot, run, show, 
 from spacarpy.cli.process import (
     _capped,
     _printable,
+    _quiet_h5py_dealloc,
     _single_blas_thread,
     _terminate_like_interrupt,
     exit_process,
@@ -112,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     from spacarpy.memory import keep_freed_memory
     keep_freed_memory()                 # large models: reuse freed memory (spacarpy.memory)
+    _quiet_h5py_dealloc()
     previous = _terminate_like_interrupt()
     try:
         return _main(args)
