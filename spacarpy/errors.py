@@ -115,3 +115,13 @@ def is_disk_full(exc: BaseException | None) -> bool:
             return True
         exc = exc.__cause__ or exc.__context__
     return False
+
+
+def disk_full_text(exc: BaseException | None) -> str:
+    """"No space left on device" or "Disk quota exceeded", from ``exc`` or its causes."""
+    while exc is not None:
+        for text in ("Disk quota exceeded", "No space left on device"):
+            if text in str(exc) or (isinstance(exc, OSError) and exc.strerror == text):
+                return text
+        exc = exc.__cause__ or exc.__context__
+    return "No space left on device"

@@ -6,7 +6,9 @@ or that names one of the run's input files, so that a run never ends in a traceb
 the work is done and never replaces its own deck. :class:`OutputLock` holds an advisory
 lock (``fcntl.flock``) on a lock file beside the output, ``out.h5.lock``, for the whole
 run: a second ``spacarpy run`` writing the same file stops at once with the other run's
-process id, instead of both writing the same partial file. Creating the lock file also
+process id, instead of both writing the same partial file. An existing device, FIFO or
+socket is refused (:func:`refuse_special_output`); the null device means "discard"
+(:func:`discarding`). Creating the lock file also
 proves that the directory is writable. The lock is advisory and local: it protects
 spacarpy runs from each other, not from other programs, and on network file systems only
 as far as they support ``flock``.
@@ -16,6 +18,10 @@ from __future__ import annotations
 import errno
 import logging
 import os
+import shutil
+import stat
+import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
@@ -69,6 +75,9 @@ def check_output_path(path, what: str = "output file", inputs=(), warn: bool = T
     p = Path(text)
     if p.is_dir():
         raise OutputError(f"{what} {p}: is a directory; give a file name, e.g. {p / 'out'}")
+    refuse_special_output(p, what)
+    if is_null_device(p):
+        return p                        # discarded: nothing is written there (discarding)
     parent = p.parent
     if not parent.exists():
         raise OutputError(f"{what} {p}: the directory {parent} does not exist")
@@ -160,3 +169,66 @@ def _read_pid(fd: int) -> int | None:
         return int(text) if text.isdigit() else None
     except OSError:                                    # pragma: no cover
         return None
+
+
+# -- outputs that are not regular files (issue 34 item 5: never harm the system) -------------
+
+def _null_rdev() -> int:
+    try:
+        st = os.stat(os.devnull)
+        if stat.S_ISCHR(st.st_mode):
+            return st.st_rdev
+    except OSError:                                    # pragma: no cover
+        pass
+    return os.makedev(1, 3)                            # Linux's null device
+
+
+def is_null_device(path) -> bool:
+    """Whether ``path`` resolves (through symlinks) to the null device, ``/dev/null`` or
+    any node of the same character device: the output is to be discarded."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return False
+    return stat.S_ISCHR(st.st_mode) and st.st_rdev == _null_rdev()
+
+
+_KINDS = ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
+
+
+def refuse_special_output(path, what: str = "output file") -> None:
+    """Refuse, before any work, an output path that exists and is not a regular file or a
+    directory (a device, a FIFO, a socket; also through a symlink): spacarpy writes a new
+    file and moves it into place, which would replace the node itself (as root, even
+    ``/dev/null``). The null device is not refused here: the commands discard their output
+    there (:func:`discarding`)."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    if is_null_device(path):
+        return
+    for test, kind in _KINDS:
+        if test(mode):
+            raise OutputError(f"{what} {os.fspath(path)}: is {kind}, not a regular file; "
+                              "spacarpy writes only regular files (-o /dev/null discards the "
+                              "output)")
+
+
+@contextmanager
+def discarding(path, suffix: str | None = None):
+    """The path a command writes its output to: ``path`` itself, or, when ``path`` is the
+    null device (``-o /dev/null``), a file in a new private temporary directory that is
+    removed, with whatever was written there, when the block ends. The null device itself is
+    never opened, replaced or locked."""
+    if not is_null_device(path):
+        yield Path(path)
+        return
+    tmp = Path(tempfile.mkdtemp(prefix="spacarpy-discard-"))
+    try:
+        name = "discarded" + (suffix if suffix is not None else Path(path).suffix or ".out")
+        log.info("%s is the null device: the output is discarded", os.fspath(path))
+        yield tmp / name
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

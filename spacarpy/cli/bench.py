@@ -67,8 +67,10 @@ def cmd_bench(args) -> int:
     from spacarpy.bench.runner import run_bench
     sizes = _bench_sizes(args)
     if args.markdown is not None:
-        from spacarpy.outputs import check_output_path
+        from spacarpy.outputs import check_output_path, is_null_device
         check_output_path(args.markdown, "--markdown")
+        if is_null_device(args.markdown):      # discarded: the tables are not written
+            args.markdown = None
     run_bench(cases=args.cases, sizes=sizes, n_steps=args.steps,
               repeat=args.repeat, transient_steps=args.transient_steps,
               peer=args.peer, markdown=args.markdown,

@@ -30,6 +30,9 @@ def add_parser(sub) -> None:
 def cmd_export(args) -> int:
     """``spacarpy export FILE --xdmf | --vtk | --state-space FILE.mat``: files for ParaView,
     and the state space for MATLAB."""
+    from contextlib import nullcontext
+
+    from spacarpy.outputs import discarding, refuse_special_output
     from spacarpy.results.export import (
         check_export_output,
         write_state_space_mat,
@@ -39,7 +42,9 @@ def cmd_export(args) -> int:
 
     if args.state_space is not None:
         check_export_output(args.state_space, ".mat")
-        print(write_state_space_mat(args.file, args.state_space, step=args.step))
+        refuse_special_output(args.state_space, "--state-space")
+        with discarding(args.state_space) as target:
+            print(write_state_space_mat(args.file, target, step=args.step))
         if not (args.xdmf or args.vtk):
             return EXIT_OK
     want_xdmf = args.xdmf or not args.vtk
@@ -48,8 +53,10 @@ def cmd_export(args) -> int:
         return EXIT_INPUT
     if args.output is not None:          # before any work
         check_export_output(args.output, ".pvd" if args.vtk else ".xdmf")
-    if want_xdmf:
-        print(write_xdmf(args.file, args.output))
-    if args.vtk:
-        print(write_vtk(args.file, args.output))
+        refuse_special_output(args.output, "-o")
+    with discarding(args.output) if args.output is not None else nullcontext() as target:
+        if want_xdmf:
+            print(write_xdmf(args.file, target))
+        if args.vtk:
+            print(write_vtk(args.file, target))
     return EXIT_OK

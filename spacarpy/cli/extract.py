@@ -54,6 +54,9 @@ def cmd_extract(args) -> int:
                         mode=args.mode, dof=args.dof)
     text = {"csv": table.to_csv, "json": table.to_json}.get(args.format, table.to_text)()
     if args.output is not None:
+        from spacarpy.outputs import is_null_device
+        if is_null_device(args.output):          # -o /dev/null: discarded, never opened
+            return EXIT_OK
         args.output.write_text(text, encoding="utf-8")
         log.info("%s written", args.output)
     else:

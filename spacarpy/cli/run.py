@@ -89,13 +89,14 @@ def add_parser(sub) -> None:
 
 
 def cmd_run(args) -> int:
-    from spacarpy.outputs import OutputLock, check_output_path
+    from spacarpy.outputs import OutputLock, check_output_path, discarding
 
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
     out = check_output_path(out, "-o" if args.output is not None else "result file",
                             inputs=[args.deck])
-    with OutputLock(out):       # a second run on the same file stops here, before any work
-        return _run_locked(args, out)
+    # -o /dev/null: the run writes a private temporary file, removed at the end
+    with discarding(out, ".h5") as target, OutputLock(target):
+        return _run_locked(args, target)   # a second run on one file stops at the lock
 
 
 def _run_locked(args, out) -> int:

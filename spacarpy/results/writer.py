@@ -26,7 +26,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from spacarpy.errors import DiskFull, is_disk_full
+from spacarpy.errors import DiskFull, disk_full_text, is_disk_full
 from spacarpy.model import Model
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, partial_path_for
@@ -391,6 +391,7 @@ class ResultsWriter:
         self._state = "finishing"
         self._mark(completed=True, error=None)
         h5file.fsync(self.partial_path)
+        h5file.refuse_non_regular(self.final_path)    # never replace a device or a FIFO
         os.replace(self.partial_path, self.final_path)
         h5file.fsync(self.final_path.parent)
         self._state = "finished"
@@ -440,7 +441,7 @@ class ResultsWriter:
         kept = (f"the previous {self.final_path} is unchanged" if self.final_path.exists()
                 else f"no {self.final_path} was written")
         return DiskFull(f"disk full (or quota exceeded) while writing {self.partial_path}: "
-                        f"{_errno_text(exc)}; the partial file (with {held}) was removed and "
+                        f"{disk_full_text(exc)}; the partial file (with {held}) was removed and "
                         f"{kept}. Free some space or give another -o")
 
     def _specs(self, group: str):
@@ -577,12 +578,3 @@ class ResultsWriter:
                      analysis=self.analysis, deformations=self.deformations,
                      rotary_inertia=self.rotary_inertia)
 
-
-def _errno_text(exc) -> str:
-    """"No space left on device" or "Disk quota exceeded", from ``exc`` or its causes."""
-    while exc is not None:
-        for text in ("Disk quota exceeded", "No space left on device"):
-            if text in str(exc) or (isinstance(exc, OSError) and exc.strerror == text):
-                return text
-        exc = exc.__cause__ or exc.__context__
-    return "No space left on device"
