@@ -232,3 +232,82 @@ def discarding(path, suffix: str | None = None):
         yield tmp / name
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+# -- outputs written whole or not at all (issue 34 item 5: a full disk) ----------------------
+
+def disk_full_error(path, exc) -> SpacarError:
+    from spacarpy.errors import DiskFull, disk_full_text
+    kept = f"the previous {path} is unchanged" if os.path.lexists(path) else \
+        f"no {path} was written"
+    return DiskFull(f"disk full (or quota exceeded) while writing {path}: "
+                    f"{disk_full_text(exc)}; {kept}. Free some space or give another -o")
+
+
+def refuse_non_regular(path) -> None:
+    """Raise :class:`OutputError` when ``path`` exists (through symlinks) and is not a
+    regular file: moving a finished file there would replace a device node (``/dev/null`` as
+    root) or a FIFO. The commands refuse such paths before the work
+    (:func:`refuse_special_output`); this is the last guard before ``os.replace``."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return
+    if not stat.S_ISREG(mode):
+        raise OutputError(f"{os.fspath(path)}: is not a regular file (a device, FIFO or "
+                          "socket): it is not replaced by the results")
+
+
+def _install(staged: Path, path: Path) -> None:
+    refuse_non_regular(path)
+    os.replace(staged, path)
+
+
+@contextmanager
+def atomic_output(path):
+    """Write ``path`` whole or not at all: the block writes the yielded sibling file
+    (``.<stem>.partial-<pid><suffix>``, the suffix kept for writers that choose the format
+    by it), which replaces ``path`` only when the block succeeds. On any error the sibling
+    is removed and ``path`` is untouched; a full disk or quota becomes
+    :class:`~spacarpy.errors.DiskFull` (one line, exit 1), never a 0-byte file."""
+    from spacarpy.errors import is_disk_full
+    path = Path(path)
+    staged = path.with_name(f".{path.stem}.partial-{os.getpid()}{path.suffix}")
+    try:
+        yield staged
+        _install(staged, path)
+    except BaseException as exc:
+        try:
+            staged.unlink(missing_ok=True)
+        except OSError:                                # pragma: no cover
+            pass
+        if is_disk_full(exc):
+            raise disk_full_error(path, exc) from None
+        raise
+
+
+@contextmanager
+def staged_outputs(path):
+    """Like :func:`atomic_output` for a command that writes ``path`` and files beside it
+    (``export --vtk``: the .pvd and one .vtu per step): the block writes them into a new
+    directory beside ``path`` (the yielded path is ``path``'s name in it); each then
+    replaces its namesake beside ``path`` when the block succeeds. On an error the
+    directory is removed and nothing beside ``path`` changed."""
+    from spacarpy.errors import is_disk_full
+    path = Path(path)
+    stage = Path(tempfile.mkdtemp(prefix=f".{path.stem}.partial-", dir=path.parent or "."))
+    try:
+        yield stage / path.name
+        names = sorted(p.name for p in stage.iterdir())
+        for name in names:
+            refuse_non_regular(path.with_name(name))
+        for name in names:                              # path itself last
+            if name != path.name:
+                _install(stage / name, path.with_name(name))
+        _install(stage / path.name, path)
+    except BaseException as exc:
+        if is_disk_full(exc):
+            raise disk_full_error(path, exc) from None
+        raise
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)

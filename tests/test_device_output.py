@@ -95,13 +95,13 @@ def test_run_refuses_other_special_files_before_the_work(tmp_path, deck, capsys,
 def test_the_writer_never_replaces_a_device(tmp_path, monkeypatch):
     """The last guard: a device that appears at the output during the run is not
     replaced; the partial file keeps the results."""
-    from spacarpy.results import h5file
+    from spacarpy.outputs import refuse_non_regular
     out = node(tmp_path, "x.h5", 7)
     with pytest.raises(OutputError, match="not a regular file"):
-        h5file.refuse_non_regular(out)
-    h5file.refuse_non_regular(tmp_path / "absent.h5")
+        refuse_non_regular(out)
+    refuse_non_regular(tmp_path / "absent.h5")
     (tmp_path / "f.h5").write_bytes(b"")
-    h5file.refuse_non_regular(tmp_path / "f.h5")
+    refuse_non_regular(tmp_path / "f.h5")
 
 
 def test_check_output_path_refuses_a_fifo_without_opening_it(tmp_path):

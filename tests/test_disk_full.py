@@ -122,6 +122,7 @@ def test_run_filling_the_disk_between_steps(tiny, user):
     assert "static steps) was removed" in r.stderr and "no " in r.stderr
 
 
+@pytest.mark.slow
 def test_run_filling_the_disk_at_the_final_commit(tiny, user):
     """Some free space between 'all steps written' and 'file closed': scanned in 4 KiB
     steps, every run either succeeds with a complete file or fails cleanly, and at least
@@ -148,3 +149,49 @@ def test_transient_run_filling_the_disk(tiny, user):
     fill(mnt, 150)
     r = spacarpy(["run", decks / "pendulum_rigid_90deg.dat", "-o", mnt / "p.h5", "-q"], user)
     assert_disk_full(r, mnt)
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """A pendulum (transient) and a bend (static) result, readable by nobody too."""
+    base = Path(tempfile.mkdtemp(prefix="spacarpy-res-"))
+    base.chmod(0o755)
+    out = {}
+    for key, deck in (("pend", "pendulum_rigid_90deg.dat"),
+                      ("bend", "table2_bend_8el_modified.dat")):
+        out[key] = base / f"{key}.h5"
+        r = spacarpy(["run", DECKS / deck, "-o", out[key], "-q"])
+        assert r.returncode in (0, 4), r.stderr
+        out[key].chmod(0o644)
+    yield out
+    shutil.rmtree(base, ignore_errors=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", [
+    ("extract", "pend", "time_position", "--csv", "-o", "x.csv"),
+    ("plot", "bend", "shape", "-o", "x.png"),
+    ("export", "pend", "--vtk", "-o", "x.pvd"),
+    ("export", "pend", "--xdmf", "-o", "x.xdmf"),
+], ids=["extract", "plot", "export-vtk", "export-xdmf"])
+@pytest.mark.parametrize("old", [False, True], ids=["new", "old-file-kept"])
+def test_result_commands_on_a_full_disk(tiny, results, user, command, old):
+    """Each command fails cleanly with 4 KiB left; an old output stays byte-identical."""
+    if command[0] == "plot":
+        pytest.importorskip("matplotlib")
+    if command[2] == "--vtk":
+        pytest.importorskip("meshio")
+    mnt, _ = tiny
+    out = mnt / command[-1]
+    keep = ["filler"]
+    if old:
+        out.write_bytes(b"old good file\n")
+        out.chmod(0o666)
+        keep.append(out.name)
+    fill(mnt, 196)
+    args = [command[0], results[command[1]], *command[2:-1], out]
+    r = spacarpy(args, user)
+    assert_disk_full(r, mnt, keep=keep)
+    if old:
+        assert out.read_bytes() == b"old good file\n"
+        assert "is unchanged" in r.stderr

@@ -32,7 +32,14 @@ def cmd_export(args) -> int:
     and the state space for MATLAB."""
     from contextlib import nullcontext
 
-    from spacarpy.outputs import discarding, refuse_special_output
+    from spacarpy.errors import is_disk_full
+    from spacarpy.outputs import (
+        atomic_output,
+        discarding,
+        disk_full_error,
+        refuse_special_output,
+        staged_outputs,
+    )
     from spacarpy.results.export import (
         check_export_output,
         write_state_space_mat,
@@ -43,8 +50,9 @@ def cmd_export(args) -> int:
     if args.state_space is not None:
         check_export_output(args.state_space, ".mat")
         refuse_special_output(args.state_space, "--state-space")
-        with discarding(args.state_space) as target:
-            print(write_state_space_mat(args.file, target, step=args.step))
+        with discarding(args.state_space) as target, atomic_output(target) as staged:
+            write_state_space_mat(args.file, staged, step=args.step)
+        print(args.state_space)
         if not (args.xdmf or args.vtk):
             return EXIT_OK
     want_xdmf = args.xdmf or not args.vtk
@@ -56,7 +64,17 @@ def cmd_export(args) -> int:
         refuse_special_output(args.output, "-o")
     with discarding(args.output) if args.output is not None else nullcontext() as target:
         if want_xdmf:
-            print(write_xdmf(args.file, target))
+            try:
+                print(write_xdmf(args.file, target))
+            except (OSError, RuntimeError) as exc:
+                if not is_disk_full(exc):
+                    raise
+                raise disk_full_error(target or Path(args.file).with_suffix(".xdmf"),
+                                      exc) from None
         if args.vtk:
-            print(write_vtk(args.file, target))
+            vtk = target if target is not None else Path(args.file).with_suffix(".pvd")
+            check_export_output(vtk, ".pvd")
+            with staged_outputs(vtk) as staged:   # the .pvd and its .vtu: all or none
+                write_vtk(args.file, staged)
+            print(vtk)
     return EXIT_OK

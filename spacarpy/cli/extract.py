@@ -57,7 +57,9 @@ def cmd_extract(args) -> int:
         from spacarpy.outputs import is_null_device
         if is_null_device(args.output):          # -o /dev/null: discarded, never opened
             return EXIT_OK
-        args.output.write_text(text, encoding="utf-8")
+        from spacarpy.outputs import atomic_output
+        with atomic_output(args.output) as staged:   # whole or not at all (a full disk)
+            staged.write_text(text, encoding="utf-8")
         log.info("%s written", args.output)
     else:
         sys.stdout.write(text)

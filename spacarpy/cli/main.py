@@ -156,6 +156,14 @@ def _main(args) -> int:
               "give (see docs/performance.md, 'Memory estimate before a run')",
               file=sys.stderr)
         return EXIT_SOLVER
+    except (OSError, RuntimeError) as exc:
+        from spacarpy.errors import disk_full_text, is_disk_full
+        if not is_disk_full(exc):
+            raise
+        # a write no command wraps (they remove what they were writing themselves)
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        print(f"disk full (or quota exceeded){where}: {disk_full_text(exc)}", file=sys.stderr)
+        return EXIT_SOLVER
     except Terminated:
         print("terminated (SIGTERM)", file=sys.stderr)
         return EXIT_TERMINATED

@@ -60,7 +60,7 @@ def add_parser(sub, vocabularies: bool = True) -> None:
 
 def cmd_plot(args) -> int:
     """``spacarpy plot FILE [KIND]``: an image file."""
-    from spacarpy.outputs import discarding, refuse_special_output
+    from spacarpy.outputs import atomic_output, discarding, refuse_special_output
     from spacarpy.results import open_results
     from spacarpy.results.plot import animate, make_figure, save
     from spacarpy.results.plot_base import ANIMATION_SUFFIXES, IMAGE_SUFFIXES, check_output
@@ -72,15 +72,16 @@ def cmd_plot(args) -> int:
                        f"plot {args.kind}")          # before any work
     refuse_special_output(out, "-o")
     step = "all" if args.all_steps else args.step
-    with open_results(args.file) as res, discarding(out) as target:
+    with open_results(args.file) as res, discarding(out) as target, \
+            atomic_output(target) as staged:      # whole or not at all (a full disk)
         if animation:
-            animate(res, target, fps=args.fps, max_frames=args.frames, scale=args.scale,
+            animate(res, staged, fps=args.fps, max_frames=args.frames, scale=args.scale,
                     view=args.view)
         else:
             fig = make_figure(res, args.kind, node=args.node, element=args.element,
                               step=step, mode=args.mode, quantity=args.quantity,
                               scale=args.scale, view=args.view, time=args.time,
                               x=args.x_axis, dof=args.dof)
-            save(fig, target)
+            save(fig, staged)
     print(out)
     return EXIT_OK

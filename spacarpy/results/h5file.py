@@ -46,7 +46,7 @@ log = logging.getLogger(__name__)
 
 __all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_superblock",
            "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
-           "ascii_array", "SchemaFile", "discard_written", "refuse_non_regular", "LIBVER", "crc32",
+           "ascii_array", "SchemaFile", "discard_written", "LIBVER", "crc32",
            "damaged_steps", "fixed_damaged", "checksum_problems", "CRC_ATTR", "python_value",
            "str_list"]
 
@@ -317,22 +317,6 @@ def discard_written(f, path) -> None:
         pass
     except OSError as exc:
         log.warning("could not remove %s: %s", path, exc)
-
-
-def refuse_non_regular(path: Path) -> None:
-    """Raise :class:`spacarpy.outputs.OutputError` when ``path`` exists (through symlinks)
-    and is not a regular file: moving a finished file there would replace a device node
-    (``/dev/null`` as root) or a FIFO. The command line refuses such paths before the work;
-    this is the last guard before ``os.replace``."""
-    import stat
-    try:
-        mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        return
-    if not stat.S_ISREG(mode):
-        from spacarpy.outputs import OutputError
-        raise OutputError(f"{path}: is not a regular file (a device, FIFO or socket): it is "
-                          "not replaced by the results")
 
 
 def fsync(path: Path) -> None:

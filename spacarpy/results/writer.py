@@ -28,6 +28,7 @@ import numpy as np
 
 from spacarpy.errors import DiskFull, disk_full_text, is_disk_full
 from spacarpy.model import Model
+from spacarpy.outputs import refuse_non_regular
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, partial_path_for
 from spacarpy.results.layout import create_step_group, write_header
@@ -391,7 +392,7 @@ class ResultsWriter:
         self._state = "finishing"
         self._mark(completed=True, error=None)
         h5file.fsync(self.partial_path)
-        h5file.refuse_non_regular(self.final_path)    # never replace a device or a FIFO
+        refuse_non_regular(self.final_path)    # never replace a device or a FIFO
         os.replace(self.partial_path, self.final_path)
         h5file.fsync(self.final_path.parent)
         self._state = "finished"
