@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import functools
 import logging
-import signal
 import sys
 
 from spacarpy import __version__
@@ -21,6 +20,7 @@ from spacarpy.cli.process import (
     _capped,
     _printable,
     _quiet_h5py_dealloc,
+    _restore_sigterm,
     _single_blas_thread,
     _terminate_like_interrupt,
     exit_process,
@@ -114,12 +114,17 @@ def main(argv: list[str] | None = None) -> int:
     from spacarpy.memory import keep_freed_memory
     keep_freed_memory()                 # large models: reuse freed memory (spacarpy.memory)
     _quiet_h5py_dealloc()
-    previous = _terminate_like_interrupt()
-    try:
-        return _main(args)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+    previous = None
+    try:                    # a SIGTERM anywhere in here, restoring the handler included
+        try:
+            previous = _terminate_like_interrupt()
+            return _main(args)
+        finally:
+            if previous is not None:
+                _restore_sigterm(previous)
+    except Terminated:
+        print("terminated (SIGTERM)", file=sys.stderr)
+        return EXIT_TERMINATED
 
 
 #: Libraries whose debug/info lines (h5py's "Creating converter from 5 to 3") -v hides.

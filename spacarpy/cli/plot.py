@@ -4,7 +4,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from spacarpy.cli.common import _dof, _output_path, _positive_int, _selection, _verbosity
+from spacarpy.cli.common import (
+    _dof,
+    _output_path,
+    _positive_float,
+    _positive_int,
+    _selection,
+    _verbosity,
+)
 from spacarpy.errors import EXIT_OK
 
 
@@ -44,7 +51,7 @@ def add_parser(sub, vocabularies: bool = True) -> None:
                            "quantity the run prescribes (a DELINPE angle in mrad, a DELXF "
                            "force in N), or the load factor (default auto: the prescribed "
                            "quantity where there is one)")
-    plot.add_argument("--fps", type=float, default=20.0,
+    plot.add_argument("--fps", type=_positive_float, default=20.0,
                       help="animate: frames per second (default 20)")
     plot.add_argument("--frames", type=_positive_int, default=200,
                       help="animate: at most this many frames, spread over the steps "

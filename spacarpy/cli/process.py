@@ -77,6 +77,20 @@ def _terminate_like_interrupt():
     return previous
 
 
+def _restore_sigterm(previous) -> None:
+    """Put back the SIGTERM handler :func:`_terminate_like_interrupt` replaced, with SIGTERM
+    blocked meanwhile: one arriving now is delivered to the restored handler. (One that
+    arrived just before still runs ours: :func:`main` catches its
+    :class:`~spacarpy.errors.Terminated`, which used to escape as a traceback.)"""
+    block = hasattr(signal, "pthread_sigmask")
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM}) if block else None
+    try:
+        signal.signal(signal.SIGTERM, previous)
+    finally:
+        if block:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
 def exit_process(code: int) -> None:
     """End the process with exit code ``code``, without the interpreter's teardown.
 
