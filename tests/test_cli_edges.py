@@ -40,3 +40,34 @@ def test_sigterm_while_the_handler_is_restored_is_exit_143(monkeypatch, capsys):
         signal.signal(signal.SIGTERM, before)
     assert "terminated (SIGTERM)" in capsys.readouterr().err
     assert signal.getsignal(signal.SIGTERM) == before
+
+
+# -- N7: bench outside a checkout, failed cases ---------------------------------------------
+
+def test_bench_finds_the_decks_in_the_working_directory(tmp_path, monkeypatch):
+    """After a non-editable install the decks are not beside the package: the current
+    directory's decks/ is looked in."""
+    from spacarpy.bench import runner
+    monkeypatch.chdir(tmp_path)
+    assert tmp_path / "decks" in runner.deck_dirs()
+
+
+def test_bench_with_a_missing_deck_fails_and_writes_no_table(tmp_path, monkeypatch, capsys):
+    from spacarpy.bench import runner
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(runner, "deck_dirs", lambda: [tmp_path / "a", tmp_path / "decks"])
+    md = tmp_path / "perf.md"
+    assert main(["bench", "--cases", "pendulum", "--repeat", "1", "--markdown",
+                 str(md)]) == 1
+    captured = capsys.readouterr()
+    assert "no deck pendulum_rigid_90deg.dat" in captured.out
+    assert str(tmp_path / "decks") in captured.out
+    assert "not written: 1 case(s) failed" in captured.out
+    assert "bench: 1 case(s) failed: pendulum" in captured.err
+    assert not md.exists()
+
+
+@pytest.mark.parametrize("value", ["-1", "0", "nan", "inf"])
+def test_bench_spinup_t_end_is_checked(value, capsys):
+    assert main(["bench", "--cases", "spinup", "--spinup-t-end", value]) == 2
+    assert "expected a finite number > 0" in capsys.readouterr().err
