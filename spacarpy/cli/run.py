@@ -120,6 +120,9 @@ def _run_locked(args, out) -> int:
                                      n_modes=args.modes,
                                      modes_each_step=True if args.modes_per_step else None,
                                      rotary_inertia=args.rotary_inertia)
+    if settings.analysis == "check" and args.output is not None:
+        log.warning("-o %s is ignored: the check analysis writes no result file",
+                    args.output)
     n_elem = model.n_elem
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,

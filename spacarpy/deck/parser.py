@@ -295,10 +295,14 @@ def read_text(path) -> str:
         If the file cannot be read or is not a text deck (:class:`NotADeckError`); the caller
         turns it into a DeckError.
     """
+    _refuse_blocking(path)
     with open(path, "rb") as fh:
         head = fh.read(_SNIFF_BYTES)
         if head.startswith(_HDF5_SIGNATURE):
             raise NotADeckError("not a deck but an HDF5 file (a result file?)")
+        if _utf16(head):
+            raise NotADeckError("not a text deck this reader takes: it is UTF-16 encoded; "
+                                "save it as UTF-8 (or ASCII)")
         if b"\0" in head:
             raise NotADeckError("not a text deck: it holds binary data (NUL bytes in its "
                                 f"first {len(head)} bytes)")
@@ -312,6 +316,31 @@ def read_text(path) -> str:
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     return text.removeprefix("\ufeff")
+
+
+def _refuse_blocking(path) -> None:
+    """Refuse a FIFO or a socket before opening it: ``open`` would wait forever for a
+    writer (``INCLUDE "fifo"``)."""
+    import stat
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return                          # open() reports it
+    if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+        kind = "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket"
+        raise NotADeckError(f"not a deck file but {kind}: not opened (reading it could "
+                            "wait forever)")
+
+
+def _utf16(head: bytes) -> bool:
+    """UTF-16 text: a byte-order mark, or ASCII with a NUL byte beside every character."""
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return True
+    if len(head) < 4:
+        return False
+    even, odd = head[0::2], head[1::2]
+    return (even.count(0) == len(even) and 0 not in odd) or \
+        (odd.count(0) == len(odd) and 0 not in even)
 
 
 def _os_reason(exc: OSError) -> str:
@@ -890,6 +919,7 @@ class _Reader:
         self.unknown_uses: list = []    # (error index, name) of unknown parameters
         self.last: tuple[_Source, int] | None = None   # where the last record is (file, line)
         self.stack: list[Path] = []     # files being read (include cycle detection)
+        self.included: dict = {}        # resolved INCLUDEd file -> its first INCLUDE line
         self.batches: dict = {}         # plain lines waiting for conversion (see flush)
 
     # ---------------------------------------------------------------- errors
@@ -1113,6 +1143,13 @@ class _Reader:
         if len(self.stack) >= _MAX_INCLUDE_DEPTH:
             self.error(loc, f"INCLUDE: files nested more than {_MAX_INCLUDE_DEPTH} deep", src)
             return
+        if resolved in self.included:
+            first = self.included[resolved]
+            self.error(loc, f"INCLUDE '{name}': {shown} is already included (at {first}); "
+                            "a file included twice would define its nodes, elements and "
+                            "loads twice", src)
+            return
+        self.included[resolved] = loc
         try:
             text = read_text(target)
         except OSError as exc:

@@ -1,0 +1,94 @@
+"""Deck and command messages that were silent or confusing (report N11): INPUTF on a fixed
+coordinate, GRAVITY without mass, a UTF-16 deck, a file INCLUDEd twice, an INCLUDEd FIFO,
+``run --mode check -o``."""
+import os
+import shutil
+import threading
+from pathlib import Path
+
+import pytest
+
+from spacarpy.cli import main
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
+CANTILEVER = "table1_cantilever_2el_modified.dat"
+
+
+def test_inputf_on_a_fixed_coordinate_is_an_error(tmp_path, capsys):
+    text = (DECKS / "state_space_cantilever.dat").read_text()
+    assert "INPUTF 1 9 2" in text
+    deck = tmp_path / "d.dat"
+    deck.write_text(text.replace("INPUTF 1 9 2", "INPUTF 1 1 2"))
+    assert main(["check", str(deck)]) == 2
+    captured = capsys.readouterr()
+    err = captured.out + captured.err
+    assert "INPUTF: coordinate 2 of node 1 is fixed (FIX at line 23)" in err
+    assert err.count("error:") == 1
+
+
+def test_gravity_without_mass_names_the_line(tmp_path, capsys):
+    text = (DECKS / CANTILEVER).read_text()
+    deck = tmp_path / "g.dat"
+    deck.write_text(text.replace("DELXF 5 0 1293750 0", "DELXF 5 0 1293750 0\n"
+                                 "GRAVITY 0 -9.81 0"))
+    line = deck.read_text().splitlines().index("GRAVITY 0 -9.81 0") + 1
+    assert main(["check", str(deck)]) == 0
+    err = capsys.readouterr().err
+    assert f"g.dat:{line}:1: warning: GRAVITY has no effect: the model has no mass" in err
+    assert main(["run", str(deck), "-q", "-o", str(tmp_path / "g.h5")]) == 0
+    assert capsys.readouterr().err.count("GRAVITY has no effect") == 1   # once, not twice
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-le", "utf-16-be"])
+def test_utf16_deck_is_named(tmp_path, encoding, capsys):
+    deck = tmp_path / "u.dat"
+    deck.write_bytes((DECKS / CANTILEVER).read_text().encode(encoding))
+    assert main(["check", str(deck)]) == 2
+    err = capsys.readouterr().err
+    assert "UTF-16" in err and "save it as UTF-8" in err and "NUL" not in err
+
+
+def test_a_file_included_twice_names_both_include_lines(tmp_path, capsys):
+    (tmp_path / "nodes.dat").write_text("X 1 0 0 0\nX 3 1 0 0\n")
+    deck = tmp_path / "d.dat"
+    deck.write_text('INCLUDE "nodes.dat"\nINCLUDE "nodes.dat"\nBEAM 1 1 2 3 4 0 1 0\n'
+                    "END\nEND\n")
+    assert main(["check", str(deck)]) == 2
+    err = capsys.readouterr().err
+    assert f"d.dat:2:9: error: INCLUDE 'nodes.dat': {tmp_path / 'nodes.dat'} is already " \
+           f"included (at {deck}:1:9)" in err
+    assert "lines 1 and 1" not in err
+
+
+def test_an_included_fifo_is_refused_without_blocking(tmp_path, capsys):
+    fifo = tmp_path / "ff.dat"
+    os.mkfifo(fifo)
+    deck = tmp_path / "d.dat"
+    deck.write_text('X 1 0 0 0\nINCLUDE "ff.dat"\nEND\nEND\n')
+    done = []
+    t = threading.Thread(target=lambda: done.append(main(["check", str(deck)])), daemon=True)
+    t.start()
+    t.join(30)
+    if t.is_alive():                    # unblock it: open the FIFO for writing, then fail
+        fd = os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)
+        os.close(fd)
+        t.join(5)
+        pytest.fail("check blocked on an INCLUDEd FIFO")
+    assert done == [2]
+    assert "a FIFO (named pipe): not opened" in capsys.readouterr().err
+
+
+def test_a_fifo_deck_is_refused(tmp_path, capsys):
+    fifo = tmp_path / "d.dat"
+    os.mkfifo(fifo)
+    assert main(["check", str(fifo)]) == 2
+    assert "FIFO" in capsys.readouterr().err
+
+
+def test_run_mode_check_says_o_is_ignored(tmp_path, capsys):
+    deck = tmp_path / CANTILEVER
+    shutil.copy(DECKS / CANTILEVER, deck)
+    out = tmp_path / "x.h5"
+    assert main(["run", str(deck), "--mode", "check", "-o", str(out)]) == 0
+    assert f"-o {out} is ignored" in capsys.readouterr().err
+    assert not out.exists()
