@@ -71,3 +71,20 @@ def test_bench_with_a_missing_deck_fails_and_writes_no_table(tmp_path, monkeypat
 def test_bench_spinup_t_end_is_checked(value, capsys):
     assert main(["bench", "--cases", "spinup", "--spinup-t-end", value]) == 2
     assert "expected a finite number > 0" in capsys.readouterr().err
+
+
+# -- N12: units of the time histories of element quantities ---------------------------------
+
+def test_hinge_time_histories_carry_units(tmp_path, capsys):
+    """The pendulum's HINGE: the joint angle in rad, the moments in N m."""
+    from pathlib import Path
+    deck = Path(__file__).resolve().parents[1] / "decks" / "pendulum_rigid_90deg.dat"
+    out = tmp_path / "p.h5"
+    assert main(["run", str(deck), "-q", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["extract", str(out), "time_deformation", "--csv"]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert head == "time [s],step,element,e1 [rad],e2,e3"
+    assert main(["extract", str(out), "time_stress_resultant", "--csv"]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert head == "time [s],step,element,s1 [N m],s2 [N m],s3 [N m]"
