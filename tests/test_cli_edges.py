@@ -88,3 +88,29 @@ def test_hinge_time_histories_carry_units(tmp_path, capsys):
     assert main(["extract", str(out), "time_stress_resultant", "--csv"]) == 0
     head = capsys.readouterr().out.splitlines()[0]
     assert head == "time [s],step,element,s1 [N m],s2 [N m],s3 [N m]"
+
+
+def test_the_energy_plot_legend_leaves_the_curves_free(tmp_path):
+    """The pendulum's energy history: the legend lies outside the axes (it covered the
+    curve), and is kept in the saved image (bbox_inches='tight')."""
+    pytest.importorskip("matplotlib")
+    from pathlib import Path
+
+    from spacarpy.results import open_results
+    from spacarpy.results.plot import make_figure
+    deck = Path(__file__).resolve().parents[1] / "decks" / "pendulum_rigid_90deg.dat"
+    out = tmp_path / "p.h5"
+    assert main(["run", str(deck), "-q", "-o", str(out)]) == 0
+    with open_results(out) as res:
+        fig = make_figure(res, "history", quantity="energy")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    ax = fig.axes[0]
+    renderer = canvas.get_renderer()
+    legend = ax.get_legend().get_window_extent(renderer)
+    axes = ax.get_window_extent(renderer)
+    assert legend.x0 >= axes.x1                     # right of the axes: no overlap
+    assert len(ax.get_legend().get_texts()) >= 3    # kinetic, potential, total ...
+    assert main(["plot", str(out), "history", "--quantity", "energy", "-o",
+                 str(tmp_path / "e.png")]) == 0
