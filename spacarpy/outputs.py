@@ -311,3 +311,28 @@ def staged_outputs(path):
         raise
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+def running_writer(path) -> int | None:
+    """The process id of the spacarpy run writing the results file ``path`` (a
+    ``<stem>.partial.h5`` or its final name) now, by its :class:`OutputLock`; None when no
+    run holds the lock (finished, or killed: then the lock is free)."""
+    if fcntl is None:                                  # pragma: no cover
+        return None
+    p = Path(path)
+    final = p.with_name(p.name[:-len(".partial.h5")] + ".h5") \
+        if p.name.endswith(".partial.h5") else p
+    lock = final.with_name(final.name + ".lock")
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError:
+        return _read_pid(fd) or 0          # held: a writer runs
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)

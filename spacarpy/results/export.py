@@ -176,8 +176,12 @@ def write_xdmf(path, out=None) -> Path:
         except BaseException:
             data_file.unlink(missing_ok=True)     # a full disk: no half copy left
             raise
-        log.warning("%s is marked as open for SWMR writing (its writer was killed); the "
-                    "committed steps were copied to %s for ParaView", path, data_file)
+        from spacarpy.outputs import running_writer
+        pid = running_writer(path)
+        state = (f"it is being written by spacarpy process {pid}" if pid is not None
+                 else "its writer was killed")
+        log.warning("%s is marked as open for SWMR writing (%s); the committed steps so far "
+                    "were copied to %s for ParaView", path, state, data_file)
     relative = os.path.relpath(data_file.resolve(), out.resolve().parent)
 
     def href(name):     # a dataset by its 2.0 name, at its name in the file
