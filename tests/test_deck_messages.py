@@ -92,3 +92,47 @@ def test_run_mode_check_says_o_is_ignored(tmp_path, capsys):
     assert main(["run", str(deck), "--mode", "check", "-o", str(out)]) == 0
     assert f"-o {out} is ignored" in capsys.readouterr().err
     assert not out.exists()
+
+
+# -- sizing warnings of a transient --------------------------------------------------------
+
+def _pendulum(tmp_path, timestep):
+    text = (DECKS / "pendulum_rigid_90deg.dat").read_text()
+    assert "TIMESTEP 2.2 440" in text
+    deck = tmp_path / "p.dat"
+    deck.write_text(text.replace("TIMESTEP 2.2 440", f"TIMESTEP {timestep}"))
+    return deck
+
+
+def test_a_coarse_transient_warns_about_its_energy_error(tmp_path, capsys):
+    deck = _pendulum(tmp_path, "2.2 2")
+    assert main(["run", str(deck), "-q", "-o", str(tmp_path / "p.h5")]) == 0
+    err = capsys.readouterr().err
+    assert "the energy balance T + U + D - W drifted by 1.69 J" in err
+    assert "TIMESTEP" in err and "ERROR" in err
+
+
+def test_the_shipped_pendulum_has_no_energy_warning(tmp_path, capsys):
+    deck = _pendulum(tmp_path, "2.2 440")
+    assert main(["run", str(deck), "-q", "-o", str(tmp_path / "p.h5")]) == 0
+    assert "energy balance" not in capsys.readouterr().err
+
+
+def test_a_large_transient_announces_its_file_size(tmp_path, capsys, monkeypatch):
+    """The estimate is about bytes per step x steps; above OUTPUT_SIZE_WARNING (5 GB; here
+    lowered, so that the run stays short) a warning gives it before the run."""
+    import sys
+    run_module = sys.modules["spacarpy.cli.run"]
+    deck = _pendulum(tmp_path, "2.2 10")
+    out = tmp_path / "p.h5"
+    monkeypatch.setattr(run_module, "OUTPUT_SIZE_WARNING", 1000)
+    assert main(["run", str(deck), "-q", "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "TIMESTEP 2.2 10 stores 11 time steps: the result file will be about" in err
+    # the estimate is an upper bound of the right order (fixed parts of the file aside)
+    from spacarpy.deck.expect import load_with_expectations
+    per_step = run_module._step_bytes(load_with_expectations(deck)[0].model)
+    assert 500 < per_step < 1000
+    monkeypatch.setattr(run_module, "OUTPUT_SIZE_WARNING", 5 * 2**30)
+    assert main(["run", str(deck), "-q", "-o", str(out)]) == 0
+    assert "stores" not in capsys.readouterr().err
