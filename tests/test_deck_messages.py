@@ -136,3 +136,38 @@ def test_a_large_transient_announces_its_file_size(tmp_path, capsys, monkeypatch
     monkeypatch.setattr(run_module, "OUTPUT_SIZE_WARNING", 5 * 2**30)
     assert main(["run", str(deck), "-q", "-o", str(out)]) == 0
     assert "stores" not in capsys.readouterr().err
+
+
+# -- show: arc-length critical points, sweep files -----------------------------------------
+
+@pytest.mark.slow
+def test_show_lists_the_critical_points_of_an_arclength_run(tmp_path, capsys):
+    """Lee's frame: the two limit points (P L^2/EI = 18.49 at load factor ~0.924)."""
+    out = tmp_path / "lee.h5"
+    assert main(["run", str(DECKS / "lees_frame_arclength.dat"), "-q", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["show", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "Critical points of the path: 2" in text
+    rows = text.split("Critical points of the path: 2")[1].splitlines()[2:4]
+    assert "limit point (load maximum)" in rows[0] and "limit point (load minimum)" in rows[1]
+    assert abs(float(rows[0].split()[-1]) - 0.9243) < 2e-3
+
+
+def test_show_reads_a_sweep_file(tmp_path, capsys):
+    """A sweep file written by spacarpy.batch.sweep.write_sweep (no runs needed)."""
+    import numpy as np
+
+    from spacarpy.batch.sweep import SweepAxis, SweepResult, write_sweep
+    result = SweepResult(str(DECKS / CANTILEVER), [SweepAxis("ratio", (-0.5, -0.4, -0.3))],
+                         {"/static/load_factor": np.array([1.0, 1.0, np.nan]),
+                          "/eigen/frequency": np.array([[1.1, 5.8], [1.2, 5.9],
+                                                        [np.nan, np.nan]])},
+                         np.array([0, 0, 1]), np.array(["", "", "no convergence"]))
+    out = write_sweep(result, tmp_path / "s.h5")
+    assert main(["show", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "parameters ratio (3 values, -0.5 .. -0.3)" in text
+    assert "points     3: 2 ran, 1 failed" in text
+    assert "/eigen/frequency" in text and "/static/load_factor" in text
+    assert "exit 1" in text and "1.1" in text
