@@ -171,3 +171,7 @@ def test_show_reads_a_sweep_file(tmp_path, capsys):
     assert "points     3: 2 ran, 1 failed" in text
     assert "/eigen/frequency" in text and "/static/load_factor" in text
     assert "exit 1" in text and "1.1" in text
+    result.status[2] = -2                       # an interrupted sweep's point
+    write_sweep(result, out)
+    assert main(["show", str(out)]) == 0
+    assert "points     3: 2 ran, 0 failed, 1 not run (interrupted)" in capsys.readouterr().out

@@ -60,12 +60,14 @@ def _sweep_summary(path) -> str | None:
         from spacarpy.results.h5file import damaged
         raise damaged(path, f"a sweep file without {exc}") from None
     result = SweepResult(deck, axes, data, status, errors.astype(str))
-    n_ok = int(np.sum(status == 0))
+    n_ok, n_not_run = int(np.sum(status == 0)), int(np.sum(status == -2))
+    n_failed = status.size - n_ok - n_not_run      # -2: not run (an interrupted sweep)
     lines = [f"{path}",
              f"  sweep      of {deck}",
              "  parameters " + ", ".join(f"{a.name} ({len(a.values)} values, "
                                          f"{min(a.values):.6g} .. {max(a.values):.6g})"
                                          for a in axes),
-             f"  points     {status.size}: {n_ok} ran, {status.size - n_ok} failed",
+             f"  points     {status.size}: {n_ok} ran, {n_failed} failed"
+             + (f", {n_not_run} not run (interrupted)" if n_not_run else ""),
              "  collected  " + (", ".join(data) or "nothing"), ""]
     return "\n".join(lines) + "\n" + format_sweep_table(result)
