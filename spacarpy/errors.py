@@ -86,3 +86,42 @@ class SolverError(SpacarError):
 
 class ConvergenceError(SolverError):
     """Newton iterations did not converge even after the allowed step cuts."""
+
+
+class DiskFull(SpacarError):
+    """The file system ran out of space (or quota) while an output was written (exit 1).
+
+    The command removes what it was writing; an older file at the output path is kept."""
+
+    exit_code = EXIT_SOLVER
+
+
+_DISK_FULL_ERRNOS = (28, 122)          # ENOSPC, EDQUOT (Linux)
+_DISK_FULL_TEXT = ("No space left on device", "Disk quota exceeded", "errno = 28",
+                   "errno = 122")
+
+
+def is_disk_full(exc: BaseException | None) -> bool:
+    """Whether ``exc``, or an exception it was raised from or during, is a full disk or an
+    exceeded quota: an ``OSError`` with ``ENOSPC``/``EDQUOT``, or an HDF5 error (h5py raises
+    ``RuntimeError``/``OSError`` whose text quotes the failed write's errno)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, OSError) and exc.errno in _DISK_FULL_ERRNOS:
+            return True
+        if isinstance(exc, (OSError, RuntimeError)) and \
+                any(t in str(exc) for t in _DISK_FULL_TEXT):
+            return True
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def disk_full_text(exc: BaseException | None) -> str:
+    """"No space left on device" or "Disk quota exceeded", from ``exc`` or its causes."""
+    while exc is not None:
+        for text in ("Disk quota exceeded", "No space left on device"):
+            if text in str(exc) or (isinstance(exc, OSError) and exc.strerror == text):
+                return text
+        exc = exc.__cause__ or exc.__context__
+    return "No space left on device"

@@ -115,7 +115,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
         from spacarpy.solvers.statics.conditioning import check_residual_floor
         check_residual_floor(problem, ignore=opts.ignore_conditioning)
     mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
-    if any(model.gravity) and not mass.has_mass:
+    # (a deck's model: the deck reader has warned already, naming the GRAVITY line)
+    if any(model.gravity) and not mass.has_mass and model.source_path == "<model>":
         log.warning("GRAVITY has no effect: the model has no mass (EM lines for the elements, "
                     "XM nodal masses)")
     transient = analysis in ("transient", "transient_linearized")

@@ -95,13 +95,39 @@ def test_sweep_refuses_bad_outputs_before_any_run(tmp_path, capsys, options, mes
     assert tree(tmp_path) == before                   # the deck and INCLUDE file unchanged
 
 
-@pytest.mark.skipif(not Path("/dev/null").is_char_device(), reason="needs /dev/null")
-def test_sweep_never_replaces_a_device_node(tmp_path, capsys):
+def _private_node(tmp_path, name, minor):
+    """A private character device node c 1 <minor> (3: null, 7: full) in tmp_path: never the
+    system's /dev/null, which a wrong replace would destroy for the whole machine."""
+    path = tmp_path / name
+    try:
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, minor))
+    except OSError as exc:
+        pytest.skip(f"cannot make a device node here: {exc}")
+    return path
+
+
+def test_sweep_into_the_null_device_discards_and_leaves_it_alone(tmp_path, capsys):
+    """``sweep -o NULL`` runs and discards the file: the node stays a character device and
+    nothing is written beside it (no lock, no partial file)."""
+    work = tmp_path / "work"
+    work.mkdir()
+    shutil.copy(DECKS / SWEEP, work / "s.dat")
+    dev = tmp_path / "dev"
+    dev.mkdir()
+    null = _private_node(dev, "null", 3)
+    assert main(["sweep", str(work / "s.dat"), "--set", "ratio=-0.5,-0.4", "-q",
+                 "-o", str(null), "--csv", str(null)]) == 0
+    assert stat.S_ISCHR(os.stat(null).st_mode)
+    assert sorted(p.name for p in dev.iterdir()) == ["null"]
+
+
+def test_sweep_refuses_another_device_node(tmp_path, capsys):
     shutil.copy(DECKS / SWEEP, tmp_path / "s.dat")
+    full = _private_node(tmp_path, "full", 7)
     assert main(["sweep", str(tmp_path / "s.dat"), "--set", "ratio=-0.5,-0.4", "-q",
-                 "-o", "/dev/null"]) == 2
-    assert "/dev/null: is not a regular file" in capsys.readouterr().err
-    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+                 "-o", str(full)]) == 2
+    assert "is a character device, not a regular file" in capsys.readouterr().err
+    assert stat.S_ISCHR(os.stat(full).st_mode)
 
 
 _READ_ONLY_SCRIPT = """

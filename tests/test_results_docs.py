@@ -101,3 +101,19 @@ def test_written_paths_are_the_schema_table(tmp_path, result_files):
 
 if __name__ == "__main__":
     print("\n".join(row for _, row in schema_rows()))
+
+
+def test_the_page_states_the_current_schema_version():
+    """The title, the 'SCHEMA_VERSION = ...' sentence and the root-attribute table give the
+    version files are written with (report N12: the page said (2, 3) beside a 2.6 title),
+    and no other (major, minor) pair is named as the current one."""
+    import re
+
+    from spacarpy.results.schema import SCHEMA_VERSION
+    major, minor = SCHEMA_VERSION
+    text = DOC.read_text()
+    assert text.splitlines()[0] == f"# Results file format (schema version {major}.{minor})"
+    assert f"`SCHEMA_VERSION = ({major}, {minor})` and this page change together" in text
+    row = next(line for line in text.splitlines() if line.startswith("| `schema_version`"))
+    assert f"`({major}, {minor})`" in row
+    assert re.findall(r"SCHEMA_VERSION = \((\d+), (\d+)\)", text) == [(str(major), str(minor))]

@@ -312,7 +312,8 @@ def test_the_degrees_of_freedom_must_be_spacar_s(tmp_path, capsys):
     """A beam clamped at both ends with every mode DYNE has 12 flexible modes but 6 degrees
     of freedom: exit 3, with the counts."""
     deck = tmp_path / "cc.dat"
-    deck.write_text(_deck(fix="FIX 5\nFIX 6"))
+    # the input on the free middle node 3 (one on the clamped node 5 is a deck error)
+    deck.write_text(_deck(signals="INPUTF 1 3 2\nOUTX 1 3 2", fix="FIX 5\nFIX 6"))
     assert main(["run", str(deck), "--mode", "9"]) == EXIT_MODEL
     err = capsys.readouterr().err
     assert "(6); the model has 12 flexible and 0 released (RLSE) modes" in err

@@ -2,6 +2,7 @@
 shape, and evaluating its data items gives back the results; VTK files read back with meshio."""
 from __future__ import annotations
 
+import os
 import signal
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -159,3 +160,25 @@ def test_vtk_export_reads_back(files, tmp_path):
     np.testing.assert_allclose(mesh.point_data["displacement"], s.displacement(step=-1))
     np.testing.assert_allclose(mesh.cell_data["max_von_mises_stress"][0],
                                s.max_von_mises_stress(step=-1))
+
+
+@pytest.mark.slow
+def test_xdmf_of_a_run_being_written_says_so(tmp_path, caplog):
+    """A partial file whose run still holds its output lock is 'being written', not
+    'killed' (report N11); the lock is held here by this process for the killed run."""
+    if not hasattr(signal, "SIGKILL"):
+        pytest.skip("needs POSIX SIGKILL")
+    from spacarpy.outputs import OutputLock, running_writer
+    run_and_kill(tmp_path, n_elem=2, pause=0.02)
+    partial = tmp_path / "killed.partial.h5"
+    assert running_writer(partial) is None
+    with caplog.at_level("WARNING"):
+        write_xdmf(partial, tmp_path / "a.xdmf")
+    assert "its writer was killed" in caplog.text
+    caplog.clear()
+    with OutputLock(tmp_path / "killed.h5"):
+        assert running_writer(partial) == os.getpid()
+        with caplog.at_level("WARNING"):
+            write_xdmf(partial, tmp_path / "b.xdmf")
+    assert f"it is being written by spacarpy process {os.getpid()}" in caplog.text
+    assert "writer was killed" not in caplog.text

@@ -70,7 +70,7 @@ def sweep_command(args, jobs: int, progress=None) -> int:
     stdout; exit 1 when any run failed."""
     from spacarpy.batch.sweep import SweepAxis, SweepInterrupted, run_sweep
     from spacarpy.batch.sweep_file import NOT_RUN
-    from spacarpy.outputs import OutputLock, check_output_path
+    from spacarpy.outputs import OutputLock, check_output_path, discarding
 
     axes = [s for s in args.sweep_sets if isinstance(s, SweepAxis)]
     fixed = [s for s in args.sweep_sets if not isinstance(s, SweepAxis)]
@@ -87,12 +87,15 @@ def sweep_command(args, jobs: int, progress=None) -> int:
     check_output_path(out, "-o", inputs=[deck], warn=False)
     if args.csv is not None:
         check_output_path(args.csv, "--csv", inputs=[deck], warn=False)
-    with OutputLock(out):
+    # -o /dev/null discards: the sweep file goes to a private temporary folder, removed at
+    # the end; the null device itself is never opened, locked or replaced
+    with discarding(out, ".h5") as target, OutputLock(target):
         try:
             result = run_sweep(deck, axes, fixed=fixed, collect=args.collect or None,
                                jobs=jobs, timeout=args.timeout or None,
                                run_args=shlex.split(args.run_args), dask=args.dask,
-                               progress=progress, output=out, outputs=[("--csv", args.csv)])
+                               progress=progress, output=target,
+                               outputs=[("--csv", args.csv)])
         except SweepInterrupted as stop:
             _finish_sweep(stop.result, args)
             n_done = int((stop.result.status != NOT_RUN).sum())

@@ -301,20 +301,33 @@ def whole_process(n: int, n_steps: int, repeat: int = 3, peer: bool = False) -> 
     return {"spacarpy": ours, "peer": theirs}
 
 
+def deck_dirs() -> list:
+    """Where the :data:`DECK_CASES` decks are looked for: ``decks/`` beside the package (an
+    editable install or a checkout), then the current directory's ``decks/`` (a checkout
+    after a non-editable ``pip install .``, which does not ship the decks)."""
+    from pathlib import Path
+    dirs = [Path(__file__).resolve().parents[2] / "decks", Path.cwd() / "decks"]
+    return list(dict.fromkeys(dirs))
+
+
 def deck_case(case: str, repeat: int) -> dict:
     """Whole-process wall time of a :data:`DECK_CASES` case: its ``spacarpy`` command as a
     subprocess, ``repeat`` times (the sweep once: it is 21 runs itself); minimum and median.
-    The decks are those of a source checkout (``decks/`` beside the package)."""
+    The decks are those of a source checkout (:func:`deck_dirs`)."""
     import subprocess
     import tempfile
     from pathlib import Path
 
-    decks = Path(__file__).resolve().parents[2] / "decks"
-    words = [w.format(deck=decks) for w in DECK_CASES[case]]
-    command = "spacarpy " + " ".join(w.replace(str(decks), "decks") for w in words)
-    if not Path(words[1]).is_file():
+    name = Path(DECK_CASES[case][1]).name
+    dirs = deck_dirs()
+    decks = next((d for d in dirs if (d / name).is_file()), None)
+    command = "spacarpy " + " ".join(w.format(deck="decks") for w in DECK_CASES[case])
+    if decks is None:
         return dict(case=case, n=0, command=command,
-                    error=f"no deck {words[1]} (the decks of a source checkout)")
+                    error=f"no deck {name}: this case runs a deck of spacarpy's source "
+                          f"checkout; looked in {' and '.join(map(str, dirs))} (run bench in "
+                          "the checkout's directory, or leave the case out with --cases)")
+    words = [w.format(deck=decks) for w in DECK_CASES[case]]
     times = []
     with tempfile.TemporaryDirectory(prefix="spacarpy-bench-") as tmp:
         for _ in range(1 if case == "sweep" else max(repeat, 1)):
@@ -408,8 +421,17 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
             print(lines[2], file=out)
             out.flush()
         results[case] = rows
-    if markdown:
+    failed = failed_rows(results)
+    if markdown and failed:         # a failed row is never written into the page
+        print(f"\n{markdown} not written: {len(failed)} case(s) failed", file=out)
+    elif markdown:
         write_markdown(markdown, results, bool(peer), n_steps, transient_steps, spinup_t_end)
         print(f"\nwrote {markdown}", file=out)
     return results
+
+
+def failed_rows(results: dict) -> list:
+    """The rows of :func:`run_bench`'s results that failed (an ``error``), the peer's
+    excepted (a missing or failing peer is reported in its column)."""
+    return [r for rows in results.values() for r in rows if "error" in r]
 

@@ -180,4 +180,6 @@ def write_markdown(path: str, results: dict, peer: bool, n_steps: int, transient
         text = head + block + rest.split(MARKDOWN_END, 1)[1]
     else:
         text = "# Performance\n\n" + block + "\n"
-    page.write_text(text)
+    from spacarpy.outputs import atomic_output
+    with atomic_output(page) as staged:      # whole or not at all (a full disk)
+        staged.write_text(text)

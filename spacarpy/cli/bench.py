@@ -2,8 +2,8 @@
 benchmark (:mod:`spacarpy.bench`)."""
 from __future__ import annotations
 
-from spacarpy.cli.common import UsageError, _verbosity
-from spacarpy.errors import EXIT_OK
+from spacarpy.cli.common import UsageError, _positive_float, _verbosity
+from spacarpy.errors import EXIT_OK, EXIT_SOLVER
 
 #: spacarpy.bench.decks.CASES and its DECK_CASES (spelled out: the parser does not import bench).
 _BENCH_CASES = ("cantilever", "bend", "eigen", "transient", "arclength", "spinup", "pendulum",
@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
     bench.add_argument("--steps", type=int, default=10, help="static load steps (default 10)")
     bench.add_argument("--transient-steps", type=int, default=1000,
                        help="time steps of the transient case (default 1000)")
-    bench.add_argument("--spinup-t-end", type=float, default=30.0, metavar="SECONDS",
+    bench.add_argument("--spinup-t-end", type=_positive_float, default=30.0, metavar="SECONDS",
                        help="end time of the spinup case (default 30 s)")
     bench.add_argument("--repeat", type=int, default=3,
                        help="repetitions per size; min and median are shown (default 3)")
@@ -67,10 +67,20 @@ def cmd_bench(args) -> int:
     from spacarpy.bench.runner import run_bench
     sizes = _bench_sizes(args)
     if args.markdown is not None:
-        from spacarpy.outputs import check_output_path
+        from spacarpy.outputs import check_output_path, is_null_device
         check_output_path(args.markdown, "--markdown")
-    run_bench(cases=args.cases, sizes=sizes, n_steps=args.steps,
-              repeat=args.repeat, transient_steps=args.transient_steps,
-              peer=args.peer, markdown=args.markdown,
-              spinup_t_end=args.spinup_t_end)
+        if is_null_device(args.markdown):      # discarded: the tables are not written
+            args.markdown = None
+    results = run_bench(cases=args.cases, sizes=sizes, n_steps=args.steps,
+                        repeat=args.repeat, transient_steps=args.transient_steps,
+                        peer=args.peer, markdown=args.markdown,
+                        spinup_t_end=args.spinup_t_end)
+    from spacarpy.bench.runner import failed_rows
+    failed = failed_rows(results)
+    if failed:
+        import sys
+        print(f"bench: {len(failed)} case(s) failed: "
+              + "; ".join(f"{r.get('case')} {r.get('n') or ''}".strip() for r in failed),
+              file=sys.stderr)
+        return EXIT_SOLVER
     return EXIT_OK

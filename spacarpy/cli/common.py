@@ -35,6 +35,18 @@ def _nonnegative_float(text: str) -> float:
     return value
 
 
+def _positive_float(text: str) -> float:
+    """A finite number > 0 (``--fps``): 0, negative, nan and inf are refused by argparse."""
+    import math
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
 def _output_path(text: str) -> Path:
     """An output file name: not empty (``-o ""`` would mean the current directory)."""
     if not text.strip():

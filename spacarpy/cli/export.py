@@ -30,6 +30,16 @@ def add_parser(sub) -> None:
 def cmd_export(args) -> int:
     """``spacarpy export FILE --xdmf | --vtk | --state-space FILE.mat``: files for ParaView,
     and the state space for MATLAB."""
+    from contextlib import nullcontext
+
+    from spacarpy.errors import is_disk_full
+    from spacarpy.outputs import (
+        atomic_output,
+        discarding,
+        disk_full_error,
+        refuse_special_output,
+        staged_outputs,
+    )
     from spacarpy.results.export import (
         check_export_output,
         write_state_space_mat,
@@ -39,7 +49,10 @@ def cmd_export(args) -> int:
 
     if args.state_space is not None:
         check_export_output(args.state_space, ".mat")
-        print(write_state_space_mat(args.file, args.state_space, step=args.step))
+        refuse_special_output(args.state_space, "--state-space")
+        with discarding(args.state_space) as target, atomic_output(target) as staged:
+            write_state_space_mat(args.file, staged, step=args.step)
+        print(args.state_space)
         if not (args.xdmf or args.vtk):
             return EXIT_OK
     want_xdmf = args.xdmf or not args.vtk
@@ -48,8 +61,20 @@ def cmd_export(args) -> int:
         return EXIT_INPUT
     if args.output is not None:          # before any work
         check_export_output(args.output, ".pvd" if args.vtk else ".xdmf")
-    if want_xdmf:
-        print(write_xdmf(args.file, args.output))
-    if args.vtk:
-        print(write_vtk(args.file, args.output))
+        refuse_special_output(args.output, "-o")
+    with discarding(args.output) if args.output is not None else nullcontext() as target:
+        if want_xdmf:
+            try:
+                print(write_xdmf(args.file, target))
+            except (OSError, RuntimeError) as exc:
+                if not is_disk_full(exc):
+                    raise
+                raise disk_full_error(target or Path(args.file).with_suffix(".xdmf"),
+                                      exc) from None
+        if args.vtk:
+            vtk = target if target is not None else Path(args.file).with_suffix(".pvd")
+            check_export_output(vtk, ".pvd")
+            with staged_outputs(vtk) as staged:   # the .pvd and its .vtu: all or none
+                write_vtk(args.file, staged)
+            print(vtk)
     return EXIT_OK

@@ -54,7 +54,12 @@ def cmd_extract(args) -> int:
                         mode=args.mode, dof=args.dof)
     text = {"csv": table.to_csv, "json": table.to_json}.get(args.format, table.to_text)()
     if args.output is not None:
-        args.output.write_text(text, encoding="utf-8")
+        from spacarpy.outputs import is_null_device
+        if is_null_device(args.output):          # -o /dev/null: discarded, never opened
+            return EXIT_OK
+        from spacarpy.outputs import atomic_output
+        with atomic_output(args.output) as staged:   # whole or not at all (a full disk)
+            staged.write_text(text, encoding="utf-8")
         log.info("%s written", args.output)
     else:
         sys.stdout.write(text)

@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import functools
 import logging
-import signal
 import sys
 
 from spacarpy import __version__
@@ -20,6 +19,8 @@ from spacarpy.cli import batch, bench, check, export, extract, plot, run, show, 
 from spacarpy.cli.process import (
     _capped,
     _printable,
+    _quiet_h5py_dealloc,
+    _restore_sigterm,
     _single_blas_thread,
     _terminate_like_interrupt,
     exit_process,
@@ -112,12 +113,18 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0)
     from spacarpy.memory import keep_freed_memory
     keep_freed_memory()                 # large models: reuse freed memory (spacarpy.memory)
-    previous = _terminate_like_interrupt()
-    try:
-        return _main(args)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+    _quiet_h5py_dealloc()
+    previous = None
+    try:                    # a SIGTERM anywhere in here, restoring the handler included
+        try:
+            previous = _terminate_like_interrupt()
+            return _main(args)
+        finally:
+            if previous is not None:
+                _restore_sigterm(previous)
+    except Terminated:
+        print("terminated (SIGTERM)", file=sys.stderr)
+        return EXIT_TERMINATED
 
 
 #: Libraries whose debug/info lines (h5py's "Creating converter from 5 to 3") -v hides.
@@ -153,6 +160,14 @@ def _main(args) -> int:
         print("error: out of memory: the analysis needed more memory than the system could "
               "give (see docs/performance.md, 'Memory estimate before a run')",
               file=sys.stderr)
+        return EXIT_SOLVER
+    except (OSError, RuntimeError) as exc:
+        from spacarpy.errors import disk_full_text, is_disk_full
+        if not is_disk_full(exc):
+            raise
+        # a write no command wraps (they remove what they were writing themselves)
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        print(f"disk full (or quota exceeded){where}: {disk_full_text(exc)}", file=sys.stderr)
         return EXIT_SOLVER
     except Terminated:
         print("terminated (SIGTERM)", file=sys.stderr)

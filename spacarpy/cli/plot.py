@@ -4,7 +4,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from spacarpy.cli.common import _dof, _output_path, _positive_int, _selection, _verbosity
+from spacarpy.cli.common import (
+    _dof,
+    _output_path,
+    _positive_float,
+    _positive_int,
+    _selection,
+    _verbosity,
+)
 from spacarpy.errors import EXIT_OK
 
 
@@ -44,7 +51,7 @@ def add_parser(sub, vocabularies: bool = True) -> None:
                            "quantity the run prescribes (a DELINPE angle in mrad, a DELXF "
                            "force in N), or the load factor (default auto: the prescribed "
                            "quantity where there is one)")
-    plot.add_argument("--fps", type=float, default=20.0,
+    plot.add_argument("--fps", type=_positive_float, default=20.0,
                       help="animate: frames per second (default 20)")
     plot.add_argument("--frames", type=_positive_int, default=200,
                       help="animate: at most this many frames, spread over the steps "
@@ -60,6 +67,7 @@ def add_parser(sub, vocabularies: bool = True) -> None:
 
 def cmd_plot(args) -> int:
     """``spacarpy plot FILE [KIND]``: an image file."""
+    from spacarpy.outputs import atomic_output, discarding, refuse_special_output
     from spacarpy.results import open_results
     from spacarpy.results.plot import animate, make_figure, save
     from spacarpy.results.plot_base import ANIMATION_SUFFIXES, IMAGE_SUFFIXES, check_output
@@ -69,16 +77,18 @@ def cmd_plot(args) -> int:
         f"{args.file.stem}_{args.kind}{'.gif' if animation else '.png'}")
     out = check_output(out, ANIMATION_SUFFIXES if animation else IMAGE_SUFFIXES,
                        f"plot {args.kind}")          # before any work
+    refuse_special_output(out, "-o")
     step = "all" if args.all_steps else args.step
-    with open_results(args.file) as res:
+    with open_results(args.file) as res, discarding(out) as target, \
+            atomic_output(target) as staged:      # whole or not at all (a full disk)
         if animation:
-            animate(res, out, fps=args.fps, max_frames=args.frames, scale=args.scale,
+            animate(res, staged, fps=args.fps, max_frames=args.frames, scale=args.scale,
                     view=args.view)
         else:
             fig = make_figure(res, args.kind, node=args.node, element=args.element,
                               step=step, mode=args.mode, quantity=args.quantity,
                               scale=args.scale, view=args.view, time=args.time,
                               x=args.x_axis, dof=args.dof)
-            save(fig, out)
+            save(fig, staged)
     print(out)
     return EXIT_OK

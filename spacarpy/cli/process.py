@@ -22,6 +22,41 @@ def _single_blas_thread() -> None:
         os.environ.setdefault(var, "1")
 
 
+def _quiet_h5py_dealloc() -> None:
+    """h5py reports an error of HDF5 while it frees an object (after a write failed for lack
+    of space: "Can't decrement id ref count (... No space left on device)") through
+    :data:`sys.excepthook` and :data:`sys.unraisablehook`, which print tracebacks on
+    stderr. The failure itself reaches the command as the write's own error (one message,
+    exit 1): these reports are logged at debug level only. Other errors keep Python's
+    default report."""
+    default = sys.unraisablehook
+    if getattr(default, "spacarpy", False):
+        return
+
+    def hook(unraisable):
+        where = repr(getattr(unraisable, "object", ""))
+        if "h5py" in where and "dealloc" in where:
+            import logging
+            logging.getLogger("spacarpy").debug("h5py, freeing an object: %s",
+                                                unraisable.exc_value)
+            return
+        default(unraisable)
+    hook.spacarpy = True
+    sys.unraisablehook = hook
+    # Cython first prints the same error through sys.excepthook (PyErr_PrintEx)
+    default_except = sys.excepthook
+
+    def except_hook(kind, value, tb):
+        frame = tb
+        while frame is not None and frame.tb_next is not None:
+            frame = frame.tb_next
+        code = frame.tb_frame.f_code if frame is not None else None
+        if code is not None and "h5py" in code.co_filename and code.co_name.endswith("_dealloc"):
+            return
+        default_except(kind, value, tb)
+    sys.excepthook = except_hook
+
+
 def _on_sigterm(signum, frame):
     signal.signal(signal.SIGTERM, signal.SIG_DFL)     # a second SIGTERM ends it at once
     raise Terminated("terminated by SIGTERM")
@@ -40,6 +75,20 @@ def _terminate_like_interrupt():
         return None
     signal.signal(signal.SIGTERM, _on_sigterm)
     return previous
+
+
+def _restore_sigterm(previous) -> None:
+    """Put back the SIGTERM handler :func:`_terminate_like_interrupt` replaced, with SIGTERM
+    blocked meanwhile: one arriving now is delivered to the restored handler. (One that
+    arrived just before still runs ours: :func:`main` catches its
+    :class:`~spacarpy.errors.Terminated`, which used to escape as a traceback.)"""
+    block = hasattr(signal, "pthread_sigmask")
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM}) if block else None
+    try:
+        signal.signal(signal.SIGTERM, previous)
+    finally:
+        if block:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def exit_process(code: int) -> None:

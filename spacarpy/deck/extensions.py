@@ -62,6 +62,13 @@ class _Extensions:
         if len(self.stack) >= _MAX_INCLUDE_DEPTH:
             self.error(loc, f"INCLUDE: files nested more than {_MAX_INCLUDE_DEPTH} deep", src)
             return
+        if resolved in self.included:
+            first = self.included[resolved]
+            self.error(loc, f"INCLUDE '{name}': {shown} is already included (at {first}); "
+                            "a file included twice would define its nodes, elements and "
+                            "loads twice", src)
+            return
+        self.included[resolved] = loc
         try:
             text = read_text(target)
         except OSError as exc:

@@ -159,6 +159,7 @@ class _Reader(_FastPath, _ModuleStructure, _Extensions, _FieldChecks):
         self.unknown_uses: list = []    # (error index, name) of unknown parameters
         self.last: tuple[_Source, int] | None = None   # where the last record is (file, line)
         self.stack: list[Path] = []     # files being read (include cycle detection)
+        self.included: dict = {}        # resolved INCLUDEd file -> its first INCLUDE line
         self.batches: dict = {}         # plain lines waiting for conversion (see flush)
 
     # ---------------------------------------------------------------- errors

@@ -171,9 +171,17 @@ def write_xdmf(path, out=None) -> Path:
     data_file = path
     if _needs_swmr_read(path):
         data_file = out.with_name(out.stem + ".xdmf.h5")
-        _copy_committed(res, data_file)
-        log.warning("%s is marked as open for SWMR writing (its writer was killed); the "
-                    "committed steps were copied to %s for ParaView", path, data_file)
+        try:
+            _copy_committed(res, data_file)
+        except BaseException:
+            data_file.unlink(missing_ok=True)     # a full disk: no half copy left
+            raise
+        from spacarpy.outputs import running_writer
+        pid = running_writer(path)
+        state = (f"it is being written by spacarpy process {pid}" if pid is not None
+                 else "its writer was killed")
+        log.warning("%s is marked as open for SWMR writing (%s); the committed steps so far "
+                    "were copied to %s for ParaView", path, state, data_file)
     relative = os.path.relpath(data_file.resolve(), out.resolve().parent)
 
     def href(name):     # a dataset by its 2.0 name, at its name in the file
@@ -188,8 +196,12 @@ def write_xdmf(path, out=None) -> Path:
     tree = _xdmf_tree(res, href, shapes)
     ET.indent(tree, space="  ")
     tmp = out.with_name(out.name + ".tmp")
-    tree.write(tmp, encoding="utf-8", xml_declaration=True)
-    os.replace(tmp, out)
+    try:
+        tree.write(tmp, encoding="utf-8", xml_declaration=True)
+        os.replace(tmp, out)
+    except BaseException:
+        tmp.unlink(missing_ok=True)               # a full disk: no 0-byte file left
+        raise
     return out
 
 

@@ -46,8 +46,9 @@ log = logging.getLogger(__name__)
 
 __all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_superblock",
            "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
-           "ascii_array", "SchemaFile", "LIBVER", "crc32", "damaged_steps", "fixed_damaged",
-           "checksum_problems", "CRC_ATTR", "python_value", "str_list"]
+           "ascii_array", "SchemaFile", "discard_written", "LIBVER", "crc32",
+           "damaged_steps", "fixed_damaged", "checksum_problems", "CRC_ATTR", "python_value",
+           "str_list"]
 
 # Lowest file-format version that supports SWMR; readable by every HDF5 >= 1.10. ("latest"
 # would let a newer HDF5 use formats older readers, e.g. ParaView's, cannot read.)
@@ -290,6 +291,32 @@ def _metadata_read_attempts():
         fn.argtypes, fn.restype = [ctypes.c_int64, ctypes.c_uint], ctypes.c_int
         return fn
     return None
+
+
+def discard_written(f, path) -> None:
+    """Give up the HDF5 file ``f`` (open for writing at ``path``) after a failed write (a full
+    disk): remove it, never raising.
+
+    HDF5 flushes its metadata on close; after a write failed for lack of space that flush
+    fails again and leaves the file half closed, and closing an SWMR file in that state
+    crashes the process (a segmentation fault inside HDF5). So the file is first truncated
+    to 0 bytes, which gives its space back, then closed (the flush now succeeds, into a file
+    about to be removed), then unlinked."""
+    try:
+        os.truncate(path, 0)
+    except OSError as exc:
+        log.debug("could not truncate %s: %s", path, exc)
+    if f is not None:
+        try:
+            f.close()
+        except Exception as exc:         # noqa: BLE001 - the file is given up
+            log.debug("closing %s failed: %s", path, exc)
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+    except OSError as exc:
+        log.warning("could not remove %s: %s", path, exc)
 
 
 def fsync(path: Path) -> None:

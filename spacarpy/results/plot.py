@@ -261,7 +261,8 @@ def _time_history_figure(res, what, quantity, node, element):
                 label=f"{names[j]} [{unit}]" if unit != "1" else names[j])
     ax.set_xlabel("time [s]")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    # outside the axes: inside, the energy curves (which fill the plot) run under it
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     what_of = ("energies" if what == "energy" else
                f"node {node}" if element is None else f"element {element}")
     if res.static is not None and res.static.n_step > 1:

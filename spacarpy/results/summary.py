@@ -40,6 +40,7 @@ def summary(res: ResultsFile) -> str:
              f"{m.n_elem} elements{n_coord}"]
     if res.static is not None:
         lines += [""] + _static_summary(res)
+        lines += _critical_summary(res)
     if res.transient is not None:
         lines += [""] + _transient_summary(res)
     if res.eigen is not None and res.eigen.n_lin:
@@ -55,6 +56,18 @@ def summary(res: ResultsFile) -> str:
     if res.state_space is not None and res.state_space.n_lin:
         lines += [""] + _state_space_summary(res.state_space)
     return "\n".join(lines) + "\n"
+
+
+def _critical_summary(res) -> list:
+    """The critical points an arc-length run stored (``/critical``): step, kind, load
+    factor; nothing for a file without them."""
+    from spacarpy.results.path import critical_points
+    steps, kinds, lfs = critical_points(res)
+    if not len(steps):
+        return []
+    rows = [["step", "kind", "load factor"]]
+    rows += [[str(int(k)), kind, f"{lf:.6g}"] for k, kind, lf in zip(steps, kinds, lfs)]
+    return ["", f"Critical points of the path: {len(steps)}"] + _indent(_align(rows))
 
 
 def _state_space_summary(v) -> list:

@@ -495,8 +495,21 @@ def _x_time_element(what):
         letter = "e" if what == "deformation" else "s"
         comps = [f"{letter}{i}" for i in range(1, values.shape[-1] + 1)]
         return _time_long(f"{kind} {what.replace('_', ' ')}s", t, steps, "element", ids,
-                          values, comps, ["1"] * len(comps))
+                          values, comps, _component_units(kind, what, len(comps)))
     return get
+
+
+def _component_units(kind: str, what: str, n: int) -> list:
+    """The unit of each of the ``n`` components of a kind's transient ``what``, from the
+    schema: ``"rad | 1"`` (HINGE deformation: the joint angle in rad, then the small
+    relative rotations) gives the first part to the first component, the second to the
+    rest."""
+    from spacarpy.results.schema import DATASETS
+    spec = DATASETS.get(f"transient/elements/{kind}/{what}")
+    if spec is None:
+        return ["1"] * n
+    parts = [p.strip() for p in spec.units.split("|")]
+    return [parts[0]] + [parts[-1]] * (n - 1) if n else []
 
 
 def _x_deck(res, **_):

@@ -26,7 +26,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from spacarpy.errors import DiskFull, disk_full_text, is_disk_full
 from spacarpy.model import Model
+from spacarpy.outputs import refuse_non_regular
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, partial_path_for
 from spacarpy.results.layout import create_step_group, write_header
@@ -132,6 +134,8 @@ class ResultsWriter:
                 log.warning("%s: %s; keeping the partial file %s", self.final_path, _NOT_FINISHED,
                             self.partial_path)
                 self.abort(_NOT_FINISHED)
+        elif self._state in ("open", "finishing") and is_disk_full(exc):
+            raise self._disk_full(exc) from None
         elif self._state in ("open", "finishing"):
             if issubclass(exc_type, KeyboardInterrupt):      # Ctrl-C, or SIGTERM's message
                 message = str(exc) or _INTERRUPTED
@@ -167,11 +171,12 @@ class ResultsWriter:
         try:
             self._write_header(self._file)
             self._file.flush()
-        except BaseException:
-            self._file.close()
+        except BaseException as exc:
+            h5file.discard_written(self._file, self.partial_path)
             self._file = None
             self._state = "aborted"
-            self.partial_path.unlink(missing_ok=True)
+            if is_disk_full(exc):
+                raise self._disk_full(exc) from None
             raise
         self._state = "open"
         log.debug("writing results to %s", self.partial_path)
@@ -391,6 +396,7 @@ class ResultsWriter:
         self._state = "finishing"
         self._mark(completed=True, error=None)
         h5file.fsync(self.partial_path)
+        refuse_non_regular(self.final_path)    # never replace a device or a FIFO
         os.replace(self.partial_path, self.final_path)
         h5file.fsync(self.final_path.parent)
         self._state = "finished"
@@ -414,16 +420,34 @@ class ResultsWriter:
                 self._swmr = False
                 self._file = h5py.File(self.partial_path, "r+", libver=h5file.LIBVER)
             self._mark(completed=False, error=error)
-        except Exception:
-            log.exception("could not mark %s as incomplete", self.partial_path)
+        except Exception as exc:
+            if is_disk_full(exc):    # the partial file cannot be marked: it goes
+                log.warning("%s", self._disk_full(exc))
+                return
+            log.warning("could not mark %s as incomplete: %s", self.partial_path, exc)
         finally:
-            self._close()
-            self._state = "aborted"
+            if self._state != "aborted":
+                self._close()
+                self._state = "aborted"
         kept = self._steps_held()
         # the error itself is the caller's to report (the CLI prints it once)
         log.warning("run not completed; %s kept in %s", kept, self.partial_path)
 
     # -- internals ----------------------------------------------------------------------------
+
+    def _disk_full(self, exc) -> DiskFull:
+        """Give up the partial file after a write failed for lack of space (it is removed:
+        a file that could not be written to the end cannot be marked as incomplete either)
+        and return the error to raise. The file at :attr:`final_path` is untouched."""
+        held = self._steps_held() if self._groups else "nothing"
+        h5file.discard_written(self._file, self.partial_path)
+        self._file = None
+        self._state = "aborted"
+        kept = (f"the previous {self.final_path} is unchanged" if self.final_path.exists()
+                else f"no {self.final_path} was written")
+        return DiskFull(f"disk full (or quota exceeded) while writing {self.partial_path}: "
+                        f"{disk_full_text(exc)}; the partial file (with {held}) was removed and "
+                        f"{kept}. Free some space or give another -o")
 
     def _specs(self, group: str):
         """Schema entries of a step group that this file has (per-kind ones for its kinds)."""
@@ -558,3 +582,4 @@ class ResultsWriter:
         write_header(f, self.model, self.model_data, program_version=self.program_version,
                      analysis=self.analysis, deformations=self.deformations,
                      rotary_inertia=self.rotary_inertia)
+

@@ -107,7 +107,8 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     loads = _loads.from_statements(by_kw, ctx, errors, topology, constraints)
     settings = _settings.from_statements(by_kw, ctx, errors, topology,
                                          deformations=deformations, analysis=analysis)
-    inputs, outputs = _signals.from_statements(by_kw, ctx, errors, topology)
+    inputs, outputs = _signals.from_statements(by_kw, ctx, errors, topology,
+                                               constraints.fix_lines)
     if inputs or outputs:
         settings = replace(settings, linearized=replace(settings.linearized, inputs=inputs,
                                                         outputs=outputs))
@@ -141,7 +142,20 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         source_path=path,
         source_text=text,
     )
+    _warn_massless_gravity(model, by_kw.get("GRAVITY", ()))
     return Job(model, settings)
+
+
+def _warn_massless_gravity(model, gravity_lines) -> None:
+    """GRAVITY acts on masses: in a model without EM or XM masses it does nothing, which
+    the deck's author did not mean (a warning naming the line)."""
+    if not gravity_lines or not any(model.gravity):
+        return
+    if model.nodal_masses or any(np.any(es.mass != 0) for es in model.elements.values()):
+        return
+    st = gravity_lines[0]
+    logger.warning("%s: warning: GRAVITY has no effect: the model has no mass (no EM or XM "
+                   "lines)", st.loc)
 
 
 def build_job(statements, *, text: str, path: str, deformations: str | None = None,

@@ -25,8 +25,10 @@ _NODE_KEYWORDS = ("INPUTF", "OUTX", "OUTXP")
 
 
 class _SignalsPass(UsesTopology):
-    def __init__(self, ctx: DeckContext, errors: ErrorCollector, topology: Topology):
+    def __init__(self, ctx: DeckContext, errors: ErrorCollector, topology: Topology,
+                 fix_lines: dict | None = None):
         self.ctx, self.errors, self.topology = ctx, errors, topology
+        self.fix_lines = fix_lines or {}
 
     def signal(self, st: Statement) -> SystemSignal | None:
         i, target, number = st.fields[0], st.fields[1], st.fields[2]
@@ -47,6 +49,14 @@ class _SignalsPass(UsesTopology):
                                              f"{'a' if kind == 'position' else 'an'} {kind} node: "
                                              f"coordinate 1..{n_coord} ({what}), got {number}",
                            st)
+                return None
+            fix = self.fix_lines.get((target, number)) if not self.planar else None
+            if st.keyword == "INPUTF" and fix is not None:
+                self.error(st.field_locs[2], f"INPUTF: coordinate {number} of node {target} "
+                                             f"is fixed (FIX at line {fix.loc.line}): an input "
+                                             "force there goes straight into the support "
+                                             "(its B column would be zero); remove the INPUTF "
+                                             "or the FIX", st)
                 return None
         else:
             rec = self.beams.get(target)
@@ -86,10 +96,11 @@ class _SignalsPass(UsesTopology):
 
 
 def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,
-                    topology: Topology) -> tuple[tuple, tuple]:
+                    topology: Topology, fix_lines: dict | None = None) -> tuple[tuple, tuple]:
     """(inputs, outputs): the :class:`~spacarpy.settings.SystemSignal` s of the deck, each
-    ordered by its index."""
-    part = _SignalsPass(ctx, errors, topology)
+    ordered by its index. ``fix_lines``: (node, coordinate) -> FIX line (an INPUTF on a
+    fixed coordinate is an error, as a DELXF there is)."""
+    part = _SignalsPass(ctx, errors, topology, fix_lines)
     inputs = part.numbered(ctx.in_deck_order(*INPUT_KEYWORDS), "input")
     outputs = part.numbered(ctx.in_deck_order(*OUTPUT_KEYWORDS), "output")
     return inputs, outputs
