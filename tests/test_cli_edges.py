@@ -114,3 +114,34 @@ def test_the_energy_plot_legend_leaves_the_curves_free(tmp_path):
     assert len(ax.get_legend().get_texts()) >= 3    # kinetic, potential, total ...
     assert main(["plot", str(out), "history", "--quantity", "energy", "-o",
                  str(tmp_path / "e.png")]) == 0
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["batch", "d", "--run-args", "--modes-per-step"], "--modes-per-step"),
+    (["batch", "d", "--run-args", "--modes-per-step --modes 4"], "--modes-per-step --modes 4"),
+    (["batch", "d", "--run-args=--modes 4"], "--modes 4"),
+    (["sweep", "d", "--set", "a=1,2", "--run-args", "-v"], "-v"),
+])
+def test_run_args_take_a_value_that_starts_with_a_dash(argv, expected):
+    """Report N11: ``--run-args '--modes-per-step'`` (one quoted option, as the help shows)
+    failed with "expected one argument"; it is the value of --run-args."""
+    from spacarpy.cli.common import join_option_strings
+    args = m.build_parser().parse_args(join_option_strings(argv))
+    assert args.run_args == expected
+
+
+@pytest.mark.slow
+def test_batch_passes_a_quoted_run_option_to_its_runs(tmp_path):
+    """End to end: the quoted option reaches every run (frequencies at every load step)."""
+    import shutil
+    from pathlib import Path
+
+    import h5py
+    deck = Path(__file__).resolve().parents[1] / "decks" / "column_pinned_axial_load_16el.dat"
+    shutil.copy(deck, tmp_path / deck.name)
+    assert main(["batch", str(tmp_path / deck.name), "-q", "-j", "1", "--output-dir",
+                 str(tmp_path / "out"), "--run-args", "--modes-per-step"]) == 0
+    (result,) = (tmp_path / "out").glob("*.h5")
+    with h5py.File(result, "r") as f:
+        n_steps = f["static/load_factor"].shape[0]
+        assert n_steps > 1 and f["eigen/frequency"].shape[0] == n_steps

@@ -135,3 +135,26 @@ class _Progress:
 def _jobs(args) -> int:
     import os
     return args.jobs or os.cpu_count() or 1
+
+
+#: Options whose value is itself a string of options: ``--run-args '--modes-per-step'``
+#: would be read by argparse as a second option without a value.
+OPTION_STRING_OPTIONS = ("--run-args",)
+
+
+def join_option_strings(argv: list[str]) -> list[str]:
+    """``--run-args VALUE`` as ``--run-args=VALUE`` when VALUE starts with a dash, so that the
+    quoted form the help shows (``--run-args '--modes-per-step'``) parses as one option with
+    its value, as ``--run-args=--modes-per-step`` does."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        word = argv[i]
+        if word in OPTION_STRING_OPTIONS and i + 1 < len(argv) and \
+                argv[i + 1].startswith("-"):
+            out.append(f"{word}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(word)
+        i += 1
+    return out

@@ -16,6 +16,7 @@ import sys
 
 from spacarpy import __version__
 from spacarpy.cli import batch, bench, check, export, extract, plot, run, show, sweep, validate
+from spacarpy.cli.common import join_option_strings
 from spacarpy.cli.process import (
     _capped,
     _printable,
@@ -105,6 +106,7 @@ _LAZY_NUMPY_COMMANDS = ("run", "check")
 
 def main(argv: list[str] | None = None) -> int:
     _single_blas_thread()
+    argv = join_option_strings(sys.argv[1:] if argv is None else list(argv))
     command = _command_name(argv)
     parser = _parser(command is None or command in _VOCABULARY_COMMANDS)
     try:
