@@ -271,6 +271,40 @@ def test_run_stops_when_the_estimate_exceeds_the_available_memory(tmp_path, caps
     assert deck.with_suffix(".h5").exists()
 
 
+@pytest.mark.parametrize("deck_text", [
+    # a generator: the count is a field, the elements are never made
+    "SET n 1000000\nX 1 0 0 0\nX 3 1 0 0\nBEAMS 1 1 2 3 4 {n} 0 1 0\nDYNE 1:{n} 1:6\n"
+    "FIX 1\nFIX 2\nEND\nHALT\nESTIFF 1:{n} 1 1 1 1\nDELXF 3 0 1 0\nEND\nEND\n",
+    # plain element lines (the parser's tables)
+    "X 1 0 0 0\n" + "".join(f"X {2 * i + 1} {i} 0 0\n" for i in range(1, 3001))
+    + "".join(f"BEAM {i} {2 * i - 1} {2 * i} {2 * i + 1} {2 * i + 2} 0 1 0\n"
+              for i in range(1, 3001))
+    + "FIX 1\nFIX 2\nEND\nHALT\nDELXF 3 0 1 0\nEND\nEND\n",
+])
+def test_run_refuses_a_too_large_model_before_building_it(tmp_path, capsys, monkeypatch,
+                                                          deck_text):
+    """Report N11: the memory refusal of 10^6 generated elements came after 32 s of building
+    them; the element count of the parsed deck decides it, before any element is made."""
+    import spacarpy.deck.generators as generators
+    import spacarpy.deck.semantics.arrays as arrays
+    import spacarpy.memory as memory
+    from spacarpy.deck.semantics import build
+    monkeypatch.setattr(memory, "available_bytes", lambda: 10 * 2**20)
+
+    def never(*args, **kw):
+        raise AssertionError("the elements were built before the memory check")
+
+    monkeypatch.setattr(build, "expand_generators", never)
+    monkeypatch.setattr(arrays, "build_arrays", never)
+    monkeypatch.setattr(generators, "expand_generators", never)
+    deck = tmp_path / "big.dat"
+    deck.write_text(deck_text)
+    assert main(["run", str(deck), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "more than the 10 MB available" in err and "Traceback" not in err
+    assert not deck.with_suffix(".h5").exists()
+
+
 def test_check_prints_the_memory_estimate(tmp_path, capsys):
     assert main(["check", str(copy_deck(tmp_path))]) == 0
     out = capsys.readouterr().out.splitlines()

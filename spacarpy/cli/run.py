@@ -106,12 +106,19 @@ def _run_locked(args, out) -> int:
 
     t0 = time.perf_counter()
     inputs = []
-    job, expects = load_with_expectations(args.deck, overrides=dict(args.overrides) or None,
-                                          input_files=inputs)
+    from spacarpy.deck.semantics.build import BEFORE_BUILD
+    from spacarpy.memory import check_memory
+    # the memory estimate from the deck's element count, before the elements are made
+    token = BEFORE_BUILD.set(lambda n: check_memory(n, ignore=args.ignore_memory_limit))
+    try:
+        job, expects = load_with_expectations(args.deck,
+                                              overrides=dict(args.overrides) or None,
+                                              input_files=inputs)
+    finally:
+        BEFORE_BUILD.reset(token)
     check_output_path(out, "-o", inputs=inputs, warn=False)   # not an INCLUDEd file
     model = job.model
     _require_elements(model, args.deck)
-    from spacarpy.memory import check_memory
     check_memory(model.n_elem, ignore=args.ignore_memory_limit)
     from spacarpy.solvers.statics.conditioning import check_conditioning
     check_conditioning(model, ignore=args.ignore_conditioning_limit)

@@ -24,7 +24,8 @@ import numpy as np
 from spacarpy.deck.keywords import GENERATORS, KEYWORDS, VISUALIZATION_KEYWORDS
 from spacarpy.deck.statement import Statement
 
-__all__ = ["MAX_GENERATED", "arc_points", "expand_generators", "line_points", "max_node_number"]
+__all__ = ["MAX_GENERATED", "arc_points", "count_elements", "expand_generators", "line_points",
+           "max_node_number"]
 
 #: Most elements one generator line may create.
 MAX_GENERATED = 1_000_000
@@ -134,6 +135,18 @@ class _Generator:
         rest = f[9:] if self.arc else f[6:]
         self.orientation = tuple(rest) if rest else None
         self.o_index = 9 if self.arc else 6       # field index of ox
+
+
+def count_elements(statements) -> int:
+    """The number of elements the statements define, generators counted by their ``count``
+    field, without expanding them: the size of the model before it is built."""
+    n = 0
+    for st in statements:
+        if st.keyword in GENERATORS:
+            n += int(st["count"])
+        elif st.keyword in KEYWORDS and KEYWORDS[st.keyword].is_element:
+            n += 1
+    return n
 
 
 def expand_generators(statements):

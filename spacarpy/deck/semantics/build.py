@@ -14,13 +14,15 @@ are none, the warnings are logged and the parts are assembled into the model and
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import replace
 from itertools import chain
 
 import numpy as np
 
-from spacarpy.deck.generators import expand_generators
-from spacarpy.deck.keywords import UNSUPPORTED, unsupported_message
+from spacarpy.deck.generators import count_elements, expand_generators
+from spacarpy.deck.keywords import KEYWORDS, UNSUPPORTED, unsupported_message
 from spacarpy.deck.parser import gc_paused, parse_deck
 from spacarpy.deck.semantics import arrays as _arrays
 from spacarpy.deck.semantics import constraints as _constraints
@@ -37,9 +39,16 @@ from spacarpy.errors import DeckError
 from spacarpy.job import Job
 from spacarpy.model import ElementSet, Model
 
-__all__ = ["build_job", "build_job_parsed", "build_model"]
+__all__ = ["BEFORE_BUILD", "build_job", "build_job_parsed", "build_model"]
 
 logger = logging.getLogger(__name__)
+
+#: Called, when set, with the number of elements the deck defines (generators counted)
+#: right after parsing and before any element is made: ``spacarpy run`` refuses a model too
+#: large for the machine's memory there (:func:`spacarpy.memory.check_memory`) instead of
+#: after building it (report N11: a million generated elements took 32 s to refuse).
+BEFORE_BUILD: ContextVar[Callable[[int], None] | None] = ContextVar("before_build",
+                                                                    default=None)
 
 
 def _table(rows, dtype) -> np.ndarray:
@@ -78,6 +87,9 @@ def _element_sets(topology: _topology.Topology) -> dict:
 
 
 def _semantics(statements: list[Statement], path: str, text: str, deformations, analysis) -> Job:
+    hook = BEFORE_BUILD.get()
+    if hook is not None:
+        hook(count_elements(statements))
     errors = ErrorCollector(statements)
     statements, gen_errors, quiet_elements, quiet_nodes = expand_generators(statements)
     errors.extend(gen_errors)
@@ -201,6 +213,11 @@ def build_job_parsed(parsed, *, text: str, path: str, deformations: str | None =
     deck, by the per-statement semantics, with the same result and the same errors."""
     with gc_paused():
         if parsed.tables:
+            hook = BEFORE_BUILD.get()
+            if hook is not None:
+                hook(count_elements(st for st in parsed.statements if st is not None)
+                     + sum(len(tab) for tab in parsed.tables
+                           if tab.keyword in KEYWORDS and KEYWORDS[tab.keyword].is_element))
             job = _arrays.build_arrays(parsed, path, text, deformations, analysis)
             if job is not None:
                 return job
