@@ -154,3 +154,45 @@ def test_southwell_energy_balance():
               for s in (2, 4)]
     assert errors[1] < 3e-4
     assert errors[0] > 3.0 * errors[1]
+
+
+# a 2 kg slider on node 3 whose x the 5-field INPUTX drives at a constant acceleration
+SLIDER = """X 1 0 0 0
+X 3 1 0 0
+TRUSS 1 1 3
+RLSE 1 1
+FIX 1
+FIX 3 2 3
+INPUTX 3 1
+END
+HALT
+XM 3 2.0
+INPUTX 3 1 1.0 0.5 -0.8
+GRAVITY 0 -9.81 0
+TIMESTEP 1.0 10
+MODE transient
+END
+END
+"""
+
+
+def test_transient_reactions_hold_the_prescribed_motion(tmp_path):
+    """``/transient/reaction`` (schema 2.7): the force that drives the slider's x is
+    ``m a0 = -1.6 N`` at every step, the fixed y carries its weight ``m g``, in the order
+    and with the names of ``/static/reaction_node`` (the truss, its elongation released,
+    carries nothing to node 1)."""
+    from spacarpy.cli import main
+    from spacarpy.results import open_results
+
+    deck, out = tmp_path / "slider.dat", tmp_path / "slider.h5"
+    deck.write_text(SLIDER)
+    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    with open_results(out) as res:
+        tr = res.transient
+        assert tr.n_step == 11
+        at_slider = tr.reaction(node=3)
+        assert tr.reaction().shape == (11, len(tr.reaction_component))
+        np.testing.assert_allclose(at_slider[:, 0], 2.0 * -0.8, rtol=1e-9)
+        np.testing.assert_allclose(at_slider[:, 1], 2.0 * 9.81, rtol=1e-9)
+        np.testing.assert_allclose(at_slider[:, 2], 0.0, atol=1e-9)
+        np.testing.assert_allclose(tr.reaction(node=1), 0.0, atol=1e-9)

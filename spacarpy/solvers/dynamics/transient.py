@@ -372,19 +372,20 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in)
 
-    def store(t, x, v, a, mu, its, res, ev, blocks):
+    def store(t, x, v, a, mu, its, res, ev, blocks, f_in):
         deformation, stress = prob.element_results(ev)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
-                             deformation=deformation, stress=stress)
+                             deformation=deformation, stress=stress,
+                             reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext))
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
 
-    store(0.0, x, v, a, mu, 0, res, ev, start.blocks)
+    store(0.0, x, v, a, mu, 0, res, ev, start.blocks, f_in)
     h_out = opts.t_end / opts.n_steps
     h_int = h_out / max(int(opts.substeps), 1)
     t = 0.0
@@ -442,7 +443,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
-        store(t_target, x, v, a, mu, its, res, ev, blocks)
+        store(t_target, x, v, a, mu, its, res, ev, blocks, f_in)
         if progress is not None:
             progress(t_target, opts.t_end)
     result.wall_time = time.perf_counter() - t_wall
