@@ -183,6 +183,7 @@ def test_transient_reactions_hold_the_prescribed_motion(tmp_path):
     carries nothing to node 1)."""
     from spacarpy.cli import main
     from spacarpy.results import open_results
+    from spacarpy.results.tables import extract
 
     deck, out = tmp_path / "slider.dat", tmp_path / "slider.h5"
     deck.write_text(SLIDER)
@@ -196,3 +197,9 @@ def test_transient_reactions_hold_the_prescribed_motion(tmp_path):
         np.testing.assert_allclose(at_slider[:, 1], 2.0 * 9.81, rtol=1e-9)
         np.testing.assert_allclose(at_slider[:, 2], 0.0, atol=1e-9)
         np.testing.assert_allclose(tr.reaction(node=1), 0.0, atol=1e-9)
+        # spacarpy extract reaction: the time history of a file without load steps
+        table = extract(res, "reaction", node=3, step=-1)
+        assert table.names[:2] == ["time", "step"]
+        values = dict(zip(table.columns[3].tolist(), table.columns[4].tolist()))
+        assert values["Fx"] == pytest.approx(-1.6, rel=1e-9)
+        assert values["Fy"] == pytest.approx(2.0 * 9.81, rel=1e-9)

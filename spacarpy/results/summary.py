@@ -169,8 +169,9 @@ def _transient_summary(res) -> list:
     top = float(np.max(kin + ela))
     share = f" ({drift / top:.2g} of max(T + U))" if top > 0 else ""
     out += [f"  energy balance T + U + D - W: {bal[0]:.6g} J at t = {t[0]:.6g} s, largest "
-            f"change {drift:.3g} J{share}: the integration error (W: the work of the "
-            f"loads, gravity and prescribed motions)"]
+            f"change {drift:.3g} J{share}",
+            "    (constant but for the integration error; W: the work done on the model by "
+            "the loads, gravity and prescribed motions)"]
     if u.size:
         k, j = np.unravel_index(np.argmax(u), u.shape)
         out += [f"  largest displacement |u| {u[k, j]:.6g} m at node {m.position_nodes[j]}, "
