@@ -137,7 +137,8 @@ def test_slider_crank_energy_balance_is_second_order():
 def test_spinup_energy_balance():
     """decks/spinup_beam.dat (hub by INPUTR) over 6 s of its spin-up: in the rotating frame
     (the default) the balance holds to 2e-4 of max(T + U) = 301 J at h = 0.1, 0.05 and
-    0.025 s, an error that does not fall with h (the frame's rate ramp, docs/transient.md);
+    0.025 s, an error that does not fall with h (the frame's switch-on depends on h,
+    docs/transient.md);
     in the global frame it is larger and second order (RHOINF 1: 1.4, 0.35, 0.087 J)."""
     assert balance_error(shortened("spinup_beam", 6.0, 30, 4)) < 5e-4
     global_frame = [balance_error(shortened("spinup_beam", 6.0, 30, s, "RHOINF 1"),
