@@ -93,6 +93,22 @@ def test_a_driven_hinge_winding_a_spring_with_a_rod_conserves_energy_to_second_o
         assert 3.5 < coarse / fine < 4.6          # second order
 
 
+def test_a_driven_wheel_receives_the_kinetic_energy_it_gains():
+    """tests/test_spacar_inputs.py's wheel (Izz = 0.5 kg m^2) driven by ``INPUTE 2 1 0 w
+    alpha``: the hinge holds sigma = -I alpha, and the drive's work is the kinetic energy the
+    wheel gains, ``I ((w + alpha t)^2 - w^2) / 2`` (56.25 J at 0.5 s), to O(h^2) (RHOINF 0's
+    start-up of the multipliers: 4.0, 0.98 J at 50, 100 steps); the former sign gave -56 J."""
+    from test_spacar_inputs import WHEEL
+
+    errors = []
+    for n in (50, 100):
+        t, T, _, W, _ = energies(WHEEL.format(w=20.0, alpha=10.0, n=n))
+        gained = 0.25 * ((20.0 + 10.0 * t) ** 2 - 400.0)
+        errors.append(np.abs(W - gained).max())
+    assert errors[1] < 0.02 * gained[-1]
+    assert 3.5 < errors[0] / errors[1] < 4.6
+
+
 def four_bar(n: int) -> str:
     """decks/planar_four_bar.dat with its crank hinge driven at 6 rad/s (INPUTE, 5 fields)
     instead of the spring, links of 0.5 kg/m, for 1 s (a full turn) in n steps."""
