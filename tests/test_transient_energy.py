@@ -194,7 +194,7 @@ END
 
 
 def test_transient_reactions_hold_the_prescribed_motion(tmp_path):
-    """``/transient/reaction`` (schema 2.7): the force that drives the slider's x is
+    """``/transient/reaction`` (schema 2.8): the force that drives the slider's x is
     ``m a0 = -1.6 N`` at every step, the fixed y carries its weight ``m g``, in the order
     and with the names of ``/static/reaction_node`` (the truss, its elongation released,
     carries nothing to node 1)."""

@@ -525,10 +525,10 @@ class TransientView(_StepView):
     def reaction(self, node=None, step=None) -> np.ndarray:
         """Reactions of the fixed and prescribed coordinates at each time step, inertia and
         damping included (the force that holds a prescribed motion), shaped as
-        :meth:`StaticView.reaction`; a file older than schema 2.7 has none."""
+        :meth:`StaticView.reaction`; a file older than schema 2.8 has none."""
         if not self._res._has("transient/reaction"):
             raise ResultsQueryError("this file has no /transient/reaction (written before "
-                                    "schema 2.7); run the deck again to get it")
+                                    "schema 2.8); run the deck again to get it")
         return StaticView.reaction(self, node, step)
 
     @property
