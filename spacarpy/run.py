@@ -255,7 +255,8 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
             stress_resultant=step.stress,
             kinetic_energy=step.kinetic_energy, elastic_energy=step.elastic_energy,
             external_work=step.external_work, iterations=step.iterations,
-            residual=step.residual, dissipated_energy=step.dissipated_energy)
+            residual=step.residual, dissipated_energy=step.dissipated_energy,
+            reaction=step.reaction)
         k = summary.n_time
         if along is not None:
             writer.state_space_step(k, along(step), time=step.time)

@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 7)
+SCHEMA_VERSION = (2, 8)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -222,6 +222,9 @@ def _spec_list() -> list[DatasetSpec]:
           "motions; T + U + D - W is constant for an exact integration", v14),
         S("transient/dissipated_energy", "f8", ("time_step",), "J",
           "energy dissipated by the damping (DAMPING, EDAMP) since t = 0", v14),
+        S("transient/reaction", "f8", ("time_step", "reaction"), REACTION_UNITS,
+          "reaction force or moment of each reaction component of /static/reaction_node "
+          "(fixed and prescribed coordinates), inertia and damping included", (2, 8)),
         S("transient/iterations", "i4", ("time_step",), "1",
           "Newton iterations of the last time step", v14),
         S("transient/residual", "f8", ("time_step",), "1",

@@ -179,8 +179,12 @@ def _transient_summary(res) -> list:
               f"{diss[k]:.6g}"] for k in range(n)]
     out += _indent(_align(_elided(rows)))
     drift = float(np.max(np.abs(bal - bal[0])))
+    top = float(np.max(kin + ela))
+    share = f" ({drift / top:.2g} of max(T + U))" if top > 0 else ""
     out += [f"  energy balance T + U + D - W: {bal[0]:.6g} J at t = {t[0]:.6g} s, largest "
-            f"change {drift:.3g} J"]
+            f"change {drift:.3g} J{share}",
+            "    (constant but for the integration error; W: the work done on the model by "
+            "the loads, gravity and prescribed motions)"]
     if u.size:
         k, j = np.unravel_index(np.argmax(u), u.shape)
         out += [f"  largest displacement |u| {u[k, j]:.6g} m at node {m.position_nodes[j]}, "

@@ -61,6 +61,8 @@ QUANTITIES = {
     "time_deformation": "time history of element deformations (one element kind: that of "
                         "--element, default the first); --element, --step",
     "time_stress_resultant": "time history of element stress resultants; --element, --step",
+    "time_reaction": "time history of the reactions, inertia included (N, N m); --node, "
+                     "--step",
 }
 
 
@@ -512,6 +514,25 @@ def _component_units(kind: str, what: str, n: int) -> list:
     return [parts[0]] + [parts[-1]] * (n - 1) if n else []
 
 
+def _x_time_reaction(res, node, step, **_):
+    tr = _transient(res)
+    steps, t = _time_steps(tr, step)
+    nodes, comps = tr.reaction_node, np.array(tr.reaction_component)
+    keep = np.ones(nodes.size, bool) if node is None else nodes == node
+    if node is not None and not keep.any():
+        res.model.node_kind(int(node))          # unknown node: clear error
+        raise ResultsQueryError(f"node {node} has no support reactions (no fixed coordinate)")
+    values = tr.reaction(step=steps)[:, keep]
+    n_r = int(keep.sum())
+    units = np.where(np.char.startswith(comps[keep], "F"), "N", "N m")
+    return Table("reactions, inertia included, global axes",
+                 ["time", "step", "node", "component", "value", "unit"],
+                 ["s", "1", "1", "1", "N | N m", "1"],
+                 [np.repeat(t, n_r), np.repeat(steps, n_r), np.tile(nodes[keep], steps.size),
+                  np.tile(comps[keep], steps.size), values.reshape(-1),
+                  np.tile(units, steps.size)])
+
+
 def _x_deck(res, **_):
     return Table("deck", ["line"], ["1"], [np.array(res.deck.splitlines(), dtype=object)],
                  verbatim=True)
@@ -564,4 +585,5 @@ _EXTRACTORS = {
                                 ["1"] * 4, "Euler parameters"),
     "time_deformation": _x_time_element("deformation"),
     "time_stress_resultant": _x_time_element("stress_resultant"),
+    "time_reaction": _x_time_reaction,
 }

@@ -527,6 +527,18 @@ class TransientView(_StepView):
             return np.zeros(self.n_step)
         return self._series("dissipated_energy")
 
+    reaction_node = StaticView.reaction_node
+    reaction_component = StaticView.reaction_component
+
+    def reaction(self, node=None, step=None) -> np.ndarray:
+        """Reactions of the fixed and prescribed coordinates at each time step, inertia and
+        damping included (the force that holds a prescribed motion), shaped as
+        :meth:`StaticView.reaction`; a file older than schema 2.8 has none."""
+        if not self._res._has("transient/reaction"):
+            raise ResultsQueryError("this file has no /transient/reaction (written before "
+                                    "schema 2.8); run the deck again to get it")
+        return StaticView.reaction(self, node, step)
+
     @property
     def energy_balance(self) -> np.ndarray:
         """(n_step,): T + U + D - W (J), constant for an exact integration."""

@@ -306,14 +306,16 @@ class ResultsWriter:
     def transient_step(self, time: float, position, euler, velocity, euler_rate,
                        deformation: dict, stress_resultant: dict, kinetic_energy: float,
                        elastic_energy: float, external_work: float, iterations: int,
-                       residual: float, dissipated_energy: float = 0.0) -> None:
+                       residual: float, dissipated_energy: float = 0.0,
+                       reaction=None) -> None:
         """Append one time step (arrays as in :meth:`static_step`, plus the velocities and
         the energies) and make it durable: the arrays first, then ``/transient/time``
-        commits the step."""
+        commits the step. ``reaction`` (n_reac,): the reactions in the order of
+        ``reaction_component``, inertia included (required, as in :meth:`static_step`)."""
         given = {"position": position, "euler": euler, "velocity": velocity,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
-                 "dissipated_energy": float(dissipated_energy),
+                 "dissipated_energy": float(dissipated_energy), "reaction": reaction,
                  "iterations": operator.index(iterations), "residual": float(residual)}
         self._step("transient", float(time), given, deformation, stress_resultant)
 

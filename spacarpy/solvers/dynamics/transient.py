@@ -299,6 +299,22 @@ class TransientProblem:
             out[idx] = (ev.f_int + f_in)[idx]
         return out
 
+    def deformation_work(self, t: float, h: float, mu, mu_new) -> float:
+        """Work the prescribed deformations (INPUTE, DELINPE) do on the model from t to
+        t + h, by the trapezoidal rule: ``-sigma . d(target)``.
+
+        A rigid mode's multiplier is its stress resultant sigma (c = e - target, C = D:
+        the equations hold ``D^T sigma`` on the side of the internal forces), so the
+        constraint acts on the model with ``-D^T sigma`` and its power is ``-sigma . e'``,
+        ``e' = target'`` along the motion. (A driven wheel's hinge holds sigma = -I alpha:
+        the work is +I alpha w, the kinetic energy it gives.)"""
+        presc = self.num.rigid_prescribed
+        if not (presc.size and presc.any()):
+            return 0.0
+        d_target = self.loads(t + h).rigid_target - self.loads(t).rigid_target
+        n = self.num.n_rigid
+        return -0.5 * float(((mu[:n] + mu_new[:n]) * d_target)[presc].sum())
+
 
 def solve_transient(model: Model, options: TransientOptions | None = None, *, on_step=None,
                     on_static_step=None, progress=None,
@@ -356,19 +372,20 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in)
 
-    def store(t, x, v, a, mu, its, res, ev, blocks):
+    def store(t, x, v, a, mu, its, res, ev, blocks, f_in):
         deformation, stress = prob.element_results(ev)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
-                             deformation=deformation, stress=stress)
+                             deformation=deformation, stress=stress,
+                             reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext))
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
 
-    store(0.0, x, v, a, mu, 0, res, ev, start.blocks)
+    store(0.0, x, v, a, mu, 0, res, ev, start.blocks, f_in)
     h_out = opts.t_end / opts.n_steps
     h_int = h_out / max(int(opts.substeps), 1)
     t = 0.0
@@ -415,12 +432,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             v, a, a_tilde = v_new, a_new, at_new
             q_new = tp.driving_force(ev, f_in)
             work += 0.5 * float((q_prev + q_new) @ (x_new - x))
-            # prescribed deformations (INPUTE) do work sigma * d(target) through their
-            # multipliers (the stress resultants that impose them)
-            presc = num.rigid_prescribed
-            if presc.size and presc.any():
-                dt_target = (tp.loads(t + h).rigid_target - tp.loads(t).rigid_target)
-                work += 0.5 * float(((mu + mu_new)[:num.n_rigid] * dt_target)[presc].sum())
+            work += tp.deformation_work(t, h, mu, mu_new)
             p_new = tp.damping_power(x_new, v, f_damp)
             dissipated += 0.5 * (p_damp + p_new) * h
             q_prev, x, mu, p_damp = q_new, x_new, mu_new, p_new
@@ -431,7 +443,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
-        store(t_target, x, v, a, mu, its, res, ev, blocks)
+        store(t_target, x, v, a, mu, its, res, ev, blocks, f_in)
         if progress is not None:
             progress(t_target, opts.t_end)
     result.wall_time = time.perf_counter() - t_wall

@@ -83,6 +83,9 @@ class TransientStep:
     dissipated_energy: float
     deformation: dict                        # element keyword -> (n_elem, n_def)
     stress: dict                             # keyword -> (n_elem, n_def) stress resultants
+    #: reactions of the fixed and prescribed coordinates (StaticProblem.reactions' order;
+    #: inertia and damping forces included): N, N m
+    reaction: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def energy_balance(self) -> float:
