@@ -56,10 +56,9 @@ import scipy.sparse as sp
 
 from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.rotation import moment_matrix
-from spacarpy.solvers.eigen import DENSE_LIMIT
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.newton import bordered_solve, newton
-from spacarpy.solvers.stability import canonical_sign, stability
+from spacarpy.solvers.stability import canonical_sign, certify_crossing, near_zero
 
 log = logging.getLogger(__name__)
 
@@ -82,8 +81,17 @@ MAX_REFINE = 60
 #: Solve with the tangent-space LDL^T of :mod:`spacarpy.solvers.reduced` where it applies
 #: (False: always the bordered system by SuperLU; the tests compare the two).
 USE_REDUCED = True
-#: Kinds of critical points (codes stored in /critical/point_type).
-CRITICAL_KINDS = ("limit point (load maximum)", "limit point (load minimum)", "bifurcation")
+#: Kinds of critical points (codes stored in /critical/point_type): "undetermined" is a
+#: determinant or pivot sign change between two points that the round-off bound cannot
+#: confirm or deny (an eigenvalue within it: :mod:`spacarpy.solvers.certificate`).
+CRITICAL_KINDS = ("limit point (load maximum)", "limit point (load minimum)", "bifurcation",
+                  "undetermined")
+UNDETERMINED_KIND = 3
+#: Smallest cosine (scaled inner product) between the unit tangents of two consecutive
+#: points: a path that turned more within one step may have passed two critical points
+#: (a snap-through's load maximum and minimum, whose determinant and load-tangent sign
+#: changes cancel); the point is retried with half the arc length.
+MIN_TANGENT_COS = 0.7
 
 
 @dataclass
@@ -95,6 +103,8 @@ class CriticalPoint:
     load_factor: float
     arc_length: float
     shape: np.ndarray
+    margin: float = np.nan     # the eigenvalue that decided it (its magnitude) ...
+    bound: float = np.nan      # ... and its round-off bound (decided: margin > bound)
 
 
 @dataclass
@@ -113,6 +123,7 @@ class _Point:
     det: int = 0
     index: int = -1        # negative eigenvalues of the reduced tangent (-1: not computed)
     lu: object = None      # (LU factors of the scaled bordered matrix, the scaling)
+    near: object = None    # (eigenvalues nearest zero, their bounds), on first use
 
     def same_stability(self, other: _Point) -> bool:
         """No critical point between the two: the same determinant sign and, where both are
@@ -186,10 +197,6 @@ class ArcLengthPath:
         self.n_x = prob.pattern.n_x
         self.ds_min, self.ds_max = arc.bounds
         self.switch = opts.bifurcation == "switch"
-        # the index (Sylvester's inertia of the reduced tangent) where the dense reduction
-        # applies: it also sees eigenvalues that cross zero in pairs (a symmetric structure's
-        # double buckling mode), which leave the determinant's sign unchanged
-        self.dense = self.n_x <= DENSE_LIMIT
         # the tangent-space LDL^T (reduced.py) where it applies: its solves stay accurate on
         # slender models (10^4 elements), and its pivots give the index at any size
         self.reduced = prob.reduced if USE_REDUCED else None
@@ -281,8 +288,30 @@ class ArcLengthPath:
             p.index = neg
         else:
             p.det, p.lu = determinant_sign(lu[0]), lu
-        if self.dense:
-            p.index = stability(self.prob, p.x, p.mu, self.load(p.s)).index
+
+    def near(self, p: _Point):
+        """The eigenvalues nearest zero at p and their round-off bounds (computed once)."""
+        if p.near is None:
+            p.near = near_zero(self.prob, p.x, p.mu, self.load(p.s))
+        return p.near
+
+    def classify(self, p: _Point, new: _Point):
+        """The kind of critical point between two points whose determinant sign, index or
+        load-tangent sign differ, with its certificate: a turn of the path is a limit point;
+        otherwise a bifurcation only where a certified eigenvalue changed sign, "undetermined"
+        where one lies within its round-off bound, and None where the certified eigenvalues
+        kept their signs (the determinant or a pivot flipped by round-off)."""
+        verdict, cert = certify_crossing(self.near(p), self.near(new))
+        if np.sign(new.ts) != np.sign(p.ts):
+            return (0 if p.ts > 0 else 1), cert
+        if verdict == "crossing":
+            return 2, cert
+        if verdict == "undetermined":
+            return UNDETERMINED_KIND, cert
+        log.debug("arc length %.6g: the determinant sign changed, the certified eigenvalues "
+                  "nearest zero did not (margin %.3g, bound %.3g): no critical point",
+                  new.arc, cert.margin, cert.bound)
+        return None, cert
 
     # ------------------------------------------------------------------ one point
     def correct(self, p: _Point, ds: float, direction=None, fixed_s: float | None = None):
@@ -435,6 +464,9 @@ class ArcLengthPath:
                     raise StepFailed("the corrector left the predictor's neighbourhood",
                                      [new.res])
                 self.tangent(new, ref=chord)
+                if (not switched and ds / 2 >= self.ds_min
+                        and self.inner(new.tx, new.ts, *direction) < MIN_TANGENT_COS):
+                    raise StepFailed("the path turned too much within the step", [new.res])
             except StepFailed as fail:
                 if ds / 2 < self.ds_min:
                     hist = ", ".join(f"{h:.3e}" for h in fail.history)
@@ -449,13 +481,24 @@ class ArcLengthPath:
                 continue
             crossed = (p.s - 1.0) * (new.s - 1.0) <= 0 and new.s != p.s
             # (at a bifurcation point just left, the stability is that of neither branch)
-            if not new.same_stability(p) and not switched:
-                kind = (2 if np.sign(new.ts) == np.sign(p.ts)
-                        else 0 if p.ts > 0 else 1)
+            kind, undetermined = None, None
+            if not switched and (not new.same_stability(p) or np.sign(new.ts) != np.sign(p.ts)):
+                kind, cert = self.classify(p, new)
+            if kind == UNDETERMINED_KIND:
+                undetermined = CriticalPoint(kind=kind, load_factor=new.s, arc_length=new.arc,
+                                             shape=self.critical_shape(new),
+                                             margin=cert.margin, bound=cert.bound)
+                log.warning("ARCLENGTH: undetermined between load factors %.6g and %.6g: the "
+                            "determinant sign changed, but an eigenvalue nearest zero is "
+                            "within its round-off bound (margin %.3g, bound %.3g); stored as "
+                            "undetermined, not as a bifurcation", p.s, new.s, cert.margin,
+                            cert.bound)
+            elif kind is not None:
                 crit = self.refine(p, ds, new, direction, kind)
                 if crit is not new and (not crossed or (p.s - 1.0) * (crit.s - 1.0) > 0):
                     cp = CriticalPoint(kind=kind, load_factor=crit.s, arc_length=crit.arc,
-                                       shape=self.critical_shape(crit))
+                                       shape=self.critical_shape(crit),
+                                       margin=cert.margin, bound=cert.bound)
                     store(crit.s, crit.x, crit.mu, crit.its, crit.res, crit.arc, cp)
                     n_stored += 1
                     self._commit(crit)
@@ -475,7 +518,7 @@ class ArcLengthPath:
                 store(last.s, last.x, last.mu, last.its, last.res, last.arc, None)
                 self._commit(last)
                 return
-            store(new.s, new.x, new.mu, new.its, new.res, new.arc, None)
+            store(new.s, new.x, new.mu, new.its, new.res, new.arc, undetermined)
             n_stored += 1
             switched = False
             self._commit(new)

@@ -23,9 +23,12 @@ import logging
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from spacarpy.errors import ConvergenceError
-from spacarpy.solvers.eigen import DENSE_LIMIT, null_space_basis
+from spacarpy.solvers.certificate import EPS, SAFETY, UNDETERMINED, Certificate, certified_sign
+from spacarpy.solvers.eigen import DENSE_LIMIT, FEW_MODES_DENSE_LIMIT, null_space_basis
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.linearize import linearize
 from spacarpy.solvers.loads import LoadState
@@ -117,6 +120,88 @@ def stability(prob, x, mu, load: LoadState) -> Stability | None:
     index = int(np.sum(lam < -ZERO_TOL * big))
     return Stability(index=index, lowest=float(lam[0]), states=lin.states,
                      pending=(T, ks, d))
+
+
+#: Eigenvalues nearest zero whose signs certify a crossing (:func:`near_zero`).
+NEAR_ZERO = 6
+
+
+def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
+    """The ``k`` eigenvalues nearest zero of the Jacobi-scaled reduced tangent at (x, mu) and
+    their round-off bounds: ``(lam, bound)``, nearest first.
+
+    Dense reduction (at most ``FEW_MODES_DENSE_LIMIT`` free coordinates): ``ks = D^-1 T^T K T D^-1``,
+    all its eigenvalues, the eigenvectors ``u`` of the k nearest zero. Larger models: the
+    pencil ``[[K, C^T], [C, 0]] - lam [[W, 0], [0, 0]]`` (W the diagonal of |K|, the same
+    scaling) in shift-invert about zero with one sparse LU (the signs are those of the
+    reduced tangent: Sylvester). An eigenvalue's round-off is that of ``y^T K y`` for its
+    mode y in the coordinates (``y = T u / d``), entry by entry ``eps |y|^T |K| |y|`` (the
+    assembled K holds the stiff axial terms, whose round-off is what the soft bending modes
+    of a slender model see), plus the eigensolver's ``n eps ||ks||``: ``bound = SAFETY eps
+    (n ||ks|| + |y|^T |K| |y|)`` (:mod:`spacarpy.solvers.certificate`)."""
+    n_x = prob.pattern.n_x
+    lin = linearize(prob, x, mu, load)
+    K = sp.csr_matrix(lin.K)
+    if n_x <= FEW_MODES_DENSE_LIMIT:
+        T = null_space_basis(lin.C, n_x)
+        if T.shape[1] == 0:
+            return np.zeros(0), np.zeros(0)
+        kr = T.T @ (K @ T)
+        kr = 0.5 * (kr + kr.T)
+        d = np.sqrt(np.abs(np.diag(kr)))
+        d = np.where(d > 1e-300, d, 1.0)
+        ks = kr / d[:, None] / d[None, :]
+        lam_all = sla.eigvalsh(ks)
+        k = min(k, lam_all.size)
+        near = np.sort(np.argsort(np.abs(lam_all), kind="stable")[:k])
+        lam, u = sla.eigh(ks, subset_by_index=(int(near[0]), int(near[-1])))
+        pick = near - near[0]
+        lam, u = lam[pick], u[:, pick]
+        y = np.abs(T) @ (np.abs(u) / d[:, None])
+        rho, n = float(np.abs(lam_all).max()), ks.shape[0]
+    else:
+        A = sp.bmat([[K, lin.C.T], [lin.C, None]], format="csc")
+        dk = np.abs(K.diagonal())
+        dk = np.where(dk > 0, dk, 1.0)
+        s = np.concatenate([1.0 / np.sqrt(dk), np.ones(A.shape[0] - n_x)])
+        As = (sp.diags(s) @ A @ sp.diags(s)).tocsc()
+        B = sp.diags(np.concatenate([np.ones(n_x), np.zeros(A.shape[0] - n_x)]))
+        lu = spla.splu(As, permc_spec="COLAMD")
+        op = spla.LinearOperator(As.shape, matvec=lambda v: lu.solve(B @ v), dtype=float)
+        k = min(k, n_x - 2)
+        nu, vec = spla.eigs(op, k=k, which="LM", v0=np.ones(As.shape[0]))
+        with np.errstate(divide="ignore"):
+            lam = 1.0 / nu.real
+        z = vec[:n_x].real
+        z = z / np.maximum(np.linalg.norm(z, axis=0), 1e-300)
+        y = np.abs(z) * s[:n_x, None]
+        rho = float(abs(As[:n_x, :n_x]).sum(axis=0).max())
+        n = n_x
+    order = np.argsort(np.abs(lam), kind="stable")
+    lam, y = lam[order], y[:, order]
+    bound = SAFETY * EPS * (n * rho + np.einsum("ij,ij->j", y, abs(K) @ y))
+    return lam, bound
+
+
+def certify_crossing(before, after):
+    """Whether an eigenvalue crossed zero between two states, from the :func:`near_zero`
+    results ``(lam, bound)`` there: ``(verdict, Certificate)``, verdict "crossing" (the
+    number of certified negative eigenvalues differs), "none" (it does not: a determinant or
+    pivot sign that flipped by round-off), or "undetermined" (an eigenvalue within its
+    bound at either state). The certificate is that of the eigenvalue nearest its bound."""
+    signs, worst = [], Certificate(np.inf, 0.0)
+    for lam, bound in (before, after):
+        sign = certified_sign(lam, bound)
+        signs.append(sign)
+        if lam.size:
+            i = int(np.argmin(np.abs(lam) / np.maximum(bound, 1e-300)))
+            if abs(lam[i]) / max(bound[i], 1e-300) < worst.margin / max(worst.bound, 1e-300):
+                worst = Certificate(float(abs(lam[i])), float(bound[i]))
+    if any(np.any(sg == UNDETERMINED) for sg in signs):
+        return "undetermined", worst
+    if int(np.sum(signs[0] < 0)) != int(np.sum(signs[1] < 0)):
+        return "crossing", worst
+    return "none", worst
 
 
 def canonical_sign(modes: np.ndarray) -> np.ndarray:
@@ -370,5 +455,5 @@ class PathStability:
         return x, mu
 
 
-__all__ = ["PathStability", "Stability", "stability", "switch_branch", "potential_energy",
+__all__ = ["PathStability", "Stability", "stability", "near_zero", "certify_crossing", "switch_branch", "potential_energy",
            "canonical_sign"]
