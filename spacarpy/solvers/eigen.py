@@ -47,7 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.elements.base import relative_positions
-from spacarpy.solvers.certificate import SAFETY, UNDETERMINED, certified_sign, round_off_bound
+from spacarpy.solvers.certificate import UNDETERMINED, certified_sign, round_off_bound
 from spacarpy.solvers.eigen_tangent import lowest_modes
 
 log = logging.getLogger(__name__)

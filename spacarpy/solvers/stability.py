@@ -130,7 +130,8 @@ def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
     """The ``k`` eigenvalues nearest zero of the Jacobi-scaled reduced tangent at (x, mu) and
     their round-off bounds: ``(lam, bound)``, nearest first.
 
-    Dense reduction (at most ``FEW_MODES_DENSE_LIMIT`` free coordinates): ``ks = D^-1 T^T K T D^-1``,
+    Dense reduction (at most ``FEW_MODES_DENSE_LIMIT`` free coordinates):
+    ``ks = D^-1 T^T K T D^-1``,
     all its eigenvalues, the eigenvectors ``u`` of the k nearest zero. Larger models: the
     pencil ``[[K, C^T], [C, 0]] - lam [[W, 0], [0, 0]]`` (W the diagonal of |K|, the same
     scaling) in shift-invert about zero with one sparse LU (the signs are those of the
@@ -161,8 +162,10 @@ def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
         rho, n = float(np.abs(lam_all).max()), ks.shape[0]
     else:
         A = sp.bmat([[K, lin.C.T], [lin.C, None]], format="csc")
+        # (a floor for the directions without stiffness of their own, held by the
+        # constraints: Euler parameters, out-of-plane motion; a congruence all the same)
         dk = np.abs(K.diagonal())
-        dk = np.where(dk > 0, dk, 1.0)
+        dk = np.maximum(dk, 1e-6 * dk.max(initial=1.0))
         s = np.concatenate([1.0 / np.sqrt(dk), np.ones(A.shape[0] - n_x)])
         As = (sp.diags(s) @ A @ sp.diags(s)).tocsc()
         B = sp.diags(np.concatenate([np.ones(n_x), np.zeros(A.shape[0] - n_x)]))
@@ -455,5 +458,5 @@ class PathStability:
         return x, mu
 
 
-__all__ = ["PathStability", "Stability", "stability", "near_zero", "certify_crossing", "switch_branch", "potential_energy",
-           "canonical_sign"]
+__all__ = ["PathStability", "Stability", "stability", "near_zero", "certify_crossing",
+           "switch_branch", "potential_energy", "canonical_sign"]
