@@ -165,7 +165,8 @@ def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
         # (a floor for the directions without stiffness of their own, held by the
         # constraints: Euler parameters, out-of-plane motion; a congruence all the same)
         dk = np.abs(K.diagonal())
-        dk = np.maximum(dk, 1e-6 * dk.max(initial=1.0))
+        pos = dk[dk > 0]
+        dk = np.maximum(dk, 1e-3 * (np.median(pos) if pos.size else 1.0))
         s = np.concatenate([1.0 / np.sqrt(dk), np.ones(A.shape[0] - n_x)])
         As = (sp.diags(s) @ A @ sp.diags(s)).tocsc()
         B = sp.diags(np.concatenate([np.ones(n_x), np.zeros(A.shape[0] - n_x)]))
@@ -178,7 +179,10 @@ def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
         z = vec[:n_x].real
         z = z / np.maximum(np.linalg.norm(z, axis=0), 1e-300)
         y = np.abs(z) * s[:n_x, None]
-        rho = float(abs(As[:n_x, :n_x]).sum(axis=0).max())
+        # ||ks||_2 (the largest eigenvalue magnitude of the scaled stiffness block)
+        kx = As[:n_x, :n_x]
+        rho = float(np.abs(spla.eigsh(kx, k=1, which="LM", v0=np.ones(n_x),
+                                      return_eigenvectors=False)).max())
         n = n_x
     order = np.argsort(np.abs(lam), kind="stable")
     lam, y = lam[order], y[:, order]
