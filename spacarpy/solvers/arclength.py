@@ -29,20 +29,18 @@ linearized constraint, one factorization per iteration (docs/path.md, "Method"):
   failed point is retried with half the arc length down to ``ds_min``.
 - **Critical points.** The sign of the determinant of the bordered Newton matrix (from the
   LU factors of the tangent solve, or ``(-1)^(m + index)`` from the LDL^T's negative pivots,
-  the index, with m constraint rows) changes where the tangent stiffness reduced to the
-  degrees of freedom becomes singular; its index, the number of negative eigenvalues, is
-  compared too where it is known (the dense reduction for at most ``eigen.DENSE_LIMIT`` free
-  coordinates, else the LDL^T's pivots): it also sees two eigenvalues crossing zero
-  together, a double buckling mode, which leaves the determinant's sign alone. If the
-  tangent's load component changed sign too, the point is a limit point (a maximum or a
-  minimum of s), else a bifurcation point. Limit points are refined by the Illinois method
-  on the tangent's load component, bifurcation points by bisection on the determinant's sign
-  and the index, both on the arc length from the last point before, until the bracket is
-  below the solver tolerance; the refined point is stored as a path point, with its critical
-  eigenvector (inverse iteration on the bordered matrix there). With ``BIFURCATION switch``
-  the path leaves a bifurcation point along that eigenvector (the tangent of the crossing
-  branch of a symmetric bifurcation), or, where it arrived along the eigenvector (on a
-  crossing branch), back onto the fundamental branch (the bistable beam's return force).
+  the index, with m constraint rows) changes where the reduced tangent becomes singular; the
+  index also sees a double crossing. Where either changed, or the tangent's load component
+  changed sign, :class:`~spacarpy.solvers.stability.PathCertificate` decides, with the
+  round-off certificate of the eigenvalues nearest zero: a turn is a limit point, a certified sign change a bifurcation, an eigenvalue within its bound
+  "undetermined" (never a bifurcation). Limit points are refined by the Illinois method on
+  the load component, bifurcations by bisection on the determinant's sign and the index,
+  until the bracket is below the solver tolerance; the refined point is stored as a path
+  point, with its critical eigenvector (inverse iteration on the bordered matrix there). A
+  step whose tangent turned by more than ``MIN_TANGENT_COS`` with no change seen is halved
+  (two limit points within it). With ``BIFURCATION switch`` the path leaves a bifurcation
+  point along that eigenvector, or, where it arrived along it, back onto the fundamental
+  branch (the bistable beam's return force).
 - **End.** When s reaches 1 the last point is solved at s = 1 exactly (load control from
   the interpolated state); after ``n_max`` points the run stops with a warning.
 """
@@ -58,7 +56,7 @@ from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.rotation import moment_matrix
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.newton import bordered_solve, newton
-from spacarpy.solvers.stability import canonical_sign, certify_crossing, near_zero
+from spacarpy.solvers.stability import UNDETERMINED_POINT, PathCertificate, canonical_sign
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +84,7 @@ USE_REDUCED = True
 #: confirm or deny (an eigenvalue within it: :mod:`spacarpy.solvers.certificate`).
 CRITICAL_KINDS = ("limit point (load maximum)", "limit point (load minimum)", "bifurcation",
                   "undetermined")
-UNDETERMINED_KIND = 3
+UNDETERMINED_KIND = UNDETERMINED_POINT
 #: Smallest cosine (scaled inner product) between the unit tangents of two consecutive
 #: points: a path that turned more within one step may have passed two critical points
 #: (a snap-through's load maximum and minimum, whose determinant and load-tangent sign
@@ -202,6 +200,7 @@ class ArcLengthPath:
         self.reduced = prob.reduced if USE_REDUCED else None
         self.m = prob.pattern.n - self.n_x                 # constraint rows
         self.increments: list = []
+        self.check = PathCertificate(prob, self.load)     # classifies the changes
 
     # ------------------------------------------------------------------ small pieces
     def inner(self, ux, us, vx, vs) -> float:
@@ -288,30 +287,6 @@ class ArcLengthPath:
             p.index = neg
         else:
             p.det, p.lu = determinant_sign(lu[0]), lu
-
-    def near(self, p: _Point):
-        """The eigenvalues nearest zero at p and their round-off bounds (computed once)."""
-        if p.near is None:
-            p.near = near_zero(self.prob, p.x, p.mu, self.load(p.s))
-        return p.near
-
-    def classify(self, p: _Point, new: _Point):
-        """The kind of critical point between two points whose determinant sign, index or
-        load-tangent sign differ, with its certificate: a turn of the path is a limit point;
-        otherwise a bifurcation only where a certified eigenvalue changed sign, "undetermined"
-        where one lies within its round-off bound, and None where the certified eigenvalues
-        kept their signs (the determinant or a pivot flipped by round-off)."""
-        verdict, cert = certify_crossing(self.near(p), self.near(new))
-        if np.sign(new.ts) != np.sign(p.ts):
-            return (0 if p.ts > 0 else 1), cert
-        if verdict == "crossing":
-            return 2, cert
-        if verdict == "undetermined":
-            return UNDETERMINED_KIND, cert
-        log.debug("arc length %.6g: the determinant sign changed, the certified eigenvalues "
-                  "nearest zero did not (margin %.3g, bound %.3g): no critical point",
-                  new.arc, cert.margin, cert.bound)
-        return None, cert
 
     # ------------------------------------------------------------------ one point
     def correct(self, p: _Point, ds: float, direction=None, fixed_s: float | None = None):
@@ -464,7 +439,8 @@ class ArcLengthPath:
                     raise StepFailed("the corrector left the predictor's neighbourhood",
                                      [new.res])
                 self.tangent(new, ref=chord)
-                if (not switched and ds / 2 >= self.ds_min
+                if (not switched and ds / 2 >= self.ds_min and new.same_stability(p)
+                        and np.sign(new.ts) == np.sign(p.ts)
                         and self.inner(new.tx, new.ts, *direction) < MIN_TANGENT_COS):
                     raise StepFailed("the path turned too much within the step", [new.res])
             except StepFailed as fail:
@@ -482,17 +458,18 @@ class ArcLengthPath:
             crossed = (p.s - 1.0) * (new.s - 1.0) <= 0 and new.s != p.s
             # (at a bifurcation point just left, the stability is that of neither branch)
             kind, undetermined = None, None
-            if not switched and (not new.same_stability(p) or np.sign(new.ts) != np.sign(p.ts)):
-                kind, cert = self.classify(p, new)
-            if kind == UNDETERMINED_KIND:
+            if not switched:
+                kind, cert = self.check.classify(p, new)
+            if kind == UNDETERMINED_KIND or (crossed and self.check.pending is not None):
+                cert = cert if kind == UNDETERMINED_KIND else self.check.pending[1]
+                kind = UNDETERMINED_KIND
                 undetermined = CriticalPoint(kind=kind, load_factor=new.s, arc_length=new.arc,
                                              shape=self.critical_shape(new),
                                              margin=cert.margin, bound=cert.bound)
-                log.warning("ARCLENGTH: undetermined between load factors %.6g and %.6g: the "
-                            "determinant sign changed, but an eigenvalue nearest zero is "
-                            "within its round-off bound (margin %.3g, bound %.3g); stored as "
-                            "undetermined, not as a bifurcation", p.s, new.s, cert.margin,
-                            cert.bound)
+                log.warning("ARCLENGTH: stability undetermined up to load factor %.6g: an "
+                            "eigenvalue nearest zero within its round-off bound (margin %.3g, "
+                            "bound %.3g); stored as undetermined, not as a bifurcation",
+                            new.s, cert.margin, cert.bound)
             elif kind is not None:
                 crit = self.refine(p, ds, new, direction, kind)
                 if crit is not new and (not crossed or (p.s - 1.0) * (crit.s - 1.0) > 0):
@@ -515,7 +492,9 @@ class ArcLengthPath:
                         break
             if crossed:
                 last = self._land(p, new)
-                store(last.s, last.x, last.mu, last.its, last.res, last.arc, None)
+                if undetermined is not None:
+                    undetermined.load_factor, undetermined.arc_length = last.s, last.arc
+                store(last.s, last.x, last.mu, last.its, last.res, last.arc, undetermined)
                 self._commit(last)
                 return
             store(new.s, new.x, new.mu, new.its, new.res, new.arc, undetermined)

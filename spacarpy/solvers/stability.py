@@ -211,6 +211,65 @@ def certify_crossing(before, after):
     return "none", worst
 
 
+#: The code of an undetermined point in /critical/point_type (arclength.CRITICAL_KINDS).
+UNDETERMINED_POINT = 3
+
+
+class PathCertificate:
+    """Classifies the changes of stability between two arc-length points (``p``, ``new``:
+    :class:`~spacarpy.solvers.arclength._Point`, with x, mu, s, the load tangent ts, the
+    determinant sign and index of :meth:`same_stability`, and a cache ``near``); ``load(s)``
+    the load state at load factor s. :attr:`pending` is the last certified point and its
+    certificate while the stability is undetermined (see :meth:`classify`)."""
+
+    def __init__(self, prob, load):
+        self.prob, self.load = prob, load
+        self.pending = None
+
+    def near(self, p):
+        """The eigenvalues nearest zero at p and their round-off bounds (computed once)."""
+        if p.near is None:
+            p.near = near_zero(self.prob, p.x, p.mu, self.load(p.s))
+        return p.near
+
+    def classify(self, p, new):
+        """The kind of critical point between two points (None: none) and its certificate.
+        A turn of the path is a limit point. Otherwise, where the determinant sign or the
+        index changed, the certified eigenvalues nearest zero decide: a bifurcation where one
+        changed sign, none where they kept their signs (a sign flipped by round-off). A point
+        with an eigenvalue within its bound opens a stretch of undetermined stability: its
+        later points are compared with the last certified point before it, and the stretch
+        ends with nothing (the same certified signs) or with "undetermined", stored at the
+        point that ends it (a crossing inside it cannot be located)."""
+        turned = np.sign(new.ts) != np.sign(p.ts)
+        ref = p if self.pending is None else self.pending[0]
+        if not (turned or self.pending is not None or not new.same_stability(p)):
+            return None, None
+        verdict, cert = certify_crossing(self.near(ref), self.near(new))
+        if turned:
+            self.pending = None
+            return (0 if p.ts > 0 else 1), cert
+        if verdict == "undetermined" and self.pending is None and self._certain(ref):
+            self.pending = (ref, cert)
+            log.info("arc length %.6g: stability undetermined (an eigenvalue of %.3g within "
+                     "its round-off bound %.3g)", new.arc, cert.margin, cert.bound)
+            return None, cert
+        if verdict == "undetermined" and self.pending is not None:
+            return None, cert                       # the stretch goes on
+        opened, self.pending = self.pending, None
+        if verdict == "none":
+            log.info("arc length %.6g: the certified eigenvalues nearest zero kept their "
+                     "signs: no critical point", new.arc)
+            return None, cert
+        if verdict == "crossing" and opened is None:
+            return 2, cert
+        return UNDETERMINED_POINT, (opened[1] if opened is not None else cert)
+
+    def _certain(self, q) -> bool:
+        lam, bound = self.near(q)
+        return bool(np.all(certified_sign(lam, bound) != 0))
+
+
 def canonical_sign(modes: np.ndarray) -> np.ndarray:
     """Eigenvectors (columns) with a sign that does not depend on round-off: the first entry
     (in coordinate order) of at least half the largest magnitude is positive. (An eigen
@@ -463,4 +522,5 @@ class PathStability:
 
 
 __all__ = ["PathStability", "Stability", "stability", "near_zero", "certify_crossing",
+           "PathCertificate", "UNDETERMINED_POINT",
            "switch_branch", "potential_energy", "canonical_sign"]
