@@ -32,10 +32,12 @@ linearized constraint, one factorization per iteration (docs/path.md, "Method"):
   the index, with m constraint rows) changes where the reduced tangent becomes singular; the
   index also sees a double crossing. Where either changed, or the tangent's load component
   changed sign, :class:`~spacarpy.solvers.stability.PathCertificate` decides, with the
-  round-off certificate of the eigenvalues nearest zero: a turn is a limit point, a certified sign change a bifurcation, an eigenvalue within its bound
-  "undetermined" (never a bifurcation). Limit points are refined by the Illinois method on
-  the load component, bifurcations by bisection on the determinant's sign and the index,
-  until the bracket is below the solver tolerance; the refined point is stored as a path
+  round-off certificate of the eigenvalues nearest zero: a turn is a limit point, a
+  certified sign change a bifurcation, an eigenvalue within its bound "undetermined" (never
+  a bifurcation); without LDL^T pivots the index is counted from those eigenvalues. Limit
+  points are refined by the Illinois method on the load component, bifurcations by
+  bisection on the determinant's sign and the index, until the bracket is below the solver
+  tolerance; the refined point is stored as a path
   point, with its critical eigenvector (inverse iteration on the bordered matrix there). A
   step whose tangent turned by more than ``MIN_TANGENT_COS`` with no change seen is halved
   (two limit points within it). With ``BIFURCATION switch`` the path leaves a bifurcation
@@ -56,7 +58,13 @@ from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.rotation import moment_matrix
 from spacarpy.solvers.errors import StepFailed
 from spacarpy.solvers.newton import bordered_solve, newton
-from spacarpy.solvers.stability import UNDETERMINED_POINT, PathCertificate, canonical_sign
+from spacarpy.solvers.stability import (
+    UNDETERMINED_POINT,
+    PathCertificate,
+    canonical_sign,
+    near_zero,
+    window_negatives,
+)
 
 log = logging.getLogger(__name__)
 
@@ -125,9 +133,16 @@ class _Point:
 
     def same_stability(self, other: _Point) -> bool:
         """No critical point between the two: the same determinant sign and, where both are
-        known, the same index."""
-        return self.det == other.det and (self.index < 0 or other.index < 0
-                                          or self.index == other.index)
+        known, the same index (the LDL^T's pivots, else the certified negative eigenvalues
+        nearest zero: a pair crossing leaves the determinant alone)."""
+        if self.det != other.det:
+            return False
+        if self.index >= 0 and other.index >= 0:
+            return self.index == other.index
+        if self.near is not None and other.near is not None:
+            a, b = window_negatives(self.near, other.near)
+            return a == b
+        return True
 
 
 def _permutation_sign(perm) -> int:
@@ -286,7 +301,10 @@ class ArcLengthPath:
             p.det, p.lu = (-1) ** ((self.m + neg) % 2), None
             p.index = neg
         else:
+            # no pivots to count: the eigenvalues nearest zero (a few sparse ones; see
+            # same_stability), for the index that a pair crossing changes
             p.det, p.lu = determinant_sign(lu[0]), lu
+            p.near = near_zero(self.prob, p.x, p.mu, self.load(p.s))
 
     # ------------------------------------------------------------------ one point
     def correct(self, p: _Point, ds: float, direction=None, fixed_s: float | None = None):
@@ -356,10 +374,10 @@ class ArcLengthPath:
         self.tangent(q, ref=direction)
         return q
 
-    def refine(self, p: _Point, ds: float, new: _Point, direction, kind: int) -> _Point:
+    def refine(self, p: _Point, ds: float, new: _Point, direction, turn: bool) -> _Point:
         """The critical point between ``p`` and ``new`` (arc lengths 0 and ds from p along
-        ``direction``), to the solver tolerance in arc length (limit points: Illinois on
-        the tangent's load component; bifurcations: bisection on the determinant sign)."""
+        ``direction``), to the solver tolerance in arc length (a turn of the path: Illinois
+        on the tangent's load component; else bisection on the determinant sign)."""
         lo, hi = 0.0, ds
         f_lo, f_hi = p.ts, new.ts
         best, side = new, 0
@@ -367,7 +385,7 @@ class ArcLengthPath:
         for _ in range(MAX_REFINE):
             if hi - lo <= tol:
                 break
-            if kind < 2 and f_lo != f_hi:
+            if turn and f_lo != f_hi:
                 sigma = hi - f_hi * (hi - lo) / (f_hi - f_lo)
                 if not lo < sigma < hi:
                     sigma = 0.5 * (lo + hi)
@@ -381,8 +399,8 @@ class ArcLengthPath:
                     q = self._at(p, sigma, direction)
                 except StepFailed:
                     break
-            before = (q.same_stability(p) if kind == 2
-                      else np.sign(q.ts) == np.sign(p.ts))
+            before = (np.sign(q.ts) == np.sign(p.ts) if turn
+                      else q.same_stability(p))
             if before:
                 lo, f_lo = sigma, q.ts
                 if side == -1:
@@ -393,7 +411,7 @@ class ArcLengthPath:
                 if side == 1:
                     f_lo *= 0.5
                 side = 1
-            if kind < 2 and abs(q.ts) <= self.opts.tol * 1e-3:
+            if turn and abs(q.ts) <= self.opts.tol * 1e-3:
                 best = q
                 break
         return best
@@ -471,7 +489,7 @@ class ArcLengthPath:
                             "bound %.3g); stored as undetermined, not as a bifurcation",
                             new.s, cert.margin, cert.bound)
             elif kind is not None:
-                crit = self.refine(p, ds, new, direction, kind)
+                crit = self.refine(p, ds, new, direction, np.sign(new.ts) != np.sign(p.ts))
                 if crit is not new and (not crossed or (p.s - 1.0) * (crit.s - 1.0) > 0):
                     cp = CriticalPoint(kind=kind, load_factor=crit.s, arc_length=crit.arc,
                                        shape=self.critical_shape(crit),

@@ -190,6 +190,18 @@ def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
     return lam, bound
 
 
+def window_negatives(before, after) -> tuple[int, int]:
+    """The numbers of certified negative eigenvalues of two :func:`near_zero` results within
+    their common window: the magnitudes up to the smaller of the two sets' largest (every
+    eigenvalue of that size is in both sets; all of them where a set holds every
+    eigenvalue of its model)."""
+    def top(lam):
+        return np.inf if lam.size < NEAR_ZERO else float(np.abs(lam).max(initial=0.0))
+    w = min(top(before[0]), top(after[0]))
+    return tuple(int(np.sum((certified_sign(lam, bound) < 0) & (np.abs(lam) <= w)))
+                 for lam, bound in (before, after))
+
+
 def certify_crossing(before, after):
     """Whether an eigenvalue crossed zero between two states, from the :func:`near_zero`
     results ``(lam, bound)`` there: ``(verdict, Certificate)``, verdict "crossing" (the
@@ -206,7 +218,8 @@ def certify_crossing(before, after):
                 worst = Certificate(float(abs(lam[i])), float(bound[i]))
     if any(np.any(sg == UNDETERMINED) for sg in signs):
         return "undetermined", worst
-    if int(np.sum(signs[0] < 0)) != int(np.sum(signs[1] < 0)):
+    neg_before, neg_after = window_negatives(before, after)
+    if neg_before != neg_after:
         return "crossing", worst
     return "none", worst
 
@@ -234,7 +247,8 @@ class PathCertificate:
 
     def classify(self, p, new):
         """The kind of critical point between two points (None: none) and its certificate.
-        A turn of the path is a limit point. Otherwise, where the determinant sign or the
+        A turn of the path is a limit point (where the determinant's sign changed too; else
+        a bifurcation, see below). Otherwise, where the determinant sign or the
         index changed, the certified eigenvalues nearest zero decide: a bifurcation where one
         changed sign, none where they kept their signs (a sign flipped by round-off). A point
         with an eigenvalue within its bound opens a stretch of undetermined stability: its
@@ -247,8 +261,13 @@ class PathCertificate:
             return None, None
         verdict, cert = certify_crossing(self.near(ref), self.near(new))
         if turned:
+            # a limit point changes the determinant's sign; a turn with the certified
+            # eigenvalues' signs kept is a symmetric bifurcation seen from its crossing
+            # branch (the load is even in the mode's amplitude: the bistable beam's return)
             self.pending = None
-            return (0 if p.ts > 0 else 1), cert
+            if new.det != p.det or verdict == "crossing":
+                return (0 if p.ts > 0 else 1), cert
+            return (2 if verdict == "none" else UNDETERMINED_POINT), cert
         if verdict == "undetermined" and self.pending is None and self._certain(ref):
             self.pending = (ref, cert)
             log.info("arc length %.6g: stability undetermined (an eigenvalue of %.3g within "
@@ -522,5 +541,5 @@ class PathStability:
 
 
 __all__ = ["PathStability", "Stability", "stability", "near_zero", "certify_crossing",
-           "PathCertificate", "UNDETERMINED_POINT",
+           "PathCertificate", "UNDETERMINED_POINT", "window_negatives",
            "switch_branch", "potential_energy", "canonical_sign"]
