@@ -20,7 +20,7 @@ from spacarpy.solvers.certificate import (
     inertia,
     round_off_bound,
 )
-from spacarpy.solvers.stability import certify_crossing
+from spacarpy.solvers.stability import NEAR_ZERO, certify_crossing, window_negatives
 
 from helpers import REPO
 
@@ -54,6 +54,19 @@ def test_a_crossing_needs_certified_signs_at_both_ends():
     assert certify_crossing(before, (np.array([3e-9, 5e-6]), b))[0] == "none"
     verdict, cert = certify_crossing(before, (np.array([-4e-13, 5e-6]), b))
     assert verdict == "undetermined" and cert.margin == 4e-13 and not cert.decided
+
+
+def test_the_index_without_pivots_is_counted_in_the_common_window():
+    """A pair crossing (the determinant keeps its sign) changes the count; an eigenvalue
+    that leaves one set at its far end (outside the other's window) does not."""
+    b = np.full(NEAR_ZERO, 1e-12)
+    before = (np.array([1e-8, 2e-8, 3e-6, 4e-6, 5e-6, -6e-6]), b)
+    pair = (np.array([-1e-8, -2e-8, 3e-6, 4e-6, 5e-6, -6e-6]), b)
+    assert window_negatives(before, pair) == (1, 3)
+    assert certify_crossing(before, pair)[0] == "crossing"
+    drifted = (np.array([1e-8, 2e-8, 3e-6, 4e-6, 5e-6, 5.5e-6]), b)    # -6e-6 moved away
+    assert window_negatives(before, drifted) == (0, 0)
+    assert certify_crossing(before, drifted)[0] == "none"
 
 
 def _critical(path):
