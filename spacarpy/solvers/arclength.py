@@ -495,6 +495,7 @@ class ArcLengthPath:
                                        shape=self.critical_shape(crit),
                                        margin=cert.margin, bound=cert.bound)
                     store(crit.s, crit.x, crit.mu, crit.its, crit.res, crit.arc, cp)
+                    self.check.stored()
                     n_stored += 1
                     self._commit(crit)
                     if kind == 2 and self.switch:
@@ -516,6 +517,7 @@ class ArcLengthPath:
                 self._commit(last)
                 return
             store(new.s, new.x, new.mu, new.its, new.res, new.arc, undetermined)
+            self.check.seen(new)
             n_stored += 1
             switched = False
             self._commit(new)

@@ -238,12 +238,24 @@ class PathCertificate:
     def __init__(self, prob, load):
         self.prob, self.load = prob, load
         self.pending = None
+        self.last = None           # the last point seen with certified signs ...
+        self.since = 0             # ... and the critical points stored after it
+
+    def stored(self) -> None:
+        """A limit point or bifurcation was stored (each changes the index by one or two)."""
+        self.since += 1
 
     def near(self, p):
         """The eigenvalues nearest zero at p and their round-off bounds (computed once)."""
         if p.near is None:
             p.near = near_zero(self.prob, p.x, p.mu, self.load(p.s))
         return p.near
+
+    def _explained(self, new) -> bool:
+        """Whether the index change from the last certified point to ``new`` (certified) is
+        that of the critical points stored since (at most two each, the same parity)."""
+        a, b = window_negatives(self.near(self.last), self.near(new))
+        return abs(a - b) <= 2 * self.since and (a - b - self.since) % 2 == 0
 
     def classify(self, p, new):
         """The kind of critical point between two points (None: none) and its certificate.
@@ -268,14 +280,22 @@ class PathCertificate:
             if new.det != p.det or verdict == "crossing":
                 return (0 if p.ts > 0 else 1), cert
             return (2 if verdict == "none" else UNDETERMINED_POINT), cert
-        if verdict == "undetermined" and self.pending is None and self._certain(ref):
+        if verdict == "undetermined" and self.pending is None and (
+                self._certain(ref) or self.last is not None):
+            if not self._certain(ref):
+                ref = self.last           # (p is near a critical point just stored)
+            else:
+                self.since = 0
             self.pending = (ref, cert)
+            self.last = ref
             log.info("arc length %.6g: stability undetermined (an eigenvalue of %.3g within "
                      "its round-off bound %.3g)", new.arc, cert.margin, cert.bound)
             return None, cert
         if verdict == "undetermined" and self.pending is not None:
             return None, cert                       # the stretch goes on
         opened, self.pending = self.pending, None
+        if opened is not None and self.since and self._explained(new):
+            verdict = "none"
         if verdict == "none":
             log.info("arc length %.6g: the certified eigenvalues nearest zero kept their "
                      "signs: no critical point", new.arc)
@@ -287,6 +307,11 @@ class PathCertificate:
     def _certain(self, q) -> bool:
         lam, bound = self.near(q)
         return bool(np.all(certified_sign(lam, bound) != 0))
+
+    def seen(self, q) -> None:
+        """A point stored on the path: the last certified one where its signs are known."""
+        if self.pending is None and q.near is not None and self._certain(q):
+            self.last, self.since = q, 0
 
 
 def canonical_sign(modes: np.ndarray) -> np.ndarray:
