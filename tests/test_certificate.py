@@ -107,7 +107,8 @@ def test_lees_frame_has_only_its_two_limit_points_at_every_mesh(tmp_path, m):
     run_job(job_from_text(text, "lee.dat"), out)
     kinds, lf, _, _ = _critical(out)
     assert kinds == [0, 1]
-    rel = 7e-2 if m == 1 else 2e-3          # 20 beams: 1.5 % and 5.8 % off
+    # the mesh error against m = 5: 20 beams 1.5 % and 5.8 %, 300 beams 0.06 % and 0.22 %
+    rel = 7e-2 if m == 1 else 3e-3
     assert lf == pytest.approx(LEE_LIMITS, rel=rel)
 
 
