@@ -362,8 +362,10 @@ def _critical_point(num, free, step, k, writer) -> str:
     from spacarpy.solvers.path.arclength import CRITICAL_KINDS
     cp = step.critical
     shape_pos, shape_rot = _node_shapes(num, free, cp.shape[:, None])
-    writer.critical_step(k, cp.kind, cp.load_factor, cp.arc_length, shape_pos[0], shape_rot[0])
-    return f"  <- {CRITICAL_KINDS[cp.kind]} at load factor {cp.load_factor:.10g}"
+    writer.critical_step(k, cp.kind, cp.load_factor, cp.arc_length, shape_pos[0], shape_rot[0],
+                         cp.margin, cp.bound)
+    return (f"  <- {CRITICAL_KINDS[cp.kind]} at load factor {cp.load_factor:.10g} "
+            f"(margin {cp.margin:.3g}, round-off bound {cp.bound:.3g})")
 
 
 def step_line(k: int, n_steps: int, step, tol: float) -> str:

@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 8)
+SCHEMA_VERSION = (2, 9)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -134,7 +134,7 @@ STEP_GROUPS = {"static": "load_factor", "transient": "time", "eigen": "step",
 LINEARIZED_GROUPS = ("eigen", "buckling", "compliance", "state_space")
 #: Names of the ``/critical/point_type`` codes (arc-length runs).
 CRITICAL_POINT_NAMES = ("limit point (load maximum)", "limit point (load minimum)",
-                        "bifurcation")
+                        "bifurcation", "undetermined")
 
 
 def _units(per_mode) -> str:
@@ -270,12 +270,18 @@ def _spec_list() -> list[DatasetSpec]:
         S("critical/step", "i4", ("linearized_step",), "1",
           "row of /static holding the refined critical point (ARCLENGTH runs)", (2, 4)),
         S("critical/point_type", "i1", ("linearized_step",), "1",
-          "0 limit point (load maximum), 1 limit point (load minimum), 2 bifurcation (see "
-          "attribute type_names)", (2, 4)),
+          "0 limit point (load maximum), 1 limit point (load minimum), 2 bifurcation, 3 "
+          "undetermined (since 2.9; see attribute type_names)", (2, 4)),
         S("critical/load_factor", "f8", ("linearized_step",), "1",
           "load factor on DELXF at the critical point", (2, 4)),
         S("critical/arc_length", "f8", ("linearized_step",), "1",
           "arc length of the critical point from step 0", (2, 4)),
+        S("critical/margin", "f8", ("linearized_step",), "1",
+          "magnitude of the Jacobi-scaled eigenvalue that decided the classification (NaN: "
+          "not computed)", (2, 9), optional=True),
+        S("critical/bound", "f8", ("linearized_step",), "1",
+          "round-off bound of that eigenvalue; the classification is certified when margin "
+          "> bound, else undetermined", (2, 9), optional=True),
         S("critical/shape_position", "f8", _LIN_SHAPE["position"], "1",
           "critical eigenvector (largest component 1): position perturbation of each "
           "position node", (2, 4)),

@@ -349,13 +349,14 @@ class ResultsWriter:
             "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
 
     def critical_step(self, step: int, point_type: int, load_factor: float, arc_length: float,
-                      shape_position, shape_euler) -> None:
+                      shape_position, shape_euler, margin: float = np.nan,
+                      bound: float = np.nan) -> None:
         """Append a critical point of an arc-length run: ``step`` is the row of /static
         holding it, ``point_type`` a code of :data:`CRITICAL_POINT_NAMES`, the shapes
         (n_pos, 3) and (n_rot, 4)."""
         self._append_linearized("critical", step, {
             "point_type": np.int8(point_type), "load_factor": float(load_factor),
-            "arc_length": float(arc_length),
+            "arc_length": float(arc_length), "margin": float(margin), "bound": float(bound),
             "shape_position": np.asarray(shape_position, float)[None],
             "shape_euler": np.asarray(shape_euler, float)[None]})
 

@@ -37,6 +37,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from spacarpy.solvers.linalg.certificate import UNDETERMINED, certified_sign, round_off_bound
 from spacarpy.solvers.linear.eigen import DENSE_LIMIT, canonical_sign, null_space_basis
 
 log = logging.getLogger(__name__)
@@ -83,7 +84,7 @@ def round_off(lin, v, g_norm: float, n: int) -> np.ndarray:
     """The round-off ``SAFETY eps (n ||G||_F + |v|^T (|K| + |K0|) |v|)`` of ``v^T G v`` for
     each unit column ``v`` (free coordinates) of ``v``."""
     a = abs(lin.K) + abs(lin.K_mat)
-    return SAFETY * np.finfo(float).eps * (n * g_norm + _quad(np.abs(v), a))
+    return round_off_bound(n * g_norm + _quad(np.abs(v), a), 1, SAFETY)
 
 
 def infinite_bound(lin, v) -> np.ndarray:
@@ -102,7 +103,8 @@ def _infinite(mu, v, vx, lin, G, g_norm, n):
     norm = np.where(norm > 0, norm, 1.0)
     gv = _quad(v / norm, G)
     with np.errstate(invalid="ignore"):
-        return ~np.isfinite(mu) | (gv <= round_off(lin, vx / norm, g_norm, n))
+        bound = round_off(lin, vx / norm, g_norm, n)
+    return ~np.isfinite(mu) | (certified_sign(gv, bound) == UNDETERMINED)
 
 
 def canonical_order(mu: np.ndarray) -> np.ndarray:

@@ -47,6 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.elements.base import relative_positions
+from spacarpy.solvers.linalg.certificate import UNDETERMINED, certified_sign, round_off_bound
 from spacarpy.solvers.linear.eigen_tangent import lowest_modes
 
 log = logging.getLogger(__name__)
@@ -59,9 +60,9 @@ ELASTIC, RIGID_BODY, UNSTABLE, COMPLEX, INFINITE = 0, 1, 2, 3, 4
 KIND_NAMES = {ELASTIC: "elastic", RIGID_BODY: "rigid-body", UNSTABLE: "unstable",
               COMPLEX: "complex", INFINITE: "infinite"}
 
-#: Safety factor of the infinity bound (module docstring): the backward error of the
-#: eigensolver in M is a small multiple of ``n eps ||M||``.
-SAFETY = 10.0
+#: (SAFETY, the safety factor of the infinity bound, is the one of
+#: :mod:`spacarpy.solvers.linalg.certificate`: the backward error of the eigensolver in M is a small
+#: multiple of ``n eps ||M||``.)
 #: Relative tolerance within which two eigenvalues' magnitudes count as equal for ordering.
 TIE_RTOL = 1e-9
 
@@ -143,7 +144,8 @@ def infinite_mask(lam, vec, M) -> np.ndarray:
     norm = np.linalg.norm(vec, axis=0)
     v = vec / np.where(norm > 0, norm, 1.0)
     mv = np.abs(np.einsum("ij,ij->j", v.conj(), M @ v))
-    return ~np.isfinite(lam) | (mv <= SAFETY * vec.shape[0] * np.finfo(float).eps * _norm(M))
+    bound = round_off_bound(_norm(M), vec.shape[0])
+    return ~np.isfinite(lam) | (certified_sign(mv, bound) == UNDETERMINED)
 
 
 def _rigid_mask(lin, num, free, shapes: np.ndarray, lam: np.ndarray | None = None
@@ -263,8 +265,8 @@ def finite_mode_count(lin, n_modes: int) -> tuple[int, int] | None:
     T = null_space_basis(lin.C, n_x)
     m = T.T @ (lin.M @ T)
     mu = sla.eigvalsh(0.5 * (m + m.T)) if m.size else np.zeros(0)
-    bound = SAFETY * n_x * np.finfo(float).eps * _norm(lin.M)
-    return int(np.sum(mu > bound)), int(T.shape[1])
+    finite = certified_sign(mu, round_off_bound(_norm(lin.M), n_x)) > 0
+    return int(np.sum(finite)), int(T.shape[1])
 
 
 def _dense(lin, n_x):

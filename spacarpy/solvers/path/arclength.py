@@ -29,20 +29,20 @@ linearized constraint, one factorization per iteration (docs/path.md, "Method"):
   failed point is retried with half the arc length down to ``ds_min``.
 - **Critical points.** The sign of the determinant of the bordered Newton matrix (from the
   LU factors of the tangent solve, or ``(-1)^(m + index)`` from the LDL^T's negative pivots,
-  the index, with m constraint rows) changes where the tangent stiffness reduced to the
-  degrees of freedom becomes singular; its index, the number of negative eigenvalues, is
-  compared too where it is known (the dense reduction for at most ``eigen.DENSE_LIMIT`` free
-  coordinates, else the LDL^T's pivots): it also sees two eigenvalues crossing zero
-  together, a double buckling mode, which leaves the determinant's sign alone. If the
-  tangent's load component changed sign too, the point is a limit point (a maximum or a
-  minimum of s), else a bifurcation point. Limit points are refined by the Illinois method
-  on the tangent's load component, bifurcation points by bisection on the determinant's sign
-  and the index, both on the arc length from the last point before, until the bracket is
-  below the solver tolerance; the refined point is stored as a path point, with its critical
-  eigenvector (inverse iteration on the bordered matrix there). With ``BIFURCATION switch``
-  the path leaves a bifurcation point along that eigenvector (the tangent of the crossing
-  branch of a symmetric bifurcation), or, where it arrived along the eigenvector (on a
-  crossing branch), back onto the fundamental branch (the bistable beam's return force).
+  the index, with m constraint rows) changes where the reduced tangent becomes singular; the
+  index also sees a double crossing. Where either changed, or the tangent's load component
+  changed sign, :class:`~spacarpy.solvers.path.stability.PathCertificate` decides, with the
+  round-off certificate of the eigenvalues nearest zero: a turn is a limit point, a
+  certified sign change a bifurcation, an eigenvalue within its bound "undetermined" (never
+  a bifurcation); without LDL^T pivots the index is counted from those eigenvalues. Limit
+  points are refined by the Illinois method on the load component, bifurcations by
+  bisection on the determinant's sign and the index, until the bracket is below the solver
+  tolerance; the refined point is stored as a path
+  point, with its critical eigenvector (inverse iteration on the bordered matrix there). A
+  step whose tangent turned by more than ``MIN_TANGENT_COS`` with no change seen is halved
+  (two limit points within it). With ``BIFURCATION switch`` the path leaves a bifurcation
+  point along that eigenvector, or, where it arrived along it, back onto the fundamental
+  branch (the bistable beam's return force).
 - **End.** When s reaches 1 the last point is solved at s = 1 exactly (load control from
   the interpolated state); after ``n_max`` points the run stops with a warning.
 """
@@ -56,8 +56,13 @@ import scipy.sparse as sp
 
 from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.rotation import moment_matrix
-from spacarpy.solvers.linear.eigen import DENSE_LIMIT
-from spacarpy.solvers.path.stability import canonical_sign, stability
+from spacarpy.solvers.path.stability import (
+    UNDETERMINED_POINT,
+    PathCertificate,
+    canonical_sign,
+    near_zero,
+    window_negatives,
+)
 from spacarpy.solvers.statics.errors import StepFailed
 from spacarpy.solvers.statics.newton import bordered_solve, newton
 
@@ -82,8 +87,17 @@ MAX_REFINE = 60
 #: Solve with the tangent-space LDL^T of :mod:`spacarpy.solvers.statics.reduced` where it applies
 #: (False: always the bordered system by SuperLU; the tests compare the two).
 USE_REDUCED = True
-#: Kinds of critical points (codes stored in /critical/point_type).
-CRITICAL_KINDS = ("limit point (load maximum)", "limit point (load minimum)", "bifurcation")
+#: Kinds of critical points (codes stored in /critical/point_type): "undetermined" is a
+#: determinant or pivot sign change between two points that the round-off bound cannot
+#: confirm or deny (an eigenvalue within it: :mod:`spacarpy.solvers.linalg.certificate`).
+CRITICAL_KINDS = ("limit point (load maximum)", "limit point (load minimum)", "bifurcation",
+                  "undetermined")
+UNDETERMINED_KIND = UNDETERMINED_POINT
+#: Smallest cosine (scaled inner product) between the unit tangents of two consecutive
+#: points: a path that turned more within one step may have passed two critical points
+#: (a snap-through's load maximum and minimum, whose determinant and load-tangent sign
+#: changes cancel); the point is retried with half the arc length.
+MIN_TANGENT_COS = 0.7
 
 
 @dataclass
@@ -95,6 +109,8 @@ class CriticalPoint:
     load_factor: float
     arc_length: float
     shape: np.ndarray
+    margin: float = np.nan     # the eigenvalue that decided it (its magnitude) ...
+    bound: float = np.nan      # ... and its round-off bound (decided: margin > bound)
 
 
 @dataclass
@@ -113,12 +129,20 @@ class _Point:
     det: int = 0
     index: int = -1        # negative eigenvalues of the reduced tangent (-1: not computed)
     lu: object = None      # (LU factors of the scaled bordered matrix, the scaling)
+    near: object = None    # (eigenvalues nearest zero, their bounds), on first use
 
     def same_stability(self, other: _Point) -> bool:
         """No critical point between the two: the same determinant sign and, where both are
-        known, the same index."""
-        return self.det == other.det and (self.index < 0 or other.index < 0
-                                          or self.index == other.index)
+        known, the same index (the LDL^T's pivots, else the certified negative eigenvalues
+        nearest zero: a pair crossing leaves the determinant alone)."""
+        if self.det != other.det:
+            return False
+        if self.index >= 0 and other.index >= 0:
+            return self.index == other.index
+        if self.near is not None and other.near is not None:
+            a, b = window_negatives(self.near, other.near)
+            return a == b
+        return True
 
 
 def _permutation_sign(perm) -> int:
@@ -186,15 +210,12 @@ class ArcLengthPath:
         self.n_x = prob.pattern.n_x
         self.ds_min, self.ds_max = arc.bounds
         self.switch = opts.bifurcation == "switch"
-        # the index (Sylvester's inertia of the reduced tangent) where the dense reduction
-        # applies: it also sees eigenvalues that cross zero in pairs (a symmetric structure's
-        # double buckling mode), which leave the determinant's sign unchanged
-        self.dense = self.n_x <= DENSE_LIMIT
         # the tangent-space LDL^T (reduced.py) where it applies: its solves stay accurate on
         # slender models (10^4 elements), and its pivots give the index at any size
         self.reduced = prob.reduced if USE_REDUCED else None
         self.m = prob.pattern.n - self.n_x                 # constraint rows
         self.increments: list = []
+        self.check = PathCertificate(prob, self.load)     # classifies the changes
 
     # ------------------------------------------------------------------ small pieces
     def inner(self, ux, us, vx, vs) -> float:
@@ -280,9 +301,10 @@ class ArcLengthPath:
             p.det, p.lu = (-1) ** ((self.m + neg) % 2), None
             p.index = neg
         else:
+            # no pivots to count: the eigenvalues nearest zero (a few sparse ones; see
+            # same_stability), for the index that a pair crossing changes
             p.det, p.lu = determinant_sign(lu[0]), lu
-        if self.dense:
-            p.index = stability(self.prob, p.x, p.mu, self.load(p.s)).index
+            p.near = near_zero(self.prob, p.x, p.mu, self.load(p.s))
 
     # ------------------------------------------------------------------ one point
     def correct(self, p: _Point, ds: float, direction=None, fixed_s: float | None = None):
@@ -352,10 +374,10 @@ class ArcLengthPath:
         self.tangent(q, ref=direction)
         return q
 
-    def refine(self, p: _Point, ds: float, new: _Point, direction, kind: int) -> _Point:
+    def refine(self, p: _Point, ds: float, new: _Point, direction, turn: bool) -> _Point:
         """The critical point between ``p`` and ``new`` (arc lengths 0 and ds from p along
-        ``direction``), to the solver tolerance in arc length (limit points: Illinois on
-        the tangent's load component; bifurcations: bisection on the determinant sign)."""
+        ``direction``), to the solver tolerance in arc length (a turn of the path: Illinois
+        on the tangent's load component; else bisection on the determinant sign)."""
         lo, hi = 0.0, ds
         f_lo, f_hi = p.ts, new.ts
         best, side = new, 0
@@ -363,7 +385,7 @@ class ArcLengthPath:
         for _ in range(MAX_REFINE):
             if hi - lo <= tol:
                 break
-            if kind < 2 and f_lo != f_hi:
+            if turn and f_lo != f_hi:
                 sigma = hi - f_hi * (hi - lo) / (f_hi - f_lo)
                 if not lo < sigma < hi:
                     sigma = 0.5 * (lo + hi)
@@ -377,8 +399,8 @@ class ArcLengthPath:
                     q = self._at(p, sigma, direction)
                 except StepFailed:
                     break
-            before = (q.same_stability(p) if kind == 2
-                      else np.sign(q.ts) == np.sign(p.ts))
+            before = (np.sign(q.ts) == np.sign(p.ts) if turn
+                      else q.same_stability(p))
             if before:
                 lo, f_lo = sigma, q.ts
                 if side == -1:
@@ -389,7 +411,7 @@ class ArcLengthPath:
                 if side == 1:
                     f_lo *= 0.5
                 side = 1
-            if kind < 2 and abs(q.ts) <= self.opts.tol * 1e-3:
+            if turn and abs(q.ts) <= self.opts.tol * 1e-3:
                 best = q
                 break
         return best
@@ -435,6 +457,10 @@ class ArcLengthPath:
                     raise StepFailed("the corrector left the predictor's neighbourhood",
                                      [new.res])
                 self.tangent(new, ref=chord)
+                if (not switched and ds / 2 >= self.ds_min and new.same_stability(p)
+                        and np.sign(new.ts) == np.sign(p.ts)
+                        and self.inner(new.tx, new.ts, *direction) < MIN_TANGENT_COS):
+                    raise StepFailed("the path turned too much within the step", [new.res])
             except StepFailed as fail:
                 if ds / 2 < self.ds_min:
                     hist = ", ".join(f"{h:.3e}" for h in fail.history)
@@ -449,14 +475,27 @@ class ArcLengthPath:
                 continue
             crossed = (p.s - 1.0) * (new.s - 1.0) <= 0 and new.s != p.s
             # (at a bifurcation point just left, the stability is that of neither branch)
-            if not new.same_stability(p) and not switched:
-                kind = (2 if np.sign(new.ts) == np.sign(p.ts)
-                        else 0 if p.ts > 0 else 1)
-                crit = self.refine(p, ds, new, direction, kind)
+            kind, undetermined = None, None
+            if not switched:
+                kind, cert = self.check.classify(p, new)
+            if kind == UNDETERMINED_KIND or (crossed and self.check.pending is not None):
+                cert = cert if kind == UNDETERMINED_KIND else self.check.pending[1]
+                kind = UNDETERMINED_KIND
+                undetermined = CriticalPoint(kind=kind, load_factor=new.s, arc_length=new.arc,
+                                             shape=self.critical_shape(new),
+                                             margin=cert.margin, bound=cert.bound)
+                log.warning("ARCLENGTH: stability undetermined up to load factor %.6g: an "
+                            "eigenvalue nearest zero within its round-off bound (margin %.3g, "
+                            "bound %.3g); stored as undetermined, not as a bifurcation",
+                            new.s, cert.margin, cert.bound)
+            elif kind is not None:
+                crit = self.refine(p, ds, new, direction, np.sign(new.ts) != np.sign(p.ts))
                 if crit is not new and (not crossed or (p.s - 1.0) * (crit.s - 1.0) > 0):
                     cp = CriticalPoint(kind=kind, load_factor=crit.s, arc_length=crit.arc,
-                                       shape=self.critical_shape(crit))
+                                       shape=self.critical_shape(crit),
+                                       margin=cert.margin, bound=cert.bound)
                     store(crit.s, crit.x, crit.mu, crit.its, crit.res, crit.arc, cp)
+                    self.check.stored()
                     n_stored += 1
                     self._commit(crit)
                     if kind == 2 and self.switch:
@@ -472,10 +511,13 @@ class ArcLengthPath:
                         break
             if crossed:
                 last = self._land(p, new)
-                store(last.s, last.x, last.mu, last.its, last.res, last.arc, None)
+                if undetermined is not None:
+                    undetermined.load_factor, undetermined.arc_length = last.s, last.arc
+                store(last.s, last.x, last.mu, last.its, last.res, last.arc, undetermined)
                 self._commit(last)
                 return
-            store(new.s, new.x, new.mu, new.its, new.res, new.arc, None)
+            store(new.s, new.x, new.mu, new.its, new.res, new.arc, undetermined)
+            self.check.seen(new)
             n_stored += 1
             switched = False
             self._commit(new)

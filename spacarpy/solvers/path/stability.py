@@ -23,9 +23,18 @@ import logging
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from spacarpy.errors import ConvergenceError
-from spacarpy.solvers.linear.eigen import DENSE_LIMIT, null_space_basis
+from spacarpy.solvers.linalg.certificate import (
+    EPS,
+    SAFETY,
+    UNDETERMINED,
+    Certificate,
+    certified_sign,
+)
+from spacarpy.solvers.linear.eigen import DENSE_LIMIT, FEW_MODES_DENSE_LIMIT, null_space_basis
 from spacarpy.solvers.linear.linearize import linearize
 from spacarpy.solvers.statics.errors import StepFailed
 from spacarpy.solvers.statics.loads import LoadState
@@ -117,6 +126,198 @@ def stability(prob, x, mu, load: LoadState) -> Stability | None:
     index = int(np.sum(lam < -ZERO_TOL * big))
     return Stability(index=index, lowest=float(lam[0]), states=lin.states,
                      pending=(T, ks, d))
+
+
+#: Eigenvalues nearest zero whose signs certify a crossing (:func:`near_zero`).
+NEAR_ZERO = 6
+
+
+def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
+    """The ``k`` eigenvalues nearest zero of the Jacobi-scaled reduced tangent at (x, mu) and
+    their round-off bounds: ``(lam, bound)``, nearest first.
+
+    Dense reduction (at most ``FEW_MODES_DENSE_LIMIT`` free coordinates):
+    ``ks = D^-1 T^T K T D^-1``,
+    all its eigenvalues, the eigenvectors ``u`` of the k nearest zero. Larger models: the
+    pencil ``[[K, C^T], [C, 0]] - lam [[W, 0], [0, 0]]`` (W the diagonal of |K|, the same
+    scaling) in shift-invert about zero with one sparse LU (the signs are those of the
+    reduced tangent: Sylvester). An eigenvalue's round-off is that of ``y^T K y`` for its
+    mode y in the coordinates (``y = T u / d``), entry by entry ``eps |y|^T |K| |y|`` (the
+    assembled K holds the stiff axial terms, whose round-off is what the soft bending modes
+    of a slender model see), plus the eigensolver's ``n eps ||ks||``: ``bound = SAFETY eps
+    (n ||ks|| + |y|^T |K| |y|)`` (:mod:`spacarpy.solvers.linalg.certificate`)."""
+    n_x = prob.pattern.n_x
+    lin = linearize(prob, x, mu, load)
+    K = sp.csr_matrix(lin.K)
+    if n_x <= FEW_MODES_DENSE_LIMIT:
+        T = null_space_basis(lin.C, n_x)
+        if T.shape[1] == 0:
+            return np.zeros(0), np.zeros(0)
+        kr = T.T @ (K @ T)
+        kr = 0.5 * (kr + kr.T)
+        d = np.sqrt(np.abs(np.diag(kr)))
+        d = np.where(d > 1e-300, d, 1.0)
+        ks = kr / d[:, None] / d[None, :]
+        lam_all = sla.eigvalsh(ks)
+        k = min(k, lam_all.size)
+        near = np.sort(np.argsort(np.abs(lam_all), kind="stable")[:k])
+        lam, u = sla.eigh(ks, subset_by_index=(int(near[0]), int(near[-1])))
+        pick = near - near[0]
+        lam, u = lam[pick], u[:, pick]
+        y = np.abs(T) @ (np.abs(u) / d[:, None])
+        rho, n = float(np.abs(lam_all).max()), ks.shape[0]
+    else:
+        A = sp.bmat([[K, lin.C.T], [lin.C, None]], format="csc")
+        # (a floor for the directions without stiffness of their own, held by the
+        # constraints: Euler parameters, out-of-plane motion; a congruence all the same)
+        dk = np.abs(K.diagonal())
+        pos = dk[dk > 0]
+        dk = np.maximum(dk, 1e-3 * (np.median(pos) if pos.size else 1.0))
+        s = np.concatenate([1.0 / np.sqrt(dk), np.ones(A.shape[0] - n_x)])
+        As = (sp.diags(s) @ A @ sp.diags(s)).tocsc()
+        B = sp.diags(np.concatenate([np.ones(n_x), np.zeros(A.shape[0] - n_x)]))
+        lu = spla.splu(As, permc_spec="COLAMD")
+        op = spla.LinearOperator(As.shape, matvec=lambda v: lu.solve(B @ v), dtype=float)
+        k = min(k, n_x - 2)
+        nu, vec = spla.eigs(op, k=k, which="LM", v0=np.ones(As.shape[0]))
+        with np.errstate(divide="ignore"):
+            lam = 1.0 / nu.real
+        z = vec[:n_x].real
+        z = z / np.maximum(np.linalg.norm(z, axis=0), 1e-300)
+        y = np.abs(z) * s[:n_x, None]
+        # ||ks||_2 (the largest eigenvalue magnitude of the scaled stiffness block)
+        kx = As[:n_x, :n_x]
+        rho = float(np.abs(spla.eigsh(kx, k=1, which="LM", v0=np.ones(n_x),
+                                      return_eigenvectors=False)).max())
+        n = n_x
+    order = np.argsort(np.abs(lam), kind="stable")
+    lam, y = lam[order], y[:, order]
+    bound = SAFETY * EPS * (n * rho + np.einsum("ij,ij->j", y, abs(K) @ y))
+    return lam, bound
+
+
+def window_negatives(before, after) -> tuple[int, int]:
+    """The numbers of certified negative eigenvalues of two :func:`near_zero` results within
+    their common window: the magnitudes up to the smaller of the two sets' largest (every
+    eigenvalue of that size is in both sets; all of them where a set holds every
+    eigenvalue of its model)."""
+    def top(lam):
+        return np.inf if lam.size < NEAR_ZERO else float(np.abs(lam).max(initial=0.0))
+    w = min(top(before[0]), top(after[0]))
+    return tuple(int(np.sum((certified_sign(lam, bound) < 0) & (np.abs(lam) <= w)))
+                 for lam, bound in (before, after))
+
+
+def certify_crossing(before, after):
+    """Whether an eigenvalue crossed zero between two states, from the :func:`near_zero`
+    results ``(lam, bound)`` there: ``(verdict, Certificate)``, verdict "crossing" (the
+    number of certified negative eigenvalues differs), "none" (it does not: a determinant or
+    pivot sign that flipped by round-off), or "undetermined" (an eigenvalue within its
+    bound at either state). The certificate is that of the eigenvalue nearest its bound."""
+    signs, worst = [], Certificate(np.inf, 0.0)
+    for lam, bound in (before, after):
+        sign = certified_sign(lam, bound)
+        signs.append(sign)
+        if lam.size:
+            i = int(np.argmin(np.abs(lam) / np.maximum(bound, 1e-300)))
+            if abs(lam[i]) / max(bound[i], 1e-300) < worst.margin / max(worst.bound, 1e-300):
+                worst = Certificate(float(abs(lam[i])), float(bound[i]))
+    if any(np.any(sg == UNDETERMINED) for sg in signs):
+        return "undetermined", worst
+    neg_before, neg_after = window_negatives(before, after)
+    if neg_before != neg_after:
+        return "crossing", worst
+    return "none", worst
+
+
+#: The code of an undetermined point in /critical/point_type (arclength.CRITICAL_KINDS).
+UNDETERMINED_POINT = 3
+
+
+class PathCertificate:
+    """Classifies the changes of stability between two arc-length points (``p``, ``new``:
+    :class:`~spacarpy.solvers.path.arclength._Point`, with x, mu, s, the load tangent ts, the
+    determinant sign and index of :meth:`same_stability`, and a cache ``near``); ``load(s)``
+    the load state at load factor s. :attr:`pending` is the last certified point and its
+    certificate while the stability is undetermined (see :meth:`classify`)."""
+
+    def __init__(self, prob, load):
+        self.prob, self.load = prob, load
+        self.pending = None
+        self.last = None           # the last point seen with certified signs ...
+        self.since = 0             # ... and the critical points stored after it
+
+    def stored(self) -> None:
+        """A limit point or bifurcation was stored (each changes the index by one or two)."""
+        self.since += 1
+
+    def near(self, p):
+        """The eigenvalues nearest zero at p and their round-off bounds (computed once)."""
+        if p.near is None:
+            p.near = near_zero(self.prob, p.x, p.mu, self.load(p.s))
+        return p.near
+
+    def _explained(self, new) -> bool:
+        """Whether the index change from the last certified point to ``new`` (certified) is
+        that of the critical points stored since (at most two each, the same parity)."""
+        a, b = window_negatives(self.near(self.last), self.near(new))
+        return abs(a - b) <= 2 * self.since and (a - b - self.since) % 2 == 0
+
+    def classify(self, p, new):
+        """The kind of critical point between two points (None: none) and its certificate.
+        A turn of the path is a limit point (where the determinant's sign changed too; else
+        a bifurcation, see below). Otherwise, where the determinant sign or the
+        index changed, the certified eigenvalues nearest zero decide: a bifurcation where one
+        changed sign, none where they kept their signs (a sign flipped by round-off). A point
+        with an eigenvalue within its bound opens a stretch of undetermined stability: its
+        later points are compared with the last certified point before it, and the stretch
+        ends with nothing (the same certified signs) or with "undetermined", stored at the
+        point that ends it (a crossing inside it cannot be located)."""
+        turned = np.sign(new.ts) != np.sign(p.ts)
+        ref = p if self.pending is None else self.pending[0]
+        if not (turned or self.pending is not None or not new.same_stability(p)):
+            return None, None
+        verdict, cert = certify_crossing(self.near(ref), self.near(new))
+        if turned:
+            # a limit point changes the determinant's sign; a turn with the certified
+            # eigenvalues' signs kept is a symmetric bifurcation seen from its crossing
+            # branch (the load is even in the mode's amplitude: the bistable beam's return)
+            self.pending = None
+            if new.det != p.det or verdict == "crossing":
+                return (0 if p.ts > 0 else 1), cert
+            return (2 if verdict == "none" else UNDETERMINED_POINT), cert
+        if verdict == "undetermined" and self.pending is None and (
+                self._certain(ref) or self.last is not None):
+            if not self._certain(ref):
+                ref = self.last           # (p is near a critical point just stored)
+            else:
+                self.since = 0
+            self.pending = (ref, cert)
+            self.last = ref
+            log.info("arc length %.6g: stability undetermined (an eigenvalue of %.3g within "
+                     "its round-off bound %.3g)", new.arc, cert.margin, cert.bound)
+            return None, cert
+        if verdict == "undetermined" and self.pending is not None:
+            return None, cert                       # the stretch goes on
+        opened, self.pending = self.pending, None
+        if opened is not None and self.since and self._explained(new):
+            verdict = "none"
+        if verdict == "none":
+            log.info("arc length %.6g: the certified eigenvalues nearest zero kept their "
+                     "signs: no critical point", new.arc)
+            return None, cert
+        if verdict == "crossing" and opened is None:
+            return 2, cert
+        return UNDETERMINED_POINT, (opened[1] if opened is not None else cert)
+
+    def _certain(self, q) -> bool:
+        lam, bound = self.near(q)
+        return bool(np.all(certified_sign(lam, bound) != 0))
+
+    def seen(self, q) -> None:
+        """A point stored on the path: the last certified one where its signs are known."""
+        if self.pending is None and q.near is not None and self._certain(q):
+            self.last, self.since = q, 0
 
 
 def canonical_sign(modes: np.ndarray) -> np.ndarray:
@@ -370,5 +571,6 @@ class PathStability:
         return x, mu
 
 
-__all__ = ["PathStability", "Stability", "stability", "switch_branch", "potential_energy",
-           "canonical_sign"]
+__all__ = ["PathStability", "Stability", "stability", "near_zero", "certify_crossing",
+           "PathCertificate", "UNDETERMINED_POINT", "window_negatives",
+           "switch_branch", "potential_energy", "canonical_sign"]
