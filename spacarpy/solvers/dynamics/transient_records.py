@@ -83,6 +83,10 @@ class TransientStep:
     dissipated_energy: float
     deformation: dict                        # element keyword -> (n_elem, n_def)
     stress: dict                             # keyword -> (n_elem, n_def) stress resultants
+    #: how the step's last integration step was accepted: "tolerance" (its residual met
+    #: the tolerance) or "floor" (within its round-off floor measured at that state, the
+    #: increments converged); step 0 (the initial state) is "tolerance"
+    converged_by: str = "tolerance"
 
     @property
     def energy_balance(self) -> float:
