@@ -313,9 +313,13 @@ class Inertia:
         ``M a`` contributes ``|M| |a|``. M is quadratic in the Euler parameters of unit
         length, so ``|dM/dq_k| <= 2 |M|`` entrywise in size, and the convective terms
         ``h = (dM/dt) v - 1/2 d(v^T M v)/dq`` contribute ``2 |M| |v| max|dq/dt|`` and, on
-        the Euler parameters, ``|v|^T |M| |v|``; summed over the elements of each
-        coordinate. ``blocks``: the mass blocks at x (None entries are evaluated)."""
-        vp = np.abs(self.physical(x, v))
+        the Euler parameters, ``|v|^T |M| |v|``; and each element's force ``|M a + h|``
+        itself (the rounding of its result, and a size of h where that estimate is
+        short: the centripetal force of a rigid body on its position coordinates); summed
+        over the elements of each coordinate. ``blocks``: the mass blocks at x (None
+        entries are evaluated)."""
+        vs = self.physical(x, v)
+        vp = np.abs(vs)
         a_abs = np.abs(a)
         n = self.num.n_coord
         floor = np.zeros(n)
@@ -325,7 +329,8 @@ class Inertia:
                 continue
             m_abs = np.abs(m)
             vl = vp[idx]
-            local = np.einsum("nij,nj->ni", m_abs, a_abs[idx])
+            local = np.abs(self._local(b, x[idx], vs[idx], a[idx], 1)[1])
+            local += np.einsum("nij,nj->ni", m_abs, a_abs[idx])
             if b.rot.size:
                 rate = vl[:, b.rot].max(axis=1)
                 mv = np.einsum("nij,nj->ni", m_abs, vl)
