@@ -154,3 +154,22 @@ def test_an_arc_length_file_is_read_with_its_arc_length(result_files):
     assert s.arc_length is not None and s.arc_length.shape == s.load_factor.shape
     assert s.arc_length[0] == 0.0 and np.all(np.diff(s.arc_length) > 0)
     assert s.converged_by is not None and set(np.unique(s.converged_by)) <= {0, 1}
+
+
+def test_the_file_and_the_log_line_say_which_steps_are_on_their_floor(tmp_path, capsys):
+    text = (DECKS / "cantilever_free_vibration.dat").read_text()
+    short = text.replace("TIMESTEP {periods/f1} {100*periods}",
+                         "TIMESTEP {periods/f1/50} 10\nITERSTEP 20 1 1e-14")
+    assert short != text
+    deck = tmp_path / "vibration.dat"
+    deck.write_text(short)
+    out = tmp_path / "vibration.h5"
+    assert main(["run", str(deck), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    with h5py.File(out, "r") as f:
+        by = f["transient/converged_by"][()]
+        res = f["transient/residual"][()]
+    assert by[0] == 0 and np.array_equal(by[1:] == 1, res[1:] > 1e-14) and by[1:].all()
+    lines = [ln for ln in err.splitlines() if ln.startswith("time step ")]
+    assert len(lines) == 11, lines
+    assert all(("within its round-off floor" in ln) == (i > 0) for i, ln in enumerate(lines))
