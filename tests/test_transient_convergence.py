@@ -18,6 +18,7 @@ from spacarpy.cli import main
 from spacarpy.deck import load
 from spacarpy.errors import ConvergenceError
 from spacarpy.results.eager import read_results
+from spacarpy.results.reader import open_results
 from spacarpy.solvers.dynamics.inertia import Inertia
 from spacarpy.solvers.dynamics.transient import TransientOptions, solve_transient
 from spacarpy.solvers.statics.equilibrium import FLOOR_MULTIPLE, StaticProblem
@@ -54,6 +55,7 @@ def test_a_transient_whose_steps_meet_the_tolerance_stores_0(tmp_path):
     assert res.max() <= 1e-10
     tr = read_results(out).transient
     assert np.array_equal(tr.converged_by, by)
+    assert np.array_equal(open_results(out).transient.converged_by, by)
 
 
 class _Spy:
