@@ -256,7 +256,8 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
             kinetic_energy=step.kinetic_energy, elastic_energy=step.elastic_energy,
             external_work=step.external_work, iterations=step.iterations,
             residual=step.residual, dissipated_energy=step.dissipated_energy,
-            reaction=step.reaction)
+            reaction=step.reaction,
+            converged_by=int(step.converged_by == "floor"))
         k = summary.n_time
         if along is not None:
             writer.state_space_step(k, along(step), time=step.time)
@@ -264,7 +265,11 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
         if k % max(n_steps // 20, 1) == 0 or k == n_steps:
             log.info(f"time step {k:>{width}}/{n_steps}  t = {step.time:.6g} s  "
                      f"{step.iterations:2d} iterations  energy T + U - W = "
-                     f"{step.energy_balance:.6g} J")
+                     f"{step.energy_balance:.6g} J"
+                     + (f"  residual {step.residual:.2e} (above the tolerance "
+                        f"{topts.tol:.0e}, within its round-off floor measured at this "
+                        "state; the increments are below the tolerance)"
+                        if step.converged_by == "floor" else ""))
 
     result = solve_transient(model, topts, on_step=on_step, on_static_step=on_static_step,
                              settings=settings,

@@ -169,3 +169,43 @@ def test_multipliers_compare_by_classification_not_round_off(tmp_path):
         diffs = compare_files(path, base)
         assert len(diffs) == n_diff, [d.message for d in diffs]
     assert diffs[0].path == "/buckling/load_multiplier"
+
+
+def test_a_residual_regression_is_a_change_round_off_is_not(tmp_path):
+    """The residuals are not compared by value (round-off moves them, and with them
+    /static/converged_by), but a step whose residual is above 1e-6 and 100 times the
+    baseline's is a change: step 0 stored with a residual of 1.0 where the baseline's is
+    about 0 (report N10), a time step's grown to 1e-3."""
+    import h5py
+    import numpy as np
+    cases = {"static": BASELINE / "table1_cantilever_1el_modified.h5",
+             "transient": BASELINE / "pendulum_rigid_90deg.h5"}
+    for group, base in cases.items():
+        with h5py.File(base, "r") as f:
+            res = f[f"{group}/residual"][()]
+        assert res.max() < 1e-9
+        # (name, step, its baseline residual or None: as it is, the new one, differs)
+        for name, k, old, new, n_diff in (("n10", 0, None, 1.0, 1),
+                                          ("grown", -1, None, 1e-3, 1),
+                                          ("below 1e-6", 0, None, 9e-7, 0),
+                                          ("50 times", -1, 1e-7, 5e-6, 0),
+                                          ("101 times", -1, 1e-7, 1.01e-5, 1)):
+            path, ref = tmp_path / f"{group}_{k}.h5", tmp_path / f"{group}_{k}_base.h5"
+            shutil.copy(base, path)
+            shutil.copy(base, ref)
+            for file, value in ((ref, old), (path, new)):
+                with h5py.File(file, "r+") as f:
+                    if value is not None:
+                        data = res.copy()
+                        data[k] = value
+                        f[f"{group}/residual"][...] = data
+                    if file == path and f"{group}/converged_by" in f:    # round-off's
+                        f[f"{group}/converged_by"][...] = 1 - f[f"{group}/converged_by"][()]
+            diffs = compare_files(path, ref)
+            assert len(diffs) == n_diff, (group, name, [d.message for d in diffs])
+            if n_diff:
+                assert diffs[0].path == f"/{group}/residual"
+                assert diffs[0].index == (k % res.size,) and diffs[0].value == new
+                assert "100 times the baseline" in diffs[0].message
+        with h5py.File(base, "r") as f:                 # (the baseline untouched)
+            assert np.array_equal(res, f[f"{group}/residual"][()])

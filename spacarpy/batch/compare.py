@@ -10,6 +10,10 @@ change of the solver's iteration path (within its tolerance) and carry no inform
 ``floor`` (1e-9) of the dataset's scale. For each differing
 dataset the worst element is reported: its index and its relative difference ``|a - b| / |b|``.
 Datasets whose values legitimately vary between machines or runs (:data:`IGNORED`) are skipped.
+The Newton residuals among them are still checked for a regression: a step whose residual
+is above :data:`RESIDUAL_FLOOR` and more than :data:`RESIDUAL_GROWTH` times the baseline's
+differs (a step accepted with a residual of 1.0 where the baseline had 0; round-off moves a
+converged residual by far less).
 
 Classified modes compare by their classification first, then by value (round-off must not
 decide a comparison). ``/buckling/load_multiplier``: in each row a value that is NaN, inf or
@@ -29,8 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["IGNORED", "INFINITE_MULTIPLIER", "DatasetDiff", "compare_files",
-           "load_tolerances"]
+__all__ = ["IGNORED", "INFINITE_MULTIPLIER", "RESIDUAL_FLOOR", "RESIDUAL_GROWTH",
+           "DatasetDiff", "compare_files", "load_tolerances"]
 
 #: Dataset paths (fnmatch patterns) not compared: the Newton residual, iteration counts and
 #: acceptance rule (``converged_by``: a residual near the tolerance may meet it or not) of
@@ -39,6 +43,14 @@ __all__ = ["IGNORED", "INFINITE_MULTIPLIER", "DatasetDiff", "compare_files",
 IGNORED = ("/static/residual", "/static/iterations", "/static/converged_by",
            "/transient/residual",
            "/transient/iterations", "/*/shape_position", "/*/shape_euler")
+
+#: The residual datasets checked for a regression although :data:`IGNORED` skips their
+#: values: a step's residual differs when it is above RESIDUAL_FLOOR and more than
+#: RESIDUAL_GROWTH times the baseline's (the tolerances are 1e-10 to 5e-7, and a residual
+#: accepted on its round-off floor stays far below 1e-6 relative).
+RESIDUALS = ("/static/residual", "/transient/residual")
+RESIDUAL_FLOOR = 1e-6
+RESIDUAL_GROWTH = 100.0
 
 #: A stored buckling multiplier above this magnitude is infinite: 1 / (SAFETY eps) of the
 #: solver's bound (:mod:`spacarpy.solvers.linear.buckling`) with ``|v^T K v| / ||G||`` taken as 1;
@@ -153,6 +165,31 @@ def _compare(path, a, b, rtol, atol, floor=0.0, mask=None) -> DatasetDiff | None
                        f"difference {rel:.3g})")
 
 
+def _residual_regression(path, a, b) -> DatasetDiff | None:
+    """A step of ``a`` whose residual is above RESIDUAL_FLOOR and more than RESIDUAL_GROWTH
+    times the baseline ``b``'s, or None (the worst such step; shapes that differ are
+    reported by the other datasets)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    if a.shape != b.shape or a.size == 0:
+        return None
+    with np.errstate(invalid="ignore"):
+        bad = (~(a <= RESIDUAL_FLOOR) & ~(a <= RESIDUAL_GROWTH * np.abs(b))) & ~(
+            np.isnan(a) & np.isnan(b))
+    if not bad.any():
+        return None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(bad, np.nan_to_num(a / np.abs(b), nan=np.inf, posinf=np.inf), -1.0)
+    i = int(np.argmax(ratio))
+    va, vb = float(a.flat[i]), float(b.flat[i])
+    rel = abs(va - vb) / abs(vb) if vb != 0 and np.isfinite(vb) else np.inf
+    n_bad = int(bad.sum())
+    return DatasetDiff(path, (i,), va, vb, rel, n_bad,
+                       f"{path}: {n_bad} of {a.size} steps have a residual above "
+                       f"{RESIDUAL_FLOOR:g} and {RESIDUAL_GROWTH:g} times the baseline's; "
+                       f"worst at [{i}]: {va:.3g} vs baseline {vb:.3g}")
+
+
 def load_tolerances(path) -> dict:
     """A baseline's tolerance file (``<baseline>.tol.json``): ``{pattern: {"rtol": r,
     "atol": a, "why": "..."}}`` with fnmatch patterns of dataset paths, for datasets that
@@ -219,6 +256,10 @@ def compare_files(result, baseline, *, rtol: float = 1e-6, atol: float = 1e-9,
             if ka.shape == kb.shape:
                 eigen_ok = (ka == kb) & ~np.isin(ka, _EIGEN_NOT_FINITE)
         for path in sorted(set(da) & set(db)):
+            if path in RESIDUALS:
+                d = _residual_regression(path, da[path][()], db[path][()])
+                if d is not None:
+                    diffs.append(d)
             if any(fnmatch.fnmatchcase(path, pat) for pat in ignore):
                 continue
             r, a = rtol, atol

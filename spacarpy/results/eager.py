@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import logging
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -50,6 +50,8 @@ class StaticResults:
     converged_by : (n_step,) int8 or None
         0: the residual met the tolerance, 1: within its round-off floor (schema 2.7; None
         for an older file).
+    arc_length : (n_step,) float64 or None
+        The arc length from step 0 of an ARCLENGTH run (schema 2.4; None otherwise).
     max_normal_stress, max_von_mises_stress : (n_step, n_elem) float64 or None
         Largest surface stresses of the BEAM elements (Pa); ``None`` without cross-sections.
     elements : dict
@@ -68,6 +70,7 @@ class StaticResults:
     iterations: np.ndarray
     residual: np.ndarray
     converged_by: np.ndarray | None = None
+    arc_length: np.ndarray | None = None
     max_normal_stress: np.ndarray | None = None
     max_von_mises_stress: np.ndarray | None = None
     elements: dict = field(default_factory=dict)
@@ -90,8 +93,10 @@ class _Arrays:
 @dataclass
 class TransientResults(_Arrays):
     """The ``/transient`` group as arrays (axis 0 = stored time step): ``time``, ``position``,
-    ``euler``, ``velocity``, ``euler_rate``, the energies, ``iterations``, ``residual`` and
-    ``elements`` (per kind, as in :class:`StaticResults`)."""
+    ``euler``, ``velocity``, ``euler_rate``, the energies, ``iterations``, ``residual``,
+    ``converged_by`` (0 the residual met the tolerance, 1 within its round-off floor;
+    schema 2.10, None for an older file) and ``elements`` (per kind, as in
+    :class:`StaticResults`)."""
 
     time: np.ndarray
     arrays: dict
@@ -219,6 +224,10 @@ def read_results(path) -> Results:
             n = f["static/load_factor"].shape[0]
             arrays, elements = _step_arrays(sf, "static", n)
             b = elements.get("BEAM", {})
+            # a step dataset of a newer minor version that this reader does not know is
+            # left out (docs/results.md, "Versions")
+            known = {f.name for f in fields(StaticResults)}
+            arrays = {k: v for k, v in arrays.items() if k in known}
             results.static = StaticResults(
                 reaction_node=sf["static/reaction_node"][()],
                 reaction_component=str_list(sf["static/reaction_component"]),
@@ -229,6 +238,7 @@ def read_results(path) -> Results:
         if "transient" in f:
             n = f["transient/time"].shape[0]
             arrays, elements = _step_arrays(sf, "transient", n)
+            arrays.setdefault("converged_by", None)            # before 2.10
             results.transient = TransientResults(time=arrays.pop("time"), arrays=arrays,
                                                  elements=elements)
         for group in ("eigen", "buckling", "compliance", "state_space"):

@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 9)
+SCHEMA_VERSION = (2, 10)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -229,6 +229,10 @@ def _spec_list() -> list[DatasetSpec]:
           "Newton iterations of the last time step", v14),
         S("transient/residual", "f8", ("time_step",), "1",
           "final relative residual of the last time step", v14),
+        S("transient/converged_by", "i1", ("time_step",), "1",
+          "how the last time step was accepted: 0 its residual meets the tolerance, 1 it is "
+          "above the tolerance but within its round-off floor measured at that state, with "
+          "converged increments (docs/transient.md, Convergence)", (2, 10), optional=True),
         # linearized groups
         S("eigen/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),

@@ -290,6 +290,15 @@ class _StepView:
         return self._series("residual")
 
     @property
+    def converged_by(self) -> np.ndarray:
+        """(n_step,) int: 0 where the step's residual met the tolerance, 1 where it was
+        accepted within its measured round-off floor; -1 for a file older than 2.7
+        (/static) or 2.10 (/transient)."""
+        if not self._res._has(f"{self._group}/converged_by"):
+            return np.full(self.n_step, -1, dtype=np.int8)
+        return self._series("converged_by")
+
+    @property
     def element_kinds(self) -> list[str]:
         """Element kinds with per-kind datasets in this group."""
         return [k for k in self._res.model.element_kinds
@@ -371,14 +380,6 @@ class StaticView(_StepView):
     def load_factor(self) -> np.ndarray:
         """(n_step,): factor on DELXF of each step."""
         return self._res._read("static/load_factor")
-
-    @property
-    def converged_by(self) -> np.ndarray:
-        """(n_step,) int: 0 where the step's residual met the tolerance, 1 where it was
-        accepted within its measured round-off floor; -1 for a file older than 2.7."""
-        if not self._res._has("static/converged_by"):
-            return np.full(self.n_step, -1, dtype=np.int8)
-        return self._series("converged_by")
 
     @property
     def has_stress(self) -> bool:

@@ -307,16 +307,19 @@ class ResultsWriter:
                        deformation: dict, stress_resultant: dict, kinetic_energy: float,
                        elastic_energy: float, external_work: float, iterations: int,
                        residual: float, dissipated_energy: float = 0.0,
-                       reaction=None) -> None:
+                       reaction=None, converged_by: int = 0) -> None:
         """Append one time step (arrays as in :meth:`static_step`, plus the velocities and
         the energies) and make it durable: the arrays first, then ``/transient/time``
         commits the step. ``reaction`` (n_reac,): the reactions in the order of
-        ``reaction_component``, inertia included (required, as in :meth:`static_step`)."""
+        ``reaction_component``, inertia included (required, as in :meth:`static_step`).
+        ``converged_by``: 0 the last integration step's residual met the tolerance, 1 it
+        lies within its measured round-off floor (``/transient/converged_by``)."""
         given = {"position": position, "euler": euler, "velocity": velocity,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
                  "dissipated_energy": float(dissipated_energy), "reaction": reaction,
-                 "iterations": operator.index(iterations), "residual": float(residual)}
+                 "iterations": operator.index(iterations), "residual": float(residual),
+                 "converged_by": operator.index(converged_by)}
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,

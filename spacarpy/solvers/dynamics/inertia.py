@@ -303,6 +303,42 @@ class Inertia:
                 velocity_part.append(jvp)
         return out
 
+    def roundoff_floor(self, x: np.ndarray, v: np.ndarray, a: np.ndarray,
+                       blocks: list) -> np.ndarray:
+        """The round-off of the inertia force ``M a + h`` (:meth:`forces`) at (x, v, a), per
+        coordinate (n_coord,), in its units: eps times the sums of the absolute values of
+        its terms, so that a cancellation (the centripetal ``M a`` against ``h`` of a
+        spinning body) does not hide them.
+
+        ``M a`` contributes ``|M| |a|``. M is quadratic in the Euler parameters of unit
+        length, so ``|dM/dq_k| <= 2 |M|`` entrywise in size, and the convective terms
+        ``h = (dM/dt) v - 1/2 d(v^T M v)/dq`` contribute ``2 |M| |v| max|dq/dt|`` and, on
+        the Euler parameters, ``|v|^T |M| |v|``; and each element's force ``|M a + h|``
+        itself (the rounding of its result, and a size of h where that estimate is
+        short: the centripetal force of a rigid body on its position coordinates); summed
+        over the elements of each coordinate. ``blocks``: the mass blocks at x (None
+        entries are evaluated)."""
+        vs = self.physical(x, v)
+        vp = np.abs(vs)
+        a_abs = np.abs(a)
+        n = self.num.n_coord
+        floor = np.zeros(n)
+        for b, m in zip(self.batches, self.complete(x, blocks)):
+            idx = b.idx
+            if not idx.shape[0]:
+                continue
+            m_abs = np.abs(m)
+            vl = vp[idx]
+            local = np.abs(self._local(b, x[idx], vs[idx], a[idx], 1)[1])
+            local += np.einsum("nij,nj->ni", m_abs, a_abs[idx])
+            if b.rot.size:
+                rate = vl[:, b.rot].max(axis=1)
+                mv = np.einsum("nij,nj->ni", m_abs, vl)
+                local += 2.0 * mv * rate[:, None]
+                local[:, b.rot] += np.einsum("ni,ni->n", vl, mv)[:, None]
+            floor += scatter_add(n, idx, local)
+        return np.finfo(float).eps * floor
+
     def assemble(self, blocks) -> sp.csc_matrix:
         """M (n_coord, n_coord) from the blocks of :meth:`forces`."""
         return self.pattern.assemble(blocks)

@@ -372,10 +372,10 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in)
 
-    def store(t, x, v, a, mu, its, res, ev, blocks, f_in):
+    def store(t, x, v, a, mu, its, res, ev, blocks, f_in, by="tolerance"):
         deformation, stress = prob.element_results(ev)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
-                             iterations=its, residual=res,
+                             iterations=its, residual=res, converged_by=by,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
@@ -414,7 +414,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 log.info("t = %.6g: %s, halving the time step to %.3g", t, fail, h / 2)
                 h /= 2
                 continue
-            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp, blocks = out
+            x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp, blocks, by = out
             grow = 2.0
             if opts.error is not None:
                 # local error estimate of the position update (Zienkiewicz & Xie's
@@ -443,7 +443,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
-        store(t_target, x, v, a, mu, its, res, ev, blocks, f_in)
+        store(t_target, x, v, a, mu, its, res, ev, blocks, f_in, by)
         if progress is not None:
             progress(t_target, opts.t_end)
     result.wall_time = time.perf_counter() - t_wall

@@ -86,6 +86,10 @@ class TransientStep:
     #: reactions of the fixed and prescribed coordinates (StaticProblem.reactions' order;
     #: inertia and damping forces included): N, N m
     reaction: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: how the step's last integration step was accepted: "tolerance" (its residual met
+    #: the tolerance) or "floor" (within its round-off floor measured at that state, the
+    #: increments converged); step 0 (the initial state) is "tolerance"
+    converged_by: str = "tolerance"
 
     @property
     def energy_balance(self) -> float:

@@ -11,6 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from spacarpy.assembly import scatter_add
 from spacarpy.rotation import tangent_part
 from spacarpy.solvers.dynamics.transient_records import KEEP_CONTRACTION, SLOW_CONTRACTION
 from spacarpy.solvers.statics.errors import StepFailed
@@ -80,12 +81,43 @@ class KeptMatrix:
         residual r at the state (x, ``ev``), or None where its solve fails."""
         return self.solve(ev, x, r)
 
-    def floor(self, beta_p: float, length_scale: float, level: float) -> float:
-        """Round-off floor of the force residual: the inertia term beta' M of the iteration
-        matrix times the round-off of the coordinates (as the static solver's floor with
-        its stiffness)."""
-        return (100 * np.finfo(float).eps * beta_p * self.m_max * length_scale
-                / max(level, 1e-300))
+
+def _at_floor(tp, ev, blocks, x, v, a, mu, r, level: float, tol: float) -> bool:
+    """Whether every equation of motion at (x, v, a, mu) meets the tolerance (forces
+    relative to ``level``, the step's reference) or lies within a small multiple of its
+    round-off floor measured at this state (docs/transient.md, "Convergence"): the static
+    floor of the elastic and external forces and the constraints
+    (:meth:`StaticProblem.roundoff_floor`) plus that of the inertia forces
+    (:meth:`Inertia.roundoff_floor`) and of the damping forces, ``eps (alpha |M| |v| +
+    |D|^T |C| |D| |v|)``. Called only where the residual is above the tolerance and the
+    increments have converged: it evaluates the mass blocks once."""
+    prob = tp.prob
+    floor_r, floor_c = prob.roundoff_floor(ev, x, mu)
+    blocks = tp.inertia.complete(x, blocks)
+    f_floor = tp.inertia.roundoff_floor(x, v, a, blocks)
+    alpha, beta = tp.model.damping
+    if alpha or beta or any(g.damp is not None for g in tp.num.groups):
+        vp = np.abs(tp.inertia.physical(x, v))
+        n = tp.num.n_coord
+        damp = np.zeros(n)
+        if alpha:
+            for b, m in zip(tp.inertia.batches, blocks):
+                if b.idx.shape[0]:
+                    damp += scatter_add(n, b.idx, alpha * np.einsum(
+                        "nij,nj->ni", np.abs(m), vp[b.idx]))
+        for g, st in zip(tp.num.groups, ev.states):
+            if not (beta > 0 or g.damp is not None) or not len(st.D):
+                continue
+            c = beta * g.S
+            if g.damp is not None:
+                c = c + g.damp[:, :, None] * np.eye(g.kind.n_def)
+            d_abs = np.abs(st.D)
+            cdv = np.einsum("nkj,nj->nk", np.abs(c), np.einsum("nkj,nj->nk", d_abs,
+                                                                vp[g.idx]))
+            damp += scatter_add(n, g.idx, np.einsum("nkj,nk->nj", d_abs, cdv))
+        f_floor = f_floor + np.finfo(float).eps * damp
+    return prob.within_floor(r, ev.c, floor_r + f_floor[tp.free_idx], floor_c,
+                             level if level > 0 else 1.0, tol)
 
 
 def _increment_fault(tp, dx, dmu) -> str | None:
@@ -223,29 +255,36 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
     dx_norm = np.inf
     history = []
     trial_level = None               # the force level of the step's predictor
-    floor_dyn = 0.0                  # round-off floor of the inertia forces (iteration 0)
     kept = None                      # the step's last iteration matrix (KeptMatrix)
     chord_ok = opts.reuse_matrix and not tp.fresh_only and smooth
     last_chord = False               # whether the last increment came from a kept matrix
     used_chord = False
     for it in range(opts.max_iter + 1):
-        ev, blocks, f_in, r, res, floor, _, f_damp, damp_blocks, level = tp.residual(
+        ev, blocks, f_in, r, res, _, _, f_damp, damp_blocks, level = tp.residual(
             t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
         trial_level = level if trial_level is None else trial_level
         history.append(res)
         if not np.isfinite(res):
             raise StepFailed("non-finite residual", history, chord=used_chord)
-        # converged: residual and last increment below the tolerance, or a residual so far
-        # below it that the equations hold to round-off (the increments of directions the
-        # residual hardly sees, such as Euler parameters of nearly massless nodes, may then
-        # stall above the tolerance without meaning anything)
+        # converged ("tolerance"): residual and last increment below the tolerance, or a
+        # residual so far below it that the equations hold to round-off (the increments of
+        # directions the residual hardly sees, such as Euler parameters of nearly massless
+        # nodes, may then stall above the tolerance without meaning anything)
         # A residual below the tolerance whose last increment was not yet is tested by the
         # simplified Newton increment (the last factorization applied to this residual:
         # one solve, where a full iteration costs a tangent, a factorization and another
         # residual), which estimates the increment this state still needs
-        if it > 0 and res <= max(opts.tol, floor, floor_dyn) and (
+        # Or ("floor"): the residual above the tolerance, the last increment below it, and
+        # every equation within its round-off floor measured at this state (_at_floor)
+        by = None
+        if it > 0 and res <= opts.tol and (
                 dx_norm <= max(opts.tol, 1e-13) or res <= 1e-3 * opts.tol
                 or _simplified_norm(prob, kept, ev, x1, r) <= max(opts.tol, 1e-13)):
+            by = "tolerance"
+        elif it > 0 and res > opts.tol and dx_norm <= max(opts.tol, 1e-13) and _at_floor(
+                tp, ev, blocks, x1, v1, a1, mu1, r, max(tp.level, trial_level), opts.tol):
+            by = "floor"
+        if by is not None:
             if motion is None:
                 a_tilde_new = at_new + (1 - af) / (1 - am) * a1
             else:
@@ -255,7 +294,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
             _gauge(num, x1, v1, a1, a_tilde_new)
             tp.accept_level(level)
             tp.fresh_only = False
-            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp, blocks
+            return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp, blocks, by
         if it == opts.max_iter:
             break
         # Chord iterations: the step's iteration matrix serves again while each of its
@@ -283,8 +322,6 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
                     damp_blocks, motion, W, beta_p, gamma_p)
             except StepFailed as fail:
                 raise StepFailed(fail.reason, history, chord=used_chord) from None
-            if it == 0:
-                floor_dyn = kept.floor(beta_p, num.length_scale, tp.level)
             fault = _increment_fault(tp, *step)
             if fault:
                 raise StepFailed(fault, history, chord=used_chord)

@@ -130,6 +130,7 @@ class _Point:
     index: int = -1        # negative eigenvalues of the reduced tangent (-1: not computed)
     lu: object = None      # (LU factors of the scaled bordered matrix, the scaling)
     near: object = None    # (eigenvalues nearest zero, their bounds), on first use
+    by: str = "tolerance"  # how it was accepted: "tolerance" or "floor" (at_floor)
 
     def same_stability(self, other: _Point) -> bool:
         """No critical point between the two: the same determinant sign and, where both are
@@ -327,15 +328,18 @@ class ArcLengthPath:
         states = None
         for it in range(opts.max_iter + 1):
             ev = prob.evaluate(x, mu, self.load(s), states)
-            res, floor = prob.residual_norm(ev.r, ev.c, ev.f_int, ev.f_ext)
+            res, _ = prob.residual_norm(ev.r, ev.c, ev.f_int, ev.f_ext)
             history.append(res)
             if not np.isfinite(res):
                 raise StepFailed("non-finite residual", history)
-            if (res <= opts.tol or (it > 0 and res <= floor)) and (
-                    it > 0 and dx_norm <= opts.tol):
+            # converged increments, and the residual below the tolerance or every
+            # equation within its measured round-off floor (docs/solver.md, Convergence)
+            if it > 0 and dx_norm <= opts.tol and (
+                    res <= opts.tol or prob.at_floor(ev, x, mu, opts.tol)):
                 prob.check_element_range(ev.states)
                 return _Point(x=prob.normalize(x), mu=mu, s=s, arc=p.arc + ds, its=it,
-                              res=res), history
+                              res=res, by="tolerance" if res <= opts.tol else "floor"
+                              ), history
             if it == opts.max_iter:
                 break
             if it >= 3 and res > 1e3 * history[1] and res > 1e3 * opts.tol:
@@ -494,7 +498,8 @@ class ArcLengthPath:
                     cp = CriticalPoint(kind=kind, load_factor=crit.s, arc_length=crit.arc,
                                        shape=self.critical_shape(crit),
                                        margin=cert.margin, bound=cert.bound)
-                    store(crit.s, crit.x, crit.mu, crit.its, crit.res, crit.arc, cp)
+                    store(crit.s, crit.x, crit.mu, crit.its, crit.res, crit.arc, cp,
+                          by=crit.by)
                     self.check.stored()
                     n_stored += 1
                     self._commit(crit)
@@ -513,10 +518,11 @@ class ArcLengthPath:
                 last = self._land(p, new)
                 if undetermined is not None:
                     undetermined.load_factor, undetermined.arc_length = last.s, last.arc
-                store(last.s, last.x, last.mu, last.its, last.res, last.arc, undetermined)
+                store(last.s, last.x, last.mu, last.its, last.res, last.arc, undetermined,
+                      by=last.by)
                 self._commit(last)
                 return
-            store(new.s, new.x, new.mu, new.its, new.res, new.arc, undetermined)
+            store(new.s, new.x, new.mu, new.its, new.res, new.arc, undetermined, by=new.by)
             self.check.seen(new)
             n_stored += 1
             switched = False
@@ -566,13 +572,14 @@ class ArcLengthPath:
         x = self.prob.normalize(p.x + t * (new.x - p.x))
         mu = p.mu + t * (new.mu - p.mu)
         try:
-            xs, mus, its, res, _ = newton(self.prob, x, mu, self.load(1.0), self.opts)
+            xs, mus, its, res, hist = newton(self.prob, x, mu, self.load(1.0), self.opts)
+            by = hist.converged_by
         except StepFailed:
             q, _ = self.correct(_Point(x=x, mu=mu, s=1.0, arc=0.0), 0.0, fixed_s=1.0)
-            xs, mus, its, res = q.x, q.mu, q.its, q.res
+            xs, mus, its, res, by = q.x, q.mu, q.its, q.res, q.by
         xs = self.prob.normalize(xs)
         d = self.inner((xs - p.x)[self.free], 1.0 - p.s, (xs - p.x)[self.free], 1.0 - p.s)
-        return _Point(x=xs, mu=mus, s=1.0, arc=p.arc + np.sqrt(d), its=its, res=res)
+        return _Point(x=xs, mu=mus, s=1.0, arc=p.arc + np.sqrt(d), its=its, res=res, by=by)
 
     def _commit(self, p: _Point) -> None:
         if self.prob.has_commit:

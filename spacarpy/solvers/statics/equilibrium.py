@@ -299,11 +299,19 @@ class StaticProblem:
         :meth:`residual_norm`) or lies within :data:`FLOOR_MULTIPLE` times its measured
         round-off floor (:meth:`roundoff_floor`): the residual cannot be reduced further."""
         floor_r, floor_c = self.roundoff_floor(ev, x, mu)
-        level = self.force_level(ev.f_ext, ev.f_int)
-        r_ok = (np.abs(ev.r) * self._force_w_free <= tol * level) | (
-            np.abs(ev.r) <= FLOOR_MULTIPLE * floor_r)
-        c_ok = (np.abs(ev.c) * self.constraint_weight <= tol) | (
-            np.abs(ev.c) <= FLOOR_MULTIPLE * floor_c)
+        return self.within_floor(ev.r, ev.c, floor_r, floor_c,
+                                 self.force_level(ev.f_ext, ev.f_int), tol)
+
+    def within_floor(self, r, c, floor_r, floor_c, level: float, tol: float) -> bool:
+        """Whether every force residual r (free coordinates) meets ``tol`` relative to
+        ``level`` (weighted as in :meth:`residual_norm`) or lies within
+        :data:`FLOOR_MULTIPLE` times its floor ``floor_r``, and every constraint c likewise
+        (``floor_c``); the floors as :meth:`roundoff_floor` gives them (a transient adds
+        its inertia forces' own)."""
+        r_ok = (np.abs(r) * self._force_w_free <= tol * level) | (
+            np.abs(r) <= FLOOR_MULTIPLE * floor_r)
+        c_ok = (np.abs(c) * self.constraint_weight <= tol) | (
+            np.abs(c) <= FLOOR_MULTIPLE * floor_c)
         return bool(r_ok.all() and c_ok.all())
 
     def null_state(self, x, load: LoadState) -> bool:

@@ -140,9 +140,7 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
     warned = []
 
     def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None,
-              by=None):
-        if by is None:          # an arc-length point: above tol only on its floor
-            by = "tolerance" if res <= opts.tol else "floor"
+              by="tolerance"):
         ev = prob.evaluate(x, mu, prob.loads.at(1.0, load_factor))
         if not warned:
             warned.extend(_strain_warnings(num, ev.states, len(result.steps)))
