@@ -50,10 +50,11 @@ def test_changed_failed_and_timeout_are_reported_while_the_others_complete(tmp_p
     (d / "column_clamped_buckling_16el.dat").write_text(
         text.replace("ESTIFF 1:16 1000000 1 1 1", "ESTIFF 1:16 1000000 1 1.01 1.01"))
     (d / "broken.dat").write_text("X 1 0 0 0\nBEEM 1 1 2 3 4\nEND\nEND\n")
-    (d / "hang.dat").write_text("X 1 0 0 0\nBEAMS 1  1 2 3 4  200000\nX 3 1 0 0\n"
-                                "DYNE 1:200000 1 2 3 4 5 6\nFIX 1\nFIX 2\nEND\nHALT\n"
-                                "ESTIFF 1:200000 1 1 1 1\nDELXF 3 0 1 0\nITERSTEP 20 100 1e-9\n"
-                                "END\nEND\n")
+    # a run that outlasts the timeout: the rigid pendulum swung for 10^4 s in 2 * 10^6 steps
+    # (a valid model: a deck refused before its solve would not test the timeout)
+    (d / "hang.dat").write_text(
+        (DECKS / "pendulum_rigid_90deg.dat").read_text().replace("TIMESTEP 2.2 440",
+                                                                 "TIMESTEP 10000 2000000"))
     xml_report, json_report = tmp_path / "r.xml", tmp_path / "r.json"
     rc = main(["batch", str(d), "--baseline", str(BASELINE), "-j", "2", "--timeout", "30",
                "-q", "--report", str(xml_report), "--report", str(json_report)])
