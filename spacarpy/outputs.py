@@ -79,13 +79,7 @@ def check_output_path(path, what: str = "output file", inputs=(), warn: bool = T
     refuse_special_output(p, what)
     if is_null_device(p):
         return p                        # discarded: nothing is written there (discarding)
-    parent = p.parent
-    if not parent.exists():
-        raise OutputError(f"{what} {p}: the directory {parent} does not exist")
-    if not parent.is_dir():
-        raise OutputError(f"{what} {p}: {parent} is not a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{what} {p}: the directory {parent} is not writable")
+    _check_parent(p, what, "")
     for inp in inputs:
         try:
             same = p.exists() and os.path.samefile(p, inp)
@@ -97,6 +91,17 @@ def check_output_path(path, what: str = "output file", inputs=(), warn: bool = T
     if warn and p.is_file() and not p.stat().st_mode & 0o222:     # by its mode bits, also for root
         log.warning("%s is write-protected; it will be replaced by the new results", p)
     return p
+
+
+def _check_parent(p: Path, what: str, prefix: str) -> None:
+    """The directory that will hold ``p`` exists, is a directory and is writable."""
+    parent = p.parent
+    if not parent.exists():
+        raise OutputError(f"{what} {p}: the directory {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputError(f"{what} {p}: {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{what} {p}: {prefix}the directory {parent} is not writable")
 
 
 def check_output_dir(path, what: str = "output directory") -> Path:
@@ -122,14 +127,7 @@ def check_output_dir(path, what: str = "output directory") -> Path:
         if not os.access(p, os.W_OK | os.X_OK):
             raise OutputError(f"{what} {p}: the directory is not writable")
         return p
-    parent = p.parent
-    if not parent.exists():
-        raise OutputError(f"{what} {p}: the directory {parent} does not exist")
-    if not parent.is_dir():
-        raise OutputError(f"{what} {p}: {parent} is not a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{what} {p}: cannot be created: the directory {parent} is not "
-                          "writable")
+    _check_parent(p, what, "cannot be created: ")
     return p
 
 

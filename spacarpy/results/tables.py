@@ -253,24 +253,35 @@ def _x_stress(res, element, step, **_):
                       title="largest stresses at the surface of the cross-section")
 
 
-def _x_reaction(res, node, step, **_):
-    static = _static(res)
-    steps, lf = _steps(static, step)
-    nodes = static.reaction_node
-    comps = np.array(static.reaction_component)
+def _reactions(res, view, node, steps):
+    """The reaction rows of a /static or /transient view at ``steps``, of one node or all:
+    (nodes, components, values (n_step, n), units) with units N or N m by component."""
+    nodes = view.reaction_node
+    comps = np.array(view.reaction_component)
     keep = np.ones(nodes.size, bool) if node is None else nodes == node
     if node is not None and not keep.any():
         res.model.node_kind(int(node))          # unknown node: clear error
         raise ResultsQueryError(f"node {node} has no support reactions (no fixed coordinate)")
-    values = static.reaction(step=steps)[:, keep]
-    n_r = int(keep.sum())
     units = np.where(np.char.startswith(comps[keep], "F"), "N", "N m")
-    return Table("support reactions, global axes",
-                 ["step", "load_factor", "node", "component", "value", "unit"],
-                 ["1", "1", "1", "1", "N | N m", "1"],
-                 [np.repeat(steps, n_r), np.repeat(lf, n_r), np.tile(nodes[keep], steps.size),
-                  np.tile(comps[keep], steps.size), values.reshape(-1),
-                  np.tile(units, steps.size)])
+    return nodes[keep], comps[keep], view.reaction(step=steps)[:, keep], units
+
+
+def _reaction_table(title, lead_names, lead_units, lead_values, steps, rows) -> Table:
+    """The long table of reactions: the leading columns (step, load factor or time) repeated
+    for each reaction row, then node, component, value and unit."""
+    nodes, comps, values, units = rows
+    n_r = nodes.size
+    return Table(title, [*lead_names, "node", "component", "value", "unit"],
+                 [*lead_units, "1", "1", "N | N m", "1"],
+                 [*(np.repeat(v, n_r) for v in lead_values), np.tile(nodes, steps.size),
+                  np.tile(comps, steps.size), values.reshape(-1), np.tile(units, steps.size)])
+
+
+def _x_reaction(res, node, step, **_):
+    static = _static(res)
+    steps, lf = _steps(static, step)
+    return _reaction_table("support reactions, global axes", ["step", "load_factor"],
+                           ["1", "1"], [steps, lf], steps, _reactions(res, static, node, steps))
 
 
 def _x_path(res, node, dof, step):
@@ -517,20 +528,8 @@ def _component_units(kind: str, what: str, n: int) -> list:
 def _x_time_reaction(res, node, step, **_):
     tr = _transient(res)
     steps, t = _time_steps(tr, step)
-    nodes, comps = tr.reaction_node, np.array(tr.reaction_component)
-    keep = np.ones(nodes.size, bool) if node is None else nodes == node
-    if node is not None and not keep.any():
-        res.model.node_kind(int(node))          # unknown node: clear error
-        raise ResultsQueryError(f"node {node} has no support reactions (no fixed coordinate)")
-    values = tr.reaction(step=steps)[:, keep]
-    n_r = int(keep.sum())
-    units = np.where(np.char.startswith(comps[keep], "F"), "N", "N m")
-    return Table("reactions, inertia included, global axes",
-                 ["time", "step", "node", "component", "value", "unit"],
-                 ["s", "1", "1", "1", "N | N m", "1"],
-                 [np.repeat(t, n_r), np.repeat(steps, n_r), np.tile(nodes[keep], steps.size),
-                  np.tile(comps[keep], steps.size), values.reshape(-1),
-                  np.tile(units, steps.size)])
+    return _reaction_table("reactions, inertia included, global axes", ["time", "step"],
+                           ["s", "1"], [t, steps], steps, _reactions(res, tr, node, steps))
 
 
 def _x_deck(res, **_):
