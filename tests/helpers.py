@@ -245,3 +245,77 @@ def dense_reference(rows, cols, data, n: int, b) -> tuple[np.ndarray, float]:
     a[rows, cols] = data
     x = np.linalg.solve(a, b)
     return x, float(np.abs(x).max())
+
+
+#: run in a fresh interpreter as root: import spacarpy, every module of it and the
+#: third-party packages its commands import lazily, THEN become ``nobody`` and run the CLI
+#: (the interpreter and its packages may live where ``nobody`` cannot read, e.g. /root)
+_AS_NOBODY_SCRIPT = """
+import importlib, json, os, pkgutil, sys
+os.environ.setdefault("MPLBACKEND", "Agg")
+import spacarpy
+from spacarpy.cli import main
+from spacarpy.cli.process import exit_process
+for mod in pkgutil.walk_packages(spacarpy.__path__, "spacarpy."):
+    if mod.name.endswith("__main__"):
+        continue
+    try:
+        importlib.import_module(mod.name)
+    except Exception:
+        pass
+for name in ("numpy", "scipy.sparse", "scipy.sparse.linalg", "scipy.linalg",
+             "scipy.optimize", "scipy.interpolate", "h5py", "matplotlib", "matplotlib.pyplot",
+             "matplotlib.backends.backend_agg", "meshio", "meshio.vtu", "meshio.xdmf",
+             "xml.etree.ElementTree", "csv", "json", "encodings.idna", "uuid", "zipfile",
+             "zlib", "PIL.PngImagePlugin", "lark", "qdldl"):
+    try:
+        importlib.import_module(name)
+    except Exception:
+        pass
+try:            # the font list, read once now from the package files
+    import matplotlib.font_manager
+    matplotlib.font_manager.fontManager
+except Exception:
+    pass
+uid = int(sys.argv[1])
+os.setgroups([])
+os.setgid(uid)
+os.setuid(uid)
+exit_process(main(json.loads(sys.argv[2])))  # as console(): no teardown
+"""
+
+
+def nobody_uid() -> int | None:
+    """The uid of the user ``nobody`` where this process may become it (root), else None."""
+    import os
+    if not hasattr(os, "setuid") or os.geteuid() != 0:
+        return None
+    try:
+        import pwd
+        return pwd.getpwnam("nobody").pw_uid
+    except (ImportError, KeyError):
+        return None
+
+
+def spacarpy_as_nobody(args, cwd="/", timeout=300, env=None) -> subprocess.CompletedProcess:
+    """``spacarpy ARGS`` (the CLI argument list) as the user ``nobody``, in a process that
+    imported everything as root first; the caller checks :func:`nobody_uid` (skip if None).
+    MPLCONFIGDIR is a fresh directory that ``nobody`` may write."""
+    import json
+    import os
+    import shutil
+    import tempfile
+    uid = nobody_uid()
+    if uid is None:
+        raise RuntimeError("only root can run a command as nobody")
+    mpl = tempfile.mkdtemp(prefix="spacarpy-mpl-", dir="/tmp")
+    try:
+        os.chmod(mpl, 0o777)
+        full_env = dict(os.environ if env is None else env, PYTHONPATH=str(REPO),
+                        PYTHONDONTWRITEBYTECODE="1", MPLCONFIGDIR=mpl,
+                        OPENBLAS_NUM_THREADS="1")
+        return subprocess.run([sys.executable, "-c", _AS_NOBODY_SCRIPT, str(uid),
+                               json.dumps([str(a) for a in args])], env=full_env,
+                              cwd=str(cwd), capture_output=True, text=True, timeout=timeout)
+    finally:
+        shutil.rmtree(mpl, ignore_errors=True)

@@ -166,3 +166,46 @@ def test_bench_markdown_into_a_fifo_is_refused(tmp_path, capsys):
     os.mkfifo(fifo)
     assert main(["bench", "--markdown", str(fifo), "--sizes", "2", "--repeat", "1"]) == 2
     assert "FIFO" in capsys.readouterr().err
+
+
+def test_null_device_and_refusals_as_nobody():
+    """The same guarantees as a normal user (``nobody``; root makes the nodes): run,
+    extract, plot and export into a null device discard and leave it alone; a full device
+    and a FIFO are refused with exit 2 and one line; nothing else appears."""
+    import tempfile
+
+    from helpers import nobody_uid, spacarpy_as_nobody
+    if nobody_uid() is None:
+        pytest.skip("not root (or no user nobody): cannot switch to the user nobody")
+    base = Path(tempfile.mkdtemp(prefix="spacarpy-dev-", dir="/tmp"))
+    try:
+        base.chmod(0o777)
+        shutil.copy(DECKS / DECK, base / DECK)
+        (base / DECK).chmod(0o644)
+        null = node(base, "null", 3)
+        png, xdmf = node(base, "n.png", 3), node(base, "n.xdmf", 3)
+        full = node(base, "full", 7)
+        os.mkfifo(base / "fifo", 0o666)
+        os.chmod(base / "fifo", 0o666)
+        res = base / "r.h5"
+        runs = [(["run", base / DECK, "-q", "-o", null], 0),
+                (["run", base / DECK, "-q", "-o", res], 0),
+                (["extract", res, "position", "--csv", "-o", null], 0),
+                (["plot", res, "shape", "-o", png], 0),
+                (["export", res, "--xdmf", "-o", xdmf], 0),
+                (["run", base / DECK, "-q", "-o", full], 2),
+                (["extract", res, "position", "--csv", "-o", base / "fifo"], 2)]
+        for args, code in runs:
+            r = spacarpy_as_nobody(args, cwd=base, timeout=120)
+            assert r.returncode == code, (args, r.returncode, r.stderr)
+            assert "Traceback" not in r.stderr
+            if code:
+                assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+                assert "not a regular file" in r.stderr or "FIFO" in r.stderr, r.stderr
+        assert os.stat(res).st_uid == nobody_uid()
+        assert all(unchanged(n, 3) for n in (null, png, xdmf)) and unchanged(full, 7)
+        assert stat.S_ISFIFO(os.lstat(base / "fifo").st_mode)
+        assert sorted(p.name for p in base.iterdir()) == sorted(
+            [DECK, "null", "n.png", "n.xdmf", "full", "fifo", "r.h5"])
+    finally:
+        shutil.rmtree(base, ignore_errors=True)

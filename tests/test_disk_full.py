@@ -4,8 +4,8 @@ no 0-byte file or partial file left behind, and no segmentation fault.
 
 The tmpfs is mounted by the test (root only; skipped where mounting is not allowed) and
 unmounted in a ``finally``. Each command runs in a subprocess (a crash must not take pytest
-with it), as root and, where ``os.setuid(65534)`` works and that user can run this Python,
-as the normal user ``nobody``.
+with it), as root and, where the tests run as root, as the normal user ``nobody`` (a process that
+imports everything as root and then switches user: ``helpers.spacarpy_as_nobody``).
 """
 import os
 import shutil
@@ -16,22 +16,19 @@ from pathlib import Path
 
 import pytest
 
+from helpers import nobody_uid, spacarpy_as_nobody
+
 ROOT = Path(__file__).resolve().parents[1]
 DECKS = ROOT / "decks"
-NOBODY = 65534
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="tmpfs mounts: Linux only")
 
 
-def _as_nobody():
-    os.setgid(NOBODY)
-    os.setuid(NOBODY)
-
-
 def spacarpy(args, user="root", cwd=None, timeout=300):
+    if user == "nobody":            # imports as root, then becomes nobody (tests/helpers.py)
+        return spacarpy_as_nobody(args, cwd=cwd or "/", timeout=timeout)
     env = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
     return subprocess.run([sys.executable, "-m", "spacarpy", *map(str, args)], env=env,
-                          cwd=cwd or "/", capture_output=True, text=True, timeout=timeout,
-                          preexec_fn=_as_nobody if user == "nobody" else None)
+                          cwd=cwd or "/", capture_output=True, text=True, timeout=timeout)
 
 
 _NOBODY_OK = {}
@@ -41,15 +38,15 @@ def _nobody_reason() -> str | None:
     """Why the commands cannot run as ``nobody`` here (None when they can)."""
     if "reason" not in _NOBODY_OK:
         reason = None
-        if os.geteuid() != 0:
-            reason = "not root: cannot switch to the user nobody"
+        if nobody_uid() is None:
+            reason = "not root (or no user nobody): cannot switch to the user nobody"
         else:
             try:
                 r = spacarpy(["--version"], user="nobody", timeout=60)
                 if r.returncode != 0:
-                    reason = f"nobody cannot run this Python/spacarpy: {r.stderr.strip()[-200:]}"
+                    reason = f"nobody cannot run spacarpy here: {r.stderr.strip()[-200:]}"
             except (OSError, subprocess.SubprocessError) as exc:
-                reason = f"nobody cannot run this Python: {exc}"
+                reason = f"nobody cannot run spacarpy here: {exc}"
         _NOBODY_OK["reason"] = reason
     return _NOBODY_OK["reason"]
 
@@ -66,7 +63,7 @@ def tiny():
     """A 200 KiB tmpfs, writable by everyone, and a readable directory with the decks."""
     if os.geteuid() != 0:
         pytest.skip("mounting a tmpfs needs root")
-    base = Path(tempfile.mkdtemp(prefix="spacarpy-full-"))
+    base = Path(tempfile.mkdtemp(prefix="spacarpy-full-", dir="/tmp"))
     base.chmod(0o755)
     mnt, decks = base / "tiny", base / "decks"
     mnt.mkdir()
@@ -158,7 +155,7 @@ def test_transient_run_filling_the_disk(tiny, user):
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
     """A pendulum (transient) and a bend (static) result, readable by nobody too."""
-    base = Path(tempfile.mkdtemp(prefix="spacarpy-res-"))
+    base = Path(tempfile.mkdtemp(prefix="spacarpy-res-", dir="/tmp"))
     base.chmod(0o755)
     out = {}
     for key, deck in (("pend", "pendulum_rigid_90deg.dat"),
