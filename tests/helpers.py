@@ -272,6 +272,33 @@ for name in ("numpy", "scipy.sparse", "scipy.sparse.linalg", "scipy.linalg",
         importlib.import_module(name)
     except Exception:
         pass
+# every module of the smaller packages (h5py imports h5py._hl.dims on first use of a
+# dataset's dimension scales; in a virtual environment that nobody cannot read, such a
+# deferred import fails after the switch)
+for pkg in ("h5py", "meshio", "lark"):
+    try:
+        root = importlib.import_module(pkg)
+    except Exception:
+        continue
+    for mod in pkgutil.walk_packages(root.__path__, pkg + "."):
+        if ".tests" in mod.name or mod.name.endswith("__main__"):
+            continue
+        try:
+            importlib.import_module(mod.name)
+        except Exception:
+            pass
+try:            # a figure drawn once: the font files it needs are opened and cached now
+    import io
+    import matplotlib.pyplot as _plt
+    _fig, _ax = _plt.subplots()
+    _ax.plot([0, 1], [0, 1], label="x")
+    _ax.set_title("x")
+    _ax.legend()
+    _fig.savefig(io.BytesIO(), format="png")
+    _fig.savefig(io.BytesIO(), format="pdf")
+    _plt.close(_fig)
+except Exception:
+    pass
 try:            # the font list, read once now from the package files
     import matplotlib.font_manager
     matplotlib.font_manager.fontManager
@@ -295,6 +322,31 @@ def nobody_uid() -> int | None:
         return pwd.getpwnam("nobody").pw_uid
     except (ImportError, KeyError):
         return None
+
+
+def nobody_skip_reason() -> str | None:
+    """Why the commands cannot run as ``nobody`` here, None when they can: not root, no such
+    user, or a Python environment ``nobody`` cannot read (a virtual environment inside a
+    private directory, as CI's ``mktemp -d``: the packages' data files, fonts and deferred
+    submodules are read after the switch)."""
+    import os
+    import stat
+    if nobody_uid() is None:
+        return "not root (or no user nobody): cannot switch to the user nobody"
+    import h5py
+    import matplotlib
+    for pkg in (h5py, matplotlib):
+        path = os.path.dirname(os.path.realpath(pkg.__file__))
+        while True:
+            mode = os.stat(path).st_mode
+            if not mode & stat.S_IXOTH or not mode & stat.S_IROTH:
+                return (f"the user nobody cannot read this Python environment ({path} is "
+                        f"mode {stat.S_IMODE(mode):o})")
+            parent = os.path.dirname(path)
+            if parent == path:
+                break
+            path = parent
+    return None
 
 
 def spacarpy_as_nobody(args, cwd="/", timeout=300, env=None) -> subprocess.CompletedProcess:

@@ -174,9 +174,9 @@ def test_null_device_and_refusals_as_nobody():
     and a FIFO are refused with exit 2 and one line; nothing else appears."""
     import tempfile
 
-    from helpers import nobody_uid, spacarpy_as_nobody
-    if nobody_uid() is None:
-        pytest.skip("not root (or no user nobody): cannot switch to the user nobody")
+    from helpers import nobody_skip_reason, nobody_uid, spacarpy_as_nobody
+    if nobody_skip_reason():
+        pytest.skip(nobody_skip_reason())
     base = Path(tempfile.mkdtemp(prefix="spacarpy-dev-", dir="/tmp"))
     try:
         base.chmod(0o777)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from helpers import nobody_uid, spacarpy_as_nobody
+from helpers import nobody_skip_reason, spacarpy_as_nobody
 
 ROOT = Path(__file__).resolve().parents[1]
 DECKS = ROOT / "decks"
@@ -38,9 +38,8 @@ def _nobody_reason() -> str | None:
     """Why the commands cannot run as ``nobody`` here (None when they can)."""
     if "reason" not in _NOBODY_OK:
         reason = None
-        if nobody_uid() is None:
-            reason = "not root (or no user nobody): cannot switch to the user nobody"
-        else:
+        reason = nobody_skip_reason()
+        if reason is None:
             try:
                 r = spacarpy(["--version"], user="nobody", timeout=60)
                 if r.returncode != 0:
