@@ -241,8 +241,8 @@ class TransientProblem:
         r = ev.r + f_in[self.free_idx]
         level = self.prob.force_level(ev.f_ext, ev.f_int, f_in)
         ref = max(self.level, level if trial_level is None else trial_level)
-        res, floor = self.prob.residual_norm(r, ev.c, None, None, level=ref if ref > 0 else 1.0)
-        return Residual(ev, blocks, f_in, r, res, floor, load, f_damp, damp_blocks, level)
+        res, _ = self.prob.residual_norm(r, ev.c, None, None, level=ref if ref > 0 else 1.0)
+        return Residual(ev, blocks, f_in, r, res, load, f_damp, damp_blocks, level)
 
     def damping_forces(self, x, v, states, mass_blocks):
         """Viscous damping forces (n_coord,) and their velocity derivative per element group:

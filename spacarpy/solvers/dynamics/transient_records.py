@@ -120,7 +120,6 @@ class Residual(NamedTuple):
     f_in: np.ndarray             # (n_coord,) inertia and damping forces
     r: np.ndarray                # force residual over the free coordinates
     res: float                   # scaled residual norm
-    floor: float                 # its round-off floor
     load: LoadState
     f_damp: np.ndarray | None    # (n_coord,) damping forces, None without damping
     damp_blocks: dict            # velocity derivative of the damping per element group

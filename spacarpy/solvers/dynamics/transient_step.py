@@ -260,7 +260,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
     last_chord = False               # whether the last increment came from a kept matrix
     used_chord = False
     for it in range(opts.max_iter + 1):
-        ev, blocks, f_in, r, res, _, _, f_damp, damp_blocks, level = tp.residual(
+        ev, blocks, f_in, r, res, _, f_damp, damp_blocks, level = tp.residual(
             t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
         trial_level = level if trial_level is None else trial_level
         history.append(res)
