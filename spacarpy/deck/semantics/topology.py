@@ -241,9 +241,10 @@ class Topology(Part):
             scale = (np.maximum(np.abs(x[rows[:, 0]]).max(axis=1),
                                 np.abs(x[rows[:, 1]]).max(axis=1)) if len(ids) else np.zeros(n))
         may_coincide = np.array([b.info["zero_length_ok"] for b in elements], dtype=bool)
-        zero_length = has_axis & (length <= ZERO_LENGTH_RTOL * scale) & ~may_coincide
+        short = has_axis & (length <= ZERO_LENGTH_RTOL * scale)
+        zero_length = short & ~may_coincide
         axis = np.divide(d, length[:, None], out=np.full_like(d, np.nan),
-                         where=(has_axis & ~zero_length)[:, None])
+                         where=(has_axis & ~short)[:, None])
         vector = vectors_of(elements)
         vector_norm = _row_norms(vector)                   # NaN where no vector is given
         zero_vector = vector_norm < ORIENTATION_TOL
