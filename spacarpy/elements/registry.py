@@ -19,7 +19,7 @@ from spacarpy.elements.wheel import Wheel
 
 #: Keyword -> kind, in the order the model keeps and the solver assembles them.
 KINDS: dict[str, ElementKind] = {k.keyword: k for k in (
-    Beam(), Truss(), Hinge(), RBeam(), PinBody(), Wheel(), PlBeam(), PlTruss(), PlHinge())}
+    Beam(), Truss(), Hinge(), RBeam(), PlBeam(), PlTruss(), PlHinge(), PinBody(), Wheel())}
 
 #: The planar kinds (a model with them is planar and may not have the others).
 PLANAR_KINDS = tuple(k for k, kind in KINDS.items() if kind.planar)
