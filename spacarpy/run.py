@@ -46,8 +46,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spacarpy import __version__
-from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.elements.registry import KINDS
+from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
 from spacarpy.model import RIGID, Model
 from spacarpy.settings import AnalysisSettings

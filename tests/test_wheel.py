@@ -226,6 +226,23 @@ def test_em_dyne_estiff_and_a_missing_axle_are_deck_errors():
     assert len(errors) == 1 and errors[0][1].startswith("WHEEL takes exactly 7 fields")
 
 
+def test_a_slip_cannot_be_prescribed():
+    assert deck_errors(wheel_deck(extra="INPUTE 5 4\n", data="INPUTE 5 4 0.0\n")) == [
+        (4, "INPUTE: deformation 4 of WHEEL 5 is a slip (a velocity-level constraint): "
+            "prescribing it is not supported yet")]
+
+
+def test_held_slips_are_no_holonomic_constraints():
+    """A free disc has 5 configuration degrees of freedom (x, y, heading, lean, spin): the
+    holonomic modes 1, 2, 3, 6 and one Euler normalization constrain its 10 coordinates, the
+    held slips do not (they are velocity-level constraints)."""
+    from spacarpy.numbering import number_model
+    model = job_from_text(wheel_deck()).model
+    num = number_model(model)
+    assert num.n_rigid == 4 and num.n_unknown - num.n_constraint == 5
+    assert list(num.groups[0].rigid_mode) == [0, 1, 2, 5]
+
+
 def test_a_z_down_wheel_and_released_slips_build():
     job = job_from_text(wheel_deck(hub="0 0 -0.3", extra="RLSE 5 4 5\n"))
     es = job.model.elements["WHEEL"]

@@ -35,8 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spacarpy.elements.base import POS_P, POS_Q, ROT_AT_P, ElementKind, Fields, Reference
-from spacarpy.elements.rbeam import RBeamState, rbeam_state, rbeam_stiffness, \
-    rbeam_weighted_hessian
+from spacarpy.elements.rbeam import RBeamState, rbeam_state, rbeam_stiffness, rbeam_weighted_hessian
 
 N_DEF = 3
 _AXES = np.eye(3)
