@@ -272,5 +272,16 @@ def test_every_analysis_refuses_a_wheel_cleanly(tmp_path, capsys, mode, what, ex
         run_job(job, tmp_path / "api.h5")
 
 
-def test_wheel_class_and_kernels_exist_once():
+def test_the_run_time_check_stops_a_wheel_lying_flat():
+    """The kind's check names the first element whose axle has turned vertical."""
+    xp0, xq0, a0, _ = references(3)
+    ref = wheel_reference(xp0, xq0, a0)
+    q = np.tile([1.0, 0, 0, 0], (3, 1))
+    x = np.concatenate([xp0, q, xq0], axis=1)
+    assert KIND.check(wheel_state(x, ref), ref) is None
+    # turn wheel 1 so that its axle points up (the lean angle plus 90 degrees about x)
+    lean = np.arctan2(a0[1, 2], a0[1, 1])
+    x[1, 3:7] = from_axis_angle(np.array([1.0, 0, 0]), np.array(np.pi / 2 - lean))
+    row, message = KIND.check(wheel_state(x, ref), ref)
+    assert row == 1 and "axle has turned vertical" in message
     assert isinstance(KIND, Wheel)
