@@ -114,6 +114,28 @@ def test_pinbody_chain_has_the_rbeam_chains_eigenfrequencies(tmp_path):
     np.testing.assert_allclose(fa, fb, rtol=1e-10)
 
 
+@pytest.mark.parametrize("mode", [4, 8, 9, 10, 3])
+def test_pinbody_chain_equals_the_rbeam_chain_in_every_linearized_analysis(tmp_path, mode):
+    """Loaded (buckling needs DELXF) and in SPACAR modes 4, 8, 9, 10 and 3 (along a short
+    transient): the same frequencies, multipliers and linearized matrices to 1e-12; mode 3
+    differences its derivatives (docs/linearized.md: 5e-9 relative), so there to 5e-9 of the
+    largest entry of the equations."""
+    data = (f"DELXF 5 0 -3 0\nDELXF 2 0.5 0 0\nMODE {mode}"
+            + ("\nSTARTDE 2 1 0.8\nTIMESTEP 0.05 5" if mode == 3 else ""))
+    keys = ("eigen/frequency", "buckling/load_multiplier", "state_space/M0", "state_space/C0",
+            "state_space/K0", "state_space/A")
+    with run(tmp_path, PENDULUM.format(**PIN, data=data), "pin") as a, \
+            run(tmp_path, PENDULUM.format(**RBEAM, data=data), "rbeam") as b:
+        compared = [k for k in keys if k in a]
+        largest = max(np.nanmax(np.abs(b[k][...])) for k in compared)
+        for key in compared:
+            x, y = a[key][...], b[key][...]
+            assert x.shape == y.shape and np.isfinite(y).any(), key
+            tol = 5e-9 * largest if mode == 3 else 1e-12 * np.nanmax(np.abs(y))
+            assert np.nanmax(np.abs(x - y)) <= tol, key
+    assert len(compared) >= 1 + (mode in (9, 10, 3)) * 3
+
+
 def test_single_pinbody_pendulum_has_the_closed_form_period(tmp_path):
     """omega^2 = (k + m g L) / (J + m L^2) for a rigid body on a hinge spring, hanging."""
     text = PENDULUM.format(**PIN, data="MODE 7")
