@@ -313,7 +313,11 @@ def number_model(model: Model) -> Numbering:
         stiff = (def_class != RIGID) & es.has_stiffness[:, None]
         S = kind.stiffness(es.stiffness, ref) * \
             (stiff[:, :, None] & stiff[:, None, :])
-        r_elem, r_mode = np.nonzero(def_class == RIGID)
+        held = def_class == RIGID
+        if kind.velocity_modes:     # held slips are velocity-level constraints, no rigid rows
+            held = held.copy()
+            held[:, list(kind.velocity_modes)] = False
+        r_elem, r_mode = np.nonzero(held)
         groups.append(ElementGroup(
             kind=kind, ids=np.asarray(e_ids, np.int64), nodes=np.asarray(nodes, np.int64),
             idx=np.concatenate(idx_parts, axis=1), def_class=np.asarray(def_class, np.int8),

@@ -46,9 +46,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spacarpy import __version__
+from spacarpy.elements.registry import KINDS
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
-from spacarpy.model import Model
+from spacarpy.model import RIGID, Model
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.linear.linearize import MassAssembler, linearize
 from spacarpy.solvers.statics.equilibrium import StaticProblem
@@ -88,6 +89,29 @@ class RunSummary:
     newton_iterations: int = 0
 
 
+def refuse_velocity_modes(model: Model, analysis: str) -> None:
+    """Refuse a model with velocity-level (non-holonomic) modes, the WHEEL's slips, which
+    no solver handles yet: one line (a :class:`ModelError`) rather than a wrong result.
+
+    Held slips (rolling without slip, the default) are constraints no solver imposes yet.
+    Released ones (``RLSE e 4 5``, sliding freely) leave a purely holonomic model, but its
+    stored slip deformations (the accumulated slip) would not be integrated: refused too."""
+    for keyword, es in model.elements.items():
+        modes = list(KINDS[keyword].velocity_modes)
+        if not modes or not es.ids.size:
+            continue
+        held = es.def_class[:, modes] == RIGID
+        numbers = " ".join(str(k + 1) for k in modes)
+        if held.any():
+            row = int(np.flatnonzero(held.any(axis=1))[0])
+            raise ModelError(f"{keyword} slips (non-holonomic constraints) are not supported "
+                             f"in MODE {analysis} yet ({keyword} {es.ids[row]} modes "
+                             f"{numbers} are held: rolling without slip)")
+        raise ModelError(f"{keyword} elements are not supported in MODE {analysis} yet: no "
+                         f"solver integrates the released slips (modes {numbers}) of "
+                         f"{keyword} {es.ids[0]}")
+
+
 def run_job(job: Job, out, options: RunOptions | None = None) -> RunSummary:
     """Run a job (:func:`spacarpy.deck.load`): ``run_model(job.model, job.settings, ...)``."""
     return run_model(job.model, job.settings, out, options)
@@ -106,6 +130,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     analysis = settings.analysis
     static_lin = analysis == "static_linearized"          # SPACAR mode 10
     modes_per_step = settings.linearized.modes_each_step or static_lin
+    refuse_velocity_modes(model, analysis)
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
     if analysis == "check":

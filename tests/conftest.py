@@ -46,6 +46,41 @@ END
 """
 
 
+WHEEL_DECK = """X 1 0 0 0.3
+X 2 0 0 0
+WHEEL 5 1 3 2 0 1 0
+END
+HALT
+XM 1 2.0
+XM 3 0.045 0 0 0.09 0 0.045
+END
+END
+"""
+
+
+def _wheel_file(out: Path) -> Path:
+    """A file of a WHEEL model with one static and one transient step, written directly:
+    no analysis runs a WHEEL yet (its slips), but the writer must hold its datasets."""
+    import numpy as np
+
+    from spacarpy.deck import model_from_text
+    from spacarpy.results import ResultsWriter
+
+    model = model_from_text(WHEEL_DECK, "wheel.dat")
+    pos, eul = model.position_x0, np.array([[1.0, 0, 0, 0]])
+    zero = {"WHEEL": np.zeros((1, 6))}
+    with ResultsWriter(out, model, program_version="0.1.0", deformations="modified",
+                       analysis="transient") as w:
+        w.begin_static(2, 1, reaction_node=[], reaction_component=[], transient=True)
+        w.static_step(0.0, pos, eul, zero, zero, reaction=np.zeros(0), iterations=1,
+                      residual=0.0)
+        w.transient_step(0.0, pos, eul, np.zeros((2, 3)), np.zeros((1, 4)), zero, zero,
+                         kinetic_energy=0.0, elastic_energy=0.0, external_work=0.0,
+                         iterations=1, residual=0.0, reaction=np.zeros(0))
+        w.finish()
+    return out
+
+
 @pytest.fixture(scope="session")
 def result_files(tmp_path_factory) -> dict:
     """Representative result files, {key: path}, written once per session.
@@ -89,7 +124,15 @@ def result_files(tmp_path_factory) -> dict:
     (tmp / "pltruss_dyn.dat").write_text(
         short + (tmp / "pltruss.dat").read_text()
         .replace("ITERSTEP 20 4 1e-12", "EM 1:2 1\nTIMESTEP 0.01 2"))
-    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn"):
+    # PINBODY (schema 2.11): the hinged rod and the pendulum with the rod as a pin-body
+    (tmp / "pinbody.dat").write_text(
+        (DECKS / "hinged_rod_spring.dat").read_text()
+        .replace("RBEAM 1 1 4 3 0 1 0", "PINBODY 1 1 4 3").replace("EXPECT", "# EXPECT"))
+    (tmp / "pinbody_dyn.dat").write_text(
+        (DECKS / "pendulum_rigid_90deg.dat").read_text()
+        .replace("RBEAM 1 1 4 3 0 1 0", "PINBODY 1 1 4 3").replace("EM 1 {rhoA}", "XM 3 2.0")
+        .replace("TIMESTEP 2.2 440", "TIMESTEP 0.01 2"))
+    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn"):
         runs[key] = (key, [])
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}
@@ -99,6 +142,7 @@ def result_files(tmp_path_factory) -> dict:
         out = tmp / f"{key}.h5"
         assert main(["run", str(tmp / f"{deck}.dat"), "-o", str(out), "-q", *extra]) == 0
         files[key] = out
+    files["wheel"] = _wheel_file(tmp / "wheel.h5")
     shutil.copy(DECKS / "table1_cantilever_1el_basic.dat", tmp / "bad.dat")
     assert main(["run", str(tmp / "bad.dat"), "-o", str(tmp / "failed.h5"), "-q"]) == 1
     files["failed"] = tmp / "failed.partial.h5"

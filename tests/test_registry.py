@@ -9,7 +9,8 @@ from spacarpy.model import ElementSet
 
 
 def test_registry_order_and_planar_set():
-    assert list(KINDS) == ["BEAM", "TRUSS", "HINGE", "RBEAM", "PLBEAM", "PLTRUSS", "PLHINGE"]
+    assert list(KINDS) == ["BEAM", "TRUSS", "HINGE", "RBEAM", "PLBEAM", "PLTRUSS", "PLHINGE",
+                           "PINBODY", "WHEEL"]
     assert PLANAR_KINDS == ("PLBEAM", "PLTRUSS", "PLHINGE")
     assert kind_of("TRUSS") is KINDS["TRUSS"]
     with pytest.raises(KeyError, match="not an element kind"):
@@ -21,9 +22,15 @@ def test_declarations_are_consistent(keyword):
     kind = KINDS[keyword]
     assert isinstance(kind, ElementKind) and kind.keyword == keyword
     n = kind.n_def
-    assert len(kind.mode_units) == len(kind.length_modes) == len(kind.mode_stiffness) == n
-    assert all(0 <= k < kind.n_estiff for k in kind.mode_stiffness)
-    assert len(kind.estiff.units) == kind.n_estiff and kind.estiff.required <= kind.n_estiff
+    assert len(kind.mode_units) == len(kind.length_modes) == n
+    assert len(kind.rate_units) in (0, n)
+    assert all(0 <= k < n for k in kind.velocity_modes)
+    if kind.estiff is None:                 # no mode can be flexible (the WHEEL)
+        assert kind.mode_stiffness == () and kind.no_stiffness_why
+    else:
+        assert len(kind.mode_stiffness) == n
+        assert all(0 <= k < kind.n_estiff for k in kind.mode_stiffness)
+        assert len(kind.estiff.units) == kind.n_estiff and kind.estiff.required <= kind.n_estiff
     if kind.em is not None:
         assert len(kind.em.units) == kind.n_em
     # the deck keyword is made from the kind: node roles p position, r orientation
@@ -32,8 +39,11 @@ def test_declarations_are_consistent(keyword):
     assert len(kind.node_roles) == len(kind.slots) == len(kind.node_fields)
     assert kind.summary and len(kind.vector_fields) == (3 if kind.vector else 0)
     assert kind.n_ldof == sum(3 if s == "pos" else 4 for s in kind.slots)
-    # the trailing vector: the keyword accepts three more fields exactly when one is declared
-    assert (len(KEYWORDS[keyword].optional) == 1) == (kind.vector is not None)
+    # the trailing vector: the keyword accepts three more fields exactly when one is declared,
+    # optional unless the kind requires it
+    spec = KEYWORDS[keyword]
+    assert len(spec.fields) == 1 + len(kind.slots) + (3 if kind.vector else 0)
+    assert (len(spec.optional) == 1) == (kind.vector is not None and not kind.vector_required)
 
 
 @pytest.mark.parametrize("keyword", list(KINDS))

@@ -189,8 +189,36 @@ END
 END
 """
 
+# the rolling-contact kinds: a zero-length and a released, flexible pin; wheels z up and down
+ROLLING = """
+MODE eigen
+X 1 0 0 0.3
+X 2 0 0 0
+X 3 1 0 0.3
+X 4 1 0 0.3
+X 5 2 0 -0.35
+X 6 2 0 0
+WHEEL 1 1 11 2 0 1 0
+PINBODY 2 1 11 3
+PINBODY 3 3 11 4
+WHEEL 4 5 12 6 0 -1 0
+HINGE 5 11 12 0 0 1
+RLSE 1 4 5
+RLSE 2 3
+DYNE 2 1
+DYNE 5 1
+END
+HALT
+ESTIFF 2 1e4
+XM 1 2.0
+XM 11 0.05 0 0 0.09 0 0.05
+END
+END
+"""
 
-@pytest.mark.parametrize("text", [SPATIAL, PLANAR], ids=["spatial", "planar"])
+
+@pytest.mark.parametrize("text", [SPATIAL, PLANAR, ROLLING], ids=["spatial", "planar",
+                                                                  "rolling"])
 def test_every_kind_and_setting_round_trips(text):
     job = job_from_text(text)
     assert job.settings != AnalysisSettings()        # the decks set every setting
@@ -199,7 +227,7 @@ def test_every_kind_and_setting_round_trips(text):
 
 
 def test_the_round_trip_decks_cover_every_kind():
-    kinds = set(model_from_text(SPATIAL).elements) | set(model_from_text(PLANAR).elements)
+    kinds = set().union(*(model_from_text(t).elements for t in (SPATIAL, PLANAR, ROLLING)))
     assert kinds == set(KINDS)
 
 

@@ -123,14 +123,14 @@ DATA = "END\nHALT\nESTIFF 1 1 1 1 1\n"
 
 
 @pytest.mark.parametrize("line", [
-    "PINBODY 2 3 4 5 6", "TUBE 2 3 4 5 6 0 0 1", "SCREW 2 2 4 0.01", "WHEEL 3 3 4 7 8 1 0 0",
+    "TUBE 2 3 4 5 6 0 0 1", "SCREW 2 2 4 0.01",
     "KINX 3 1", "KINE 1 1", "INPUTS 1 1", "ENHC 1",
 ])
 def test_spacar_keywords_without_a_known_layout_are_refused(line):
     """Any fields; one error at the keyword, the SPACAR message, nothing else (a DYNE line
     about the refused element adds no "not defined" error)."""
     kw = line.split()[0]
-    extra = "DYNE 2 1\n" if kw in ("PINBODY", "TUBE", "SCREW") else ""
+    extra = "DYNE 2 1\n" if kw in ("TUBE", "SCREW") else ""
     with pytest.raises(DeckError) as info:
         model_from_text(BASE + line + "\n" + extra + DATA + "END\nEND\n")
     items = info.value.items
@@ -152,10 +152,10 @@ def test_every_unsupported_keyword_has_the_one_message():
 
 def test_refusal_from_the_command_line_exits_2_without_a_traceback(tmp_path, capsys):
     deck = tmp_path / "wheel.dat"
-    deck.write_text(BASE + "WHEEL 3 3 4 7 8 1 0 0\n" + DATA + "USERSIG FFESFVA\nEND\nEND\n")
+    deck.write_text(BASE + "TUBE 3 3 4 7 8 1 0 0\n" + DATA + "USERSIG FFESFVA\nEND\nEND\n")
     assert main(["run", str(deck), "-o", str(tmp_path / "out.h5")]) == 2
     err = capsys.readouterr().err
-    assert f"{deck}:7:1: error: SPACAR keyword WHEEL is not supported yet" in err
+    assert f"{deck}:7:1: error: SPACAR keyword TUBE is not supported yet" in err
     assert f"{deck}:11:1: error: SPACAR keyword USERSIG is not supported yet: it names a " \
            "user routine" in err
     assert "Traceback" not in err and "did you mean" not in err
@@ -163,8 +163,8 @@ def test_refusal_from_the_command_line_exits_2_without_a_traceback(tmp_path, cap
 
 
 def test_a_misspelled_keyword_still_gets_a_hint():
-    with pytest.raises(DeckError, match=r"unknown keyword 'PINBODDY' \(did you mean PINBODY\?\)"):
-        model_from_text(BASE + "PINBODDY 2 3 4\n" + DATA + "END\nEND\n")
+    with pytest.raises(DeckError, match=r"unknown keyword 'SCRREW' \(did you mean SCREW\?\)"):
+        model_from_text(BASE + "SCRREW 2 3 4\n" + DATA + "END\nEND\n")
 
 
 def test_the_docs_list_the_refused_keywords_and_the_corpus():

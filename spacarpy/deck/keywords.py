@@ -7,7 +7,7 @@ their meaning. Every SPACAR keyword has its real field layout here, also the one
 analyse yet (``supported=False``): those are parsed and checked like the others, so that
 field-count errors are meaningful and the typed values are kept, and the model builder refuses
 them with "SPACAR keyword KEYWORD is not supported yet" (:func:`unsupported_message`). Real
-SPACAR keywords whose layouts are not publicly known (PINBODY, WHEEL, KINX, ...) take any
+SPACAR keywords whose layouts are not publicly known (TUBE, SCREW, KINX, ...) take any
 fields and are refused the same way, never as "unknown keyword". The layouts come from
 ../shared/spacar/README.md and the decks of SPACAR's front ends; docs/deck.md documents them.
 """
@@ -215,10 +215,8 @@ def _unsupported(name, summary, section, **kw) -> KeywordSpec:
 #: number and its other whole numbers as nodes (so that DYNE/FIX lines about them do not add
 #: "not defined" errors to the refusal).
 _SPACAR_ONLY = (
-    ("PINBODY", "SPACAR pin-body element (element type 9)", "element"),
     ("TUBE", "SPACAR tube element (element type 16)", "element"),
     ("SCREW", "SPACAR screw element (element type 17)", "element"),
-    ("WHEEL", "SPACAR rolling wheel element", "element"),
     ("KINX", "SPACAR kinematic nodal coordinates (rolling contact)", "kinematics"),
     ("KINE", "SPACAR kinematic deformation modes (rolling contact)", "kinematics"),
     ("INPUTS", "SPACAR INPUTS line (layout not publicly documented)", "kinematics"),
@@ -258,9 +256,14 @@ def _spacar_only(name, summary, section) -> KeywordSpec:
 
 def element_keyword(kind) -> KeywordSpec:
     """The deck keyword of an element kind, from what the kind declares (its node fields and
-    the optional trailing vector): ``KEYWORD e nodes... [v1 v2 v3]``."""
+    the optional trailing vector): ``KEYWORD e nodes... [v1 v2 v3]`` (``v1 v2 v3`` required
+    where the kind says so, the WHEEL's axle)."""
     nodes = tuple(_f(name, short, "int", True) for name, short in kind.node_fields)
     vector = tuple(_f(name, short) for name, short in kind.vector_fields)
+    if kind.vector_required:
+        return KeywordSpec(kind.keyword, kind.summary, section="element",
+                           required=(ELEMENT, *nodes, *vector),
+                           node_roles="".join("p" if s == "pos" else "r" for s in kind.slots))
     return KeywordSpec(kind.keyword, kind.summary, section="element",
                        required=(ELEMENT, *nodes), optional=(vector,) if vector else (),
                        node_roles="".join("p" if s == "pos" else "r" for s in kind.slots))

@@ -39,6 +39,19 @@ check(state, ref) -> (element row, message) or None, optional
     A validity check of a converged state (the BEAM's saturation of Eq. 7).
 gravity(x_local, ref, mass, g) -> (f (n, n_ldof), df/dx (n, n_ldof, n_ldof)), optional
     Generalized gravity forces of the element's own mass and their derivative.
+reference_problems(x0_slots, vector) -> [(element row, message), ...], optional
+    Checks of the reference configuration beyond the generic ones (the WHEEL's: contact
+    point in the wheel plane, ...); the deck semantics report each as an error at the
+    element's line.
+
+Velocity-level (non-holonomic) modes, declared as ``velocity_modes`` (0-based), are no
+functions of x: ``state`` gives them zero deformations and zero Jacobian rows, and the kind
+offers the slip kernels instead (the WHEEL, :mod:`spacarpy.elements.wheel`):
+
+slip(x_local, ref) -> S (n, len(velocity_modes), n_ldof)
+    The modes' rates ``s = S(x) v``.
+slip_dx(x_local, v_local, ref) -> d(S v)/dx (n, len(velocity_modes), n_ldof)
+slip_force_dx(x_local, nu, ref) -> d(S^T nu)/dx (n, n_ldof, n_ldof)
 
 An optional kernel a kind does not have is ``None`` (the solvers test ``kind.mass is None``).
 The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) live here too, so that the model,
@@ -148,7 +161,12 @@ class ElementKind:
     length_modes : tuple of bool
         Per mode: True when the deformation is a length (m); it sets the mode's scale.
     estiff, em : Fields or None
-        The ESTIFF and EM layouts; ``em = None``: the element has no mass of its own.
+        The ESTIFF and EM layouts; ``em = None``: the element has no mass of its own;
+        ``estiff = None``: no mode can be flexible (DYNE and ESTIFF are refused, saying
+        ``no_stiffness_why`` is not supported yet).
+    no_stiffness_why : str
+        What a stiffness of a kind without ESTIFF would model (the WHEEL's "tyre
+        compliance").
     mode_stiffness : tuple of int
         Per mode: the ESTIFF value (index into ``estiff.names``) that carries its stiffness.
     vector : str or None
@@ -163,6 +181,17 @@ class ElementKind:
         The same for the three optional trailing numbers (empty when ``vector`` is None).
     planar : bool
         A planar kind (a model with one is planar and may have planar kinds only).
+    zero_length : bool
+        The element's two position nodes may coincide (the PINBODY); otherwise a zero length
+        is a deck error.
+    vector_required : bool
+        The trailing vector must be given by the deck line (the WHEEL's axle; a HINGE without
+        its axis gets a message of its own).
+    velocity_modes : tuple of int
+        The 0-based velocity-level (non-holonomic) modes (the WHEEL's slips); empty for a
+        purely holonomic kind.
+    rate_units : tuple of str
+        Unit of each mode's rate; empty: the mode's unit per second.
     reference_type : type
         The kind's :class:`Reference` record, what ``reference`` returns and the kernels
         read.
@@ -180,11 +209,16 @@ class ElementKind:
     estiff: Fields | None = None
     em: Fields | None = None
     mode_stiffness: tuple = ()
+    no_stiffness_why: str = ""
     vector: str | None = None
     summary: str = ""
     node_fields: tuple = ()
     vector_fields: tuple = ()
     planar: bool = False
+    zero_length: bool = False
+    vector_required: bool = False
+    velocity_modes: tuple = ()
+    rate_units: tuple = ()
     reference_type: type = Reference
 
     # optional kernels: None where the kind has none
@@ -196,6 +230,10 @@ class ElementKind:
     commit: Callable | None = None
     check: Callable | None = None
     gravity: Callable | None = None
+    reference_problems: Callable | None = None
+    slip: Callable | None = None
+    slip_dx: Callable | None = None
+    slip_force_dx: Callable | None = None
 
     @property
     def n_def(self) -> int:

@@ -9,15 +9,17 @@ from __future__ import annotations
 from spacarpy.elements.base import ElementKind
 from spacarpy.elements.beam import Beam
 from spacarpy.elements.hinge import Hinge
+from spacarpy.elements.pinbody import PinBody
 from spacarpy.elements.plbeam import PlBeam
 from spacarpy.elements.plhinge import PlHinge
 from spacarpy.elements.pltruss import PlTruss
 from spacarpy.elements.rbeam import RBeam
 from spacarpy.elements.truss import Truss
+from spacarpy.elements.wheel import Wheel
 
 #: Keyword -> kind, in the order the model keeps and the solver assembles them.
 KINDS: dict[str, ElementKind] = {k.keyword: k for k in (
-    Beam(), Truss(), Hinge(), RBeam(), PlBeam(), PlTruss(), PlHinge())}
+    Beam(), Truss(), Hinge(), RBeam(), PlBeam(), PlTruss(), PlHinge(), PinBody(), Wheel())}
 
 #: The planar kinds (a model with them is planar and may not have the others).
 PLANAR_KINDS = tuple(k for k, kind in KINDS.items() if kind.planar)

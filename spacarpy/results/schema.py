@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 10)
+SCHEMA_VERSION = (2, 11)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -144,7 +144,8 @@ def _units(per_mode) -> str:
 
 #: Schema version that introduced each kind's datasets (kinds added later: their own).
 _KIND_SINCE = {"BEAM": (1, 0), "TRUSS": (1, 2), "HINGE": (1, 2), "RBEAM": (1, 2),
-               "PLBEAM": (1, 3), "PLTRUSS": (1, 3), "PLHINGE": (1, 3)}
+               "PLBEAM": (1, 3), "PLTRUSS": (1, 3), "PLHINGE": (1, 3), "PINBODY": (2, 11),
+               "WHEEL": (2, 11)}
 
 _LIN_SHAPE = {"mode": ("linearized_step", "mode"),
               "position": ("linearized_step", "mode", "position_node", "coordinate"),

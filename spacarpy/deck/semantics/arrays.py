@@ -284,6 +284,9 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
 
     positions = _positions(lines.get("X", _Lines([], [])))
     kinds = [_Kind(kw, lines[kw]) for kw in ELEMENT_KEYWORDS if kw in lines]
+    if any(kind.info["zero_length_ok"] or kind.info["reference_problems"] is not None
+           for kind in kinds):
+        raise _GiveUp                       # kinds with checks of their own: line by line
     elements = _Elements(kinds, lines.get("DYNE"), lines.get("ESTIFF"), lines.get("EM"))
     if not _unique(elements.ids):
         raise _GiveUp

@@ -16,6 +16,7 @@ import numpy as np
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import ORIENTATION_TOL, Topology, UsesTopology
 from spacarpy.deck.statement import Statement
+from spacarpy.elements.registry import KINDS
 from spacarpy.model import (
     FLEXIBLE,
     RIGID,
@@ -163,6 +164,11 @@ class Constraints(UsesTopology):
                 self.error(loc, f"INPUTE: element {el.id} is a {el.keyword} with deformation "
                                 f"{modes}, got {k}", st)
                 continue
+            if k - 1 in KINDS[el.keyword].velocity_modes:
+                self.error(loc, f"INPUTE: deformation {k} of {el.keyword} {el.id} is a slip "
+                                "(a velocity-level constraint): prescribing it is not "
+                                "supported yet", st)
+                continue
             if el.def_class[k - 1] != RIGID:
                 what = "DYNE" if el.def_class[k - 1] == FLEXIBLE else "RLSE"
                 self.error(loc, f"INPUTE: deformation {k} of element {el.id} is also listed in "
@@ -181,6 +187,9 @@ class Constraints(UsesTopology):
         e, k, value = st.fields[0], st.fields[1], float(st.fields[2])
         entry = self.input_deformations.get((e, k))
         if entry is None:
+            el = self.beams.get(e)
+            if el is not None and k - 1 in KINDS[el.keyword].velocity_modes:
+                return                  # a slip: its INPUTE declaration was reported
             if e not in self.foreign_elements:
                 self.error(st.field_locs[1], f"{st.keyword}: deformation {k} of element {e} is "
                                              f"not prescribed: declare it with 'INPUTE {e} {k}' "

@@ -46,6 +46,11 @@ class _ElementDataPass(UsesTopology):
         """A DYNE (flexible) or RLSE (released) line."""
         fields = st.fields
         beam = self.beams.get(fields[0])
+        if beam is not None and st.keyword == "DYNE" and not beam.info["flexible_ok"]:
+            self.error(st.loc, f"DYNE {beam.id}: a {beam.keyword} mode cannot be flexible: "
+                               f"{beam.info['no_stiffness_why']} is not supported yet "
+                               f"({beam.keyword} modes are rigid, or released with RLSE)", st)
+            return
         if beam is not None and len(fields) > 1:
             # the usual line: known modes, none of them set the other way
             cls = FLEXIBLE if st.keyword == "DYNE" else RELEASED
@@ -113,6 +118,10 @@ class _ElementDataPass(UsesTopology):
                 return
         beam.estiff = st
         values = st.fields[1:]
+        if not beam.info["flexible_ok"]:
+            self.error(st.loc, f"ESTIFF {beam.id}: a {beam.keyword} takes no stiffness: "
+                               f"{beam.info['no_stiffness_why']} is not supported yet", st)
+            return
         if beam.keyword == "BEAM" and 4 <= len(values) <= 6 and min(values) >= 0:
             beam.stiffness = values + (0.0,) * (6 - len(values))   # nothing to report
             return

@@ -65,21 +65,25 @@ def _kind_info(kind) -> dict:
     """What the semantics check of an element kind, from its declaration: number of
     deformation modes, index of the first vector field (orientation / hinge axis) or None,
     allowed ESTIFF value counts, the stiffness names, which ESTIFF value carries each mode's
-    stiffness, and whether (and how much) EM applies."""
+    stiffness, whether (and how much) EM applies, whether a zero length is allowed and the
+    kind's own reference checks. A kind without ESTIFF (the WHEEL) takes no stiffness."""
     est, em = kind.estiff, kind.em
     roles = KEYWORDS[kind.keyword].node_roles
     info = dict(n_def=kind.n_def, vector_at=1 + len(kind.slots) if kind.vector else None,
                 roles=roles, mode_stiffnesses=_picker(sorted(set(kind.mode_stiffness))),
                 nodes=_picker(range(1, 1 + len(roles))),
-                no_stiffness=(0.0,) * (6 if kind.keyword == "BEAM" else 3),
+                no_stiffness=(0.0,) * (6 if kind.keyword == "BEAM" else 3 if est else 0),
                 position_nodes=_picker([i for i, r in enumerate(roles, start=1) if r == "p"]),
                 orientation_nodes=_picker([i for i, r in enumerate(roles, start=1)
                                            if r == "r"]),
                 position_fields=[i for i, r in enumerate(roles, start=1) if r == "p"],
                 orientation_fields=[i for i, r in enumerate(roles, start=1) if r == "r"],
-                n_estiff=(est.required, est.allowed), stiff_names=est.names,
+                n_estiff=(est.required, est.allowed) if est is not None else (0, 0),
+                stiff_names=est.names if est is not None else (),
                 mode_stiffness=kind.mode_stiffness, has_mass=em is not None,
-                estiff_usage=est.usage)
+                estiff_usage=est.usage if est is not None else "",
+                zero_length_ok=kind.zero_length, reference_problems=kind.reference_problems,
+                flexible_ok=est is not None, no_stiffness_why=kind.no_stiffness_why)
     if em is not None and em.allowed is not None:
         info.update(n_em=em.allowed, em_usage=em.usage)
     return info
@@ -236,13 +240,18 @@ class Topology(Part):
         with np.errstate(over="ignore", invalid="ignore"):
             scale = (np.maximum(np.abs(x[rows[:, 0]]).max(axis=1),
                                 np.abs(x[rows[:, 1]]).max(axis=1)) if len(ids) else np.zeros(n))
-        zero_length = has_axis & (length <= ZERO_LENGTH_RTOL * scale)
+        may_coincide = np.array([b.info["zero_length_ok"] for b in elements], dtype=bool)
+        short = has_axis & (length <= ZERO_LENGTH_RTOL * scale)
+        zero_length = short & ~may_coincide
         axis = np.divide(d, length[:, None], out=np.full_like(d, np.nan),
-                         where=(has_axis & ~zero_length)[:, None])
+                         where=(has_axis & ~short)[:, None])
         vector = vectors_of(elements)
         vector_norm = _row_norms(vector)                   # NaN where no vector is given
         zero_vector = vector_norm < ORIENTATION_TOL
         parallel = _row_norms(np.cross(axis, vector)) < ORIENTATION_TOL * vector_norm
+        # a kind with reference checks of its own (the WHEEL's axle) is not a local y-axis
+        own = np.array([b.info["reference_problems"] is not None for b in elements], dtype=bool)
+        parallel &= ~own
         return zip(zero_length.tolist(), zero_vector.tolist(), parallel.tolist())
 
     def element(self, b: ElementRecord, zero_length: bool, zero_vector: bool,
@@ -252,7 +261,8 @@ class Topology(Part):
         positions = self.positions
         if not (zero_length or b.id in self.elements or b.id in self.foreign_elements
                 or (b.vector_given and (zero_vector or parallel))
-                or (b.keyword == "HINGE" and not b.vector_given)):
+                or (b.keyword == "HINGE" and not b.vector_given)
+                or b.info["reference_problems"] is not None):
             fields = b.st.fields
             info = b.info
             has = positions.__contains__
@@ -308,7 +318,8 @@ class Topology(Part):
             return
         if b.vector_given and (zero_vector or parallel):
             shown = "(" + ", ".join(f"{v:g}" for v in b.orientation) + ")"
-            what = "hinge axis" if b.keyword == "HINGE" else "orientation vector"
+            what = {"HINGE": "hinge axis", "WHEEL": "axle"}.get(b.keyword,
+                                                                "orientation vector")
             if zero_vector:
                 self.error(st.field_locs[at], f"{name}: the {what} {shown} is (nearly) zero",
                            st)
@@ -317,6 +328,18 @@ class Topology(Part):
                            f"{name}: the orientation vector {shown} is parallel to the element "
                            f"axis (node {b.position_nodes[0]} to node {b.position_nodes[1]}); "
                            "give the local y-axis, perpendicular to the element", st)
+            return
+        if b.info["reference_problems"] is not None:
+            self.reference_problems(b)
+
+    def reference_problems(self, b: ElementRecord) -> None:
+        """The kind's own checks of the reference configuration (the WHEEL's), each an error
+        at the element line."""
+        x0 = [np.array([self.positions[n][0]], dtype=float) if role == "p" else None
+              for role, n in zip(b.roles, b.nodes)]
+        vector = np.array([b.orientation], dtype=float)
+        for _, msg in b.info["reference_problems"](x0, vector):
+            self.error(b.st.loc, f"{b.keyword} {b.id}: {msg}", b.st)
 
     def element_for(self, st: Statement) -> ElementRecord | None:
         """The element an element-data record refers to; reports unknown elements."""

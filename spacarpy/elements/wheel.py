@@ -1,0 +1,353 @@
+"""The rolling wheel WHEEL (SPACAR type 12, ``WHEEL e p r q ax ay az``), vectorized.
+
+A thin rigid disc (a knife edge) rolls on a flat rigid ground. Nodes: the hub p (position),
+the wheel's orientation node r, and the contact point q, a position node of its own whose
+coordinates are unknowns of the model; ``(ax, ay, az)`` is the axle direction in the reference
+configuration, in global axes (required). Six deformation modes: 1, 2, 3 and 6 are holonomic
+(position level) and go through the usual ``state`` and ``hessian``; 4 and 5 are the slips, on
+the velocity level (non-holonomic), declared as ``velocity_modes = (3, 4)`` (0-based) with
+their own kernels :func:`wheel_slip`, :func:`wheel_slip_dx` and :func:`wheel_slip_force_dx`.
+docs/rolling.md, "The WHEEL element", has the definitions with their sources.
+
+Local coordinates
+-----------------
+x : (n_elem, 10)
+    ``[x_p (3), lambda_r (4), x_q (3)]``; velocities ``v = (dx_p, dlambda_r, dx_q)``.
+
+Definitions (rolling-contact spec, section 2.3)
+-----------------------------------------------
+- ground normal ``n = -sign((x_q0 - x_p0) . g_3) g_3`` (from the ground towards the wheel);
+  the ground is the horizontal plane through the contact node's initial position;
+- ``a = R(lambda_r) a0`` the axle (a0 the deck's vector normalized), ``d = x_q - x_p``,
+  ``e_l = (a x n)/|a x n|`` the heading, ``e_t = n x e_l`` lateral, and
+  ``u = (a x e_l)/|a|`` the unit vector in the wheel plane from the hub towards the ground,
+  ``-(n - (a.n) a)/|n - (a.n) a|`` for unit Euler parameters (written so that it is a unit
+  vector for any ``|lambda_r|``);
+- holonomic modes (m), zero in the reference configuration::
+
+      e1 = a . d - a0 . d0        (contact point in the wheel plane)
+      e2 = e_l . d - e_l0 . d0    (no fore-aft offset: the lowest point of the rim)
+      e3 = u . d - r0             (on the rim; r0 = u0 . d0 = |d0| for a valid reference)
+      e6 = n . (x_q - x_q0)       (on the ground)
+
+  (the offsets ``a0 . d0`` and ``e_l0 . d0`` are zero to the reference checks' tolerance,
+  :func:`wheel_reference_problems`; they make the stored deformations exactly zero there);
+- slips (m/s), linear in the velocities: with ``omega = 2 Lambda(lambda_r) dlambda_r/dt``
+  (:func:`spacarpy.rotation.lambda_matrix`) the velocity of the wheel's material point at
+  the contact is ``v_P = dx_p + omega x d`` and
+
+      s4 = e_l . v_P   (longitudinal),   s5 = e_t . v_P   (lateral),
+
+  ``s = S(x) v`` with ``S`` (2, 10); its ``dx_q`` columns are zero.
+
+Derivatives
+-----------
+Exact: the kernels are written once with :class:`spacarpy.elements.jet.Jet`, which carries
+the value, gradient and Hessian through the dot and cross products, the normalizations and
+the rotation (second-order forward differentiation, no differences). The slip kernels
+differentiate ``s(x, v)`` in the 20 variables (x, v): ``S = ds/dv``,
+``d(S v)/dx = ds/dx`` and ``d(S^T nu)/dx = d^2 (nu . s)/dv dx``.
+
+Properties
+----------
+No ESTIFF (a WHEEL mode cannot be flexible: tyre compliance is not supported yet) and no EM
+(masses and inertias go on p and r with XM). RLSE 4 / RLSE 5 let the wheel slide freely.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from spacarpy.elements.base import POS_P, POS_Q, ROT_AT_P, ElementKind, Reference
+from spacarpy.elements.jet import Jet, cross, dot, norm, rotate, unit
+from spacarpy.rotation import rotate as rotate_plain
+
+N_LDOF = 10
+N_DEF = 6
+#: The 0-based holonomic and velocity-level modes.
+HOLONOMIC = (0, 1, 2, 5)
+VELOCITY = (3, 4)
+#: Relative tolerance of the reference checks (times the radius); the smallest |a0 x n|.
+REFERENCE_TOL = 1e-6
+VERTICAL_TOL = 1e-6
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class WheelReference(Reference):
+    """A WHEEL group's reference data, from :meth:`Wheel.reference`.
+
+    a0 : (n_elem, 3)
+        The axle in the reference configuration (unit vectors).
+    n : (n_elem, 3)
+        The ground normal (``+-g_3``, from the ground towards the wheel).
+    xq0 : (n_elem, 3)
+        The contact node's reference position (m): the ground passes through it.
+    e0 : (n_elem, 3)
+        The reference values ``a0 . d0``, ``e_l0 . d0`` (both ~0) and ``u0 . d0 = r0`` (the
+        radius), m.
+    """
+
+    a0: np.ndarray
+    n: np.ndarray
+    xq0: np.ndarray
+    e0: np.ndarray
+
+
+def ground_normal(xp0: np.ndarray, xq0: np.ndarray) -> np.ndarray:
+    """``n = -sign((x_q0 - x_p0) . g_3) g_3`` (n, 3) (+z where the hub is above the contact
+    point in z)."""
+    out = np.zeros((xp0.shape[0], 3))
+    out[:, 2] = -np.sign(xq0[:, 2] - xp0[:, 2])
+    return out
+
+
+def _frame_vectors(a, nvec):
+    """The heading e_l and the in-plane direction u (plain arrays), for the reference."""
+    b = np.cross(a, nvec)
+    el = b / np.linalg.norm(b, axis=1, keepdims=True)
+    u = np.cross(a, el) / np.linalg.norm(a, axis=1, keepdims=True)
+    return el, u
+
+
+def _vec(v) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in v) + ")"
+
+
+def wheel_reference_problems(xp0: np.ndarray, xq0: np.ndarray, vector: np.ndarray) -> list:
+    """The reference checks of WHEEL elements: ``[(row, message), ...]`` for the elements
+    (rows) whose reference configuration is not a wheel standing on the ground with its
+    contact node at the lowest rim point. A missing or zero axle, coincident hub and contact
+    node, a contact node level with the hub, a vertical axle, a contact node off the wheel
+    plane or not at the lowest rim point (tolerance :data:`REFERENCE_TOL` times the radius)."""
+    out = []
+    d0 = xq0 - xp0
+    r0 = np.linalg.norm(d0, axis=1)
+    for i in range(d0.shape[0]):
+        v = vector[i]
+        shown = "(" + ", ".join(f"{c:g}" for c in v) + ")"
+        if np.isnan(v).any():
+            out.append((i, "a WHEEL needs its axle direction ax ay az"))
+            continue
+        if np.linalg.norm(v) < REFERENCE_TOL:
+            out.append((i, f"the axle {shown} is (nearly) zero"))
+            continue
+        if r0[i] == 0.0:
+            out.append((i, "the hub and the contact node are at the same position (the "
+                           "radius is zero)"))
+            continue
+        if abs(d0[i, 2]) <= REFERENCE_TOL * r0[i]:
+            out.append((i, "the contact node is level with the hub: the ground is the "
+                           "horizontal plane through the contact node, so the hub must be "
+                           "above or below it in z"))
+            continue
+        a0 = v / np.linalg.norm(v)
+        nvec = ground_normal(xp0[i:i + 1], xq0[i:i + 1])
+        if np.linalg.norm(np.cross(a0, nvec[0])) <= VERTICAL_TOL:
+            out.append((i, f"the axle {shown} is vertical: the wheel would lie flat on the "
+                           "ground"))
+            continue
+        off = float(a0 @ d0[i])
+        if abs(off) > REFERENCE_TOL * r0[i]:
+            out.append((i, f"the contact node is not in the wheel plane: the hub-to-contact "
+                           f"vector has {off:.6g} m along the axle {shown}"))
+            continue
+        _, u0 = _frame_vectors(a0[None], nvec)
+        gap = np.linalg.norm(d0[i] - r0[i] * u0[0])
+        if gap > REFERENCE_TOL * r0[i]:
+            out.append((i, "the contact node is not the rim point nearest the ground: the "
+                           "hub-to-contact vector " + _vec(d0[i]) + " must point along "
+                           + _vec(u0[0]) + ", the wheel plane's direction towards the ground"))
+    return out
+
+
+def wheel_reference(xp0: np.ndarray, xq0: np.ndarray, vector: np.ndarray) -> WheelReference:
+    """The reference record (no checks: :func:`wheel_reference_problems` made them)."""
+    xp0, xq0 = np.asarray(xp0, float), np.asarray(xq0, float)
+    a0 = np.asarray(vector, float)
+    a0 = a0 / np.linalg.norm(a0, axis=1, keepdims=True)
+    nvec = ground_normal(xp0, xq0)
+    el0, u0 = _frame_vectors(a0, nvec)
+    d0 = xq0 - xp0
+    e0 = np.stack([(a0 * d0).sum(1), (el0 * d0).sum(1), (u0 * d0).sum(1)], axis=1)
+    return WheelReference(a0, nvec, xq0.copy(), e0)
+
+
+# ------------------------------------------------------------------------------ the kernels
+class _Frame(NamedTuple):
+    d: Jet
+    a: Jet
+    el: Jet
+    u: Jet
+
+
+def _frame(z: np.ndarray, ref: WheelReference, m: int, second: bool) -> _Frame:
+    """The jets of d, a, e_l and u in the variables z (n, m), x = z[:, :10]."""
+    xp = Jet.variables(z, 0, 3, m, second)
+    lam = Jet.variables(z, 3, 4, m, second)
+    xq = Jet.variables(z, 7, 3, m, second)
+    d = xq - xp
+    a = rotate(lam, ref.a0)
+    nvec = Jet.constant(ref.n, m, second)
+    el = unit(cross(a, nvec))
+    u = cross(a, el) * norm(a).reciprocal()
+    return _Frame(d, a, el, u)
+
+
+class WheelState(NamedTuple):
+    """Deformations and Jacobian of the holonomic modes (velocity modes: zero rows), plus
+    what the Hessian and the check reuse."""
+
+    e: np.ndarray          # (n, 6)
+    D: np.ndarray          # (n, 6, 10)
+    H: np.ndarray          # (n, 4, 10, 10) the Hessians of modes 1, 2, 3, 6
+    a: np.ndarray          # (n, 3) the current axle
+    n: np.ndarray          # (n, 3) the ground normal
+
+
+def wheel_state(x: np.ndarray, ref: WheelReference) -> WheelState:
+    """Deformations e (n, 6), their exact Jacobian D (n, 6, 10) (zero rows for the slips 4
+    and 5, which are no functions of x) and the Hessians of the holonomic modes."""
+    n = x.shape[0]
+    f = _frame(x, ref, N_LDOF, True)
+    e1, e2, e3 = dot(f.a, f.d), dot(f.el, f.d), dot(f.u, f.d)
+    e = np.zeros((n, N_DEF))
+    D = np.zeros((n, N_DEF, N_LDOF))
+    H = np.zeros((n, 4, N_LDOF, N_LDOF))
+    for k, (mode, jet) in enumerate(zip(HOLONOMIC[:3], (e1, e2, e3))):
+        e[:, mode] = jet.val[:, 0] - ref.e0[:, k]
+        D[:, mode] = jet.g[:, 0]
+        H[:, k] = jet.h[:, 0]
+    e[:, 5] = ((x[:, 7:10] - ref.xq0) * ref.n).sum(axis=1)           # e6, linear
+    D[:, 5, 7:10] = ref.n
+    return WheelState(e=e, D=D, H=H, a=f.a.val, n=ref.n)
+
+
+def wheel_weighted_hessian(st: WheelState, w: np.ndarray) -> np.ndarray:
+    """``sum_k w_k d^2 e_k / dx^2`` (n, 10, 10) over the holonomic modes (the weights of the
+    slips 4 and 5 are ignored: they are no functions of x)."""
+    return np.einsum("nk,nkij->nij", w[:, list(HOLONOMIC)], st.H)
+
+
+def _slip_jet(x: np.ndarray, v: np.ndarray, ref: WheelReference, second: bool) -> Jet:
+    """The slips (s4, s5) as a jet in the 20 variables (x, v)."""
+    z = np.concatenate([x, v], axis=1)
+    m = 2 * N_LDOF
+    f = _frame(z, ref, m, second)
+    lam = Jet.variables(z, 3, 4, m, second)
+    rate = Jet.variables(z, 13, 4, m, second)
+    l0, lv = lam.take([0]), lam.take([1, 2, 3])
+    r0, rv = rate.take([0]), rate.take([1, 2, 3])
+    omega = (l0 * rv - lv * r0 + cross(lv, rv)).times(2.0)         # 2 Lambda(l) dl/dt
+    vp = Jet.variables(z, 10, 3, m, second) + cross(omega, f.d)
+    et = cross(Jet.constant(ref.n, m, second), f.el)
+    s4, s5 = dot(f.el, vp), dot(et, vp)
+    return Jet(np.concatenate([s4.val, s5.val], axis=1), np.concatenate([s4.g, s5.g], axis=1),
+               None if not second else np.concatenate([s4.h, s5.h], axis=1))
+
+
+def wheel_slip(x: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """S (n, 2, 10) with ``(s4, s5) = S(x) v``."""
+    return _slip_jet(x, np.zeros_like(x), ref, False).g[:, :, N_LDOF:]
+
+
+def wheel_slip_dx(x: np.ndarray, v: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """``d(S(x) v)/dx`` (n, 2, 10) at fixed v."""
+    return _slip_jet(x, v, ref, False).g[:, :, :N_LDOF]
+
+
+def wheel_slip_force_dx(x: np.ndarray, nu: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """``d(S(x)^T nu)/dx`` (n, 10, 10) for the multipliers nu (n, 2): rows the 10 generalized
+    forces, columns the 10 coordinates."""
+    h = _slip_jet(x, np.zeros_like(x), ref, True).h                 # (n, 2, 20, 20)
+    return np.einsum("nk,nkji->nji", nu, h[:, :, N_LDOF:, :N_LDOF])
+
+
+def wheel_slips(x: np.ndarray, v: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """The slip velocities ``(s4, s5)`` (n, 2), m/s, computed directly (no derivatives)."""
+    q, rate = x[:, 3:7], v[:, 3:7]
+    a = rotate_plain(q, ref.a0)
+    b = np.cross(a, ref.n)
+    el = b / np.linalg.norm(b, axis=1, keepdims=True)
+    et = np.cross(ref.n, el)
+    omega = 2.0 * (q[:, :1] * rate[:, 1:] - q[:, 1:] * rate[:, :1] + np.cross(q[:, 1:],
+                                                                                rate[:, 1:]))
+    vp = v[:, 0:3] + np.cross(omega, x[:, 7:10] - x[:, 0:3])
+    return np.stack([(el * vp).sum(1), (et * vp).sum(1)], axis=1)
+
+
+def wheel_check(st: WheelState, ref: WheelReference):
+    """The first element whose axle has turned vertical (the disc lies flat): ``(row,
+    message)``, or None."""
+    a = st.a / np.linalg.norm(st.a, axis=1, keepdims=True)
+    flat = np.linalg.norm(np.cross(a, st.n), axis=1) <= VERTICAL_TOL
+    if flat.any():
+        return int(np.flatnonzero(flat)[0]), ("the wheel's axle has turned vertical (the disc "
+                                              "lies flat on the ground)")
+    return None
+
+
+class Wheel(ElementKind):
+    """``WHEEL e p r q ax ay az``: a thin rigid disc rolling on the ground (kernels above)."""
+
+    keyword = "WHEEL"
+    slots = ("pos", "rot", "pos")
+    node_roles = ("p", "r", "q")
+    modes = ("contact point off the wheel plane", "contact point off the lowest rim point "
+             "(fore-aft)", "contact point off the rim", "longitudinal slip", "lateral slip",
+             "contact point off the ground")
+    mode_units = ("m",) * 6
+    rate_units = ("m/s",) * 6
+    stress_units = ("N",) * 6
+    deformation_meaning = ("WHEEL deformations: 1-3 and 6 the contact point's place (m), 4-5 "
+                           "the accumulated longitudinal and lateral slip (m)")
+    stress_meaning = ("WHEEL contact forces: 6 the normal force (compression positive), 4-5 "
+                      "the tangential ground forces along the heading and lateral directions, "
+                      "1-3 the forces through the contact node")
+    length_modes = (True,) * 6
+    estiff = None
+    em = None
+    mode_stiffness = ()
+    no_stiffness_why = "tyre compliance"
+    vector = "axle"
+    vector_required = True
+    summary = "thin rigid wheel rolling on the ground (hub p, wheel r, contact point q)"
+    node_fields = (POS_P, ROT_AT_P, POS_Q)
+    vector_fields = (("x component of the axle direction", "ax"),
+                     ("y component of the axle direction", "ay"),
+                     ("z component of the axle direction", "az"))
+    velocity_modes = VELOCITY
+    reference_type = WheelReference
+
+    def reference(self, x0, vector):
+        ref = wheel_reference(x0[0], x0[2], vector)
+        return ref, np.repeat(ref.e0[:, 2:3], N_DEF, axis=1)
+
+    def reference_problems(self, x0, vector):
+        return wheel_reference_problems(np.asarray(x0[0], float), np.asarray(x0[2], float),
+                                        np.asarray(vector, float))
+
+    def state(self, x, ref, variant, prev):
+        return wheel_state(x, ref)
+
+    def hessian(self, st, w):
+        return wheel_weighted_hessian(st, w)
+
+    def stiffness(self, props, ref):
+        return np.zeros((props.shape[0], N_DEF, N_DEF))
+
+    def check(self, st, ref):
+        return wheel_check(st, ref)
+
+    @staticmethod
+    def slip(x, ref):
+        return wheel_slip(x, ref)
+
+    @staticmethod
+    def slip_dx(x, v, ref):
+        return wheel_slip_dx(x, v, ref)
+
+    @staticmethod
+    def slip_force_dx(x, nu, ref):
+        return wheel_slip_force_dx(x, nu, ref)
