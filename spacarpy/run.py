@@ -349,8 +349,7 @@ def _state_space_setup(problem, settings):
     lin_set = settings.linearized
     names = dict(dof_element=layout.element, dof_mode=layout.mode,
                  state_name=layout.state_names,
-                 input_name=[s.name for s in lin_set.inputs],
-                 output_name=[s.name for s in lin_set.outputs])
+                 input_name=lin_set.input_names, output_name=lin_set.output_names)
     return layout, names
 
 

@@ -41,7 +41,7 @@ gravity(x_local, ref, mass, g) -> (f (n, n_ldof), df/dx (n, n_ldof, n_ldof)), op
     Generalized gravity forces of the element's own mass and their derivative.
 
 An optional kernel a kind does not have is ``None`` (the solvers test ``kind.mass is None``).
-The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) live here too, so that the model,
+The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED, KINEMATIC) live here too, so that the model,
 the deck writer and the kernels' users share them without importing one another.
 """
 from __future__ import annotations
@@ -57,6 +57,7 @@ import numpy as np
 RIGID = 0      # not listed in DYNE/RLSE: kept at its initial value (a constraint)
 FLEXIBLE = 1   # listed in DYNE: carries stiffness (ESTIFF required)
 RELEASED = 2   # listed in RLSE: free; carries ESTIFF stiffness if given, else none
+KINEMATIC = 3  # listed in KINE: free, its rate fixed by the non-holonomic constraints (slips)
 
 
 class Fields(NamedTuple):
