@@ -41,7 +41,7 @@ gravity(x_local, ref, mass, g) -> (f (n, n_ldof), df/dx (n, n_ldof, n_ldof)), op
     Generalized gravity forces of the element's own mass and their derivative.
 
 An optional kernel a kind does not have is ``None`` (the solvers test ``kind.mass is None``).
-The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED, KINEMATIC) live here too, so that the model,
+The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) live here too, so that the model,
 the deck writer and the kernels' users share them without importing one another.
 """
 from __future__ import annotations
