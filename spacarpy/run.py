@@ -108,6 +108,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     modes_per_step = settings.linearized.modes_each_step or static_lin
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
+    from spacarpy.solvers.statics.nonholonomic import check_kinematic
+    check_kinematic(problem)       # KINE/KINX against the slips, naming the lines
     if analysis == "check":
         from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))

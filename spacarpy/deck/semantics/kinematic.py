@@ -56,8 +56,9 @@ class _KinematicPass(UsesTopology):
         for i, c in enumerate(st.fields[1:], start=1):
             loc = st.field_locs[i]
             if not 1 <= c <= size:
-                self.error(loc, f"KINX: node {n} is a {kind} node with coordinates 1 to "
-                                f"{size}, got {c}", st)
+                article = "a" if kind == "position" else "an"
+                self.error(loc, f"KINX: node {n} is {article} {kind} node with coordinates 1 "
+                                f"to {size}, got {c}", st)
                 continue
             fix = self.constraints.fix_lines.get((n, c))
             if fix is not None:
