@@ -303,7 +303,7 @@ _KEYWORD_LIST = (
                                           _f("second time derivative of the deformation",
                                              "acceleration")))),
     KeywordSpec("KINE", "kinematic deformation modes (rates fixed by the rolling constraints)",
-                required=(ELEMENT,), variadic=_MODE),
+                required=(ELEMENT,), variadic=_MODE, range_first=True),
     KeywordSpec("KINX", "kinematic nodal coordinates (rates fixed by the rolling constraints)",
                 required=(NODE,), variadic=_COORD),
     _unsupported("DYNX", "dynamic (free) nodal coordinates of a transient analysis",
