@@ -108,8 +108,6 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     modes_per_step = settings.linearized.modes_each_step or static_lin
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
-    from spacarpy.solvers.statics.nonholonomic import check_kinematic
-    check_kinematic(problem)       # KINE/KINX against the slips, naming the lines
     if analysis == "check":
         from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
@@ -190,6 +188,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                             compliance_node=opts.compliance_node, transient=transient,
                             state_space=ss_setup[1] if want_ss else None,
                             arclength=arc is not None)
+        from spacarpy.solvers.statics.nonholonomic import check_kinematic
+        check_kinematic(problem)   # KINE/KINX against the slips, naming the lines (as the
+        #                            static solver's kinematic check, after /model is written)
 
         def on_step(step):
             k = summary.n_steps
