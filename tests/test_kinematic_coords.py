@@ -264,3 +264,106 @@ def test_mode_0_reports_the_total_mass(tmp_path, capsys):
     assert main(["run", str(deck), "--mode", "0", "-q"]) == 0
     # truss from (2, 0, 0) to (0, 3, 0): L = sqrt(13)
     assert f"total mass          {1.5 + 0.25 * np.sqrt(13):.10g} kg" in capsys.readouterr().out
+
+
+def test_spacarpy_check_counts_the_kinematic_coordinates(tmp_path, capsys):
+    deck = tmp_path / "k.dat"
+    deck.write_text(_rod(classes="RLSE 10 1\nKINE 10 2\nKINX 3 3", data="MODE 0"))
+    main(["check", str(deck)])
+    out = capsys.readouterr().out
+    assert "kinematic           2 coordinates (KINE/KINX)" in out
+    assert "slips held          0 (non-holonomic constraints)" in out
+
+
+# -- the benchmark bicycle of docs/rolling.md (issue 32 §3.2), SPACAR's mode-0 counts ---------
+
+_BICYCLE = """SET V 4.6
+SET RR 0.3
+SET RF 0.35
+SET W 1.02
+SET C 0.08
+SET LAM {pi/10}
+X 2  0 0 0
+X 3  0 0 {-RR}
+X 4  0.3 0 -0.9
+X 5  {W+C-0.9*tan(LAM)} 0 -0.9
+X 6  0.9 0 -0.7
+X 7  {W} 0 {-RF}
+X 8  {W} 0 0
+HINGE    1  9 10  0 0 1
+HINGE    2 10 11  1 0 0
+HINGE    3 11 13  0 1 0
+HINGE    4 13 12  0 1 0
+WHEEL    5  3 12 2  0 1 0
+PINBODY  6  4 13 3
+PINBODY  7  4 13 5
+HINGE    8 13 14  {tan(LAM)} 0 1
+PINBODY  9  5 14 6
+PINBODY 10  5 14 7
+HINGE   11 14 15  0 1 0
+WHEEL   12  7 15 8  0 1 0
+FIX 9
+RLSE 3 1
+{classes}
+INPUTE 4 1
+KINE 11 1
+KINX 2 1
+KINX 2 2
+END
+HALT
+XM 3  2.0
+XM 12 0.0603 0 0 0.12 0 0.0603
+XM 4  85.0
+XM 13 9.2 0 2.4 11.0 0 2.8
+XM 6  4.0
+XM 14 0.05892 0 -0.00756 0.06 0 0.00708
+XM 7  3.0
+XM 15 0.1405 0 0 0.28 0 0.1405
+GRAVITY 0 0 9.81
+INPUTE 4 1 0 {-V/RR} 0
+END
+END
+"""
+
+needs_bicycle = pytest.mark.skipif(
+    "WHEEL" not in KINDS or "PINBODY" not in KINDS,
+    reason="needs the WHEEL kind (branch e-wheel)")
+
+
+@needs_bicycle
+def test_benchmark_bicycle_mode_0_counts(tmp_path, capsys):
+    """§3.2's count: 49 coordinates, 4 fixed; 38 holonomic constraints (32 rigid modes, 6
+    Euler normalizations); 7 configuration DOF; 4 slips; 3 velocity DOF (lean, steer and
+    the prescribed rear wheel); 4 kinematic coordinates; total mass 94 kg."""
+    deck = tmp_path / "bike.dat"
+    deck.write_text(_BICYCLE.replace("{classes}", "DYNE 2 1\nDYNE 8 1\nKINE 1 1"))
+    assert main(["run", str(deck), "--mode", "0", "-q"]) == 0
+    out = capsys.readouterr().out
+    for line in (
+            "coordinates         49 (7 position nodes x 3 + 7 orientation nodes x 4), 4 fixed",
+            "holonomic           38 (32 rigid modes + 6 Euler normalizations), 1 prescribed "
+            "mode (rheonomic)",
+            "non-holonomic       4 (WHEEL 5 mode 4, WHEEL 5 mode 5, WHEEL 12 mode 4, WHEEL 12 "
+            "mode 5)",
+            "configuration DOF   7",
+            "velocity DOF        3",
+            "M dynamic           2: HINGE 2 mode 1; HINGE 8 mode 1",
+            "K kinematic         4: KINE 1 1 (line 30); KINE 11 1 (line 32); KINX 2 1 (line "
+            "33); KINX 2 2 (line 34)",
+            "rheonomic           1: HINGE 4 mode 1",
+            "C calculable        1 deformation mode (RLSE): HINGE 3 mode 1, 43 coordinates",
+            "total mass          94 kg"):
+        assert line in out, line
+
+
+@needs_bicycle
+def test_benchmark_bicycle_with_the_lean_kinematic_is_refused(tmp_path, capsys):
+    """Lean declared kinematic (and the yaw dynamic, so that the count fits): the slips do
+    not fix the lean rate, S F_p is singular, exit 3 naming KINE 2 1."""
+    deck = tmp_path / "bike.dat"
+    deck.write_text(_BICYCLE.replace("{classes}", "KINE 2 1\nDYNE 8 1\nDYNE 1 1"))
+    assert main(["run", str(deck), "--mode", "0", "-q"]) == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert "the slips cannot fix the rates of the kinematic coordinates: S F_p has rank 3 of 4" \
+        in err
+    assert "KINE 2 1 (line 28)" in err.split("leave free:")[1]

@@ -358,7 +358,8 @@ def kinematic_report(prob) -> list[str]:
     k = s.slips.shape[0]
     lines = [f"  holonomic           {s.n_rigid + s.n_euler} ({s.n_rigid} rigid modes + "
              f"{s.n_euler} Euler normalizations)"
-             + (f", {s.rheo.shape[0]} prescribed modes (rheonomic)" if s.rheo.shape[0] else ""),
+             + (f", {_plural(s.rheo.shape[0], 'prescribed mode')} (rheonomic)"
+                if s.rheo.shape[0] else ""),
              f"  non-holonomic       {k}" + (f" ({_fmt(s.slip_names, limit=8)})" if k else ""),
              f"  configuration DOF   {counts['config_dof']}",
              f"  velocity DOF        {counts['velocity_dof']}"]
@@ -371,10 +372,10 @@ def kinematic_report(prob) -> list[str]:
                      f"{_fmt(n['rheonomic'], limit=8, sep='; ')}")
     n_kinx = sum(kin.keyword == "KINX" for kin in model.kinematic)
     n_free = int(np.count_nonzero(~num.fixed_mask))
-    lines.append(f"  C calculable        {len(n['C'])} deformation modes (RLSE)"
+    lines.append(f"  C calculable        {_plural(len(n['C']), 'deformation mode')} (RLSE)"
                  + (f": {_fmt(n['C'], limit=8, sep='; ')}" if n["C"] else "")
                  + f", {n_free - n_kinx} coordinates")
     n_fix = sum(len(f.coords) for f in model.fixes)
-    lines.append(f"  O fixed             {len(n['O'])} deformation modes"
+    lines.append(f"  O fixed             {_plural(len(n['O']), 'deformation mode')}"
                  + (f" and {_plural(k, 'slip')}" if k else "") + f", {n_fix} coordinates (FIX)")
     return lines + [mass]
