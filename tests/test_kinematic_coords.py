@@ -242,16 +242,13 @@ def test_rolling_disc_mode_0_counts(tmp_path, capsys):
 
 
 @needs_wheel
-def test_rolling_disc_lean_declared_kinematic_is_singular(tmp_path, capsys):
-    """Lean kinematic (heading and spin dynamic): the lean rate is free, so S F_p is
-    singular; the lateral slip's row repeats (is zero against) the longitudinal one."""
+def test_rolling_disc_with_one_kinematic_coordinate_for_two_slips(tmp_path, capsys):
     deck = tmp_path / "coin.dat"
-    deck.write_text(_COIN.format(classes="DYNE 1 1\nKINE 2 1\nDYNE 3 1\nKINX 2 1"))
+    deck.write_text(_COIN.format(classes="DYNE 1 1\nDYNE 2 1\nDYNE 3 1\nKINX 2 1"))
     assert main(["run", str(deck), "--mode", "0"]) == EXIT_MODEL
     err = capsys.readouterr().err
-    assert ("the slips cannot fix the rates of the kinematic coordinates: S F_p has rank 1 of "
-            "2; dependent slip rows: WHEEL 5 mode 5; kinematic coordinates whose rates the "
-            "slips leave free: KINE 2 1 (line 9)") in err
+    assert ("2 slips held (WHEEL 5 mode 4, WHEEL 5 mode 5), 1 kinematic coordinate declared "
+            "(KINX 2 1 (line 11)): the slips need 2 kinematic coordinates (KINE/KINX)") in err
     assert "Traceback" not in err
 
 

@@ -30,7 +30,6 @@ from spacarpy.solvers.statics.diagnose import (
     NONZERO,
     _fmt,
     dependent_rows,
-    equilibrate,
     numerical_rank,
     unit_rows,
 )
@@ -125,6 +124,7 @@ class KinematicSetup:
     n_rigid: int = 0
     n_euler: int = 0
     n_prescribed_coords: int = 0
+    length_scale: np.ndarray | None = None         # (n_coord,): the model's length or 1
 
 
 def kinematic_setup(prob, x=None) -> KinematicSetup:
@@ -189,6 +189,7 @@ def kinematic_setup(prob, x=None) -> KinematicSetup:
     out.kin = (sp.vstack(kin_rows).tocsr() if kin_rows else sp.csr_matrix((0, num.n_coord)))
     out.kin_names = kin_names
     out.n_prescribed_coords = (len(model.prescribed) + len(model.prescribed_rotations))
+    out.length_scale = np.where(num.is_rotation_coord, 1.0, num.length_scale)
     classes["M"] = [_mode_name(num, *s) for s in flex]
     classes["C"] = [_mode_name(num, *s) for s in rel]
     classes["K"] = kin_names
@@ -216,13 +217,25 @@ def _mode_at(num, e: int, k: int) -> tuple[int, int, int]:
     raise KeyError(e)
 
 
-def _holonomic_rank(hol: np.ndarray) -> int:
-    """The rank of the holonomic rows (dense, rows of unit norm, equilibrated columns)."""
+def _free_scale(setup: KinematicSetup, free) -> np.ndarray | None:
+    return None if setup.length_scale is None else setup.length_scale[np.flatnonzero(free)]
+
+
+def _config_dof(setup: KinematicSetup, free) -> int:
+    """Free coordinates - rank C, plus the prescribed coordinates (INPUTX, INPUTR)."""
+    hol = setup.hol.toarray()[:, np.flatnonzero(free)]
+    return (int(np.count_nonzero(free)) - _holonomic_rank(hol, _free_scale(setup, free))
+            + setup.n_prescribed_coords)
+
+
+def _holonomic_rank(hol: np.ndarray, scale: np.ndarray | None) -> int:
+    """The rank of the holonomic rows over the free coordinates (dense; positions in units
+    of the model's length ``scale``, rows of unit norm)."""
     if hol.shape[0] == 0 or hol.shape[1] == 0:
         return 0
     if hol.shape[1] > RANK_LIMIT:
         return hol.shape[0]
-    scaled, _, _ = equilibrate(unit_rows(hol))
+    scaled = unit_rows(hol * (1.0 if scale is None else scale[None, :]))
     return numerical_rank(scaled, right=False)[0].rank
 
 
@@ -246,6 +259,20 @@ def _fp(setup: KinematicSetup, free) -> tuple[np.ndarray | None, str]:
                 np.abs(M @ F - rhs).max() <= SOLVE_RTOL * scale * max(np.abs(F).max(), 1.0):
             return F, label
     return None, ""
+
+
+def _dimensionless(setup: KinematicSetup, free, F) -> np.ndarray:
+    """``S F_p`` without units, for its rank: positions in units of the model's length
+    (``x~ = x / l``, Euler parameters as they are), each column of F_p (a motion) and each
+    slip row of unit norm. Not an equilibration of ``S F_p`` itself: that would blow a
+    column that is zero up to round-off (a rate the slips do not see) up to one."""
+    idx = np.flatnonzero(free)
+    scale = _free_scale(setup, free)
+    scale = np.ones(idx.size) if scale is None else scale
+    Ft = F / scale[:, None]
+    Ft = Ft / np.maximum(np.linalg.norm(Ft, axis=0), np.finfo(float).tiny)
+    St = unit_rows(setup.slips.tocsc()[:, idx].toarray() * scale[None, :])
+    return St @ Ft
 
 
 def check_kinematic(prob) -> dict | None:
@@ -276,8 +303,7 @@ def check_kinematic(prob) -> dict | None:
     free = ~num.fixed_mask
     F, label = kinematic_map(setup, free)
     k, n_kin = setup.slips.shape[0], setup.kin.shape[0]
-    hol = setup.hol.toarray()[:, free] if k or n_kin else None
-    conf = (int(np.count_nonzero(free)) - _holonomic_rank(hol) + setup.n_prescribed_coords)
+    conf = _config_dof(setup, free)
     return {"setup": setup, "config_dof": conf, "velocity_dof": conf - k, "dof_set": label,
             "F_p": F}
 
@@ -294,8 +320,7 @@ def kinematic_map(setup: KinematicSetup, free) -> tuple[np.ndarray, str]:
     k, n_kin = setup.slips.shape[0], setup.kin.shape[0]
     F, label = _fp(setup, free)
     if F is None:
-        hol = setup.hol.toarray()[:, free]
-        conf = int(np.count_nonzero(free)) - _holonomic_rank(hol) + setup.n_prescribed_coords
+        conf = _config_dof(setup, free)
         dyn = [rows.shape[0] for _, rows, _ in setup.dyn_sets]
         raise ModelError(
             f"the dynamic, rheonomic and kinematic coordinates do not parameterize the "
@@ -304,10 +329,8 @@ def kinematic_map(setup: KinematicSetup, free) -> tuple[np.ndarray, str]:
             f"{setup.rheo.shape[0] + setup.n_prescribed_coords} rheonomic (INPUTE, INPUTX, "
             f"INPUTR) and {n_kin} kinematic (KINE/KINX) coordinates, or they are not "
             "independent")
-    SF = (setup.slips.tocsc()[:, np.flatnonzero(free)] @ F) if k else np.zeros((0, 0))
     if k:
-        scaled, _, _ = equilibrate(unit_rows(SF))
-        rank, N, L = numerical_rank(scaled, right=True, left=True)
+        rank, N, L = numerical_rank(_dimensionless(setup, free, F), right=True, left=True)
         if rank.rank < k:
             dep, _ = dependent_rows(L)
             loose = sorted({j for col in N.T for j in np.flatnonzero(
