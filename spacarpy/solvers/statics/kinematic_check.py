@@ -190,8 +190,9 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
     order = sorted(range(len(num.groups)),
                    key=lambda i: all(s == "rot" for s in num.groups[i].kind.slots))
     for g, st in ((num.groups[i], ev.states[i]) for i in order):
+        slips = getattr(g.kind, "velocity_modes", ())    # velocity level: not in C
         for e in range(g.n_elem):
-            for k in range(g.def_class.shape[1]):
+            for k in (k for k in range(g.def_class.shape[1]) if k not in slips):
                 r = np.zeros(num.n_coord)
                 np.add.at(r, g.idx[e], st.D[e, k])
                 rows.append(r)
