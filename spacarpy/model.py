@@ -20,15 +20,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.elements.base import FLEXIBLE, RELEASED, RIGID
+from spacarpy.elements.base import FLEXIBLE, KINEMATIC, RELEASED, RIGID
 from spacarpy.elements.registry import KINDS, kind_of
 from spacarpy.errors import SourceLoc
 
-__all__ = ["FLEXIBLE", "RELEASED", "RIGID", "ElementSet", "Fix", "Load", "Model", "NodalMass",
-           "Prescribed", "PrescribedDeformation", "PrescribedRotation"]
+__all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "ElementSet", "Fix", "Kinematic",
+           "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
+           "PrescribedRotation"]
 
-# The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) are declared with the element
-# kinds and re-exported here.
+# The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED, KINEMATIC) are declared with
+# the element kinds and re-exported here.
 
 def _columns(values, n: int, width: int) -> np.ndarray:
     """``values`` as (n, width) floats: missing trailing columns are 0, extra ones dropped."""
@@ -58,7 +59,7 @@ class ElementSet:
         local y-axis, not yet orthogonalized; HINGE the axis). Rows of NaN mean "not given"
         (the kind's default rule applies); always NaN for kinds without one.
     def_class : (n_elem, n_def) int8
-        RIGID, FLEXIBLE or RELEASED per deformation mode.
+        RIGID, FLEXIBLE, RELEASED or KINEMATIC per deformation mode.
     stiffness : (n_elem, n_estiff) float
         ESTIFF values in the kind's layout (BEAM ``EA, GJ, EIy, EIz, cy, cz``; TRUSS ``EA``;
         HINGE ``k k2 k3``; ...), missing trailing values 0; zero rows where no ESTIFF was
@@ -116,6 +117,24 @@ class Fix:
     node: int
     coords: tuple[int, ...]
     loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
+class Kinematic:
+    """A kinematic coordinate (SPACAR's class K, docs/rolling.md): ``KINX node coord`` (a
+    nodal coordinate, ``keyword == "KINX"``, ``target`` the node) or ``KINE element mode``
+    (a deformation mode, ``target`` the element; that mode's ``def_class`` is KINEMATIC).
+    Free in the holonomic constraints; its rate follows from the slips held at zero."""
+
+    keyword: str
+    target: int
+    number: int
+    loc: SourceLoc | None = None
+
+    @property
+    def name(self) -> str:
+        """The deck line, ``KINX 2 1``."""
+        return f"{self.keyword} {self.target} {self.number}"
 
 
 @dataclass(frozen=True)
@@ -243,6 +262,9 @@ class Model:
         resultant of a flexible or released mode is ``sigma0 + S e``.
     initial_rates : dict
         (element, mode) -> initial deformation rate of a transient run (STARTDE).
+    kinematic : list of Kinematic
+        The kinematic coordinates (KINX) and deformations (KINE), in deck order; a KINE
+        entry marks its mode KINEMATIC in the element set's ``def_class``.
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
     """
@@ -264,6 +286,7 @@ class Model:
     element_damping: dict = field(default_factory=dict)   # element -> EDAMP values per mode
     element_prestress: dict = field(default_factory=dict)  # element -> ESIG values per mode
     initial_rates: dict = field(default_factory=dict)      # (element, mode) -> STARTDE rate
+    kinematic: list = field(default_factory=list)          # KINX / KINE lines (Kinematic)
     source_path: str = "<model>"
     source_text: str = ""
 
@@ -276,6 +299,13 @@ class Model:
                 raise ValueError(f"elements[{keyword!r}] holds {es.kind} elements")
         self.elements = {k: self.elements[k] for k in KINDS
                          if k in self.elements and self.elements[k].n_elem}
+        for kin in self.kinematic:
+            if kin.keyword != "KINE":
+                continue
+            for es in self.elements.values():
+                hit = np.flatnonzero(es.ids == kin.target)
+                if hit.size and 1 <= kin.number <= es.def_class.shape[1]:
+                    es.def_class[hit[0], kin.number - 1] = KINEMATIC
 
     @property
     def n_elem(self) -> int:

@@ -130,7 +130,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     analysis = settings.analysis
     static_lin = analysis == "static_linearized"          # SPACAR mode 10
     modes_per_step = settings.linearized.modes_each_step or static_lin
-    refuse_velocity_modes(model, analysis)
+    if analysis != "check":                                 # mode 0 reports the slips
+        refuse_velocity_modes(model, analysis)
     problem = StaticProblem(model, deformations=settings.deformations)
     num = problem.num
     if analysis == "check":
@@ -213,6 +214,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                             compliance_node=opts.compliance_node, transient=transient,
                             state_space=ss_setup[1] if want_ss else None,
                             arclength=arc is not None)
+        from spacarpy.solvers.statics.nonholonomic import check_kinematic
+        check_kinematic(problem)   # KINE/KINX against the slips, naming the lines (as the
+        #                            static solver's kinematic check, after /model is written)
 
         def on_step(step):
             k = summary.n_steps
@@ -374,8 +378,7 @@ def _state_space_setup(problem, settings):
     lin_set = settings.linearized
     names = dict(dof_element=layout.element, dof_mode=layout.mode,
                  state_name=layout.state_names,
-                 input_name=[s.name for s in lin_set.inputs],
-                 output_name=[s.name for s in lin_set.outputs])
+                 input_name=lin_set.input_names, output_name=lin_set.output_names)
     return layout, names
 
 

@@ -160,14 +160,15 @@ class StaticSettings:
 @dataclass(frozen=True)
 class SystemSignal:
     """One input or output of the linearized state-space system (SPACAR mode 9), a deck line
-    ``INPUTF i n c``, ``OUTX i n c``, ``OUTXP i n c``, ``OUTE i e k`` or ``OUTEP i e k``.
+    ``INPUTF i n c``, ``INPUTS i e k``, ``OUTX i n c``, ``OUTXP i n c``, ``OUTE i e k`` or
+    ``OUTEP i e k``.
 
     keyword : str
-        ``INPUTF``, ``OUTX``, ``OUTXP``, ``OUTE`` or ``OUTEP``.
+        ``INPUTF``, ``INPUTS``, ``OUTX``, ``OUTXP``, ``OUTE`` or ``OUTEP``.
     index : int
         ``i``: the signal's number among the inputs / outputs (1 = first).
     target : int
-        The deck node (INPUTF, OUTX, OUTXP) or element (OUTE, OUTEP).
+        The deck node (INPUTF, OUTX, OUTXP) or element (INPUTS, OUTE, OUTEP).
     number : int
         The node's coordinate (1..3 x y z; 1..4 lambda0..lambda3) or the element's mode.
     """
@@ -200,6 +201,23 @@ class LinearizedSettings:
     def count(self) -> int:
         """The number of modes to compute."""
         return self.n_modes or 10
+
+    @property
+    def input_names(self) -> list[str]:
+        """The name of each input column, 1..the largest input number: the deck line, or
+        ``(no input i)`` for a number without a line (a zero column)."""
+        return signal_names(self.inputs, "input")
+
+    @property
+    def output_names(self) -> list[str]:
+        """The name of each output row (``(no output i)`` for a gap: a zero row)."""
+        return signal_names(self.outputs, "output")
+
+
+def signal_names(signals, what: str) -> list[str]:
+    """The names of the signals by number 1..max (``(no input 3)`` for a gap)."""
+    by_index = {s.index: s.name for s in signals}
+    return [by_index.get(i, f"(no {what} {i})") for i in range(1, max(by_index, default=0) + 1)]
 
 
 @dataclass(frozen=True)

@@ -88,7 +88,8 @@ def result_files(tmp_path_factory) -> dict:
     ``bend``: Table 2 (static, 8 elements); ``frame``: the portal frame with cross-sections
     (surface stresses); ``column``: eigen analysis with frequencies and buckling multipliers at
     every step and a compliance; ``arclength``: the two-bar truss followed by arc length (its
-    critical points); ``failed``: a run that stopped with an error (partial file).
+    critical points); ``failed``: a run that stopped with an error (partial file);
+    ``kinematic``: KINE/KINX without slips, stopped after /model (partial file).
     """
     tmp = tmp_path_factory.mktemp("results")
     runs = {
@@ -143,6 +144,13 @@ def result_files(tmp_path_factory) -> dict:
         assert main(["run", str(tmp / f"{deck}.dat"), "-o", str(out), "-q", *extra]) == 0
         files[key] = out
     files["wheel"] = _wheel_file(tmp / "wheel.h5")
+    # kinematic coordinates without slips: stopped by the check after /model is written
+    (tmp / "kinematic.dat").write_text(
+        "X 1 0 0 0\nX 3 2 0 0\nRBEAM 1 1 4 3 0 1 0\nHINGE 10 2 4 0 0 1\nDYNE 10 1\n"
+        "KINE 10 2\nKINX 3 3\nFIX 1\nFIX 2\nEND\nHALT\nESTIFF 10 3\nEND\nEND\n")
+    assert main(["run", str(tmp / "kinematic.dat"), "-o", str(tmp / "kinematic.h5"),
+                 "-q"]) == 3
+    files["kinematic"] = tmp / "kinematic.partial.h5"
     shutil.copy(DECKS / "table1_cantilever_1el_basic.dat", tmp / "bad.dat")
     assert main(["run", str(tmp / "bad.dat"), "-o", str(tmp / "failed.h5"), "-q"]) == 1
     files["failed"] = tmp / "failed.partial.h5"

@@ -28,6 +28,7 @@ _SYMBOLS = {"step": "n_step", "time_step": "n_t", "linearized_step": "n_lin",
             "mode": "n_mode", "position_node": "n_pos", "orientation_node": "n_rot",
             "reaction": "n_reac", "coordinate": "3", "euler_parameter": "4",
             "global_coordinate": "n_coord", "load": "n_load", "input": "n_input",
+            "kinematic": "n_kinematic",
             "checked_dataset": "n_checked", "dof": "n_dof", "state": "n_state",
             "system_input": "n_in", "system_output": "n_out"}
 

@@ -123,8 +123,7 @@ DATA = "END\nHALT\nESTIFF 1 1 1 1 1\n"
 
 
 @pytest.mark.parametrize("line", [
-    "TUBE 2 3 4 5 6 0 0 1", "SCREW 2 2 4 0.01",
-    "KINX 3 1", "KINE 1 1", "INPUTS 1 1", "ENHC 1",
+    "TUBE 2 3 4 5 6 0 0 1", "SCREW 2 2 4 0.01", "ENHC 1",
 ])
 def test_spacar_keywords_without_a_known_layout_are_refused(line):
     """Any fields; one error at the keyword, the SPACAR message, nothing else (a DYNE line

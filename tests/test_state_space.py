@@ -300,7 +300,6 @@ def _deck(signals="INPUTF 1 5 2\nOUTX 1 5 2", fix="", rot="2e-3 1e-3 1e-3 0"):
     ("OUTE 1 3 1", "OUTE: element 3 is not defined"),
     ("OUTEP 1 2 7", "OUTEP: element 2 (BEAM) has deformation modes 1..6, got 7"),
     ("OUTX 1 5 1\nOUTE 1 2 1", "d.dat:20:6: error: OUTE: output 1 is already defined (line 19)"),
-    ("INPUTF 2 5 1", "INPUTF: input 2, but there are 1 inputs: number them 1..1"),
 ])
 def test_signal_deck_errors(signals, message):
     with pytest.raises(DeckError) as err:

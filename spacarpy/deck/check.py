@@ -24,6 +24,7 @@ from spacarpy.deck.semantics import build_job
 from spacarpy.deck.statement import Statement
 from spacarpy.deck.textfile import read_deck_text
 from spacarpy.deck.visualization import collect_cross_sections
+from spacarpy.elements.registry import KINDS
 from spacarpy.errors import DeckError
 from spacarpy.model import FLEXIBLE, RELEASED, RIGID, Model
 from spacarpy.settings import AnalysisSettings, resolve_analysis, resolve_deformations
@@ -57,6 +58,8 @@ class DeckSummary:
     n_euler_constraints: int | None = None
     dof: int | None = None
     loads: dict = field(default_factory=dict)           # XF/DELXF -> number of lines
+    kinematic: int = 0                                  # KINE and KINX coordinates
+    slips_held: int = 0                                 # velocity-level modes not released
     forces: int | None = None
     moments: int | None = None
     nodal_masses: int = 0
@@ -105,6 +108,9 @@ class DeckSummary:
                                         f"{self.n_euler_constraints} Euler normalisations)"))
             rows.append(("degrees of freedom", f"{self.dof} ({self.n_coord - self.n_fixed} "
                                                f"free coordinates - {n_con} constraints)"))
+            if self.kinematic or self.slips_held:
+                rows.append(("slips held", f"{self.slips_held} (non-holonomic constraints)"))
+                rows.append(("kinematic", f"{self.kinematic} coordinates (KINE/KINX)"))
         else:
             rows.append(("coordinates", "n/a"))
             rows.append(("degrees of freedom", "n/a"))
@@ -264,6 +270,10 @@ def _from_model(s: DeckSummary, model: Model, settings: AnalysisSettings) -> Non
     s.n_rigid_constraints = num.n_rigid
     s.n_euler_constraints = int(num.euler_nodes.size)
     s.dof = num.n_unknown - num.n_constraint
+    s.kinematic = len(model.kinematic)
+    s.slips_held = sum(int(np.count_nonzero(es.def_class[:, m] == RIGID))
+                       for kw, es in model.elements.items()
+                       for m in getattr(KINDS[kw], "velocity_modes", ()))
     positions = set(model.position_ids.tolist())
     s.forces = sum(ld.node in positions for ld in model.loads)
     s.moments = len(model.loads) - s.forces

@@ -7,7 +7,7 @@ their meaning. Every SPACAR keyword has its real field layout here, also the one
 analyse yet (``supported=False``): those are parsed and checked like the others, so that
 field-count errors are meaningful and the typed values are kept, and the model builder refuses
 them with "SPACAR keyword KEYWORD is not supported yet" (:func:`unsupported_message`). Real
-SPACAR keywords whose layouts are not publicly known (TUBE, SCREW, KINX, ...) take any
+SPACAR keywords whose layouts are not publicly known (TUBE, SCREW, ENHC) take any
 fields and are refused the same way, never as "unknown keyword". The layouts come from
 ../shared/spacar/README.md and the decks of SPACAR's front ends; docs/deck.md documents them.
 """
@@ -217,9 +217,6 @@ def _unsupported(name, summary, section, **kw) -> KeywordSpec:
 _SPACAR_ONLY = (
     ("TUBE", "SPACAR tube element (element type 16)", "element"),
     ("SCREW", "SPACAR screw element (element type 17)", "element"),
-    ("KINX", "SPACAR kinematic nodal coordinates (rolling contact)", "kinematics"),
-    ("KINE", "SPACAR kinematic deformation modes (rolling contact)", "kinematics"),
-    ("INPUTS", "SPACAR INPUTS line (layout not publicly documented)", "kinematics"),
     ("ENHC", "SPACAR ENHC line (layout not publicly documented)", "kinematics"),
 )
 
@@ -308,6 +305,10 @@ _KEYWORD_LIST = (
                                           _f("initial rate of the deformation", "velocity"),
                                           _f("second time derivative of the deformation",
                                              "acceleration")))),
+    KeywordSpec("KINE", "kinematic deformation modes (rates fixed by the rolling constraints)",
+                required=(ELEMENT,), variadic=_MODE, range_first=True),
+    KeywordSpec("KINX", "kinematic nodal coordinates (rates fixed by the rolling constraints)",
+                required=(NODE,), variadic=_COORD),
     _unsupported("DYNX", "dynamic (free) nodal coordinates of a transient analysis",
                  "kinematics", required=(NODE,), variadic=_COORD),
     # ------------------------------------------------------------------ elements
@@ -402,6 +403,9 @@ _KEYWORD_LIST = (
                 optional=((_f("second output level", "level2", "int"),),)),
     KeywordSpec("INPUTF", "input of the linearized system: a force on a coordinate",
                 section="output", required=_IO_FIELDS),
+    KeywordSpec("INPUTS", "input of the linearized system: a stress resultant on a "
+                "deformation mode", section="output",
+                required=(_f("input index", "i", "int", True), ELEMENT, _MODE)),
     KeywordSpec("OUTX", "output of the linearized system: a position coordinate",
                 section="output", required=_IO_FIELDS),
     KeywordSpec("OUTXP", "output of the linearized system: a velocity coordinate",

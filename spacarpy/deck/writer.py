@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from spacarpy.elements.base import FLEXIBLE, RELEASED
+from spacarpy.elements.base import FLEXIBLE, KINEMATIC, RELEASED
 from spacarpy.elements.registry import KINDS
 from spacarpy.settings import AnalysisSettings
 
@@ -94,6 +94,18 @@ def _quoted(value) -> str:
     return f'"{value}"' if isinstance(value, str) else format_value(value)
 
 
+def _kinematic_lines(model) -> list[str]:
+    """KINE and KINX lines: the model's kinematic list in its order, then KINE lines for the
+    KINEMATIC modes it does not list (a model built in Python)."""
+    out = [format_record(kin.keyword, kin.target, kin.number) for kin in model.kinematic]
+    listed = {(kin.target, kin.number) for kin in model.kinematic if kin.keyword == "KINE"}
+    for es in model.elements.values():
+        for r, m in zip(*np.nonzero(es.def_class == KINEMATIC)):
+            if (int(es.ids[r]), int(m) + 1) not in listed:
+                out.append(format_record("KINE", int(es.ids[r]), int(m) + 1))
+    return out
+
+
 def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sections=None,
                   compact: bool = False, title: str | None = None) -> str:
     """Write a model and its analysis settings as deck text that reads back into an equal
@@ -152,6 +164,7 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
             data = [tuple(int(k) + 1 for k in np.flatnonzero(row == cls)) or None
                     for row in es.def_class]
             out += _element_lines(keyword, es.ids, data, compact)
+    out += _kinematic_lines(model)
     position_nodes = set(model.position_ids.tolist())
     for fix in model.fixes:
         size = 3 if fix.node in position_nodes else 4

@@ -70,6 +70,7 @@ import numpy as np
 RIGID = 0      # not listed in DYNE/RLSE: kept at its initial value (a constraint)
 FLEXIBLE = 1   # listed in DYNE: carries stiffness (ESTIFF required)
 RELEASED = 2   # listed in RLSE: free; carries ESTIFF stiffness if given, else none
+KINEMATIC = 3  # listed in KINE: free, its rate fixed by the non-holonomic constraints (slips)
 
 
 class Fields(NamedTuple):

@@ -85,6 +85,10 @@ def model_datasets(model: Model, num=None) -> dict:
     if model.prescribed_deformations:
         out["model/input_deformation"] = np.array(
             [[pd.element, pd.mode] for pd in model.prescribed_deformations], dtype=np.int64)
+    for keyword, name in (("KINE", "deformation"), ("KINX", "coordinate")):
+        rows = [[k.target, k.number] for k in model.kinematic if k.keyword == keyword]
+        if rows:
+            out[f"model/kinematic_{name}"] = np.array(rows, dtype=np.int64)
     loads = list(model.loads)
     out["model/load_node"] = np.array([ld.node for ld in loads], dtype=np.int64)
     out["model/load_type"] = np.array([ld.kind.encode("ascii") for ld in loads], dtype="S5")

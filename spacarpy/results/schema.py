@@ -56,7 +56,7 @@ REACTION_UNITS = "N | N m (see reaction_component)"
 #: Names of the ``/eigen/kind`` codes.
 MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite")
 #: Names of the deformation classes in ``/model/elements/BEAM/deformation_class``.
-DEFORMATION_CLASS_NAMES = ("rigid", "flexible", "released")
+DEFORMATION_CLASS_NAMES = ("rigid", "flexible", "released", "kinematic")
 #: Element kinds, in the order their groups are written.
 KIND_NAMES = tuple(_KINDS)
 
@@ -166,6 +166,12 @@ def _spec_list() -> list[DatasetSpec]:
         S("model/input_deformation", "i8", ("input", 2), "1",
           "[element, mode] of each prescribed deformation (INPUTE), present when the model "
           "has them", (1, 2), optional=True),
+        S("model/kinematic_deformation", "i8", ("kinematic", 2), "1",
+          "[element, mode] of each kinematic deformation (KINE), present when the model has "
+          "them", (2, 11), optional=True),
+        S("model/kinematic_coordinate", "i8", ("kinematic", 2), "1",
+          "[node, coordinate] of each kinematic nodal coordinate (KINX), present when the "
+          "model has them", (2, 11), optional=True),
         S("model/load_node", "i8", ("load",), "1", "deck node number of each nodal load line",
           v11),
         S("model/load_type", "ascii", ("load",), "1",
@@ -338,7 +344,8 @@ def _spec_list() -> list[DatasetSpec]:
           "initial element axes: rows x (p to q), y, z as unit vectors in global axes",
           v11, "BEAM"),
         S(f"{b}/deformation_class", "i1", ("element", "deformation_mode"), "1",
-          "class of each deformation mode: 0 rigid, 1 flexible (DYNE), 2 released (RLSE)",
+          "class of each deformation mode: 0 rigid, 1 flexible (DYNE), 2 released (RLSE), "
+          "3 kinematic (KINE)",
           v11, "BEAM"),
         S(f"{b}/stiffness", "f8", ("element", 6), "N | N m2 | N m2 | N m2 | m2 | m2",
           "ESTIFF: EA, GJ, EIy, EIz, cy = EIy/kGA, cz = EIz/kGA (0 where not given)",

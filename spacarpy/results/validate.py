@@ -207,7 +207,8 @@ def _sizes(sf: SchemaFile, kinds: list) -> dict:
         "euler_parameter": 4, "reaction": rows("static/reaction_node"),
         "global_coordinate": (3 * n_pos + 4 * n_rot if n_pos is not None and n_rot is not None
                               else None),
-        "load": rows("model/load_node"), "input": None, "sections": sections,
+        "load": rows("model/load_node"), "input": None, "kinematic": None,
+        "sections": sections,
         "dof": rows("state_space/dof_element"),
         "state": (2 * rows("state_space/dof_element")
                   if rows("state_space/dof_element") is not None else None),

@@ -3,7 +3,8 @@
 Runs the parts in order, each ``from_statements(by_kw, ctx, errors, ...)``: the generators
 (BEAMS, BEAMARC) are expanded first (:mod:`spacarpy.deck.generators`) and the cross-sections
 read once (:mod:`spacarpy.deck.visualization`); then :mod:`.topology`,
-:mod:`.element_data`, :mod:`.constraints`, :mod:`.loads`, :mod:`.settings` and
+:mod:`.element_data`, :mod:`.constraints`, :mod:`.kinematic`, :mod:`.loads`,
+:mod:`.settings` and
 :mod:`.signals`, and the checks
 that need several of them (unconnected nodes, cross-sections of missing elements). Keywords
 spacarpy recognises but does not implement yet are refused with "SPACAR keyword KEYWORD is not
@@ -27,6 +28,7 @@ from spacarpy.deck.parser import gc_paused, parse_deck
 from spacarpy.deck.semantics import arrays as _arrays
 from spacarpy.deck.semantics import constraints as _constraints
 from spacarpy.deck.semantics import element_data as _element_data
+from spacarpy.deck.semantics import kinematic as _kinematic
 from spacarpy.deck.semantics import loads as _loads
 from spacarpy.deck.semantics import settings as _settings
 from spacarpy.deck.semantics import signals as _signals
@@ -116,6 +118,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     topology = _topology.from_statements(by_kw, ctx, errors)
     element_data = _element_data.from_statements(by_kw, ctx, errors, topology)
     constraints = _constraints.from_statements(by_kw, ctx, errors, topology)
+    kinematic = _kinematic.from_statements(by_kw, ctx, errors, topology, constraints)
     loads = _loads.from_statements(by_kw, ctx, errors, topology, constraints)
     settings = _settings.from_statements(by_kw, ctx, errors, topology,
                                          deformations=deformations, analysis=analysis)
@@ -151,6 +154,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         element_damping=element_data.element_damping,
         element_prestress=element_data.prestress,
         initial_rates=element_data.initial_rates,
+        kinematic=kinematic,
         source_path=path,
         source_text=text,
     )

@@ -7,7 +7,8 @@ second derivative at t = 0), INPUTR/DELINPR turn an orientation node about a fix
 (spacarpy extension; a planar deck's INPUTX on an orientation node means the same). Checked
 here: nodes and elements that do not exist, coordinate and mode numbers out of range, a
 coordinate both fixed and prescribed, a deformation both prescribed and flexible or released,
-values given twice or for inputs never declared.
+values given twice or for inputs never declared. A data-module INPUTE on a free mode (DYNE,
+RLSE, KINE) draws a warning and is ignored, as SPACAR 2019 does.
 """
 from __future__ import annotations
 
@@ -186,6 +187,13 @@ class Constraints(UsesTopology):
         """``INPUTE e k value`` (data module) or ``DELINPE e k delta``."""
         e, k, value = st.fields[0], st.fields[1], float(st.fields[2])
         entry = self.input_deformations.get((e, k))
+        if entry is None and st.keyword == "INPUTE" and self._stray(e, k):
+            # SPACAR 2019 prints "* Invalid deformation parameter k" for such a line and
+            # goes on (a dynamics-module INPUTE on a DYNE mode, docs/deck.md)
+            self.errors.warn(f"{st.loc}: INPUTE {e} {k}: deformation {k} of element "
+                             f"{e} is not prescribed (it is not INPUTE in the kinematics "
+                             "module); the line is ignored, as SPACAR does")
+            return
         if entry is None:
             el = self.beams.get(e)
             if el is not None and k - 1 in KINDS[el.keyword].velocity_modes:
@@ -198,6 +206,17 @@ class Constraints(UsesTopology):
         self._input_value(entry, "delta" if st.keyword == "DELINPE" else "initial", value, st,
                           f"deformation {k} of element {e}")
         self._rates(entry, st)
+
+    def _stray(self, e: int, k: int) -> bool:
+        """Whether deformation k of element e is a free mode (DYNE, RLSE or KINE): a
+        data-module INPUTE there is SPACAR's "invalid deformation parameter", ignored."""
+        el = self.beams.get(e)
+        if el is None or not 1 <= k <= len(el.def_class):
+            return False
+        if el.def_class[k - 1] != RIGID:
+            return True
+        return any(kin.fields[0] == e and k in kin.fields[1:]
+                   for kin in self.ctx.by_keyword.get("KINE", ()))
 
     def inputr_declare(self, st: Statement) -> None:
         """``INPUTR n ax ay az``: orientation node n turns about the axis (all of its Euler

@@ -1,14 +1,17 @@
-"""Deck semantics, the state-space signals: INPUTF, OUTX, OUTXP, OUTE and OUTEP.
+"""Deck semantics, the state-space signals: INPUTF, INPUTS, OUTX, OUTXP, OUTE and OUTEP.
 
 The inputs and outputs of the linearized system of SPACAR mode 9 (docs/deck.md,
 "Linearization output"): ``INPUTF i n c`` (input i is a force on coordinate c of node n),
+``INPUTS i e k`` (input i is a stress resultant on deformation k of element e),
 ``OUTX i n c`` / ``OUTXP i n c`` (output i is the position / velocity of coordinate c of node
 n) and ``OUTE i e k`` / ``OUTEP i e k`` (output i is deformation k of element e / its rate).
 In a planar model a position node has the coordinates 1, 2 (x, y) and an orientation node
 the one coordinate 1, its rotation about z (as for INPUTX). Checked here: nodes and elements
 that do not exist, coordinate and mode numbers out of range,
-and the numbering: the inputs and the outputs are each numbered 1..n, every number once (the
-four output keywords share one numbering, as in SPACAR's output vector).
+and the numbering: the inputs and the outputs are each numbered from 1, every number once (the
+four output keywords share one numbering, as in SPACAR's output vector). A number without a
+line (a gap, as where a real deck comments an INPUTS line out) is a zero column or row of the
+state space and draws a warning naming it.
 """
 from __future__ import annotations
 
@@ -19,7 +22,7 @@ from spacarpy.settings import SystemSignal
 
 __all__ = ["INPUT_KEYWORDS", "OUTPUT_KEYWORDS", "from_statements"]
 
-INPUT_KEYWORDS = ("INPUTF",)
+INPUT_KEYWORDS = ("INPUTF", "INPUTS")
 OUTPUT_KEYWORDS = ("OUTX", "OUTXP", "OUTE", "OUTEP")
 _NODE_KEYWORDS = ("INPUTF", "OUTX", "OUTXP")
 
@@ -87,11 +90,15 @@ class _SignalsPass(UsesTopology):
             sig = self.signal(st)
             if sig is not None:
                 out.append(sig)
-        n = len(seen)
-        for st in sts:
-            if seen.get(st.fields[0]) is st and st.fields[0] > n:
-                self.error(st.field_locs[0], f"{st.keyword}: {what} {st.fields[0]}, but there "
-                                             f"are {n} {what}s: number them 1..{n}", st)
+        missing = sorted(set(range(1, max(seen, default=0) + 1)) - set(seen))
+        if missing:
+            last = max(seen)
+            self.errors.warn(f"{seen[last].loc}: {what}s are numbered up to {last}, but "
+                             f"{what} number{'s' * (len(missing) > 1)} "
+                             f"{', '.join(map(str, missing))} "
+                             f"{'have' if len(missing) > 1 else 'has'} no line: "
+                             f"{'zero columns' if what == 'input' else 'zero rows'} of the "
+                             "state space")
         return tuple(sorted(out, key=lambda s: s.index))
 
 

@@ -8,7 +8,7 @@ linearized constraints ``C dx = 0`` (:mod:`spacarpy.solvers.linear.linearize`), 
 
 with K = K0 + G0 + N0 the tangent the eigen analysis uses, C_d the damping (DAMPING's
 ``alpha M + beta K0`` and EDAMP's ``D^T diag(d) D``; at a static state the velocity-dependent
-terms vanish), F the INPUTF columns and O the output rows. The degrees of freedom q are
+terms vanish), F the INPUTF and INPUTS columns and O the output rows. The degrees of freedom q are
 SPACAR's: the flexible deformation modes (DYNE), with RLSE modes added when the DYNE modes
 alone are too few. With ``E`` the rows of the chosen deformations, the coordinates follow
 from q by ``dx = Phi q``, where Phi is the one solution of ``C Phi = 0, E Phi = I``
@@ -29,8 +29,11 @@ generalized force on lambda_j, j = 1..3, is the moment 1/2 about axis j). ``OUTX
 ``OUTXP`` give that coordinate's change / rate (on an orientation node the Euler parameter:
 about the identity, ``dlambda_j = dphi_j / 2``). In a planar model the orientation node's one
 coordinate is its rotation about z: a moment about z in, the rotation angle out (as INPUTX
-reads it there). ``OUTE`` / ``OUTEP`` give deformation k of element e and its rate. Outputs
-and inputs on fixed coordinates are zero rows / columns.
+reads it there). ``OUTE`` / ``OUTEP`` give deformation k of element e and its rate.
+``INPUTS i e k`` is a unit stress resultant on deformation k of element e (an actuator in a
+joint): its generalized force is ``-D_k^T``, so that ``B0`` gets ``-Phi^T D_k^T`` (ESIG's
+sign: a positive stress resultant drives its mode negative). Outputs and inputs on fixed
+coordinates are zero rows / columns; so are the numbers without a line (gaps).
 """
 from __future__ import annotations
 
@@ -253,12 +256,25 @@ def dof_map(lin, num, free, layout: DofLayout) -> np.ndarray:
     return T @ np.linalg.solve(W, np.eye(layout.n_dof)) if layout.n_dof else T
 
 
+def _slots(signals) -> int:
+    """The number of inputs or outputs: the largest number (a gap is a zero column/row)."""
+    return max((s.index for s in signals), default=0)
+
+
 def input_columns(lin, num, free, model, inputs) -> np.ndarray:
-    """F (n_x, n_in): the generalized forces of the unit inputs at the state of ``lin``."""
+    """F (n_x, n_in): the generalized forces of the unit inputs at the state of ``lin``,
+    column i - 1 for input i (zero for a number without a line). ``INPUTS i e k``, a unit
+    stress resultant on deformation k of element e, acts as ``-D_k^T`` (ESIG's sign: a
+    positive stress resultant drives its mode negative)."""
     n_x = int(np.count_nonzero(free))
-    F = np.zeros((n_x, len(inputs)))
-    for j, s in enumerate(inputs):
-        F[:, j] = coordinate_row(num, model, lin.x, s.target, s.number)[free]
+    F = np.zeros((n_x, _slots(inputs)))
+    for s in inputs:
+        if s.keyword == "INPUTS":
+            gi, r, c = _element_at(num, s.target, s.number)
+            F[:, s.index - 1] = -deformation_rows(lin, num, free, np.array([gi]),
+                                                  np.array([r]), np.array([c]))[0]
+        else:
+            F[:, s.index - 1] = coordinate_row(num, model, lin.x, s.target, s.number)[free]
     return F
 
 
@@ -266,9 +282,10 @@ def output_rows(lin, num, free, model, outputs) -> tuple[np.ndarray, np.ndarray]
     """(rows, is_rate): the row (n_out, n_x) of each output's coordinate or deformation at
     the state of ``lin`` and whether the output is its rate (OUTXP, OUTEP)."""
     n_x = int(np.count_nonzero(free))
-    rows = np.zeros((len(outputs), n_x))
-    rate = np.zeros(len(outputs), bool)
-    for i, s in enumerate(outputs):
+    rows = np.zeros((_slots(outputs), n_x))
+    rate = np.zeros(rows.shape[0], bool)
+    for s in outputs:
+        i = s.index - 1
         rate[i] = s.keyword in ("OUTXP", "OUTEP")
         if s.keyword in ("OUTX", "OUTXP"):
             rows[i] = coordinate_row(num, model, lin.x, s.target, s.number)[free]

@@ -25,6 +25,7 @@ from spacarpy.solvers.statics.diagnose import (
     unit_rows,
 )
 from spacarpy.solvers.statics.newton import bordered_solve
+from spacarpy.solvers.statics.nonholonomic import kinematic_report
 
 #: Largest model (free coordinates plus constraints) that gets the dense rank analysis of
 #: :func:`kinematic_analysis` (two SVDs: about a second at this size on one core). Larger
@@ -189,8 +190,9 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
     order = sorted(range(len(num.groups)),
                    key=lambda i: all(s == "rot" for s in num.groups[i].kind.slots))
     for g, st in ((num.groups[i], ev.states[i]) for i in order):
+        slips = getattr(g.kind, "velocity_modes", ())    # velocity level: not in C
         for e in range(g.n_elem):
-            for k in range(g.def_class.shape[1]):
+            for k in (k for k in range(g.def_class.shape[1]) if k not in slips):
                 r = np.zeros(num.n_coord)
                 np.add.at(r, g.idx[e], st.D[e, k])
                 rows.append(r)
@@ -279,7 +281,8 @@ def dof_report(prob) -> str:
         check_initial(prob)          # raises ModelError for mechanisms / over-constraints
         return "\n".join([f"{model.source_path}: kinematic check passed", *head,
                           con + ", all independent",
-                          f"  degrees of freedom  {num.n_unknown - n_con}, no free motion"])
+                          f"  degrees of freedom  {num.n_unknown - n_con}, no free motion",
+                          *kinematic_report(prob)])
     ka = kinematic_analysis(prob)
     n_red, n_mot = len(ka.redundant), len(ka.motions)
     if not n_red and not n_mot:
@@ -311,7 +314,7 @@ def dof_report(prob) -> str:
     lines.append(f"  rank decision       {ka.rank.describe()}")
     if ka.rank.clear and not ka.motion_rank.clear:
         lines.append(f"  free motions        {ka.motion_rank.describe()}")
-    return "\n".join(lines)
+    return "\n".join(lines + kinematic_report(prob))
 
 
 __all__ = ["KINEMATIC_LIMIT", "KinematicAnalysis", "analysis_error", "check_initial",
