@@ -33,9 +33,10 @@ from spacarpy.solvers.statics.diagnose import (
     numerical_rank,
     unit_rows,
 )
+from spacarpy.solvers.statics.slips import held_slips
 
-__all__ = ["KinematicSetup", "check_kinematic", "held_slips", "kinematic_map",
-           "kinematic_report", "kinematic_setup", "slip_rates", "total_mass"]
+__all__ = ["KinematicSetup", "check_kinematic", "kinematic_map",
+           "kinematic_report", "kinematic_setup", "total_mass"]
 
 #: Largest number of free coordinates whose holonomic rank mode 0 decides by a dense SVD;
 #: above it the constraints count as independent (the static check finds redundant ones).
@@ -52,17 +53,6 @@ def _plural(n: int, word: str) -> str:
 
 def _where(loc) -> str:
     return f" (line {loc.line})" if loc is not None and loc.line else ""
-
-
-def held_slips(num) -> list[tuple[int, int, int]]:
-    """The slips held at zero: (group, element row, 0-based mode) of every velocity-level
-    mode (the kind's ``velocity_modes``) that is not released, group by group, element by
-    element."""
-    out = []
-    for gi, g in enumerate(num.groups):
-        for m in getattr(g.kind, "velocity_modes", ()):
-            out += [(gi, int(r), int(m)) for r in np.flatnonzero(g.def_class[:, m] == RIGID)]
-    return sorted(out)
 
 
 def _mode_name(num, gi, r, m) -> str:
@@ -82,27 +72,6 @@ def _rows(num, states, sel) -> sp.csr_matrix:
         return sp.csr_matrix((0, num.n_coord))
     return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
                          shape=(len(sel), num.n_coord))
-
-
-def slip_rates(num, x, slips) -> sp.csr_matrix:
-    """S (len(slips), n_coord): the rows of the slips ``slips`` (of :func:`held_slips`) at
-    x, from each kind's ``slip(x_local, ref)`` (n, n_velocity_modes, n_ldof)."""
-    data, rows, cols = [], [], []
-    by_group: dict = {}
-    for i, (gi, r, m) in enumerate(slips):
-        by_group.setdefault(gi, []).append((i, r, m))
-    for gi, items in by_group.items():
-        g = num.groups[gi]
-        modes = tuple(g.kind.velocity_modes)
-        S = np.asarray(g.kind.slip(x[g.idx], g.ref))
-        for i, r, m in items:
-            data.append(S[r, modes.index(m)])
-            cols.append(g.idx[r])
-            rows.append(np.full(g.idx.shape[1], i))
-    if not data:
-        return sp.csr_matrix((0, num.n_coord))
-    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(len(slips), num.n_coord))
 
 
 @dataclass
@@ -161,8 +130,8 @@ def kinematic_setup(prob, x=None) -> KinematicSetup:
     out.rheo = _rows(num, ev.states, rheo)
     out.n_rigid, out.n_euler = len(hol), int(num.euler_nodes.size)
     slips = held_slips(num)
-    out.slips = slip_rates(num, x, slips)
-    out.slip_names = [_mode_name(num, *s) for s in slips]
+    out.slips = slips.jacobian(x)
+    out.slip_names = slips.names()
     dyn = [("DYNE", _rows(num, ev.states, flex), [_mode_name(num, *s) for s in flex])]
     if rel:
         both = sorted(flex + rel)
@@ -288,7 +257,7 @@ def check_kinematic(prob) -> dict | None:
         whose rates they leave free).
     """
     num, model = prob.num, prob.model
-    if not model.kinematic and not held_slips(num) and \
+    if not model.kinematic and not held_slips(num).n and \
             not any(np.any(g.def_class == KINEMATIC) for g in num.groups):
         return None
     setup = kinematic_setup(prob)
