@@ -138,17 +138,20 @@ def test_a_limit_point_in_load_control_is_named(tmp_path, capsys):
     """The shallow two-bar truss of decks/two_bar_truss_arclength.dat without ARCLENGTH, in
     10 load steps of 0.05 with at most 6 iterations (too few to jump onto the far branch):
     step cutting closes in on the limit point 0.4765 and the run ends with its load factor
-    to 3 digits and the advice, exit 1, steps 0-4 kept."""
+    (the lowest eigenvalue's zero, extrapolated from the last two converged states) to 6
+    digits and the advice, exit 1, steps 0-4 kept."""
     deck = _deck("two_bar_truss_arclength.dat", tmp_path, ("ITERSTEP 20 20 1e-12",
                                                             "ITERSTEP 6 10 1e-10"),
                  ("ARCLENGTH 400 0.02", ""))
     out = tmp_path / "lc.h5"
     assert main(["run", str(deck), "-o", str(out)]) == 1
     err = capsys.readouterr().err
-    assert (f"static step 5: limit point at load factor {LAMBDA_MAX:.3g} (DELXF factor"
-            in err)
+    assert "static step 5: limit point at load factor " in err
+    assert "(DELXF factor, where the tangent's lowest eigenvalue goes to zero" in err
     assert "the load cannot be raised further on this path; add ARCLENGTH to follow it" in err
-    last = float(err.split("the last converged state is at ")[1].split(",")[0])
+    named = float(err.split("limit point at load factor ")[1].split(" ")[0])
+    last = float(err.split("the last converged state is at ")[1].split(")")[0])
+    assert named == pytest.approx(LAMBDA_MAX, rel=1e-5)   # extrapolated: 6 digits
     assert LAMBDA_MAX - 1e-4 < last <= LAMBDA_MAX
     with h5py.File(tmp_path / "lc.partial.h5", "r") as f:
         assert f["static/load_factor"][()].tolist() == pytest.approx([0, .1, .2, .3, .4])
@@ -163,6 +166,79 @@ def test_a_failure_away_from_a_limit_point_is_not_called_one(tmp_path):
     with pytest.raises(ConvergenceError) as exc:
         _solve(deck)
     assert "did not converge" in str(exc.value) and "limit point" not in str(exc.value)
+
+
+#: Lee's frame with 400 beams (m = 20, 2807 coordinates): the load maximum located by
+#: arc length (decks/lees_frame_arclength.dat at m = 20, /critical/load_factor[0];
+#: test_the_sparse_limit_point_is_the_arc_length_one recomputes it).
+LEE_400_LIMIT = 0.92780073
+
+
+def _lee(tmp_path, m: int, arclength: bool) -> Path:
+    name = "lees_frame_arclength.dat" if arclength else "lees_frame_load.dat"
+    replace = [("SET m 2 ", f"SET m {m} ")]
+    if not arclength:
+        replace += [("DELXF 5 0 -1.8 0", "DELXF 5 0 -2 0"),
+                    ("ITERSTEP 30 9 1e-9", "ITERSTEP 8 5 1e-9")]
+    return _deck(name, tmp_path, *replace)
+
+
+def test_a_limit_point_above_the_dense_limit_is_named(tmp_path, monkeypatch):
+    """Lee's frame with 400 beams in load control, 5 steps of 0.2 times the load 2 (above
+    the limit load): the model is above eigen.DENSE_LIMIT, so the tangent's lowest
+    eigenvalues come from the sparse shift-invert; the message names the load maximum that
+    arc length locates, to 1e-5, and the last converged state lies just below it."""
+    from spacarpy.solvers.linear.eigen import DENSE_LIMIT
+    from spacarpy.solvers.statics import static
+    sizes = []
+    sparse = static._softest_sparse
+    monkeypatch.setattr(static, "_softest_sparse",
+                        lambda lin, n_x: sizes.append(n_x) or sparse(lin, n_x))
+    with pytest.raises(ConvergenceError) as exc:
+        _solve(_lee(tmp_path, 20, arclength=False))
+    msg = str(exc.value)
+    assert msg.startswith("static step 5: limit point at load factor ")
+    assert "the load cannot be raised further on this path; add ARCLENGTH to follow it" in msg
+    assert sizes and min(sizes) > DENSE_LIMIT
+    named = float(msg.split("limit point at load factor ")[1].split(" ")[0])
+    last = float(msg.split("the last converged state is at ")[1].split(")")[0])
+    assert named == pytest.approx(LEE_400_LIMIT, rel=1e-5)
+    assert LEE_400_LIMIT * (1 - 1e-4) < last <= named
+
+
+@pytest.mark.slow
+def test_the_sparse_limit_point_is_the_arc_length_one(tmp_path):
+    """LEE_400_LIMIT is the load maximum arc length finds on the same 400-beam frame."""
+    res = _solve(_lee(tmp_path, 20, arclength=True))
+    maxima = [s.critical.load_factor for s in res.steps
+              if s.critical is not None and s.critical.kind == 0]
+    assert maxima == [pytest.approx(LEE_400_LIMIT, rel=1e-7)]
+
+
+def test_the_sparse_lowest_eigenvalues_are_the_dense_ones(tmp_path):
+    """Along Lee's frame's arc-length path (20 beams, small enough for both; its first 20
+    points, past the load maximum 0.924 at the fifth): at stable states the sparse
+    shift-invert gives the dense reduction's lowest eigenvalues of the tangent and of the
+    material stiffness to 1e-7; at unstable ones (past the load maximum, index 1) it
+    declines, as the dense test does by the negative eigenvalue."""
+    from spacarpy.solvers.linear.linearize import linearize
+    from spacarpy.solvers.statics import static
+    res = _solve(_deck("lees_frame_arclength.dat", tmp_path,
+                       ("ARCLENGTH 600 0.5", "ARCLENGTH 20 0.5")))
+    prob = res.problem
+    seen = {True: 0, False: 0}
+    for st in res.steps[1:4] + res.steps[10:21:4]:
+        p = np.array([1.0, st.load_factor])
+        dense = static._softest(prob, st.x, st.mu, p)
+        lin = linearize(prob, st.x, st.mu, prob.loads.at(*p))
+        sparse = static._softest_sparse(lin, prob.pattern.n_x)
+        stable = dense[0] > 0
+        seen[stable] += 1
+        if stable:
+            assert sparse == pytest.approx(dense, rel=1e-7)
+        else:
+            assert sparse is None
+    assert seen[True] >= 2 and seen[False] >= 2
 
 
 # --- a static run of a mechanism ---------------------------------------------------------------

@@ -293,15 +293,17 @@ LIMIT_EIGENVALUE = 1e-3
 
 def _softest(prob, x, mu, params) -> tuple[float, float] | None:
     """Lowest eigenvalues of the reduced tangent and of the reduced material stiffness at
-    a state (dense; None for a model above the dense limit)."""
+    a state, or None where the tangent has a negative eigenvalue (an unstable state, not
+    one on the way to a limit point) or no free coordinate. Dense up to
+    ``eigen.DENSE_LIMIT`` coordinates; above it :func:`_softest_sparse` (the same numbers)."""
     import scipy.linalg as sla
 
     from spacarpy.solvers.linear.eigen import DENSE_LIMIT, null_space_basis
     from spacarpy.solvers.linear.linearize import linearize
     n_x = prob.pattern.n_x
-    if n_x > DENSE_LIMIT:
-        return None
     lin = linearize(prob, x, mu, prob.loads.at(*params))
+    if n_x > DENSE_LIMIT:
+        return _softest_sparse(lin, n_x)
     T = null_space_basis(lin.C, n_x)
     if T.shape[1] == 0:
         return None
@@ -312,40 +314,87 @@ def _softest(prob, x, mu, params) -> tuple[float, float] | None:
     return out[0], out[1]
 
 
-def limit_point(prob, start, last, p_from, p_to, t, dt) -> str | None:
+#: Eigenvalues nearest zero that :func:`_softest_sparse` computes (the lowest of them is the
+#: lowest of all where none is negative).
+SPARSE_NEAREST = 3
+
+
+def _softest_sparse(lin, n_x: int) -> tuple[float, float] | None:
+    """:func:`_softest` at any size: the eigenvalues nearest zero of the pencil
+    ``[[K, C^T], [C, 0]] - lam [[I, 0], [0, 0]]`` (those of ``T^T K T`` for an orthonormal
+    null-space basis T of C, as the dense reduction), in shift-invert about zero with one
+    sparse LU of the bordered matrix (ARPACK). A state with a negative eigenvalue among
+    them, or an odd number of negative ones in all (the sign of the bordered determinant,
+    ``(-1)^m`` times that of the reduced tangent, m the constraints), is not judged."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from spacarpy.solvers.path.arclength import determinant_sign
+    C = sp.csr_matrix(lin.C)
+    m = C.shape[0]
+    if n_x - m < 1:
+        return None
+    mask = np.concatenate([np.ones(n_x), np.zeros(m)])
+    out = []
+    for which, K in enumerate((lin.K, lin.K_mat)):
+        K = sp.csr_matrix(K)
+        A = sp.bmat([[0.5 * (K + K.T), C.T], [C, None]], format="csc")
+        try:
+            lu = spla.splu(A, permc_spec="COLAMD")
+        except RuntimeError:                         # exactly singular: at the point itself
+            out.append(0.0)
+            continue
+        if which == 0 and determinant_sign(lu) * (-1) ** m < 0:
+            return None
+        op = spla.LinearOperator(A.shape, matvec=lambda v, lu=lu: lu.solve(mask * v),
+                                 dtype=float)
+        k = min(SPARSE_NEAREST, n_x - m - 1)
+        if k < 1:
+            return None
+        nu = spla.eigs(op, k=k, which="LM", v0=mask.copy(), return_eigenvectors=False)
+        with np.errstate(divide="ignore"):
+            lam = 1.0 / nu.real
+        if which == 0 and np.any(lam < 0):
+            return None
+        out.append(float(lam.min()))
+    return out[0], out[1]
+
+
+def limit_point(prob, prev, last, p_from, p_to, t_prev, t, dt) -> str | None:
     """The message of a load-control failure at a limit point, or None.
 
     Step cutting failed at the load parameter ``t + dt`` of the way from ``p_from`` to
-    ``p_to``, after the state ``last`` converged at ``t`` (``start`` at 0). Near a limit
-    point the lowest eigenvalue of the reduced tangent goes to zero like the square root
-    of the distance to it, so its square is linear in the load: extrapolated from the two
-    states it vanishes before twice the failed increment (with one state: it is below
-    :data:`LIMIT_EIGENVALUE` times the material stiffness's). A state with a negative
-    eigenvalue (an unstable branch, a passed bifurcation) is not a limit point of this
-    path; a model above the dense limit is not judged."""
+    ``p_to``, after the state ``last`` converged at ``t`` and ``prev`` at ``t_prev`` before
+    it (the step's start where ``t_prev == t``). Near a limit point the lowest eigenvalue of
+    the reduced tangent goes to zero like the square root of the distance to it, so its
+    square is linear in the load: extrapolated from the two states it vanishes before twice
+    the failed increment, and where it vanishes is the load factor the message gives (with
+    one state: it is below :data:`LIMIT_EIGENVALUE` times the material stiffness's, and the
+    message gives the last converged load factor). A state with a negative eigenvalue (an
+    unstable branch, a passed bifurcation) is not a limit point of this path. Any size
+    (:func:`_softest`)."""
     moving = 1 if p_to[1] != p_from[1] else 0          # phase B moves DELXF, A moves XF
-    q = [p_from[moving] + f * (p_to[moving] - p_from[moving]) for f in (0.0, t, t + dt)]
-    par = [p_from + f * (p_to - p_from) for f in (0.0, t)]
-    soft_c = _softest(prob, *last, par[1])
+    q = [p_from[moving] + f * (p_to[moving] - p_from[moving]) for f in (t_prev, t, t + dt)]
+    soft_c = _softest(prob, *last, p_from + t * (p_to - p_from))
     if soft_c is None or not soft_c[0] >= 0:
         return None
-    lam_c = soft_c[0]
-    if t > 0:
-        soft_s = _softest(prob, *start, par[0])
+    lam_c, q_zero = soft_c[0], q[1]
+    if t > t_prev:
+        soft_s = _softest(prob, *prev, p_from + t_prev * (p_to - p_from))
         if soft_s is None or not soft_s[0] > lam_c:
             return None
         lam_s = soft_s[0]
         q_zero = q[1] + lam_c ** 2 * (q[1] - q[0]) / (lam_s ** 2 - lam_c ** 2)
-        log.debug("limit point test: lowest eigenvalue %.3g at %.6g, %.3g at %.6g: zero "
-                  "at %.6g; failed at %.6g", lam_s, q[0], lam_c, q[1], q_zero, q[2])
+        log.debug("limit point test: lowest eigenvalue %.3g at %.8g, %.3g at %.8g: zero "
+                  "at %.8g; failed at %.8g", lam_s, q[0], lam_c, q[1], q_zero, q[2])
         if not q_zero <= q[2] + (q[2] - q[1]):
             return None
     elif not lam_c < LIMIT_EIGENVALUE * soft_c[1]:
         return None
     name = "DELXF" if moving else "XF"
-    return (f"limit point at load factor {q[1]:.3g} ({name} factor; the last converged state "
-            f"is at {q[1]:.6g}, where the tangent's lowest eigenvalue goes to zero): the load "
-            f"cannot be raised further on this path; add ARCLENGTH to follow it")
+    return (f"limit point at load factor {q_zero:.6g} ({name} factor, where the tangent's "
+            f"lowest eigenvalue goes to zero; the last converged state is at {q[1]:.6g}): "
+            f"the load cannot be raised further on this path; add ARCLENGTH to follow it")
 
 
 def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
@@ -356,7 +405,7 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
     dt = dt_nominal
     min_dt = dt_nominal / 2 ** opts.max_cuts
     total_its, last_res, last_by = 0, 0.0, "tolerance"
-    start = (x, mu)
+    prev, t_prev = (x, mu), 0.0                 # the converged state before the last
     while t < t_end - 1e-14:
         dt = min(dt, t_end - t)
         p = p_from + (t + dt) * (p_to - p_from)
@@ -367,7 +416,7 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
         except StepFailed as fail:
             if dt / 2 < min_dt:
                 lf = p_from[1] + t * (p_to[1] - p_from[1])
-                limit = limit_point(prob, start, (x, mu), p_from, p_to, t, dt)
+                limit = limit_point(prob, prev, (x, mu), p_from, p_to, t_prev, t, dt)
                 if limit is not None:
                     raise ConvergenceError(f"static step {stored_step}: {limit}") from None
                 hist = ", ".join(f"{h:.3e}" for h in fail.history)
@@ -381,6 +430,7 @@ def _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step):
                      fail.reason, dt)
             dt /= 2
             continue
+        prev, t_prev = (x, mu), t
         x, mu = x_new, mu_new
         if prob.has_commit:
             prob.commit(x, mu, load)
