@@ -143,3 +143,33 @@ def test_the_imperfect_bench_column_has_no_critical_point(tmp_path):
     critical point (the docs' Limits recorded spurious bifurcations at 10^4)."""
     kinds, _, _, _ = _column(tmp_path, 1000, 1e-2)
     assert kinds == []
+
+
+def test_an_eigenmode_whose_w2_is_within_round_off_is_undetermined():
+    """docs/linearized.md: w^2 is unstable only when certified negative; a mode that deforms
+    elements with |w^2| within SAFETY n eps lambda_max is undetermined (frequency 0), a
+    rigid-body mode stays rigid-body, and the bound scales with the pencil's largest
+    eigenvalue (or the largest K_ii / M_ii where only a few were computed)."""
+    from types import SimpleNamespace
+
+    import scipy.sparse as sp
+
+    from spacarpy.solvers.linear import eigen as E
+    lam_all = np.array([-1e-3, -1e-14, 1e-14, 3e-14, 2.0])
+    bound = E.sign_bound(lam_all, None, lam_all.size)
+    assert bound == pytest.approx(SAFETY * 5 * EPS * 2.0, rel=1e-12)
+    lam = lam_all.astype(complex)
+    rigid = np.array([False, False, False, True, False])
+    kind = E.classify(lam, rigid, bound)
+    assert kind.tolist() == [E.UNSTABLE, E.UNDETERMINED_SIGN, E.UNDETERMINED_SIGN,
+                             E.RIGID_BODY, E.ELASTIC]
+    f = E.frequencies(lam, kind)
+    assert f[0] < 0 and f[1] == f[2] == f[3] == 0.0 and f[4] > 0
+    # the bare sign (bound 0) is what decided before
+    assert E.classify(lam, rigid).tolist()[:3] == [E.UNSTABLE, E.UNSTABLE, E.ELASTIC]
+    # a few eigenvalues computed: the diagonal ratio 50 is the larger scale
+    lin = SimpleNamespace(K=sp.diags([100.0, 4.0, 1.0]), M=sp.diags([2.0, 1.0, 1.0]))
+    assert E.sign_bound(np.array([0.5, 1.0]), lin, 3) == pytest.approx(
+        SAFETY * 3 * EPS * 50.0, rel=1e-12)
+    from spacarpy.results.schema import MODE_KIND_NAMES
+    assert tuple(E.KIND_NAMES[k] for k in range(len(E.KIND_NAMES))) == MODE_KIND_NAMES

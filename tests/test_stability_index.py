@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from spacarpy.solvers.linalg.certificate import inertia
 from spacarpy.solvers.linear.eigen import null_space_basis
 from spacarpy.solvers.linear.linearize import linearize
 from spacarpy.solvers.path.arclength import point_at
-from spacarpy.solvers.linalg.certificate import inertia
 from spacarpy.solvers.path.stability import canonical_sign, potential_energy, stability
 
 from helpers import perfect_column_path
