@@ -495,11 +495,11 @@ class ArcLengthPath:
             elif kind is not None:
                 turn = np.sign(new.ts) != np.sign(p.ts)
                 crit = self.refine(p, ds, new, direction, turn)
-                if kind == 2 and not turn and not self._passes_zero(p, new, crit) \
+                if kind == 2 and not turn and not self.check.passes_zero(p, new, crit) \
                         and ds / 2 >= self.ds_min:
-                    log.info("arc-length point %d: the eigenvalues changed sign without one "
-                             "passing zero within the step (the corrector changed branch) at "
-                             "arc length %.3g, halving it", n_stored + 1, ds)
+                    log.info("arc-length point %d: signs changed with no eigenvalue passing "
+                             "zero (another branch) at arc length %.3g, halving it",
+                             n_stored + 1, ds)
                     ds /= 2
                     continue
                 if crit is not new and (not crossed or (p.s - 1.0) * (crit.s - 1.0) > 0):
@@ -541,18 +541,6 @@ class ArcLengthPath:
             direction = (p.tx, p.ts)
         log.warning("ARCLENGTH: %d points stored and the load factor is %.6g, not 1: raise "
                     "n_max (or ds0) to follow the path further", n_stored, p.s)
-
-    def _passes_zero(self, p: _Point, new: _Point, crit: _Point) -> bool:
-        """Whether a certified sign change between p and new, located by bisection at crit,
-        is an eigenvalue passing zero: continuous along the path, it is then within the
-        bisection's bracket (the tolerance times the step) of zero at crit, nearer zero
-        than at both ends of the step. A corrector that left its branch for another one
-        within the step changes the signs too, with no eigenvalue near zero anywhere in the
-        bracket (the bistable beam at 32 elements, docs/path.md)."""
-        if crit is new:
-            return True
-        near = [float(np.abs(self.check.near(q)[0]).min(initial=np.inf)) for q in (p, new, crit)]
-        return near[2] < min(near[0], near[1])
 
     def _leave_along(self, crit: _Point, shape, arrival) -> _Point:
         """At a bifurcation point (BIFURCATION switch): leave along the other branch. Arrived

@@ -323,6 +323,13 @@ class PathCertificate:
             return 2, cert
         return UNDETERMINED_POINT, (opened[1] if opened is not None else cert)
 
+    def passes_zero(self, p, new, crit) -> bool:
+        """Whether a sign change between p and new located at crit is an eigenvalue that
+        passed zero there (nearer zero than at both ends of the step), not the corrector
+        changing branch within the step (docs/path.md, "Critical points")."""
+        near = [float(np.abs(self.near(q)[0]).min(initial=np.inf)) for q in (p, new, crit)]
+        return crit is new or near[2] < min(near[0], near[1])
+
     def _certain(self, q) -> bool:
         lam, bound = self.near(q)
         return bool(np.all(certified_sign(lam, bound) != 0))
