@@ -92,26 +92,6 @@ def test_the_shallow_truss_snap_through_is_not_stepped_over(tmp_path, ds):
     assert np.all(margin > bound)
 
 
-LEE_LIMITS = (0.92727, -0.46956)      # m = 5 (100 beams); m = 1 differs by the mesh error
-
-
-@pytest.mark.parametrize("m", [1, pytest.param(5, marks=pytest.mark.slow),
-                               pytest.param(15, marks=pytest.mark.slow)])
-def test_lees_frame_has_only_its_two_limit_points_at_every_mesh(tmp_path, m):
-    """Report N3: at m = 15 (300 beams) the dense index's zero threshold lagged the
-    determinant sign next to both limit points and two "bifurcations" were stored. Only
-    the load maximum and minimum, at every mesh (load factors within the mesh error)."""
-    text = (REPO / "decks" / "lees_frame_arclength.dat").read_text().replace(
-        "SET m 2 ", f"SET m {m} ")
-    out = tmp_path / "lee.h5"
-    run_job(job_from_text(text, "lee.dat"), out)
-    kinds, lf, _, _ = _critical(out)
-    assert kinds == [0, 1]
-    # the mesh error against m = 5: 20 beams 1.5 % and 5.8 %, 300 beams 0.06 % and 0.22 %
-    rel = 7e-2 if m == 1 else 3e-3
-    assert lf == pytest.approx(LEE_LIMITS, rel=rel)
-
-
 def _column(tmp_path, n: int, imperfection: float):
     from spacarpy.bench.cases import arclength_column_deck
     from spacarpy.bench.decks import arclength_deck
