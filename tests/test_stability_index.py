@@ -9,10 +9,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from spacarpy.solvers.linalg.certificate import inertia
 from spacarpy.solvers.linear.eigen import null_space_basis
 from spacarpy.solvers.linear.linearize import linearize
 from spacarpy.solvers.path.arclength import point_at
-from spacarpy.solvers.path.stability import ZERO_TOL, canonical_sign, potential_energy, stability
+from spacarpy.solvers.path.stability import canonical_sign, potential_energy, stability
 
 from helpers import perfect_column_path
 
@@ -26,7 +27,8 @@ def _eager(prob, x, mu, load):
     d = np.sqrt(np.abs(np.diag(k)))
     d = np.where(d > 1e-300, d, 1.0)
     lam, v = sla.eigh(k / d[:, None] / d[None, :])
-    index = int(np.sum(lam < -ZERO_TOL * np.abs(lam).max()))
+    index, unsure, _ = inertia(lam, np.abs(lam).max(), lam.size)
+    assert unsure == 0
     return index, canonical_sign(T @ (v[:, :max(index, 1)] / d[:, None]))
 
 

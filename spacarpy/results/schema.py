@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 11)
+SCHEMA_VERSION = (2, 12)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -54,7 +54,8 @@ REACTION_COMPONENTS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mx": "N m", "My": "N m"
 #: ``units`` attribute of ``/static/reaction`` (units depend on the component).
 REACTION_UNITS = "N | N m (see reaction_component)"
 #: Names of the ``/eigen/kind`` codes.
-MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite")
+MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite",
+                   "undetermined")
 #: Names of the deformation classes in ``/model/elements/BEAM/deformation_class``.
 DEFORMATION_CLASS_NAMES = ("rigid", "flexible", "released", "kinematic")
 #: Element kinds, in the order their groups are written.
@@ -245,14 +246,15 @@ def _spec_list() -> list[DatasetSpec]:
           "index of the static step (row of /static) that was linearized"),
         S("eigen/frequency", "f8", _LIN_SHAPE["mode"], "Hz",
           "natural frequency; negative: unstable mode (divergence rate), NaN: complex or "
-          "infinite eigenvalue, 0: rigid-body mode"),
+          "infinite eigenvalue, 0: rigid-body mode or undetermined sign"),
         S("eigen/eigenvalue_real", "f8", _LIN_SHAPE["mode"], "s-2",
           "real part of the eigenvalue omega^2"),
         S("eigen/eigenvalue_imag", "f8", _LIN_SHAPE["mode"], "s-2",
           "imaginary part of the eigenvalue omega^2"),
         S("eigen/kind", "i1", _LIN_SHAPE["mode"], "1",
-          "mode kind: 0 elastic, 1 rigid-body, 2 unstable, 3 complex, 4 infinite (see "
-          "attribute kind_names)"),
+          "mode kind: 0 elastic, 1 rigid-body, 2 unstable, 3 complex, 4 infinite, "
+          "5 undetermined (w^2 within its round-off bound; since 2.12) (see attribute "
+          "kind_names)"),
         S("eigen/shape_position", "f8", _LIN_SHAPE["position"], "m kg-1/2",
           "mass-normalized mode shape: position perturbation of each position node"),
         S("eigen/shape_euler", "f8", _LIN_SHAPE["euler"], "kg-1/2",

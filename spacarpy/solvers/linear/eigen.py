@@ -31,7 +31,12 @@ The test applies where M is not positive definite (a positive definite M, checke
 Cholesky factorization in the dense solve, has no infinite modes). A mode is rigid-body
 when its deformation rates are below 1e-7 of its size and its eigenvalue below 1e-9 of the
 largest diagonal stiffness-to-mass ratio (:func:`_rigid_mask`), bounds far above round-off.
-Modes are ordered by ``|w^2|``; magnitudes equal to
+A mode is **unstable** when its ``w^2`` is certified negative: below ``-SAFETY n eps
+lambda_max`` (:func:`sign_bound`: the backward error of the eigensolver, lambda_max the
+largest eigenvalue magnitude of the pencil, where not all are computed at least the largest
+diagonal stiffness-to-mass ratio); a mode that deforms elements with ``|w^2|`` within that
+bound is **undetermined** (frequency 0: stable or unstable is not known in double
+precision). Modes are ordered by ``|w^2|``; magnitudes equal to
 :data:`TIE_RTOL` (an unstable/elastic ``-w^2, +w^2`` pair, complex conjugates) by signed real
 part, then by imaginary part, positive first. Each shape's first largest component is
 positive (:func:`canonical_sign`).
@@ -56,9 +61,9 @@ DENSE_LIMIT = 2500
 #: the dense limit when fewer than a quarter of the modes are wanted (see eigenmodes)
 FEW_MODES_DENSE_LIMIT = 400
 
-ELASTIC, RIGID_BODY, UNSTABLE, COMPLEX, INFINITE = 0, 1, 2, 3, 4
+ELASTIC, RIGID_BODY, UNSTABLE, COMPLEX, INFINITE, UNDETERMINED_SIGN = 0, 1, 2, 3, 4, 5
 KIND_NAMES = {ELASTIC: "elastic", RIGID_BODY: "rigid-body", UNSTABLE: "unstable",
-              COMPLEX: "complex", INFINITE: "infinite"}
+              COMPLEX: "complex", INFINITE: "infinite", UNDETERMINED_SIGN: "undetermined"}
 
 #: (SAFETY, the safety factor of the infinity bound, is the one of
 #: :mod:`spacarpy.solvers.linalg.certificate`: the backward error of the eigensolver in M is a small
@@ -168,22 +173,44 @@ def _rigid_mask(lin, num, free, shapes: np.ndarray, lam: np.ndarray | None = Non
             + np.abs(shapes[rot]).max(axis=0, initial=0.0))
     rigid = rel <= 1e-7 * np.maximum(size, 1e-300)
     if lam is not None and rigid.any():
-        diag_k, diag_m = np.abs(lin.K.diagonal()), np.abs(lin.M.diagonal())
-        pos = diag_m > 0
-        ratio = float(np.max(diag_k[pos] / diag_m[pos])) if pos.any() else 0.0
+        ratio = stiffness_ratio(lin)
         held = np.isfinite(lam) & (np.abs(lam) > 1e-9 * ratio)
         rigid &= ~held
     return rigid
 
 
-def classify(lam: np.ndarray, rigid: np.ndarray) -> np.ndarray:
+def stiffness_ratio(lin) -> float:
+    """The largest stiffness-to-mass ratio of the diagonals of K and M (the Rayleigh
+    quotient of a unit coordinate vector: a lower bound of the largest eigenvalue)."""
+    diag_k, diag_m = np.abs(lin.K.diagonal()), np.abs(lin.M.diagonal())
+    pos = diag_m > 0
+    return float(np.max(diag_k[pos] / diag_m[pos])) if pos.any() else 0.0
+
+
+def sign_bound(lam_all: np.ndarray, lin, n: int) -> float:
+    """The round-off bound of a computed ``w^2`` (module docstring): ``SAFETY n eps`` times
+    the largest eigenvalue magnitude of the pencil, or, where not every eigenvalue was
+    computed, the larger of the largest one found and :func:`stiffness_ratio`."""
+    finite = np.isfinite(lam_all)
+    scale = float(np.abs(lam_all[finite]).max(initial=0.0))
+    if lam_all.size < n:
+        scale = max(scale, stiffness_ratio(lin))
+    return float(round_off_bound(scale, n))
+
+
+def classify(lam: np.ndarray, rigid: np.ndarray, bound: float = 0.0) -> np.ndarray:
+    """The kind of each mode (:data:`KIND_NAMES`): unstable where ``w^2`` is certified
+    negative (below ``-bound``, :func:`sign_bound`), undetermined where it is within the
+    bound and the mode deforms elements (not rigid-body: round-off does not decide
+    between stable and unstable)."""
     kind = np.full(lam.shape, ELASTIC, dtype=np.int8)
     scale = np.abs(lam[np.isfinite(lam)]).max(initial=1.0)
     kind[~np.isfinite(lam)] = INFINITE
     cplx = np.isfinite(lam) & (np.abs(lam.imag)
                                > 1e-8 * np.maximum(np.abs(lam.real), 1e-12 * scale))
     kind[cplx] = COMPLEX
-    kind[(kind == ELASTIC) & (lam.real < 0)] = UNSTABLE
+    kind[(kind == ELASTIC) & (lam.real < -bound)] = UNSTABLE
+    kind[(kind == ELASTIC) & (np.abs(lam.real) <= bound)] = UNDETERMINED_SIGN
     kind[rigid & np.isfinite(lam) & ~cplx] = RIGID_BODY
     return kind
 
@@ -193,7 +220,7 @@ def frequencies(lam: np.ndarray, kind: np.ndarray) -> np.ndarray:
     ok = (kind == ELASTIC) | (kind == RIGID_BODY) | (kind == UNSTABLE)
     re = lam.real[ok]
     f[ok] = np.sign(re) * np.sqrt(np.abs(re)) / (2.0 * np.pi)
-    f[kind == RIGID_BODY] = 0.0
+    f[(kind == RIGID_BODY) | (kind == UNDETERMINED_SIGN)] = 0.0
     return f
 
 
@@ -224,6 +251,10 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
     if not definite:
         lam = np.where(infinite_mask(lam, vec, lin.M), complex(np.inf, 0.0), lam)
     finite = np.isfinite(lam)
+    # the sign certificate of w^2 (the tangent solver's modes are those of a positive
+    # definite K_r, checked by its own Ritz values: module eigen_tangent)
+    bound = 0.0 if (not dense and found is not None) else \
+        sign_bound(lam.real, lin, int(vec.shape[0]))
     n_available = int(finite.sum()) if dense else None
     lam, vec = lam[finite], vec[:, finite]             # infinite: not modes of the model
     if not dense and lam.size < min(n_modes, n_x):
@@ -237,8 +268,9 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
     lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
     vec = _normalize(canonical_sign(vec), lin.M)
     rigid = _rigid_mask(lin, num, free, vec, lam)
-    kind = classify(lam, rigid)
+    kind = classify(lam, rigid, bound)
     for k, name in ((UNSTABLE, "negative w^2 (unstable or buckled state)"),
+                    (UNDETERMINED_SIGN, "w^2 within its round-off bound (sign undetermined)"),
                     (COMPLEX, "complex w^2 (non-conservative loading)")):
         if np.any(kind == k):
             log.warning("%d mode(s) with %s", int(np.sum(kind == k)), name)

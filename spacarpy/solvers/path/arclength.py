@@ -493,7 +493,15 @@ class ArcLengthPath:
                             "bound %.3g); stored as undetermined, not as a bifurcation",
                             new.s, cert.margin, cert.bound)
             elif kind is not None:
-                crit = self.refine(p, ds, new, direction, np.sign(new.ts) != np.sign(p.ts))
+                turn = np.sign(new.ts) != np.sign(p.ts)
+                crit = self.refine(p, ds, new, direction, turn)
+                if kind == 2 and not turn and not self.check.passes_zero(p, new, crit) \
+                        and ds / 2 >= self.ds_min:
+                    log.info("arc-length point %d: signs changed with no eigenvalue passing "
+                             "zero (another branch) at arc length %.3g, halving it",
+                             n_stored + 1, ds)
+                    ds /= 2
+                    continue
                 if crit is not new and (not crossed or (p.s - 1.0) * (crit.s - 1.0) > 0):
                     cp = CriticalPoint(kind=kind, load_factor=crit.s, arc_length=crit.arc,
                                        shape=self.critical_shape(crit),

@@ -33,6 +33,8 @@ from spacarpy.solvers.linalg.certificate import (
     UNDETERMINED,
     Certificate,
     certified_sign,
+    inertia,
+    round_off_bound,
 )
 from spacarpy.solvers.linear.eigen import DENSE_LIMIT, FEW_MODES_DENSE_LIMIT, null_space_basis
 from spacarpy.solvers.linear.linearize import linearize
@@ -42,8 +44,6 @@ from spacarpy.solvers.statics.newton import newton
 
 log = logging.getLogger(__name__)
 
-#: Relative size of an eigenvalue (to the largest one) below which it counts as zero.
-ZERO_TOL = 1e-10
 #: Relative difference of potential energy below which two branches count as equally good
 #: (mirror images; an equilibrium's energy is stationary, so its round-off is of the order
 #: of the squared position error: 1e-12 at a tolerance of 1e-6).
@@ -57,11 +57,11 @@ DIST_TIE = 1e-3
 AMPLITUDES = (1e-4, 1e-3, 1e-2, 0.03, 0.1)
 
 
-#: Margin (relative to the largest eigenvalue) around the "zero" threshold within which
-#: the index is counted from the eigenvalues of the decomposition with eigenvectors, not
-#: from the faster eigenvalues-only one: the two differ by round-off (about n machine
-#: epsilons), far below it, so the index is the same either way.
-INDEX_MARGIN = 1e-9
+#: Factor around the round-off bound within which the index is counted from the eigenvalues
+#: of the decomposition with eigenvectors, not from the faster eigenvalues-only one: the two
+#: differ by round-off (about n machine epsilons times the largest eigenvalue, a SAFETY-th of
+#: the bound), so outside this band both certify the same signs.
+INDEX_MARGIN = 2.0
 
 
 class Stability:
@@ -70,7 +70,10 @@ class Stability:
     Attributes
     ----------
     index : int
-        Number of negative eigenvalues (0: stable).
+        Number of certified negative eigenvalues (0: stable, or undetermined).
+    undetermined : int
+        Number of eigenvalues within their round-off bound (sign unknown; never counted as
+        negative, so round-off never starts a branch switch or an "unstable" warning).
     lowest : float
         Lowest eigenvalue (of the Jacobi-scaled reduced tangent; its sign is what counts).
     modes : (n_x, max(index, 1)) float
@@ -82,8 +85,9 @@ class Stability:
     """
 
     def __init__(self, index: int, lowest: float, modes: np.ndarray | None = None,
-                 states: list | None = None, pending=None):
+                 states: list | None = None, pending=None, undetermined: int = 0):
         self.index, self.lowest, self.states = index, lowest, states
+        self.undetermined = undetermined
         self._modes = modes
         self._pending = pending            # (T, scaled reduced tangent, scaling d)
 
@@ -117,15 +121,24 @@ def stability(prob, x, mu, load: LoadState) -> Stability | None:
     d = np.sqrt(np.abs(np.diag(k)))
     d = np.where(d > 1e-300, d, 1.0)
     ks = k / d[:, None] / d[None, :]
-    # the eigenvalues alone (three times faster); the eigenvectors when asked for
+    # the eigenvalues alone (three times faster); the eigenvectors when asked for. The
+    # index counts the certified negative eigenvalues (certificate.inertia: an eigenvalue of
+    # a backward-stable symmetric eigensolver is within a small multiple of n eps ||ks|| of
+    # the exact one), an eigenvalue within that bound is undetermined, never negative
     lam = sla.eigvalsh(ks)
-    big = np.abs(lam).max(initial=0.0)
-    if np.any(np.abs(lam + ZERO_TOL * big) <= INDEX_MARGIN * big):
-        lam = sla.eigh(ks)[0]               # near the threshold: as the modes' decomposition
+    big, n = np.abs(lam).max(initial=0.0), ks.shape[0]
+    bound = float(round_off_bound(big, n))
+    mag = np.abs(lam)
+    if np.any((mag >= bound / INDEX_MARGIN) & (mag <= INDEX_MARGIN * bound)):
+        lam = sla.eigh(ks)[0]               # near the bound: as the modes' decomposition
         big = np.abs(lam).max(initial=0.0)
-    index = int(np.sum(lam < -ZERO_TOL * big))
+    index, unsure, cert = inertia(lam, big, n)
+    if unsure:
+        log.info("stability: %d eigenvalue(s) of the reduced tangent within the round-off "
+                 "bound %.3g (relative to the largest): sign undetermined, not counted as "
+                 "negative", unsure, cert.bound / max(big, 1e-300))
     return Stability(index=index, lowest=float(lam[0]), states=lin.states,
-                     pending=(T, ks, d))
+                     pending=(T, ks, d), undetermined=unsure)
 
 
 #: Eigenvalues nearest zero whose signs certify a crossing (:func:`near_zero`).
@@ -309,6 +322,13 @@ class PathCertificate:
         if verdict == "crossing" and opened is None:
             return 2, cert
         return UNDETERMINED_POINT, (opened[1] if opened is not None else cert)
+
+    def passes_zero(self, p, new, crit) -> bool:
+        """Whether a sign change between p and new located at crit is an eigenvalue that
+        passed zero there (nearer zero than at both ends of the step), not the corrector
+        changing branch within the step (docs/path.md, "Critical points")."""
+        near = [float(np.abs(self.near(q)[0]).min(initial=np.inf)) for q in (p, new, crit)]
+        return crit is new or near[2] < min(near[0], near[1])
 
     def _certain(self, q) -> bool:
         lam, bound = self.near(q)
