@@ -195,3 +195,39 @@ def test_result_commands_on_a_full_disk(tiny, results, user, command, old):
     if old:
         assert out.read_bytes() == b"old good file\n"
         assert "is unchanged" in r.stderr
+
+
+#: a library caller of ``spacarpy.cli.main``: several runs into the filling tmpfs in one
+#: process, which then ends through the interpreter's normal exit (HDF5's own clean-up runs
+#: then, unlike the ``spacarpy`` command's ``os._exit``)
+_LIBRARY_CALLER = """
+import sys
+from pathlib import Path
+from spacarpy.cli import main
+mnt, codes = Path(sys.argv[1]), []
+for arg in sys.argv[2:]:
+    deck, kib = arg.rsplit(":", 1)
+    for p in mnt.iterdir():
+        p.unlink()
+    (mnt / "filler").write_bytes(bytes(int(kib) * 1024))
+    codes.append(main(["run", deck, "-o", str(mnt / "new.h5"), "-q"]))
+print(codes)
+"""
+
+
+def test_a_library_caller_exits_normally_after_disk_full(tiny):
+    """The disk fills while the header, the step groups, a step, the final commit or a time
+    step is written: each run returns 1 with one line, and the process then exits with 0,
+    not a segmentation fault (HDF5 closing datasets whose flush had failed)."""
+    mnt, decks = tiny
+    bend, pend = decks / "table2_bend_48el_modified.dat", decks / "pendulum_rigid_90deg.dat"
+    runs = [f"{bend}:{k}" for k in (196, 180, 156, 148, 140, 100, 60, 36, 28)]
+    runs += [f"{pend}:{k}" for k in (172, 150, 100)]
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
+    r = subprocess.run([sys.executable, "-c", _LIBRARY_CALLER, str(mnt), *runs], env=env,
+                       capture_output=True, text=True, timeout=600, cwd="/")
+    assert r.returncode == 0, (r.returncode, r.stderr[-3000:])
+    assert r.stdout.strip().splitlines()[-1] == str([1] * len(runs)), r.stdout
+    lines = [ln for ln in r.stderr.splitlines() if "the result file will be about" not in ln]
+    assert len(lines) == len(runs) and all("disk full" in ln for ln in lines), r.stderr
+    assert sorted(p.name for p in mnt.iterdir()) == ["filler"]
