@@ -294,7 +294,7 @@ def _metadata_read_attempts():
     return None
 
 
-def create_with(path, write) -> h5py.File:
+def create_with(path, write, libver=LIBVER) -> h5py.File:
     """Create the HDF5 file ``path`` holding what ``write(f)`` puts into an empty file, and
     return it open for appending (``r+``).
 
@@ -306,12 +306,12 @@ def create_with(path, write) -> h5py.File:
     ``os._exit``, a library caller of ``spacarpy.cli.main`` does not.)"""
     import io
     image = io.BytesIO()
-    with h5py.File(image, "w", libver=LIBVER) as mem:
+    with h5py.File(image, "w", libver=libver) as mem:
         write(mem)
     with open(path, "wb") as out:
         out.write(image.getbuffer())
     del image
-    return h5py.File(path, "r+", libver=LIBVER)
+    return h5py.File(path, "r+", libver=libver)
 
 
 def rebuild_with(path, f, write) -> h5py.File:
