@@ -328,19 +328,22 @@ def nobody_skip_reason() -> str | None:
     """Why the commands cannot run as ``nobody`` here, None when they can: not root, no such
     user, or a Python environment ``nobody`` cannot read (a virtual environment inside a
     private directory, as CI's ``mktemp -d``: the packages' data files, fonts and deferred
-    submodules are read after the switch)."""
+    submodules are read after the switch), or a checkout it cannot read (the commands import
+    spacarpy, and read its grammar files, from :data:`REPO`)."""
     import os
     import stat
     if nobody_uid() is None:
         return "not root (or no user nobody): cannot switch to the user nobody"
     import h5py
     import matplotlib
-    for pkg in (h5py, matplotlib):
-        path = os.path.dirname(os.path.realpath(pkg.__file__))
+    for what, start in (("Python environment", h5py.__file__),
+                        ("Python environment", matplotlib.__file__),
+                        ("checkout", REPO / "spacarpy" / "__init__.py")):
+        path = os.path.dirname(os.path.realpath(start))
         while True:
             mode = os.stat(path).st_mode
             if not mode & stat.S_IXOTH or not mode & stat.S_IROTH:
-                return (f"the user nobody cannot read this Python environment ({path} is "
+                return (f"the user nobody cannot read this {what} ({path} is "
                         f"mode {stat.S_IMODE(mode):o})")
             parent = os.path.dirname(path)
             if parent == path:

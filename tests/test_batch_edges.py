@@ -402,21 +402,33 @@ def test_docs_count_the_shipped_baselines():
 
 
 @pytest.mark.slow
-def test_a_sweep_file_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys):
-    """A full disk in the middle of a sweep: exit 2, a message, the partial file closed."""
+@pytest.mark.parametrize("code", ["ENOSPC", "EIO"])
+def test_a_sweep_file_that_cannot_be_written_is_one_line(tmp_path, monkeypatch, capsys, code):
+    """A write of the sweep file fails in the middle of a sweep: one line, no traceback. A
+    full disk (as the commands' DiskFull: exit 1) removes the partial file, which could not
+    be marked either (tests/test_disk_full.py on a real full disk); another error (exit 2)
+    closes it, marked as stopped."""
     import errno
 
     from spacarpy.batch.sweep_file import SweepFile
 
-    def full(self, *args):
-        raise OSError(errno.ENOSPC, "No space left on device")
+    def failing(self, *args):
+        raise OSError(getattr(errno, code), os.strerror(getattr(errno, code)))
 
-    monkeypatch.setattr(SweepFile, "_add", full)
+    monkeypatch.setattr(SweepFile, "_add", failing)
     shutil.copy(DECKS / SWEEP, tmp_path / "s.dat")
-    assert main(["sweep", str(tmp_path / "s.dat"), "--set", "ratio=-0.5,-0.4", "-q", "-j", "1",
-                 "-o", str(tmp_path / "out.h5")]) == 2
+    rc = main(["sweep", str(tmp_path / "s.dat"), "--set", "ratio=-0.5,-0.4", "-q", "-j", "1",
+               "-o", str(tmp_path / "out.h5")])
     err = capsys.readouterr().err
-    assert f"cannot write the sweep file {tmp_path}/out.partial.h5: No space left" in err
-    assert "Traceback" not in err and not (tmp_path / "out.h5").exists()
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out.h5").exists()
+    if code == "ENOSPC":
+        assert rc == 1
+        assert (f"disk full (or quota exceeded) while writing {tmp_path}/out.h5: No space "
+                f"left on device; no {tmp_path}/out.h5 was written") in err
+        assert not (tmp_path / "out.partial.h5").exists()
+        return
+    assert rc == 2
+    assert f"cannot write the sweep file {tmp_path}/out.partial.h5: Input/output error" in err
     with h5py.File(tmp_path / "out.partial.h5") as f:
         assert not f.attrs["completed"] and "stopped after 0 of 2 points" in f.attrs["error"]

@@ -140,6 +140,26 @@ def _same_numbers(a, b) -> bool:
     return len(a) == len(b) and all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b))
 
 
+def _without_unprotected(text: str, label: str, data: bytes) -> str:
+    """``text``, less show's "written by" line where a changed byte lies in the text of the
+    root attributes ``program_version`` or ``created``: HDF5 keeps more than eight
+    attributes in its dense storage, whose values no checksum covers (HDF5's nor the file's
+    CRC rows), so such a byte shows there. A known limit, the same in every layout (a byte
+    of either value flipped in a file of main before the in-memory header showed it too);
+    every other changed byte must leave the output identical."""
+    import re
+
+    from spacarpy import __version__
+    where = [int(w) for w in re.findall(r"\d+", label)] if label.startswith("bytes") else []
+    spans = []
+    for value in (__version__.encode(), re.search(rb"\d{4}-\d\d-\d\dT[\d:+-]+", data).group()):
+        start = data.find(value)
+        spans.append(range(start, start + len(value)))
+    if not any(w in span for w in where for span in spans):
+        return text
+    return "\n".join(ln for ln in text.splitlines() if not ln.lstrip().startswith("written"))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["column", "pendulum"])
 def test_every_command_on_damaged_files(originals, tmp_path, name):
@@ -153,7 +173,8 @@ def test_every_command_on_damaged_files(originals, tmp_path, name):
             assert "Traceback" not in text, (label, command, text)
             assert code in (0, 2), (label, command, code, text)
             if code == 0:
-                assert text == ref[command][1], (label, command)
+                assert _without_unprotected(text, label, data) == \
+                    _without_unprotected(ref[command][1], label, data), (label, command)
                 passed += 1
             else:
                 assert text.strip(), (label, command, "exit 2 without a message")

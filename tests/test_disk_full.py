@@ -7,6 +7,7 @@ unmounted in a ``finally``. Each command runs in a subprocess (a crash must not 
 with it), as root and, where the tests run as root, as the normal user ``nobody`` (a process that
 imports everything as root and then switches user: ``helpers.spacarpy_as_nobody``).
 """
+import json
 import os
 import shutil
 import subprocess
@@ -68,7 +69,7 @@ def tiny():
     mnt.mkdir()
     decks.mkdir()
     for name in ("table2_bend_48el_modified.dat", "table2_bend_8el_modified.dat",
-                 "pendulum_rigid_90deg.dat"):
+                 "pendulum_rigid_90deg.dat", "sweep_column_load_ratio.dat"):
         shutil.copy(DECKS / name, decks / name)
     r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=200k,mode=1777", "tmpfs",
                         str(mnt)], capture_output=True, text=True)
@@ -151,6 +152,18 @@ def test_transient_run_filling_the_disk(tiny, user):
     assert_disk_full(r, mnt, warned=True)
 
 
+@pytest.mark.parametrize("kib", [196, 190, 184])
+def test_sweep_file_on_a_full_disk(tiny, kib):
+    """Report N2's sweep case: exit 1, one line, nothing left (was exit 2 with HDF5's
+    two-line text and a partial file left behind, or a segmentation fault). As root only:
+    the sweep's runs are new processes of this interpreter, which nobody may not execute."""
+    mnt, decks = tiny
+    fill(mnt, kib)
+    r = spacarpy(["sweep", decks / "sweep_column_load_ratio.dat", "--set", "ratio=-0.5,-0.4",
+                  "-o", mnt / "s.h5", "-q", "-j", "1"])
+    assert_disk_full(r, mnt)
+
+
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
     """A pendulum (transient) and a bend (static) result, readable by nobody too."""
@@ -195,3 +208,44 @@ def test_result_commands_on_a_full_disk(tiny, results, user, command, old):
     if old:
         assert out.read_bytes() == b"old good file\n"
         assert "is unchanged" in r.stderr
+
+
+#: a library caller of ``spacarpy.cli.main``: several runs into the filling tmpfs in one
+#: process, which then ends through the interpreter's normal exit (HDF5's own clean-up runs
+#: then, unlike the ``spacarpy`` command's ``os._exit``)
+_LIBRARY_CALLER = """
+import json
+import sys
+from pathlib import Path
+from spacarpy.cli import main
+mnt, codes = Path(sys.argv[1]), []
+for args, kib in json.loads(sys.argv[2]):
+    for p in mnt.iterdir():
+        p.unlink()
+    (mnt / "filler").write_bytes(bytes(kib * 1024))
+    codes.append(main(args))
+print(codes)
+"""
+
+
+def test_a_library_caller_exits_normally_after_disk_full(tiny):
+    """The disk fills while the header, the step groups, a step, the final commit or a time
+    step is written, or a sweep file's header or points: each run returns 1 with one line,
+    and the process then exits with 0, not a segmentation fault (HDF5 closing datasets
+    whose flush had failed)."""
+    mnt, decks = tiny
+    bend, pend = decks / "table2_bend_48el_modified.dat", decks / "pendulum_rigid_90deg.dat"
+    sweep = ["sweep", str(decks / "sweep_column_load_ratio.dat"), "--set",
+             "ratio=-0.5:-0.1:6", "-o", str(mnt / "s.h5"), "-q", "-j", "1"]
+    runs = [(["run", str(bend), "-o", str(mnt / "new.h5"), "-q"], k)
+            for k in (196, 180, 156, 148, 140, 100, 60, 36, 28)]
+    runs += [(["run", str(pend), "-o", str(mnt / "new.h5"), "-q"], k) for k in (172, 150, 100)]
+    runs += [(sweep, k) for k in (196, 190, 186, 182)]
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
+    r = subprocess.run([sys.executable, "-c", _LIBRARY_CALLER, str(mnt), json.dumps(runs)],
+                       env=env, capture_output=True, text=True, timeout=600, cwd="/")
+    assert r.returncode == 0, (r.returncode, r.stderr[-3000:])
+    assert r.stdout.strip().splitlines()[-1] == str([1] * len(runs)), r.stdout
+    lines = [ln for ln in r.stderr.splitlines() if "the result file will be about" not in ln]
+    assert len(lines) == len(runs) and all("disk full" in ln for ln in lines), r.stderr
+    assert sorted(p.name for p in mnt.iterdir()) == ["filler"]

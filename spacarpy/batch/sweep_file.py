@@ -54,9 +54,7 @@ class SweepFile:
     """
 
     def __init__(self, path, deck, axes):
-        import h5py
-
-        from spacarpy.results.h5file import partial_path_for
+        from spacarpy.results.h5file import create_with, partial_path_for
 
         self.final_path = Path(path)
         self.partial_path = partial_path_for(self.final_path)
@@ -64,13 +62,20 @@ class SweepFile:
         self.shape = tuple(len(a.values) for a in self.axes)
         if self.partial_path.exists():
             log.info("replacing the stale partial file %s", self.partial_path)
+        self._f = None
         # HDF5's earliest file format: no "open for writing" mark in the superblock, so the
-        # partial file can be read while the sweep runs, and after a kill
+        # partial file can be read while the sweep runs, and after a kill. Built in memory
+        # and written in one piece (a full disk: no HDF5 object left open, h5file.create_with)
         try:
-            self._f = h5py.File(self.partial_path, "w", libver="earliest")
-        except OSError as exc:
-            raise _cannot_write(self.partial_path, exc) from None
-        f = self._f
+            self._f = create_with(self.partial_path, lambda f: self._header(f, deck),
+                                  libver="earliest")
+        except (OSError, RuntimeError) as exc:
+            raise self._given_up(exc) from None
+        self._scales = [self._f[f"parameters/{a.name}"] for a in self.axes]
+        self._n_done = 0
+
+    def _header(self, f, deck) -> None:
+        import h5py
         f.attrs["filetype"] = "spacarpy-sweep"
         f.attrs["deck_path"] = str(Path(deck).resolve())
         f.attrs["parameters"] = [a.name for a in self.axes]
@@ -81,19 +86,27 @@ class SweepFile:
             f["deck"] = Path(deck).read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError):
             pass
-        self._scales = []
         for a in self.axes:
             ds = f.create_dataset(f"parameters/{a.name}", data=np.asarray(a.values, float))
             ds.attrs["long_name"] = f"value of the SET parameter {a.name}"
             ds.attrs["units"] = "1"
             ds.make_scale(a.name)
-            self._scales.append(ds)
         st = f.create_dataset("sweep/status", data=np.full(self.shape, NOT_RUN, np.int32))
         st.attrs["long_name"] = ("exit code of each run (0 ok, -1 timeout, -2 not run: "
                                  "the sweep was interrupted first)")
         f.create_dataset("sweep/error", shape=self.shape, dtype=h5py.string_dtype())
-        self._n_done = 0
-        f.flush()
+
+    def _given_up(self, exc):
+        """The error to raise after a failed write; on a full disk the partial file is
+        removed first (it cannot be written to the end, nor marked)."""
+        from spacarpy.errors import is_disk_full
+        from spacarpy.outputs import disk_full_error
+        from spacarpy.results.h5file import discard_written
+        if not is_disk_full(exc):
+            return _cannot_write(self.partial_path, exc)
+        discard_written(self._f, self.partial_path)
+        self._f = None
+        return disk_full_error(self.final_path, exc)
 
     def _dataset(self, path: str, row: np.ndarray):
         f = self._f
@@ -111,8 +124,8 @@ class SweepFile:
         fails (a full disk) is an :class:`~spacarpy.outputs.OutputError`."""
         try:
             self._add(idx, status, error, rows)
-        except OSError as exc:
-            raise _cannot_write(self.partial_path, exc) from None
+        except (OSError, RuntimeError) as exc:
+            raise self._given_up(exc) from None
 
     def _add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
         for path, row in rows.items():
@@ -130,9 +143,12 @@ class SweepFile:
         """Mark the file complete, make it durable and move it into place."""
         from spacarpy.results.h5file import fsync
 
-        self._f.attrs["completed"] = np.bool_(True)
-        self._f.close()
-        fsync(self.partial_path)
+        try:
+            self._f.attrs["completed"] = np.bool_(True)
+            self._f.close()
+            fsync(self.partial_path)
+        except (OSError, RuntimeError) as exc:
+            raise self._given_up(exc) from None
         os.replace(self.partial_path, self.final_path)
         fsync(self.final_path.parent)
         return self.final_path
@@ -141,6 +157,8 @@ class SweepFile:
         """Close the partial file as incomplete (``error`` = ``reason``) and keep it."""
         from spacarpy.results.h5file import fsync
 
+        if self._f is None:              # given up after a full disk: nothing kept
+            return None
         if self._f.id.valid:
             self._f.attrs["error"] = reason
             self._f.close()

@@ -46,7 +46,8 @@ log = logging.getLogger(__name__)
 
 __all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_superblock",
            "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
-           "ascii_array", "SchemaFile", "discard_written", "LIBVER", "crc32",
+           "ascii_array", "SchemaFile", "discard_written", "create_with",
+           "rebuild_with", "LIBVER", "crc32",
            "damaged_steps", "fixed_damaged", "checksum_problems", "CRC_ATTR", "python_value",
            "str_list"]
 
@@ -293,22 +294,62 @@ def _metadata_read_attempts():
     return None
 
 
+def create_with(path, write, libver=LIBVER) -> h5py.File:
+    """Create the HDF5 file ``path`` holding what ``write(f)`` puts into an empty file, and
+    return it open for appending (``r+``).
+
+    The content is built in memory and reaches the disk by one plain write: a disk that
+    fills up meanwhile raises a plain ``OSError`` while no HDF5 object of the file is open.
+    (Writing it through HDF5 instead, a full disk fails a metadata flush that HDF5 cannot
+    undo: the datasets then stay open inside the library, cannot be closed, and the
+    interpreter crashes at exit when HDF5 closes them; ``spacarpy`` itself ends by
+    ``os._exit``, a library caller of ``spacarpy.cli.main`` does not.)"""
+    import io
+    image = io.BytesIO()
+    with h5py.File(image, "w", libver=libver) as mem:
+        write(mem)
+    with open(path, "wb") as out:
+        out.write(image.getbuffer())
+    del image
+    return h5py.File(path, "r+", libver=libver)
+
+
+def rebuild_with(path, f, write) -> h5py.File:
+    """Close ``f`` (the file ``path`` open for writing), add what ``write(mem)`` puts into an
+    HDF5 file of its content in memory, and write the result back to ``path`` as
+    :func:`create_with` does (the same reason); return ``path`` open for appending."""
+    import io
+    f.close()
+    image = io.BytesIO(Path(path).read_bytes())
+    with h5py.File(image, "r+", libver=LIBVER) as mem:
+        write(mem)
+    with open(path, "wb") as out:
+        out.write(image.getbuffer())
+    del image
+    return h5py.File(path, "r+", libver=LIBVER)
+
+
 def discard_written(f, path) -> None:
     """Give up the HDF5 file ``f`` (open for writing at ``path``) after a failed write (a full
     disk): remove it, never raising.
 
-    HDF5 flushes its metadata on close; after a write failed for lack of space that flush
-    fails again and leaves the file half closed, and closing an SWMR file in that state
-    crashes the process (a segmentation fault inside HDF5). So the file is first truncated
-    to 0 bytes, which gives its space back, then closed (the flush now succeeds, into a file
-    about to be removed), then unlinked."""
+    HDF5 flushes its metadata and cached data on close; after a write failed for lack of
+    space that flush fails again (it may need more than the space there is, even in an
+    emptied file), the datasets it could not close stay open inside HDF5, and closing them
+    later (the interpreter's exit, a retry) crashes the process (a segmentation fault inside
+    HDF5). So HDF5's descriptor of the file is first pointed at the null device (every later
+    write succeeds and goes nowhere), the file is truncated to 0 bytes, which gives its space
+    back, then closed with every object of it (:meth:`h5py.File.close`), then unlinked."""
+    if f is not None:
+        _write_to_null_device(f, path)
     try:
         os.truncate(path, 0)
     except OSError as exc:
         log.debug("could not truncate %s: %s", path, exc)
-    if f is not None:
+    for _ in range(2 if f is not None else 0):   # a failed flush's state fails the first
         try:
             f.close()
+            break
         except Exception as exc:         # noqa: BLE001 - the file is given up
             log.debug("closing %s failed: %s", path, exc)
     try:
@@ -317,6 +358,20 @@ def discard_written(f, path) -> None:
         pass
     except OSError as exc:
         log.warning("could not remove %s: %s", path, exc)
+
+
+def _write_to_null_device(f, path) -> None:
+    """Make HDF5's descriptor of the open file ``f`` (the default sec2 driver) the null
+    device: what HDF5 writes from now on is discarded, what it reads is zeros."""
+    try:
+        fd = f.id.get_vfd_handle()
+        null = os.open(os.devnull, os.O_RDWR)
+        try:
+            os.dup2(null, fd)
+        finally:
+            os.close(null)
+    except Exception as exc:             # noqa: BLE001 - best effort; closing still tried
+        log.debug("could not detach %s from HDF5: %s", path, exc)
 
 
 def fsync(path: Path) -> None:

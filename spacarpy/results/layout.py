@@ -88,7 +88,20 @@ def create_step_group(f: h5py.File, group: str, specs, size, n_mode: int = 0) ->
             for axis, label in enumerate(spec.shape[1:], start=1):
                 if isinstance(label, str):
                     _label(ds, axis, label)
+    entry["names"] = {"datasets": {n: ds.name for n, ds in entry["datasets"].items()},
+                      "scale": entry["scale"].name, "checksum": checksum.name}
     return entry
+
+
+def bind_step_group(entry: dict, f: h5py.File) -> None:
+    """Point the writer's ``entry`` of a step group (:func:`create_step_group`), made in
+    another file object of the same content, at the datasets of ``f``; the names were kept
+    in ``entry["names"]`` when it was made."""
+    names = entry["names"]
+    entry["datasets"] = {name: f[path] for name, path in names["datasets"].items()}
+    entry["scale"] = f[names["scale"]]
+    entry["checksum"] = (f[names["checksum"]], entry["checksum"][1])
+    entry["appender"] = StepAppender(f, entry["datasets"], entry["scale"], entry["checksum"])
 
 
 def write_header(f: h5py.File, model: Model, model_data: dict, *, program_version: str,

@@ -31,7 +31,7 @@ from spacarpy.model import Model
 from spacarpy.outputs import refuse_non_regular
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, partial_path_for
-from spacarpy.results.layout import create_step_group, write_header
+from spacarpy.results.layout import bind_step_group, create_step_group, write_header
 from spacarpy.results.schema import (
     DATASETS,
     REACTION_COMPONENTS,
@@ -167,13 +167,10 @@ class ResultsWriter:
             raise RuntimeError("a ResultsWriter can be opened only once")
         if self.partial_path.exists():
             log.info("replacing the stale partial file %s", self.partial_path)
-        self._file = h5py.File(self.partial_path, "w", libver=h5file.LIBVER)
-        try:
-            self._write_header(self._file)
-            self._file.flush()
+        try:    # in memory, then one plain write (a full disk: no HDF5 object left open)
+            self._file = h5file.create_with(self.partial_path, self._write_header)
         except BaseException as exc:
-            h5file.discard_written(self._file, self.partial_path)
-            self._file = None
+            h5file.discard_written(None, self.partial_path)
             self._state = "aborted"
             if is_disk_full(exc):
                 raise self._disk_full(exc) from None
@@ -240,6 +237,20 @@ class ResultsWriter:
                        "orientation_node": int(n_orientation_node),
                        "reaction": reaction_node.size, "coordinate": 3, "euler_parameter": 4}
         self._arclength = bool(arclength)
+        # built in memory and written in one piece, as the header (h5file.rebuild_with);
+        # if that fails, abort() reopens the file that rebuild_with closed
+        self._file = None
+        self._file = h5file.rebuild_with(self.partial_path, f, lambda mem: self._begin_groups(
+            mem, reaction_node, reaction_component, n_eigen_modes, n_buckling_modes,
+            compliance_node, transient, state_space, arclength))
+        for entry in self._groups.values():
+            bind_step_group(entry, self._file)
+        # From here on only appends: SWMR keeps the file consistent on disk at every instant.
+        self._file.swmr_mode = True
+        self._swmr = True
+
+    def _begin_groups(self, f, reaction_node, reaction_component, n_eigen_modes,
+                      n_buckling_modes, compliance_node, transient, state_space, arclength):
         self._create_step_group(f, "static")
         g = f["static"]
         create(g, "reaction_node", reaction_node)
@@ -258,10 +269,6 @@ class ResultsWriter:
             self._begin_state_space(f, state_space)
         if arclength:
             self._create_step_group(f, "critical", n_mode=1)
-        f.flush()
-        # From here on only appends: SWMR keeps the file consistent on disk at every instant.
-        f.swmr_mode = True
-        self._swmr = True
 
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
