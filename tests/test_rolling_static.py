@@ -192,3 +192,36 @@ def test_lift_off_is_warned_naming_the_wheel_and_the_step(tmp_path, caplog):
     assert "static step 0 (load factor 0): negative normal force (WHEEL mode 6) at WHEEL 4 " \
            "(-19.62 N): the wheel would lift off the ground" in caplog.text
     assert "WHEEL 4 (-19.62 N)" in warnings
+
+
+def test_the_newton_matrix_is_the_derivative_of_the_residual_with_slip_forces():
+    """The bordered matrix of a model with slips: its K block is d r/dx of the residual
+    with the slip forces S^T nu (the non-symmetric d(S^T nu)/dx included), checked by
+    central differences at a perturbed state with nonzero multipliers; its last rows are
+    the slip Jacobian S over the free coordinates, scaled like the holonomic rows."""
+    from spacarpy.solvers.statics.equilibrium import StaticProblem
+    job = job_from_text(BRAKED.read_text())
+    prob = StaticProblem(job.model)
+    num, n_x = prob.num, prob.pattern.n_x
+    free = np.flatnonzero(prob.free)
+    rng = np.random.default_rng(7)
+    x = num.x0.copy()
+    x[free] += 0.05 * rng.standard_normal(free.size)
+    mu = rng.standard_normal(prob.n_multiplier)
+    assert prob.slips.n == 2 and prob.n_multiplier == num.n_constraint + 2
+    load = prob.loads.at(1.0, 0.0)
+    A = prob.matrix(prob.evaluate(x, mu, load), mu).toarray()
+    assert A.shape == (n_x + prob.n_multiplier,) * 2
+    K = A[:n_x, :n_x]
+    h = 1e-6
+    fd = np.zeros_like(K)
+    for j, c in enumerate(free):
+        xp, xm = x.copy(), x.copy()
+        xp[c] += h
+        xm[c] -= h
+        fd[:, j] = (prob.evaluate(xp, mu, load).r - prob.evaluate(xm, mu, load).r) / (2 * h)
+    assert np.abs(K - fd).max() < 1e-7 * np.abs(fd).max()
+    assert not np.allclose(K, K.T)                  # d(S^T nu)/dx is not symmetric
+    S = prob.slips.jacobian(x, cols=free).toarray()
+    assert np.abs(A[n_x + num.n_constraint:, :n_x] / prob.scale - S).max() < 1e-15
+    assert np.abs(A[:n_x, n_x + num.n_constraint:] / prob.scale - S.T).max() < 1e-15
