@@ -16,6 +16,11 @@ where ``sigma = S e`` for flexible (DYNE) and stiff released (RLSE + ESTIFF) mod
 ``[[K_T, C^T], [C, 0]]`` with ``K_T = D^T S D + sum sigma_i d2e_i + 2 mu I4 - df_ext/dx``,
 assembled on a fixed sparsity pattern (documented in docs/solver.md).
 
+Held slips (rolling wheels, :mod:`spacarpy.solvers.statics.slips`) add ``S^T nu`` to the
+residual, with their multipliers nu after mu in the multiplier vector, and border the Newton
+matrix with their rows ``S`` (its K block gets ``d(S^T nu)/dx``): equilibrium for virtual
+displacements that satisfy the slips, every increment with ``S dx = 0`` (docs/rolling.md).
+
 :class:`StaticProblem` holds the model's fixed data (numbering, patterns, scales, the
 kinematic corrector); the load is an argument of every evaluation (a
 :class:`~spacarpy.solvers.statics.loads.LoadState`), never a field of the problem.
