@@ -225,3 +225,29 @@ def test_the_newton_matrix_is_the_derivative_of_the_residual_with_slip_forces():
     S = prob.slips.jacobian(x, cols=free).toarray()
     assert np.abs(A[n_x + num.n_constraint:, :n_x] / prob.scale - S).max() < 1e-15
     assert np.abs(A[:n_x, n_x + num.n_constraint:] / prob.scale - S.T).max() < 1e-15
+
+
+@pytest.mark.parametrize("mode", [4, 10])
+def test_modes_4_and_10_run_the_bicycle_at_rest(tmp_path, mode):
+    """SPACAR modes 4 (eigen) and 10 (the static path with its linearized equations) impose
+    the slips too: the same unstable modes (Table 2(a)), and mode 10's /state_space."""
+    with run_text(bicycle(mode), tmp_path / f"m{mode}.h5") as f:
+        freq = f["eigen/frequency"][-1]
+        if mode == 10:
+            assert rel(f["state_space/K0"][-1], G * K0_REF) < 1e-12
+    ref = np.array([-0.498416502904687, -0.880277032627687])
+    assert np.abs(freq / ref - 1).max() < 1e-10
+
+
+def test_balanced_multipliers_large_path_agrees_with_the_dense_one(monkeypatch):
+    """The sparse least-squares start (large models) gives the dense one's multipliers."""
+    from spacarpy.solvers.statics import newton as nt
+    from spacarpy.solvers.statics.equilibrium import StaticProblem
+    prob = StaticProblem(job_from_text(BICYCLE.read_text()).model)
+    x, mu = prob.num.x0.copy(), np.zeros(prob.n_multiplier)
+    load = prob.loads.at(1.0, 0.0)
+    dense = nt.balanced_multipliers(prob, x, mu, load)
+    monkeypatch.setattr(nt, "_DENSE_LSQ", 0)
+    sparse = nt.balanced_multipliers(prob, x, mu, load)
+    assert np.abs(sparse - dense).max() < 1e-9 * np.abs(dense).max()
+    assert np.abs(prob.evaluate(x, dense, load).r).max() < 1e-10 * np.abs(dense).max()

@@ -72,6 +72,10 @@ def _increment(prob, ev, x, mu, r, c):
     return dz[: prob.pattern.n_x], dz[prob.pattern.n_x:] * prob.scale
 
 
+#: The largest ``[C^T, S^T]`` (entries) that :func:`balanced_multipliers` solves densely.
+_DENSE_LSQ = 4_000_000
+
+
 def balanced_multipliers(prob, x, mu, load: LoadState, states=None) -> np.ndarray:
     """The multipliers (constraints, then slips) that balance the load at ``x`` best, in
     the least-squares sense: the residual is linear in them, ``r(mu) = r(0) + B mu`` with
@@ -82,11 +86,13 @@ def balanced_multipliers(prob, x, mu, load: LoadState, states=None) -> np.ndarra
     n_x = prob.pattern.n_x
     zero = np.zeros_like(mu)
     ev = prob.evaluate(x, zero, load, states)
-    B = (prob.matrix(ev, zero)[:n_x, n_x:] / prob.scale).toarray()
-    if not B.size:
+    B = prob.matrix(ev, zero)[:n_x, n_x:] / prob.scale
+    if not B.shape[1]:
         return mu
-    sol, *_ = np.linalg.lstsq(B, -ev.r, rcond=None)
-    return sol
+    if B.shape[0] * B.shape[1] <= _DENSE_LSQ:
+        sol, *_ = np.linalg.lstsq(B.toarray(), -ev.r, rcond=None)
+        return sol
+    return spla.lsqr(B, -ev.r, atol=1e-15, btol=1e-15, iter_lim=10 * B.shape[1])[0]
 
 
 def newton(prob, x, mu, load: LoadState, opts, states=None):
