@@ -270,3 +270,21 @@ class BlockPattern:
             out += np.bincount(self.col, weights=data * y[self.indices], minlength=self.n)
         out[self.indices[self.diag]] -= data[self.diag] * y[self.indices[self.diag]]
         return out
+
+
+def border_slips(A: sp.csc_matrix, n_x: int, S, K_add=None, scale: float = 1.0
+                 ) -> sp.csc_matrix:
+    """The bordered matrix ``[[K, C^T], [C, 0]]`` (``A``, K of size ``n_x``) with the slip
+    rows appended: ``[[K + K_add, C^T, s S^T], [C, 0, 0], [s S, 0, 0]]`` (``S`` (n_slip, n_x)
+    the held slips over the free coordinates, ``K_add`` the tangent of their forces
+    ``d(S^T nu)/dx``, ``s = scale`` as for the holonomic rows; docs/rolling.md)."""
+    n = A.shape[0]
+    S = sp.csr_matrix(S)
+    if not S.shape[0]:
+        return A
+    B = sp.hstack([scale * S, sp.csr_matrix((S.shape[0], n - n_x))]).tocsr()
+    top = A
+    if K_add is not None:
+        pad = sp.csr_matrix(K_add)
+        top = A + sp.bmat([[pad, None], [None, sp.csr_matrix((n - n_x, n - n_x))]])
+    return sp.bmat([[top, B.T], [B, None]], format="csc")

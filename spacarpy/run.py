@@ -89,11 +89,18 @@ class RunSummary:
     newton_iterations: int = 0
 
 
-def refuse_velocity_modes(model: Model, analysis: str) -> None:
-    """Refuse a model with velocity-level (non-holonomic) modes, the WHEEL's slips, which
-    no solver handles yet: one line (a :class:`ModelError`) rather than a wrong result.
+#: The analyses that impose held slips (rolling without slip): statics and the
+#: linearizations at rest (modes 10, 4, 7, 8, 9; docs/rolling.md).
+SLIP_ANALYSES = ("static", "eigen", "buckling", "state_space", "static_linearized")
 
-    Held slips (rolling without slip, the default) are constraints no solver imposes yet.
+
+def refuse_velocity_modes(model: Model, analysis: str) -> None:
+    """Refuse a model with velocity-level (non-holonomic) modes, the WHEEL's slips, in an
+    analysis that does not handle them: one line (a :class:`ModelError`) rather than a wrong
+    result.
+
+    Held slips (rolling without slip, the default) are imposed by statics and the
+    linearizations at rest (:data:`SLIP_ANALYSES`), not yet by the other analyses.
     Released ones (``RLSE e 4 5``, sliding freely) leave a purely holonomic model, but its
     stored slip deformations (the accumulated slip) would not be integrated: refused too."""
     for keyword, es in model.elements.items():
@@ -102,7 +109,9 @@ def refuse_velocity_modes(model: Model, analysis: str) -> None:
             continue
         held = es.def_class[:, modes] == RIGID
         numbers = " ".join(str(k + 1) for k in modes)
-        if held.any():
+        if held.all() and analysis in SLIP_ANALYSES:
+            continue
+        if held.any() and analysis not in SLIP_ANALYSES:
             row = int(np.flatnonzero(held.any(axis=1))[0])
             raise ModelError(f"{keyword} slips (non-holonomic constraints) are not supported "
                              f"in MODE {analysis} yet ({keyword} {es.ids[row]} modes "

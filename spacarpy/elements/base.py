@@ -193,6 +193,10 @@ class ElementKind:
         purely holonomic kind.
     rate_units : tuple of str
         Unit of each mode's rate; empty: the mode's unit per second.
+    stress_sign : tuple of float
+        Factor per mode from the multiplier (or ``S e``) to the stored stress resultant;
+        empty: 1 for every mode. The WHEEL stores the ground's force on the wheel (its
+        multipliers are the wheel's force on the ground).
     reference_type : type
         The kind's :class:`Reference` record, what ``reference`` returns and the kernels
         read.
@@ -220,6 +224,7 @@ class ElementKind:
     vector_required: bool = False
     velocity_modes: tuple = ()
     rate_units: tuple = ()
+    stress_sign: tuple = ()
     reference_type: type = Reference
 
     # optional kernels: None where the kind has none

@@ -318,6 +318,9 @@ class Wheel(ElementKind):
                      ("y component of the axle direction", "ay"),
                      ("z component of the axle direction", "az"))
     velocity_modes = VELOCITY
+    # stored: the ground's force on the wheel along e_l, e_t (4, 5) and n (6, compression
+    # positive); the multipliers are the wheel's force on the ground (docs/rolling.md)
+    stress_sign = (1.0, 1.0, 1.0, -1.0, -1.0, -1.0)
     reference_type = WheelReference
 
     def reference(self, x0, vector):

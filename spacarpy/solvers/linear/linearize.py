@@ -152,6 +152,6 @@ def linearize(prob, x, mu, load, mass: MassAssembler | None = None) -> Lineariza
             if ev.gravity_stiffness and ev.gravity_stiffness[i] is not None:
                 h = h - ev.gravity_stiffness[i]
             parts.append((st.D, g.S, h if np.any(h) else None))   # None: unstressed
-        blocks = (parts, 2.0 * mu[prob.num.n_rigid:])
+        blocks = (parts, 2.0 * mu[prob.num.n_rigid:prob.num.n_constraint])
     return Linearization(n_x=n_x, bordered=bordered, M=M, states=ev.states, x=x, reduced=reduced,
                          blocks=blocks, material=material)

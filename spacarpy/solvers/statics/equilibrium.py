@@ -16,6 +16,11 @@ where ``sigma = S e`` for flexible (DYNE) and stiff released (RLSE + ESTIFF) mod
 ``[[K_T, C^T], [C, 0]]`` with ``K_T = D^T S D + sum sigma_i d2e_i + 2 mu I4 - df_ext/dx``,
 assembled on a fixed sparsity pattern (documented in docs/solver.md).
 
+Held slips (rolling wheels, :mod:`spacarpy.solvers.statics.slips`) add ``S^T nu`` to the
+residual, with their multipliers nu after mu in the multiplier vector, and border the Newton
+matrix with their rows ``S`` (its K block gets ``d(S^T nu)/dx``): equilibrium for virtual
+displacements that satisfy the slips, every increment with ``S dx = 0`` (docs/rolling.md).
+
 :class:`StaticProblem` holds the model's fixed data (numbering, patterns, scales, the
 kinematic corrector); the load is an argument of every evaluation (a
 :class:`~spacarpy.solvers.statics.loads.LoadState`), never a field of the problem.
@@ -27,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spacarpy.assembly import BorderedPattern, scatter_add
+from spacarpy.assembly import BorderedPattern, border_slips, scatter_add
 from spacarpy.elements.chunks import in_chunks
 from spacarpy.errors import SolverError
 from spacarpy.linalg import batch_matvec
@@ -38,6 +43,7 @@ from spacarpy.solvers.statics.kinematic_correction import KinematicCorrector
 from spacarpy.solvers.statics.loads import Loads, LoadState
 from spacarpy.solvers.statics.reduced import ReducedNewton
 from spacarpy.solvers.statics.reduced import applies as reduced_applies
+from spacarpy.solvers.statics.slips import held_slips
 
 _EPS = float(np.finfo(float).eps)
 #: Round-off floor of the residual in units of eps * (largest stiffness) * (length scale).
@@ -79,6 +85,8 @@ class Evaluation:
     q_eu: np.ndarray
     load: LoadState            # the load it was evaluated under
     gravity_stiffness: list = field(default_factory=list)   # per group, or empty
+    x: np.ndarray | None = None     # the state (the slip rows of the Newton matrix need it)
+    nu: np.ndarray | None = None    # the held slips' multipliers (tangential contact forces)
 
 
 class StaticProblem:
@@ -94,9 +102,19 @@ class StaticProblem:
         self.timings = Timings()
         # the kinematic correction after each Newton update (kinematic_correction.py)
         self.corrector = KinematicCorrector(num, self.variant, self.timings)
-        self.kinematic_correction = True
-        # Newton steps without the Euler constraints where the model allows (reduced.py)
-        self.reduced = ReducedNewton(self) if reduced_applies(self) else None
+        # the held slips (WHEEL rolling without slip): velocity-level constraints whose
+        # multipliers nu follow the constraint multipliers mu in the multiplier vector
+        # ``[mu (n_constraint), nu (n_slip)]``; every Newton increment satisfies S dx = 0
+        # (docs/rolling.md, "Statics and the linearizations at rest")
+        self.slips = held_slips(num)
+        # the kinematic correction projects onto the holonomic constraints only and would
+        # move a model with slips along directions that slide: off with slips (Newton's
+        # bordered steps converge without it)
+        self.kinematic_correction = not self.slips
+        # Newton steps without the Euler constraints where the model allows (reduced.py;
+        # the tangent-space steps know holonomic constraints only)
+        self.reduced = (ReducedNewton(self) if reduced_applies(self) and not self.slips
+                        else None)
         self.has_commit = any(g.kind.commit is not None for g in num.groups)
         self._states_at = None                  # (x, kernel states at x), see evaluate()
         self.free = ~num.fixed_mask
@@ -121,6 +139,19 @@ class StaticProblem:
                       1.0) for g in num.groups] + [np.ones(num.euler_nodes.size)])
         self._reaction_setup()
 
+    @property
+    def n_multiplier(self) -> int:
+        """The length of the multiplier vector: constraints, then held slips."""
+        return self.num.n_constraint + self.slips.n
+
+    def slip_multipliers(self, mu) -> np.ndarray:
+        """The held slips' multipliers nu of a multiplier vector (zeros where it holds the
+        constraint multipliers only)."""
+        n_con = self.num.n_constraint
+        if len(mu) >= n_con + self.slips.n:
+            return np.asarray(mu[n_con:n_con + self.slips.n], dtype=float)
+        return np.zeros(self.slips.n)
+
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, x, mu, load: LoadState, states=None) -> Evaluation:
         """Deformations, stress resultants and residuals at (x, mu) under ``load``.
@@ -131,6 +162,7 @@ class StaticProblem:
         results, and then once more as the next step's start)."""
         num = self.num
         t0 = time.perf_counter()
+        nu = self.slip_multipliers(mu) if self.slips else None
         known = states
         if known is None and self._states_at is not None and np.array_equal(
                 self._states_at[0], x):
@@ -158,7 +190,14 @@ class StaticProblem:
             f_int += scatter_add(num.n_coord, g.idx, f_el)
         eu = self.num.euler_coords
         q_eu = x[eu]
-        f_int[eu] += 2.0 * q_eu * mu[self.num.n_rigid:, None]
+        f_int[eu] += 2.0 * q_eu * mu[num.n_rigid:num.n_constraint, None]
+        if nu is not None:
+            f_int += self.slips.force(x, nu)            # S^T nu: the tangential forces
+            for part in self.slips.parts:               # stored as the slip modes' sigma
+                g = num.groups[part.group]
+                vm = np.asarray(g.kind.velocity_modes)
+                sigmas[part.group][part.elem, vm[part.slot]] = \
+                    nu[part.offset:part.offset + part.elem.size]
         f_ext = load.force.copy()
         loads = self.loads
         if loads.moment_rot.size:
@@ -183,7 +222,7 @@ class StaticProblem:
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
         return Evaluation(states=states, sigmas=sigmas, r=r, c=c, f_int=f_int, f_ext=f_ext,
-                          q_eu=q_eu, load=load, gravity_stiffness=gk)
+                          q_eu=q_eu, load=load, gravity_stiffness=gk, x=x, nu=nu)
 
     def matrix(self, ev: Evaluation, mu, material_only: bool = False, extra=None,
                scale: float | None = None):
@@ -206,6 +245,11 @@ class StaticProblem:
                                    for g, st in zip(num.groups, ev.states)],
                                   2.0 * ev.q_eu,
                                   scale=self.scale if scale is None else scale)
+        if self.slips:        # the slip rows, and the tangent of their forces d(S^T nu)/dx
+            free = np.flatnonzero(self.free)
+            k_add = None if material_only else self.slips.force_dx(ev.x, ev.nu, cols=free)
+            A = border_slips(A, self.pattern.n_x, self.slips.jacobian(ev.x, cols=free),
+                             k_add, scale=self.scale if scale is None else scale)
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
         return A
@@ -233,7 +277,7 @@ class StaticProblem:
         if material_only:
             euler_diag, mom_blocks = np.zeros(num.euler_nodes.size), np.zeros((n_m, 4, 4))
         else:
-            euler_diag = 2.0 * mu[self.num.n_rigid:]
+            euler_diag = 2.0 * mu[self.num.n_rigid:self.num.n_constraint]
             mom_blocks = -2.0 * moment_matrix(ev.load.moment) if n_m else np.zeros((0, 4, 4))
         return k_el, euler_diag, mom_blocks
 
@@ -290,7 +334,9 @@ class StaticProblem:
                 floor_c.append(de[g.rigid_elem, g.rigid_mode])
         eu = num.euler_coords
         if eu.size:
-            floor[eu] += 2.0 * np.abs(ev.q_eu) * np.abs(mu[num.n_rigid:, None])
+            floor[eu] += 2.0 * np.abs(ev.q_eu) * np.abs(mu[num.n_rigid:num.n_constraint, None])
+        if ev.nu is not None:
+            floor += np.abs(self.slips.force(x, np.abs(ev.nu)))
         floor_c.append(np.full(num.euler_nodes.size, 4.0))
         return _EPS * floor[self.free], _EPS * np.concatenate(floor_c)
 
@@ -404,9 +450,11 @@ class StaticProblem:
     def element_results(self, ev: Evaluation) -> tuple[dict, dict]:
         """The deformations and stress resultants of every element kind at an evaluated
         state: two dicts keyword -> (n_elem, n_def) (the rigid modes' stress resultants
-        are their multipliers)."""
+        are their multipliers, times the kind's ``stress_sign``)."""
         deformation, stress = {}, {}
         for g, st, sig in zip(self.num.groups, ev.states, ev.sigmas):
+            if g.kind.stress_sign:                  # the WHEEL's contact forces
+                sig = sig * np.asarray(g.kind.stress_sign)
             deformation[g.keyword], stress[g.keyword] = st.e, sig
         return deformation, stress
 

@@ -57,7 +57,7 @@ def check_initial(prob, allow_mechanism: bool = False) -> ModelError | None:
     if not prob.pattern.n or determinate(prob, ev.states, x):
         return None
     A = prob.matrix(ev, mu)
-    _, lu = bordered_solve(prob, A, np.ones(prob.pattern.n))
+    _, lu = bordered_solve(prob, A, np.ones(A.shape[0]))    # (with the slip rows)
     from spacarpy.solvers.statics.diagnose import mechanism_error, singular_matrix_error
     # The LU may exist, but round-off can hide an exact singularity behind tiny pivots:
     # look for deformation-free motions among the smallest modes (robust against the

@@ -1,7 +1,8 @@
 """Newton's method on the static equilibrium equations at one load, and the predictor
 that carries a converged state to the next load.
 
-Each Newton iteration solves the bordered system ``[[K_T, C^T], [C, 0]]`` (SuperLU, or the
+Each Newton iteration solves the bordered system ``[[K_T, C^T], [C, 0]]`` (with the held
+slips: ``[[K_T, C^T, S^T], [C, 0, 0], [S, 0, 0]]``, so that ``S dx = 0``) (SuperLU, or the
 tangent-space LDL^T of :mod:`spacarpy.solvers.statics.reduced` where the only constraints are
 Euler normalizations) and then moves the linear update onto the predicted deformations
 (:mod:`spacarpy.solvers.statics.kinematic_correction`). A step is converged when the scaled
@@ -63,12 +64,35 @@ def _increment(prob, ev, x, mu, r, c):
             return step
     A = prob.matrix(ev, mu)
     t0 = time.perf_counter()
-    rhs = -np.concatenate([r, prob.scale * c])
+    rhs = -np.concatenate([r, prob.scale * c, np.zeros(prob.slips.n)])   # S dx = 0
     dz, _ = bordered_solve(prob, A, rhs)
     if dz is None:
         return None
     prob.timings.solve += time.perf_counter() - t0
     return dz[: prob.pattern.n_x], dz[prob.pattern.n_x:] * prob.scale
+
+
+#: The largest ``[C^T, S^T]`` (entries) that :func:`balanced_multipliers` solves densely.
+_DENSE_LSQ = 4_000_000
+
+
+def balanced_multipliers(prob, x, mu, load: LoadState, states=None) -> np.ndarray:
+    """The multipliers (constraints, then slips) that balance the load at ``x`` best, in
+    the least-squares sense: the residual is linear in them, ``r(mu) = r(0) + B mu`` with
+    ``B = [C^T, S^T]``. A model with rolling wheels starts each Newton solve from them:
+    motions held only by the geometric stiffness of the constraint forces (a bicycle
+    balanced upright at rest, an inverted pendulum) leave the Newton matrix at ``mu = 0``
+    singular, while at the balancing multipliers it is regular."""
+    n_x = prob.pattern.n_x
+    zero = np.zeros_like(mu)
+    ev = prob.evaluate(x, zero, load, states)
+    B = prob.matrix(ev, zero)[:n_x, n_x:] / prob.scale
+    if not B.shape[1]:
+        return mu
+    if B.shape[0] * B.shape[1] <= _DENSE_LSQ:
+        sol, *_ = np.linalg.lstsq(B.toarray(), -ev.r, rcond=None)
+        return sol
+    return spla.lsqr(B, -ev.r, atol=1e-15, btol=1e-15, iter_lim=10 * B.shape[1])[0]
 
 
 def newton(prob, x, mu, load: LoadState, opts, states=None):
@@ -79,6 +103,8 @@ def newton(prob, x, mu, load: LoadState, opts, states=None):
     otherwise."""
     history = History()
     dx_norm = np.inf
+    if prob.slips:
+        mu, states = balanced_multipliers(prob, x, mu, load, states), None
     for it in range(opts.max_iter + 1):
         ev = prob.evaluate(x, mu, load, states)
         r, c = ev.r, ev.c
@@ -165,6 +191,13 @@ class Predictor:
         same_e = np.array_equal(load.rigid_target, self.rigid_target)
         if (not idx.size or np.array_equal(target, x[idx])) and same_e:
             return x, None
+        if prob.slips:
+            # a kinematic move would slide the wheels: only the prescribed coordinates
+            # move, Newton's increments (S dx = 0) take the rest along rolling
+            moved = x.copy()
+            moved[idx] = target
+            self.rigid_target = load.rigid_target
+            return moved, None
         unloaded = dataclasses.replace(load, force=np.zeros(num.n_coord),
                                        moment=np.zeros((prob.loads.moment_rot.size, 3)))
         states = prob.evaluate(x, mu, unloaded).states
@@ -176,4 +209,4 @@ class Predictor:
                                        return_states=True)
 
 
-__all__ = ["History", "Predictor", "bordered_solve", "newton"]
+__all__ = ["History", "Predictor", "balanced_multipliers", "bordered_solve", "newton"]

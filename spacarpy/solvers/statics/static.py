@@ -28,6 +28,7 @@ from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.path.arclength import ArcLengthPath
 from spacarpy.solvers.path.stability import PathStability
+from spacarpy.solvers.statics.contact import ContactMonitor
 from spacarpy.solvers.statics.equilibrium import StaticProblem, Timings
 from spacarpy.solvers.statics.errors import StepFailed
 from spacarpy.solvers.statics.kinematic_check import check_initial, free_motions
@@ -116,9 +117,18 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
     t_start = time.perf_counter()
     num = prob.num
     x = num.x0.copy()
-    mu = np.zeros(num.n_constraint)
+    mu = np.zeros(prob.n_multiplier)            # constraint multipliers, then the slips'
     result = StaticResult(problem=prob)
-    if prob.loads.any:
+    if prob.loads.any and prob.slips:
+        # rolling wheels: the kinematic check sees the holonomic constraints only, so the
+        # motions the slips hold (and those the loads hold, a balanced inverted pendulum
+        # such as a bicycle at rest) look free to it; the loaded Newton matrix with the
+        # slip rows decides (a singular one fails the step, naming it)
+        exc = check_initial(prob, allow_mechanism=True)
+        if exc is not None:
+            log.info("holonomic free motions (%s): held by the slips and the loads, or the "
+                     "first Newton matrix is singular", free_motions(exc))
+    elif prob.loads.any:
         try:
             check_initial(prob)
         except ModelError as exc:
@@ -138,6 +148,7 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
                         free_motions(exc))
 
     warned = []
+    contact = ContactMonitor(num)
 
     def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None,
               by="tolerance"):
@@ -145,6 +156,10 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         if not warned:
             warned.extend(_strain_warnings(num, ev.states, len(result.steps)))
         deformation, stress = prob.element_results(ev)
+        k = len(result.steps)
+        lift = contact(stress, k, f"static step {k} (load factor {load_factor:.4g})")
+        if lift is not None:
+            warning = lift if warning is None else f"{warning}; {lift}"
         step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=deformation,
                           stress=stress, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
                           iterations=its, residual=res, mu=mu.copy(), arc_length=arc,
@@ -164,6 +179,9 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
                                   opts.n_init if prob.loads.has_xf else 1, stored_step=0)
     x, mu = path.check(prob.normalize(x), mu, (1.0, 0.0), 0)
     if opts.arclength is not None:
+        if prob.slips:
+            raise ModelError("ARCLENGTH is not supported with rolling wheels (WHEEL slips "
+                             "held) yet: use load steps (ITERSTEP, DELXF)")
         store(0.0, x, mu, its, res, arc=0.0, by=by)
         ArcLengthPath(prob, opts, opts.arclength).follow(x, mu, store)
         prob.timings.total = time.perf_counter() - t_start
@@ -178,6 +196,8 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         x, mu = path.check(prob.normalize(x), mu, (1.0, s1), k)
         store(s1, x, mu, its, res, warning=jumps(x_old, x, k, s1), by=by)
     prob.timings.total = time.perf_counter() - t_start
+    if contact.report() is not None:
+        log.info(contact.report())
     return result
 
 
@@ -185,7 +205,7 @@ def _driven(prob, tol: float) -> bool:
     """Whether an unloaded model is out of equilibrium in its initial configuration at
     the start or the end of its load path (a pre-stress ESIG acting)."""
     num = prob.num
-    mu = np.zeros(num.n_constraint)
+    mu = np.zeros(prob.n_multiplier)
     for s in (0.0, 1.0):
         ev = prob.evaluate(num.x0, mu, prob.loads.at(1.0, s))
         if prob.null_state(num.x0, ev.load):

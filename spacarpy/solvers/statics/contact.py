@@ -1,0 +1,63 @@
+"""The rolling wheels' contact forces along a static path: the lift-off warning and the
+largest friction ratio.
+
+A WHEEL's stored stress resultants (``stress_sign`` applied) hold the ground's force on the
+wheel: mode 6 the normal force (compression positive), modes 4 and 5 the tangential forces
+along the heading and lateral directions. A negative normal force means the ground would
+have to pull the wheel down: the wheel would lift off, which the bilateral contact cannot
+represent. The friction ratio ``|(nu4, nu5)| / nu6`` is the friction coefficient the rolling
+needs (docs/rolling.md, "Statics and the linearizations at rest").
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+__all__ = ["ContactMonitor"]
+
+
+class ContactMonitor:
+    """Watches the WHEEL contact forces of the stored steps: :meth:`__call__` returns the
+    lift-off warning of a step (or None); :attr:`largest` is the largest friction ratio
+    seen, with its element and step."""
+
+    def __init__(self, num):
+        self.groups = [g for g in num.groups if g.keyword == "WHEEL" and g.n_elem]
+        self.largest = None                  # (ratio, element, step)
+
+    def __bool__(self) -> bool:
+        return bool(self.groups)
+
+    def __call__(self, stress: dict, step: int, label: str) -> str | None:
+        sig = stress.get("WHEEL")
+        if sig is None or not self.groups:
+            return None
+        ids = self.groups[0].ids
+        normal, tangential = sig[:, 5], np.hypot(sig[:, 3], sig[:, 4])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(normal > 0, tangential / normal, np.inf)
+        finite = np.flatnonzero(normal > 0)
+        if finite.size:
+            i = int(finite[np.argmax(ratio[finite])])
+            if self.largest is None or ratio[i] > self.largest[0]:
+                self.largest = (float(ratio[i]), int(ids[i]), step)
+        lift = np.flatnonzero(normal < 0)
+        if not lift.size:
+            return None
+        names = ", ".join(f"WHEEL {int(ids[i])} ({normal[i]:.4g} N)" for i in lift)
+        msg = (f"{label}: negative normal force (WHEEL mode 6) at {names}: the wheel would "
+               f"lift off the ground, which the rolling contact cannot represent (it holds "
+               f"the wheel on the ground)")
+        log.warning(msg)
+        return msg
+
+    def report(self) -> str | None:
+        """The largest friction ratio of the path, one line (None without wheels)."""
+        if not self.groups or self.largest is None:
+            return None
+        r, e, k = self.largest
+        return (f"largest friction ratio |(nu4, nu5)|/nu6 needed by the rolling contact: "
+                f"{r:.4g} (WHEEL {e}, step {k})")
