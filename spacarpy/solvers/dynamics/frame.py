@@ -50,12 +50,17 @@ from spacarpy.linalg import cross3
 #: left out of the fitted rate (their radius of gyration below 1 % of the largest).
 SPREAD = 1e-4
 
-#: The frame turns once the model's rotation per step |omega| h exceeds this (rad), at a
-#: rate rising smoothly to the model's at FRAME_FULL_TURN times this turn. Below it (a
-#: vibrating structure: the cantilever decks turn by at most 0.012 rad per step) the
-#: steps keep the global frame and its cheaper symmetric Newton matrix.
-FRAME_MIN_TURN = 0.015
-FRAME_FULL_TURN = 3.0
+#: The frame turns once the model has turned by this net angle (rad) since the start: the
+#: length of the time integral of its fitted rate, ``|sum h omega|`` over the accepted steps
+#: (:meth:`~spacarpy.solvers.dynamics.transient.TransientProblem.frame_rate`), at a rate
+#: that rises smoothly from zero there to the fitted one at FRAME_FULL_ANGLE. An angle, not
+#: a turn per step: the scheme at a given time is then the same for every step size, which
+#: keeps the generalized-alpha method's second order in h (a turn per step switched the
+#: frame on later the smaller h, docs/transient.md, "Energy balance of driven models"). A
+#: vibrating structure turns back and forth by small angles (the shipped cantilevers by at
+#: most 0.02 rad) and keeps the global frame and its cheaper symmetric Newton matrix.
+FRAME_ON_ANGLE = 0.05
+FRAME_FULL_ANGLE = 0.25
 
 
 def _surely_below(a: list, tiny: float, h: tuple, du2: float, max_rate: float) -> bool:
@@ -219,6 +224,15 @@ class RotatingFrame:
         decides."""
         return self._fit(x, v, max_rate)
 
+    def turns(self, x: np.ndarray, v: np.ndarray, omega: np.ndarray, c: np.ndarray) -> bool:
+        """Whether the fitted rotation ``omega`` about ``c`` (:meth:`fit` of x, v) moves the
+        turning nodes at all: its velocities ``omega x r`` above 1e-6 of the nodes' own
+        (a model at rest, or one that only translates, shows a rate of round-off at most)."""
+        r = x[self.pos] - c
+        spin = cross3(omega, r)
+        vel = v[self.pos]
+        return float(np.sum(spin * spin)) > 1e-12 * float(np.sum(vel * vel)) > 0.0
+
     def motion(self, omega: np.ndarray, c: np.ndarray, u: np.ndarray) -> Motion:
         """The :class:`Motion` of a fitted ``(omega, c, u)`` (:meth:`fit`): for a model with
         held nodes (fixed or driven), which do not turn with the frame, the turn is about
@@ -329,4 +343,4 @@ class RotatingFrame:
         return self._shift(rel, -motion.centre), yd, ydd
 
 
-__all__ = ["FRAME_FULL_TURN", "FRAME_MIN_TURN", "Motion", "RotatingFrame"]
+__all__ = ["FRAME_FULL_ANGLE", "FRAME_ON_ANGLE", "Motion", "RotatingFrame"]

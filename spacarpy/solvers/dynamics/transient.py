@@ -47,7 +47,7 @@ from spacarpy.assembly import csc_with_data, scatter_add
 from spacarpy.errors import ConvergenceError, SpacarError
 from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
-from spacarpy.solvers.dynamics.frame import FRAME_FULL_TURN, FRAME_MIN_TURN, RotatingFrame
+from spacarpy.solvers.dynamics.frame import FRAME_FULL_ANGLE, FRAME_ON_ANGLE, RotatingFrame
 from spacarpy.solvers.dynamics.inertia import Inertia
 from spacarpy.solvers.dynamics.transient_records import (  # noqa: F401  (re-exported)
     KEEP_CONTRACTION,
@@ -93,6 +93,9 @@ class TransientProblem:
         # iteration whose residual fell by less than a factor 10 (see _newton_step)
         self.exact_tangent_on = False
         self.frame_on = False            # the step's rotating frame (frame_rate)
+        self.turned = np.zeros(3)        # the net angle turned: sum of h omega (frame_rate)
+        self.spinning_start = None       # whether the model turns at t = 0 (frame_rate)
+        self.step_rate = None            # the fitted rate at the last step's start
         self.fresh_only = False          # the next step forms its matrices afresh (a retry)
         # (h, a) of the last accepted step's start: the predictor's extrapolation
         self.previous_acceleration: tuple[float, np.ndarray] | None = None
@@ -108,28 +111,43 @@ class TransientProblem:
     def frame_rate(self, x, v, h: float):
         """The motion of the step's frame (a frame.Motion), or None (the global frame).
 
-        The frame follows the model's fitted rotation once it turns by more than
-        ``FRAME_MIN_TURN`` per step, at a rate that rises smoothly from zero there to the
-        fitted rate at ``FRAME_FULL_TURN`` times that turn: any rate is an exact change of
-        variables, and a frame switched on at once would change the scheme from one step
-        to the next and kick the stiff axial modes, which nothing damps at ``RHOINF 1``."""
+        The frame follows the model's fitted rotation once the model has turned by more
+        than ``FRAME_ON_ANGLE`` since the start (the length of :attr:`turned`, which
+        :meth:`advance_turn` adds each accepted step's ``h omega`` to), at a rate that rises
+        smoothly from zero there to the fitted rate at ``FRAME_FULL_ANGLE``: any rate is an
+        exact change of variables; a frame switched on at once would change the scheme from
+        one step to the next and kick the stiff axial modes, which nothing damps at
+        ``RHOINF 1``; and a switch-on by angle, not by turn per step, is at the same time for
+        every h, which keeps the scheme's second order (docs/transient.md). A model that
+        already turns at t = 0 (VELOCITY lines, :meth:`RotatingFrame.turns`) has the frame at
+        its full rate from the first step: there is no switch to kick it, and the global
+        frame's first steps would (a free beam spinning at 0.08 rad per step: its energy
+        drifted 230 times faster with the frame ramped in over its first 0.25 rad)."""
+        self.step_rate = None
         if not self.opts.rotating_frame or not self.frame.usable:
             return None
-        fit = self.frame.fit_above(x, v, FRAME_MIN_TURN / h)
-        if fit is None:                  # surely turns by less than FRAME_MIN_TURN
-            return None
-        omega, centre, velocity = fit
-        turn = math.sqrt(float(omega @ omega)) * h
-        if turn <= FRAME_MIN_TURN:
+        omega, centre, velocity = self.frame.fit(x, v)
+        self.step_rate = omega
+        if self.spinning_start is None:
+            self.spinning_start = self.frame.turns(x, v, omega, centre)
+        angle = math.sqrt(float(self.turned @ self.turned))
+        if angle <= FRAME_ON_ANGLE and not self.spinning_start:
             return None
         motion = self.frame.motion(omega, centre, velocity)
         if not self.frame_on:
-            log.info("the model turns by %.3g rad per step: the steps are taken in a "
-                     "frame turning with it", turn)
+            log.info("the model has turned by %.3g rad: the steps are taken in a frame "
+                     "turning with it", angle)
             self.frame_on = True
-        s = min((turn - FRAME_MIN_TURN) / ((FRAME_FULL_TURN - 1) * FRAME_MIN_TURN), 1.0)
+        s = 1.0 if self.spinning_start else \
+            min((angle - FRAME_ON_ANGLE) / (FRAME_FULL_ANGLE - FRAME_ON_ANGLE), 1.0)
         # the rate scaled, the axis kept (the screw axis' point and slide do not change)
         return motion._replace(omega=s * s * (3 - 2 * s) * motion.omega)
+
+    def advance_turn(self, h: float) -> None:
+        """A step of length h from the state of the last :meth:`frame_rate` was accepted:
+        its fitted rate times h joins the net angle turned."""
+        if self.step_rate is not None:
+            self.turned += h * self.step_rate
 
     @cached_property
     def mass_diagonal(self) -> np.ndarray:
@@ -429,6 +447,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                     continue
                 grow = factor
             tp.previous_acceleration = (h, a)
+            tp.advance_turn(h)
             v, a, a_tilde = v_new, a_new, at_new
             q_new = tp.driving_force(ev, f_in)
             work += 0.5 * float((q_prev + q_new) @ (x_new - x))
