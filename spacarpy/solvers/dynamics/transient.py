@@ -137,8 +137,9 @@ class TransientProblem:
             return None
         motion = self.frame.motion(omega, centre, velocity)
         if not self.frame_on:
-            log.info("the model has turned by %.3g rad: the steps are taken in a frame "
-                     "turning with it", angle)
+            log.info("%s: the steps are taken in a frame turning with it",
+                     "the model has a prescribed rotation or turns at t = 0"
+                     if self.frame_from_start else f"the model has turned by {angle:.3g} rad")
             self.frame_on = True
         s = 1.0 if self.frame_from_start else \
             min((angle - FRAME_ON_ANGLE) / (FRAME_FULL_ANGLE - FRAME_ON_ANGLE), 1.0)
