@@ -50,27 +50,23 @@ from spacarpy.linalg import cross3
 #: left out of the fitted rate (their radius of gyration below 1 % of the largest).
 SPREAD = 1e-4
 
-#: The frame turns once the model's rotation per step |omega| h exceeds this (rad), at a
-#: rate rising smoothly to the model's at FRAME_FULL_TURN times this turn. Below it (a
-#: vibrating structure: the cantilever decks turn by at most 0.012 rad per step) the
-#: steps keep the global frame and its cheaper symmetric Newton matrix.
-FRAME_MIN_TURN = 0.015
-FRAME_FULL_TURN = 3.0
+#: A model without a prescribed rotation that is at rest at t = 0 has its steps taken in the
+#: turning frame once it has turned by this net angle (rad) since the start: the length of
+#: the time integral of its fitted rate, ``|sum h omega|`` over the accepted steps
+#: (:meth:`~spacarpy.solvers.dynamics.transient.TransientProblem.frame_rate`), at a rate
+#: that rises smoothly from zero there to the fitted one at FRAME_FULL_ANGLE. An angle, not
+#: a turn per step: the scheme at a given time is then the same for every step size, which
+#: keeps the generalized-alpha method's second order in h. More than a deflection: a
+#: loaded or vibrating structure (the bench's suddenly loaded cantilever turns by 0.2 rad,
+#: the shipped cantilevers by less) keeps the global frame and its cheaper symmetric Newton
+#: matrix.
+FRAME_ON_ANGLE = 1.0
+FRAME_FULL_ANGLE = 2.0
 
 
-def _surely_below(a: list, tiny: float, h: tuple, du2: float, max_rate: float) -> bool:
-    """Whether the rate the fit gives for the second moment ``a`` (nested lists, 3 x 3,
-    positive semi-definite), the moment ``h`` of the relative velocities and their squared
-    norm ``du2`` is at most ``max_rate`` for certain, on Python floats.
-
-    The eigenvalues come from their closed form (Smith 1961). Where the fit keeps all three
-    (each above ``SPREAD`` times the largest and above ``tiny``) the rate is ``I^-1 H``,
-    here by the adjugate (its round-off at most about ``1e4 eps`` relative, the kept
-    eigenvalues being at least 1e-4 of the largest); where it leaves some out, the bound
-    ``|omega|^2 <= du2 / lambda_min`` of :meth:`RotatingFrame.fit_above` serves. False
-    (undecided: the fit decides) where an eigenvalue lies within 1 % of the threshold
-    (the closed form's round-off, at most about 1e-7 of the largest eigenvalue for a
-    double one, must not decide which are kept), or near ``max_rate`` itself."""
+def _eigenvalues(a: list) -> tuple:
+    """The eigenvalues of the symmetric 3 x 3 ``a`` (nested lists) in closed form (Smith
+    1961), on Python floats: (largest, middle, least)."""
     (a00, a01, a02), (_, a11, a12), (_, _, a22) = a
     q = (a00 + a11 + a22) / 3.0
     p1 = a01 * a01 + a02 * a02 + a12 * a12
@@ -87,6 +83,44 @@ def _surely_below(a: list, tiny: float, h: tuple, du2: float, max_rate: float) -
         top = q + 2.0 * pp * math.cos(phi)
         low = q + 2.0 * pp * math.cos(phi + 2.0 * math.pi / 3.0)
         lam = (top, 3.0 * q - top - low, low)
+    return lam
+
+
+def _rate_all_kept(a: list, tiny: float, h: tuple):
+    """The fitted rate ``a^-1 h`` (by the adjugate, on Python floats) where the fit keeps
+    all three axes of the second moment ``a``, each eigenvalue above 1.01 times its
+    threshold (``SPREAD`` times the largest, and ``tiny``); None otherwise (the fit's
+    ``eigh`` decides). What a step of a model whose frame is usable costs: the rate is
+    needed at every step to add up the angle turned (the bench's deflected cantilever: all
+    three axes kept)."""
+    lam = _eigenvalues(a)
+    thr = max(SPREAD * max(lam), tiny)
+    if min(lam) <= 1.01 * thr:
+        return None
+    (a00, a01, a02), (_, a11, a12), (_, _, a22) = a
+    c00, c01, c02 = a11 * a22 - a12 * a12, a02 * a12 - a01 * a22, a01 * a12 - a02 * a11
+    c11, c12, c22 = a00 * a22 - a02 * a02, a01 * a02 - a00 * a12, a00 * a11 - a01 * a01
+    det_a = a00 * c00 + a01 * c01 + a02 * c02
+    h0, h1, h2 = h
+    return ((c00 * h0 + c01 * h1 + c02 * h2) / det_a, (c01 * h0 + c11 * h1 + c12 * h2) / det_a,
+            (c02 * h0 + c12 * h1 + c22 * h2) / det_a)
+
+
+def _surely_below(a: list, tiny: float, h: tuple, du2: float, max_rate: float) -> bool:
+    """Whether the rate the fit gives for the second moment ``a`` (nested lists, 3 x 3,
+    positive semi-definite), the moment ``h`` of the relative velocities and their squared
+    norm ``du2`` is at most ``max_rate`` for certain, on Python floats.
+
+    The eigenvalues come from their closed form (Smith 1961). Where the fit keeps all three
+    (each above ``SPREAD`` times the largest and above ``tiny``) the rate is ``I^-1 H``,
+    here by the adjugate (its round-off at most about ``1e4 eps`` relative, the kept
+    eigenvalues being at least 1e-4 of the largest); where it leaves some out, the bound
+    ``|omega|^2 <= du2 / lambda_min`` of :meth:`RotatingFrame.fit_above` serves. False
+    (undecided: the fit decides) where an eigenvalue lies within 1 % of the threshold
+    (the closed form's round-off, at most about 1e-7 of the largest eigenvalue for a
+    double one, must not decide which are kept), or near ``max_rate`` itself."""
+    (a00, a01, a02), (_, a11, a12), (_, _, a22) = a
+    lam = _eigenvalues(a)
     thr = max(SPREAD * max(lam), tiny)
     if any(0.99 * thr < e < 1.01 * thr for e in lam):
         return False
@@ -197,6 +231,9 @@ class RotatingFrame:
         if max_rate is not None and _surely_below(inertia, tiny, (h0, h1, h2),
                                                   d00 + d11 + d22, max_rate):
             return None
+        w = _rate_all_kept(inertia, tiny, (h0, h1, h2))
+        if w is not None:
+            return np.array(w), c, u
         lam, vec = np.linalg.eigh(np.array(inertia))
         # a rate about an axis the nodes hardly spread across (a nearly straight beam's
         # own axis) is not seen by their velocities: the fit leaves it out rather
@@ -218,6 +255,15 @@ class RotatingFrame:
         needs no eigendecomposition at its steps; where the test is undecided the fit
         decides."""
         return self._fit(x, v, max_rate)
+
+    def turns(self, x: np.ndarray, v: np.ndarray, omega: np.ndarray, c: np.ndarray) -> bool:
+        """Whether the fitted rotation ``omega`` about ``c`` (:meth:`fit` of x, v) moves the
+        turning nodes at all: its velocities ``omega x r`` above 1e-6 of the nodes' own
+        (a model at rest, or one that only translates, shows a rate of round-off at most)."""
+        r = x[self.pos] - c
+        spin = cross3(omega, r)
+        vel = v[self.pos]
+        return float(np.sum(spin * spin)) > 1e-12 * float(np.sum(vel * vel)) > 0.0
 
     def motion(self, omega: np.ndarray, c: np.ndarray, u: np.ndarray) -> Motion:
         """The :class:`Motion` of a fitted ``(omega, c, u)`` (:meth:`fit`): for a model with
@@ -329,4 +375,4 @@ class RotatingFrame:
         return self._shift(rel, -motion.centre), yd, ydd
 
 
-__all__ = ["FRAME_FULL_TURN", "FRAME_MIN_TURN", "Motion", "RotatingFrame"]
+__all__ = ["FRAME_FULL_ANGLE", "FRAME_ON_ANGLE", "Motion", "RotatingFrame"]

@@ -43,8 +43,8 @@ class TransientOptions:
     #: matrix; False leaves them out (the former iteration matrix: linear convergence at
     #: high angular velocity, kept to measure the difference)
     exact_tangent: bool = True
-    #: take each step in a frame turning with the model once it rotates by more than
-    #: FRAME_MIN_TURN per step (solvers/dynamics/frame.py); False: always in the global frame (the
+    #: take each step in a frame turning with the model once it has turned by more than
+    #: FRAME_ON_ANGLE (solvers/dynamics/frame.py); False: always in the global frame (the
     #: former scheme, unstable with little numerical damping at fast rotation)
     rotating_frame: bool = True
     #: a step's later Newton iterations reuse its iteration matrix while that contracts
