@@ -270,14 +270,23 @@ class SteadyMotion:
         return out
 
     def motion(self, q, dq, p):
-        """(x, v, a, V) at (q, q', p) with q'' = 0, r' the deck rates and r'' = 0."""
+        """(x, v, a, V, rows) at (q, q', p) with q'' = 0, r' the deck rates and r'' = 0;
+        ``rows`` the kernel states at x."""
         x = self.position(q, p)
         st = self._states(x)
-        lu = sla.lu_factor(self._velocity_matrix(x, st))
+        J = self._velocity_matrix(x, st)
         n_h = len(self.hol) + self.num.euler_nodes.size + self.slips.n
-        rhs = np.concatenate([np.zeros(n_h), self.dr, np.asarray(dq, float)])
+        n = len(self.dyn)
+        rhs = np.zeros((J.shape[0], n + 1))
+        rhs[n_h:n_h + self.dr.size, 0] = self.dr
+        rhs[J.shape[0] - n:, 0] = dq
+        rhs[J.shape[0] - n:, 1:] = np.eye(n)
+        lu = sla.lu_factor(J)
+        sol = sla.lu_solve(lu, rhs)
         v = np.zeros_like(x)
-        v[self.free] = sla.lu_solve(lu, rhs)
+        v[self.free] = sol[:, 0]
+        V = np.zeros((x.size, n))
+        V[self.free] = sol[:, 1:]
         eu = self.num.euler_coords
         conv_eu = 2.0 * np.sum(v[eu] * v[eu], axis=1)
         conv_s = (self.slips.rates_dx(x, v) @ v) if self.slips.n else np.zeros(0)
@@ -286,11 +295,7 @@ class SteadyMotion:
                                self._convective(x, v, st, self.dyn)])
         a = np.zeros_like(x)
         a[self.free] = sla.lu_solve(lu, -conv)
-        E = np.zeros((rhs.size, len(self.dyn)))
-        E[rhs.size - len(self.dyn):] = np.eye(len(self.dyn))
-        V = np.zeros((x.size, len(self.dyn)))
-        V[self.free] = sla.lu_solve(lu, E)
-        return x, v, a, V
+        return x, v, a, V, st
 
     def _force(self, x, v, a) -> np.ndarray:
         """``M a + h - f`` over all coordinates (zero multipliers)."""
@@ -299,45 +304,35 @@ class SteadyMotion:
         r[self.free] = self.tp.residual(0.0, x, v, a, mu).r
         return r
 
-    def residual(self, q, dq, p) -> np.ndarray:
-        """R(q, q', p) = V^T (M a + h - f)."""
-        x, v, a, V = self.motion(q, dq, p)
-        return V.T @ self._force(x, v, a)
-
-    def kinematic_rates(self, q, dq, p) -> np.ndarray:
-        """p' at (q, q', p)."""
-        x, v, _, _ = self.motion(q, dq, p)
-        st = self._states(x)
-        return self._kin_rows(st)[:, self.free] @ v[self.free]
+    def evaluate(self, q, dq, p) -> np.ndarray:
+        """``[R; p']`` at (q, q', p): R = V^T (M a + h - f) and the kinematic rates."""
+        x, v, a, V, st = self.motion(q, dq, p)
+        pdot = self._kin_rows(st)[:, self.free] @ v[self.free]
+        return np.concatenate([V.T @ self._force(x, v, a), pdot])
 
     # ------------------------------------------------------------------ matrices
     def matrices(self) -> SteadyMotionMatrices:
         """M0, C0, K0, K0p, G, Gq, Gp at the initial state."""
         q0, dq0, p0 = self.q0, self.dq0, self.p0
         n, k = q0.size, p0.size
-        x, v, a, V = self.motion(q0, dq0, p0)
+        x, v, a, V, st = self.motion(q0, dq0, p0)
         f0 = self._force(x, v, a)
         M0 = np.column_stack([V.T @ (self._force(x, v, a + V[:, j]) - f0) for j in range(n)])
         M0 = 0.5 * (M0 + M0.T)
         eye_n, eye_k = np.eye(n), np.eye(k)
         # R is quadratic in q': one central difference of unit step is exact
-        C0 = np.column_stack([0.5 * (self.residual(q0, dq0 + eye_n[j], p0)
-                                     - self.residual(q0, dq0 - eye_n[j], p0))
+        C0 = np.column_stack([0.5 * (self.evaluate(q0, dq0 + eye_n[j], p0)
+                                     - self.evaluate(q0, dq0 - eye_n[j], p0))[:n]
                               for j in range(n)])
-        L = float(self.num.length_scale)
-        K0 = np.column_stack([richardson(lambda h, j=j: self.residual(q0 + h * eye_n[j],
+        dq = np.column_stack([richardson(lambda h, j=j: self.evaluate(q0 + h * eye_n[j],
                                                                        dq0, p0))
                               for j in range(n)])
-        Gq = np.column_stack([richardson(lambda h, j=j: self.kinematic_rates(
-            q0 + h * eye_n[j], dq0, p0)) for j in range(n)])
+        L = float(self.num.length_scale)
         pscale = np.array([L if kind == "coord" else 1.0 for kind, _ in self.kin])
-        K0p = np.column_stack([richardson(lambda h, j=j: self.residual(
+        dp = np.column_stack([richardson(lambda h, j=j: self.evaluate(
             q0, dq0, p0 + h * pscale[j] * eye_k[j])) / pscale[j] for j in range(k)]) \
-            if k else np.zeros((n, 0))
-        Gp = np.column_stack([richardson(lambda h, j=j: self.kinematic_rates(
-            q0, dq0, p0 + h * pscale[j] * eye_k[j])) / pscale[j] for j in range(k)]) \
-            if k else np.zeros((0, 0))
-        st = self._states(x)
+            if k else np.zeros((n + k, 0))
         G = self._kin_rows(st)[:, self.free] @ V[self.free]
-        return SteadyMotionMatrices(M0, C0, K0, K0p.reshape(n, k), G, Gq.reshape(k, n),
-                                    Gp.reshape(k, k), self.dof_names, self.kinematic_names)
+        return SteadyMotionMatrices(M0, C0, dq[:n], dp[:n].reshape(n, k), G,
+                                    dq[n:].reshape(k, n), dp[n:].reshape(k, k),
+                                    self.dof_names, self.kinematic_names)
