@@ -378,18 +378,27 @@ class ResultsWriter:
         B, C, D (:class:`spacarpy.solvers.linear.state_space.StateSpace`)."""
         values = {name: getattr(ss, name)
                   for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")}
+        n, k = np.shape(ss.M0)[0], self._sizes["kinematic_state"]     # schema 2.12
+        for name, shape in (("K0p", (n, k)), ("G", (k, n)), ("Gq", (k, n)), ("Gp", (k, k))):
+            values[name] = getattr(ss, name, np.zeros(shape))
+        lam = np.linalg.eigvals(ss.A) if np.size(ss.A) else np.zeros(0, complex)
+        values["pole"] = lam[np.lexsort((lam.imag, lam.real))]
         values["time"] = time
         self._append_linearized("state_space", step, values)
 
     def _begin_state_space(self, f, names: dict) -> None:
         n_dof = len(names["dof_element"])
-        self._sizes.update(dof=n_dof, state=2 * n_dof, system_input=len(names["input_name"]),
+        kinematic = list(names.get("kinematic_name", ()))
+        self._sizes.update(dof=n_dof, state=2 * n_dof + len(kinematic),
+                           kinematic_state=len(kinematic), system_input=len(names["input_name"]),
                            system_output=len(names["output_name"]))
         self._create_step_group(f, "state_space", n_mode=1)
         g = f["state_space"]
         create(g, "dof_element", np.asarray(names["dof_element"], dtype=np.int64))
         create(g, "dof_mode", np.asarray(names["dof_mode"], dtype=np.int32))
-        for key in ("state_name", "input_name", "output_name"):
+        for key in ("state_name", "input_name", "output_name", "kinematic_name"):
+            if key == "kinematic_name" and not kinematic:
+                continue
             text = ascii_array(names[key])
             create(g, key, text, dtype=h5py.string_dtype("ascii", text.itemsize))
 
