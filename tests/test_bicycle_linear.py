@@ -282,3 +282,45 @@ def test_c2_rolling_disc_critical_speed(coins):
     v_c = brentq(square, 0.5, 1.5, xtol=1e-14, rtol=1e-15)
     assert abs(v_c - 0.990454441153151) < 1e-9
     assert abs(v_c - np.sqrt(G * R_D / 3.0)) < 1e-9
+
+
+# ---------------------------------------------------------------- the deck, as a run
+def test_deck_run_writes_the_state_space(tmp_path):
+    import h5py
+
+    from spacarpy.cli import main
+    out = tmp_path / "b.h5"
+    assert main(["run", str(DECK), "-o", str(out), "-q", "--set", "V=5"]) == 0
+    with h5py.File(out, "r") as f:
+        ss = f["state_space"]
+        assert rel(ss["M0"][0], M_REF) < 1e-12
+        assert rel(ss["C0"][0] / 5, C1_REF) < 1e-11
+        assert rel(ss["K0"][0], G * K0_REF + 25 * K2_REF) < 1e-11
+        names = [s.decode() for s in ss["state_name"][:]]
+        assert names[-4:] == ["KINE 1 1", "KINE 11 1", "KINX 2 1", "KINX 2 2"]
+        assert [s.decode() for s in ss["kinematic_name"][:]] == names[-4:]
+        pole = ss["pole"][0]
+        assert pole.shape == (8,)
+        big = pole[np.abs(pole) > 1e-6]
+        assert np.abs(np.sort_complex(big) - np.sort_complex(expected_poles(5))).max() < 1e-10
+        A = ss["A"][0]
+        assert abs(A[7, 4] - 5.0) < 1e-12           # y' = v psi
+        # the rolling state at t = 0: no slip, the rear contact moving forward at v
+        v = f["transient/velocity"][0]
+        assert np.abs(v[0] - [5.0, 0, 0]).max() < 1e-12
+        # contact forces: the normal forces carry the weight (multipliers of WHEEL mode 6)
+        wheel = f["transient/elements/WHEEL/stress_resultant"][0]
+        assert abs(wheel[:, 5].sum() + 94 * G) < 1e-9 * 94 * G
+        assert np.abs(wheel[:, 3:5]).max() < 1e-9
+
+
+def test_trajectory_with_slips_and_timestep_0_0_in_mode_1_are_refused(tmp_path, capsys):
+    from spacarpy.cli import main
+    text = DECK.read_text()
+    along = tmp_path / "along.dat"
+    along.write_text(text.replace("TIMESTEP 0 0", "TIMESTEP 1 10"))
+    assert main(["run", str(along), "-o", str(tmp_path / "a.h5"), "-q"]) != 0
+    assert "mode 3 along a trajectory with slips is not supported yet" in \
+        capsys.readouterr().err
+    assert main(["run", str(DECK), "--mode", "1", "-o", str(tmp_path / "m1.h5"), "-q"]) != 0
+    assert "TIMESTEP 0 0" in capsys.readouterr().err
