@@ -162,6 +162,17 @@ class SteadyMotion:
         if len(self.kin) != self.slips.n:
             raise ModelError(f"the {self.slips.n} slips held at zero need as many kinematic "
                              f"coordinates (KINE/KINX), the model has {len(self.kin)}")
+        n_eq = (len(self.hol) + self.num.euler_nodes.size + len(self.rheo) + len(self.dyn)
+                + len(self.kin))
+        if n_eq != self.free.size:
+            raise ModelError(
+                f"the linearization about a steady motion needs the dynamic (DYNE), "
+                f"rheonomic (INPUTE) and kinematic (KINE/KINX) coordinates to parameterize "
+                f"the configuration: {self.free.size} free coordinates, {len(self.hol)} "
+                f"holonomic constraints and {self.num.euler_nodes.size} Euler normalizations "
+                f"leave {self.free.size - n_eq + len(self.rheo) + len(self.dyn) + len(self.kin)}"
+                f" coordinates, the deck gives {len(self.dyn)} DYNE, {len(self.rheo)} INPUTE "
+                f"and {len(self.kin)} KINE/KINX")
         self.load = self.tp.loads(0.0)
         self.x0 = self.num.x0.copy()
         self.q0 = self._values(self.x0, self.dyn)
@@ -240,7 +251,12 @@ class SteadyMotion:
             J = np.vstack([self._mode_rows(self.hol, st), eu_rows,
                            self._mode_rows(self.rheo, st), self._mode_rows(self.dyn, st),
                            self._kin_rows(st)])[:, f]
-            dx = np.linalg.solve(J, target - vals)
+            try:
+                dx = np.linalg.solve(J, target - vals)
+            except np.linalg.LinAlgError:
+                raise ModelError("the linearization about a steady motion: the dynamic, "
+                                 "rheonomic and kinematic coordinates do not parameterize "
+                                 "the configuration here (a singular Jacobian)") from None
             x[f] += dx
             if np.max(np.abs(dx / scale)) < NEWTON_TOL:
                 break
@@ -281,7 +297,10 @@ class SteadyMotion:
         rhs[n_h:n_h + self.dr.size, 0] = self.dr
         rhs[J.shape[0] - n:, 0] = dq
         rhs[J.shape[0] - n:, 1:] = np.eye(n)
-        lu = sla.lu_factor(J)
+        lu = sla.lu_factor(J, check_finite=True)
+        if not np.all(np.isfinite(lu[0])) or np.min(np.abs(np.diag(lu[0]))) == 0.0:
+            raise ModelError("the linearization about a steady motion: the slips do not fix "
+                             "the kinematic rates here (S F_p is singular)")
         sol = sla.lu_solve(lu, rhs)
         v = np.zeros_like(x)
         v[self.free] = sol[:, 0]
