@@ -5,6 +5,7 @@ constraint forces as stress resultants, the WHEEL contact forces among them) and
 linearization in /state_space with the kinematic states and the poles (docs/rolling.md)."""
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +15,12 @@ from spacarpy.elements.registry import KINDS
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.model import RIGID
 from spacarpy.solvers.linear.steady_motion import SteadyMotion
+
+log = logging.getLogger(__name__)
+
+#: Projected residual at the initial state, relative to its largest force, above which the
+#: state is not a steady motion (a warning).
+STEADY_TOL = 1e-8
 
 __all__ = ["SteadyInputError", "run_steady_motion", "refuse_trajectory_slips"]
 
@@ -103,6 +110,11 @@ def run_steady_motion(model, settings, out, summary) -> None:
     f_in = sm.tp.inertia.forces(x, v, a, blocks=False)[1]
     reaction = prob.reactions(x, ev.f_int + f_in, ev.f_ext)    # inertia included
     projected = float(np.abs(sm.evaluate(sm.q0, sm.dq0, sm.p0)[:n]).max(initial=0.0))
+    level = float(np.abs(force).max(initial=0.0))
+    if projected > STEADY_TOL * max(level, 1e-300):
+        log.warning("the initial state is not a steady motion: with q'' = 0 the equations of "
+                    "the degrees of freedom leave %.3g (of forces up to %.3g); the matrices "
+                    "linearize about a state that does not persist", projected, level)
     dof_element = [int(name.split()[1]) for name in mm.dof_names]
     dof_mode = [int(name.split()[2]) for name in mm.dof_names]
     labels = [f"{name.split()[0]} {name.split()[1]} mode {name.split()[2]}"

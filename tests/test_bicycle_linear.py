@@ -324,3 +324,20 @@ def test_trajectory_with_slips_and_timestep_0_0_in_mode_1_are_refused(tmp_path, 
         capsys.readouterr().err
     assert main(["run", str(DECK), "--mode", "1", "-o", str(tmp_path / "m1.h5"), "-q"]) != 0
     assert "TIMESTEP 0 0" in capsys.readouterr().err
+
+
+def test_a_state_that_is_not_steady_is_linearized_with_a_warning(tmp_path, capsys):
+    """The rigid pendulum (2 kg, 1 m, RLSE hinge: the DOF set falls back to the RLSE modes as
+    in mode 9) released horizontally: M0 = m L^2/3, K0 = 0 there, and the state accelerates."""
+    import h5py
+
+    from spacarpy.cli import main
+    deck = tmp_path / "pendulum.dat"
+    deck.write_text((DECK.parent / "pendulum_rigid_90deg.dat").read_text()
+                    .replace("TIMESTEP 2.2 440", "TIMESTEP 0 0"))
+    out = tmp_path / "p.h5"
+    assert main(["run", str(deck), "--mode", "3", "-o", str(out), "-q"]) == 0
+    assert "not a steady motion" in capsys.readouterr().err
+    with h5py.File(out, "r") as f:
+        assert abs(f["state_space/M0"][0, 0, 0] - 2.0 / 3.0) < 1e-14
+        assert abs(f["state_space/K0"][0, 0, 0]) < 1e-12

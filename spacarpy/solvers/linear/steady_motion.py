@@ -34,7 +34,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from spacarpy.errors import ModelError
-from spacarpy.model import FLEXIBLE, RIGID
+from spacarpy.model import FLEXIBLE, RELEASED, RIGID
 from spacarpy.solvers.statics.slips import held_slips
 
 __all__ = ["SteadyMotion", "SteadyMotionMatrices", "richardson"]
@@ -106,10 +106,10 @@ class SteadyMotionMatrices:
 
 
 def _mode_lists(num, model):
-    """(group, row, mode) of the holonomic, rheonomic and dynamic modes, and of the KINE
-    modes; the KINX coordinates; and the names of q and p."""
+    """(group, row, mode) of the holonomic, rheonomic, dynamic (DYNE) and released (RLSE)
+    modes; the kinematic coordinates (KINE modes, KINX coordinates)."""
     prescribed = {(int(p.element), int(p.mode)) for p in model.prescribed_deformations}
-    hol, rheo, dyn = [], [], []
+    hol, rheo, dyn, rel = [], [], [], []
     where = {}
     for gi, g in enumerate(num.groups):
         vm = set(getattr(g.kind, "velocity_modes", ()))
@@ -126,6 +126,8 @@ def _mode_lists(num, model):
                     hol.append((gi, r, m))
                 elif cls == FLEXIBLE:
                     dyn.append((gi, r, m))
+                elif cls == RELEASED:
+                    rel.append((gi, r, m))
     kin = []                      # ("mode", (gi, r, m)) or ("coord", index)
     for k in model.kinematic:
         if k.keyword == "KINX":
@@ -134,7 +136,7 @@ def _mode_lists(num, model):
         else:
             found = [v for key, v in where.items() if key[1] == k.target and key[2] == k.number]
             kin.append(("mode", found[0]))
-    return hol, rheo, dyn, kin
+    return hol, rheo, dyn, rel, kin
 
 
 class SteadyMotion:
@@ -155,7 +157,10 @@ class SteadyMotion:
                                    self.prob)
         self.free = np.flatnonzero(self.prob.free)
         self.slips = held_slips(self.num)
-        self.hol, self.rheo, self.dyn, self.kin = _mode_lists(self.num, model)
+        self.hol, self.rheo, self.dyn, rel, self.kin = _mode_lists(self.num, model)
+        base = len(self.hol) + self.num.euler_nodes.size + len(self.rheo) + len(self.kin)
+        if base + len(self.dyn) < self.free.size and rel:
+            self.dyn = sorted(self.dyn + rel)      # too few DYNE modes: RLSE too, as mode 9
         if not self.dyn:
             raise ModelError("the linearization about a steady motion needs degrees of "
                              "freedom (DYNE)")
