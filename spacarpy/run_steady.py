@@ -90,6 +90,14 @@ def run_steady_motion(model, settings, out, summary) -> None:
                       rotary_inertia=settings.rotary_inertia)
     prob, num = sm.prob, sm.num
     mm = sm.matrices()
+    try:
+        np.linalg.cholesky(mm.M0)
+    except np.linalg.LinAlgError:
+        weak = [name for name, m in zip(mm.dof_names, np.diag(mm.M0)) if not m > 0]
+        raise SteadyInputError(
+            "the linearization about a steady motion needs inertia in every degree of "
+            f"freedom, but the mass matrix is singular there ({', '.join(weak or mm.dof_names)})"
+            ": give XM masses and inertias (or EM for the beams)") from None
     n, k = mm.M0.shape[0], mm.G.shape[0]
     N = 2 * n + k
     ss = _SteadyStateSpace(M0=mm.M0, C0=mm.C0, K0=mm.K0, B0=np.zeros((n, 0)), A=mm.A,

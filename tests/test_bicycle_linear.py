@@ -324,6 +324,11 @@ def test_trajectory_with_slips_and_timestep_0_0_in_mode_1_are_refused(tmp_path, 
         capsys.readouterr().err
     assert main(["run", str(DECK), "--mode", "1", "-o", str(tmp_path / "m1.h5"), "-q"]) != 0
     assert "TIMESTEP 0 0" in capsys.readouterr().err
+    massless = tmp_path / "massless.dat"
+    massless.write_text("".join(line for line in text.splitlines(keepends=True)
+                                if not line.startswith("XM")))
+    assert main(["run", str(massless), "-o", str(tmp_path / "nm.h5"), "-q"]) == 2
+    assert "needs inertia in every degree of freedom" in capsys.readouterr().err
 
 
 def test_a_state_that_is_not_steady_is_linearized_with_a_warning(tmp_path, capsys):
