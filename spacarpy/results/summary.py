@@ -78,7 +78,7 @@ def _kinematic(a, n_dof: int) -> str:
 def _state_space_summary(v) -> list:
     """The state space's size and signals, and its lowest undamped pole at the last step."""
     a = v.matrix("A")
-    n_dof = v.matrix("M0").shape[0]          # (the kinematic states follow [q; q'], 2.12)
+    n_dof = v.matrix("M0").shape[0]          # (the kinematic states follow [q; q'], 2.13)
     where = ("SPACAR mode 3, along the transient) at {} time" if v.along_trajectory
              else "SPACAR mode 9) at {}").format(v.n_lin)
     out = [f"State space ({where} steps: {a.shape[0]} states "

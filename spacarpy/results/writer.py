@@ -378,7 +378,7 @@ class ResultsWriter:
         B, C, D (:class:`spacarpy.solvers.linear.state_space.StateSpace`)."""
         values = {name: getattr(ss, name)
                   for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")}
-        n, k = np.shape(ss.M0)[0], self._sizes["kinematic_state"]     # schema 2.12
+        n, k = np.shape(ss.M0)[0], self._sizes["kinematic_state"]     # schema 2.13
         for name, shape in (("K0p", (n, k)), ("G", (k, n)), ("Gq", (k, n)), ("Gp", (k, k))):
             values[name] = getattr(ss, name, np.zeros(shape))
         lam = np.linalg.eigvals(ss.A) if np.size(ss.A) else np.zeros(0, complex)
