@@ -112,7 +112,8 @@ def run_steady_motion(model, settings, out, summary) -> None:
     stress = {key: val.copy() for key, val in stress.items()}
     for i, (kw, e, m) in enumerate(zip(sm.slips.keywords, sm.slips.ids, sm.slips.modes)):
         g = next(g for g in num.groups if g.keyword == kw)
-        stress[kw][int(np.flatnonzero(g.ids == e)[0]), int(m) - 1] = nu[i]
+        sign = getattr(g.kind, "stress_sign", ()) or (1.0,) * g.kind.n_def   # as statics
+        stress[kw][int(np.flatnonzero(g.ids == e)[0]), int(m) - 1] = nu[i] * sign[int(m) - 1]
     mass_v = sm._force(x, v, a + v) - force                       # M v
     kinetic = 0.5 * float(v @ mass_v)
     f_in = sm.tp.inertia.forces(x, v, a, blocks=False)[1]
