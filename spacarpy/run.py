@@ -139,6 +139,17 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     analysis = settings.analysis
     static_lin = analysis == "static_linearized"          # SPACAR mode 10
     modes_per_step = settings.linearized.modes_each_step or static_lin
+    if analysis == "transient_linearized":                  # mode 3 (docs/rolling.md)
+        from spacarpy.run_steady import refuse_trajectory_slips, run_steady_motion
+        refuse_trajectory_slips(model, settings)
+        if settings.transient.timestep == (0.0, 0):         # about the initial state
+            summary = RunSummary()
+            run_steady_motion(model, settings, out, summary)
+            return summary
+    elif settings.transient.timestep == (0.0, 0) and analysis == "transient":
+        raise AnalysisInputError("TIMESTEP 0 0 asks for the linearization about the initial "
+                                 "state: it needs MODE 3; a transient needs TIMESTEP t_end "
+                                 "n_steps")
     if analysis != "check":                                 # mode 0 reports the slips
         refuse_velocity_modes(model, analysis)
     problem = StaticProblem(model, deformations=settings.deformations)

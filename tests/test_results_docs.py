@@ -22,13 +22,14 @@ from helpers import run_and_kill
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "results.md"
 
-_DTYPES = {"f8": "float64", "i8": "int64", "i4": "int32", "i1": "int8", "?": "bool",
+_DTYPES = {"f8": "float64", "c16": "complex128", "i8": "int64", "i4": "int32", "i1": "int8",
+           "?": "bool",
            "ascii": "fixed-length ASCII string", "utf-8": "variable-length UTF-8 string"}
 _SYMBOLS = {"step": "n_step", "time_step": "n_t", "linearized_step": "n_lin",
             "mode": "n_mode", "position_node": "n_pos", "orientation_node": "n_rot",
             "reaction": "n_reac", "coordinate": "3", "euler_parameter": "4",
             "global_coordinate": "n_coord", "load": "n_load", "input": "n_input",
-            "kinematic": "n_kinematic",
+            "kinematic": "n_kinematic", "kinematic_state": "n_kin",
             "checked_dataset": "n_checked", "dof": "n_dof", "state": "n_state",
             "system_input": "n_in", "system_output": "n_out"}
 

@@ -123,8 +123,10 @@ def _last_rows(data: bytes, collect) -> dict:
     with h5py.File(io.BytesIO(data), "r") as f:
         for path in collect:
             if path in f and isinstance(f[path], h5py.Dataset) and f[path].shape \
-                    and f[path].shape[0] > 0 and f[path].dtype.kind in "biuf":
-                out[path] = np.asarray(f[path][-1], dtype=float)
+                    and f[path].shape[0] > 0 and f[path].dtype.kind in "biufc":
+                # complex rows (/state_space/pole) stay complex
+                out[path] = np.asarray(f[path][-1], dtype=complex if f[path].dtype.kind
+                                       == "c" else float)
     return out
 
 
@@ -252,7 +254,8 @@ def _result(deck, axes, collect, rows, status, errors) -> SweepResult:
         tails = [r[path].shape for r in rows.values() if path in r]
         if not tails:
             continue
-        arr = np.full(shape + tails[0], np.nan)
+        kind = next(r[path].dtype for r in rows.values() if path in r)
+        arr = np.full(shape + tails[0], np.nan, dtype=kind)
         for idx, r in rows.items():
             if path in r and r[path].shape == tails[0]:
                 arr[idx] = r[path]

@@ -111,7 +111,8 @@ class SweepFile:
     def _dataset(self, path: str, row: np.ndarray):
         f = self._f
         if path not in f:
-            ds = f.create_dataset(path, data=np.full(self.shape + row.shape, np.nan))
+            ds = f.create_dataset(path, data=np.full(self.shape + row.shape, np.nan,
+                                                     dtype=row.dtype))
             ds.attrs["long_name"] = f"last row of {path} of each run"
             for k, sc in enumerate(self._scales):
                 ds.dims[k].attach_scale(sc)

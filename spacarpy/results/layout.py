@@ -151,3 +151,17 @@ def _label(ds: h5py.Dataset, axis: int, label: str) -> None:
     """``ds.dims[axis].label = label`` without h5py's dimension proxies (which ask HDF5 for
     the rank and the scales first: 50 us a label, about 40 labels in a static run)."""
     h5py.h5ds.set_label(ds.id, axis, label.encode())
+
+
+def state_space_values(ss, k: int) -> dict:
+    """The datasets of one /state_space step from ``ss`` (attributes M0, C0, K0, B0, A, B, C,
+    D, and K0p, G, Gq, Gp where the model has ``k`` kinematic coordinates; zero-sized
+    otherwise) and the poles, the eigenvalues of A sorted by real, then imaginary part
+    (schema 2.13)."""
+    values = {name: getattr(ss, name) for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")}
+    n = np.shape(ss.M0)[0]
+    for name, shape in (("K0p", (n, k)), ("G", (k, n)), ("Gq", (k, n)), ("Gp", (k, k))):
+        values[name] = getattr(ss, name, np.zeros(shape))
+    lam = np.linalg.eigvals(ss.A) if np.size(ss.A) else np.zeros(0, complex)
+    values["pole"] = lam[np.lexsort((lam.imag, lam.real))]
+    return values

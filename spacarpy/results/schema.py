@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 12)
+SCHEMA_VERSION = (2, 13)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -118,13 +118,14 @@ class DatasetSpec:
 
     @property
     def kind_class(self) -> str:
-        """``int``, ``float``, ``ascii``, ``bool`` or ``str``: what the validator checks."""
+        """``int``, ``float``, ``complex``, ``ascii``, ``bool`` or ``str``: what the validator
+        checks."""
         if self.dtype == "ascii":
             return "ascii"
         if self.dtype == "utf-8":
             return "str"
         dt = np.dtype(self.dtype)
-        return {"i": "int", "u": "int", "f": "float", "b": "bool"}[dt.kind]
+        return {"i": "int", "u": "int", "f": "float", "c": "complex", "b": "bool"}[dt.kind]
 
 
 #: Groups whose datasets grow by one row per step, with their commit (scale) dataset.
@@ -415,13 +416,29 @@ def _state_space_specs() -> list[DatasetSpec]:
         S("state_space/B0", "f8", (lin, "dof", "system_input"), per_dof,
           "input matrix: generalized force on each degree of freedom per unit input", v),
         S("state_space/A", "f8", (lin, "state", "state"), per_dof,
-          "state matrix of dz/dt = A z + B u, z = [q; dq/dt]", v),
+          "state matrix of dz/dt = A z + B u, z = [q; dq/dt] (and the kinematic "
+          "coordinates p after them: z = [q; dq/dt; p], schema 2.13)", v),
         S("state_space/B", "f8", (lin, "state", "system_input"), per_dof,
           "input matrix of dz/dt = A z + B u", v),
         S("state_space/C", "f8", (lin, "system_output", "state"), per_dof,
           "output matrix of y = C z + D u", v),
         S("state_space/D", "f8", (lin, "system_output", "system_input"), per_dof,
           "feedthrough matrix of y = C z + D u (zero)", v),
+        # schema 2.13: the kinematic states of a steady motion (mode 3, TIMESTEP 0 0) and
+        # the poles (docs/rolling.md)
+        S("state_space/kinematic_name", "ascii", ("kinematic_state",), "1",
+          "deck line of each kinematic coordinate, the last states of A: 'KINE e k', "
+          "'KINX n c'", (2, 13), optional=True),
+        S("state_space/pole", "c16", (lin, "state"), "s^-1",
+          "eigenvalues of A, sorted by real part, then imaginary part", (2, 13)),
+        S("state_space/K0p", "f8", (lin, "dof", "kinematic_state"), per_dof,
+          "dR/dp: the generalized forces of the kinematic coordinates p", (2, 13)),
+        S("state_space/G", "f8", (lin, "kinematic_state", "dof"), per_dof,
+          "G = dp'/dq': the kinematic rates of the degrees of freedom's rates", (2, 13)),
+        S("state_space/Gq", "f8", (lin, "kinematic_state", "dof"), per_dof,
+          "d(p')/dq at the reference rates", (2, 13)),
+        S("state_space/Gp", "f8", (lin, "kinematic_state", "kinematic_state"), per_dof,
+          "d(p')/dp at the reference rates", (2, 13)),
     ]
 
 

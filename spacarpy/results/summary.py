@@ -70,14 +70,19 @@ def _critical_summary(res) -> list:
     return ["", f"Critical points of the path: {len(steps)}"] + _indent(_align(rows))
 
 
+def _kinematic(a, n_dof: int) -> str:
+    k = a.shape[0] - 2 * n_dof
+    return f", {k} kinematic" if k else ""
+
+
 def _state_space_summary(v) -> list:
     """The state space's size and signals, and its lowest undamped pole at the last step."""
     a = v.matrix("A")
-    n_dof = a.shape[0] // 2
+    n_dof = v.matrix("M0").shape[0]          # (the kinematic states follow [q; q'], 2.13)
     where = ("SPACAR mode 3, along the transient) at {} time" if v.along_trajectory
              else "SPACAR mode 9) at {}").format(v.n_lin)
     out = [f"State space ({where} steps: {a.shape[0]} states "
-           f"({n_dof} degrees of freedom), {len(v.input_name)} inputs, "
+           f"({n_dof} degrees of freedom{_kinematic(a, n_dof)}), {len(v.input_name)} inputs, "
            f"{len(v.output_name)} outputs (spacarpy export --state-space FILE.mat)",
            "  inputs   " + (", ".join(v.input_name) or "none"),
            "  outputs  " + (", ".join(v.output_name) or "none")]

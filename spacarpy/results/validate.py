@@ -210,7 +210,10 @@ def _sizes(sf: SchemaFile, kinds: list) -> dict:
         "load": rows("model/load_node"), "input": None, "kinematic": None,
         "sections": sections,
         "dof": rows("state_space/dof_element"),
+        "kinematic_state": (rows("state_space/kinematic_name") or 0
+                            if rows("state_space/dof_element") is not None else None),
         "state": (2 * rows("state_space/dof_element")
+                  + (rows("state_space/kinematic_name") or 0)
                   if rows("state_space/dof_element") is not None else None),
         "system_input": rows("state_space/input_name"),
         "system_output": rows("state_space/output_name"),
@@ -246,6 +249,7 @@ def _check_dataset(sf, spec, sizes, problems) -> h5py.Dataset | None:
         return None
     dt = obj.dtype
     ok = {"int": np.issubdtype(dt, np.integer), "float": np.issubdtype(dt, np.floating),
+          "complex": np.issubdtype(dt, np.complexfloating),
           "ascii": dt.kind == "S", "bool": dt.kind == "b",
           "str": h5py.check_string_dtype(dt) is not None}[spec.kind_class]
     if not ok:

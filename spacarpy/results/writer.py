@@ -8,13 +8,12 @@ fsync) is :mod:`spacarpy.results.h5file`'s.
 
 - Every step is written with its checksum row (``/<group>/checksum``: the CRC-32 of the
   step's scale value and of its row of every dataset), flushed, then *committed* by appending
-  its scale value
-  (``/static/load_factor``, ``/transient/time``, ``/<group>/step``) and flushing again.
+  its scale value (``/static/load_factor``, ``/transient/time``, ``/<group>/step``) and
+  flushing again.
 - A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
   cleanly with ``completed = False`` and the error message; the partial file is kept.
 
-The empty groups and the header the writer appends to are made by
-:mod:`spacarpy.results.layout`.
+The empty groups and the header it appends to are :mod:`spacarpy.results.layout`'s.
 """
 from __future__ import annotations
 
@@ -31,12 +30,13 @@ from spacarpy.model import Model
 from spacarpy.outputs import refuse_non_regular
 from spacarpy.results import h5file
 from spacarpy.results.h5file import ascii_array, create, partial_path_for
-from spacarpy.results.layout import bind_step_group, create_step_group, write_header
-from spacarpy.results.schema import (
-    DATASETS,
-    REACTION_COMPONENTS,
-    n_def,
+from spacarpy.results.layout import (
+    bind_step_group,
+    create_step_group,
+    state_space_values,
+    write_header,
 )
+from spacarpy.results.schema import DATASETS, REACTION_COMPONENTS, n_def
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
@@ -383,28 +383,28 @@ class ResultsWriter:
         """Append the linearized equations of one static step (or, with ``time``, of row
         ``step`` of /transient, SPACAR mode 3): ``ss`` has the attributes M0, C0, K0, B0, A,
         B, C, D (:class:`spacarpy.solvers.linear.state_space.StateSpace`)."""
-        values = {name: getattr(ss, name)
-                  for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")}
+        values = state_space_values(ss, self._sizes["kinematic_state"])
         values["time"] = time
         self._append_linearized("state_space", step, values)
 
     def _begin_state_space(self, f, names: dict) -> None:
         n_dof = len(names["dof_element"])
-        self._sizes.update(dof=n_dof, state=2 * n_dof, system_input=len(names["input_name"]),
+        kinematic = list(names.get("kinematic_name", ()))
+        self._sizes.update(dof=n_dof, state=2 * n_dof + len(kinematic),
+                           kinematic_state=len(kinematic), system_input=len(names["input_name"]),
                            system_output=len(names["output_name"]))
         self._create_step_group(f, "state_space", n_mode=1)
         g = f["state_space"]
         create(g, "dof_element", np.asarray(names["dof_element"], dtype=np.int64))
         create(g, "dof_mode", np.asarray(names["dof_mode"], dtype=np.int32))
-        for key in ("state_name", "input_name", "output_name"):
+        for key in ("state_name", "input_name", "output_name") + (
+                ("kinematic_name",) if kinematic else ()):
             text = ascii_array(names[key])
             create(g, key, text, dtype=h5py.string_dtype("ascii", text.itemsize))
 
     def finish(self) -> None:
-        """Mark the run complete, close the file and move it atomically to :attr:`final_path`.
-
-        An existing file at :attr:`final_path` is replaced only here, by a complete file.
-        """
+        """Mark the run complete, close the file and move it atomically to :attr:`final_path`
+        (an existing file there is replaced only here, by a complete file)."""
         self._require_open("finish")
         self._state = "finishing"
         self._mark(completed=True, error=None)

@@ -68,9 +68,12 @@ class _SettingsPass(UsesTopology):
                 initial_velocities=self.initial_velocities))
 
     def timestep_line(self, st: Statement) -> None:
-        """``TIMESTEP t_end n_steps``."""
+        """``TIMESTEP t_end n_steps``; ``TIMESTEP 0 0`` (a spacarpy extension) asks mode 3
+        for the linearization about the initial state only."""
         t_end, n_steps = st["t_end"], st["n_steps"]
-        if not (t_end > 0 and n_steps >= 1):
+        if t_end == 0 and n_steps == 0:
+            self.timestep = (0.0, 0)
+        elif not (t_end > 0 and n_steps >= 1):
             self.error(st.loc, "TIMESTEP: expected a positive end time and at least one step, "
                                f"got {t_end:g} {n_steps}", st)
         else:

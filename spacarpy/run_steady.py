@@ -1,0 +1,149 @@
+"""The driver of mode 3 with ``TIMESTEP 0 0``: the linearized equations about the initial
+steady motion (:mod:`spacarpy.solvers.linear.steady_motion`) written to one result file: the
+state at t = 0 as the one row of /transient (positions, velocities, deformations, the
+constraint forces as stress resultants, the WHEEL contact forces among them) and its
+linearization in /state_space with the kinematic states and the poles (docs/rolling.md)."""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from spacarpy import __version__
+from spacarpy.elements.registry import KINDS
+from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.model import RIGID
+from spacarpy.solvers.linear.steady_motion import SteadyMotion
+
+log = logging.getLogger(__name__)
+
+#: Projected residual at the initial state, relative to its largest force, above which the
+#: state is not a steady motion (a warning).
+STEADY_TOL = 1e-8
+
+__all__ = ["SteadyInputError", "run_steady_motion", "refuse_trajectory_slips"]
+
+
+class SteadyInputError(SpacarError):
+    """The deck asks mode 3 for something the steady-motion linearization does not do."""
+
+    exit_code = EXIT_INPUT
+
+
+@dataclass
+class _SteadyStateSpace:
+    M0: np.ndarray
+    C0: np.ndarray
+    K0: np.ndarray
+    B0: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    K0p: np.ndarray
+    G: np.ndarray
+    Gq: np.ndarray
+    Gp: np.ndarray
+
+
+def refuse_trajectory_slips(model, settings) -> None:
+    """Mode 3 along a trajectory (a TIMESTEP other than ``0 0``) of a model with held slips:
+    one line, not a wrong result."""
+    held = any(
+        (es.def_class[:, list(KINDS[kw].velocity_modes)] == RIGID).any()
+        for kw, es in model.elements.items() if KINDS[kw].velocity_modes and es.ids.size)
+    if held and settings.transient.timestep != (0.0, 0):
+        raise SteadyInputError("mode 3 along a trajectory with slips is not supported yet: "
+                                 "TIMESTEP 0 0 linearizes about the initial steady motion")
+
+
+def _multipliers(sm: SteadyMotion, x, force):
+    """The constraint multipliers (mu in the numbering's order, nu of the held slips) that
+    balance ``force = M a + h - f`` over the free coordinates (least squares; exact at a
+    steady motion, whose projected residual vanishes)."""
+    num, free = sm.num, sm.free
+    st = sm._states(x)
+    rows = []
+    for gi, g in enumerate(num.groups):
+        for r, m in zip(g.rigid_elem, g.rigid_mode):
+            rows.append(sm._mode_rows([(gi, int(r), int(m))], st)[0])
+    eu_rows, _ = sm._euler_rows(x)
+    S = sm.slips.jacobian(x).toarray() if sm.slips.n else np.zeros((0, num.n_coord))
+    J = np.vstack([np.array(rows).reshape(-1, num.n_coord), eu_rows, S])[:, free]
+    lam = np.linalg.lstsq(J.T, -force[free], rcond=None)[0]
+    return lam[:num.n_constraint], lam[num.n_constraint:]
+
+
+def run_steady_motion(model, settings, out, summary) -> None:
+    """Linearize ``model`` about its initial steady motion and write ``out``."""
+    from spacarpy.results import ResultsWriter
+    from spacarpy.results.model_data import model_datasets
+    from spacarpy.solvers.statics.nonholonomic import check_kinematic
+
+    lin = settings.linearized
+    if lin.inputs or lin.outputs:
+        raise SteadyInputError(
+            f"mode 3 with TIMESTEP 0 0 (the steady motion) has no inputs and outputs yet: "
+            f"remove the INPUTF/INPUTS/OUT* lines ({(lin.inputs + lin.outputs)[0].name})")
+    sm = SteadyMotion(model, deformations=settings.deformations,
+                      rotary_inertia=settings.rotary_inertia)
+    prob, num = sm.prob, sm.num
+    mm = sm.matrices()
+    try:
+        np.linalg.cholesky(mm.M0)
+    except np.linalg.LinAlgError:
+        weak = [name for name, m in zip(mm.dof_names, np.diag(mm.M0)) if not m > 0]
+        raise SteadyInputError(
+            "the linearization about a steady motion needs inertia in every degree of "
+            f"freedom, but the mass matrix is singular there ({', '.join(weak or mm.dof_names)})"
+            ": give XM masses and inertias (or EM for the beams)") from None
+    n, k = mm.M0.shape[0], mm.G.shape[0]
+    N = 2 * n + k
+    ss = _SteadyStateSpace(M0=mm.M0, C0=mm.C0, K0=mm.K0, B0=np.zeros((n, 0)), A=mm.A,
+                           B=np.zeros((N, 0)), C=np.zeros((0, N)), D=np.zeros((0, 0)),
+                           K0p=mm.K0p, G=mm.G, Gq=mm.Gq, Gp=mm.Gp)
+    x, v, a, _, _ = sm.motion(sm.q0, sm.dq0, sm.p0)
+    force = sm._force(x, v, a)
+    mu, nu = _multipliers(sm, x, force)
+    load = sm.load
+    ev = prob.evaluate(x, mu, load)
+    deformation, stress = prob.element_results(ev)
+    stress = {key: val.copy() for key, val in stress.items()}
+    for i, (kw, e, m) in enumerate(zip(sm.slips.keywords, sm.slips.ids, sm.slips.modes)):
+        g = next(g for g in num.groups if g.keyword == kw)
+        sign = getattr(g.kind, "stress_sign", ()) or (1.0,) * g.kind.n_def   # as statics
+        stress[kw][int(np.flatnonzero(g.ids == e)[0]), int(m) - 1] = nu[i] * sign[int(m) - 1]
+    mass_v = sm._force(x, v, a + v) - force                       # M v
+    kinetic = 0.5 * float(v @ mass_v)
+    f_in = sm.tp.inertia.forces(x, v, a, blocks=False)[1]
+    reaction = prob.reactions(x, ev.f_int + f_in, ev.f_ext)    # inertia included
+    projected = float(np.abs(sm.evaluate(sm.q0, sm.dq0, sm.p0)[:n]).max(initial=0.0))
+    level = float(np.abs(force).max(initial=0.0))
+    if projected > STEADY_TOL * max(level, 1e-300):
+        log.warning("the initial state is not a steady motion: with q'' = 0 the equations of "
+                    "the degrees of freedom leave %.3g (of forces up to %.3g); the matrices "
+                    "linearize about a state that does not persist", projected, level)
+    dof_element = [int(name.split()[1]) for name in mm.dof_names]
+    dof_mode = [int(name.split()[2]) for name in mm.dof_names]
+    labels = [f"{name.split()[0]} {name.split()[1]} mode {name.split()[2]}"
+              for name in mm.dof_names]
+    names = dict(dof_element=dof_element, dof_mode=dof_mode,
+                 state_name=labels + [f"rate of {s}" for s in labels] + mm.kinematic_names,
+                 input_name=[], output_name=[], kinematic_name=mm.kinematic_names)
+    model_data = model_datasets(model, num)
+    with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
+                       deformations=settings.deformations, analysis=settings.analysis,
+                       rotary_inertia=settings.rotary_inertia) as writer:
+        writer.begin_static(model.position_ids.size, model.orientation_ids.size,
+                            prob.reaction_node, prob.reaction_component, transient=True,
+                            state_space=names)
+        check_kinematic(prob)
+        writer.transient_step(
+            time=0.0, position=x[num.pos_idx], euler=x[num.rot_idx],
+            velocity=v[num.pos_idx], euler_rate=v[num.rot_idx], deformation=deformation,
+            stress_resultant=stress, kinetic_energy=kinetic, elastic_energy=0.0,
+            external_work=0.0, iterations=0, residual=projected, reaction=reaction)
+        writer.state_space_step(0, ss, time=0.0)
+        writer.finish()
+    summary.n_time = 1
