@@ -89,12 +89,17 @@ class RunSummary:
     newton_iterations: int = 0
 
 
+#: the analyses that impose held slips (the transient: solvers/dynamics/transient_step.py)
+SLIP_ANALYSES = ("transient",)
+
+
 def refuse_velocity_modes(model: Model, analysis: str) -> None:
     """Refuse a model with velocity-level (non-holonomic) modes, the WHEEL's slips, which
     no solver handles yet: one line (a :class:`ModelError`) rather than a wrong result.
 
-    Held slips (rolling without slip, the default) are constraints no solver imposes yet.
-    Released ones (``RLSE e 4 5``, sliding freely) leave a purely holonomic model, but its
+    Held slips (rolling without slip, the default) are constraints only the analyses of
+    ``SLIP_ANALYSES`` impose; the others refuse them. Released ones (``RLSE e 4 5``,
+    sliding freely) leave a purely holonomic model, but its
     stored slip deformations (the accumulated slip) would not be integrated: refused too."""
     for keyword, es in model.elements.items():
         modes = list(KINDS[keyword].velocity_modes)
@@ -102,7 +107,9 @@ def refuse_velocity_modes(model: Model, analysis: str) -> None:
             continue
         held = es.def_class[:, modes] == RIGID
         numbers = " ".join(str(k + 1) for k in modes)
-        if held.any():
+        if held.all() and analysis in SLIP_ANALYSES:
+            continue
+        if held.any() and analysis not in SLIP_ANALYSES:
             row = int(np.flatnonzero(held.any(axis=1))[0])
             raise ModelError(f"{keyword} slips (non-holonomic constraints) are not supported "
                              f"in MODE {analysis} yet ({keyword} {es.ids[row]} modes "
