@@ -1,0 +1,128 @@
+"""Rolling contact in the transient (mode 1): a uniform disc on the ground, spec checks C5
+and C7 of issue 32 (docs/rolling.md "Transient").
+
+The slips are velocity-level constraints of the generalized-alpha step; the contact track
+and the energy carry the scheme's O(h^2) error, so the closed forms are checked through
+Richardson extrapolation from two step sizes, and the error itself through its order."""
+from __future__ import annotations
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+from spacarpy.cli import main
+from spacarpy.elements.registry import KINDS
+
+pytestmark = pytest.mark.skipif("WHEEL" not in KINDS, reason="needs the WHEEL kind")
+
+M, R, G = 2.0, 0.3, 9.81
+A, C = M * R * R / 4, M * R * R / 2
+
+_DISC = """# uniform disc, z up: heading, lean, spin hinges; contact x, y kinematic
+SET AL {alpha}
+X 2 0 0 0
+X 3 0 0 0.3
+HINGE 1 9 10 0 0 1
+HINGE 2 10 11 1 0 0
+HINGE 3 11 12 0 1 0
+WHEEL 5 3 12 2 0 1 0
+FIX 9
+DYNE 1 1
+DYNE 2 1
+{spin}
+KINX 2 1 2
+END
+HALT
+XM 3 2
+XM 12 0.045 0 0 0.09 0 0.045
+{data}
+MODE 1
+RHOINF 1
+TIMESTEP {t_end} {steps}
+END
+END
+"""
+
+
+def _run(tmp_path, name, steps, *, alpha=0.0, spin="DYNE 3 1", data="", t_end=2):
+    deck = tmp_path / f"{name}.dat"
+    deck.write_text(_DISC.format(alpha=alpha, spin=spin, data=data, steps=steps,
+                                 t_end=t_end))
+    out = tmp_path / f"{name}.h5"
+    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    with h5py.File(out) as f:
+        tr = f["transient"]
+        return {k: tr[k][()] for k in ("position", "velocity", "kinetic_energy",
+                                       "external_work", "elastic_energy")} | {
+            "wheel_s": tr["elements/WHEEL/stress_resultant"][()],
+            "wheel_e": tr["elements/WHEEL/deformation"][()]}
+
+
+def _slope(tmp_path, steps):
+    return _run(tmp_path, f"slope{steps}", steps, alpha=0.1,
+                data="GRAVITY {9.81*sin(AL)} 0 {-9.81*cos(AL)}\nSTARTDE 3 1 10")
+
+
+@pytest.mark.slow                  # (two runs, 600 steps: about 25 s on one core)
+def test_c5_disc_rolls_down_a_slope(tmp_path):
+    """C5: V0 = 3 m/s down a 0.1 rad slope: x(2 s) - x(0) = 7.305821089740513 m (through
+    Richardson from h = 0.01 and 0.005 s), the friction C a/r^2 and the normal force
+    m g cos(alpha) as the WHEEL's stress resultants, no slip, T - W drifting at O(h^2)."""
+    alpha = 0.1
+    acc = G * math.sin(alpha) / (1 + C / (M * R * R))
+    assert acc == pytest.approx(0.6529105448702562, rel=1e-15)
+    exact = 3 * 2 + 0.5 * acc * 4
+    runs = [_slope(tmp_path, n) for n in (200, 400)]
+    dist = [r["position"][-1, 1, 0] - r["position"][0, 1, 0] for r in runs]
+    errors = [d - exact for d in dist]
+    assert 3.5 < errors[0] / errors[1] < 4.5                   # second order
+    assert abs(dist[1] + (dist[1] - dist[0]) / 3 - exact) < 1e-6
+    fine = runs[1]
+    # the contact node follows the hub; the hub keeps its height; no lateral motion
+    pos = fine["position"]
+    np.testing.assert_allclose(pos[:, 0, 0], pos[:, 1, 0], rtol=0, atol=1e-12)
+    assert np.abs(pos[:, 1, 2] - 0.3).max() < 1e-12 and np.abs(pos[:, :, 1]).max() < 1e-12
+    # friction (mode 4) C a / r^2, up the slope against the motion's push; normal force
+    s = fine["wheel_s"][1:, 0]
+    assert np.abs(np.abs(s[:, 3]) - C * acc / R ** 2).max() < 2e-3 * C * acc / R ** 2
+    assert np.abs(s[:, 4]).max() < 1e-9
+    np.testing.assert_allclose(np.abs(s[:, 5]), M * G * math.cos(alpha), rtol=1e-9)
+    assert np.abs(fine["wheel_e"][:, 0, 3:5]).max() < 1e-9      # no accumulated slip
+    # ideal slips do no work: T + U - W constant up to the scheme's O(h^2) error
+    drift = [np.ptp(r["kinetic_energy"] + r["elastic_energy"] - r["external_work"])
+             / r["kinetic_energy"][0] for r in runs]
+    assert drift[1] < 2e-4 and 3.5 < drift[0] / drift[1] < 4.5
+
+
+def test_c7_prescribed_spin_rolls_the_contact_point(tmp_path):
+    """C7: the spin prescribed over one turn in 1 s: the contact point moves 2 pi r along
+    the heading (the scheme's error (w h)^2/48 of it, extrapolated away), the hub keeps its
+    height, the hub's velocity is r w exactly (the projected velocities), no lateral force.
+    (The longitudinal multiplier alternates between 0 and about 0.3 N from step to step at
+    RHOINF 1: a known defect, docs/rolling.md "Transient".)"""
+    data = "INPUTE 3 1 0 {2*pi} 0"
+    runs = [_run(tmp_path, f"spin{n}", n, spin="INPUTE 3 1", data=data, t_end=1)
+            for n in (40, 80)]
+    exact = 2 * math.pi * R
+    dist = [r["position"][-1, 0, 0] - r["position"][0, 0, 0] for r in runs]
+    for n, d in zip((40, 80), dist):
+        assert (d - exact) / exact == pytest.approx((2 * math.pi / n) ** 2 / 48, rel=0.05)
+    assert abs(dist[1] + (dist[1] - dist[0]) / 3 - exact) < 1e-6
+    for r in runs:
+        pos = r["position"]
+        assert np.abs(pos[:, 1, 2] - R).max() < 1e-10 and np.abs(pos[:, :, 1]).max() < 1e-10
+        np.testing.assert_allclose(r["velocity"][:, 1, 0], exact, rtol=1e-10)
+        assert np.abs(r["wheel_s"][:, 0, 4]).max() < 1e-9            # no lateral force
+
+
+def test_other_analyses_still_refuse_held_slips(tmp_path, capsys):
+    """Only the transient imposes the slips here: mode 10 keeps its one-line refusal."""
+    deck = tmp_path / "d.dat"
+    deck.write_text(_DISC.format(alpha=0, spin="DYNE 3 1", data="", steps=1, t_end=1))
+    assert main(["run", str(deck), "-o", str(tmp_path / "d.h5"), "--mode", "10",
+                 "-q"]) == 3
+    err = capsys.readouterr().err
+    assert "WHEEL slips (non-holonomic constraints) are not supported in MODE" in err
+    assert "Traceback" not in err
