@@ -293,7 +293,8 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
             external_work=step.external_work, iterations=step.iterations,
             residual=step.residual, dissipated_energy=step.dissipated_energy,
             reaction=step.reaction,
-            converged_by=int(step.converged_by == "floor"))
+            converged_by=int(step.converged_by == "floor"),
+            deformation_rate=step.deformation_rate)
         k = summary.n_time
         if along is not None:
             writer.state_space_step(k, along(step), time=step.time)

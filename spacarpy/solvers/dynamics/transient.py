@@ -314,18 +314,19 @@ class TransientProblem:
             out[idx] = react[idx]
         return out
 
-    def slip_results(self, x, v, nu, deformation: dict, stress: dict) -> None:
+    def slip_results(self, x, v, nu, deformation: dict, stress: dict, rate: dict) -> None:
         """Put the slips into a state's element results, in place: the multipliers nu
         (the tangential ground forces) as the slip modes' stress resultants, the
-        accumulated slip ``slip_accumulated`` as their deformations."""
-        rates = self.slips.rates(x, v) if self.slips.n else None
+        accumulated slip ``slip_accumulated`` as their deformations, the slip velocities
+        ``S v`` as their rates."""
+        rates = self.slips.rates(x, v)
         for part in self.slips.parts:
             g = self.num.groups[part.group]
             mode = np.asarray(g.kind.velocity_modes)[part.slot]
             rows = slice(part.offset, part.offset + part.elem.size)
             stress[g.keyword][part.elem, mode] = nu[rows]
             deformation[g.keyword][part.elem, mode] = self.slip_accumulated[rows]
-        return rates
+            rate[g.keyword][part.elem, mode] = rates[rows]
 
     def slip_residual(self, x, v, nu, r, gamma_p: float):
         """The slips' part of a step's equations: the force residual r (free coordinates)
@@ -411,17 +412,20 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
 
     def store(t, x, v, a, mu, its, res, ev, blocks, f_in, by="tolerance"):
         deformation, stress = prob.element_results(ev)
+        rates = {g.keyword: np.einsum("nkj,nj->nk", st.D, v[g.idx])
+                 for g, st in zip(num.groups, ev.states)}
         if tp.slips.n:
             deformation = {k: d.copy() for k, d in deformation.items()}
             stress = {k: d.copy() for k, d in stress.items()}
-            tp.slip_results(x, v, tp.nu, deformation, stress)
+            tp.slip_results(x, v, tp.nu, deformation, stress, rates)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res, converged_by=by,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
                              deformation=deformation, stress=stress,
-                             reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext))
+                             reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext),
+                             deformation_rate=rates)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
