@@ -126,3 +126,54 @@ def test_other_analyses_still_refuse_held_slips(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "WHEEL slips (non-holonomic constraints) are not supported in MODE" in err
     assert "Traceback" not in err
+
+
+# -- the benchmark bicycle, free rear wheel (spec B12, B14 on a short run) ---------------------
+
+_DECKS = __import__("pathlib").Path(__file__).resolve().parents[1] / "decks"
+_MB = np.array([[80.81722, 2.31941332208709], [2.31941332208709, 0.29784188199686]])
+_K0 = np.array([[-80.95, -2.59951685249872], [-2.59951685249872, -0.80329488458618]])
+_K2 = np.array([[0, 76.59734589573222], [0, 2.65431523794604]])
+_C1 = np.array([[0, 33.86641391492494], [-0.85035641456978, 1.68540397397560]])
+
+
+def _linear_lean_rate(v, lean_rate0, t):
+    """The lean rate of eqs (6.1)-(6.4) of Meijaard et al. (2007), exp(A t) z0."""
+    from scipy.linalg import expm
+    Minv = np.linalg.inv(_MB)
+    A = np.block([[np.zeros((2, 2)), np.eye(2)],
+                  [-Minv @ (G * _K0 + v * v * _K2), -Minv @ (v * _C1)]])
+    z0 = np.array([0, 0, lean_rate0, 0])
+    return np.array([(expm(A * s) @ z0)[2] for s in t])
+
+
+@pytest.mark.slow                  # (300 steps of the bicycle: about 30 s on one core)
+def test_b12_b14_bicycle_short_run(tmp_path):
+    """The Fig. 4 deck with a lean rate of 0.05 rad/s, 0.3 s at h = 1e-3 s: the lean rate
+    follows the linearized benchmark equations to 5e-3 of its peak (B14 on a short run),
+    T + U - W stays within 1e-5 of T(0) (B12), the contact forces hold the bicycle up."""
+    text = (_DECKS / "benchmark_bicycle_transient.dat").read_text()
+    text = text.replace("STARTDE 2 1 0.5", "STARTDE 2 1 0.05")
+    text = text.replace("TIMESTEP 5 5000", "TIMESTEP 0.3 300")
+    deck = tmp_path / "bike.dat"
+    deck.write_text(text)
+    out = tmp_path / "bike.h5"
+    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    with h5py.File(out) as f:
+        tr = f["transient"]
+        t = tr["time"][()]
+        rates = tr["elements/HINGE/deformation_rate"][()]
+        ids = list(f["model/elements/HINGE/ids"][()])
+        energy = (tr["kinetic_energy"][()] + tr["elastic_energy"][()]
+                  - tr["external_work"][()])
+        kinetic0 = tr["kinetic_energy"][0]
+        normal = tr["elements/WHEEL/stress_resultant"][()][:, :, 5]
+    lean_rate = rates[:, ids.index(2), 0]
+    assert lean_rate[0] == pytest.approx(0.05, rel=1e-12)
+    assert -rates[0, ids.index(4), 0] * 0.3 == pytest.approx(4.6, rel=1e-12)
+    linear = _linear_lean_rate(4.6, 0.05, t)
+    peak = np.abs(linear).max()
+    assert np.abs(lean_rate - linear).max() < 5e-3 * peak
+    assert np.abs(energy - energy[0]).max() < 1e-5 * kinetic0
+    # the normal forces sum to the weight (94 kg, up to the vertical accelerations)
+    assert np.abs(np.abs(normal[0]).sum() - 94 * G) < 0.05 * 94 * G

@@ -324,7 +324,10 @@ class TransientProblem:
             g = self.num.groups[part.group]
             mode = np.asarray(g.kind.velocity_modes)[part.slot]
             rows = slice(part.offset, part.offset + part.elem.size)
-            stress[g.keyword][part.elem, mode] = nu[rows]
+            # the kind's sign of its stored stress resultants, where it declares one (the
+            # ground's force on the wheel, -nu); else the multiplier itself
+            sign = np.asarray(getattr(g.kind, "stress_sign", ()) or np.ones(g.kind.n_def))
+            stress[g.keyword][part.elem, mode] = sign[mode] * nu[rows]
             deformation[g.keyword][part.elem, mode] = self.slip_accumulated[rows]
             rate[g.keyword][part.elem, mode] = rates[rows]
 
