@@ -27,7 +27,9 @@ def test_every_shipped_deck_has_a_baseline_and_they_are_small():
     # 9.5 MB: the 50 baselines, the path-following ones (hundreds of points) included, with
     # schema 2.10's per-step datasets (/transient/reaction, converged_by: 9.07 MB); a new
     # deck that needs more should store fewer points, not raise the bound again
-    assert sum(p.stat().st_size for p in BASELINE.glob("*.h5")) < 9.5e6
+    # 9.6 MB: + the three rolling-contact transients (issue 32: 0.45 MB), already at the
+    # floor of their 64-step chunks (11 stored steps take as much as 64)
+    assert sum(p.stat().st_size for p in BASELINE.glob("*.h5")) < 9.6e6
 
 
 @pytest.mark.slow
