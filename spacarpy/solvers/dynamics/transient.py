@@ -334,11 +334,14 @@ class TransientProblem:
     def slip_residual(self, x, v, nu, r, gamma_p: float):
         """The slips' part of a step's equations: the force residual r (free coordinates)
         plus ``S^T nu``, and the slip rows ``S(x) v / gamma'`` (in m, like the holonomic
-        constraints they are scaled with) and their weighted size."""
+        constraints they are scaled with), their weighted size, and ``S`` over the free
+        coordinates (one kernel evaluation for all three, reused by the iteration matrix)."""
         free = self.free_idx
-        r = r + self.slips.force(x, nu)[free]
-        g = self.slips.rates(x, v) / gamma_p
-        return r, g, float(np.abs(g).max(initial=0.0)) / self.num.length_scale
+        S = self.slips.jacobian(x)
+        r = r + (S.T @ nu)[free]
+        g = (S @ v) / gamma_p
+        return (r, g, float(np.abs(g).max(initial=0.0)) / self.num.length_scale,
+                S.tocsc()[:, free])
 
     def deformation_work(self, t: float, h: float, mu, mu_new) -> float:
         """Work the prescribed deformations (INPUTE, DELINPE) do on the model from t to

@@ -137,8 +137,10 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     """Form and factorize the iteration matrix at (x1, v1, a1, mu1): the tangent-space
     LDL^T of the static solver (solvers/statics/reduced.py) where it applies, else the bordered
     SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
-    SLOW_CONTRACTION (switches the exact inertia tangent on). Returns the matrix and its
-    Newton increment ``(dx, dmu)`` for the residual r."""
+    SLOW_CONTRACTION (switches the exact inertia tangent on). With held slips, ``nu1`` their
+    multipliers and ``g`` the pair (slip rows' residual, S over the free coordinates) of
+    :meth:`TransientProblem.slip_residual`. Returns the matrix and its Newton increment
+    ``(dx, dmu)`` for the residual r."""
     num, prob = tp.num, tp.prob
     n_x = prob.pattern.n_x
     tp.n_matrices += 1
@@ -196,7 +198,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     if nodal is not None:
         S = S + _padded(nodal, S.shape[0])
     if slips:
-        return _slip_matrix(tp, S, scale, ev, r, x1, v1, nu1, g, gamma_p, m_max)
+        return _slip_matrix(tp, S, scale, ev, r, x1, v1, nu1, *g, gamma_p, m_max)
     try:
         lu = spla.splu(S, permc_spec="COLAMD")
     except RuntimeError:
@@ -208,7 +210,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     return KeptMatrix(m_max, solve), solve(ev, x1, r)
 
 
-def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, gamma_p, m_max):
+def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max):
     """The iteration matrix of a model with held slips: the bordered matrix ``A`` (free
     coordinates, then the constraints) with ``d(S^T nu)/dx`` added to its force block and
     bordered again by the slip rows ``S + d(S v)/dx / gamma'`` (the derivative of ``S(x)
@@ -219,7 +221,6 @@ def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, gamma_p, m_max):
     n_x = tp.prob.pattern.n_x
     n_c = A.shape[0] - n_x
     k = slips.n
-    S_f = slips.jacobian(x1, fi)
     rows = S_f + slips.rates_dx(x1, v1, fi) / gamma_p
     F = slips.force_dx(x1, nu1, fi)
     big = sp.bmat([[A + _padded(F, A.shape[0]),
@@ -294,7 +295,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
     last_chord = False               # whether the last increment came from a kept matrix
     used_chord = False
     slips = tp.slips.n > 0
-    nu1, g, res_g = tp.nu.copy(), None, 0.0
+    nu1, g, res_g, slip_S = tp.nu.copy(), None, 0.0, None
     if slips:
         chord_ok = False             # (a kept matrix has no slip rows' residual of its own)
     for it in range(opts.max_iter + 1):
@@ -302,7 +303,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
             t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
         trial_level = level if trial_level is None else trial_level
         if slips:                    # + S^T nu, and the slip rows S v / gamma'
-            r, g, res_g = tp.slip_residual(x1, v1, nu1, r, gamma_p)
+            r, g, res_g, slip_S = tp.slip_residual(x1, v1, nu1, r, gamma_p)
             ref = max(tp.level, trial_level)
             res = max(prob.residual_norm(r, ev.c, None, None,
                                          level=ref if ref > 0 else 1.0)[0], res_g)
@@ -365,7 +366,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
             try:
                 kept, step = _iteration_matrix(
                     tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
-                    damp_blocks, motion, W, beta_p, gamma_p, nu1, g)
+                    damp_blocks, motion, W, beta_p, gamma_p, nu1, (g, slip_S))
             except StepFailed as fail:
                 raise StepFailed(fail.reason, history, chord=used_chord) from None
             fault = _increment_fault(tp, *step)
