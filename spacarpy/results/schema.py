@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 12)
+SCHEMA_VERSION = (2, 14)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -337,7 +337,7 @@ def _spec_list() -> list[DatasetSpec]:
                              _units([f"{u}/s" if u != "1" else "1/s"
                                      for u in facts.mode_units]),
                              f"{kind} deformation rates D v (a WHEEL's slip modes: the slip "
-                             "velocities)", max(since, (2, 12)), kind))
+                             "velocities)", max(since, (2, 14)), kind))
     # BEAM element properties and cross-sections (schema 1.1)
     b = "model/elements/BEAM"
     out += [
