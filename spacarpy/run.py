@@ -90,8 +90,9 @@ class RunSummary:
 
 
 #: The analyses that impose held slips (rolling without slip): statics and the
-#: linearizations at rest (modes 10, 4, 7, 8, 9; docs/rolling.md).
-SLIP_ANALYSES = ("static", "eigen", "buckling", "state_space", "static_linearized")
+#: linearizations at rest (modes 10, 4, 7, 8, 9) and the transient (docs/rolling.md).
+SLIP_ANALYSES = ("static", "eigen", "buckling", "state_space", "static_linearized",
+                 "transient")
 
 
 def refuse_velocity_modes(model: Model, analysis: str) -> None:
@@ -100,7 +101,8 @@ def refuse_velocity_modes(model: Model, analysis: str) -> None:
     result.
 
     Held slips (rolling without slip, the default) are imposed by statics and the
-    linearizations at rest (:data:`SLIP_ANALYSES`), not yet by the other analyses.
+    linearizations at rest and the transient (:data:`SLIP_ANALYSES`), not yet by the
+    others.
     Released ones (``RLSE e 4 5``, sliding freely) leave a purely holonomic model, but its
     stored slip deformations (the accumulated slip) would not be integrated: refused too."""
     for keyword, es in model.elements.items():
@@ -306,7 +308,8 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
             external_work=step.external_work, iterations=step.iterations,
             residual=step.residual, dissipated_energy=step.dissipated_energy,
             reaction=step.reaction,
-            converged_by=int(step.converged_by == "floor"))
+            converged_by=int(step.converged_by == "floor"),
+            deformation_rate=step.deformation_rate)
         k = summary.n_time
         if along is not None:
             writer.state_space_step(k, along(step), time=step.time)

@@ -250,12 +250,12 @@ def test_a_z_down_wheel_and_released_slips_build():
 
 
 @pytest.mark.parametrize("mode,extra", [(10, "RLSE 5 4 5\n"), (7, "RLSE 5 4 5\n"),
-                                        (1, ""), (1, "RLSE 5 4 5\n")])
+                                        (1, "RLSE 5 4 5\n")])
 def test_every_analysis_refuses_a_wheel_cleanly(tmp_path, capsys, mode, extra):
-    """Held slips are constraints the transient does not impose yet (statics and the
-    linearizations at rest do: tests/test_rolling_static.py); released ones would leave the
-    stored accumulated slip unintegrated: one line, exit 3 (a model error), no file. (Mode 0
-    reports them: tests/test_kinematic_coords.py.)"""
+    """Released slips would leave the stored accumulated slip unintegrated: one line, exit 3
+    (a model error), no file. (Held slips run in statics, the linearizations at rest and the
+    transient: tests/test_rolling_static.py, tests/test_rolling_transient.py; mode 0 reports
+    them: tests/test_kinematic_coords.py.)"""
     deck = tmp_path / "wheel.dat"
     deck.write_text(wheel_deck(extra=extra, data="TIMESTEP 1 10\n"))
     out = tmp_path / "wheel.h5"

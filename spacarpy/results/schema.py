@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 13)
+SCHEMA_VERSION = (2, 14)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -335,6 +335,12 @@ def _spec_list() -> list[DatasetSpec]:
                     S(f"{g}/stress_resultant", "f8", shape, su,
                       sm if group == "static" else f"{kind} stress resultants, as in /static",
                       tsince, kind)]
+            if group == "transient":
+                out.append(S(f"{g}/deformation_rate", "f8", shape,
+                             _units([f"{u}/s" if u != "1" else "1/s"
+                                     for u in facts.mode_units]),
+                             f"{kind} deformation rates D v (a WHEEL's slip modes: the slip "
+                             "velocities)", max(since, (2, 14)), kind))
     # BEAM element properties and cross-sections (schema 1.1)
     b = "model/elements/BEAM"
     out += [

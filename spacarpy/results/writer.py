@@ -280,10 +280,8 @@ class ResultsWriter:
         ----------
         load_factor : float
             Factor on DELXF (load = XF + load_factor * DELXF).
-        position : array_like, shape (n_pos, 3)
-            Node positions (m).
-        euler : array_like, shape (n_rot, 4)
-            Euler parameters of the orientation nodes (1).
+        position, euler : array_like, (n_pos, 3) and (n_rot, 4)
+            Node positions (m) and Euler parameters of the orientation nodes (1).
         deformation, stress_resultant : dict of str -> array_like (n_elem_of_kind, n_def)
             Generalized deformations and stress resultants of every element kind of the
             model, by kind keyword (``"BEAM"``, ``"TRUSS"`` ...).
@@ -314,19 +312,23 @@ class ResultsWriter:
                        deformation: dict, stress_resultant: dict, kinetic_energy: float,
                        elastic_energy: float, external_work: float, iterations: int,
                        residual: float, dissipated_energy: float = 0.0,
-                       reaction=None, converged_by: int = 0) -> None:
-        """Append one time step (arrays as in :meth:`static_step`, plus the velocities and
-        the energies) and make it durable: the arrays first, then ``/transient/time``
-        commits the step. ``reaction`` (n_reac,): the reactions in the order of
-        ``reaction_component``, inertia included (required, as in :meth:`static_step`).
-        ``converged_by``: 0 the last integration step's residual met the tolerance, 1 it
-        lies within its measured round-off floor (``/transient/converged_by``)."""
+                       reaction=None, converged_by: int = 0,
+                       deformation_rate: dict | None = None) -> None:
+        """Append one time step (arrays as in :meth:`static_step`, plus the velocities, the
+        energies, ``reaction`` (required, inertia included) and ``deformation_rate`` (kind ->
+        (n, n_def), zeros where missing)) and make it durable: the arrays first, then
+        ``/transient/time`` commits it. ``converged_by``: 0 the residual met the tolerance, 1
+        it lies within its measured round-off floor (``/transient/converged_by``)."""
         given = {"position": position, "euler": euler, "velocity": velocity,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
                  "dissipated_energy": float(dissipated_energy), "reaction": reaction,
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "converged_by": operator.index(converged_by)}
+        for kind, n in self.kinds.items():
+            rate = (deformation_rate or {}).get(kind)
+            given[f"elements/{kind}/deformation_rate"] = np.zeros((n, n_def(kind))) \
+                if rate is None else rate
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,

@@ -34,6 +34,7 @@ the step records; transient_start.py the consistent start; transient_step.py one
 iteration."""
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time
@@ -58,7 +59,11 @@ from spacarpy.solvers.dynamics.transient_records import (  # noqa: F401  (re-exp
     TransientStep,
     alpha_parameters,
 )
-from spacarpy.solvers.dynamics.transient_start import _initial_acceleration, _initial_velocities
+from spacarpy.solvers.dynamics.transient_start import (
+    _initial_acceleration,
+    _initial_velocities,
+    _project_velocities,
+)
 from spacarpy.solvers.dynamics.transient_step import (  # noqa: F401  (re-exported)
     KeptMatrix,
     _error_norm,
@@ -69,6 +74,7 @@ from spacarpy.solvers.statics.equilibrium import StaticProblem
 from spacarpy.solvers.statics.errors import StepFailed
 from spacarpy.solvers.statics.kinematic_check import check_initial
 from spacarpy.solvers.statics.loads import LoadState
+from spacarpy.solvers.statics.slips import held_slips
 from spacarpy.solvers.statics.static import solve_static
 from spacarpy.time_functions import TIME_FUNCTIONS, TimeFunction
 
@@ -88,6 +94,18 @@ class TransientProblem:
         self.free_idx = np.flatnonzero(self.free)
         self.free_rot = self.prob.rot_mask[self.free]
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
+        # the slips held at zero (WHEEL rolling without slip): velocity-level constraints
+        # with multipliers nu, the tangential contact forces (docs/rolling.md "Transient")
+        self.slips = held_slips(self.num)
+        if self.slips:
+            # the step borders its matrix with the slip rows itself (transient_step.
+            # _slip_matrix, rows S + d(Sv)/dx / gamma'): a copy of the static problem without
+            # its own (statics') slip rows, so that they are not bordered twice
+            self.prob = copy.copy(self.prob)
+            self.prob.slips = self.slips.none()
+        self.nu = np.zeros(self.slips.n)      # of the last accepted state
+        self.step_nu = self.nu                # of the last converged step (_step)
+        self.slip_accumulated = np.zeros(self.slips.n)   # integral of s dt (trapezoidal)
         self.level = 0.0                 # largest force level of the accepted states
         # the exact inertia tangent, switched on for the rest of the run at the first
         # iteration whose residual fell by less than a factor 10 (see _newton_step)
@@ -125,8 +143,8 @@ class TransientProblem:
         beam spinning from t = 0 at 0.08 rad per step drifted in energy 230 times faster;
         switched on at 1 to 2 rad, the spin-up's energy error was 10 times larger."""
         self.step_rate = None
-        if not self.opts.rotating_frame or not self.frame.usable:
-            return None
+        if not self.opts.rotating_frame or not self.frame.usable or self.slips.n:
+            return None                  # (no turning frame with slips: docs/transient.md)
         omega, centre, velocity = self.frame.fit(x, v)
         self.step_rate = omega
         if self.frame_from_start is None:
@@ -310,15 +328,48 @@ class TransientProblem:
                          + (float(np.sum(g.sigma0 * st.e)) if g.sigma0 is not None else 0.0)
                          for g, st in zip(self.num.groups, states)))
 
-    def driving_force(self, ev, f_in):
+    def driving_force(self, ev, f_in, x=None, nu=None):
         """Generalized force the loads, gravity and prescribed motions exert (n_coord,):
-        f_ext on the free coordinates, the reaction (f_int + inertia - f_ext) on the
-        prescribed ones; its work over a step is the work done on the model."""
+        f_ext on the free coordinates, the reaction (f_int + inertia - f_ext, plus the
+        slips' ``S^T nu`` at (x, nu)) on the prescribed ones; its work over a step is the
+        work done on the model."""
         out = ev.f_ext.copy()
         idx = self.presc_idx
         if idx.size:
-            out[idx] = (ev.f_int + f_in)[idx]
+            react = ev.f_int + f_in
+            if self.slips.n and nu is not None:
+                react = react + self.slips.force(x, nu)
+            out[idx] = react[idx]
         return out
+
+    def slip_results(self, x, v, nu, deformation: dict, stress: dict, rate: dict) -> None:
+        """Put the slips into a state's element results, in place: the multipliers nu
+        (the tangential ground forces) as the slip modes' stress resultants, the
+        accumulated slip ``slip_accumulated`` as their deformations, the slip velocities
+        ``S v`` as their rates."""
+        rates = self.slips.rates(x, v)
+        for part in self.slips.parts:
+            g = self.num.groups[part.group]
+            mode = np.asarray(g.kind.velocity_modes)[part.slot]
+            rows = slice(part.offset, part.offset + part.elem.size)
+            # the kind's sign of its stored stress resultants, where it declares one (the
+            # ground's force on the wheel, -nu); else the multiplier itself
+            sign = np.asarray(getattr(g.kind, "stress_sign", ()) or np.ones(g.kind.n_def))
+            stress[g.keyword][part.elem, mode] = sign[mode] * nu[rows]
+            deformation[g.keyword][part.elem, mode] = self.slip_accumulated[rows]
+            rate[g.keyword][part.elem, mode] = rates[rows]
+
+    def slip_residual(self, x, v, nu, r, gamma_p: float):
+        """The slips' part of a step's equations: the force residual r (free coordinates)
+        plus ``S^T nu``, and the slip rows ``S(x) v / gamma'`` (in m, like the holonomic
+        constraints they are scaled with), their weighted size, and ``S`` over the free
+        coordinates (one kernel evaluation for all three, reused by the iteration matrix)."""
+        free = self.free_idx
+        S = self.slips.jacobian(x)
+        r = r + (S.T @ nu)[free]
+        g = (S @ v) / gamma_p
+        return (r, g, float(np.abs(g).max(initial=0.0)) / self.num.length_scale,
+                S.tocsc()[:, free])
 
     def deformation_work(self, t: float, h: float, mu, mu_new) -> float:
         """Work the prescribed deformations (INPUTE, DELINPE) do on the model from t to
@@ -391,17 +442,24 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     tp.accept_level(start.level)
     work = dissipated = 0.0
     p_damp = tp.damping_power(x, v, start.f_damp)
-    q_prev = tp.driving_force(ev, f_in)
+    q_prev = tp.driving_force(ev, f_in, x, tp.nu)
 
     def store(t, x, v, a, mu, its, res, ev, blocks, f_in, by="tolerance"):
         deformation, stress = prob.element_results(ev)
+        rates = {g.keyword: np.einsum("nkj,nj->nk", st.D, v[g.idx])
+                 for g, st in zip(num.groups, ev.states)}
+        if tp.slips.n:
+            deformation = {k: d.copy() for k, d in deformation.items()}
+            stress = {k: d.copy() for k, d in stress.items()}
+            tp.slip_results(x, v, tp.nu, deformation, stress, rates)
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res, converged_by=by,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
                              elastic_energy=tp.elastic_energy(ev.states), external_work=work,
                              dissipated_energy=dissipated,
                              deformation=deformation, stress=stress,
-                             reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext))
+                             reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext),
+                             deformation_rate=rates)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -436,6 +494,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 h /= 2
                 continue
             x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp, blocks, by = out
+            if tp.slips.n:               # the slips need consistent velocities
+                v_new = _project_velocities(tp, x_new, v_new, t + h)
             grow = 2.0
             if opts.error is not None:
                 # local error estimate of the position update (Zienkiewicz & Xie's
@@ -451,8 +511,12 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 grow = factor
             tp.previous_acceleration = (h, a)
             tp.advance_turn(h)
+            if tp.slips.n:
+                tp.slip_accumulated = tp.slip_accumulated + 0.5 * h * (
+                    tp.slips.rates(x, v) + tp.slips.rates(x_new, v_new))
             v, a, a_tilde = v_new, a_new, at_new
-            q_new = tp.driving_force(ev, f_in)
+            tp.nu = tp.step_nu
+            q_new = tp.driving_force(ev, f_in, x_new, tp.nu)
             work += 0.5 * float((q_prev + q_new) @ (x_new - x))
             work += tp.deformation_work(t, h, mu, mu_new)
             p_new = tp.damping_power(x_new, v, f_damp)

@@ -90,6 +90,9 @@ class TransientStep:
     #: the tolerance) or "floor" (within its round-off floor measured at that state, the
     #: increments converged); step 0 (the initial state) is "tolerance"
     converged_by: str = "tolerance"
+    #: element keyword -> (n_elem, n_def) deformation rates D v (a WHEEL's slip modes:
+    #: the slip velocities)
+    deformation_rate: dict = field(default_factory=dict)
 
     @property
     def energy_balance(self) -> float:

@@ -26,7 +26,7 @@ def _initial_velocities(tp, x, v, given: dict):
     The rigid modes move at the rates of their targets (INPUTE's velocity, DELINPE times
     phi'(0)). With STARTDE lines every flexible (DYNE) mode is a degree of freedom whose
     rate is given, as in SPACAR: the STARTDE rate, or zero; the released (RLSE) modes and
-    the other coordinates follow."""
+    the other coordinates follow. The held slips are rows ``S v = 0`` of C."""
     num, prob, free = tp.num, tp.prob, tp.free
     model = tp.model
     pos_row, rot_row = node_rows(model)
@@ -53,6 +53,9 @@ def _initial_velocities(tp, x, v, given: dict):
         rhs_e = rates - _flexible_rows(tp, ev.states, {}, fixed_part)[1]
         C = sp.vstack([C, E], format="csc")
         rhs_c = np.concatenate([rhs_c, rhs_e])
+    if tp.slips.n:                                                # S v = 0
+        C = sp.vstack([C, tp.slips.jacobian(x, tp.free_idx)], format="csc")
+        rhs_c = np.concatenate([rhs_c, -tp.slips.rates(x, fixed_part)])
     weight = (np.where(prob.rot_mask[free], num.length_scale ** 2, 1.0)
               * np.where(target[free], 1.0, 1e-6))
     big = sp.bmat([[sp.diags(weight), C.T], [C, None]], format="csc")
@@ -103,7 +106,9 @@ def _flexible_rows(tp, states, given: dict, v=None):
 
 def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0):
     """Consistent accelerations and multipliers at time t (default 0) from
-    ``[M C^T; C 0] [a; mu] = [f - f_el - h - M_fp a_p; -(C_p a_p + (dC/dt) v - c_tt)]``;
+    ``[M C^T; C 0] [a; mu] = [f - f_el - h - M_fp a_p; -(C_p a_p + (dC/dt) v - c_tt)]``,
+    with the held slips' rows ``S a = -(d(S v)/dx) v - S_p a_p`` and columns ``S^T`` in C
+    (their multipliers go to ``tp.nu``);
     zero accelerations (and the given multipliers) when the mass matrix is singular on the
     constraint null space (massless coordinates)."""
     num, free, prob = tp.num, tp.free, tp.prob
@@ -122,6 +127,11 @@ def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0):
                   - _constraint_rates(prob, x - eps * v, v)) / (2 * eps)
     if num.rigid_prescribed.size:                                 # driven deformations
         c_acc[:num.n_rigid] -= tp.rigid_rates(t)[1]
+    slips = tp.slips
+    if slips.n:                      # S a = -(d(S v)/dx) v - S_p a_p: rows and columns
+        S_f = slips.jacobian(x, tp.free_idx)
+        C = sp.vstack([C, S_f], format="csc")
+        c_acc = np.concatenate([c_acc, slips.rates_dx(x, v) @ v + slips.rates(x, a)])
     big = sp.bmat([[M[free][:, free], C.T], [C, None]], format="csc")
     try:
         sol = spla.splu(big).solve(np.concatenate([rhs_f, -c_acc]))
@@ -131,7 +141,9 @@ def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0):
         log.info("massless coordinates: the initial accelerations start at zero")
         return a, mu
     a[free] = sol[:n_x]
-    return a, sol[n_x:]
+    n_mu = mu.size
+    tp.nu = sol[n_x + n_mu:].copy()                               # the slips' multipliers
+    return a, sol[n_x:n_x + n_mu]
 
 
 def _constraint_rates(prob, x, v):
@@ -147,4 +159,37 @@ def _constraint_rates(prob, x, v):
     rates.append(2.0 * np.sum(q * qd, axis=1))
     return np.concatenate(rates)
 
+
+def _project_velocities(tp, x, v, t: float):
+    """The velocities of a converged step made consistent with the velocity form of the
+    constraints, ``C v = -c_t`` and ``S v = 0``: the closest ones in the mass norm (a
+    weight 1e-9 of the largest mass on the massless coordinates).
+
+    The index-3 scheme holds c(x) = 0 but lets the velocities drift from ``C v = -c_t``;
+    a model with held slips evaluates ``S v`` with those velocities (a wheel's angular
+    velocity from its Euler-parameter rates), and the drift would turn into a slip the
+    multipliers then enforce against: a wheel driven at a constant rate would speed up
+    (docs/transient.md, "Rolling contact")."""
+    num, prob, free = tp.num, tp.prob, tp.free
+    ev = prob.evaluate(x, np.zeros(num.n_constraint), tp.loads(t))
+    C = sp.vstack([tp.constraint_jacobian(ev), tp.slips.jacobian(x, tp.free_idx)],
+                  format="csc")
+    fixed_part = np.where(free, 0.0, v)
+    rhs_c = -_constraint_rates(prob, x, fixed_part)
+    rhs_c[:num.n_rigid] += tp.rigid_rates(t)[0]
+    rhs_c = np.concatenate([rhs_c, -tp.slips.rates(x, fixed_part)])
+    M = tp.inertia.matrix(x)[free][:, free]
+    d = M.diagonal()
+    M = M + sp.diags(np.where(d > 1e-9 * max(float(d.max()), 1e-300), 0.0,
+                              1e-9 * max(float(d.max()), 1.0)))
+    big = sp.bmat([[M, C.T], [C, None]], format="csc")
+    try:
+        sol = spla.splu(big).solve(np.concatenate([M @ v[free], rhs_c]))
+    except RuntimeError:
+        return v
+    if not np.all(np.isfinite(sol)):
+        return v
+    out = v.copy()
+    out[free] = sol[:prob.pattern.n_x]
+    return out
 

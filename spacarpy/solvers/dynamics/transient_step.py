@@ -132,12 +132,15 @@ def _increment_fault(tp, dx, dmu) -> str | None:
 
 
 def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
-                      damp_blocks, motion, W, beta_p, gamma_p) -> tuple[KeptMatrix, tuple]:
+                      damp_blocks, motion, W, beta_p, gamma_p, nu1=None, g=None
+                      ) -> tuple[KeptMatrix, tuple]:
     """Form and factorize the iteration matrix at (x1, v1, a1, mu1): the tangent-space
     LDL^T of the static solver (solvers/statics/reduced.py) where it applies, else the bordered
     SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
-    SLOW_CONTRACTION (switches the exact inertia tangent on). Returns the matrix and its
-    Newton increment ``(dx, dmu)`` for the residual r."""
+    SLOW_CONTRACTION (switches the exact inertia tangent on). With held slips, ``nu1`` their
+    multipliers and ``g`` the pair (slip rows' residual, S over the free coordinates) of
+    :meth:`TransientProblem.slip_residual`. Returns the matrix and its Newton increment
+    ``(dx, dmu)`` for the residual r."""
     num, prob = tp.num, tp.prob
     n_x = prob.pattern.n_x
     tp.n_matrices += 1
@@ -169,7 +172,9 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
         blocks, beta_p + gamma_p * tp.model.damping[0], tangent)
     for i, cb in damp_blocks.items():
         extra[i] = extra.get(i, 0.0) + gamma_p * cb
-    if prob.reduced is not None and nodal is None and not exact and motion is None:
+    slips = tp.slips.n > 0
+    if (prob.reduced is not None and nodal is None and not exact and motion is None
+            and not slips):
         # the static solver's tangent-space step (solvers/statics/reduced.py) with the inertia
         # and damping blocks: no Euler multipliers, an LDL^T instead of SuperLU
         k_el, euler_diag, _ = prob.element_blocks(ev, mu1, extra=extra)
@@ -192,6 +197,8 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
         nodal = coriolis if nodal is None else nodal + coriolis
     if nodal is not None:
         S = S + _padded(nodal, S.shape[0])
+    if slips:
+        return _slip_matrix(tp, S, scale, ev, r, x1, v1, nu1, *g, gamma_p, m_max)
     try:
         lu = spla.splu(S, permc_spec="COLAMD")
     except RuntimeError:
@@ -199,6 +206,34 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
 
     def solve(ev, x, r):                                # the bordered SuperLU's
         dz = lu.solve(-np.concatenate([r, scale * ev.c]))
+        return dz[:n_x], dz[n_x:] * scale
+    return KeptMatrix(m_max, solve), solve(ev, x1, r)
+
+
+def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max):
+    """The iteration matrix of a model with held slips: the bordered matrix ``A`` (free
+    coordinates, then the constraints) with ``d(S^T nu)/dx`` added to its force block and
+    bordered again by the slip rows ``S + d(S v)/dx / gamma'`` (the derivative of ``S(x)
+    v / gamma'`` along ``dv = gamma' dx``) and the columns ``S^T``, both scaled like the
+    holonomic rows. Its Newton increment is ``(dx, [dmu, dnu])`` for the residuals
+    (r, c, g)."""
+    slips, fi = tp.slips, tp.free_idx
+    n_x = tp.prob.pattern.n_x
+    n_c = A.shape[0] - n_x
+    k = slips.n
+    rows = S_f + slips.rates_dx(x1, v1, fi) / gamma_p
+    F = slips.force_dx(x1, nu1, fi)
+    big = sp.bmat([[A + _padded(F, A.shape[0]),
+                    sp.vstack([scale * S_f.T, sp.csc_matrix((n_c, k))])],
+                   [sp.hstack([scale * rows, sp.csc_matrix((k, n_c))]), None]],
+                  format="csc")
+    try:
+        lu = spla.splu(big, permc_spec="COLAMD")
+    except RuntimeError:
+        raise StepFailed("singular iteration matrix") from None
+
+    def solve(ev, x, r):         # (the slip rows' residual g of this matrix's state)
+        dz = lu.solve(-np.concatenate([r, scale * ev.c, scale * g]))
         return dz[:n_x], dz[n_x:] * scale
     return KeptMatrix(m_max, solve), solve(ev, x1, r)
 
@@ -259,10 +294,19 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
     chord_ok = opts.reuse_matrix and not tp.fresh_only and smooth
     last_chord = False               # whether the last increment came from a kept matrix
     used_chord = False
+    slips = tp.slips.n > 0
+    nu1, g, res_g, slip_S = tp.nu.copy(), None, 0.0, None
+    if slips:
+        chord_ok = False             # (a kept matrix has no slip rows' residual of its own)
     for it in range(opts.max_iter + 1):
         ev, blocks, f_in, r, res, _, f_damp, damp_blocks, level = tp.residual(
             t1, x1, v1, a1, mu1, trial_level, mass_blocks=False)
         trial_level = level if trial_level is None else trial_level
+        if slips:                    # + S^T nu, and the slip rows S v / gamma'
+            r, g, res_g, slip_S = tp.slip_residual(x1, v1, nu1, r, gamma_p)
+            ref = max(tp.level, trial_level)
+            res = max(prob.residual_norm(r, ev.c, None, None,
+                                         level=ref if ref > 0 else 1.0)[0], res_g)
         history.append(res)
         if not np.isfinite(res):
             raise StepFailed("non-finite residual", history, chord=used_chord)
@@ -279,9 +323,11 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
         by = None
         if it > 0 and res <= opts.tol and (
                 dx_norm <= max(opts.tol, 1e-13) or res <= 1e-3 * opts.tol
-                or _simplified_norm(prob, kept, ev, x1, r) <= max(opts.tol, 1e-13)):
+                or (not slips and _simplified_norm(prob, kept, ev, x1, r)
+                    <= max(opts.tol, 1e-13))):
             by = "tolerance"
-        elif it > 0 and res > opts.tol and dx_norm <= max(opts.tol, 1e-13) and _at_floor(
+        elif it > 0 and res > opts.tol and dx_norm <= max(opts.tol, 1e-13) \
+                and res_g <= opts.tol and _at_floor(
                 tp, ev, blocks, x1, v1, a1, mu1, r, max(tp.level, trial_level), opts.tol):
             by = "floor"
         if by is not None:
@@ -292,6 +338,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
                 a_tilde_new = tp.frame.from_frame(
                     motion, h, y1, yd1, at_new + (1 - af) / (1 - am) * ydd1)[2]
             _gauge(num, x1, v1, a1, a_tilde_new)
+            tp.step_nu = nu1
             tp.accept_level(level)
             tp.fresh_only = False
             return x1, v1, a1, a_tilde_new, mu1, it, res, ev, f_in, f_damp, blocks, by
@@ -319,7 +366,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
             try:
                 kept, step = _iteration_matrix(
                     tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
-                    damp_blocks, motion, W, beta_p, gamma_p)
+                    damp_blocks, motion, W, beta_p, gamma_p, nu1, (g, slip_S))
             except StepFailed as fail:
                 raise StepFailed(fail.reason, history, chord=used_chord) from None
             fault = _increment_fault(tp, *step)
@@ -334,6 +381,9 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
             wd = W @ dx
             v1[fi] += wd
             a1[fi] += 2 * gamma_p * wd + W @ wd
+        if slips:
+            nu1 = nu1 + dmu[mu1.size:]
+            dmu = dmu[:mu1.size]
         mu1 = mu1 + dmu
     hist = ", ".join(f"{v:.2e}" for v in history)
     raise StepFailed(f"no convergence in {opts.max_iter} iterations (residuals {hist})",

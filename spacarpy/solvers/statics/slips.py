@@ -64,6 +64,10 @@ class HeldSlips:
     def __bool__(self) -> bool:
         return self.n > 0
 
+    def none(self) -> HeldSlips:
+        """The same model with no held slips (for a solver that imposes them itself)."""
+        return HeldSlips(self.num, [], 0, self.ids[:0], self.modes[:0], self.keywords[:0])
+
     def names(self) -> list:
         """``"WHEEL 5 mode 4"`` per row."""
         return [f"{k} {int(e)} mode {int(m)}" for k, e, m in
