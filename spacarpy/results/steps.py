@@ -16,7 +16,7 @@ from spacarpy.results.h5file import SCALE_COLUMN, crc32, set_cf_attrs
 __all__ = ["create_extendable", "StepAppender", "checksum_row"]
 
 # Chunks of the step datasets hold whole steps: up to _MAX_CHUNK_ROWS steps, about _CHUNK_BYTES.
-_CHUNK_BYTES = 4096
+_CHUNK_BYTES = 16384
 _MAX_CHUNK_ROWS = 64
 
 
