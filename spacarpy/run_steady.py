@@ -14,6 +14,7 @@ from spacarpy import __version__
 from spacarpy.elements.registry import KINDS
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.model import RIGID
+from spacarpy.solvers.linear.state_space import StateSpace
 from spacarpy.solvers.linear.steady_motion import SteadyMotion
 
 log = logging.getLogger(__name__)
@@ -32,15 +33,9 @@ class SteadyInputError(SpacarError):
 
 
 @dataclass
-class _SteadyStateSpace:
-    M0: np.ndarray
-    C0: np.ndarray
-    K0: np.ndarray
-    B0: np.ndarray
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    D: np.ndarray
+class _SteadyStateSpace(StateSpace):
+    """Mode 9's state space plus the kinematic blocks of a steady motion."""
+
     K0p: np.ndarray
     G: np.ndarray
     Gq: np.ndarray
