@@ -331,3 +331,20 @@ def test_an_interrupted_run_keeps_its_steps(tmp_path):
         assert not f.attrs["completed"]
         assert f["transient/time"].shape == (6,)
         assert f["transient/acceleration"].shape == (6, 3, 3)
+
+
+def test_the_reader_gives_the_accelerations(tmp_path):
+    from spacarpy.results import open_results
+    from spacarpy.results.views import ResultsQueryError
+    out = tmp_path / "arm.h5"
+    run_job(load(ARM), out)
+    tr = open_results(out).transient
+    a_tip = centre_accelerations(*arm_trajectory(tr.time))[1]
+    assert np.abs(tr.acceleration(5)[:, :2] - a_tip).max() < 1e-10
+    assert tr.acceleration(step=3).shape == (3, 3)
+    pend = tmp_path / "pendulum.h5"
+    text = PENDULUM.format(L=1, rhoA=2, g=G, joint="RLSE 10 1", data="", t_end=0.02, n=2)
+    job = job_from_text(text.replace("MODE 2", "MODE transient"), "p.dat")
+    run_job(job, pend)
+    with pytest.raises(ResultsQueryError, match="only inverse dynamics"):
+        open_results(pend).transient.acceleration()
