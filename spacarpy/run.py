@@ -156,9 +156,6 @@ def run_model(model: Model, settings: AnalysisSettings, out,
         raise AnalysisInputError("TIMESTEP 0 0 asks for the linearization about the initial "
                                  "state: it needs MODE 3; a transient needs TIMESTEP t_end "
                                  "n_steps")
-    if inverse:
-        from spacarpy.run_inverse import check_inverse_settings
-        check_inverse_settings(settings)
     if analysis != "check":                                 # mode 0 reports the slips
         refuse_velocity_modes(model, analysis)
     problem = StaticProblem(model, deformations=settings.deformations)
@@ -166,6 +163,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "check":
         from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
+    if inverse:                  # before the result file: the settings, a determinate model
+        from spacarpy.run_inverse import check_inverse
+        check_inverse(settings, problem)
     if problem.loads.any:
         from spacarpy.solvers.statics.conditioning import check_residual_floor
         check_residual_floor(problem, ignore=opts.ignore_conditioning)

@@ -17,9 +17,11 @@ class InverseInputError(SpacarError):
     exit_code = EXIT_INPUT
 
 
-def check_inverse_settings(settings) -> None:
-    """Refuse what inverse dynamics cannot run, before the result file is made; say what it
-    ignores (the integrator's settings)."""
+def check_inverse(settings, problem) -> None:
+    """Refuse what inverse dynamics cannot run, before the result file is made: no TIMESTEP,
+    ARCLENGTH, a model its inputs do not determine (:func:`~spacarpy.solvers.dynamics.
+    inverse.determinacy_error`); say what it ignores (the integrator's settings)."""
+    from spacarpy.solvers.dynamics.inverse import determinacy_error
     tr = settings.transient
     if tr.timestep is None or tr.timestep[1] < 1:
         raise InverseInputError("MODE inverse_dynamics (SPACAR 2) needs the time span: "
@@ -32,6 +34,9 @@ def check_inverse_settings(settings) -> None:
                                        ("SUBSTEPS", tr.substeps != 1),
                                        ("VELOCITY", bool(tr.initial_velocities)))
                if used]
+    err = determinacy_error(problem)
+    if err is not None:
+        raise err
     if ignored:
         log.warning("MODE inverse_dynamics computes every time step from the prescribed "
                     "motion (no time integration): %s ignored", ", ".join(ignored))
@@ -69,4 +74,4 @@ def run_inverse(model, settings, problem, writer, summary, progress=None) -> Non
     summary.integration_steps = result.n_steps_taken
 
 
-__all__ = ["InverseInputError", "check_inverse_settings", "run_inverse"]
+__all__ = ["InverseInputError", "check_inverse", "run_inverse"]

@@ -297,6 +297,7 @@ def test_a_flexible_joint_is_a_degree_of_freedom(tmp_path, capsys):
     assert code == EXIT_MODEL
     assert "flexible (DYNE) modes are degrees of freedom: HINGE 10 mode 1" in err
     assert "Traceback" not in err
+    assert not list(tmp_path.glob("flex*.h5"))          # refused before the result file
 
 
 def test_redundant_inputs_are_refused():
