@@ -98,9 +98,8 @@ def determinacy_error(prob: StaticProblem) -> ModelError | None:
                          mode_name(n) + (f" ('RLSE {n[1]} {n[2]}' releases it)"
                                          if n[0] != "EULER" else "")
                          for n in ka.redundant[:8]))
-    if not parts:        # a rank decision at the margin: square but numerically singular
-        parts.append(f"the {n_c} constraints do not determine the {n_f} free coordinates "
-                     f"in the initial configuration ({ka.rank.describe()})")
+    if not parts:        # square, and regular by the equilibrated rank analysis
+        return None
     err = ModelError(head + "; ".join(parts))
     err.mechanism, err.over_constrained = bool(ka.motions), bool(ka.redundant)
     return err
