@@ -5,7 +5,8 @@ prescribed motion against closed forms.
   with an angular acceleration tau = I_p alpha + m g l sin(theta), the pivot force m (a_c - g),
   over two revolutions (the hinge's turn count), to 1e-10 of m g l;
 - the same pendulum driven by a coordinate (INPUTX on the tip's x with TIMEFUNCTION sine):
-  the force that coordinate needs from the torque balance about the pivot;
+  the force that coordinate needs from the torque balance about the pivot; and by a
+  rotation (INPUTR): the moment it needs;
 - the two-link arm of decks/two_link_arm_inverse.dat: the joint torques equal Lagrange's
   equations (written out below) to 1e-8, the base force the rate of the momentum minus
   the weight, the tip's acceleration and the kinetic energy the closed forms;
@@ -373,3 +374,21 @@ def test_planar_four_bar_power_balance(tmp_path, theta0):
     power = tau * 6.0 + 1.5 * v_c
     rate = (kinetic[2] - kinetic[0]) / 4e-5
     assert abs(rate - power) <= 1e-7 * (abs(tau * 6.0) + 1.5 * abs(v_c)), (rate, power)
+
+
+def test_pendulum_driven_by_a_rotation(tmp_path):
+    """INPUTR on the rod's orientation node (no hinge), theta(t) = sin(pi t) (DELINPR with
+    TIMEFUNCTION sine 0.5): the moment the input needs, the node's reaction Mz, is
+    I_p theta'' + m g l sin(theta) (the exact quaternion derivatives of INPUTR)."""
+    text = (PENDULUM.format(L=L_ROD, rhoA=M_ROD / L_ROD, g=G, joint="INPUTR 4 0 0 1",
+                            data="DELINPR 4 1.0\nTIMEFUNCTION sine 0.5", t_end=2.0, n=16)
+            .replace("HINGE 10 2 4 0 0 1\n", "").replace("FIX 2\n", ""))
+    with run(job_from_text(text, "rot.dat"), tmp_path) as f:
+        t = f["transient/time"][:]
+        names = [c.decode() for c in f["static/reaction_component"][:]]
+        nodes = list(f["static/reaction_node"][:])
+        col = next(i for i, (n, c) in enumerate(zip(nodes, names)) if n == 4 and c == "Mz")
+        moment = f["transient/reaction"][:, col]
+    th, thdd = np.sin(np.pi * t), -np.pi**2 * np.sin(np.pi * t)
+    exact = M_ROD * L_ROD**2 / 3 * thdd + M_ROD * G * L_ROD / 2 * np.sin(th)
+    assert np.abs(moment - exact).max() <= 1e-10 * M_ROD * G * L_ROD / 2
