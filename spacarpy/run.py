@@ -37,6 +37,9 @@ transient_linearized (SPACAR 3)
     The transient, and at every stored time step the linearized equations about the state
     of the trajectory (:mod:`spacarpy.solvers.dynamics.trajectory`) in /state_space, whose ``step``
     is the row of /transient and ``time`` its time.
+inverse_dynamics (SPACAR 2)
+    The input forces and reactions of a fully prescribed motion at the times of TIMESTEP,
+    in /transient (:mod:`spacarpy.run_inverse`).
 """
 from __future__ import annotations
 
@@ -140,7 +143,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     n_modes = settings.linearized.count
     analysis = settings.analysis
     static_lin = analysis == "static_linearized"          # SPACAR mode 10
-    modes_per_step = settings.linearized.modes_each_step or static_lin
+    inverse = analysis == "inverse_dynamics"                # SPACAR mode 2
+    modes_per_step = (settings.linearized.modes_each_step or static_lin) and not inverse
     if analysis == "transient_linearized":                  # mode 3 (docs/rolling.md)
         from spacarpy.run_steady import refuse_trajectory_slips, run_steady_motion
         refuse_trajectory_slips(model, settings)
@@ -159,6 +163,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "check":
         from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
+    if inverse:                  # before the result file: the settings, a determinate model
+        from spacarpy.run_inverse import check_inverse
+        check_inverse(settings, problem)
     if problem.loads.any:
         from spacarpy.solvers.statics.conditioning import check_residual_floor
         check_residual_floor(problem, ignore=opts.ignore_conditioning)
@@ -233,7 +240,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                             problem.reaction_node, problem.reaction_component,
                             n_eigen_modes=n_eigen,
                             n_buckling_modes=n_modes if want_buckling else 0,
-                            compliance_node=opts.compliance_node, transient=transient,
+                            compliance_node=opts.compliance_node,
+                            transient=transient or inverse, accelerations=inverse,
                             state_space=ss_setup[1] if want_ss else None,
                             arclength=arc is not None)
         from spacarpy.solvers.statics.nonholonomic import check_kinematic
@@ -268,6 +276,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
         if transient:
             _run_transient(model, settings, problem, writer, on_step, opts, summary,
                            ss_setup[0] if want_ss else None)
+        elif inverse:
+            from spacarpy.run_inverse import run_inverse
+            run_inverse(model, settings, problem, writer, summary, opts.progress)
         else:
             result = solve_static(model, settings, problem=problem, on_step=on_step)
             if arc is not None and not modes_per_step and result.steps and (

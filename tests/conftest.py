@@ -105,6 +105,7 @@ def result_files(tmp_path_factory) -> dict:
         "state_space": ("state_space_cantilever", []),  # /state_space (schema 2.3)
         "arclength": ("two_bar_truss_arclength", []),  # /critical, arc_length (schema 2.4)
         "bicycle": ("benchmark_bicycle", []),   # mode 3 about a steady motion (schema 2.13)
+        "inverse": ("two_link_arm_inverse", []),  # mode 2, accelerations (schema 2.15)
     }
     (tmp / "pendulum.dat").write_text((DECKS / "pendulum_rigid_90deg.dat").read_text()
                                       .replace("TIMESTEP 2.2 440", "TIMESTEP 0.1 10"))

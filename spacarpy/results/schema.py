@@ -32,8 +32,8 @@ import numpy as np
 
 from spacarpy.elements.registry import KINDS as _KINDS
 
-__all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "KIND_NAMES",
-           "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
+__all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS",
+           "KIND_NAMES", "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
            "STEP_GROUPS", "CRITICAL_POINT_NAMES",
            "REACTION_COMPONENTS", "REACTION_UNITS", "MODE_KIND_NAMES",
            "DEFORMATION_CLASS_NAMES", "ROOT_ATTRS", "n_def", "n_slots", "slot_roles"]
@@ -41,7 +41,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 14)
+SCHEMA_VERSION = (2, 15)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -53,6 +53,8 @@ ROOT_ATTRS = ("filetype", "schema_version", "program", "program_version", "creat
 REACTION_COMPONENTS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mx": "N m", "My": "N m", "Mz": "N m"}
 #: ``units`` attribute of ``/static/reaction`` (units depend on the component).
 REACTION_UNITS = "N | N m (see reaction_component)"
+#: The /transient datasets of inverse dynamics (SPACAR mode 2) only.
+ACCELERATIONS = ("transient/acceleration", "transient/euler_acceleration")
 #: Names of the ``/eigen/kind`` codes.
 MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite",
                    "undetermined")
@@ -242,6 +244,13 @@ def _spec_list() -> list[DatasetSpec]:
           "how the last time step was accepted: 0 its residual meets the tolerance, 1 it is "
           "above the tolerance but within its round-off floor measured at that state, with "
           "converged increments (docs/transient.md, Convergence)", (2, 10), optional=True),
+        S("transient/acceleration", "f8", ("time_step", "position_node", "coordinate"),
+          "m/s^2", "acceleration of each position node (inverse dynamics, SPACAR mode 2)",
+          (2, 15), optional=True),
+        S("transient/euler_acceleration", "f8",
+          ("time_step", "orientation_node", "euler_parameter"), "1/s^2",
+          "second time derivative of the Euler parameters (inverse dynamics, SPACAR mode 2)",
+          (2, 15), optional=True),
         # linearized groups
         S("eigen/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),

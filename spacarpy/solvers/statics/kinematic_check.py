@@ -162,8 +162,12 @@ class KinematicAnalysis:
         return self.rank.clear and self.motion_rank.clear
 
 
-def kinematic_analysis(prob) -> KinematicAnalysis:
+def kinematic_analysis(prob, stiff_resists: bool = True) -> KinematicAnalysis:
     """The rank-revealing analysis of the kinematic check in the initial configuration.
+
+    With ``stiff_resists=False`` the modes with stiffness (DYNE) count as free like the
+    released ones: the motions are then those the constraints leave, each a degree of
+    freedom that inverse dynamics (SPACAR mode 2) needs prescribed.
 
     Dense SVDs of the scaled Jacobians (positions in units of the model's length scale,
     every row of unit norm): for models up to :data:`KINEMATIC_LIMIT` unknowns plus
@@ -198,7 +202,7 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
                 rows.append(r)
                 names.append((g.keyword, int(g.ids[e]), k + 1))
                 kinds.append(0 if g.def_class[e, k] == RIGID else
-                             1 if g.stiff_mask[e, k] else 2)
+                             1 if g.stiff_mask[e, k] and stiff_resists else 2)
     J = np.array(rows).reshape(len(rows), num.n_coord)[:, free] / col
     kinds = np.array(kinds, dtype=int)
     node_of = num.node_of_coord(model)[free]
