@@ -1,0 +1,185 @@
+"""DYNX: nodal coordinates as degrees of freedom (SPACAR's dynamic class, issue 33 item 2).
+
+The same model written twice, once with the degree of freedom a deformation (DYNE on the
+joint) and once with it a nodal coordinate (the joint RLSE, the node's coordinate DYNX), gives
+the same results: statics, transient, eigen, state space and mode 3. Where the coordinate and
+the deformation are the same quantity (the angle of a planar hinge whose other node is fixed,
+the x of a node on a spring along x) even the linearized matrices agree entry by entry. The
+deck checks (a coordinate both fixed and DYNX, ...) and the count check (the DYNX coordinates
+and DYNE modes are exactly the degrees of freedom) are tested with their messages.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from spacarpy.cli import main
+from spacarpy.deck import job_from_text
+from spacarpy.errors import EXIT_INPUT, EXIT_MODEL, DeckError, ModelError
+from spacarpy.run import run_model
+
+ROOT = Path(__file__).resolve().parents[1]
+CORPUS = ROOT.parent / "shared" / "spacar-decks"
+
+# A planar pendulum: a rigid PLBEAM (1 m) on a PLHINGE with a torsion spring, a tip mass and
+# a tip load; its one degree of freedom is the hinge angle (DYNE 2 1) or the angle of
+# orientation node 2 (RLSE 2 1 and DYNX 2 1): the same quantity, as node 5 is fixed.
+PENDULUM = """\
+X 1 0 0
+X 3 1 0
+PLBEAM 1 1 2 3 4
+PLHINGE 2 5 2
+FIX 1
+FIX 5
+{dof}
+END
+HALT
+ESTIFF 2 3.0
+XM 3 2.0
+XM 2 0.1
+XF 3 0 -1
+ITERSTEP 20 4 1e-12 1 3 0
+TIMESTEP 1 100
+END
+END
+"""
+DYNE = "DYNE 2 1"
+DYNX = "RLSE 2 1\nDYNX 2 1"
+
+
+def _run(tmp_path, text, name, mode=None):
+    if mode is not None:
+        text = f"MODE {mode}\n" + text
+    job = job_from_text(text, f"{name}.dat")
+    out = tmp_path / f"{name}.h5"
+    run_model(job.model, job.settings, out)
+    return h5py.File(out, "r")
+
+
+def test_statics_the_same_with_dynx_as_with_dyne(tmp_path):
+    with _run(tmp_path, PENDULUM.format(dof=DYNE), "e") as a, \
+            _run(tmp_path, PENDULUM.format(dof=DYNX), "x") as b:
+        pa, pb = a["static/position"][()], b["static/position"][()]
+        phi = a["static/elements/PLHINGE/deformation"][-1, 0, 0]
+    np.testing.assert_allclose(pb, pa, rtol=0, atol=1e-13)
+    # equilibrium of the spring and the tip load: k phi = -F L cos(phi)
+    assert abs(3.0 * phi + 1.0 * np.cos(phi)) < 1e-10 and phi < -0.2
+
+
+def test_transient_the_same_with_dynx_as_with_dyne(tmp_path):
+    with _run(tmp_path, PENDULUM.format(dof=DYNE), "e", "transient") as a, \
+            _run(tmp_path, PENDULUM.format(dof=DYNX), "x", "transient") as b:
+        pa, pb = a["transient/position"][()], b["transient/position"][()]
+        va, vb = a["transient/velocity"][()], b["transient/velocity"][()]
+    assert pa.shape[0] == 101
+    assert np.ptp(pa[:, 1, 1]) > 0.1                      # it swings
+    np.testing.assert_allclose(pb, pa, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(vb, va, rtol=0, atol=1e-11)
+
+
+def test_fis_catheter_decks_get_past_dynx():
+    """The corpus decks with DYNX (120 and 36 of them) are SPACAR-consistent: without their
+    user routines their DYNX coordinates are exactly their degrees of freedom."""
+    if not CORPUS.is_dir():
+        pytest.skip(f"the SPACAR deck corpus {CORPUS} is absent")
+    from spacarpy.solvers.statics.dynamic_coords import dynamic_analysis
+    from spacarpy.solvers.statics.equilibrium import StaticProblem
+    for name, n in (("fis_flex_cat_s_3d.dat", 120), ("fis_rig_cat_s_3d.dat", 36)):
+        text = "\n".join(line for line in (CORPUS / name).read_text().splitlines()
+                         if not line.startswith(("USERSIG", "USERINP")))
+        job = job_from_text(text, name)
+        assert len(job.model.dynamic_coords) == n
+        dc = dynamic_analysis(StaticProblem(job.model))
+        assert dc.ok and dc.dof == n and dc.n_dynx == n and dc.n_dyne == 0
+
+
+BASE = "X 1 0 0 0\nX 2 1 0 0\nTRUSS 1 1 2\nFIX 1\n"
+DATA = "END\nHALT\nESTIFF 1 100\nXM 2 2\nXF 2 5 0 0\nEND\nEND\n"
+
+
+@pytest.mark.parametrize("lines, where, text", [
+    ("FIX 2 2 3\nDYNX 2 2\n", (6, 8),
+     "DYNX: coordinate 2 of node 2 is also fixed (FIX at line 5)"),
+    ("FIX 2 2 3\nINPUTX 2 1\nDYNX 2 1\n", (7, 8),
+     "DYNX: coordinate 1 of node 2 is also prescribed (INPUTX at line 6)"),
+    ("FIX 2 2 3\nKINX 2 1\nDYNX 2 1\n", (7, 8),
+     "DYNX: coordinate 1 of node 2 is also kinematic (KINX)"),
+    ("FIX 2 2 3\nDYNX 2 1\nDYNX 2 1\n", (7, 8),
+     "DYNX: coordinate 1 of node 2 is declared dynamic twice (lines 6 and 7)"),
+    ("FIX 2 2 3\nDYNX 2 4\n", (6, 8), "DYNX: node 2 is a position node with coordinates 1 "
+                                      "to 3, got 4"),
+    ("FIX 2 2 3\nDYNX 7 1\n", (6, 6), "DYNX: node 7 is not defined"),
+    ("FIX 2 2 3\nRLSE 1 1\nEND\nHALT\nDYNX 2 1\nEND\nEND\n", (9, 1),
+     "DYNX belongs in the kinematics module"),
+])
+def test_deck_errors_name_node_coordinate_and_place(lines, where, text):
+    deck = BASE + lines + ("" if "END" in lines else "RLSE 1 1\n" + DATA)
+    with pytest.raises(DeckError) as info:
+        job_from_text(deck, "d.dat")
+    items = [(loc.line, loc.column, msg) for loc, msg, _ in info.value.items]
+    assert any((ln, col) == where and msg.startswith(text) for ln, col, msg in items), items
+
+
+def test_a_fixed_planar_angle_cannot_be_dynx():
+    text = PENDULUM.format(dof="RLSE 2 1\nDYNX 5 1")
+    with pytest.raises(DeckError, match=r"d.dat:8:8: error: DYNX: coordinate 1 of node 5 is "
+                                        r"also fixed \(FIX at line 6\)"):
+        job_from_text(text, "d.dat")
+
+
+def test_over_determined_names_the_dependent_entries(tmp_path):
+    text = BASE + "FIX 2 2 3\nDYNE 1 1\nDYNX 2 1\n" + DATA
+    job = job_from_text(text, "over.dat")
+    with pytest.raises(ModelError) as info:
+        run_model(job.model, job.settings, tmp_path / "o.h5")
+    msg = str(info.value)
+    assert msg.startswith("over.dat:7:1: the DYNX coordinates and DYNE modes must be")
+    assert "the model has 1 degree of freedom, the deck gives 1 DYNX coordinate and 1 DYNE " \
+           "mode" in msg
+    assert "over-determined: TRUSS 1 mode 1 depends on the others" in msg
+    assert "mechanism" not in msg
+
+
+def test_under_determined_names_the_nodes_that_move(tmp_path, capsys):
+    # the pendulum of two rigid links: two degrees of freedom, one DYNX
+    text = ("X 1 0 0\nX 3 1 0\nX 6 2 0\nPLBEAM 1 1 2 3 4\nPLHINGE 2 5 2\n"
+            "PLBEAM 3 3 7 6 8\nPLHINGE 4 4 7\nFIX 1\nFIX 5\nRLSE 2 1\nRLSE 4 1\nDYNX 2 1\n"
+            "END\nHALT\nESTIFF 2 1\nESTIFF 4 1\nXF 6 0 -1\nEND\nEND\n")
+    deck = tmp_path / "under.dat"
+    deck.write_text(text)
+    assert main(["run", str(deck), "-o", str(tmp_path / "u.h5")]) == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert f"{deck}:12:1: the DYNX coordinates and DYNE modes must be the model's degrees " \
+           "of freedom" in err
+    assert "the model has 2 degrees of freedom, the deck gives 1 DYNX coordinate and 0 DYNE " \
+           "modes; under-determined: 1 motion changes no DYNX coordinate and no DYNE mode " \
+           "(nodes that move: 6, 7, 8)" in err
+    assert "Traceback" not in err
+    # mode 0 reports it instead of refusing
+    assert main(["run", str(deck), "--mode", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "dynamic (DYNX)      1: DYNX 2 1" in out
+    assert "SPACAR's DOF        1 DYNX + 0 DYNE = 1, the model has 2" in out
+
+
+def test_check_lists_the_dynx_coordinates(tmp_path, capsys):
+    deck = tmp_path / "p.dat"
+    deck.write_text(PENDULUM.format(dof=DYNX))
+    assert main(["check", str(deck)]) == 0
+    out = capsys.readouterr().out
+    assert "dynamic (DYNX)      1 coordinate: node 2 (1); with 0 DYNE modes, 1 degrees of " \
+           "freedom (SPACAR's)" in out
+    assert main(["run", str(deck), "--mode", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "SPACAR's DOF        1 DYNX + 0 DYNE = 1 of 1: they are the degrees of freedom" in out
+
+
+def test_input_exit_code_for_deck_errors(tmp_path, capsys):
+    deck = tmp_path / "bad.dat"
+    deck.write_text(BASE + "FIX 2\nDYNX 2 1\nRLSE 1 1\n" + DATA)
+    assert main(["run", str(deck), "-o", str(tmp_path / "b.h5")]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert f"{deck}:6:8: error: DYNX: coordinate 1 of node 2 is also fixed" in err
