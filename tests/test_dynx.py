@@ -19,6 +19,7 @@ import pytest
 from spacarpy.cli import main
 from spacarpy.deck import job_from_text
 from spacarpy.errors import EXIT_INPUT, EXIT_MODEL, DeckError, ModelError
+from spacarpy.results import validate_file
 from spacarpy.run import run_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -183,3 +184,101 @@ def test_input_exit_code_for_deck_errors(tmp_path, capsys):
     assert main(["run", str(deck), "-o", str(tmp_path / "b.h5")]) == EXIT_INPUT
     err = capsys.readouterr().err
     assert f"{deck}:6:8: error: DYNX: coordinate 1 of node 2 is also fixed" in err
+
+
+def _matrices(f):
+    return {n: f[f"state_space/{n}"][()] for n in ("M0", "C0", "K0", "A", "B", "C")}
+
+
+def test_state_space_in_the_dynx_coordinate(tmp_path):
+    """Mode 9 (with an input and outputs): the hinge angle and the node's angle are the
+    same degree of freedom, so every matrix agrees; the names and the schema 2.15 dof_node
+    say which degree of freedom it is."""
+    io = "END\nHALT\nINPUTF 1 3 2\nOUTX 1 3 2\nOUTXP 2 2 1\nEND\nEND\n"
+    ta, tb = (PENDULUM.format(dof=d).replace("END\nEND\n", io) for d in (DYNE, DYNX))
+    with _run(tmp_path, ta, "e", 9) as a, _run(tmp_path, tb, "x", 9) as b:
+        ma, mb = _matrices(a), _matrices(b)
+        assert b["state_space/state_name"].asstr()[()].tolist() == [
+            "node 2 coordinate 1", "rate of node 2 coordinate 1"]
+        assert b["state_space/dof_node"][()].tolist() == [2]
+        assert b["state_space/dof_element"][()].tolist() == [0]
+        assert b["state_space/dof_mode"][()].tolist() == [1]
+        assert "dof_node" not in a["state_space"]
+        assert b.attrs["schema_version"].tolist() >= [2, 15]
+        phi = a["static/elements/PLHINGE/deformation"][:, 0, 0]
+    for n in ma:
+        np.testing.assert_allclose(mb[n], ma[n], rtol=1e-12, atol=1e-13)
+    assert validate_file(tmp_path / "x.h5", require_complete=True) == []
+    # V = k phi^2 / 2 + P L sin(phi) with P = -k phi / cos(phi) at equilibrium: M0 = m L^2 + J,
+    # K0 = V'' = k (1 + phi tan(phi)) (the load's geometric stiffness in it)
+    assert phi.min() < -0.2
+    np.testing.assert_allclose(mb["M0"][:, 0, 0], 2.0 + 0.1, rtol=1e-12)
+    np.testing.assert_allclose(mb["K0"][:, 0, 0], 3.0 * (1 + phi * np.tan(phi)), rtol=1e-9)
+
+
+def test_eigen_the_same_with_dynx_as_with_dyne(tmp_path):
+    with _run(tmp_path, PENDULUM.format(dof=DYNE), "e", "eigen") as a, \
+            _run(tmp_path, PENDULUM.format(dof=DYNX), "x", "eigen") as b:
+        fa, fb = a["eigen/frequency"][()], b["eigen/frequency"][()]
+        phi = a["static/elements/PLHINGE/deformation"][-1, 0, 0]
+    np.testing.assert_allclose(fb, fa, rtol=1e-12)
+    exact = np.sqrt(3.0 * (1 + phi * np.tan(phi)) / 2.1) / (2 * np.pi)
+    np.testing.assert_allclose(fb.ravel()[0], exact, rtol=1e-9)
+
+
+def test_mode_3_along_the_swing_the_same_with_dynx(tmp_path):
+    """Mode 3 (the transient, linearized at every stored step): the same matrices."""
+    ta, tb = (PENDULUM.format(dof=d).replace("TIMESTEP 1 100", "TIMESTEP 0.5 20")
+              .replace("XF 3 0 -1", "XF 3 0 -20") for d in (DYNE, DYNX))
+    with _run(tmp_path, ta, "e", 3) as a, _run(tmp_path, tb, "x", 3) as b:
+        ma, mb = _matrices(a), _matrices(b)
+        assert b["state_space/dof_node"][()].tolist() == [2]
+        assert a["state_space/step"].size == b["state_space/step"].size == 21
+        phi = a["transient/elements/PLHINGE/deformation"][:, 0, 0]
+    assert np.ptp(phi) > 0.1                                    # it swings
+    # V = k phi^2 / 2 + 20 L sin(phi) (the tip load -20 along y): M0 = m L^2 + J = 2.1,
+    # C0 = 0, K0 = k - 20 sin(phi(t)); both to the finite differences' error of the
+    # trajectory linearization (Phi' and Phi'' by central differences: about 1e-7 here)
+    for m in (ma, mb):
+        np.testing.assert_allclose(m["M0"][:, 0, 0], 2.1, rtol=1e-12)
+
+        print("C0", m["C0"][:, 0, 0], "K0err", m["K0"][:, 0, 0] - (3.0 - 20 * np.sin(phi)))
+    for n in ma:
+        print(n, np.abs(mb[n] - ma[n]).max(initial=0), np.abs(ma[n]).max(initial=0))
+        np.testing.assert_allclose(mb[n], ma[n], rtol=0, atol=1e-5)
+
+
+# A spatial pendulum: a rigid rod (RBEAM) on a HINGE about z with a torsion spring; the
+# degree of freedom is the hinge angle (DYNE) or the Euler parameter lambda3 of the rod's
+# orientation node (DYNX 4 4). At the identity lambda3 = sin(phi/2), so dphi = 2 dlambda3:
+# M0 and K0 in lambda3 are 4 times those in phi, the frequencies the same.
+SPATIAL = """X 1 0 0 0
+X 3 1 0 0
+RBEAM 1 1 4 3 0 1 0
+HINGE 10 2 4 0 0 1
+FIX 1
+FIX 2
+{dof}
+END
+HALT
+EM 1 2
+ESTIFF 10 5
+END
+END
+"""
+
+
+def test_spatial_euler_parameter_as_degree_of_freedom(tmp_path):
+    with _run(tmp_path, SPATIAL.format(dof="DYNE 10 1"), "e", 9) as a, \
+            _run(tmp_path, SPATIAL.format(dof="RLSE 10 1\nDYNX 4 4"), "x", 9) as b:
+        ma, mb = _matrices(a), _matrices(b)
+    np.testing.assert_allclose(ma["M0"][0], [[2.0 / 3.0]], rtol=1e-12)     # m L^2 / 3
+    np.testing.assert_allclose(ma["K0"][0], [[5.0]], rtol=1e-12)
+    np.testing.assert_allclose(mb["M0"], 4 * ma["M0"], rtol=1e-12)
+    np.testing.assert_allclose(mb["K0"], 4 * ma["K0"], rtol=1e-12)
+    with _run(tmp_path, SPATIAL.format(dof="DYNE 10 1"), "e2", "eigen") as a, \
+            _run(tmp_path, SPATIAL.format(dof="RLSE 10 1\nDYNX 4 4"), "x2", "eigen") as b:
+        fa, fb = a["eigen/frequency"][()], b["eigen/frequency"][()]
+    np.testing.assert_allclose(fb, fa, rtol=1e-12)
+    np.testing.assert_allclose(fa.ravel()[0], np.sqrt(5.0 / (2.0 / 3.0)) / (2 * np.pi),
+                               rtol=1e-9)

@@ -399,6 +399,8 @@ class ResultsWriter:
         g = f["state_space"]
         create(g, "dof_element", np.asarray(names["dof_element"], dtype=np.int64))
         create(g, "dof_mode", np.asarray(names["dof_mode"], dtype=np.int32))
+        if "dof_node" in names:         # DYNX coordinates among the degrees of freedom
+            create(g, "dof_node", np.asarray(names["dof_node"], dtype=np.int64))
         for key in ("state_name", "input_name", "output_name") + (
                 ("kinematic_name",) if kinematic else ()):
             text = ascii_array(names[key])
