@@ -282,3 +282,27 @@ def test_spatial_euler_parameter_as_degree_of_freedom(tmp_path):
     np.testing.assert_allclose(fb, fa, rtol=1e-12)
     np.testing.assert_allclose(fa.ravel()[0], np.sqrt(5.0 / (2.0 / 3.0)) / (2 * np.pi),
                                rtol=1e-9)
+
+
+@pytest.mark.parametrize("deck, dyne, dynx, factor", [
+    (PENDULUM.replace("XF 3 0 -1\n", ""), DYNE, DYNX, 1.0),
+    (SPATIAL, "DYNE 10 1", "RLSE 10 1\nDYNX 4 4", 4.0),
+])
+def test_mode_3_about_the_steady_state_with_dynx(tmp_path, deck, dyne, dynx, factor):
+    """Mode 3 with TIMESTEP 0 0 (the linearization about the initial steady state, here at
+    rest): the DYNX coordinate gives the DYNE model's matrices (times 4 for lambda3 against
+    the angle), and its name."""
+    steady = deck.replace("TIMESTEP 1 100", "").replace("END\nEND\n", "TIMESTEP 0 0\nEND\nEND\n")
+    with _run(tmp_path, steady.format(dof=dyne), "e", 3) as a, \
+            _run(tmp_path, steady.format(dof=dynx), "x", 3) as b:
+        ma, mb = _matrices(a), _matrices(b)
+        names = b["state_space/state_name"].asstr()[()].tolist()
+        node = b["state_space/dof_node"][()].tolist()
+    assert names[0].startswith("node ") and " coordinate " in names[0]
+    assert node == [int(names[0].split()[1])]
+    np.testing.assert_allclose(mb["M0"], factor * ma["M0"], rtol=1e-10)
+    np.testing.assert_allclose(mb["K0"], factor * ma["K0"], rtol=1e-8)
+    np.testing.assert_allclose(mb["C0"], 0.0, atol=1e-12)
+    mass, spring = (2.1, 3.0) if factor == 1.0 else (2.0 / 3.0, 5.0)
+    np.testing.assert_allclose(ma["M0"][0], [[mass]], rtol=1e-10)
+    np.testing.assert_allclose(ma["K0"][0], [[spring]], rtol=1e-8)
