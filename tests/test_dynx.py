@@ -306,3 +306,26 @@ def test_mode_3_about_the_steady_state_with_dynx(tmp_path, deck, dyne, dynx, fac
     mass, spring = (2.1, 3.0) if factor == 1.0 else (2.0 / 3.0, 5.0)
     np.testing.assert_allclose(ma["M0"][0], [[mass]], rtol=1e-10)
     np.testing.assert_allclose(ma["K0"][0], [[spring]], rtol=1e-8)
+
+
+def test_arc_length_and_buckling_the_same_with_dynx(tmp_path):
+    """The two-bar truss (a snap-through) followed by arc length and its buckling
+    multipliers: with its apex's x and y as DYNX instead of the bars' elongations as DYNE,
+    the same path, critical points and multipliers."""
+    text = (ROOT / "decks" / "two_bar_truss_arclength.dat").read_text()
+    assert "DYNE 1:2 1\n" in text
+    x_text = text.replace("DYNE 1:2 1\n", "RLSE 1:2 1\nDYNX 3 1 2\n")
+    with _run(tmp_path, text, "e") as a, _run(tmp_path, x_text, "x") as b:
+        pa, pb = a["static/position"][()], b["static/position"][()]
+        la, lb = a["static/load_factor"][()], b["static/load_factor"][()]
+        ca, cb = a["critical/load_factor"][()], b["critical/load_factor"][()]
+    assert pa.shape[0] > 10 and ca.size >= 1
+    np.testing.assert_allclose(pb, pa, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(lb, la, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(cb, ca, rtol=1e-10)
+    sa = text.replace("ARCLENGTH 400 0.02\n", "").replace("ITERSTEP 20 20", "ITERSTEP 20 2")
+    sb = sa.replace("DYNE 1:2 1\n", "RLSE 1:2 1\nDYNX 3 1 2\n")
+    with _run(tmp_path, sa, "be", "buckling") as a, _run(tmp_path, sb, "bx", "buckling") as b:
+        ma, mb = a["buckling/load_multiplier"][()], b["buckling/load_multiplier"][()]
+    assert np.isfinite(ma).any()
+    np.testing.assert_allclose(mb, ma, rtol=1e-10)
