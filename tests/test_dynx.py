@@ -329,3 +329,13 @@ def test_arc_length_and_buckling_the_same_with_dynx(tmp_path):
         ma, mb = a["buckling/load_multiplier"][()], b["buckling/load_multiplier"][()]
     assert np.isfinite(ma).any()
     np.testing.assert_allclose(mb, ma, rtol=1e-10)
+
+
+def test_the_deck_writer_keeps_the_dynx_lines():
+    from spacarpy.deck.writer import model_to_deck
+    # deck order kept (the reading only: these two would be over-determined)
+    job = job_from_text(SPATIAL.format(dof="RLSE 10 1\nDYNX 4 4\nDYNX 3 2"), "w.dat")
+    text = model_to_deck(*job)
+    assert "DYNX 4 4\n" in text and "DYNX 3 2\n" in text
+    again = job_from_text(text, "again.dat")
+    assert [(d.node, d.coord) for d in again.model.dynamic_coords] == [(4, 4), (3, 2)]
