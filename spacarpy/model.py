@@ -24,7 +24,8 @@ from spacarpy.elements.base import FLEXIBLE, KINEMATIC, RELEASED, RIGID
 from spacarpy.elements.registry import KINDS, kind_of
 from spacarpy.errors import SourceLoc
 
-__all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "ElementSet", "Fix", "Kinematic",
+__all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "DynamicCoordinate", "ElementSet", "Fix",
+           "Kinematic",
            "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
            "PrescribedRotation"]
 
@@ -117,6 +118,23 @@ class Fix:
     node: int
     coords: tuple[int, ...]
     loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
+class DynamicCoordinate:
+    """``DYNX node coord``: a nodal coordinate that is a degree of freedom (SPACAR's dynamic
+    class, docs/deck.md). Free like any coordinate that is not fixed; it names the degrees of
+    freedom of the linearized equations (mode 3, 9, 10) beside the DYNE modes, and a model
+    with DYNX lines must be parameterized by its DYNX coordinates and DYNE modes exactly."""
+
+    node: int
+    coord: int
+    loc: SourceLoc | None = None
+
+    @property
+    def name(self) -> str:
+        """The deck line, ``DYNX 2 1``."""
+        return f"DYNX {self.node} {self.coord}"
 
 
 @dataclass(frozen=True)
@@ -265,6 +283,8 @@ class Model:
     kinematic : list of Kinematic
         The kinematic coordinates (KINX) and deformations (KINE), in deck order; a KINE
         entry marks its mode KINEMATIC in the element set's ``def_class``.
+    dynamic_coords : list of DynamicCoordinate
+        The DYNX coordinates (nodal coordinates as degrees of freedom), in deck order.
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
     """
@@ -287,6 +307,7 @@ class Model:
     element_prestress: dict = field(default_factory=dict)  # element -> ESIG values per mode
     initial_rates: dict = field(default_factory=dict)      # (element, mode) -> STARTDE rate
     kinematic: list = field(default_factory=list)          # KINX / KINE lines (Kinematic)
+    dynamic_coords: list = field(default_factory=list)     # DYNX lines (DynamicCoordinate)
     source_path: str = "<model>"
     source_text: str = ""
 

@@ -145,6 +145,25 @@ class Numbering:
     rotation_angle: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rotation_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
     planar_mask: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    # DYNX: the global index of each dynamic coordinate, the row in rot_idx of a planar
+    # orientation node's angle (-1 otherwise) and the deck (node, coordinate)
+    dynamic_idx: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    dynamic_rot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    dynamic_label: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
+
+    def dynamic_rows(self, x: np.ndarray) -> np.ndarray:
+        """(n_dyn, n_coord): the rows that take the DYNX coordinates out of a change of the
+        coordinates at x: unit rows, except for the angle of a planar orientation node,
+        ``dphi_z = 2 Lambda_z(q) dq``."""
+        from spacarpy.rotation import lambda_matrix
+        rows = np.zeros((self.dynamic_idx.size, self.n_coord))
+        for i, (k, r) in enumerate(zip(self.dynamic_idx.tolist(), self.dynamic_rot.tolist())):
+            if r < 0:
+                rows[i, k] = 1.0
+            else:
+                ri = self.rot_idx[r]
+                rows[i, ri] = 2.0 * lambda_matrix(x[ri])[2]
+        return rows
 
     def prescribed_values(self, a: float, s: float) -> np.ndarray:
         """Values of the prescribed coordinates at load parameters (a on the initial values,
@@ -388,6 +407,19 @@ def number_model(model: Model) -> Numbering:
     euler_nodes = (np.flatnonzero(~fixed[rot_idx].all(axis=1)) if rot_ids.size
                    else np.zeros(0, dtype=np.int64))
 
+    dyn_idx, dyn_rot = [], []
+    for d in model.dynamic_coords:
+        n, c = int(d.node), int(d.coord)
+        if n in pos_row:
+            dyn_idx.append(int(pos_idx[pos_row[n], c - 1]))
+            dyn_rot.append(-1)
+        elif model.planar:                  # the angle: turns lambda0 and lambda3
+            dyn_idx.append(int(rot_idx[rot_row[n], 3]))
+            dyn_rot.append(rot_row[n])
+        else:
+            dyn_idx.append(int(rot_idx[rot_row[n], c - 1]))
+            dyn_rot.append(-1)
+
     span = np.ptp(model.position_x0, axis=0) if pos_ids.size else np.zeros(3)
     lengths = [g.ref.l0.max() for g in groups if hasattr(g.ref, "l0") and g.n_elem]
     length_scale = float(np.linalg.norm(span)) or (max(lengths) if lengths else 1.0)
@@ -405,4 +437,8 @@ def number_model(model: Model) -> Numbering:
                                              dtype=float),
                      rotation_initial=np.array([r.initial for r in model.prescribed_rotations],
                                                dtype=float),
-                     planar_mask=planar)
+                     planar_mask=planar,
+                     dynamic_idx=np.array(dyn_idx, dtype=np.int64),
+                     dynamic_rot=np.array(dyn_rot, dtype=np.int64),
+                     dynamic_label=np.array([(d.node, d.coord) for d in model.dynamic_coords],
+                                            dtype=np.int64).reshape(-1, 2))

@@ -410,8 +410,7 @@ def _state_space_setup(problem, settings):
                     problem.loads.at(1.0, 0.0))
     layout = dof_layout(lin, num, problem.free)
     lin_set = settings.linearized
-    names = dict(dof_element=layout.element, dof_mode=layout.mode,
-                 state_name=layout.state_names,
+    names = dict(**layout.file_names, state_name=layout.state_names,
                  input_name=lin_set.input_names, output_name=lin_set.output_names)
     return layout, names
 

@@ -119,11 +119,15 @@ def run_steady_motion(model, settings, out, summary) -> None:
         log.warning("the initial state is not a steady motion: with q'' = 0 the equations of "
                     "the degrees of freedom leave %.3g (of forces up to %.3g); the matrices "
                     "linearize about a state that does not persist", projected, level)
-    dof_element = [int(name.split()[1]) for name in mm.dof_names]
-    dof_mode = [int(name.split()[2]) for name in mm.dof_names]
-    labels = [f"{name.split()[0]} {name.split()[1]} mode {name.split()[2]}"
-              for name in mm.dof_names]
-    names = dict(dof_element=dof_element, dof_mode=dof_mode,
+    parts = [name.split() for name in mm.dof_names]     # "BEAM 3 2" or "DYNX 4 1"
+    dynx = [w[0] == "DYNX" for w in parts]
+    dof_element = [0 if d else int(w[1]) for w, d in zip(parts, dynx)]
+    dof_mode = [int(w[2]) for w in parts]
+    labels = [f"node {w[1]} coordinate {w[2]}" if d else f"{w[0]} {w[1]} mode {w[2]}"
+              for w, d in zip(parts, dynx)]
+    extra = ({"dof_node": [int(w[1]) if d else 0 for w, d in zip(parts, dynx)]}
+             if any(dynx) else {})
+    names = dict(dof_element=dof_element, dof_mode=dof_mode, **extra,
                  state_name=labels + [f"rate of {s}" for s in labels] + mm.kinematic_names,
                  input_name=[], output_name=[], kinematic_name=mm.kinematic_names)
     model_data = model_datasets(model, num)

@@ -135,7 +135,11 @@ def result_files(tmp_path_factory) -> dict:
         (DECKS / "pendulum_rigid_90deg.dat").read_text()
         .replace("RBEAM 1 1 4 3 0 1 0", "PINBODY 1 1 4 3").replace("EM 1 {rhoA}", "XM 3 2.0")
         .replace("TIMESTEP 2.2 440", "TIMESTEP 0.01 2"))
-    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn"):
+    # DYNX (schema 2.16): a planar pendulum whose degree of freedom is a node's angle, mode 9
+    (tmp / "dynx.dat").write_text(
+        "MODE 9\nX 1 0 0\nX 3 1 0\nPLBEAM 1 1 2 3 4\nPLHINGE 2 5 2\nFIX 1\nFIX 5\n"
+        "RLSE 2 1\nDYNX 2 1\nEND\nHALT\nESTIFF 2 3\nXM 3 2\nXF 3 0 -1\nEND\nEND\n")
+    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn", "dynx"):
         runs[key] = (key, [])
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}

@@ -309,8 +309,8 @@ _KEYWORD_LIST = (
                 required=(ELEMENT,), variadic=_MODE, range_first=True),
     KeywordSpec("KINX", "kinematic nodal coordinates (rates fixed by the rolling constraints)",
                 required=(NODE,), variadic=_COORD),
-    _unsupported("DYNX", "dynamic (free) nodal coordinates of a transient analysis",
-                 "kinematics", required=(NODE,), variadic=_COORD),
+    KeywordSpec("DYNX", "nodal coordinates that are degrees of freedom (dynamic)",
+                required=(NODE,), variadic=_COORD),
     # ------------------------------------------------------------------ elements
     *(element_keyword(kind) for kind in KINDS.values()),
     _unsupported("BEAMW", "spatial beam with warping nodes", "element",

@@ -165,6 +165,7 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
                     for row in es.def_class]
             out += _element_lines(keyword, es.ids, data, compact)
     out += _kinematic_lines(model)
+    out += [format_record("DYNX", d.node, d.coord) for d in model.dynamic_coords]
     position_nodes = set(model.position_ids.tolist())
     for fix in model.fixes:
         size = 3 if fix.node in position_nodes else 4

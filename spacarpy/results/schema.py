@@ -41,7 +41,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 15)
+SCHEMA_VERSION = (2, 16)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -410,9 +410,15 @@ def _state_space_specs() -> list[DatasetSpec]:
           "time of the linearized state (transient_linearized, SPACAR 3); NaN for a static "
           "step", (2, 6), optional=True),
         S("state_space/dof_element", "i8", ("dof",), "1",
-          "deck element number of each degree of freedom (a deformation mode)", v),
+          "deck element number of each degree of freedom (a deformation mode; 0 for a DYNX "
+          "coordinate)", v),
         S("state_space/dof_mode", "i4", ("dof",), "1",
-          "deformation mode number (1-based) of each degree of freedom", v),
+          "deformation mode number (1-based) of each degree of freedom; of a DYNX "
+          "coordinate its coordinate number", v),
+        S("state_space/dof_node", "i8", ("dof",), "1",
+          "deck node of each degree of freedom that is a DYNX coordinate (its dof_element is "
+          "0), 0 for a deformation mode; only in a file with DYNX coordinates",
+          (2, 16), optional=True),
         S("state_space/state_name", "ascii", ("state",), "1",
           "name of each state: 'BEAM 3 mode 2' (the deformation), then 'rate of BEAM 3 mode "
           "2'", v),

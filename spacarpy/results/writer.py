@@ -397,8 +397,8 @@ class ResultsWriter:
                            system_output=len(names["output_name"]))
         self._create_step_group(f, "state_space", n_mode=1)
         g = f["state_space"]
-        create(g, "dof_element", np.asarray(names["dof_element"], dtype=np.int64))
-        create(g, "dof_mode", np.asarray(names["dof_mode"], dtype=np.int32))
+        for key in (k for k in ("dof_element", "dof_mode", "dof_node") if k in names):  # DYNX
+            create(g, key, np.asarray(names[key], np.int32 if key == "dof_mode" else np.int64))
         for key in ("state_name", "input_name", "output_name") + (
                 ("kinematic_name",) if kinematic else ()):
             text = ascii_array(names[key])

@@ -118,7 +118,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     topology = _topology.from_statements(by_kw, ctx, errors)
     element_data = _element_data.from_statements(by_kw, ctx, errors, topology)
     constraints = _constraints.from_statements(by_kw, ctx, errors, topology)
-    kinematic = _kinematic.from_statements(by_kw, ctx, errors, topology, constraints)
+    kinematic, dynamic = _kinematic.from_statements(by_kw, ctx, errors, topology, constraints)
     loads = _loads.from_statements(by_kw, ctx, errors, topology, constraints)
     settings = _settings.from_statements(by_kw, ctx, errors, topology,
                                          deformations=deformations, analysis=analysis)
@@ -155,6 +155,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         element_prestress=element_data.prestress,
         initial_rates=element_data.initial_rates,
         kinematic=kinematic,
+        dynamic_coords=dynamic,
         source_path=path,
         source_text=text,
     )

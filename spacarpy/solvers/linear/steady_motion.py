@@ -158,38 +158,44 @@ class SteadyMotion:
         self.free = np.flatnonzero(self.prob.free)
         self.slips = held_slips(self.num)
         self.hol, self.rheo, self.dyn, rel, self.kin = _mode_lists(self.num, model)
-        base = len(self.hol) + self.num.euler_nodes.size + len(self.rheo) + len(self.kin)
-        if base + len(self.dyn) < self.free.size and rel:
+        self.n_x = int(self.num.dynamic_idx.size)   # the DYNX coordinates: q = [x_d; e_d]
+        base = (len(self.hol) + self.num.euler_nodes.size + len(self.rheo) + len(self.kin)
+                + self.n_x)
+        if base + len(self.dyn) < self.free.size and rel and not self.n_x:
             self.dyn = sorted(self.dyn + rel)      # too few DYNE modes: RLSE too, as mode 9
-        if not self.dyn:
+        if not self.dyn and not self.n_x:
             raise ModelError("the linearization about a steady motion needs degrees of "
-                             "freedom (DYNE)")
+                             "freedom (DYNE or DYNX)")
         if len(self.kin) != self.slips.n:
             raise ModelError(f"the {self.slips.n} slips held at zero need as many kinematic "
                              f"coordinates (KINE/KINX), the model has {len(self.kin)}")
         n_eq = (len(self.hol) + self.num.euler_nodes.size + len(self.rheo) + len(self.dyn)
-                + len(self.kin))
+                + len(self.kin) + self.n_x)
         if n_eq != self.free.size:
+            left = (self.free.size - n_eq + len(self.rheo) + len(self.dyn) + len(self.kin)
+                    + self.n_x)
             raise ModelError(
-                f"the linearization about a steady motion needs the dynamic (DYNE), "
+                f"the linearization about a steady motion needs the dynamic (DYNE, DYNX), "
                 f"rheonomic (INPUTE) and kinematic (KINE/KINX) coordinates to parameterize "
                 f"the configuration: {self.free.size} free coordinates, {len(self.hol)} "
                 f"holonomic constraints and {self.num.euler_nodes.size} Euler normalizations "
-                f"leave {self.free.size - n_eq + len(self.rheo) + len(self.dyn) + len(self.kin)}"
-                f" coordinates, the deck gives {len(self.dyn)} DYNE, {len(self.rheo)} INPUTE "
-                f"and {len(self.kin)} KINE/KINX")
+                f"leave {left} coordinates, the deck gives {len(self.dyn)} DYNE, {self.n_x} "
+                f"DYNX, {len(self.rheo)} INPUTE and {len(self.kin)} KINE/KINX")
         self.load = self.tp.loads(0.0)
         self.x0 = self.num.x0.copy()
-        self.q0 = self._values(self.x0, self.dyn)
+        self.q0 = np.concatenate([self._dynx_values(self.x0), self._values(self.x0, self.dyn)])
         self.r0 = self._values(self.x0, self.rheo)
         self.p0 = self._kin_values(self.x0)
         self.h0 = self._values(self.x0, self.hol)
         rates = {(int(p.element), int(p.mode)): p for p in model.prescribed_deformations}
         self.dr = np.array([self._rate_of(rates, gi, r, m) for gi, r, m in self.rheo])
         start = model.initial_rates or {}
-        self.dq0 = np.array([float(start.get((int(self.num.groups[gi].ids[r]), m + 1), 0.0))
-                             for gi, r, m in self.dyn])
-        self.dof_names = [self._name(s) for s in self.dyn]
+        self.dq0 = np.concatenate([
+            np.zeros(self.n_x),                    # a DYNX coordinate starts at rest
+            [float(start.get((int(self.num.groups[gi].ids[r]), m + 1), 0.0))
+             for gi, r, m in self.dyn]])
+        self.dof_names = ([f"DYNX {n} {c}" for n, c in self.num.dynamic_label.tolist()]
+                          + [self._name(s) for s in self.dyn])
         self.kinematic_names = [k.name for k in model.kinematic]
 
     # ------------------------------------------------------------------ coordinates
@@ -209,6 +215,18 @@ class SteadyMotion:
     def _values(self, x, sel, states=None) -> np.ndarray:
         states = states or self._states(x)
         return np.array([states[gi].e[r, m] for gi, r, m in sel])
+
+    def _dynx_values(self, x) -> np.ndarray:
+        """The DYNX coordinates at x (the angle ``2 atan2(lambda3, lambda0)`` of a planar
+        orientation node, whose row :meth:`Numbering.dynamic_rows
+        <spacarpy.numbering.Numbering.dynamic_rows>` is)."""
+        num = self.num
+        out = x[num.dynamic_idx].copy()
+        for i, r in enumerate(num.dynamic_rot.tolist()):
+            if r >= 0:
+                q = x[num.rot_idx[r]]
+                out[i] = 2.0 * np.arctan2(q[3], q[0])
+        return out
 
     def _kin_values(self, x, states=None) -> np.ndarray:
         states = states or self._states(x)
@@ -251,11 +269,11 @@ class SteadyMotion:
             st = self._states(x)
             eu_rows, eu_vals = self._euler_rows(x)
             vals = np.concatenate([self._values(x, self.hol, st), eu_vals,
-                                   self._values(x, self.rheo, st),
+                                   self._values(x, self.rheo, st), self._dynx_values(x),
                                    self._values(x, self.dyn, st), self._kin_values(x, st)])
             J = np.vstack([self._mode_rows(self.hol, st), eu_rows,
-                           self._mode_rows(self.rheo, st), self._mode_rows(self.dyn, st),
-                           self._kin_rows(st)])[:, f]
+                           self._mode_rows(self.rheo, st), self.num.dynamic_rows(x),
+                           self._mode_rows(self.dyn, st), self._kin_rows(st)])[:, f]
             try:
                 dx = np.linalg.solve(J, target - vals)
             except np.linalg.LinAlgError:
@@ -276,7 +294,8 @@ class SteadyMotion:
         eu_rows, _ = self._euler_rows(x)
         S = self.slips.jacobian(x).toarray() if self.slips.n else np.zeros((0, x.size))
         return np.vstack([self._mode_rows(self.hol, st), eu_rows, S,
-                          self._mode_rows(self.rheo, st), self._mode_rows(self.dyn, st)])[:, f]
+                          self._mode_rows(self.rheo, st), self.num.dynamic_rows(x),
+                          self._mode_rows(self.dyn, st)])[:, f]
 
     def _convective(self, x, v, st, sel) -> np.ndarray:
         """``v^T H_k v`` of the modes ``sel`` from the kernels' exact Hessians."""
@@ -297,7 +316,7 @@ class SteadyMotion:
         st = self._states(x)
         J = self._velocity_matrix(x, st)
         n_h = len(self.hol) + self.num.euler_nodes.size + self.slips.n
-        n = len(self.dyn)
+        n = len(self.dyn) + self.n_x
         rhs = np.zeros((J.shape[0], n + 1))
         rhs[n_h:n_h + self.dr.size, 0] = self.dr
         rhs[J.shape[0] - n:, 0] = dq
@@ -314,8 +333,9 @@ class SteadyMotion:
         eu = self.num.euler_coords
         conv_eu = 2.0 * np.sum(v[eu] * v[eu], axis=1)
         conv_s = (self.slips.rates_dx(x, v) @ v) if self.slips.n else np.zeros(0)
+        # a DYNX row (unit, or 2 Lambda_z(q) of a planar angle) has d(row)/dt v = 0
         conv = np.concatenate([self._convective(x, v, st, self.hol), conv_eu, conv_s,
-                               self._convective(x, v, st, self.rheo),
+                               self._convective(x, v, st, self.rheo), np.zeros(self.n_x),
                                self._convective(x, v, st, self.dyn)])
         a = np.zeros_like(x)
         a[self.free] = sla.lu_solve(lu, -conv)
@@ -348,10 +368,11 @@ class SteadyMotion:
         C0 = np.column_stack([0.5 * (self.evaluate(q0, dq0 + eye_n[j], p0)
                                      - self.evaluate(q0, dq0 - eye_n[j], p0))[:n]
                               for j in range(n)])
-        dq = np.column_stack([richardson(lambda h, j=j: self.evaluate(q0 + h * eye_n[j],
-                                                                       dq0, p0))
-                              for j in range(n)])
         L = float(self.num.length_scale)
+        qscale = np.ones(n)             # a DYNX position coordinate: steps per length scale
+        qscale[:self.n_x][~self.num.is_rotation_coord[self.num.dynamic_idx]] = L
+        dq = np.column_stack([richardson(lambda h, j=j: self.evaluate(
+            q0 + h * qscale[j] * eye_n[j], dq0, p0)) / qscale[j] for j in range(n)])
         pscale = np.array([L if kind == "coord" else 1.0 for kind, _ in self.kin])
         dp = np.column_stack([richardson(lambda h, j=j: self.evaluate(
             q0, dq0, p0 + h * pscale[j] * eye_k[j])) / pscale[j] for j in range(k)]) \
