@@ -204,7 +204,7 @@ def test_state_space_in_the_dynx_coordinate(tmp_path):
         assert b["state_space/dof_element"][()].tolist() == [0]
         assert b["state_space/dof_mode"][()].tolist() == [1]
         assert "dof_node" not in a["state_space"]
-        assert b.attrs["schema_version"].tolist() >= [2, 15]
+        assert b.attrs["schema_version"].tolist() >= [2, 16]
         phi = a["static/elements/PLHINGE/deformation"][:, 0, 0]
     for n in ma:
         np.testing.assert_allclose(mb[n], ma[n], rtol=1e-12, atol=1e-13)
