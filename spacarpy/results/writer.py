@@ -233,8 +233,10 @@ class ResultsWriter:
         if unknown:
             raise ValueError(f"unknown reaction components {unknown}; "
                              f"expected {list(REACTION_COMPONENTS)}")
+        warp = md.get("model/warping_nodes")
         self._sizes = {"position_node": int(n_position_node),
                        "orientation_node": int(n_orientation_node),
+                       "warping_node": 0 if warp is None else int(warp.size),
                        "reaction": reaction_node.size, "coordinate": 3, "euler_parameter": 4}
         self._arclength = bool(arclength)
         # built in memory and written in one piece, as the header (h5file.rebuild_with);
@@ -273,7 +275,8 @@ class ResultsWriter:
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
                     max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length: float | None = None, converged_by: int = 0) -> None:
+                    arc_length: float | None = None, converged_by: int = 0,
+                    warping=None) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
@@ -299,8 +302,11 @@ class ResultsWriter:
         converged_by : int
             0: the residual met the tolerance; 1: it lies within its measured round-off
             floor (``/static/converged_by``).
+        warping : array_like, shape (n_warp,), optional
+            The warping nodes' coordinates (required when the model has warping nodes).
         """
         given = {"position": position, "euler": euler, "reaction": reaction,
+                 "warping": warping,
                  "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "converged_by": operator.index(converged_by),
@@ -313,13 +319,15 @@ class ResultsWriter:
                        elastic_energy: float, external_work: float, iterations: int,
                        residual: float, dissipated_energy: float = 0.0,
                        reaction=None, converged_by: int = 0,
-                       deformation_rate: dict | None = None) -> None:
+                       deformation_rate: dict | None = None, warping=None) -> None:
         """Append one time step (arrays as in :meth:`static_step`, plus the velocities, the
         energies, ``reaction`` (required, inertia included) and ``deformation_rate`` (kind ->
-        (n, n_def), zeros where missing)) and make it durable: the arrays first, then
+        (n, n_def), zeros where missing), ``warping`` as for :meth:`static_step`) and make it
+        durable: the arrays first, then
         ``/transient/time`` commits it. ``converged_by``: 0 the residual met the tolerance, 1
         it lies within its measured round-off floor (``/transient/converged_by``)."""
         given = {"position": position, "euler": euler, "velocity": velocity,
+                 "warping": warping,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
                  "dissipated_energy": float(dissipated_energy), "reaction": reaction,
@@ -475,6 +483,8 @@ class ResultsWriter:
             if path.endswith(_STRESS) and not self.has_stress:
                 continue
             if path == "static/arc_length" and not self._arclength:
+                continue
+            if "warping_node" in spec.shape and not self._sizes.get("warping_node"):
                 continue
             yield path, spec
 
