@@ -1,7 +1,8 @@
 """Numbering: from deck node numbers to global coordinates, element groups and constraints.
 
 The global coordinate vector holds every nodal coordinate: 3 per position node, 4 Euler
-parameters per orientation node, 1 (the rate of twist) per warping node, nodes in ascending deck number (so that chains of elements
+parameters per orientation node, 1 (the rate of twist) per warping node, nodes in ascending
+deck number (so that chains of elements
 give banded matrices). Fixed coordinates keep their initial value; every other coordinate is
 an unknown of the static problem. Elements are held in *groups*, one per element kind
 (:mod:`spacarpy.elements.registry`), each with its global coordinate indices, reference data

@@ -301,7 +301,8 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
     def on_step(step):
         writer.transient_step(
             time=step.time, position=step.x[num.pos_idx], euler=step.x[num.rot_idx],
-            warping=step.x[num.warp_idx], velocity=step.v[num.pos_idx], euler_rate=step.v[num.rot_idx],
+            warping=step.x[num.warp_idx],
+            velocity=step.v[num.pos_idx], euler_rate=step.v[num.rot_idx],
             deformation=step.deformation,
             stress_resultant=step.stress,
             kinetic_energy=step.kinetic_energy, elastic_energy=step.elastic_energy,

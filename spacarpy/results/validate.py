@@ -207,8 +207,8 @@ def _sizes(sf: SchemaFile, kinds: list) -> dict:
         "position_node": n_pos, "orientation_node": n_rot, "coordinate": 3,
         "warping_node": n_warp,
         "euler_parameter": 4, "reaction": rows("static/reaction_node"),
-        "global_coordinate": (3 * n_pos + 4 * n_rot + n_warp if n_pos is not None and n_rot is not None
-                              else None),
+        "global_coordinate": (3 * n_pos + 4 * n_rot + n_warp
+                              if n_pos is not None and n_rot is not None else None),
         "load": rows("model/load_node"), "input": None, "kinematic": None,
         "sections": sections,
         "dof": rows("state_space/dof_element"),
