@@ -131,6 +131,8 @@ class ElementRecord:
         self.class_line = [0] * n_def      # line of the DYNE/RLSE that set each mode
         self.flex_locs: dict[int, tuple] = {}   # mode -> (DYNE statement, field index)
         self.stiffness = info["no_stiffness"]
+        if info["em_width"] != 5:
+            self.mass = (0.0,) * info["em_width"]
 
     # made from the element line when asked for (all elements at once: the info's getters)
     @property
