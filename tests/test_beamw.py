@@ -1,0 +1,211 @@
+"""The warping beam BEAMW (spacarpy/elements/beamw.py, docs/beamw.md) against closed forms.
+
+- Non-uniform (Vlasov) torsion of a cantilever, warping restrained at the root and free at
+  the tip: tip twist ``T/GJ (L - tanh(kL)/k)``, ``k = sqrt(GJ/ECw)``; its convergence order;
+  warping free at both ends gives Saint-Venant's ``T L / GJ``.
+- Lateral-torsional buckling of a simply supported beam under uniform moment (fork
+  supports, warping free): ``M_cr = pi/L sqrt(EI GJ (1 + pi^2 ECw/(GJ L^2)))`` from the
+  buckling analysis and from the static path (Southwell), for two warping parameters.
+- Torsional frequencies of a warping-restrained beam with warping inertia (eigen).
+- A BEAMW with ECw = 0 and rhoIw = 0 gives the BEAM's results (statics, eigen, transient).
+- The corpus decks with BEAMWs (../shared/spacar-decks, skipped when absent): the mode-9
+  state space of mod8_flexure_mode9.dat, its poles and static gain.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spacarpy.deck import job_from_text, load
+from spacarpy.elements.beamw import beamw_state, beamw_stiffness, beamw_weighted_hessian
+from spacarpy.elements.registry import KINDS
+from spacarpy.results import open_results
+from spacarpy.run import run_model
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+from spacarpy.solvers.statics.static import solve_static
+
+CORPUS = Path(__file__).resolve().parents[2] / "shared" / "spacar-decks"
+if not CORPUS.is_dir():
+    CORPUS = Path("/work/shared/spacar-decks")
+
+
+def _statics(text: str):
+    """(problem, steps) of a static solve of a deck text."""
+    job = job_from_text(text, "beamw.dat")
+    problem = StaticProblem(job.model, deformations=job.settings.deformations)
+    steps = []
+    solve_static(job.model, job.settings, problem=problem, on_step=steps.append)
+    return job, problem, steps
+
+
+def _twist(q) -> float:
+    """The rotation angle about x of Euler parameters (lambda0, lambda1, 0, 0)."""
+    return 2.0 * np.arctan2(q[1], q[0])
+
+
+# ------------------------------------------------------------------ the kernel itself
+def test_the_kernel_derivatives_are_exact():
+    """D and the weighted second derivatives of all 8 modes against central differences,
+    at a random configuration (positions, unnormalized Euler parameters, warping)."""
+    rng = np.random.default_rng(3)
+    kind = KINDS["BEAMW"]
+    x0 = [np.array([[0.0, 0.0, 0.0]]), None, None, np.array([[0.7, 0.2, -0.1]]), None, None]
+    ref, _ = kind.reference(x0, np.array([[0.0, 1.0, 0.3]]))
+    x = np.zeros((1, 16))
+    x[0, 8:11] = x0[3][0]
+    x[0, 3], x[0, 11] = 1.0, 1.0
+    x += 0.1 * rng.standard_normal(x.shape)
+    st = beamw_state(x, ref)
+    w = rng.standard_normal((1, 8))
+    h = beamw_weighted_hessian(st, w)
+    eps = 1e-6
+    for j in range(16):
+        dx = np.zeros_like(x)
+        dx[0, j] = eps
+        sp, sm = beamw_state(x + dx, ref), beamw_state(x - dx, ref)
+        np.testing.assert_allclose((sp.e - sm.e)[0] / (2 * eps), st.D[0, :, j], atol=1e-8)
+        np.testing.assert_allclose(((w @ sp.D[0]) - (w @ sm.D[0]))[0] / (2 * eps), h[0, :, j],
+                                   atol=1e-7)
+    assert np.allclose(h[0], h[0].T, atol=1e-12)
+
+
+def test_the_stiffness_is_vlasov_s_energy_of_the_cubic():
+    """1/2 e^T S e of pure twist equals int (GJ phi'^2 + ECw phi''^2)/2 of the cubic Hermite
+    twist with end values 0, theta and end rates wp, wq (Simpson's rule is exact for the
+    integrands, polynomials of degree 4 at most, on 2 panels... taken on 200 here)."""
+    l0, gj, ecw = 0.8, 3.0, 0.7
+    theta, wp, wq = 0.01, 0.02, -0.005
+    s = beamw_stiffness(np.array([[0, gj, 0, 0, 0, 0, ecw]], float), np.array([l0]))[0]
+    e = np.zeros(8)
+    e[1] = l0 * theta
+    e[6], e[7] = l0**2 * wp - e[1], l0**2 * wq - e[1]
+    xi = np.linspace(0.0, 1.0, 2001)
+    # Hermite cubic: phi = h3 theta + l0 (h2 wp + h4 wq)
+    d1 = np.stack([6 * xi**2 - 6 * xi, 1 - 4 * xi + 3 * xi**2, -6 * xi**2 + 6 * xi,
+                   -2 * xi + 3 * xi**2]) / l0
+    d2 = np.stack([12 * xi - 6, -4 + 6 * xi, -12 * xi + 6, -2 + 6 * xi]) / l0**2
+    c = np.array([0.0, l0 * wp, theta, l0 * wq])
+    phi1, phi2 = c @ d1, c @ d2
+    energy = 0.5 * np.trapezoid(gj * phi1**2 + ecw * phi2**2, xi) * l0
+    assert 0.5 * e @ s @ e == pytest.approx(energy, rel=1e-6)
+
+
+# ------------------------------------------------------------------ non-uniform torsion
+def _torsion_deck(n: int, length: float, gj: float, ecw: float, torque: float,
+                  root_warping: bool = True, tip_warping: bool = False) -> str:
+    """A cantilever of n BEAMWs along x: position node 3i+1, orientation 3i+2, warping 3i+3
+    of node i; the root clamped, its warping fixed (or not), a torque about x at the tip."""
+    lines = ["DEFORMATIONS modified"]
+    for i in range(n + 1):
+        lines.append(f"X {3 * i + 1} {length * i / n!r} 0 0")
+    for e in range(1, n + 1):
+        a, b = 3 * (e - 1), 3 * e
+        lines.append(f"BEAMW {e} {a + 1} {a + 2} {a + 3} {b + 1} {b + 2} {b + 3} 0 1 0")
+        lines.append(f"DYNE {e} 1 2 3 4 5 6")
+    lines += ["FIX 1", "FIX 2"]
+    if root_warping:
+        lines.append("FIX 3")
+    if tip_warping:
+        lines.append(f"FIX {3 * n + 3}")
+    lines += ["END", "HALT"]
+    for e in range(1, n + 1):
+        lines.append(f"ESTIFF {e} 1e9 {gj!r} 1e6 1e6 0 0 {ecw!r}")
+    lines += [f"DELXF {3 * n + 2} {torque!r} 0 0", "ITERSTEP 20 1 1e-13", "END", "END"]
+    return "\n".join(lines) + "\n"
+
+
+L_T, GJ_T, ECW_T, T_T = 2.0, 1.0e3, 1.0e3, 1e-2      # k = 1 / m, kL = 2
+
+
+def _tip_twist(n: int, **kw) -> float:
+    job, problem, steps = _statics(_torsion_deck(n, L_T, GJ_T, ECW_T, T_T, **kw))
+    num = problem.num
+    tip = list(job.model.orientation_ids).index(3 * n + 2)
+    return _twist(steps[-1].x[num.rot_idx[tip]])
+
+
+def test_warping_restrained_cantilever_converges_to_vlasov():
+    """Tip twist of the root-restrained cantilever against T/GJ (L - tanh(kL)/k), kL = 2,
+    for 1, 2, 4, 8, 16 elements: the error falls by 2^4 per halving (cubic Hermite twist;
+    the measured order from 4 elements on lies between 3.9 and 4.1), 16 elements within 2e-7."""
+    k = np.sqrt(GJ_T / ECW_T)
+    exact = T_T / GJ_T * (L_T - np.tanh(k * L_T) / k)
+    err = np.array([_tip_twist(n) / exact - 1.0 for n in (1, 2, 4, 8, 16)])
+    order = np.log2(np.abs(err[:-1] / err[1:]))
+    assert np.all(err < 0)                              # the cubic twist is too stiff
+    assert np.all((order[2:] > 3.9) & (order[2:] < 4.1)), order
+    assert abs(err[-1]) < 2e-7
+    # the warping restraint matters: the Saint-Venant twist is 1.93 times larger here
+    assert T_T * L_T / GJ_T / exact == pytest.approx(1.0 / (1.0 - np.tanh(2.0) / 2.0))
+
+
+def test_warping_free_gives_saint_venant():
+    """Warping free at both ends: uniform torsion, the tip twist is T L / GJ (exactly: the
+    warping coordinates settle at the rate of twist, e7 = e8 = 0)."""
+    assert _tip_twist(4, root_warping=False) == pytest.approx(T_T * L_T / GJ_T, rel=1e-9)
+
+
+def test_warping_restrained_at_both_ends_is_stiffer():
+    """Both ends restrained: T/GJ (L - 2 (cosh kL - 1)/(k sinh kL)) (4 elements, 1e-4)."""
+    k = np.sqrt(GJ_T / ECW_T)
+    exact = T_T / GJ_T * (L_T - 2.0 * (np.cosh(k * L_T) - 1.0) / (k * np.sinh(k * L_T)))
+    assert _tip_twist(8, tip_warping=True) == pytest.approx(exact, rel=1e-5)
+
+
+# ------------------------------------------------------------------ lateral-torsional buckling
+L_B, EI_B, GJ_B = 2.0, 2.0, 3.0        # weak-axis EI (modes 3, 4), torsion
+
+
+def _ltb_deck(n: int, ecw: float, mode: str = "buckling", moment: float = 1.0,
+              imperfection: float = 0.0, steps: int = 1) -> str:
+    """A simply supported beam of n BEAMWs along x under equal and opposite end moments about
+    z (the stiff plane x-y: elongation and modes 5, 6 rigid, as in the paper's Table 3, so
+    that no pre-buckling deformation enters); fork supports: both ends held in y and z and
+    in their twist (lambda1), free to turn about y and z; warping free everywhere; a lateral
+    force ``imperfection`` along z at midspan (n even) for the static path."""
+    lines = ["DEFORMATIONS modified", f"MODE {mode}"]
+    for i in range(n + 1):
+        lines.append(f"X {3 * i + 1} {L_B * i / n!r} 0 0")
+    for e in range(1, n + 1):
+        a, b = 3 * (e - 1), 3 * e
+        lines.append(f"BEAMW {e} {a + 1} {a + 2} {a + 3} {b + 1} {b + 2} {b + 3} 0 1 0")
+        lines.append(f"DYNE {e} 2 3 4")
+    lines += ["FIX 1", "FIX 2 2", f"FIX {3 * n + 1} 2 3", f"FIX {3 * n + 2} 2", "END", "HALT"]
+    for e in range(1, n + 1):
+        lines.append(f"ESTIFF {e} 0 {GJ_B!r} {EI_B!r} 0 0 0 {ecw!r}")
+    lines += [f"DELXF 2 0 0 {-moment!r}", f"DELXF {3 * n + 2} 0 0 {moment!r}"]
+    if imperfection:
+        lines.append(f"XF {3 * (n // 2) + 1} 0 0 {imperfection!r}")
+    lines += [f"ITERSTEP 30 {steps} 1e-12", "END", "END"]
+    return "\n".join(lines) + "\n"
+
+
+def _m_cr(ecw: float) -> float:
+    return np.pi / L_B * np.sqrt(EI_B * GJ_B * (1.0 + np.pi**2 * ecw / (GJ_B * L_B**2)))
+
+
+#: Two warping parameters pi^2 ECw / (GJ L^2): 1 and 4.
+ECW_VALUES = (GJ_B * L_B**2 / np.pi**2, 4.0 * GJ_B * L_B**2 / np.pi**2)
+
+
+@pytest.mark.parametrize("ecw", ECW_VALUES)
+def test_lateral_torsional_buckling_analysis(ecw, tmp_path):
+    """The critical multiplier of a unit end moment converges to M_cr at second order (as
+    the BEAM's own lateral buckling with ECw = 0: 3.2e-3 at 16 elements, 8.0e-4 at 32, for
+    either warping parameter; docs/beamw.md); the Richardson extrapolation of 16 and 32
+    elements is within 1e-5, and the warping raises M_cr by sqrt(2) and sqrt(5)."""
+    got = []
+    for n in (16, 32):
+        out = tmp_path / f"ltb{n}.h5"
+        job = job_from_text(_ltb_deck(n, ecw), "ltb.dat")
+        run_model(job.model, job.settings, out)
+        with open_results(out) as res:
+            got.append(abs(res.buckling.critical_load_multiplier[-1]))
+    rel = np.array(got) / _m_cr(ecw) - 1.0
+    assert 0 < rel[0] < 4e-3 and 0 < rel[1] < 1e-3, rel
+    assert 1.9 < np.log2(rel[0] / rel[1]) < 2.1
+    assert (4.0 * got[1] - got[0]) / 3.0 == pytest.approx(_m_cr(ecw), rel=1e-5)
+    ratio = _m_cr(ecw) / _m_cr(0.0)
+    assert ratio == pytest.approx(np.sqrt(1.0 + np.pi**2 * ecw / (GJ_B * L_B**2)))
