@@ -233,3 +233,104 @@ def test_lateral_torsional_buckling_from_the_static_path(ecw, tmp_path):
         analysis = abs(res.buckling.critical_load_multiplier[-1])
     assert southwell == pytest.approx(analysis, rel=2e-4)
     assert 0 < southwell / _m_cr(ecw) - 1.0 < 4e-3
+
+
+# ------------------------------------------------------------------ the corpus decks
+needs_corpus = pytest.mark.skipif(not (CORPUS / "mod8_flexure_mode9.dat").is_file(),
+                                  reason="../shared/spacar-decks is not available")
+
+
+@pytest.fixture(scope="module")
+def mod8(tmp_path_factory):
+    """mod8_flexure_mode9.dat in mode 9 and in eigen (all 8 modes)."""
+    if not (CORPUS / "mod8_flexure_mode9.dat").is_file():
+        pytest.skip("../shared/spacar-decks is not available")
+    job = load(CORPUS / "mod8_flexure_mode9.dat")
+    tmp = tmp_path_factory.mktemp("mod8")
+    run_model(job.model, job.settings.override(analysis="state_space"), tmp / "ss.h5")
+    run_model(job.model, job.settings.override(analysis="eigen", n_modes=8), tmp / "eig.h5")
+    return job, tmp / "ss.h5", tmp / "eig.h5"
+
+
+@needs_corpus
+def test_mod8_state_space_is_written(mod8):
+    """Its 8 degrees of freedom: the 6 DYNE modes and, for the two free warping nodes (6 and
+    12), the warping mode at q of BEAMW 1 and 2; the warping coordinates are stored."""
+    from spacarpy.results import validate_file
+    job, ss, _ = mod8
+    assert validate_file(ss, require_complete=True) == []
+    with open_results(ss) as res:
+        v = res.state_space
+        assert v.dof.tolist() == [[1, 1], [1, 3], [1, 4], [1, 8], [2, 1], [2, 3], [2, 8],
+                                  [3, 6]]
+        assert v.input_name == ["INPUTF 1 22 3"]
+        assert v.output_name == ["OUTXP 1 22 3", "OUTX 2 31 1"]
+    import h5py
+    with h5py.File(ss) as f:
+        assert f["model/warping_nodes"][:].tolist() == [3, 6, 9, 12, 15, 18, 21]
+        w = f["static/warping"][-1]
+        assert w.shape == (7,) and np.all(w[[0, 2, 4, 5, 6]] == 0.0) and np.all(w[[1, 3]] != 0)
+
+
+@needs_corpus
+def test_mod8_poles_are_its_eigenfrequencies(mod8):
+    """The poles of A are +-i omega: the six modes the eigen analysis resolves to 1e-8, and
+    two more, the warping modes of the free warping nodes (46 kHz), whose inertia (rhoIw l0 /
+    2 = 2e-15 kg m^3) lies below the eigen solver's round-off bound on the mass (it reports
+    them as motions without inertia, not as modes)."""
+    _, ss, eig = mod8
+    with open_results(ss) as res:
+        A = res.state_space.matrix("A", 1)
+    with open_results(eig) as res:
+        f = res.eigen.frequency[res.eigen.row(1)]
+    f = np.sort(f[np.isfinite(f)])
+    assert f.size == 6 and f[0] == pytest.approx(2.5025, rel=1e-4)
+    # undamped, A = [[0, I], [-M0^-1 K0, 0]]: its poles p satisfy p^2 = eig(A21) exactly;
+    # those are resolved to round-off of each (eigvals of A itself only to eps ||A|| / |p|,
+    # 2e-8 for the 2.5 Hz mode beside the 46 kHz ones)
+    n = A.shape[0] // 2
+    assert np.all(A[:n, :n] == 0) and np.all(A[n:, n:] == 0)
+    np.testing.assert_array_equal(A[:n, n:], np.eye(n))
+    p2 = np.linalg.eigvals(A[n:, :n])
+    assert np.abs(p2.imag).max() <= 1e-12 * np.abs(p2).max() and np.all(p2.real < 0)
+    omega = np.sort(np.sqrt(-p2.real))
+    np.testing.assert_allclose(omega[:6], 2 * np.pi * f, rtol=1e-8)
+    assert np.all(omega[6:] > 10 * 2 * np.pi * f[-1])
+    poles = np.linalg.eigvals(A)                       # the same to the accuracy of eigvals
+    np.testing.assert_allclose(np.sort(poles.imag[poles.imag > 0]), omega, rtol=1e-6)
+    np.testing.assert_allclose(np.sort(-poles.imag[poles.imag < 0]), omega, rtol=1e-6)
+
+
+@needs_corpus
+def test_mod8_static_gain_is_the_static_compliance(mod8):
+    """-C A^-1 B: the x displacement of node 31 per unit force along z on node 22 equals the
+    central difference of two static solves with +-1e-3 N added (1e-7), and the velocity
+    output has no static gain."""
+    _, ss, _ = mod8
+    with open_results(ss) as res:
+        m = res.state_space.matrices(1)
+    gain = m["D"] - m["C"] @ np.linalg.solve(m["A"], m["B"])
+    text = (CORPUS / "mod8_flexure_mode9.dat").read_text()
+    old = "ITERSTEP\t10\t1\t0.0000005\t1\t1\t0"
+    assert old in text
+
+    def x31(force):
+        job, problem, steps = _statics(text.replace(
+            old, f"ITERSTEP 20 1 1e-13 1 1 0\nDELXF 22 0 0 {force!r}"))
+        k = list(job.model.position_ids).index(31)
+        return steps[-1].x[problem.num.pos_idx[k, 0]]
+
+    fd = (x31(1e-3) - x31(-1e-3)) / 2e-3
+    assert gain[1, 0] == pytest.approx(fd, rel=1e-7)
+    assert abs(gain[0, 0]) <= 1e-12 * abs(fd)
+
+
+@needs_corpus
+def test_mod8mk3_runs_in_mode_9(tmp_path):
+    """The three-times refined sibling (consecutive BEAMWs share their warping nodes): 24
+    DYNE modes and 5 free warping nodes make its 29 degrees of freedom."""
+    job = load(CORPUS / "mod8mk3_flexure_mode9.dat")
+    run_model(job.model, job.settings.override(analysis="state_space"), tmp_path / "ss.h5")
+    with open_results(tmp_path / "ss.h5") as res:
+        assert res.state_space.matrix("A", 1).shape == (58, 58)
+        assert sum(m in (7, 8) for m in res.state_space.dof[:, 1].tolist()) == 5
