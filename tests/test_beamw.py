@@ -400,3 +400,70 @@ def test_torsional_frequencies_with_warping_inertia(tmp_path):
     order = np.log2(err[0] / err[1])
     assert np.all((order > 1.9) & (order < 2.1)), order
     np.testing.assert_allclose((4 * got[1] - got[0]) / 3, exact, rtol=1e-4)
+
+
+# ------------------------------------------------------------------ ECw = 0: the BEAM
+def _pair_deck(kind: str, mode: str) -> str:
+    """A spatial cantilever of 4 BEAMs or BEAMWs (ECw = 0, rhoIw = 0, warping free, each
+    element end with its own warping node) bent and twisted by a tip force and moment;
+    ``mode`` static, eigen or transient (from rest at the static deflection: the load
+    released)."""
+    lines = [f"MODE {mode}"]
+    if mode == "transient":
+        lines += ["TIMEFUNCTION ramp 0.2"]
+    for i in range(5):
+        lines.append(f"X {3 * i + 1} {0.25 * i!r} {0.02 * i * i!r} 0")
+    for e in range(1, 5):
+        a, b = 3 * (e - 1), 3 * e
+        warp = (f" {100 + 2 * e}", f" {101 + 2 * e}") if kind == "BEAMW" else ("", "")
+        lines.append(f"{kind} {e} {a + 1} {a + 2}{warp[0]} {b + 1} {b + 2}{warp[1]} 0 1 0.2")
+        lines.append(f"DYNE {e} 1 2 3 4 5 6")
+    lines += ["FIX 1", "FIX 2", "END", "HALT"]
+    extra = " 0" if kind == "BEAMW" else ""
+    for e in range(1, 5):
+        lines.append(f"ESTIFF {e} 1e4 0.8 1 1.5 0 0{extra}")
+        lines.append(f"EM {e} 1 2e-4 1e-4 1e-4 0{extra}")
+    lines += ["DELXF 13 0.5 0.3 -0.4", "DELXF 14 0.1 0.05 0", "ITERSTEP 30 4 1e-12"]
+    if mode == "transient":
+        lines.append("TIMESTEP 0.5 50")
+    lines += ["END", "END"]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("mode", ["static", "eigen", "transient"])
+def test_beamw_without_warping_is_the_beam(mode, tmp_path):
+    """With ECw = 0 and rhoIw = 0 and its warping free, a BEAMW is a BEAM: the warping
+    coordinates take the element's mean rate of twist (e7 = e8 = 0, no stress; a warping
+    node shared by two elements would make the rate of twist continuous instead, a
+    different discretization of the same torsion, docs/beamw.md), so positions, Euler
+    parameters, the BEAM modes' deformations and stress resultants, frequencies and the
+    motion agree to round-off (1e-9 of their size) in large deflections."""
+    import h5py
+    out = {}
+    for kind in ("BEAM", "BEAMW"):
+        job = job_from_text(_pair_deck(kind, mode), f"{kind}.dat")
+        run_model(job.model, job.settings, tmp_path / f"{kind}.h5")
+        out[kind] = h5py.File(tmp_path / f"{kind}.h5")
+    a, b = out["BEAM"], out["BEAMW"]
+    group = "transient" if mode == "transient" else "static"
+    for name in ("position", "euler"):
+        x, y = a[f"{group}/{name}"][:], b[f"{group}/{name}"][:]
+        assert x.shape == y.shape and np.abs(x).max() > 0.1
+        np.testing.assert_allclose(y, x, rtol=0, atol=1e-9 * np.abs(x).max())
+    if mode == "static":
+        rot = a["static/euler"][-1, -1]
+        assert abs(2 * np.arccos(min(1.0, rot[0]))) > 0.2       # 13 degrees at the tip
+    for name in ("deformation", "stress_resultant"):
+        x = a[f"{group}/elements/BEAM/{name}"][:]
+        y = b[f"{group}/elements/BEAMW/{name}"][:]
+        np.testing.assert_allclose(y[..., :6], x, rtol=0, atol=1e-9 * np.abs(x).max())
+        np.testing.assert_allclose(y[..., 6:], 0.0, atol=1e-9 * np.abs(x).max())
+    if mode == "eigen":
+        fa, fb = a["eigen/frequency"][:], b["eigen/frequency"][:]
+        assert np.all(np.isfinite(fa)) and fa.shape == fb.shape
+        np.testing.assert_allclose(fb, fa, rtol=1e-9)
+    if mode == "transient":
+        assert a["transient/time"].size == b["transient/time"].size == 51
+        assert b["transient/warping"].shape == (51, 8)
+    for f in out.values():
+        f.close()
