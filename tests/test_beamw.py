@@ -406,8 +406,10 @@ def test_torsional_frequencies_with_warping_inertia(tmp_path):
 def _pair_deck(kind: str, mode: str) -> str:
     """A spatial cantilever of 4 BEAMs or BEAMWs (ECw = 0, rhoIw = 0, warping free, each
     element end with its own warping node) bent and twisted by a tip force and moment;
-    ``mode`` static, eigen or transient (from rest at the static deflection: the load
-    released)."""
+    ``mode`` static, eigen or transient (from rest, undeformed, the load ramped up over
+    0.2 s: the initial accelerations are zero, which the transient start also takes where
+    the mass matrix is singular, as the BEAMW's with rhoIw = 0 is on its warping
+    coordinates)."""
     lines = [f"MODE {mode}"]
     if mode == "transient":
         lines += ["TIMEFUNCTION ramp 0.2"]
