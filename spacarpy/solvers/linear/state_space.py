@@ -11,7 +11,8 @@ with K = K0 + G0 + N0 the tangent the eigen analysis uses, C_d the damping (DAMP
 terms vanish), F the INPUTF and INPUTS columns and O the output rows. The degrees of freedom q are
 SPACAR's: the flexible deformation modes (DYNE), with a BEAMW warping mode for each free
 warping node, or with RLSE modes added when the DYNE modes alone are too few. With ``E``
-the rows of the chosen deformations, the coordinates follow from q by ``dx = Phi q``, where Phi is the one solution of ``C Phi = 0, E Phi = I``
+the rows of the chosen deformations, the coordinates follow from q by ``dx = Phi q``,
+where Phi is the one solution of ``C Phi = 0, E Phi = I``
 (``Phi = T (E T)^-1`` for any basis T of the null space of C, so no basis choice enters).
 Then
 
