@@ -233,10 +233,9 @@ class ResultsWriter:
         if unknown:
             raise ValueError(f"unknown reaction components {unknown}; "
                              f"expected {list(REACTION_COMPONENTS)}")
-        warp = md.get("model/warping_nodes")
         self._sizes = {"position_node": int(n_position_node),
                        "orientation_node": int(n_orientation_node),
-                       "warping_node": 0 if warp is None else int(warp.size),
+                       "warping_node": int(md.get("model/warping_nodes", np.zeros(0)).size),
                        "reaction": reaction_node.size, "coordinate": 3, "euler_parameter": 4}
         self._arclength = bool(arclength)
         # built in memory and written in one piece, as the header (h5file.rebuild_with);
@@ -275,16 +274,15 @@ class ResultsWriter:
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
                     max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length: float | None = None, converged_by: int = 0,
-                    warping=None) -> None:
+                    arc_length: float | None = None, converged_by: int = 0, warping=None) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
         ----------
         load_factor : float
             Factor on DELXF (load = XF + load_factor * DELXF).
-        position, euler : array_like, (n_pos, 3) and (n_rot, 4)
-            Node positions (m) and Euler parameters of the orientation nodes (1).
+        position, euler, warping : array_like, (n_pos, 3), (n_rot, 4) and (n_warp,)
+            Node positions (m), Euler parameters (1), warping coordinates (1/m; None: none).
         deformation, stress_resultant : dict of str -> array_like (n_elem_of_kind, n_def)
             Generalized deformations and stress resultants of every element kind of the
             model, by kind keyword (``"BEAM"``, ``"TRUSS"`` ...).
@@ -302,11 +300,8 @@ class ResultsWriter:
         converged_by : int
             0: the residual met the tolerance; 1: it lies within its measured round-off
             floor (``/static/converged_by``).
-        warping : array_like, shape (n_warp,), optional
-            The warping nodes' coordinates (required when the model has warping nodes).
         """
-        given = {"position": position, "euler": euler, "reaction": reaction,
-                 "warping": warping,
+        given = {"position": position, "euler": euler, "reaction": reaction, "warping": warping,
                  "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "converged_by": operator.index(converged_by),
@@ -318,16 +313,14 @@ class ResultsWriter:
                        deformation: dict, stress_resultant: dict, kinetic_energy: float,
                        elastic_energy: float, external_work: float, iterations: int,
                        residual: float, dissipated_energy: float = 0.0,
-                       reaction=None, converged_by: int = 0,
-                       deformation_rate: dict | None = None, warping=None) -> None:
+                       reaction=None, converged_by: int = 0, deformation_rate: dict | None = None,
+                       warping=None) -> None:
         """Append one time step (arrays as in :meth:`static_step`, plus the velocities, the
         energies, ``reaction`` (required, inertia included) and ``deformation_rate`` (kind ->
         (n, n_def), zeros where missing), ``warping`` as for :meth:`static_step`) and make it
-        durable: the arrays first, then
-        ``/transient/time`` commits it. ``converged_by``: 0 the residual met the tolerance, 1
-        it lies within its measured round-off floor (``/transient/converged_by``)."""
-        given = {"position": position, "euler": euler, "velocity": velocity,
-                 "warping": warping,
+        durable: the arrays first, then ``/transient/time`` commits it. ``converged_by``: 0
+        the residual met the tolerance, 1 within its round-off floor (/transient/converged_by)."""
+        given = {"position": position, "euler": euler, "velocity": velocity, "warping": warping,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
                  "dissipated_energy": float(dissipated_energy), "reaction": reaction,
@@ -478,13 +471,10 @@ class ResultsWriter:
             if spec.group != group or not spec.shape or spec.shape[0] not in (
                     "step", "time_step", "linearized_step"):
                 continue
-            if spec.kind is not None and spec.kind not in self.kinds:
-                continue
-            if path.endswith(_STRESS) and not self.has_stress:
-                continue
-            if path == "static/arc_length" and not self._arclength:
-                continue
-            if "warping_node" in spec.shape and not self._sizes.get("warping_node"):
+            if (spec.kind is not None and spec.kind not in self.kinds) or (
+                    path.endswith(_STRESS) and not self.has_stress) or (
+                    path == "static/arc_length" and not self._arclength) or (
+                    "warping_node" in spec.shape and not self._sizes["warping_node"]):
                 continue
             yield path, spec
 
