@@ -469,3 +469,62 @@ def test_beamw_without_warping_is_the_beam(mode, tmp_path):
         assert b["transient/warping"].shape == (51, 8)
     for f in out.values():
         f.close()
+
+
+# ------------------------------------------------------------------ the deck layer
+_ONE = "X 1 0 0 0\nX 4 1 0 0\nBEAMW 1 1 2 3 4 5 6 0 1 0\nDYNE 1 1 2 3 4 5 6\n"
+_DATA = "END\nHALT\nESTIFF 1 1e8 1e3 1e4 1e4 0 0 1e3\n"
+
+
+@pytest.mark.parametrize("lines, data, message", [
+    ("FIX 1\nFIX 2\nFIX 3 2\n", "", "7:7: error: FIX: node 3 is a warping node with coordinate "
+                                     "1 (its rate of twist), got 2"),
+    ("BEAM 2 4 3 1 6\nFIX 1\nFIX 2\n", "ESTIFF 2 1 1 1 1\n",
+     "3:13: error: element 1: node 3 is an orientation node (line 5) and cannot be the "
+     "warping node at p"),
+    ("FIX 1\nFIX 2\n", "XF 6 1 0 0\n", "10:4: error: XF: node 6 is a warping node (BEAMW); a "
+                                       "load on it (a bimoment) is not supported"),
+    ("FIX 1\nFIX 2\n", "XM 3 1\n", "10:4: error: XM: node 3 is a warping node (BEAMW): give "
+                                   "its warping inertia as the sixth EM value instead"),
+    ("FIX 1\nFIX 2\n", "END\nHALT\nINPUTF 1 6 2\n",
+     "12:12: error: INPUTF: node 6 is a warping node: coordinate 1..1 (the rate of twist), "
+     "got 2"),
+])
+def test_warping_node_errors(lines, data, message):
+    from spacarpy.errors import DeckError
+    with pytest.raises(DeckError) as info:
+        job_from_text(_ONE + lines + _DATA + data + "END\nEND\n", "w.dat")
+    assert f"w.dat:{message}" in str(info.value)
+
+
+def test_check_reports_the_warping_nodes(tmp_path, capsys):
+    from spacarpy.cli import main
+    deck = tmp_path / "w.dat"
+    deck.write_text(_ONE + "FIX 1\nFIX 2\nFIX 3\n" + _DATA + "END\nEND\n")
+    assert main(["check", str(deck)]) == 0
+    out = capsys.readouterr().out
+    assert "nodes               2 position, 2 orientation, 2 warping" in out
+    assert "coordinates         16 (6 position + 8 Euler parameters + 2 warping), 8 fixed" in out
+    assert "degrees of freedom  7 (8 free coordinates - 1 constraints)" in out
+
+
+def test_a_warping_coordinate_as_state_space_input_and_output(tmp_path):
+    """INPUTF/OUTX on the free warping node of a cantilever BEAMW (root clamped, warping
+    restrained): a unit generalized force on the rate of twist (a bimoment) in, the rate of
+    twist out. Its static gain is the (w, w) entry of the inverse of the torsion-warping
+    stiffness in (theta, w): ``GJ/l`` on theta plus ``T^T S_w T`` with e7 = -l theta,
+    e8 = l^2 w - l theta (round-off: the linearization about the undeformed state)."""
+    l, gj, ecw = 1.0, 1e3, 1e3
+    text = (_ONE + "FIX 1\nFIX 2\nFIX 3\n" + _DATA + "EM 1 1 0.1 0.05 0.05 0 1e-3\n"
+            "END\nHALT\nINPUTF 1 6 1\nOUTX 1 6 1\nEND\nEND\n")
+    job = job_from_text(text, "w.dat")
+    run_model(job.model, job.settings.override(analysis="state_space"), tmp_path / "w.h5")
+    with open_results(tmp_path / "w.h5") as res:
+        m = res.state_space.matrices(0)
+        assert res.state_space.dof.tolist()[-1] == [1, 8]
+    gain = (m["D"] - m["C"] @ np.linalg.solve(m["A"], m["B"]))[0, 0]
+    s = beamw_stiffness(np.array([[0, gj, 0, 0, 0, 0, ecw]], float), np.array([l]))[0, 6:, 6:]
+    t = np.array([[-l, 0.0], [-l, l * l]])
+    k = t.T @ s @ t
+    k[0, 0] += gj / l
+    assert gain == pytest.approx(np.linalg.inv(k)[1, 1], rel=1e-9)

@@ -87,7 +87,8 @@ class Constraints(UsesTopology):
         coords = set()
         for i, c in enumerate(st.fields[1:], start=1):
             if not 1 <= c <= size:
-                what = (f"coordinates 1 to {size}" if size > 1 else "coordinate 1 (its angle)")
+                what = (f"coordinates 1 to {size}" if size > 1 else "coordinate 1 (its angle)"
+                        if kind == "orientation" else "coordinate 1 (its rate of twist)")
                 plane = "planar " if self.planar else ""
                 self.error(st.field_locs[i], f"FIX: node {n} is a {plane}{kind} node with "
                                              f"{what}, got {c}", st)

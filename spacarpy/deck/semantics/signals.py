@@ -47,9 +47,11 @@ class _SignalsPass(UsesTopology):
                 n_coord = 2 if kind == "position" else 1
             if not 1 <= number <= n_coord:
                 what = ("x y z"[:2 * n_coord - 1] if kind == "position"
+                        else "the rate of twist" if kind == "warping"
                         else "the rotation about z" if self.planar else "lambda0..lambda3")
                 self.error(st.field_locs[2], f"{st.keyword}: node {target} is "
-                                             f"{'a' if kind == 'position' else 'an'} {kind} node: "
+                                             f"{'an' if kind == 'orientation' else 'a'} {kind} "
+                                             "node: "
                                              f"coordinate 1..{n_coord} ({what}), got {number}",
                            st)
                 return None

@@ -256,6 +256,10 @@ def coordinate_row(num, model, x, node: int, c: int) -> np.ndarray:
     if hit.size:
         row[num.pos_idx[hit[0], c - 1]] = 1.0
         return row
+    hit = np.flatnonzero(model.warping_ids == node)
+    if hit.size:                            # a warping node's rate of twist (a bimoment in)
+        row[num.warp_idx[hit[0]]] = 1.0
+        return row
     ri = num.rot_idx[np.flatnonzero(model.orientation_ids == node)[0]]
     if model.planar:
         row[ri] = 2.0 * lambda_matrix(x[ri])[2]
