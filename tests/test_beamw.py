@@ -514,7 +514,7 @@ def test_a_warping_coordinate_as_state_space_input_and_output(tmp_path):
     twist out. Its static gain is the (w, w) entry of the inverse of the torsion-warping
     stiffness in (theta, w): ``GJ/l`` on theta plus ``T^T S_w T`` with e7 = -l theta,
     e8 = l^2 w - l theta (round-off: the linearization about the undeformed state)."""
-    l, gj, ecw = 1.0, 1e3, 1e3
+    length, gj, ecw = 1.0, 1e3, 1e3
     text = (_ONE + "FIX 1\nFIX 2\nFIX 3\n" + _DATA + "EM 1 1 0.1 0.05 0.05 0 1e-3\n"
             "END\nHALT\nINPUTF 1 6 1\nOUTX 1 6 1\nEND\nEND\n")
     job = job_from_text(text, "w.dat")
@@ -523,8 +523,8 @@ def test_a_warping_coordinate_as_state_space_input_and_output(tmp_path):
         m = res.state_space.matrices(0)
         assert res.state_space.dof.tolist()[-1] == [1, 8]
     gain = (m["D"] - m["C"] @ np.linalg.solve(m["A"], m["B"]))[0, 0]
-    s = beamw_stiffness(np.array([[0, gj, 0, 0, 0, 0, ecw]], float), np.array([l]))[0, 6:, 6:]
-    t = np.array([[-l, 0.0], [-l, l * l]])
+    s = beamw_stiffness(np.array([[0, gj, 0, 0, 0, 0, ecw]], float), np.array([length]))[0, 6:, 6:]
+    t = np.array([[-length, 0.0], [-length, length**2]])
     k = t.T @ s @ t
-    k[0, 0] += gj / l
+    k[0, 0] += gj / length
     assert gain == pytest.approx(np.linalg.inv(k)[1, 1], rel=1e-9)
