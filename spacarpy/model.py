@@ -10,6 +10,7 @@ Conventions (see docs/conventions.md)
 -------------------------------------
 - Position nodes have 3 coordinates (x, y, z); orientation nodes have 4 Euler parameters
   (lambda0, lambda1, lambda2, lambda3), all orientation nodes start at the identity (1, 0, 0, 0).
+- Warping nodes (BEAMW) have 1 coordinate, the rate of twist, starting at 0.
 - Coordinate numbers inside a node are 1-based as in SPACAR (``FIX 7 2`` fixes y of node 7).
 - Deformation-mode numbers inside an element are 1-based as in SPACAR (``DYNE 3 1 2``).
 - Arrays have the entity index first: ``(n_elem, 6)``, ``(n_pos, 3)``.
@@ -287,6 +288,9 @@ class Model:
         The DYNX coordinates (nodal coordinates as degrees of freedom), in deck order.
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
+    warping_ids : (n_warp,) int
+        Deck numbers of the warping nodes (a BEAMW's; one coordinate each, the rate of
+        twist, starting at 0).
     """
 
     position_ids: np.ndarray
@@ -310,11 +314,13 @@ class Model:
     dynamic_coords: list = field(default_factory=list)     # DYNX lines (DynamicCoordinate)
     source_path: str = "<model>"
     source_text: str = ""
+    warping_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     def __post_init__(self):
         self.position_ids = np.asarray(self.position_ids, dtype=np.int64).reshape(-1)
         self.position_x0 = np.asarray(self.position_x0, dtype=float).reshape(-1, 3)
         self.orientation_ids = np.asarray(self.orientation_ids, dtype=np.int64).reshape(-1)
+        self.warping_ids = np.asarray(self.warping_ids, dtype=np.int64).reshape(-1)
         for keyword, es in self.elements.items():
             if es.kind != keyword:
                 raise ValueError(f"elements[{keyword!r}] holds {es.kind} elements")

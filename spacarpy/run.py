@@ -252,7 +252,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
             k = summary.n_steps
             writer.static_step(
                 load_factor=step.load_factor, position=step.x[num.pos_idx],
-                euler=step.x[num.rot_idx],
+                euler=step.x[num.rot_idx], warping=step.x[num.warp_idx],
                 deformation=step.deformation,
                 stress_resultant=step.stress,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
@@ -312,6 +312,7 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
     def on_step(step):
         writer.transient_step(
             time=step.time, position=step.x[num.pos_idx], euler=step.x[num.rot_idx],
+            warping=step.x[num.warp_idx],
             velocity=step.v[num.pos_idx], euler_rate=step.v[num.rot_idx],
             deformation=step.deformation,
             stress_resultant=step.stress,

@@ -139,7 +139,7 @@ def run_steady_motion(model, settings, out, summary) -> None:
                             state_space=names)
         check_kinematic(prob)
         writer.transient_step(
-            time=0.0, position=x[num.pos_idx], euler=x[num.rot_idx],
+            time=0.0, position=x[num.pos_idx], euler=x[num.rot_idx], warping=x[num.warp_idx],
             velocity=v[num.pos_idx], euler_rate=v[num.rot_idx], deformation=deformation,
             stress_resultant=stress, kinetic_energy=kinetic, elastic_energy=0.0,
             external_work=0.0, iterations=0, residual=projected, reaction=reaction)

@@ -97,7 +97,7 @@ def test_layout_follows_schema(tmp_path):
     write_run(out, chain_model())
     with h5py.File(out, "r") as f:
         assert f.attrs["schema_version"].dtype == np.int32
-        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 16]
+        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 17]
         assert f["deck"].shape == ()
         assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
         info = h5py.check_string_dtype(f["model/elements/BEAM/cross_section_type"].dtype)

@@ -101,9 +101,11 @@ class DeckSummary:
             rows.append(("deformation modes", f"{self.flexible} flexible and {self.released} "
                                               "released listed (rigid: n/a)"))
         if self.n_coord is not None:
+            n_euler = self.n_coord - self.n_position_coord - self.warping_nodes
+            warp = f" + {self.warping_nodes} warping" if self.warping_nodes else ""
             rows.append(("coordinates", f"{self.n_coord} ({self.n_position_coord} position + "
-                                        f"{self.n_coord - self.n_position_coord} Euler "
-                                        f"parameters), {self.n_fixed} fixed"))
+                                        f"{n_euler} Euler parameters{warp}), "
+                                        f"{self.n_fixed} fixed"))
             n_con = self.n_rigid_constraints + self.n_euler_constraints
             rows.append(("constraints", f"{n_con} ({self.n_rigid_constraints} rigid modes + "
                                         f"{self.n_euler_constraints} Euler normalisations)"))

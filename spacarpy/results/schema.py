@@ -16,6 +16,7 @@ Node-based datasets (``/static/position`` ...) keep their 1.x paths and shapes.
 
 Dimension names: ``step`` (committed load steps), ``time_step`` (committed time steps),
 ``linearized_step``, ``mode``, ``position_node`` (n_pos), ``orientation_node`` (n_rot),
+``warping_node`` (n_warp, a BEAMW's warping nodes),
 ``element`` (elements of the dataset's kind), ``deformation_mode`` (the kind's n_def),
 ``slot`` (the kind's node slots), ``reaction``, ``coordinate`` (3), ``euler_parameter`` (4),
 ``global_coordinate`` (n_coord), ``load`` (load lines), ``input`` (prescribed deformations),
@@ -41,7 +42,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 16)
+SCHEMA_VERSION = (2, 17)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -149,7 +150,7 @@ def _units(per_mode) -> str:
 #: Schema version that introduced each kind's datasets (kinds added later: their own).
 _KIND_SINCE = {"BEAM": (1, 0), "TRUSS": (1, 2), "HINGE": (1, 2), "RBEAM": (1, 2),
                "PLBEAM": (1, 3), "PLTRUSS": (1, 3), "PLHINGE": (1, 3), "PINBODY": (2, 11),
-               "WHEEL": (2, 11)}
+               "WHEEL": (2, 11), "BEAMW": (2, 17)}
 
 _LIN_SHAPE = {"mode": ("linearized_step", "mode"),
               "position": ("linearized_step", "mode", "position_node", "coordinate"),
@@ -167,6 +168,9 @@ def _spec_list() -> list[DatasetSpec]:
           "initial position of each position node"),
         S("model/orientation_nodes", "i8", ("orientation_node",), "1",
           "deck number of each orientation node"),
+        S("model/warping_nodes", "i8", ("warping_node",), "1",
+          "deck number of each warping node (BEAMW), present when the model has them",
+          (2, 17), optional=True),
         S("model/input_deformation", "i8", ("input", 2), "1",
           "[element, mode] of each prescribed deformation (INPUTE), present when the model "
           "has them", (1, 2), optional=True),
@@ -186,7 +190,8 @@ def _spec_list() -> list[DatasetSpec]:
         S("model/coordinate_node", "i8", ("global_coordinate",), "1",
           "deck node number owning each global coordinate", v11),
         S("model/coordinate_index", "i1", ("global_coordinate",), "1",
-          "index of the coordinate in its node: 1..3 = x y z, 1..4 = lambda0..lambda3", v11),
+          "index of the coordinate in its node: 1..3 = x y z, 1..4 = lambda0..lambda3, 1 = "
+          "the rate of twist of a warping node", v11),
         S("model/coordinate_fixed", "?", ("global_coordinate",), "1",
           "whether the coordinate is fixed (FIX)", v11),
         # static
@@ -196,6 +201,10 @@ def _spec_list() -> list[DatasetSpec]:
           "position of each position node"),
         S("static/euler", "f8", ("step", "orientation_node", "euler_parameter"), "1",
           "Euler parameters (lambda0, lambda1, lambda2, lambda3) of each orientation node"),
+        S("static/warping", "f8", ("step", "warping_node"), "1/m",
+          "coordinate of each warping node: the rate of twist that sets the warping "
+          "amplitude (BEAMW), present when the model has warping nodes", (2, 17),
+          optional=True),
         S("static/reaction", "f8", ("step", "reaction"), REACTION_UNITS,
           "reaction force or moment of each reaction component"),
         S("static/iterations", "i4", ("step",), "1", "Newton iterations used in the load step"),
@@ -219,6 +228,9 @@ def _spec_list() -> list[DatasetSpec]:
           "position of each position node", v14),
         S("transient/euler", "f8", ("time_step", "orientation_node", "euler_parameter"), "1",
           "Euler parameters of each orientation node", v14),
+        S("transient/warping", "f8", ("time_step", "warping_node"), "1/m",
+          "coordinate of each warping node (rate of twist, BEAMW), present when the model "
+          "has warping nodes", (2, 17), optional=True),
         S("transient/velocity", "f8", ("time_step", "position_node", "coordinate"), "m/s",
           "velocity of each position node", v14),
         S("transient/euler_rate", "f8", ("time_step", "orientation_node", "euler_parameter"),

@@ -234,6 +234,7 @@ class ResultsWriter:
                              f"expected {list(REACTION_COMPONENTS)}")
         self._sizes = {"position_node": int(n_position_node),
                        "orientation_node": int(n_orientation_node),
+                       "warping_node": int(md.get("model/warping_nodes", np.zeros(0)).size),
                        "reaction": reaction_node.size, "coordinate": 3, "euler_parameter": 4}
         self._arclength = bool(arclength)
         self._accelerations = bool(accelerations)
@@ -273,15 +274,15 @@ class ResultsWriter:
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
                     max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length: float | None = None, converged_by: int = 0) -> None:
+                    arc_length: float | None = None, converged_by: int = 0, warping=None) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
         ----------
         load_factor : float
             Factor on DELXF (load = XF + load_factor * DELXF).
-        position, euler : array_like, (n_pos, 3) and (n_rot, 4)
-            Node positions (m) and Euler parameters of the orientation nodes (1).
+        position, euler, warping : array_like, (n_pos, 3), (n_rot, 4) and (n_warp,)
+            Node positions (m), Euler parameters (1), warping coordinates (1/m; None: none).
         deformation, stress_resultant : dict of str -> array_like (n_elem_of_kind, n_def)
             Generalized deformations and stress resultants of every element kind of the
             model, by kind keyword (``"BEAM"``, ``"TRUSS"`` ...).
@@ -300,7 +301,7 @@ class ResultsWriter:
             0: the residual met the tolerance; 1: it lies within its measured round-off
             floor (``/static/converged_by``).
         """
-        given = {"position": position, "euler": euler, "reaction": reaction,
+        given = {"position": position, "euler": euler, "reaction": reaction, "warping": warping,
                  "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "converged_by": operator.index(converged_by),
@@ -313,13 +314,13 @@ class ResultsWriter:
                        elastic_energy: float, external_work: float, iterations: int,
                        residual: float, dissipated_energy: float = 0.0,
                        reaction=None, converged_by: int = 0, deformation_rate: dict | None = None,
-                       acceleration=None, euler_acceleration=None) -> None:
-        """Append one time step (arrays as in :meth:`static_step`, plus the velocities, the
-        energies, ``reaction`` (required, inertia included) and ``deformation_rate`` (kind ->
-        (n, n_def), zeros where missing); the accelerations where the group has them) and make
-        it durable: the arrays first, then ``/transient/time`` commits it. ``converged_by``:
-        0 the residual met the tolerance, 1 within its round-off floor (docs/results.md)."""
-        given = {"position": position, "euler": euler, "velocity": velocity,
+                       acceleration=None, euler_acceleration=None, warping=None) -> None:
+        """Append one time step (as :meth:`static_step`, plus the velocities, the energies,
+        ``reaction`` (required, inertia included), ``deformation_rate`` (kind -> (n, n_def),
+        zeros where missing), the accelerations where the group has them) and make it durable:
+        the arrays first, then ``/transient/time`` commits it. ``converged_by``: 0 the residual
+        met the tolerance, 1 within its round-off floor (/transient/converged_by)."""
+        given = {"position": position, "euler": euler, "velocity": velocity, "warping": warping,
                  "acceleration": acceleration, "euler_acceleration": euler_acceleration,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
@@ -470,12 +471,11 @@ class ResultsWriter:
             if spec.group != group or not spec.shape or spec.shape[0] not in (
                     "step", "time_step", "linearized_step"):
                 continue
-            if spec.kind is not None and spec.kind not in self.kinds:
-                continue
-            if path.endswith(_STRESS) and not self.has_stress:
-                continue
-            if (path == "static/arc_length" and not self._arclength) or (
-                    path in ACCELERATIONS and not self._accelerations):
+            if (spec.kind is not None and spec.kind not in self.kinds) or (
+                    path.endswith(_STRESS) and not self.has_stress) or (
+                    path == "static/arc_length" and not self._arclength) or (
+                    path in ACCELERATIONS and not self._accelerations) or (
+                    "warping_node" in spec.shape and not self._sizes["warping_node"]):
                 continue
             yield path, spec
 

@@ -18,7 +18,7 @@ coordinates and DYNE modes parameterize the model exactly needs its Jacobians:
 from __future__ import annotations
 
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
-from spacarpy.deck.semantics.topology import Topology, UsesTopology
+from spacarpy.deck.semantics.topology import NODE_SIZE, Topology, UsesTopology
 from spacarpy.deck.statement import Statement
 from spacarpy.elements.registry import KINDS
 from spacarpy.model import FLEXIBLE, KINEMATIC, RIGID, DynamicCoordinate, Kinematic
@@ -53,7 +53,7 @@ class _KinematicPass(UsesTopology):
                 self.error(st.field_locs[0], f"KINX: node {n} is not defined (no X line and "
                                              "not used by any element)", st)
             return
-        size = 3 if kind == "position" else 4
+        size = NODE_SIZE[kind]
         if self.planar:
             size = 2 if kind == "position" else 1
         if len(st.fields) == 1:

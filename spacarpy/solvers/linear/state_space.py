@@ -9,9 +9,10 @@ linearized constraints ``C dx = 0`` (:mod:`spacarpy.solvers.linear.linearize`), 
 with K = K0 + G0 + N0 the tangent the eigen analysis uses, C_d the damping (DAMPING's
 ``alpha M + beta K0`` and EDAMP's ``D^T diag(d) D``; at a static state the velocity-dependent
 terms vanish), F the INPUTF and INPUTS columns and O the output rows. The degrees of freedom q are
-SPACAR's: the flexible deformation modes (DYNE), with RLSE modes added when the DYNE modes
-alone are too few. With ``E`` the rows of the chosen deformations, the coordinates follow
-from q by ``dx = Phi q``, where Phi is the one solution of ``C Phi = 0, E Phi = I``
+SPACAR's: the flexible deformation modes (DYNE), with a BEAMW warping mode for each free
+warping node, or with RLSE modes added when the DYNE modes alone are too few. With ``E``
+the rows of the chosen deformations, the coordinates follow from q by ``dx = Phi q``,
+where Phi is the one solution of ``C Phi = 0, E Phi = I``
 (``Phi = T (E T)^-1`` for any basis T of the null space of C, so no basis choice enters).
 Then
 
@@ -43,7 +44,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from spacarpy.elements.base import FLEXIBLE, RELEASED
+from spacarpy.elements.base import FLEXIBLE, RELEASED, SLOT_SIZE
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.linear.eigen import null_space_basis
@@ -145,6 +146,38 @@ def _modes_of(num, classes) -> DofLayout:
                      coords=np.asarray(num.dynamic_label, np.int64).reshape(-1, 2))
 
 
+def _with_warping(num, free, lay: DofLayout) -> DofLayout:
+    """``lay`` with, for each free warping node (BEAMW) that no mode of ``lay`` holds, the
+    warping mode (7 at p, 8 at q) of the first BEAMW using it: SPACAR's warping coordinates
+    of free warping nodes are degrees of freedom ("ep_7 and ep_8 are always calculable"),
+    and that mode is ``l0^2 w`` minus the torsion, so it stands for the coordinate."""
+    if not num.warp_idx.size:
+        return lay
+    taken = {(int(g), int(r), int(c)) for g, r, c in zip(lay.group, lay.row, lay.col)}
+    held, extra = set(), []
+    for gi, g in enumerate(num.groups):
+        slots = [j for j, s in enumerate(g.kind.slots) if s == "warp"]
+        if not slots:
+            continue
+        local = np.cumsum([0] + [SLOT_SIZE[s] for s in g.kind.slots])
+        for r in range(g.n_elem):
+            for m, j in enumerate(slots):
+                coord = int(g.idx[r, local[j]])
+                if (gi, r, 6 + m) in taken:
+                    held.add(coord)
+                elif free[coord] and coord not in held:
+                    held.add(coord)
+                    extra.append((gi, r, 6 + m))
+    if not extra:
+        return lay
+    rows = sorted(taken | set(extra))
+    group, row, col = (np.array(v, np.int64) for v in zip(*rows))
+    keyword = tuple(num.groups[g].keyword for g in group)
+    element = np.array([num.groups[g].ids[r] for g, r in zip(group, row)], np.int64)
+    return DofLayout(element=element, mode=col + 1, keyword=keyword, group=group, row=row,
+                     col=col)
+
+
 def deformation_rows(lin, num, free, group, row, col, scaled: bool = False) -> np.ndarray:
     """The rows ``d e / d x`` (len(row), n_x) over the free coordinates of the deformation
     modes ``col`` of elements ``row`` of the element groups ``group``; ``scaled``: each row
@@ -186,10 +219,12 @@ def dof_rows(lin, num, free, layout: DofLayout, scaled: bool = False) -> np.ndar
 
 
 def dof_layout(lin, num, free) -> DofLayout:
-    """The degrees of freedom of the linearization ``lin``: the flexible modes (DYNE), or
-    the flexible and released ones (DYNE, RLSE) when the first are too few; a model with
-    DYNX lines has its DYNX coordinates and DYNE modes, never RLSE ones (SPACAR's dynamic
-    class). They must be independent and as many as the model's degrees of freedom.
+    """The degrees of freedom of the linearization ``lin``: the flexible modes (DYNE); or
+    those and, for each free warping node, a warping mode (:func:`_with_warping`); or the
+    flexible and released ones (DYNE, RLSE) when the first are too few; a model with DYNX
+    lines has its DYNX coordinates and DYNE modes (and warping modes), never RLSE ones
+    (SPACAR's dynamic class). They must be independent and as many as the model's degrees
+    of freedom.
 
     Raises
     ------
@@ -201,9 +236,15 @@ def dof_layout(lin, num, free) -> DofLayout:
     n_dof = T.shape[1]
     counts = []
     dynx = bool(num.dynamic_idx.size)
-    for classes in ((FLEXIBLE,),) if dynx else ((FLEXIBLE,), (FLEXIBLE, RELEASED)):
-        lay = _modes_of(num, classes)
-        counts.append(lay.n_dof)
+    candidates = ((FLEXIBLE,), "warping") + (() if dynx else ((FLEXIBLE, RELEASED),))
+    for classes in candidates:
+        if classes == "warping":    # the flexible modes and the free warping nodes' modes
+            lay = _with_warping(num, free, _modes_of(num, (FLEXIBLE,)))
+            if lay.n_dof == counts[0]:
+                continue
+        else:
+            lay = _modes_of(num, classes)
+            counts.append(lay.n_dof)
         if lay.n_dof != n_dof:
             continue
         if n_dof == 0:
@@ -258,6 +299,10 @@ def coordinate_row(num, model, x, node: int, c: int) -> np.ndarray:
     hit = np.flatnonzero(model.position_ids == node)
     if hit.size:
         row[num.pos_idx[hit[0], c - 1]] = 1.0
+        return row
+    hit = np.flatnonzero(model.warping_ids == node)
+    if hit.size:                            # a warping node's rate of twist (a bimoment in)
+        row[num.warp_idx[hit[0]]] = 1.0
         return row
     ri = num.rot_idx[np.flatnonzero(model.orientation_ids == node)[0]]
     if model.planar:
