@@ -335,14 +335,10 @@ def test_deck_run_writes_the_state_space(tmp_path):
         assert np.abs(wheel[:, 3:5]).max() < 1e-9
 
 
-def test_trajectory_with_slips_and_timestep_0_0_in_mode_1_are_refused(tmp_path, capsys):
+def test_timestep_0_0_in_mode_1_and_a_massless_dof_are_refused(tmp_path, capsys):
+    """(Mode 3 along a trajectory with slips runs: tests/test_rolling_mode3.py.)"""
     from spacarpy.cli import main
     text = DECK.read_text()
-    along = tmp_path / "along.dat"
-    along.write_text(text.replace("TIMESTEP 0 0", "TIMESTEP 1 10"))
-    assert main(["run", str(along), "-o", str(tmp_path / "a.h5"), "-q"]) != 0
-    assert "mode 3 along a trajectory with slips is not supported yet" in \
-        capsys.readouterr().err
     assert main(["run", str(DECK), "--mode", "1", "-o", str(tmp_path / "m1.h5"), "-q"]) != 0
     assert "TIMESTEP 0 0" in capsys.readouterr().err
     massless = tmp_path / "massless.dat"
