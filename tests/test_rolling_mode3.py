@@ -173,3 +173,38 @@ def test_steer_torque_to_lean_transfer_function_is_the_benchmark_s(tmp_path):
     assert np.count_nonzero(np.abs(pole) < 1e-8) == 4
     big = pole[np.abs(pole) >= 1e-8]
     assert np.abs(np.sort_complex(big) - np.sort_complex(POLES_5)).max() < 1e-10
+
+
+# ---------------------------------------------------------------- the root-locus plot
+def test_root_locus_plot_draws_the_sweep_s_stored_poles(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from spacarpy.results.plot_sweep import root_locus_figure
+    sweep = tmp_path / "sweep.h5"
+    assert main(["sweep", str(DECK), "--set", "V=1,5", "--collect", "/state_space/pole",
+                 "-o", str(sweep), "-j", "1", "-q"]) == 0
+    with h5py.File(sweep, "r") as f:
+        V, P = f["parameters/V"][:], f["state_space/pole"][:]
+    assert V.tolist() == [1.0, 5.0] and P.shape == (2, 8)
+    fig = root_locus_figure(sweep)
+    real, imag = fig.axes[0].lines[:2]
+    keep = P != 0                                  # the four kinematic zeros of each run
+    assert np.count_nonzero(~keep) == 8
+    x = np.broadcast_to(V[:, None], P.shape)
+    assert np.array_equal(real.get_xdata(), x[keep])
+    assert np.array_equal(real.get_ydata(), P.real[keep])
+    up = keep & (P.imag > 0)
+    assert np.array_equal(imag.get_xdata(), x[up])
+    assert np.array_equal(imag.get_ydata(), P.imag[up])
+    # the weave pair at 5 m/s (Table 2), drawn as stored
+    assert np.abs(np.sort(imag.get_ydata()[imag.get_xdata() == 5.0]) - 4.46486771378823).max() \
+        < 1e-10
+    png = tmp_path / "rl.png"
+    assert main(["plot", str(sweep), "root-locus", "-o", str(png), "-q"]) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    # a run's result file is not a sweep: one line, exit code 2
+    capsys.readouterr()
+    run = tmp_path / "one.h5"
+    assert main(["run", str(DECK), "-o", str(run), "-q"]) == 0
+    assert main(["plot", str(run), "root-locus", "-o", str(tmp_path / "x.png"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "root-locus draws a sweep over one SET parameter" in err and "Traceback" not in err
