@@ -208,3 +208,14 @@ def test_root_locus_plot_draws_the_sweep_s_stored_poles(tmp_path, capsys):
     assert main(["plot", str(run), "root-locus", "-o", str(tmp_path / "x.png"), "-q"]) == 2
     err = capsys.readouterr().err
     assert "root-locus draws a sweep over one SET parameter" in err and "Traceback" not in err
+
+
+def test_root_locus_marks_the_changes_of_stability():
+    from spacarpy.results.plot_sweep import RootLocus
+    poles = np.array([[3.0 + 1j, 3.0 - 1j, 0.0], [-1.0 + 2j, -1.0 - 2j, 0.0],
+                      [-0.5, 1.0, 0.0], [-0.5, -0.25, 0.0]])
+    rl = RootLocus("V", np.array([1.0, 2.0, 3.0, 4.0]), poles, 0, "d.dat")
+    # +3 -> -1 between 1 and 2: at 1.75; -1 -> +1 between 2 and 3: at 2.5; +1 -> -0.25: 3.8
+    assert np.allclose(rl.stability_changes(), [1.75, 2.5, 3.8], rtol=0, atol=1e-15)
+    x_re, re, x_im, im = rl.points()
+    assert re.size == 8 and np.all(re != 0.0) and im.tolist() == [1.0, 2.0]

@@ -6,7 +6,10 @@ that parameter, real parts as dots and the positive imaginary parts as a second 
 Meijaard et al. (2007) Fig. 3 for the benchmark bicycle's eigenvalues against the forward speed
 (docs/rolling.md). Poles that are exactly zero (the kinematic states' zeros of a steady motion,
 certified zeros of the linearization) are left out and counted in the legend; points whose run
-failed (``/sweep/status`` not 0) are left out and counted too.
+failed (``/sweep/status`` not 0) are left out and counted too. Where the largest real part of
+the drawn poles changes sign between two neighbouring points (a change of stability: the
+bicycle's weave and capsize speeds), a dashed line marks the parameter value interpolated
+linearly between them, which is as exact as the sweep is fine.
 """
 from __future__ import annotations
 
@@ -38,6 +41,18 @@ class RootLocus:
         keep = self.poles != 0
         upper = keep & (self.poles.imag > 0)
         return x[keep], self.poles.real[keep], x[upper], self.poles.imag[upper]
+
+    def stability_changes(self) -> np.ndarray:
+        """The parameter values where the largest real part of the nonzero poles changes
+        sign, interpolated linearly between neighbouring points (in the order swept)."""
+        re = np.where(self.poles != 0, self.poles.real, -np.inf).max(axis=1)
+        out = []
+        for i in range(re.size - 1):
+            a, b = re[i], re[i + 1]
+            if np.isfinite(a) and np.isfinite(b) and (a > 0) != (b > 0):
+                x0, x1 = self.values[i], self.values[i + 1]
+                out.append(x0 + (x1 - x0) * a / (a - b))
+        return np.array(out)
 
 
 def read_root_locus(path) -> RootLocus:
@@ -88,6 +103,12 @@ def root_locus_figure(path, **_):
     ax.plot(xr, re, "k.", ms=3, label="real part")
     ax.plot(xi, im, ".", color="tab:blue", ms=3, label="imaginary part")
     ax.axhline(0.0, color="0.6", lw=0.8)
+    for k, x in enumerate(rl.stability_changes()):
+        ax.axvline(x, color="tab:red", ls="--", lw=0.8,
+                   label="stability changes (interpolated)" if k == 0 else None)
+        ax.annotate(f"{x:.4g}", (x, 1.0), xycoords=("data", "axes fraction"), fontsize=8,
+                    color="tab:red", ha="left", va="top", xytext=(2, -2),
+                    textcoords="offset points")
     n_zero = int(np.count_nonzero(rl.poles == 0))
     notes = []
     if n_zero:
