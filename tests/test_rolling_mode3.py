@@ -149,7 +149,7 @@ def test_a_disc_rolling_down_a_slope_linearizes_about_its_accelerating_motion(tm
 
 
 # ---------------------------------------------------------------- inputs and outputs
-def test_steer_torque_to_lean_transfer_function_is_the_benchmark_s(tmp_path):
+def test_steer_torque_to_lean_transfer_function_is_the_benchmark_s(tmp_path, capsys):
     v = 5.0
     d = _run(_deck(tmp_path, "io.dat", "0 0"), tmp_path / "io.h5", v)
     B0, A, B, C = d["B0"][0], d["A"][0], d["B"][0], d["C"][0]
@@ -173,6 +173,12 @@ def test_steer_torque_to_lean_transfer_function_is_the_benchmark_s(tmp_path):
     assert np.count_nonzero(np.abs(pole) < 1e-8) == 4
     big = pole[np.abs(pole) >= 1e-8]
     assert np.abs(np.sort_complex(big) - np.sort_complex(POLES_5)).max() < 1e-10
+    # spacarpy show names the smallest nonzero pole (capsize at 5 m/s) and counts the zeros
+    capsys.readouterr()
+    assert main(["show", str(tmp_path / "io.h5")]) == 0
+    out = capsys.readouterr().out
+    assert "the pole of smallest magnitude is -0.3229 +- 0i 1/s" in out
+    assert "(besides 4 zero poles)" in out
 
 
 # ---------------------------------------------------------------- the root-locus plot

@@ -1,6 +1,7 @@
-"""The linearized equations about a steady motion with slips and kinematic coordinates (SPACAR
-mode 3 with ``TIMESTEP 0 0``: the initial state only; docs/rolling.md, "Linearization about a
-steady motion").
+"""The linearized equations about a motion with slips and kinematic coordinates (SPACAR mode 3:
+with ``TIMESTEP 0 0`` about the initial steady motion, otherwise about each stored state of a
+transient, :meth:`SteadyMotion.at_state`; docs/rolling.md, "Linearization about a steady
+motion", "Along a trajectory").
 
 Notation of docs/rolling.md: ``q`` the dynamic coordinates (DYNE modes), ``r`` the rheonomic
 ones (INPUTE modes, moving at their deck rates), ``p`` the kinematic ones (KINE, KINX), ``C``
@@ -9,7 +10,8 @@ zero. The projected equations
 
     R(q, q', p) = V^T (M a + h - f),     V = dx/dq' (C V = 0, S V = 0, E_r V = 0, E_q V = I),
 
-are evaluated through the whole chain at t = 0 with q'' = 0 and r'' = 0:
+are evaluated through the whole chain at t = 0 with q'' = 0 and r'' = 0 (at a stored state:
+at its time, with r'' the deck's and q'' from the equations of motion there):
 
 - x = F(q, p, r) by Newton on ``[c(x); e_r - r; e_q - q; e_p - p] = 0`` to round-off;
 - v from ``[C; S; E_r; E_q] v = [0; 0; r'; q']``;
@@ -24,7 +26,9 @@ q', so one central difference of unit step has no truncation error), ``K0 = dR/d
 ``K0p = dR/dp``, ``G = E_p V``, ``Gq = d(E_p v)/dq``, ``Gp = d(E_p v)/dp`` by central
 differences with Richardson extrapolation (steps h0, h0/2, h0/4, h0/8: truncation O(h0^8),
 round-off about eps/h0; measured 1e-13 relative to the largest entry on the benchmark
-bicycle, tests/test_bicycle_linear.py).
+bicycle, tests/test_bicycle_linear.py). Differenced entries within their error bound are
+certified zeros (:func:`certified`). The inputs give ``B0 = V^T F`` and the outputs their
+rows over ``[q; q'; p]`` (:meth:`SteadyMotion.matrices`).
 """
 from __future__ import annotations
 
