@@ -219,7 +219,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     ss_setup = None
     if slips_along:             # mode 3 with slips: the kinematic states (docs/rolling.md)
         from spacarpy.run_steady import SlipTrajectory
-        along_slips = SlipTrajectory(model, settings)
+        along_slips = SlipTrajectory(model, settings, problem)
         ss_setup = (along_slips, along_slips.names)
     elif want_ss:
         try:

@@ -74,8 +74,9 @@ class SlipTrajectory:
     SteadyMotion.at_state`: q'' from the equations of motion there), the state
     ``[q; q'; p]`` with the kinematic coordinates, as with ``TIMESTEP 0 0``."""
 
-    def __init__(self, model, settings):
+    def __init__(self, model, settings, problem=None):
         from spacarpy.solvers.dynamics.transient import TransientOptions
+        self.problem = problem          # the transient's: its committed hinge turns
         lin = settings.linearized
         self.sm = SteadyMotion(model, deformations=settings.deformations,
                                rotary_inertia=settings.rotary_inertia,
@@ -84,7 +85,8 @@ class SlipTrajectory:
         self.names = _names(self.sm, settings)
 
     def __call__(self, step) -> _SteadyStateSpace:
-        self.sm.at_state(step.time, step.x, step.v)
+        prev = [g.prev for g in self.problem.num.groups] if self.problem is not None else None
+        self.sm.at_state(step.time, step.x, step.v, prev)
         return _state_space(self.sm.matrices())
 
 

@@ -49,8 +49,13 @@ STEP = 0.05
 LEVELS = 4
 #: Safety factor of the round-off bound of a difference (:meth:`SteadyMotion.matrices`).
 NOISE = 64.0
-#: Newton on the positions stops when the step is below this (relative to the length scale).
-NEWTON_TOL = 1e-15
+#: Newton on the positions stops when the step is below this, relative to the length scale
+#: or to the coordinate where it is larger (4 eps: round-off of the coordinate itself).
+NEWTON_TOL = 4 * np.finfo(float).eps
+#: ... or, below this, when the step no longer shrinks fourfold (Newton converges
+#: quadratically: a step that stalls is the round-off of the targets, such as 30 rad of a
+#: wheel's rotation read to 7e-15).
+STALL = 1e-11
 
 
 def richardson(f, h0: float = STEP, levels: int = LEVELS, error: bool = False):
@@ -235,11 +240,16 @@ class SteadyMotion:
         self.dof_names = [self._name(s) for s in self.dyn]
         self.kinematic_names = [k.name for k in model.kinematic]
 
-    def at_state(self, t: float, x: np.ndarray, v: np.ndarray) -> None:
+    def at_state(self, t: float, x: np.ndarray, v: np.ndarray, prev=None) -> None:
         """Linearize about the state (t, x, v) of a trajectory (a stored transient step)
         from now on: q, p, r and q' read at (x, v), r' and r'' the deck's at time t, and
         q'' from the equations of motion there, ``M0 q'' = -R(q'' = 0)`` (the accelerations
-        of the motion itself, not the integrator's)."""
+        of the motion itself, not the integrator's). ``prev``: the element groups' committed
+        states of the run (``g.prev``: a hinge's turn count, so that an angle past pi, a
+        wheel's rotation, is read on its branch of the trajectory)."""
+        if prev is not None:
+            for g, p in zip(self.num.groups, prev):
+                g.prev = {key: np.array(val, copy=True) for key, val in p.items()}
         self.t = float(t)
         self.load = self.tp.loads(self.t)
         self.x0 = np.array(x, float)
@@ -316,6 +326,7 @@ class SteadyMotion:
         scale = np.where(self.num.is_rotation_coord[f], 1.0, float(self.num.length_scale))
         target = np.concatenate([self.h0, np.zeros(self.num.euler_nodes.size), self.r0,
                                  np.asarray(q, float), np.asarray(p, float)])
+        last = np.inf
         for _ in range(30):
             st = self._states(x)
             eu_rows, eu_vals = self._euler_rows(x)
@@ -332,8 +343,12 @@ class SteadyMotion:
                                  "rheonomic and kinematic coordinates do not parameterize "
                                  "the configuration here (a singular Jacobian)") from None
             x[f] += dx
-            if np.max(np.abs(dx / scale)) < NEWTON_TOL:
+            # to round-off of the coordinates' own size (a contact point metres away), or
+            # stalled at the round-off of the targets (a wheel's angle of many turns)
+            step = float(np.max(np.abs(dx) / np.maximum(scale, np.abs(x[f]))))
+            if step < NEWTON_TOL or (step < STALL and step > 0.25 * last):
                 break
+            last = step
         else:
             raise ModelError("the linearization about a steady motion: the positions of a "
                              "perturbed configuration do not converge")
