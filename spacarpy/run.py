@@ -93,9 +93,10 @@ class RunSummary:
 
 
 #: The analyses that impose held slips (rolling without slip): statics and the
-#: linearizations at rest (modes 10, 4, 7, 8, 9) and the transient (docs/rolling.md).
+#: linearizations at rest (modes 10, 4, 7, 8, 9), the transient and mode 3 (about the initial
+#: steady motion or along a transient: docs/rolling.md).
 SLIP_ANALYSES = ("static", "eigen", "buckling", "state_space", "static_linearized",
-                 "transient")
+                 "transient", "transient_linearized")
 
 
 def refuse_velocity_modes(model: Model, analysis: str) -> None:
@@ -104,8 +105,8 @@ def refuse_velocity_modes(model: Model, analysis: str) -> None:
     result.
 
     Held slips (rolling without slip, the default) are imposed by statics and the
-    linearizations at rest and the transient (:data:`SLIP_ANALYSES`), not yet by the
-    others.
+    linearizations at rest, the transient and mode 3 (:data:`SLIP_ANALYSES`), not yet by
+    the others.
     Released ones (``RLSE e 4 5``, sliding freely) leave a purely holonomic model, but its
     stored slip deformations (the accumulated slip) would not be integrated: refused too."""
     for keyword, es in model.elements.items():
@@ -145,9 +146,10 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     static_lin = analysis == "static_linearized"          # SPACAR mode 10
     inverse = analysis == "inverse_dynamics"                # SPACAR mode 2
     modes_per_step = (settings.linearized.modes_each_step or static_lin) and not inverse
+    slips_along = False
     if analysis == "transient_linearized":                  # mode 3 (docs/rolling.md)
-        from spacarpy.run_steady import refuse_trajectory_slips, run_steady_motion
-        refuse_trajectory_slips(model, settings)
+        from spacarpy.run_steady import has_held_slips, run_steady_motion
+        slips_along = has_held_slips(model)
         if settings.transient.timestep == (0.0, 0):         # about the initial state
             summary = RunSummary()
             run_steady_motion(model, settings, out, summary)
@@ -222,7 +224,11 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     summary = RunSummary()
 
     ss_setup = None
-    if want_ss:
+    if slips_along:             # mode 3 with slips: the kinematic states (docs/rolling.md)
+        from spacarpy.run_steady import SlipTrajectory
+        along_slips = SlipTrajectory(model, settings, problem)
+        ss_setup = (along_slips, along_slips.names)
+    elif want_ss:
         try:
             ss_setup = _state_space_setup(problem, settings)
         except ModelError as exc:
@@ -302,7 +308,9 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
     num = problem.num
     topts = TransientOptions.from_settings(settings)
     along = None
-    if ss_layout is not None:                   # SPACAR 3: linearize every stored time step
+    if callable(ss_layout):                     # SPACAR 3 with slips (run_steady.py)
+        along = ss_layout
+    elif ss_layout is not None:                 # SPACAR 3: linearize every stored time step
         from spacarpy.solvers.dynamics.trajectory import TrajectoryLinearizer
         along = TrajectoryLinearizer(TransientProblem(model, topts, problem), ss_layout,
                                      settings.linearized.inputs, settings.linearized.outputs)
