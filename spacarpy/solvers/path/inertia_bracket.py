@@ -164,7 +164,10 @@ def bracket_verdict(prob, load, before, after):
     got = []
     for q in (before, after):
         if getattr(q, "bracket", None) is None:
-            q.bracket = certified_index(prob, q.x, q.mu, load(q.s))
+            try:
+                q.bracket = certified_index(prob, q.x, q.mu, load(q.s))
+            except Exception:              # noqa: BLE001 -- a zero pivot: not proven
+                q.bracket = (None, None)
         got.append(q.bracket)
     (i0, c0), (i1, c1) = got
     if i0 is None or i1 is None:
