@@ -195,6 +195,7 @@ sys.exit(code)
 '''
 
 
+@pytest.mark.slow
 def test_southwells_converged_by_does_not_depend_on_round_off(tmp_path):
     """The Southwell deck's first 20 stored steps (steps 14 and 16 flipped between 0 and 1
     with a round-off change of the frame's rate) with one and with two BLAS threads: the
