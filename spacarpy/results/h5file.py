@@ -40,6 +40,7 @@ import h5py
 import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.results.header_crc import header_problems
 from spacarpy.results.schema import DATASETS, KIND_NAMES, legacy_name
 
 log = logging.getLogger(__name__)
@@ -477,7 +478,7 @@ def fixed_damaged(ds: h5py.Dataset) -> bool:
 def checksum_problems(f: h5py.File, committed: dict) -> list[str]:
     """Every dataset of an opened file that fails its checksum, one message each;
     ``committed`` gives the number of committed steps of each step group."""
-    problems = []
+    problems = header_problems(f.attrs)
 
     def visit(name, obj):
         if isinstance(obj, h5py.Dataset) and CRC_ATTR in obj.attrs and fixed_damaged(obj):

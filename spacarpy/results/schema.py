@@ -42,7 +42,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 17)
+SCHEMA_VERSION = (2, 18)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
