@@ -60,6 +60,7 @@ from spacarpy.solvers.dynamics.transient_records import (  # noqa: F401  (re-exp
     alpha_parameters,
 )
 from spacarpy.solvers.dynamics.transient_start import (
+    _consistent_acceleration,
     _initial_acceleration,
     _initial_velocities,
     _project_velocities,
@@ -465,6 +466,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             on_step(step)
 
     store(0.0, x, v, a, mu, 0, res, ev, start.blocks, f_in)
+    a_store = a
     h_out = opts.t_end / opts.n_steps
     h_int = h_out / max(int(opts.substeps), 1)
     t = 0.0
@@ -494,8 +496,15 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 h /= 2
                 continue
             x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp, blocks, by = out
-            if tp.slips.n:               # the slips need consistent velocities
+            a_out = a_new
+            if tp.slips.n:
+                # the slips need consistent velocities; the stored accelerations and
+                # multipliers (the contact forces) are made consistent with them
                 v_new = _project_velocities(tp, x_new, v_new, t + h)
+                a_out, mu_new = _consistent_acceleration(tp, x_new, v_new, a_new, mu_new,
+                                                         t + h)
+                c = tp.residual(t + h, x_new, v_new, a_out, mu_new)
+                ev, f_in, f_damp, blocks = c.ev, c.f_in, c.f_damp, c.blocks
             grow = 2.0
             if opts.error is not None:
                 # local error estimate of the position update (Zienkiewicz & Xie's
@@ -514,7 +523,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             if tp.slips.n:
                 tp.slip_accumulated = tp.slip_accumulated + 0.5 * h * (
                     tp.slips.rates(x, v) + tp.slips.rates(x_new, v_new))
-            v, a, a_tilde = v_new, a_new, at_new
+            v, a, a_tilde, a_store = v_new, a_new, at_new, a_out
             tp.nu = tp.step_nu
             q_new = tp.driving_force(ev, f_in, x_new, tp.nu)
             work += 0.5 * float((q_prev + q_new) @ (x_new - x))
@@ -529,7 +538,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
-        store(t_target, x, v, a, mu, its, res, ev, blocks, f_in, by)
+        store(t_target, x, v, a_store, mu, its, res, ev, blocks, f_in, by)
         if progress is not None:
             progress(t_target, opts.t_end)
     result.wall_time = time.perf_counter() - t_wall
