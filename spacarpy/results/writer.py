@@ -313,12 +313,15 @@ class ResultsWriter:
                        elastic_energy: float, external_work: float, iterations: int,
                        residual: float, dissipated_energy: float = 0.0,
                        reaction=None, converged_by: int = 0,
-                       deformation_rate: dict | None = None) -> None:
+                       deformation_rate: dict | None = None,
+                       contact: dict | None = None) -> None:
         """Append one time step (arrays as in :meth:`static_step`, plus the velocities, the
         energies, ``reaction`` (required, inertia included) and ``deformation_rate`` (kind ->
         (n, n_def), zeros where missing)) and make it durable: the arrays first, then
         ``/transient/time`` commits it. ``converged_by``: 0 the residual met the tolerance, 1
-        it lies within its measured round-off floor (``/transient/converged_by``)."""
+        it lies within its measured round-off floor (``/transient/converged_by``).
+        ``contact``: the WHEELs' ``lift_off`` and ``friction_ratio`` per element (0 and NaN
+        where not given)."""
         given = {"position": position, "euler": euler, "velocity": velocity,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
@@ -329,6 +332,11 @@ class ResultsWriter:
             rate = (deformation_rate or {}).get(kind)
             given[f"elements/{kind}/deformation_rate"] = np.zeros((n, n_def(kind))) \
                 if rate is None else rate
+        if "WHEEL" in self.kinds:
+            n = self.kinds["WHEEL"]
+            given["elements/WHEEL/lift_off"] = (contact or {}).get("lift_off", np.zeros(n))
+            given["elements/WHEEL/friction_ratio"] = (contact or {}).get(
+                "friction_ratio", np.full(n, np.nan))
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,

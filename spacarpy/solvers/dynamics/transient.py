@@ -71,6 +71,7 @@ from spacarpy.solvers.dynamics.transient_step import (  # noqa: F401  (re-export
     _padded,
     _step,
 )
+from spacarpy.solvers.statics.contact import ContactMonitor
 from spacarpy.solvers.statics.equilibrium import StaticProblem
 from spacarpy.solvers.statics.errors import StepFailed
 from spacarpy.solvers.statics.kinematic_check import check_initial
@@ -445,6 +446,9 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in, x, tp.nu)
 
+    contact = ContactMonitor(num)
+    lifted = [False]                 # whether the last stored step had a wheel lifting off
+
     def store(t, x, v, a, mu, its, res, ev, blocks, f_in, by="tolerance"):
         deformation, stress = prob.element_results(ev)
         rates = {g.keyword: np.einsum("nkj,nj->nk", st.D, v[g.idx])
@@ -453,6 +457,14 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             deformation = {k: d.copy() for k, d in deformation.items()}
             stress = {k: d.copy() for k, d in stress.items()}
             tp.slip_results(x, v, tp.nu, deformation, stress, rates)
+        warning, flags = None, {}
+        if contact:
+            # the lift-off is warned (log and the file's warnings) where it begins; every
+            # stored step flags it (/transient/elements/WHEEL/lift_off)
+            k = len(result.steps)
+            warning = contact(stress, k, f"time step {k} (t = {t:.6g} s)", quiet=lifted[0])
+            flags = contact.flags(stress)
+            lifted[0], warning = warning is not None, None if lifted[0] else warning
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res, converged_by=by,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
@@ -460,7 +472,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                              dissipated_energy=dissipated,
                              deformation=deformation, stress=stress,
                              reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext),
-                             deformation_rate=rates)
+                             deformation_rate=rates, contact=flags, warning=warning)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -541,6 +553,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
         store(t_target, x, v, a_store, mu, its, res, ev, blocks, f_in, by)
         if progress is not None:
             progress(t_target, opts.t_end)
+    if contact.report() is not None:
+        log.info(contact.report("time step"))
     result.wall_time = time.perf_counter() - t_wall
     result.n_matrices = tp.n_matrices
     return result
