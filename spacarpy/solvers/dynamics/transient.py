@@ -461,9 +461,12 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
         if contact:
             # the lift-off is warned (log and the file's warnings) where it begins; every
             # stored step flags it (/transient/elements/WHEEL/lift_off)
-            k = len(result.steps)
-            warning = contact(stress, k, f"time step {k} (t = {t:.6g} s)", quiet=lifted[0])
-            flags = contact.flags(stress)
+            # (a normal force within 1e-8 of the run's force level of zero is no lift-off:
+            # the multipliers carry round-off of about 1e-11 of it)
+            k, tol = len(result.steps), 1e-8 * tp.level
+            warning = contact(stress, k, f"time step {k} (t = {t:.6g} s)", quiet=lifted[0],
+                              tol=tol)
+            flags = contact.flags(stress, tol)
             lifted[0], warning = warning is not None, None if lifted[0] else warning
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res, converged_by=by,
@@ -480,6 +483,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     store(0.0, x, v, a, mu, 0, res, ev, start.blocks, f_in)
     a_store = a
     h_out = opts.t_end / opts.n_steps
+    driven = bool(tp.presc_idx.size or (num.rigid_prescribed.size
+                                        and num.rigid_prescribed.any()))
     h_int = h_out / max(int(opts.substeps), 1)
     t = 0.0
     for k in range(1, opts.n_steps + 1):
@@ -511,8 +516,11 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             a_out = a_new
             if tp.slips.n:
                 # the slips need consistent velocities; the stored accelerations and
-                # multipliers (the contact forces) are made consistent with them
+                # multipliers (the contact forces) are made consistent with them, and so
+                # are those of every step where prescribed motions do work (which the
+                # multipliers give)
                 v_new = _project_velocities(tp, x_new, v_new, t + h)
+            if tp.slips.n and (driven or t_target - (t + h) <= 1e-9 * h_int):
                 a_out, mu_new = _consistent_acceleration(tp, x_new, v_new, a_new, mu_new,
                                                          t + h)
                 c = tp.residual(t + h, x_new, v_new, a_out, mu_new)

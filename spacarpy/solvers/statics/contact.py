@@ -32,22 +32,24 @@ class ContactMonitor:
         return bool(self.groups)
 
     @staticmethod
-    def flags(stress: dict) -> dict:
+    def flags(stress: dict, tol: float = 0.0) -> dict:
         """``{"lift_off": (n,) int8, "friction_ratio": (n,)}`` of the WHEELs of a step's
-        stress resultants (empty without wheels): 1 where the normal force is negative,
-        and ``|(s4, s5)|/s6`` (inf where the normal force is not positive)."""
+        stress resultants (empty without wheels): 1 where the normal force is below
+        ``-tol`` (N: a bound of its round-off, so that a wheel carrying no load is not
+        flagged by the sign of its round-off), and ``|(s4, s5)|/s6`` (inf where the normal
+        force is not positive)."""
         sig = stress.get("WHEEL")
         if sig is None:
             return {}
         normal, tangential = sig[:, 5], np.hypot(sig[:, 3], sig[:, 4])
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(normal > 0, tangential / normal, np.inf)
-        return {"lift_off": (normal < 0).astype(np.int8), "friction_ratio": ratio}
+        return {"lift_off": (normal < -tol).astype(np.int8), "friction_ratio": ratio}
 
-    def __call__(self, stress: dict, step: int, label: str, quiet: bool = False
-                 ) -> str | None:
-        """The lift-off warning of a step (None without one), logged unless ``quiet``;
-        the step's friction ratios join :attr:`largest`."""
+    def __call__(self, stress: dict, step: int, label: str, quiet: bool = False,
+                 tol: float = 0.0) -> str | None:
+        """The lift-off warning of a step (None without one; ``tol`` as in :meth:`flags`),
+        logged unless ``quiet``; the step's friction ratios join :attr:`largest`."""
         sig = stress.get("WHEEL")
         if sig is None or not self.groups:
             return None
@@ -59,7 +61,7 @@ class ContactMonitor:
             i = int(finite[np.argmax(ratio[finite])])
             if self.largest is None or ratio[i] > self.largest[0]:
                 self.largest = (float(ratio[i]), int(ids[i]), step)
-        lift = np.flatnonzero(normal < 0)
+        lift = np.flatnonzero(normal < -tol)
         if not lift.size:
             return None
         names = ", ".join(f"WHEEL {int(ids[i])} ({normal[i]:.4g} N)" for i in lift)
