@@ -4,16 +4,14 @@ This module's one job is writing: the writer receives arrays (the ``/model`` dat
 :func:`spacarpy.results.model_data.model_datasets`, then every step's results) and stores them
 at the paths, dtypes and shapes of :data:`spacarpy.results.schema.DATASETS`; it computes no
 numbering and no stresses. The file's life cycle (partial file, SWMR, commit by scale,
-fsync) is :mod:`spacarpy.results.h5file`'s.
+fsync) is :mod:`spacarpy.results.h5file`'s, the empty groups and the header it appends to
+:mod:`spacarpy.results.layout`'s.
 
-- Every step is written with its checksum row (``/<group>/checksum``: the CRC-32 of the
-  step's scale value and of its row of every dataset), flushed, then *committed* by appending
-  its scale value (``/static/load_factor``, ``/transient/time``, ``/<group>/step``) and
-  flushing again.
+- Every step is written with its checksum row (``/<group>/checksum``: the CRC-32 of the step's
+  scale value and of its row of every dataset), flushed, then *committed* by appending its
+  scale value (``/static/load_factor``, ``/transient/time``, ``/<group>/step``), flushed.
 - A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
   cleanly with ``completed = False`` and the error message; the partial file is kept.
-
-The empty groups and the header it appends to are :mod:`spacarpy.results.layout`'s.
 """
 from __future__ import annotations
 
@@ -311,17 +309,13 @@ class ResultsWriter:
     def transient_step(self, time: float, position, euler, velocity, euler_rate,
                        deformation: dict, stress_resultant: dict, kinetic_energy: float,
                        elastic_energy: float, external_work: float, iterations: int,
-                       residual: float, dissipated_energy: float = 0.0,
-                       reaction=None, converged_by: int = 0,
-                       deformation_rate: dict | None = None,
-                       contact: dict | None = None) -> None:
+                       residual: float, dissipated_energy: float = 0.0, reaction=None,
+                       converged_by: int = 0, deformation_rate=None, contact=None) -> None:
         """Append one time step (arrays as in :meth:`static_step`, plus the velocities, the
         energies, ``reaction`` (required, inertia included) and ``deformation_rate`` (kind ->
         (n, n_def), zeros where missing)) and make it durable: the arrays first, then
         ``/transient/time`` commits it. ``converged_by``: 0 the residual met the tolerance, 1
-        it lies within its measured round-off floor (``/transient/converged_by``).
-        ``contact``: the WHEELs' ``lift_off`` and ``friction_ratio`` per element (0 and NaN
-        where not given)."""
+        it lies within its measured round-off floor; ``contact``: the WHEEL flags (or 0, NaN)."""
         given = {"position": position, "euler": euler, "velocity": velocity,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
@@ -332,11 +326,9 @@ class ResultsWriter:
             rate = (deformation_rate or {}).get(kind)
             given[f"elements/{kind}/deformation_rate"] = np.zeros((n, n_def(kind))) \
                 if rate is None else rate
-        if "WHEEL" in self.kinds:
-            n = self.kinds["WHEEL"]
-            given["elements/WHEEL/lift_off"] = (contact or {}).get("lift_off", np.zeros(n))
-            given["elements/WHEEL/friction_ratio"] = (contact or {}).get(
-                "friction_ratio", np.full(n, np.nan))
+        n_w = self.kinds.get("WHEEL")
+        for name, fill in (("lift_off", 0), ("friction_ratio", np.nan)) if n_w is not None else ():
+            given[f"elements/WHEEL/{name}"] = (contact or {}).get(name, np.full(n_w, fill))
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
