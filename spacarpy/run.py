@@ -329,7 +329,9 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
             residual=step.residual, dissipated_energy=step.dissipated_energy,
             reaction=step.reaction,
             converged_by=int(step.converged_by == "floor"),
-            deformation_rate=step.deformation_rate)
+            deformation_rate=step.deformation_rate, contact=step.contact)
+        if step.warning is not None:
+            writer.add_warning(step.warning)
         k = summary.n_time
         if along is not None:
             writer.state_space_step(k, along(step), time=step.time)

@@ -9,6 +9,9 @@ from spacarpy.deck import job_from_text
 from spacarpy.elements.registry import KINDS
 from spacarpy.elements.wheel import (
     Wheel,
+    jet_slip,
+    jet_slip_dx,
+    jet_slip_force_dx,
     wheel_reference,
     wheel_reference_problems,
     wheel_slip,
@@ -125,6 +128,34 @@ def test_slip_kernels_equal_central_differences():
     assert np.array_equal(KIND.slip(x, ref), S)
     assert np.array_equal(KIND.slip_dx(x, v, ref), sdx)
     assert np.array_equal(KIND.slip_force_dx(x, nu, ref), sfx)
+
+
+def test_closed_form_slip_kernels_equal_the_jet_oracle_to_round_off():
+    """The slip kernels are written out in closed form (speed: a bicycle step calls them a
+    dozen times); the jet (automatic differentiation, elements/jet.py) gives the same S,
+    d(S v)/dx and d(S^T nu)/dx to round-off, at random states with |lambda| != 1, z up
+    and z down. A wrong sign or a missing term of the derivation is of order one."""
+    rng = np.random.default_rng(29)
+    parts = [references(40, down) for down in (False, True)]
+    xp0, xq0, a0 = (np.concatenate([p[k] for p in parts]) for k in range(3))
+    ref = wheel_reference(xp0, xq0, 3.0 * a0)
+    q = from_axis_angle(rng.normal(size=(80, 3)), rng.uniform(-1, 1, 80))
+    q *= rng.uniform(0.7, 1.3, size=(80, 1))                 # |lambda| != 1
+    x = np.concatenate([xp0 + 0.3 * rng.normal(size=(80, 3)), q,
+                        xq0 + 0.3 * rng.normal(size=(80, 3))], axis=1)
+    v = rng.normal(size=x.shape)
+    nu = rng.normal(size=(80, 2))
+    assert (ref.n[:, 2] > 0).sum() == (ref.n[:, 2] < 0).sum() == 40
+    for fast, oracle, args in ((wheel_slip, jet_slip, (x, ref)),
+                               (wheel_slip_dx, jet_slip_dx, (x, v, ref)),
+                               (wheel_slip_force_dx, jet_slip_force_dx, (x, nu, ref))):
+        want = oracle(*args)
+        got = fast(*args)
+        assert got.shape == want.shape
+        assert np.abs(got - want).max() <= 1e-14 * np.abs(want).max()
+    np.testing.assert_allclose(wheel_slips(x, v, ref),
+                               np.einsum("nkj,nj->nk", jet_slip(x, ref), v),
+                               rtol=0, atol=1e-14 * np.abs(v).max() * 10)
 
 
 def test_rigid_motion_about_the_vertical_leaves_the_holonomic_modes_unchanged():

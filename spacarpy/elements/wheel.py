@@ -62,6 +62,7 @@ import numpy as np
 
 from spacarpy.elements.base import POS_P, POS_Q, ROT_AT_P, ElementKind, Reference
 from spacarpy.elements.jet import Jet, cross, dot, norm, rotate, unit
+from spacarpy.rotation import lambda_matrix, skew, vector_jacobians
 from spacarpy.rotation import rotate as rotate_plain
 
 N_LDOF = 10
@@ -208,20 +209,33 @@ class WheelState(NamedTuple):
 
 def wheel_state(x: np.ndarray, ref: WheelReference) -> WheelState:
     """Deformations e (n, 6), their exact Jacobian D (n, 6, 10) (zero rows for the slips 4
-    and 5, which are no functions of x) and the Hessians of the holonomic modes."""
+    and 5, which are no functions of x) and the Hessians of the holonomic modes.
+
+    Modes 1-3 are ``w . d`` with ``w`` = a, e_l, u functions of lambda alone and d linear
+    in x_p, x_q: the jet runs in the 4 Euler parameters only (a tenth of the work of one
+    in all 10 coordinates), and the d parts are assembled from it."""
     n = x.shape[0]
-    f = _frame(x, ref, N_LDOF, True)
-    e1, e2, e3 = dot(f.a, f.d), dot(f.el, f.d), dot(f.u, f.d)
+    lam = Jet.variables(x[:, 3:7], 0, 4, 4, True)
+    a = rotate(lam, ref.a0)
+    el = unit(cross(a, Jet.constant(ref.n, 4, True)))
+    u = cross(a, el) * norm(a).reciprocal()
+    d = x[:, 7:10] - x[:, 0:3]
     e = np.zeros((n, N_DEF))
     D = np.zeros((n, N_DEF, N_LDOF))
     H = np.zeros((n, 4, N_LDOF, N_LDOF))
-    for k, (mode, jet) in enumerate(zip(HOLONOMIC[:3], (e1, e2, e3))):
-        e[:, mode] = jet.val[:, 0] - ref.e0[:, k]
-        D[:, mode] = jet.g[:, 0]
-        H[:, k] = jet.h[:, 0]
+    for k, (mode, w) in enumerate(zip(HOLONOMIC[:3], (a, el, u))):
+        e[:, mode] = (w.val * d).sum(axis=1) - ref.e0[:, k]
+        D[:, mode, 0:3] = -w.val
+        D[:, mode, 7:10] = w.val
+        D[:, mode, 3:7] = np.einsum("ni,nij->nj", d, w.g)
+        H[:, k, 3:7, 3:7] = np.einsum("ni,nijk->njk", d, w.h)
+        H[:, k, 7:10, 3:7] = w.g
+        H[:, k, 0:3, 3:7] = -w.g
+        H[:, k, 3:7, 7:10] = w.g.transpose(0, 2, 1)
+        H[:, k, 3:7, 0:3] = -w.g.transpose(0, 2, 1)
     e[:, 5] = ((x[:, 7:10] - ref.xq0) * ref.n).sum(axis=1)           # e6, linear
     D[:, 5, 7:10] = ref.n
-    return WheelState(e=e, D=D, H=H, a=f.a.val, n=ref.n)
+    return WheelState(e=e, D=D, H=H, a=a.val, n=ref.n)
 
 
 def wheel_weighted_hessian(st: WheelState, w: np.ndarray) -> np.ndarray:
@@ -247,34 +261,123 @@ def _slip_jet(x: np.ndarray, v: np.ndarray, ref: WheelReference, second: bool) -
                None if not second else np.concatenate([s4.h, s5.h], axis=1))
 
 
-def wheel_slip(x: np.ndarray, ref: WheelReference) -> np.ndarray:
-    """S (n, 2, 10) with ``(s4, s5) = S(x) v``."""
+def jet_slip(x: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """S (n, 2, 10) through the jet (the test oracle of :func:`wheel_slip`)."""
     return _slip_jet(x, np.zeros_like(x), ref, False).g[:, :, N_LDOF:]
 
 
-def wheel_slip_dx(x: np.ndarray, v: np.ndarray, ref: WheelReference) -> np.ndarray:
-    """``d(S(x) v)/dx`` (n, 2, 10) at fixed v."""
+def jet_slip_dx(x: np.ndarray, v: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """``d(S(x) v)/dx`` through the jet (the test oracle of :func:`wheel_slip_dx`)."""
     return _slip_jet(x, v, ref, False).g[:, :, :N_LDOF]
 
 
-def wheel_slip_force_dx(x: np.ndarray, nu: np.ndarray, ref: WheelReference) -> np.ndarray:
-    """``d(S(x)^T nu)/dx`` (n, 10, 10) for the multipliers nu (n, 2): rows the 10 generalized
-    forces, columns the 10 coordinates."""
+def jet_slip_force_dx(x: np.ndarray, nu: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """``d(S(x)^T nu)/dx`` through the jet (the test oracle of
+    :func:`wheel_slip_force_dx`)."""
     h = _slip_jet(x, np.zeros_like(x), ref, True).h                 # (n, 2, 20, 20)
     return np.einsum("nk,nkji->nji", nu, h[:, :, N_LDOF:, :N_LDOF])
 
 
+# The closed forms (derived in docs/rolling.md, "Slip kernels in closed form"): with
+# A = da/dlambda (3, 4), b = a x n, P = (I - e_l e_l^T)/|b|,
+#   de_l/dlambda = -P [n~] A,  de_t/dlambda = [n~] de_l/dlambda,
+#   omega = 2 Lambda(lambda) dlambda,  d(omega)/dlambda = 2 [r, -r0 I - [r~]] (r = dlambda),
+#   s_k = e_k . v_P = e_k . dx_p + (d x e_k) . omega.
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` over the last axis (broadcast), without np.cross's overhead on the small
+    arrays of a few wheels."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+class _SlipFrame(NamedTuple):
+    E: np.ndarray          # (n, 2, 3) the rows e_l, e_t
+    dE: np.ndarray         # (n, 2, 3, 4) their derivatives by lambda
+    L: np.ndarray          # (n, 3, 4) Lambda(lambda)
+    d: np.ndarray          # (n, 3) x_q - x_p
+
+
+def _slip_frame(x: np.ndarray, ref: WheelReference, derivatives: bool) -> _SlipFrame:
+    lam = x[:, 3:7]
+    a = rotate_plain(lam, ref.a0)
+    nvec = ref.n
+    b = _cross(a, nvec)
+    nb = np.linalg.norm(b, axis=1)
+    el = b / nb[:, None]
+    et = _cross(nvec, el)
+    E = np.stack([el, et], axis=1)
+    dE = None
+    if derivatives:
+        A = vector_jacobians(lam, ref.a0[:, None, :])[:, 0]           # (n, 3, 4)
+        db = -skew(nvec) @ A                                          # d(a x n)/dlambda
+        P = (np.eye(3) - el[:, :, None] * el[:, None, :]) / nb[:, None, None]
+        del_ = P @ db
+        dE = np.stack([del_, skew(nvec) @ del_], axis=1)
+    return _SlipFrame(E, dE, lambda_matrix(lam), x[:, 7:10] - x[:, 0:3])
+
+
+def wheel_slip(x: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """S (n, 2, 10) with ``(s4, s5) = S(x) v``: ``[e_k, 2 Lambda^T (d x e_k), 0]``."""
+    f = _slip_frame(x, ref, False)
+    out = np.zeros((x.shape[0], 2, N_LDOF))
+    out[:, :, 0:3] = f.E
+    out[:, :, 3:7] = 2.0 * np.einsum("nkj,nji->nki", _cross(f.d[:, None, :], f.E), f.L)
+    return out
+
+
+def _omega(x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The angular velocity ``2 Lambda(lambda) dlambda/dt`` (n, 3)."""
+    q, r = x[:, 3:7], v[:, 3:7]
+    return 2.0 * (q[:, :1] * r[:, 1:] - q[:, 1:] * r[:, :1] + _cross(q[:, 1:], r[:, 1:]))
+
+
 def wheel_slips(x: np.ndarray, v: np.ndarray, ref: WheelReference) -> np.ndarray:
-    """The slip velocities ``(s4, s5)`` (n, 2), m/s, computed directly (no derivatives)."""
-    q, rate = x[:, 3:7], v[:, 3:7]
-    a = rotate_plain(q, ref.a0)
-    b = np.cross(a, ref.n)
-    el = b / np.linalg.norm(b, axis=1, keepdims=True)
-    et = np.cross(ref.n, el)
-    omega = 2.0 * (q[:, :1] * rate[:, 1:] - q[:, 1:] * rate[:, :1] + np.cross(q[:, 1:],
-                                                                                rate[:, 1:]))
-    vp = v[:, 0:3] + np.cross(omega, x[:, 7:10] - x[:, 0:3])
-    return np.stack([(el * vp).sum(1), (et * vp).sum(1)], axis=1)
+    """The slip velocities ``(s4, s5) = S(x) v`` (n, 2), m/s, computed directly."""
+    f = _slip_frame(x, ref, False)
+    vp = v[:, 0:3] + _cross(_omega(x, v), f.d)
+    return np.einsum("nkj,nj->nk", f.E, vp)
+
+
+def wheel_slip_dx(x: np.ndarray, v: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """``d(S(x) v)/dx`` (n, 2, 10) at fixed v."""
+    f = _slip_frame(x, ref, True)
+    omega = _omega(x, v)
+    vp = v[:, 0:3] + _cross(omega, f.d)
+    r = v[:, 3:7]
+    dw = np.zeros((x.shape[0], 3, 4))                                 # d(omega)/dlambda
+    dw[:, :, 0] = 2.0 * r[:, 1:]
+    dw[:, :, 1:] = -2.0 * (r[:, :1, None] * np.eye(3) + skew(r[:, 1:]))
+    out = np.zeros((x.shape[0], 2, N_LDOF))
+    eo = _cross(f.E, omega[:, None, :])                             # e_k x omega
+    out[:, :, 0:3] = -eo
+    out[:, :, 7:10] = eo
+    out[:, :, 3:7] = (np.einsum("nkji,nj->nki", f.dE, vp)
+                      + np.einsum("nkj,nji->nki", _cross(f.d[:, None, :], f.E), dw))
+    return out
+
+
+def wheel_slip_force_dx(x: np.ndarray, nu: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """``d(S(x)^T nu)/dx`` (n, 10, 10) for the multipliers nu (n, 2): rows the 10 generalized
+    forces, columns the 10 coordinates. With ``f = nu4 e_l + nu5 e_t`` and ``c = d x f``,
+    ``S^T nu = [f, 2 Lambda^T c, 0]``."""
+    fr = _slip_frame(x, ref, True)
+    n = x.shape[0]
+    f = np.einsum("nk,nkj->nj", nu, fr.E)
+    df = np.einsum("nk,nkji->nji", nu, fr.dE)                         # (n, 3, 4)
+    c = _cross(fr.d, f)
+    LT = fr.L.transpose(0, 2, 1)                                      # (n, 4, 3)
+    out = np.zeros((n, N_LDOF, N_LDOF))
+    out[:, 0:3, 3:7] = df
+    ltf = 2.0 * LT @ skew(f)                                          # d(2 L^T c)/d(x_p)
+    out[:, 3:7, 0:3] = ltf
+    out[:, 3:7, 7:10] = -ltf
+    dlc = np.zeros((n, 4, 4))                                         # d(Lambda^T c)/dlambda
+    dlc[:, 0, 1:] = -c
+    dlc[:, 1:, 0] = c
+    dlc[:, 1:, 1:] = skew(c)
+    out[:, 3:7, 3:7] = 2.0 * (dlc + LT @ skew(fr.d) @ df)
+    return out
 
 
 def wheel_check(st: WheelState, ref: WheelReference):

@@ -42,7 +42,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 18)
+SCHEMA_VERSION = (2, 19)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -362,6 +362,18 @@ def _spec_list() -> list[DatasetSpec]:
                                      for u in facts.mode_units]),
                              f"{kind} deformation rates D v (a WHEEL's slip modes: the slip "
                              "velocities)", max(since, (2, 14)), kind))
+    # the rolling contact's watch in the transient (schema 2.15)
+    if "WHEEL" in KIND_NAMES:
+        g = "transient/elements/WHEEL"
+        out += [S(f"{g}/lift_off", "i1", ("time_step", "element"), "1",
+                  "1 where the normal force (stress resultant of mode 6) is negative: the "
+                  "wheel would lift off, which the bilateral contact cannot represent; else 0",
+                  (2, 19), "WHEEL", optional=True),
+                S(f"{g}/friction_ratio", "f8", ("time_step", "element"), "1",
+                  "friction coefficient the rolling needs, the norm of (s4, s5) over s6 of the "
+                  "stress resultants (inf where the normal force is not positive)", (2, 19),
+                  "WHEEL",
+                  optional=True)]
     # BEAM element properties and cross-sections (schema 1.1)
     b = "model/elements/BEAM"
     out += [

@@ -3,16 +3,14 @@
 This module's one job is writing: the writer receives arrays (the ``/model`` datasets from
 :func:`spacarpy.results.model_data.model_datasets`, then every step's results) and stores them
 at the paths, dtypes and shapes of :data:`spacarpy.results.schema.DATASETS`; it computes no
-numbering and no stresses. The file's life cycle (partial file, SWMR, commit by scale,
-fsync) is :mod:`spacarpy.results.h5file`'s.
+numbering and no stresses. The file's life cycle (partial file, SWMR, commit by scale, fsync)
+is :mod:`spacarpy.results.h5file`'s, the empty groups and the header :mod:`~.layout`'s.
 
-- Every step is written with its checksum row (``/<group>/checksum``: the CRC-32 of the
-  step's scale value and of its row of every dataset), flushed, then *committed* by appending
-  its scale value (``/static/load_factor``, ``/transient/time``, ``/<group>/step``) and
-  flushing again.
+- Every step is written with its checksum row (``/<group>/checksum``: the CRC-32 of the step's
+  scale value and of its row of every dataset), flushed, then *committed* by appending its
+  scale value (``/static/load_factor``, ``/transient/time``, ``/<group>/step``), flushed.
 - A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
   cleanly with ``completed = False`` and the error message; the partial file is kept.
-  The empty groups and the header it appends to are :mod:`spacarpy.results.layout`'s.
 """
 from __future__ import annotations
 
@@ -312,14 +310,13 @@ class ResultsWriter:
     def transient_step(self, time: float, position, euler, velocity, euler_rate,
                        deformation: dict, stress_resultant: dict, kinetic_energy: float,
                        elastic_energy: float, external_work: float, iterations: int,
-                       residual: float, dissipated_energy: float = 0.0,
-                       reaction=None, converged_by: int = 0, deformation_rate: dict | None = None,
-                       acceleration=None, euler_acceleration=None, warping=None) -> None:
-        """Append one time step (as :meth:`static_step`, plus the velocities, the energies,
-        ``reaction`` (required, inertia included), ``deformation_rate`` (kind -> (n, n_def),
-        zeros where missing), the accelerations where the group has them) and make it durable:
-        the arrays first, then ``/transient/time`` commits it. ``converged_by``: 0 the residual
-        met the tolerance, 1 within its round-off floor (/transient/converged_by)."""
+                       residual: float, dissipated_energy: float = 0.0, reaction=None,
+                       converged_by: int = 0, deformation_rate=None, acceleration=None,
+                       euler_acceleration=None, warping=None, contact=None) -> None:
+        """Append one time step (as :meth:`static_step`, plus velocities, energies, ``reaction``
+        (required), ``deformation_rate`` (kind -> (n, n_def); zeros where missing), and where the
+        group has them the accelerations and ``contact`` (the WHEEL flags)) and make it durable.
+        ``converged_by``: 0 the residual met the tolerance, 1 within its round-off floor."""
         given = {"position": position, "euler": euler, "velocity": velocity, "warping": warping,
                  "acceleration": acceleration, "euler_acceleration": euler_acceleration,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
@@ -330,6 +327,9 @@ class ResultsWriter:
         rates = deformation_rate or {}
         given.update({f"elements/{k}/deformation_rate": rates.get(k, np.zeros((n, n_def(k))))
                       for k, n in self.kinds.items()})
+        n_w = self.kinds.get("WHEEL")
+        for name, fill in (("lift_off", 0), ("friction_ratio", np.nan)) if n_w is not None else ():
+            given[f"elements/WHEEL/{name}"] = (contact or {}).get(name, np.full(n_w, fill))
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,

@@ -60,6 +60,7 @@ from spacarpy.solvers.dynamics.transient_records import (  # noqa: F401  (re-exp
     alpha_parameters,
 )
 from spacarpy.solvers.dynamics.transient_start import (
+    _consistent_acceleration,
     _initial_acceleration,
     _initial_velocities,
     _project_velocities,
@@ -70,6 +71,7 @@ from spacarpy.solvers.dynamics.transient_step import (  # noqa: F401  (re-export
     _padded,
     _step,
 )
+from spacarpy.solvers.statics.contact import ContactMonitor
 from spacarpy.solvers.statics.equilibrium import StaticProblem
 from spacarpy.solvers.statics.errors import StepFailed
 from spacarpy.solvers.statics.kinematic_check import check_initial
@@ -444,6 +446,9 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     p_damp = tp.damping_power(x, v, start.f_damp)
     q_prev = tp.driving_force(ev, f_in, x, tp.nu)
 
+    contact = ContactMonitor(num)
+    lifted = [False]                 # whether the last stored step had a wheel lifting off
+
     def store(t, x, v, a, mu, its, res, ev, blocks, f_in, by="tolerance"):
         deformation, stress = prob.element_results(ev)
         rates = {g.keyword: np.einsum("nkj,nj->nk", st.D, v[g.idx])
@@ -452,6 +457,17 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             deformation = {k: d.copy() for k, d in deformation.items()}
             stress = {k: d.copy() for k, d in stress.items()}
             tp.slip_results(x, v, tp.nu, deformation, stress, rates)
+        warning, flags = None, {}
+        if contact:
+            # the lift-off is warned (log and the file's warnings) where it begins; every
+            # stored step flags it (/transient/elements/WHEEL/lift_off)
+            # (a normal force within 1e-8 of the run's force level of zero is no lift-off:
+            # the multipliers carry round-off of about 1e-11 of it)
+            k, tol = len(result.steps), 1e-8 * tp.level
+            warning = contact(stress, k, f"time step {k} (t = {t:.6g} s)", quiet=lifted[0],
+                              tol=tol)
+            flags = contact.flags(stress, tol)
+            lifted[0], warning = warning is not None, None if lifted[0] else warning
         step = TransientStep(time=t, x=x.copy(), v=v.copy(), a=a.copy(), mu=mu.copy(),
                              iterations=its, residual=res, converged_by=by,
                              kinetic_energy=tp.inertia.kinetic_energy(x, v, blocks),
@@ -459,13 +475,16 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                              dissipated_energy=dissipated,
                              deformation=deformation, stress=stress,
                              reaction=prob.reactions(x, ev.f_int + f_in, ev.f_ext),
-                             deformation_rate=rates)
+                             deformation_rate=rates, contact=flags, warning=warning)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
 
     store(0.0, x, v, a, mu, 0, res, ev, start.blocks, f_in)
+    a_store = a
     h_out = opts.t_end / opts.n_steps
+    driven = bool(tp.presc_idx.size or (num.rigid_prescribed.size
+                                        and num.rigid_prescribed.any()))
     h_int = h_out / max(int(opts.substeps), 1)
     t = 0.0
     for k in range(1, opts.n_steps + 1):
@@ -494,8 +513,18 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 h /= 2
                 continue
             x_new, v_new, a_new, at_new, mu_new, its, res, ev, f_in, f_damp, blocks, by = out
-            if tp.slips.n:               # the slips need consistent velocities
+            a_out = a_new
+            if tp.slips.n:
+                # the slips need consistent velocities; the stored accelerations and
+                # multipliers (the contact forces) are made consistent with them, and so
+                # are those of every step where prescribed motions do work (which the
+                # multipliers give)
                 v_new = _project_velocities(tp, x_new, v_new, t + h)
+            if tp.slips.n and (driven or t_target - (t + h) <= 1e-9 * h_int):
+                a_out, mu_new = _consistent_acceleration(tp, x_new, v_new, a_new, mu_new,
+                                                         t + h)
+                c = tp.residual(t + h, x_new, v_new, a_out, mu_new)
+                ev, f_in, f_damp, blocks = c.ev, c.f_in, c.f_damp, c.blocks
             grow = 2.0
             if opts.error is not None:
                 # local error estimate of the position update (Zienkiewicz & Xie's
@@ -514,7 +543,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             if tp.slips.n:
                 tp.slip_accumulated = tp.slip_accumulated + 0.5 * h * (
                     tp.slips.rates(x, v) + tp.slips.rates(x_new, v_new))
-            v, a, a_tilde = v_new, a_new, at_new
+            v, a, a_tilde, a_store = v_new, a_new, at_new, a_out
             tp.nu = tp.step_nu
             q_new = tp.driving_force(ev, f_in, x_new, tp.nu)
             work += 0.5 * float((q_prev + q_new) @ (x_new - x))
@@ -529,9 +558,11 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
             result.n_steps_taken += 1
             h = min(grow * h, h_out if opts.error is not None else h_int)
         t = t_target
-        store(t_target, x, v, a, mu, its, res, ev, blocks, f_in, by)
+        store(t_target, x, v, a_store, mu, its, res, ev, blocks, f_in, by)
         if progress is not None:
             progress(t_target, opts.t_end)
+    if contact.report() is not None:
+        log.info(contact.report("time step"))
     result.wall_time = time.perf_counter() - t_wall
     result.n_matrices = tp.n_matrices
     return result

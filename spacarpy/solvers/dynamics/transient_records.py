@@ -93,6 +93,10 @@ class TransientStep:
     #: element keyword -> (n_elem, n_def) deformation rates D v (a WHEEL's slip modes:
     #: the slip velocities)
     deformation_rate: dict = field(default_factory=dict)
+    # the WHEELs' lift_off and friction_ratio per element (solvers/statics/contact.py), and
+    # the lift-off warning of the step (None: none, or the lift-off goes on from the last)
+    contact: dict = field(default_factory=dict)
+    warning: str | None = None
 
     @property
     def energy_balance(self) -> float:

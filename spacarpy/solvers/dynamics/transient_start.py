@@ -104,7 +104,7 @@ def _flexible_rows(tp, states, given: dict, v=None):
     return E, np.concatenate(targets)
 
 
-def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0):
+def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0, quiet: bool = False):
     """Consistent accelerations and multipliers at time t (default 0) from
     ``[M C^T; C 0] [a; mu] = [f - f_el - h - M_fp a_p; -(C_p a_p + (dC/dt) v - c_tt)]``,
     with the held slips' rows ``S a = -(d(S v)/dx) v - S_p a_p`` and columns ``S^T`` in C
@@ -138,7 +138,8 @@ def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0):
     except RuntimeError:
         sol = None
     if sol is None or not np.all(np.isfinite(sol)):
-        log.info("massless coordinates: the initial accelerations start at zero")
+        if not quiet:
+            log.info("massless coordinates: the initial accelerations start at zero")
         return a, mu
     a[free] = sol[:n_x]
     n_mu = mu.size
@@ -193,3 +194,30 @@ def _project_velocities(tp, x, v, t: float):
     out[free] = sol[:prob.pattern.n_x]
     return out
 
+
+
+def _consistent_acceleration(tp, x, v, a, mu, t: float):
+    """The accelerations and multipliers consistent with a converged step's projected
+    velocities (:func:`_project_velocities`) in a model with held slips: the equations of
+    motion with the acceleration-level constraints ``C a = -(dC/dt) v + c_tt`` and ``S a =
+    -(d(S v)/dx) v``, as at the start (:func:`_initial_acceleration`). Returns ``(a, mu)``
+    and leaves the slips' multipliers in ``tp.step_nu``; the step's own ``(a, mu)`` where
+    the system is singular (massless coordinates).
+
+    They are what the step stores and what the work of the prescribed motions and the next
+    step's start use; the generalized-alpha recurrence keeps its own accelerations. The
+    index-3 scheme's multipliers satisfy no acceleration-level constraint, and once the
+    velocities are projected its accelerations do not either: at RHOINF 1 nothing damps the
+    difference, and a prescribed spin's friction alternated between 0 and 0.31 N from step
+    to step, and the prescribed hinge's work with it (an energy balance off by 8 % in one
+    turn). Putting these accelerations into the recurrence instead made the steady turn
+    (check C3) wobble: the Newmark accelerations carry the position constraints'
+    corrections (docs/rolling.md, "Transient")."""
+    nu_kept = tp.nu
+    _, _, _, ap = tp.prescribed(t)
+    a_new, mu_new = _initial_acceleration(tp, x, v, mu, ap, t, quiet=True)
+    if mu_new is not mu:                                  # (else: singular, kept)
+        tp.step_nu = tp.nu
+        a, mu = a_new, mu_new
+    tp.nu = nu_kept
+    return a, mu
