@@ -105,3 +105,22 @@ def test_mode_1_keeps_its_energy_and_follows_the_state_space(tmp_path):
         y = m["C"] @ sla.expm(m["A"] * t[k]) @ x0                # frame lean, steer, ...
         assert abs(lean[k] - y[0]) < 2e-4 * abs(y[0]), (t[k], lean[k], y[0])
         assert abs(steer[k] - y[1]) < 2e-2 * abs(y[1]), (t[k], steer[k], y[1])
+
+
+def test_mode_1_driven_rear_wheel_does_the_work_it_should(tmp_path):
+    """The rear wheel driven at 5 m/s (INPUTE 4 1 0 5/RR 0): the work of the prescribed
+    rotation equals the change of T + U + D to 2e-6 of T. (Before the multipliers of a
+    driven step were made consistent with the projected velocities, that work grew with the
+    time step: 71 J of 1220 J at h = 5 ms.)"""
+    text = DECK.read_text().replace("INPUTE 4 1 0 0 0 ", "INPUTE 4 1 0 {5/RR} 0 ")
+    assert "{5/RR}" in text
+    deck = tmp_path / "driven.dat"
+    deck.write_text(text)
+    with h5py.File(_run(deck, tmp_path / "d.h5", "--mode", "1")) as f:
+        g = f["transient"]
+        work = g["external_work"][()]
+        energy = sum(g[k][()] for k in ("kinetic_energy", "elastic_energy",
+                                        "dissipated_energy")) - work
+        kinetic = g["kinetic_energy"][()]
+    assert kinetic[0] > 1000.0                      # 94 kg at 5 m/s and the wheels' spin
+    assert np.abs(energy - energy[0]).max() < 2e-6 * kinetic.max()
