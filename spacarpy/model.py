@@ -26,7 +26,7 @@ from spacarpy.errors import SourceLoc
 
 __all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "ElementSet", "Fix", "Kinematic",
            "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
-           "PrescribedRotation"]
+           "PrescribedRotation", "UserRoutine"]
 
 # The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED, KINEMATIC) are declared with
 # the element kinds and re-exported here.
@@ -221,6 +221,17 @@ class NodalMass:
     loc: SourceLoc | None = None
 
 
+@dataclass(frozen=True)
+class UserRoutine:
+    """A ``USERSIG name`` (nodal loads) or ``USERINP name`` (prescribed motion) line: a user
+    routine the run calls (docs/user-routines.md). The model only names it; the code is
+    found and loaded at the edge (``spacarpy run --allow-user-code``)."""
+
+    keyword: str
+    name: str
+    loc: SourceLoc | None = None
+
+
 @dataclass
 class Model:
     """A complete, validated spacarpy model.
@@ -265,6 +276,8 @@ class Model:
     kinematic : list of Kinematic
         The kinematic coordinates (KINX) and deformations (KINE), in deck order; a KINE
         entry marks its mode KINEMATIC in the element set's ``def_class``.
+    user_routines : list of UserRoutine
+        The USERSIG and USERINP lines (at most one of each).
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
     """
@@ -287,6 +300,7 @@ class Model:
     element_prestress: dict = field(default_factory=dict)  # element -> ESIG values per mode
     initial_rates: dict = field(default_factory=dict)      # (element, mode) -> STARTDE rate
     kinematic: list = field(default_factory=list)          # KINX / KINE lines (Kinematic)
+    user_routines: list = field(default_factory=list)      # USERSIG / USERINP (UserRoutine)
     source_path: str = "<model>"
     source_text: str = ""
 

@@ -260,7 +260,8 @@ def build_arrays(parsed, path: str, text: str, deformations, analysis) -> Job | 
 def _build(parsed, path, text, deformations, analysis) -> Job | None:
     general = parsed.general()
     keywords = {st.keyword for _, st in general} | {t.keyword for t in parsed.tables}
-    if keywords & (set(GENERATORS) | set(UNSUPPORTED) | set(PLANAR_KINDS) | {"KINE", "KINX"}):
+    if keywords & (set(GENERATORS) | set(UNSUPPORTED) | set(PLANAR_KINDS)
+                    | {"KINE", "KINX", "USERSIG", "USERINP"}):
         raise _GiveUp
     statements = [st for _, st in general]
     errors = ErrorCollector(statements)

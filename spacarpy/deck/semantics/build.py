@@ -155,6 +155,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         element_prestress=element_data.prestress,
         initial_rates=element_data.initial_rates,
         kinematic=kinematic,
+        user_routines=loads.user_routines,
         source_path=path,
         source_text=text,
     )
