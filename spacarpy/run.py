@@ -166,7 +166,10 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "check":
         from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
-    user_motion = None
+    if problem.loads.any:
+        from spacarpy.solvers.statics.conditioning import check_residual_floor
+        check_residual_floor(problem, ignore=opts.ignore_conditioning)
+    user_motion = None       # (the floor above is the deck's loads')
     if model.user_routines:
         from spacarpy.user_routines import loaded_routines
         user_loads, user_motion = loaded_routines(model, num, analysis, model.source_path,
@@ -174,9 +177,6 @@ def run_model(model: Model, settings: AnalysisSettings, out,
         if user_loads is not None:
             problem.loads.set_user(user_loads)
             problem.reduced = None      # (its tangent-space steps assume dead loads)
-    if problem.loads.any:
-        from spacarpy.solvers.statics.conditioning import check_residual_floor
-        check_residual_floor(problem, ignore=opts.ignore_conditioning)
     mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     # (a deck's model: the deck reader has warned already, naming the GRAVITY line)
     if any(model.gravity) and not mass.has_mass and model.source_path == "<model>":
