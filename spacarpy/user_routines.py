@@ -27,8 +27,8 @@ import numpy as np
 
 from spacarpy.errors import UserCodeRefused, UserRoutineError
 
-__all__ = ["ALLOW_FLAG", "UserState", "euler_moment", "find_module", "loaded_routines",
-           "refuse_unless_allowed", "routine_report"]
+__all__ = ["ALLOW_FLAG", "UserState", "batch_run_args", "euler_moment", "find_module",
+           "loaded_routines", "refuse_unless_allowed", "routine_report", "scan_decks"]
 
 #: The command-line flag that lets a deck's user routines run.
 ALLOW_FLAG = "--allow-user-code"
@@ -57,6 +57,44 @@ def refuse_unless_allowed(model, allowed: bool) -> None:
              f"spacarpy runs only when asked to: add {ALLOW_FLAG} if you trust it"
              for r in model.user_routines]
     raise UserCodeRefused("\n".join(lines))
+
+
+def scan_decks(decks) -> list[str]:
+    """``file:line:column: KEYWORD name`` of every USERSIG/USERINP line of the deck files
+    (a text scan, nothing parsed or run): what ``batch`` and ``sweep`` refuse up front."""
+    found = []
+    for deck in decks:
+        try:
+            text = Path(deck).read_text(encoding="utf-8", errors="replace")
+        except OSError:
+            continue
+        for k, line in enumerate(text.splitlines(), 1):
+            words = line.split()
+            if words and words[0].upper() in ("USERSIG", "USERINP"):
+                name = words[1] if len(words) > 1 else "?"
+                col = len(line) - len(line.lstrip()) + 1
+                found.append(f"{deck}:{k}:{col}: {words[0].upper()} {name}")
+    return found
+
+
+def batch_run_args(args, decks) -> list[str]:
+    """The ``spacarpy run`` arguments a batch or sweep adds for user code: refused before any
+    run when a deck names user routines and ``--allow-user-code`` is not given (in the
+    command or its ``--run-args``); else the flag and the ``--user-module`` paths, made
+    absolute (the runs work in their own folders)."""
+    extra = []
+    for mod in getattr(args, "user_module", ()):
+        extra += ["--user-module", str(Path(mod).resolve())]
+    if getattr(args, "allow_user_code", False):
+        return [ALLOW_FLAG, *extra]
+    if ALLOW_FLAG in (args.run_args or ""):
+        return extra
+    found = scan_decks(decks)
+    if found:
+        raise UserCodeRefused("\n".join(
+            f"{f}: error: names user code, which spacarpy runs only when asked to: add "
+            f"{ALLOW_FLAG} if you trust it" for f in found))
+    return extra
 
 
 def _defines(path: Path, name: str) -> bool:
