@@ -230,7 +230,7 @@ class _ByNumber:
     def __getitem__(self, n):
         if np.ndim(n) == 0:
             return self._value(n)
-        return np.stack([self._value(k) for k in n])
+        return np.stack([self._value(k) for k in n]) if len(n) else np.zeros((0, 0))
 
     def __contains__(self, n) -> bool:
         return int(n) in self._rows
@@ -248,14 +248,14 @@ class _ByNumber:
 class UserState:
     """What a USERSIG routine sees at one evaluation: ``t``; ``x``, ``xd`` (nodal
     coordinates and velocities by node number), ``e``, ``ed`` (deformations and their rates
-    by element number). Read-only copies: the routine cannot change the solver's state."""
+    by element number). Read-only: the routine cannot change the solver's state."""
 
     def __init__(self, t, x, v, states, maps):
         self.t = float(t)
         node_idx, elem_rows, groups = maps
-        x = x.copy()
+        x = x.view()                       # read-only views of the solver's arrays
         x.flags.writeable = False
-        v = np.zeros_like(x) if v is None else v.copy()
+        v = np.zeros_like(x) if v is None else v.view()
         v.flags.writeable = False
         self.x = _ByNumber(node_idx, lambda i: x[i], "node")
         self.xd = _ByNumber(node_idx, lambda i: v[i], "node")
@@ -304,15 +304,32 @@ def _rows(out, width: int, routine: _Routine, t: float, form: str) -> np.ndarray
     return a
 
 
-def _coordinate(node_idx, routine, t, node, c, n_max: int | None = None):
-    n = int(node)
-    if n != node or n not in node_idx:
-        routine.fail(t, f"names node {node:g}, which is not a node of the model")
-    idx = node_idx[n]
-    if c != int(c) or not 1 <= c <= len(idx):
-        routine.fail(t, f"gives direction {c:g} of node {n}, which has directions "
-                        f"1-{len(idx)}")
-    return int(idx[int(c) - 1])
+def _lookup_table(node_idx) -> np.ndarray:
+    """(max node + 1, 4) global coordinate index of (node, direction - 1); -1 where none."""
+    table = np.full((max(node_idx, default=0) + 1, 4), -1, dtype=np.int64)
+    for n, idx in node_idx.items():
+        table[n, :len(idx)] = idx
+    return table
+
+
+def _coordinates(table, routine, t, nodes, dirs) -> np.ndarray:
+    """The global coordinate indices of rows' (node, direction), or the routine's failure
+    naming the first bad row."""
+    n = nodes.astype(np.int64)
+    c = dirs.astype(np.int64)
+    ok = (n == nodes) & (c == dirs) & (n >= 0) & (n < table.shape[0]) & (c >= 1) & (c <= 4)
+    idx = np.full(n.size, -1, dtype=np.int64)
+    idx[ok] = table[n[ok], c[ok] - 1]
+    bad = np.flatnonzero(idx < 0)
+    if bad.size:
+        k = int(bad[0])
+        node = nodes[k]
+        if not (n[k] == node and 0 <= n[k] < table.shape[0] and table[n[k], 0] >= 0):
+            routine.fail(t, f"names node {node:g}, which is not a node of the model")
+        n_dir = int((table[n[k]] >= 0).sum())
+        routine.fail(t, f"gives direction {dirs[k]:g} of node {n[k]}, which has directions "
+                        f"1-{n_dir}")
+    return idx
 
 
 class _LoadAdapter:
@@ -323,15 +340,13 @@ class _LoadAdapter:
     def __init__(self, routine, model, num):
         self.routine, self.n = routine, num.n_coord
         self.maps = _node_maps(model, num)
-        self.free = ~num.fixed_mask
+        self.table = _lookup_table(self.maps[0])
 
     def __call__(self, t, x, v, states):
         state = UserState(t, x, v, states, self.maps)
         rows = _rows(self.routine.call(t, state), 3, self.routine, t, self.FORM)
-        f = np.zeros(self.n)
-        for node, c, value in rows:
-            f[_coordinate(self.maps[0], self.routine, t, node, c)] += value
-        return f
+        idx = _coordinates(self.table, self.routine, t, rows[:, 0], rows[:, 1])
+        return np.bincount(idx, weights=rows[:, 2], minlength=self.n)
 
 
 class _MotionAdapter:
@@ -341,13 +356,12 @@ class _MotionAdapter:
 
     def __init__(self, routine, model, num):
         self.routine = routine
-        self.node_idx = _node_maps(model, num)[0]
+        self.table = _lookup_table(_node_maps(model, num)[0])
         self.inputs = set(int(i) for i in num.prescribed_idx)
 
     def __call__(self, t):
         rows = _rows(self.routine.call(t), 5, self.routine, t, self.FORM)
-        idx = np.array([_coordinate(self.node_idx, self.routine, t, r[0], r[1]) for r in rows],
-                       dtype=np.int64)
+        idx = _coordinates(self.table, self.routine, t, rows[:, 0], rows[:, 1])
         for r, i in zip(rows, idx):
             if int(i) not in self.inputs:
                 self.routine.fail(t, f"gives node {int(r[0])} coordinate {int(r[1])}, which "

@@ -138,6 +138,13 @@ def nearest(points, line=CENTRELINE):
     return foot[rows, k], dist[rows, k]
 
 
+def _cross(a, b):
+    """Row-wise cross products of (k, 3) arrays (np.cross's axis handling costs more)."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
 def _unit(v):
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
@@ -145,13 +152,13 @@ def _unit(v):
 
 def angular_velocity(q, qd):
     """omega = 2 Lambda(q) q' (global axes) for Euler parameters q and rates qd, (k, 4)."""
-    return 2.0 * (-qd[:, :1] * q[:, 1:] + q[:, :1] * qd[:, 1:] + np.cross(q[:, 1:], qd[:, 1:]))
+    return 2.0 * (-qd[:, :1] * q[:, 1:] + q[:, :1] * qd[:, 1:] + _cross(q[:, 1:], qd[:, 1:]))
 
 
 def euler_forces(q, m):
     """2 Lambda(q)^T M for moments m (k, 3): the generalized forces on the Euler parameters."""
     return 2.0 * np.concatenate([-(q[:, 1:] * m).sum(-1, keepdims=True),
-                                 q[:, :1] * m - np.cross(q[:, 1:], m)], axis=1)
+                                 q[:, :1] * m - _cross(q[:, 1:], m)], axis=1)
 
 
 def normal_force(d, vn, a, b):
@@ -188,14 +195,14 @@ def contact_rows(state, nodes, stride, vel_ratio):
     t = _unit(vel - vn[:, None] * n)                         # slip direction
     ro = np.full(nodes.size, R_OUTER)
     axis = _unit(nxt[:1] - pos[:1])                          # the tip's axis
-    perp = _unit(np.cross(np.cross(axis, n[:1]), axis))      # n's part across the axis
+    perp = _unit(_cross(_cross(axis, n[:1]), axis))      # n's part across the axis
     ro[0] = float((perp * n[:1]).sum()) * R_OUTER
     a, b = R_A - ro, R_B - ro
-    vt = (vel * t).sum(-1) + (np.cross(omega, ro[:, None] * n) * t).sum(-1)
+    vt = (vel * t).sum(-1) + (_cross(omega, ro[:, None] * n) * t).sum(-1)
     fn = normal_force(d, vn, a, b)
     ff = friction_force(fn, vt)
     force = -fn[:, None] * n - ff[:, None] * t
-    moment = np.cross(ro[:, None] * n, force)
+    moment = _cross(ro[:, None] * n, force)
     gen = euler_forces(q, moment)
     rows = [np.column_stack([nodes, np.full(nodes.size, c + 1), force[:, c]]) for c in range(3)]
     rows += [np.column_stack([nodes + 1, np.full(nodes.size, c + 1), gen[:, c]])

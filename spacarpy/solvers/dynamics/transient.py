@@ -110,6 +110,9 @@ class TransientProblem:
         # the exact inertia tangent, switched on for the rest of the run at the first
         # iteration whose residual fell by less than a factor 10 (see _newton_step)
         self.exact_tangent_on = False
+        # the user loads' difference quotients in the Newton matrix, likewise
+        # (transient_step._user_tangent)
+        self.user_tangent_on = False
         self.frame_on = False            # the step's rotating frame (frame_rate)
         self.turned = np.zeros(3)        # the net angle turned: sum of h omega (frame_rate)
         self.frame_from_start = None     # the frame at full rate from t = 0 (frame_rate)
