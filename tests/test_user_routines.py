@@ -427,12 +427,13 @@ def test_fis_flex_routines_on_the_flex_deck(tmp_path):
 
 @pytest.mark.slow
 def test_fis_rig_deck_runs_with_its_routines(tmp_path, fis):
-    """fis_rig_cat_s_3d.dat with FRESFVA/FRESMVA to t = 0.25 s in 250 stored steps (the deck
-    runs to 1.2 s in 8000; its ERROR control sets the steps taken): the proximal node follows the insertion, the tip enters the channel's
-    first arc (from x = 0.01 m) and stays inside the wall (its distance from the centreline
-    below b plus the penetration the wall's stiffness allows), and the insertion force (the
-    reaction of node 49 along x) pushes, growing once the wall resists."""
-    path, _ = _corpus_job(tmp_path, "fis_rig_cat_s_3d.dat", timestep="0.25 250")
+    """fis_rig_cat_s_3d.dat with FRESFVA/FRESMVA to t = 0.21 s in 210 stored steps (the deck
+    runs to 1.2 s in 8000; its ERROR control sets the steps taken): the proximal node follows
+    the insertion, the tip enters the channel's first arc (from x = 0.01 m, at t = 0.19 s) and
+    stays inside the wall (its distance from the centreline below b plus the penetration the
+    wall's stiffness allows), and the insertion force (the reaction of node 49 along x) pushes
+    against the wall. (About 15 minutes on 2 loaded cores to t = 0.24 s: kept short.)"""
+    path, _ = _corpus_job(tmp_path, "fis_rig_cat_s_3d.dat", timestep="0.21 210")
     out = tmp_path / "rig.h5"
     assert main(["run", str(path), "--mode", "transient", "-o", str(out), "-q",
                  "--allow-user-code", "--user-module", str(FIS)]) == 0
@@ -442,9 +443,8 @@ def test_fis_rig_deck_runs_with_its_routines(tmp_path, fis):
         np.testing.assert_allclose(tr.position(49)[:, 0], -0.12 + 0.1 * t, atol=1e-12)
         tip = tr.position(1)
         push = tr.reaction(49)[:, 0]
-    assert tip[-1, 0] == pytest.approx(0.025, abs=2e-3)
+    assert tip[-1, 0] == pytest.approx(0.021, abs=1e-3)
     _, d = fis.nearest(tip)
     assert d.max() < fis.R_B - fis.R_OUTER + 2e-5
-    assert tip[-1, 1] > 0.001                        # along the arc, bending to +y
-    late = t > 0.2
-    assert push[late].mean() > 0.01 and push[late].mean() > 5 * abs(push[t < 0.1]).mean()
+    assert tip[-1, 1] > 5e-4                         # along the arc, bending to +y
+    assert push[t > 0.2].min() > 1.0                 # N: the wall resists the insertion
