@@ -415,11 +415,13 @@ def test_fis_flex_routines_on_the_flex_deck(tmp_path):
     assert not np.any(loads(0.0, x, np.zeros_like(x), states))
     import fis_channel as fc
     a, b = fc.R_A - fc.R_OUTER, fc.R_B - fc.R_OUTER
-    tip = num.pos_idx[list(job.model.position_ids).index(1)]
-    x[tip[1]] = b + 0.5 * (b - a)
+    ids = list(job.model.position_ids)
+    tip, second = (num.pos_idx[ids.index(n)] for n in (1, 3))
+    x[tip[1]] = x[second[1]] = b + 0.5 * (b - a)       # the tip's axis stays along x
     f = loads(0.0, x, np.zeros_like(x), states)
     assert f[tip[1]] == pytest.approx(-fc.STIFFNESS * (b - a), rel=1e-12)
-    assert np.count_nonzero(f) == 1
+    assert f[second[1]] == pytest.approx(-fc.STIFFNESS * (b - a), rel=1e-12)
+    assert np.count_nonzero(f) == 2
     idx, xi, vi, ai = motion(0.3)
     assert list(idx) == [num.pos_idx[list(job.model.position_ids).index(49)][0]]
     np.testing.assert_allclose([xi[0], vi[0], ai[0]], [-0.06, 0.2, 0.0], atol=1e-15)
