@@ -10,6 +10,7 @@ Conventions (see docs/conventions.md)
 -------------------------------------
 - Position nodes have 3 coordinates (x, y, z); orientation nodes have 4 Euler parameters
   (lambda0, lambda1, lambda2, lambda3), all orientation nodes start at the identity (1, 0, 0, 0).
+- Warping nodes (BEAMW) have 1 coordinate, the rate of twist, starting at 0.
 - Coordinate numbers inside a node are 1-based as in SPACAR (``FIX 7 2`` fixes y of node 7).
 - Deformation-mode numbers inside an element are 1-based as in SPACAR (``DYNE 3 1 2``).
 - Arrays have the entity index first: ``(n_elem, 6)``, ``(n_pos, 3)``.
@@ -24,7 +25,8 @@ from spacarpy.elements.base import FLEXIBLE, KINEMATIC, RELEASED, RIGID
 from spacarpy.elements.registry import KINDS, kind_of
 from spacarpy.errors import SourceLoc
 
-__all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "ElementSet", "Fix", "Kinematic",
+__all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "DynamicCoordinate", "ElementSet", "Fix",
+           "Kinematic",
            "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
            "PrescribedRotation", "UserRoutine"]
 
@@ -117,6 +119,23 @@ class Fix:
     node: int
     coords: tuple[int, ...]
     loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
+class DynamicCoordinate:
+    """``DYNX node coord``: a nodal coordinate that is a degree of freedom (SPACAR's dynamic
+    class, docs/deck.md). Free like any coordinate that is not fixed; it names the degrees of
+    freedom of the linearized equations (mode 3, 9, 10) beside the DYNE modes, and a model
+    with DYNX lines must be parameterized by its DYNX coordinates and DYNE modes exactly."""
+
+    node: int
+    coord: int
+    loc: SourceLoc | None = None
+
+    @property
+    def name(self) -> str:
+        """The deck line, ``DYNX 2 1``."""
+        return f"DYNX {self.node} {self.coord}"
 
 
 @dataclass(frozen=True)
@@ -276,10 +295,15 @@ class Model:
     kinematic : list of Kinematic
         The kinematic coordinates (KINX) and deformations (KINE), in deck order; a KINE
         entry marks its mode KINEMATIC in the element set's ``def_class``.
+    dynamic_coords : list of DynamicCoordinate
+        The DYNX coordinates (nodal coordinates as degrees of freedom), in deck order.
     user_routines : list of UserRoutine
         The USERSIG and USERINP lines (at most one of each).
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
+    warping_ids : (n_warp,) int
+        Deck numbers of the warping nodes (a BEAMW's; one coordinate each, the rate of
+        twist, starting at 0).
     """
 
     position_ids: np.ndarray
@@ -300,14 +324,17 @@ class Model:
     element_prestress: dict = field(default_factory=dict)  # element -> ESIG values per mode
     initial_rates: dict = field(default_factory=dict)      # (element, mode) -> STARTDE rate
     kinematic: list = field(default_factory=list)          # KINX / KINE lines (Kinematic)
+    dynamic_coords: list = field(default_factory=list)     # DYNX lines (DynamicCoordinate)
     user_routines: list = field(default_factory=list)      # USERSIG / USERINP (UserRoutine)
     source_path: str = "<model>"
     source_text: str = ""
+    warping_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     def __post_init__(self):
         self.position_ids = np.asarray(self.position_ids, dtype=np.int64).reshape(-1)
         self.position_x0 = np.asarray(self.position_x0, dtype=float).reshape(-1, 3)
         self.orientation_ids = np.asarray(self.orientation_ids, dtype=np.int64).reshape(-1)
+        self.warping_ids = np.asarray(self.warping_ids, dtype=np.int64).reshape(-1)
         for keyword, es in self.elements.items():
             if es.kind != keyword:
                 raise ValueError(f"elements[{keyword!r}] holds {es.kind} elements")

@@ -1,7 +1,8 @@
 """Numbering: from deck node numbers to global coordinates, element groups and constraints.
 
 The global coordinate vector holds every nodal coordinate: 3 per position node, 4 Euler
-parameters per orientation node, nodes in ascending deck number (so that chains of elements
+parameters per orientation node, 1 (the rate of twist) per warping node, nodes in ascending
+deck number (so that chains of elements
 give banded matrices). Fixed coordinates keep their initial value; every other coordinate is
 an unknown of the static problem. Elements are held in *groups*, one per element kind
 (:mod:`spacarpy.elements.registry`), each with its global coordinate indices, reference data
@@ -98,6 +99,8 @@ class Numbering:
         Global coordinate indices of each position node (order of ``model.position_ids``).
     rot_idx : (n_rot, 4) int
         Global coordinate indices of each orientation node (order of ``model.orientation_ids``).
+    warp_idx : (n_warp,) int
+        Global coordinate index of each warping node (order of ``model.warping_ids``).
     groups : list of ElementGroup
         One per element kind present (BEAM first).
     fixed_mask : (n_coord,) bool
@@ -145,6 +148,26 @@ class Numbering:
     rotation_angle: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rotation_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
     planar_mask: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    warp_idx: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    # DYNX: the global index of each dynamic coordinate, the row in rot_idx of a planar
+    # orientation node's angle (-1 otherwise) and the deck (node, coordinate)
+    dynamic_idx: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    dynamic_rot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    dynamic_label: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
+
+    def dynamic_rows(self, x: np.ndarray) -> np.ndarray:
+        """(n_dyn, n_coord): the rows that take the DYNX coordinates out of a change of the
+        coordinates at x: unit rows, except for the angle of a planar orientation node,
+        ``dphi_z = 2 Lambda_z(q) dq``."""
+        from spacarpy.rotation import lambda_matrix
+        rows = np.zeros((self.dynamic_idx.size, self.n_coord))
+        for i, (k, r) in enumerate(zip(self.dynamic_idx.tolist(), self.dynamic_rot.tolist())):
+            if r < 0:
+                rows[i, k] = 1.0
+            else:
+                ri = self.rot_idx[r]
+                rows[i, ri] = 2.0 * lambda_matrix(x[ri])[2]
+        return rows
 
     def prescribed_values(self, a: float, s: float) -> np.ndarray:
         """Values of the prescribed coordinates at load parameters (a on the initial values,
@@ -219,6 +242,7 @@ class Numbering:
         out = np.empty(self.n_coord, dtype=np.int64)
         out[self.pos_idx] = model.position_ids[:, None]
         out[self.rot_idx] = model.orientation_ids[:, None]
+        out[self.warp_idx] = model.warping_ids
         return out
 
 
@@ -275,16 +299,18 @@ def _row_of(ids: np.ndarray):
 
 def number_model(model: Model) -> Numbering:
     """Build the :class:`Numbering` of a validated model."""
-    pos_ids, rot_ids = model.position_ids, model.orientation_ids
-    # ascending deck number, position and orientation nodes interleaved
-    ids = np.concatenate([pos_ids, rot_ids])
-    sizes = np.concatenate([np.full(pos_ids.size, 3), np.full(rot_ids.size, 4)])
+    pos_ids, rot_ids, warp_ids = model.position_ids, model.orientation_ids, model.warping_ids
+    # ascending deck number, position, orientation and warping nodes interleaved
+    ids = np.concatenate([pos_ids, rot_ids, warp_ids])
+    sizes = np.concatenate([np.full(pos_ids.size, 3), np.full(rot_ids.size, 4),
+                            np.full(warp_ids.size, 1)])
     order = np.argsort(ids, kind="stable")
     start = np.zeros(ids.size, dtype=np.int64)
     start[order] = np.concatenate([[0], np.cumsum(sizes[order])[:-1]]) if ids.size else []
     n_coord = int(sizes.sum())
     pos_idx = start[: pos_ids.size, None] + np.arange(3)
-    rot_idx = start[pos_ids.size:, None] + np.arange(4)
+    rot_idx = start[pos_ids.size:pos_ids.size + rot_ids.size, None] + np.arange(4)
+    warp_idx = start[pos_ids.size + rot_ids.size:]
 
     x0 = np.zeros(n_coord)
     x0[pos_idx] = model.position_x0
@@ -293,6 +319,7 @@ def number_model(model: Model) -> Numbering:
     # the row of a node among the position or orientation nodes, for the few nodes that the
     # fixes and prescribed motions name (a dict of all nodes cost more than the lookups)
     pos_row, rot_row = _row_of(pos_ids), _row_of(rot_ids)
+    warp_row = _row_of(warp_ids) if warp_ids.size else {}
 
     groups = []
     offset = 0
@@ -305,6 +332,9 @@ def number_model(model: Model) -> Numbering:
                 rows = _rows(pos_ids, nodes[:, j])
                 idx_parts.append(pos_idx[rows])
                 x0_slots.append(model.position_x0[rows])
+            elif slot == "warp":
+                idx_parts.append(warp_idx[_rows(warp_ids, nodes[:, j])][:, None])
+                x0_slots.append(None)
             else:
                 rows = _rows(rot_ids, nodes[:, j])
                 idx_parts.append(rot_idx[rows])
@@ -358,11 +388,13 @@ def number_model(model: Model) -> Numbering:
     fixed = np.zeros(n_coord, dtype=bool)
     for fix in model.fixes:
         n = int(fix.node)
-        base = pos_idx[pos_row[n]] if n in pos_row else rot_idx[rot_row[n]]
+        base = (pos_idx[pos_row[n]] if n in pos_row else rot_idx[rot_row[n]]
+                if n in rot_row else warp_idx[warp_row[n]:warp_row[n] + 1])
         fixed[base[np.asarray(fix.coords, dtype=np.int64) - 1]] = True
     # prescribed (input) coordinates: not unknowns either; their values follow the load path
     presc_idx = np.array([(pos_idx[pos_row[int(p.node)]] if int(p.node) in pos_row
-                           else rot_idx[rot_row[int(p.node)]])[int(p.coord) - 1]
+                           else rot_idx[rot_row[int(p.node)]] if int(p.node) in rot_row
+                           else warp_idx[warp_row[int(p.node)]:][:1])[int(p.coord) - 1]
                           for p in model.prescribed], dtype=np.int64)
     presc_initial = np.array([x0[k] if p.initial is None else float(p.initial)
                               for k, p in zip(presc_idx, model.prescribed)], dtype=float)
@@ -388,6 +420,19 @@ def number_model(model: Model) -> Numbering:
     euler_nodes = (np.flatnonzero(~fixed[rot_idx].all(axis=1)) if rot_ids.size
                    else np.zeros(0, dtype=np.int64))
 
+    dyn_idx, dyn_rot = [], []
+    for d in model.dynamic_coords:
+        n, c = int(d.node), int(d.coord)
+        if n in pos_row:
+            dyn_idx.append(int(pos_idx[pos_row[n], c - 1]))
+            dyn_rot.append(-1)
+        elif model.planar:                  # the angle: turns lambda0 and lambda3
+            dyn_idx.append(int(rot_idx[rot_row[n], 3]))
+            dyn_rot.append(rot_row[n])
+        else:
+            dyn_idx.append(int(rot_idx[rot_row[n], c - 1]))
+            dyn_rot.append(-1)
+
     span = np.ptp(model.position_x0, axis=0) if pos_ids.size else np.zeros(3)
     lengths = [g.ref.l0.max() for g in groups if hasattr(g.ref, "l0") and g.n_elem]
     length_scale = float(np.linalg.norm(span)) or (max(lengths) if lengths else 1.0)
@@ -405,4 +450,8 @@ def number_model(model: Model) -> Numbering:
                                              dtype=float),
                      rotation_initial=np.array([r.initial for r in model.prescribed_rotations],
                                                dtype=float),
-                     planar_mask=planar)
+                     planar_mask=planar, warp_idx=warp_idx,
+                     dynamic_idx=np.array(dyn_idx, dtype=np.int64),
+                     dynamic_rot=np.array(dyn_rot, dtype=np.int64),
+                     dynamic_label=np.array([(d.node, d.coord) for d in model.dynamic_coords],
+                                            dtype=np.int64).reshape(-1, 2))

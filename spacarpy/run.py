@@ -37,6 +37,9 @@ transient_linearized (SPACAR 3)
     The transient, and at every stored time step the linearized equations about the state
     of the trajectory (:mod:`spacarpy.solvers.dynamics.trajectory`) in /state_space, whose ``step``
     is the row of /transient and ``time`` its time.
+inverse_dynamics (SPACAR 2)
+    The input forces and reactions of a fully prescribed motion at the times of TIMESTEP,
+    in /transient (:mod:`spacarpy.run_inverse`).
 """
 from __future__ import annotations
 
@@ -95,9 +98,10 @@ class RunSummary:
 
 
 #: The analyses that impose held slips (rolling without slip): statics and the
-#: linearizations at rest (modes 10, 4, 7, 8, 9) and the transient (docs/rolling.md).
+#: linearizations at rest (modes 10, 4, 7, 8, 9), the transient and mode 3 (about the initial
+#: steady motion or along a transient: docs/rolling.md).
 SLIP_ANALYSES = ("static", "eigen", "buckling", "state_space", "static_linearized",
-                 "transient")
+                 "transient", "transient_linearized")
 
 
 def refuse_velocity_modes(model: Model, analysis: str) -> None:
@@ -106,8 +110,8 @@ def refuse_velocity_modes(model: Model, analysis: str) -> None:
     result.
 
     Held slips (rolling without slip, the default) are imposed by statics and the
-    linearizations at rest and the transient (:data:`SLIP_ANALYSES`), not yet by the
-    others.
+    linearizations at rest, the transient and mode 3 (:data:`SLIP_ANALYSES`), not yet by
+    the others.
     Released ones (``RLSE e 4 5``, sliding freely) leave a purely holonomic model, but its
     stored slip deformations (the accumulated slip) would not be integrated: refused too."""
     for keyword, es in model.elements.items():
@@ -147,10 +151,12 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     n_modes = settings.linearized.count
     analysis = settings.analysis
     static_lin = analysis == "static_linearized"          # SPACAR mode 10
-    modes_per_step = settings.linearized.modes_each_step or static_lin
+    inverse = analysis == "inverse_dynamics"                # SPACAR mode 2
+    modes_per_step = (settings.linearized.modes_each_step or static_lin) and not inverse
+    slips_along = False
     if analysis == "transient_linearized":                  # mode 3 (docs/rolling.md)
-        from spacarpy.run_steady import refuse_trajectory_slips, run_steady_motion
-        refuse_trajectory_slips(model, settings)
+        from spacarpy.run_steady import has_held_slips, run_steady_motion
+        slips_along = has_held_slips(model)
         if settings.transient.timestep == (0.0, 0):         # about the initial state
             summary = RunSummary()
             run_steady_motion(model, settings, out, summary)
@@ -166,6 +172,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if analysis == "check":
         from spacarpy.solvers.statics.kinematic_check import dof_report
         return RunSummary(report=dof_report(problem))
+    if inverse:                  # before the result file: the settings, a determinate model
+        from spacarpy.run_inverse import check_inverse
+        check_inverse(settings, problem)
     if problem.loads.any:
         from spacarpy.solvers.statics.conditioning import check_residual_floor
         check_residual_floor(problem, ignore=opts.ignore_conditioning)
@@ -230,7 +239,11 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     summary = RunSummary()
 
     ss_setup = None
-    if want_ss:
+    if slips_along:             # mode 3 with slips: the kinematic states (docs/rolling.md)
+        from spacarpy.run_steady import SlipTrajectory
+        along_slips = SlipTrajectory(model, settings, problem)
+        ss_setup = (along_slips, along_slips.names)
+    elif want_ss:
         try:
             ss_setup = _state_space_setup(problem, settings)
         except ModelError as exc:
@@ -248,7 +261,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                             problem.reaction_node, problem.reaction_component,
                             n_eigen_modes=n_eigen,
                             n_buckling_modes=n_modes if want_buckling else 0,
-                            compliance_node=opts.compliance_node, transient=transient,
+                            compliance_node=opts.compliance_node,
+                            transient=transient or inverse, accelerations=inverse,
                             state_space=ss_setup[1] if want_ss else None,
                             arclength=arc is not None)
         from spacarpy.solvers.statics.nonholonomic import check_kinematic
@@ -259,7 +273,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
             k = summary.n_steps
             writer.static_step(
                 load_factor=step.load_factor, position=step.x[num.pos_idx],
-                euler=step.x[num.rot_idx],
+                euler=step.x[num.rot_idx], warping=step.x[num.warp_idx],
                 deformation=step.deformation,
                 stress_resultant=step.stress,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
@@ -283,6 +297,9 @@ def run_model(model: Model, settings: AnalysisSettings, out,
         if transient:
             _run_transient(model, settings, problem, writer, on_step, opts, summary,
                            ss_setup[0] if want_ss else None, user_motion)
+        elif inverse:
+            from spacarpy.run_inverse import run_inverse
+            run_inverse(model, settings, problem, writer, summary, opts.progress)
         else:
             result = solve_static(model, settings, problem=problem, on_step=on_step)
             if arc is not None and not modes_per_step and result.steps and (
@@ -306,7 +323,9 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
     num = problem.num
     topts = replace(TransientOptions.from_settings(settings), user_motion=user_motion)
     along = None
-    if ss_layout is not None:                   # SPACAR 3: linearize every stored time step
+    if callable(ss_layout):                     # SPACAR 3 with slips (run_steady.py)
+        along = ss_layout
+    elif ss_layout is not None:                 # SPACAR 3: linearize every stored time step
         from spacarpy.solvers.dynamics.trajectory import TrajectoryLinearizer
         along = TrajectoryLinearizer(TransientProblem(model, topts, problem), ss_layout,
                                      settings.linearized.inputs, settings.linearized.outputs)
@@ -316,6 +335,7 @@ def _run_transient(model, settings, problem, writer, on_static_step, opts, summa
     def on_step(step):
         writer.transient_step(
             time=step.time, position=step.x[num.pos_idx], euler=step.x[num.rot_idx],
+            warping=step.x[num.warp_idx],
             velocity=step.v[num.pos_idx], euler_rate=step.v[num.rot_idx],
             deformation=step.deformation,
             stress_resultant=step.stress,
@@ -414,8 +434,7 @@ def _state_space_setup(problem, settings):
                     problem.loads.at(1.0, 0.0))
     layout = dof_layout(lin, num, problem.free)
     lin_set = settings.linearized
-    names = dict(dof_element=layout.element, dof_mode=layout.mode,
-                 state_name=layout.state_names,
+    names = dict(**layout.file_names, state_name=layout.state_names,
                  input_name=lin_set.input_names, output_name=lin_set.output_names)
     return layout, names
 

@@ -1,8 +1,10 @@
-"""The driver of mode 3 with ``TIMESTEP 0 0``: the linearized equations about the initial
-steady motion (:mod:`spacarpy.solvers.linear.steady_motion`) written to one result file: the
-state at t = 0 as the one row of /transient (positions, velocities, deformations, the
-constraint forces as stress resultants, the WHEEL contact forces among them) and its
-linearization in /state_space with the kinematic states and the poles (docs/rolling.md)."""
+"""The drivers of mode 3 for models with slips (docs/rolling.md): with ``TIMESTEP 0 0`` the
+linearized equations about the initial steady motion (:mod:`spacarpy.solvers.linear.
+steady_motion`) written to one result file (the state at t = 0 as the one row of /transient:
+positions, velocities, deformations, the constraint forces as stress resultants, the WHEEL
+contact forces among them; its linearization in /state_space with the kinematic states, the
+inputs and outputs and the poles); along a trajectory, :class:`SlipTrajectory`, the same
+linearization at each stored step of the transient run."""
 from __future__ import annotations
 
 import logging
@@ -23,7 +25,7 @@ log = logging.getLogger(__name__)
 #: state is not a steady motion (a warning).
 STEADY_TOL = 1e-8
 
-__all__ = ["SteadyInputError", "run_steady_motion", "refuse_trajectory_slips"]
+__all__ = ["SlipTrajectory", "SteadyInputError", "has_held_slips", "run_steady_motion"]
 
 
 class SteadyInputError(SpacarError):
@@ -42,15 +44,55 @@ class _SteadyStateSpace(StateSpace):
     Gp: np.ndarray
 
 
-def refuse_trajectory_slips(model, settings) -> None:
-    """Mode 3 along a trajectory (a TIMESTEP other than ``0 0``) of a model with held slips:
-    one line, not a wrong result."""
-    held = any(
+def has_held_slips(model) -> bool:
+    """Whether the model holds slips (a WHEEL rolling without slip)."""
+    return any(
         (es.def_class[:, list(KINDS[kw].velocity_modes)] == RIGID).any()
         for kw, es in model.elements.items() if KINDS[kw].velocity_modes and es.ids.size)
-    if held and settings.transient.timestep != (0.0, 0):
-        raise SteadyInputError("mode 3 along a trajectory with slips is not supported yet: "
-                                 "TIMESTEP 0 0 linearizes about the initial steady motion")
+
+
+def _state_space(mm) -> _SteadyStateSpace:
+    return _SteadyStateSpace(M0=mm.M0, C0=mm.C0, K0=mm.K0, B0=mm.B0, A=mm.A, B=mm.B, C=mm.C,
+                             D=mm.D, K0p=mm.K0p, G=mm.G, Gq=mm.Gq, Gp=mm.Gp)
+
+
+def _names(mm, settings) -> dict:
+    """The /state_space names: the degrees of freedom, the state ``[q; q'; p]``, the inputs
+    and outputs, the kinematic states."""
+    parts = [name.split() for name in mm.dof_names]     # "BEAM 3 2" or "DYNX 4 1"
+    dynx = [w[0] == "DYNX" for w in parts]
+    labels = [f"node {w[1]} coordinate {w[2]}" if d else f"{w[0]} {w[1]} mode {w[2]}"
+              for w, d in zip(parts, dynx)]
+    extra = ({"dof_node": [int(w[1]) if d else 0 for w, d in zip(parts, dynx)]}
+             if any(dynx) else {})
+    lin = settings.linearized
+    return dict(dof_element=[0 if d else int(w[1]) for w, d in zip(parts, dynx)],
+                dof_mode=[int(w[2]) for w in parts], **extra,
+                state_name=labels + [f"rate of {s}" for s in labels] + mm.kinematic_names,
+                input_name=lin.input_names, output_name=lin.output_names,
+                kinematic_name=mm.kinematic_names)
+
+
+class SlipTrajectory:
+    """Mode 3 along a trajectory with slips: called with each stored transient step, the
+    linearized equations about that state (:meth:`~spacarpy.solvers.linear.steady_motion.
+    SteadyMotion.at_state`: q'' from the equations of motion there), the state
+    ``[q; q'; p]`` with the kinematic coordinates, as with ``TIMESTEP 0 0``."""
+
+    def __init__(self, model, settings, problem=None):
+        from spacarpy.solvers.dynamics.transient import TransientOptions
+        self.problem = problem          # the transient's: its committed hinge turns
+        lin = settings.linearized
+        self.sm = SteadyMotion(model, deformations=settings.deformations,
+                               rotary_inertia=settings.rotary_inertia,
+                               options=TransientOptions.from_settings(settings),
+                               inputs=lin.inputs, outputs=lin.outputs)
+        self.names = _names(self.sm, settings)
+
+    def __call__(self, step) -> _SteadyStateSpace:
+        prev = [g.prev for g in self.problem.num.groups] if self.problem is not None else None
+        self.sm.at_state(step.time, step.x, step.v, prev)
+        return _state_space(self.sm.matrices())
 
 
 def _multipliers(sm: SteadyMotion, x, force):
@@ -77,12 +119,9 @@ def run_steady_motion(model, settings, out, summary) -> None:
     from spacarpy.solvers.statics.nonholonomic import check_kinematic
 
     lin = settings.linearized
-    if lin.inputs or lin.outputs:
-        raise SteadyInputError(
-            f"mode 3 with TIMESTEP 0 0 (the steady motion) has no inputs and outputs yet: "
-            f"remove the INPUTF/INPUTS/OUT* lines ({(lin.inputs + lin.outputs)[0].name})")
     sm = SteadyMotion(model, deformations=settings.deformations,
-                      rotary_inertia=settings.rotary_inertia)
+                      rotary_inertia=settings.rotary_inertia, inputs=lin.inputs,
+                      outputs=lin.outputs)
     prob, num = sm.prob, sm.num
     mm = sm.matrices()
     try:
@@ -93,11 +132,8 @@ def run_steady_motion(model, settings, out, summary) -> None:
             "the linearization about a steady motion needs inertia in every degree of "
             f"freedom, but the mass matrix is singular there ({', '.join(weak or mm.dof_names)})"
             ": give XM masses and inertias (or EM for the beams)") from None
-    n, k = mm.M0.shape[0], mm.G.shape[0]
-    N = 2 * n + k
-    ss = _SteadyStateSpace(M0=mm.M0, C0=mm.C0, K0=mm.K0, B0=np.zeros((n, 0)), A=mm.A,
-                           B=np.zeros((N, 0)), C=np.zeros((0, N)), D=np.zeros((0, 0)),
-                           K0p=mm.K0p, G=mm.G, Gq=mm.Gq, Gp=mm.Gp)
+    n = mm.M0.shape[0]
+    ss = _state_space(mm)
     x, v, a, _, _ = sm.motion(sm.q0, sm.dq0, sm.p0)
     force = sm._force(x, v, a)
     mu, nu = _multipliers(sm, x, force)
@@ -119,13 +155,7 @@ def run_steady_motion(model, settings, out, summary) -> None:
         log.warning("the initial state is not a steady motion: with q'' = 0 the equations of "
                     "the degrees of freedom leave %.3g (of forces up to %.3g); the matrices "
                     "linearize about a state that does not persist", projected, level)
-    dof_element = [int(name.split()[1]) for name in mm.dof_names]
-    dof_mode = [int(name.split()[2]) for name in mm.dof_names]
-    labels = [f"{name.split()[0]} {name.split()[1]} mode {name.split()[2]}"
-              for name in mm.dof_names]
-    names = dict(dof_element=dof_element, dof_mode=dof_mode,
-                 state_name=labels + [f"rate of {s}" for s in labels] + mm.kinematic_names,
-                 input_name=[], output_name=[], kinematic_name=mm.kinematic_names)
+    names = _names(mm, settings)
     model_data = model_datasets(model, num)
     with ResultsWriter(out, model, program_version=__version__, model_data=model_data,
                        deformations=settings.deformations, analysis=settings.analysis,
@@ -135,7 +165,7 @@ def run_steady_motion(model, settings, out, summary) -> None:
                             state_space=names)
         check_kinematic(prob)
         writer.transient_step(
-            time=0.0, position=x[num.pos_idx], euler=x[num.rot_idx],
+            time=0.0, position=x[num.pos_idx], euler=x[num.rot_idx], warping=x[num.warp_idx],
             velocity=v[num.pos_idx], euler_rate=v[num.rot_idx], deformation=deformation,
             stress_resultant=stress, kinetic_energy=kinetic, elastic_energy=0.0,
             external_work=0.0, iterations=0, residual=projected, reaction=reaction)

@@ -31,17 +31,18 @@ START_CHOICES = ("deck", "static")
 #: Analysis names and the SPACAR mode numbers that map onto them (docs/deck.md, "SPACAR
 #: mode numbers").
 ANALYSES = ("static", "eigen", "buckling", "transient", "check", "state_space",
-            "static_linearized", "transient_linearized")
+            "static_linearized", "transient_linearized", "inverse_dynamics")
 #: ``static_linearized`` (SPACAR 10) is the static path with the linearized equations
 #: (/state_space), frequencies and buckling multipliers at every step; the name ``static``
 #: stays the plain static path (the cheap default). ``transient_linearized`` (SPACAR 3) is the
 #: transient with the linearized equations at every stored time step.
+#: ``inverse_dynamics`` (SPACAR 2) computes the input forces of a fully prescribed motion.
 SPACAR_MODE_NUMBERS = {10: "static_linearized", 0: "check", 1: "transient", 8: "buckling",
-                       4: "eigen", 7: "eigen", 9: "state_space", 3: "transient_linearized"}
-#: SPACAR mode numbers spacarpy knows but does not run, with the reason given to the user.
-UNSUPPORTED_SPACAR_MODES = {
-    2: "SPACAR mode 2 (inverse dynamics) is not supported yet",
-}
+                       4: "eigen", 7: "eigen", 9: "state_space", 3: "transient_linearized",
+                       2: "inverse_dynamics"}
+#: SPACAR mode numbers spacarpy knows but does not run, with the reason given to the user
+#: (none at present: every SPACAR mode runs).
+UNSUPPORTED_SPACAR_MODES: dict = {}
 
 
 def _mode_number(value) -> int | None:

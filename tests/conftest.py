@@ -105,6 +105,7 @@ def result_files(tmp_path_factory) -> dict:
         "state_space": ("state_space_cantilever", []),  # /state_space (schema 2.3)
         "arclength": ("two_bar_truss_arclength", []),  # /critical, arc_length (schema 2.4)
         "bicycle": ("benchmark_bicycle", []),   # mode 3 about a steady motion (schema 2.13)
+        "inverse": ("two_link_arm_inverse", []),  # mode 2, accelerations (schema 2.15)
     }
     (tmp / "pendulum.dat").write_text((DECKS / "pendulum_rigid_90deg.dat").read_text()
                                       .replace("TIMESTEP 2.2 440", "TIMESTEP 0.1 10"))
@@ -134,7 +135,20 @@ def result_files(tmp_path_factory) -> dict:
         (DECKS / "pendulum_rigid_90deg.dat").read_text()
         .replace("RBEAM 1 1 4 3 0 1 0", "PINBODY 1 1 4 3").replace("EM 1 {rhoA}", "XM 3 2.0")
         .replace("TIMESTEP 2.2 440", "TIMESTEP 0.01 2"))
-    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn"):
+    # DYNX (schema 2.16): a planar pendulum whose degree of freedom is a node's angle, mode 9
+    (tmp / "dynx.dat").write_text(
+        "MODE 9\nX 1 0 0\nX 3 1 0\nPLBEAM 1 1 2 3 4\nPLHINGE 2 5 2\nFIX 1\nFIX 5\n"
+        "RLSE 2 1\nDYNX 2 1\nEND\nHALT\nESTIFF 2 3\nXM 3 2\nXF 3 0 -1\nEND\nEND\n")
+    # BEAMW (schema 2.17): a twisted cantilever of two warping beams, static and transient
+    beamw = ("X 1 0 0 0\nX 4 1 0 0\nX 7 2 0 0\nBEAMW 1 1 2 3 4 5 6 0 1 0\n"
+             "BEAMW 2 4 5 6 7 8 9 0 1 0\nDYNE 1:2 1 2 3 4 5 6\nFIX 1\nFIX 2\nFIX 3\nEND\n"
+             "HALT\nESTIFF 1:2 1e6 10 100 100 0 0 10\nEM 1:2 1 0.1 0.05 0.05 0 0.01\n"
+             "DELXF 8 1 0 0\n")
+    (tmp / "beamw.dat").write_text(beamw + "ITERSTEP 20 2 1e-12\nEND\nEND\n")
+    (tmp / "beamw_dyn.dat").write_text("MODE transient\n" + beamw
+                                       + "TIMESTEP 0.01 2\nEND\nEND\n")
+    for key in ("truss_dyn", "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn", "dynx",
+                "beamw", "beamw_dyn"):
         runs[key] = (key, [])
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}

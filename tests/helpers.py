@@ -3,8 +3,8 @@
 Fixtures live in conftest.py; this module holds what is called, not injected: deck-error
 collection, finite differences, an independent planar four-bar solution, the arguments of the
 documented sweep, a results writer process killed with SIGKILL, the perfect column's
-arc-length path and the kinematic correction's pattern of a chain. No test module imports
-another test module.
+arc-length path, the kinematic correction's pattern of a chain and the driven slider deck. No
+test module imports another test module.
 """
 from __future__ import annotations
 
@@ -374,3 +374,14 @@ def spacarpy_as_nobody(args, cwd="/", timeout=300, env=None) -> subprocess.Compl
                               cwd=str(cwd), capture_output=True, text=True, timeout=timeout)
     finally:
         shutil.rmtree(mpl, ignore_errors=True)
+
+
+def slider_deck(v0: float, a0: float, steps: int = 50, gravity: bool = False) -> str:
+    """A 2 kg slider on node 3 whose x the 5-field ``INPUTX 3 1 1.0 v0 a0`` drives at a
+    constant acceleration a0 from the velocity v0 over one second in ``steps`` steps (with
+    gravity along -y if asked: it does no work on the slider)."""
+    g = "GRAVITY 0 -9.81 0\n" if gravity else ""
+    return ("# a 2 kg slider on node 3, its x driven by INPUTX n c value velocity acceleration\n"
+            "X 1 0 0 0\nX 3 1 0 0\nTRUSS 1 1 3\nRLSE 1 1\nFIX 1\nFIX 3 2 3\nINPUTX 3 1\n"
+            f"END\nHALT\nXM 3 2.0\nINPUTX 3 1 1.0 {v0} {a0}\n{g}TIMESTEP 1.0 {steps}\n"
+            "MODE transient\nEND\nEND\n")

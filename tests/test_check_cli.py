@@ -114,12 +114,12 @@ def test_check_valid_deck_exit_0_and_prints_dof(capsys):
 
 def test_check_deck_with_errors_lists_them_and_exits_2(tmp_path, capsys):
     deck = tmp_path / "bad.dat"
-    deck.write_text("X 1 0 0 0\nX 3 1 0 0\nBEAM 1 1 2 3 4\nDYNE 1 1 7\nBEAMW 2 1 2 5 3 4 6\n"
+    deck.write_text("X 1 0 0 0\nX 3 1 0 0\nBEAM 1 1 2 3 4\nDYNE 1 1 7\nTUBE 2 1 2 3 4\n"
                     "FIX 1\nFIX 2\nEND\nHALT\nESTIFF 1 1 1 1 1\nEND\nEND\n")
     assert main(["check", str(deck)]) == 2
     out = capsys.readouterr().out
-    assert "elements            2 (1 BEAM, 1 BEAMW)" in out
-    assert "not supported yet (1 line):\n  BEAMW    1 x  line 5" in out
+    assert "elements            1 (1 BEAM)" in out
+    assert "not supported yet (1 line):\n  TUBE    1 x  line 5" in out
     assert f"{deck}:4:10: error: DYNE: element 1 is a BEAM with deformation modes 1 to 6, " \
            "got 7" in out
     assert out.rstrip().endswith("1 error, 1 line not supported yet")

@@ -628,7 +628,7 @@ def test_user_routine_lines_one_error_each():
 
 def test_several_errors_reported_at_once_ordered_by_line():
     text = ("X 1 0 0 0\nX 3 0 0 0\nBEAM 1 1 2 3 4\nBEAM 2 1 2 9 4\n"
-            "DYNE 1 7\nFIX 3 5\nDYNX 3 1\n")
+            "DYNE 1 7\nFIX 3 5\nDYNX 3 4\n")
     err = deck_error(text)
     lines = [loc.line for loc, _, _ in err.items]
     assert lines == sorted(lines) and lines == [3, 4, 5, 6, 7]

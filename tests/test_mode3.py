@@ -147,14 +147,6 @@ def test_mode_3_needs_mass_and_a_time_span(tmp_path, capsys):
     assert "needs mass" in err and "Traceback" not in err
 
 
-def test_dynx_is_still_refused():
-    text = (DECKS / "pendulum_rigid_90deg.dat").read_text().replace("FIX 1\n",
-                                                                   "FIX 1\nDYNX 3 1\n")
-    with pytest.raises(Exception) as err:
-        job_from_text(text, "d.dat")
-    assert "SPACAR keyword DYNX is not supported yet" in str(err.value)
-
-
 def test_show_export_and_reader_along_the_trajectory(pendulum, tmp_path, capsys):
     import scipy.io
 

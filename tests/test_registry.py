@@ -10,11 +10,11 @@ from spacarpy.model import ElementSet
 
 def test_registry_order_and_planar_set():
     assert list(KINDS) == ["BEAM", "TRUSS", "HINGE", "RBEAM", "PLBEAM", "PLTRUSS", "PLHINGE",
-                           "PINBODY", "WHEEL"]
+                           "PINBODY", "WHEEL", "BEAMW"]
     assert PLANAR_KINDS == ("PLBEAM", "PLTRUSS", "PLHINGE")
     assert kind_of("TRUSS") is KINDS["TRUSS"]
     with pytest.raises(KeyError, match="not an element kind"):
-        kind_of("BEAMW")
+        kind_of("TUBE")
 
 
 @pytest.mark.parametrize("keyword", list(KINDS))
@@ -33,12 +33,12 @@ def test_declarations_are_consistent(keyword):
         assert len(kind.estiff.units) == kind.n_estiff and kind.estiff.required <= kind.n_estiff
     if kind.em is not None:
         assert len(kind.em.units) == kind.n_em
-    # the deck keyword is made from the kind: node roles p position, r orientation
+    # the deck keyword is made from the kind: node roles p position, r orientation, w warping
     roles = KEYWORDS[keyword].node_roles
-    assert tuple("pos" if r == "p" else "rot" for r in roles) == kind.slots
+    assert tuple({"p": "pos", "r": "rot", "w": "warp"}[r] for r in roles) == kind.slots
     assert len(kind.node_roles) == len(kind.slots) == len(kind.node_fields)
     assert kind.summary and len(kind.vector_fields) == (3 if kind.vector else 0)
-    assert kind.n_ldof == sum(3 if s == "pos" else 4 for s in kind.slots)
+    assert kind.n_ldof == sum({"pos": 3, "rot": 4, "warp": 1}[s] for s in kind.slots)
     # the trailing vector: the keyword accepts three more fields exactly when one is declared,
     # optional unless the kind requires it
     spec = KEYWORDS[keyword]

@@ -19,6 +19,7 @@ from spacarpy.results import (
     read_results,
     validate_file,
 )
+from spacarpy.results.header_crc import header_crc
 from spacarpy.results.schema import DATASETS
 
 from helpers import (
@@ -97,7 +98,7 @@ def test_layout_follows_schema(tmp_path):
     write_run(out, chain_model())
     with h5py.File(out, "r") as f:
         assert f.attrs["schema_version"].dtype == np.int32
-        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 14]
+        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 18]
         assert f["deck"].shape == ()
         assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
         info = h5py.check_string_dtype(f["model/elements/BEAM/cross_section_type"].dtype)
@@ -149,7 +150,7 @@ def test_newer_major_version_is_refused(tmp_path):
     with pytest.raises(ResultsFormatError) as info:
         read_results(out)
     message = str(info.value)
-    assert "99.0" in message and "2.14" in message
+    assert "99.0" in message and "2.18" in message
     assert isinstance(info.value, SpacarError) and info.value.exit_code == EXIT_INPUT
     problems = validate_file(out)
     assert len(problems) == 1 and "99" in problems[0]
@@ -160,6 +161,8 @@ def test_newer_minor_version_is_read(tmp_path):
     write_run(out, chain_model())
     newer = (SCHEMA_VERSION[0], SCHEMA_VERSION[1] + 1)
     _set_attr(out, "schema_version", np.array(newer, dtype=np.int32))
+    with h5py.File(out, "r+") as f:     # as its writer would: the header's checksum too
+        f.attrs["header_crc32"] = header_crc(f.attrs)
     assert read_results(out).schema_version == newer
     assert validate_file(out) == []
 

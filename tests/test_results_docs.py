@@ -27,6 +27,7 @@ _DTYPES = {"f8": "float64", "c16": "complex128", "i8": "int64", "i4": "int32", "
            "ascii": "fixed-length ASCII string", "utf-8": "variable-length UTF-8 string"}
 _SYMBOLS = {"step": "n_step", "time_step": "n_t", "linearized_step": "n_lin",
             "mode": "n_mode", "position_node": "n_pos", "orientation_node": "n_rot",
+            "warping_node": "n_warp",
             "reaction": "n_reac", "coordinate": "3", "euler_parameter": "4",
             "global_coordinate": "n_coord", "load": "n_load", "input": "n_input",
             "kinematic": "n_kinematic", "kinematic_state": "n_kin",

@@ -117,17 +117,20 @@ def test_c7_prescribed_spin_rolls_the_contact_point(tmp_path):
         assert np.abs(r["wheel_s"][:, 0, 4]).max() < 1e-9            # no lateral force
 
 
-def test_mode_3_along_a_trajectory_still_refuses_held_slips(tmp_path, capsys):
-    """Mode 3 along a trajectory (a TIMESTEP other than ``0 0``) does not impose the slips
-    yet: a one-line refusal (statics, the linearizations at rest and the steady motion do:
-    tests/test_rolling_static.py, tests/test_bicycle_linear.py)."""
+def test_mode_3_along_a_trajectory_imposes_held_slips(tmp_path):
+    """Mode 3 along a trajectory linearizes each stored step with the slips
+    (tests/test_rolling_mode3.py has the checks): the disc at rest upright at t = 0 falls,
+    lambda = +-sqrt(m g r / (A + m r^2))."""
     deck = tmp_path / "d.dat"
-    deck.write_text(_DISC.format(alpha=0, spin="DYNE 3 1", data="", steps=1, t_end=1))
-    assert main(["run", str(deck), "-o", str(tmp_path / "d.h5"), "--mode", "3",
-                 "-q"]) == 2
-    err = capsys.readouterr().err
-    assert "mode 3 along a trajectory with slips is not supported yet" in err
-    assert "Traceback" not in err
+    deck.write_text(_DISC.format(alpha=0, spin="DYNE 3 1", data="GRAVITY 0 0 -9.81",
+                                steps=2, t_end=0.01))
+    out = tmp_path / "d.h5"
+    assert main(["run", str(deck), "-o", str(out), "--mode", "3", "-q"]) == 0
+    with h5py.File(out) as f:
+        pole = f["state_space/pole"][0]
+        assert f["state_space/pole"].shape[0] == 3
+    lam = math.sqrt(2 * 9.81 * 0.3 / (0.045 + 2 * 0.09))
+    assert abs(pole.real.max() - lam) < 1e-9 * lam and abs(pole.real.min() + lam) < 1e-9 * lam
 
 
 # -- the benchmark bicycle, free rear wheel (spec B12, B14 on a short run) ---------------------

@@ -21,6 +21,8 @@ from spacarpy.errors import DeckError
 from spacarpy.solvers.dynamics.transient import TransientOptions, solve_transient
 from spacarpy.solvers.statics.static import solve_static
 
+from helpers import slider_deck
+
 
 def run_transient(text: str):
     job = job_from_text(text)
@@ -84,23 +86,6 @@ def test_inpute_driven_wheel_torque_is_minus_i_alpha(w, alpha):
 
 # ------------------------------------------------------------------ 5-field INPUTX: a slider
 
-SLIDER = """# a 2 kg slider on node 3, its x driven by INPUTX n c value velocity acceleration
-X 1 0 0 0
-X 3 1 0 0
-TRUSS 1 1 3
-RLSE 1 1
-FIX 1
-FIX 3 2 3
-INPUTX 3 1
-END
-HALT
-XM 3 2.0
-INPUTX 3 1 1.0 {v0} {a0}
-TIMESTEP 1.0 50
-MODE transient
-END
-END
-"""
 
 
 def test_inputx_five_fields_move_a_slider_and_do_its_work():
@@ -108,7 +93,7 @@ def test_inputx_five_fields_move_a_slider_and_do_its_work():
     prescribed), the kinetic energy m v(t)^2 / 2 and the work the prescribed motion does on
     the mass, m ((v0 + a0 t)^2 - v0^2) / 2 (the driving force m a0 times the distance)."""
     v0, a0, m = 0.5, -0.8, 2.0
-    res = run_transient(SLIDER.format(v0=v0, a0=a0))
+    res = run_transient(slider_deck(v0, a0))
     num = res.problem.num
     ix = num.pos_idx[1, 0]
     t = np.array([s.time for s in res.steps])
@@ -124,7 +109,7 @@ def test_inputx_five_fields_move_a_slider_and_do_its_work():
 
 
 def test_five_field_inputs_are_read_and_written_back():
-    model = model_from_text(SLIDER.format(v0=0.5, a0=-0.8))
+    model = model_from_text(slider_deck(0.5, -0.8))
     (p,) = model.prescribed
     assert (p.initial, p.velocity, p.acceleration) == (1.0, 0.5, -0.8)
     again = model_from_text(model_to_deck(model))
@@ -133,12 +118,12 @@ def test_five_field_inputs_are_read_and_written_back():
     (d,) = wheel.prescribed_deformations
     assert (d.initial, d.velocity, d.acceleration) == (0.0, 20.0, 3.0)
     # the 3-field form is unchanged: no rate
-    three = model_from_text(SLIDER.format(v0=0, a0=0).replace("1.0 0 0\n", "1.0\n"))
+    three = model_from_text(slider_deck(0, 0).replace("1.0 0 0\n", "1.0\n"))
     assert (three.prescribed[0].velocity, three.prescribed[0].acceleration) == (0.0, 0.0)
 
 
 def test_inputx_with_four_fields_gives_the_velocity_only():
-    model = model_from_text(SLIDER.format(v0=0.5, a0=0).replace("0.5 0\n", "0.5\n"))
+    model = model_from_text(slider_deck(0.5, 0).replace("0.5 0\n", "0.5\n"))
     assert (model.prescribed[0].velocity, model.prescribed[0].acceleration) == (0.5, 0.0)
 
 

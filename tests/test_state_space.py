@@ -235,22 +235,29 @@ def test_spacar_mode_numbers(number, name):
 
 
 @pytest.mark.parametrize("number", [2, -2])
-def test_mode_2_is_refused_clearly(number, tmp_path, capsys):
-    assert resolve_analysis(number) is None
-    assert "not supported yet" in spacar_mode_refusal(number)
+def test_mode_2_runs_inverse_dynamics(number, tmp_path, capsys):
+    """SPACAR mode 2 is no longer refused: on this deck (a flexible cantilever, nothing
+    prescribed) inverse dynamics asks for its time span, and with one names the degrees of
+    freedom it would need prescribed (tests/test_inverse_dynamics.py has the runs)."""
+    assert resolve_analysis(number) == "inverse_dynamics"
+    assert spacar_mode_refusal(number) is None
     code = main(["run", str(DECK), "-o", str(tmp_path / "x.h5"), "--mode", str(number)])
     assert code == EXIT_INPUT
     err = capsys.readouterr().err
-    want = "inverse dynamics"
-    assert f"SPACAR mode {abs(int(number))} (" in err and want in err
-    assert "not supported yet" in err and "Traceback" not in err
+    assert "MODE inverse_dynamics (SPACAR 2) needs the time span: TIMESTEP" in err
+    deck = tmp_path / "timed.dat"
+    deck.write_text(DECK.read_text().replace("MODE 9", "MODE 9\nTIMESTEP 1 2"))
+    code = main(["run", str(deck), "-o", str(tmp_path / "x.h5"), "--mode", str(number)])
+    assert code == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert "MODE inverse_dynamics (SPACAR 2) needs every degree of freedom prescribed" in err
+    assert "flexible (DYNE) modes are degrees of freedom: BEAM" in err
+    assert "not supported yet" not in err and "Traceback" not in err
 
 
-def test_mode_2_in_the_deck_names_the_line():
-    text = DECK.read_text().replace("MODE 9", "MODE 2")
-    with pytest.raises(DeckError, match=r":8:6: error: MODE: SPACAR mode 2 \(inverse "
-                                        r"dynamics\) is not supported yet"):
-        job_from_text(text, "deck.dat")
+def test_mode_2_in_the_deck_is_read():
+    job = job_from_text(DECK.read_text().replace("MODE 9", "MODE 2"), "deck.dat")
+    assert job.settings.analysis == "inverse_dynamics"
 
 
 def test_negative_mode_is_silent(tmp_path, capfd):

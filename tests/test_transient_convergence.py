@@ -175,3 +175,62 @@ def test_the_file_and_the_log_line_say_which_steps_are_on_their_floor(tmp_path, 
     lines = [ln for ln in err.splitlines() if ln.startswith("time step ")]
     assert len(lines) == 11, lines
     assert all(("within its round-off floor" in ln) == (i > 0) for i, ln in enumerate(lines))
+
+
+_SOUTHWELL_SPY = r'''
+import sys, numpy as np
+from spacarpy.solvers.statics.equilibrium import StaticProblem, FLOOR_MULTIPLE
+ratios = []
+real = StaticProblem.clears_floor
+def spy(self, fr, fc, level, tol):
+    ratios.append(max(np.max(FLOOR_MULTIPLE * fr * self._force_w_free / (tol * level),
+                             initial=0.0),
+                      np.max(FLOOR_MULTIPLE * fc * self.constraint_weight / tol, initial=0.0)))
+    return real(self, fr, fc, level, tol)
+StaticProblem.clears_floor = spy
+from spacarpy.cli import main
+code = main(["run", sys.argv[1], "-o", sys.argv[2], "-q"])
+print("RATIOS", min(ratios), max(ratios), len(ratios))
+sys.exit(code)
+'''
+
+
+@pytest.mark.slow
+def test_southwells_converged_by_does_not_depend_on_round_off(tmp_path):
+    """The Southwell deck's first 20 stored steps (steps 14 and 16 flipped between 0 and 1
+    with a round-off change of the frame's rate) with one and with two BLAS threads: the
+    same flags, every step after step 0 stored as 1 (the deck's tolerance 1e-10 lies within
+    10 times the floor of some equation at every accepted integration step, by a factor
+    2.6 at least: the residual's round-off cannot change the flag)."""
+    import os
+    import subprocess
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    from helpers import REPO
+    text = (DECKS / "rotating_cantilever_southwell.dat").read_text()
+    short = text.replace("TIMESTEP 14 140", "TIMESTEP 2 20")
+    assert short != text
+    deck = tmp_path / "southwell.dat"
+    deck.write_text(short)
+    script = tmp_path / "spy.py"
+    script.write_text(_SOUTHWELL_SPY)
+
+    def run(threads):
+        out = tmp_path / f"sw{threads}.h5"
+        env = dict(os.environ, PYTHONPATH=str(REPO), OPENBLAS_NUM_THREADS=str(threads),
+                   OMP_NUM_THREADS=str(threads), MKL_NUM_THREADS=str(threads))
+        proc = subprocess.run([sys.executable, str(script), str(deck), str(out)], env=env,
+                              capture_output=True, text=True, cwd=REPO)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        lo, hi, n = proc.stdout.split("RATIOS")[1].split()
+        with h5py.File(out, "r") as f:
+            return f["transient/converged_by"][()], float(lo), float(hi), int(n)
+
+    with ThreadPoolExecutor(2) as pool:
+        runs = list(pool.map(run, (1, 2)))
+    for by, lo, hi, n in runs:
+        assert by.shape == (21,) and by[0] == 0 and np.all(by[1:] == 1)
+        # decided with a margin: 10 times the floor above the tolerance by 2 at least
+        assert n >= 20 and lo > 2.0 and hi < 1e3
+    assert np.array_equal(runs[0][0], runs[1][0])

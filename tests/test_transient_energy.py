@@ -24,6 +24,8 @@ import pytest
 from spacarpy.deck import job_from_text
 from spacarpy.solvers.dynamics.transient import TransientOptions, solve_transient
 
+from helpers import slider_deck
+
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 
 # a rigid rod on orientation node 6 (Izz = 0.5 kg m^2) hangs on a torsion spring k = 3 N m/rad
@@ -165,24 +167,6 @@ def test_every_shipped_driven_deck_conserves_energy_to_second_order(name, drive,
     assert errors[k] == pytest.approx(measured, rel=0.2)
 
 
-# a 2 kg slider on node 3 whose x the 5-field INPUTX drives at a constant acceleration
-SLIDER = """X 1 0 0 0
-X 3 1 0 0
-TRUSS 1 1 3
-RLSE 1 1
-FIX 1
-FIX 3 2 3
-INPUTX 3 1
-END
-HALT
-XM 3 2.0
-INPUTX 3 1 1.0 0.5 -0.8
-GRAVITY 0 -9.81 0
-TIMESTEP 1.0 10
-MODE transient
-END
-END
-"""
 
 
 def test_transient_reactions_hold_the_prescribed_motion(tmp_path):
@@ -195,7 +179,7 @@ def test_transient_reactions_hold_the_prescribed_motion(tmp_path):
     from spacarpy.results.tables import extract
 
     deck, out = tmp_path / "slider.dat", tmp_path / "slider.h5"
-    deck.write_text(SLIDER)
+    deck.write_text(slider_deck(0.5, -0.8, steps=10, gravity=True))
     assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
     with open_results(out) as res:
         tr = res.transient

@@ -28,7 +28,7 @@ def add_parser(sub, vocabularies: bool = True) -> None:
                           formatter_class=argparse.RawDescriptionHelpFormatter,
                           epilog="plots:\n" + "\n".join(f"  {k:<18} {v}"
                                                        for k, v in PLOTS.items()))
-    plot.add_argument("file", type=Path, help="result file (.h5)")
+    plot.add_argument("file", type=Path, help="result file (.h5); root-locus: a sweep file")
     plot.add_argument("kind", choices=list(PLOTS), metavar="KIND", nargs="?", default="shape",
                       help="what to draw (default: shape; listed below)")
     _selection(plot)
@@ -78,6 +78,13 @@ def cmd_plot(args) -> int:
     out = check_output(out, ANIMATION_SUFFIXES if animation else IMAGE_SUFFIXES,
                        f"plot {args.kind}")          # before any work
     refuse_special_output(out, "-o")
+    if args.kind == "root-locus":            # a sweep file, not a run's result file
+        from spacarpy.results.plot_sweep import root_locus_figure
+        fig = root_locus_figure(args.file)
+        with discarding(out) as target, atomic_output(target) as staged:
+            save(fig, staged)
+        print(out)
+        return EXIT_OK
     step = "all" if args.all_steps else args.step
     with open_results(args.file) as res, discarding(out) as target, \
             atomic_output(target) as staged:      # whole or not at all (a full disk)

@@ -61,7 +61,8 @@ def add_parser(sub) -> None:
                           "eigen (4, 7), buckling (8), transient (1), check (0: mechanism "
                           "and DOF report, no solve), state_space (9: the linearized state "
                           "space), transient_linearized (3: the linearized equations at "
-                          "every time step); a negative SPACAR "
+                          "every time step), inverse_dynamics (2: the input forces of a "
+                          "prescribed motion); a negative SPACAR "
                           "number runs silently (as -q); overrides the deck's MODE line")
     run.add_argument("--deformations", choices=("modified", "basic"), default=None,
                      help="deformation definitions: modified second-order (Eq. 48, default) "
@@ -131,7 +132,7 @@ def _run_locked(args, out) -> int:
                                      n_modes=args.modes,
                                      modes_each_step=True if args.modes_per_step else None,
                                      rotary_inertia=args.rotary_inertia)
-    if settings.analysis in ("transient", "transient_linearized"):
+    if settings.analysis in ("transient", "transient_linearized", "inverse_dynamics"):
         _warn_output_size(model, settings, out)
     if settings.analysis == "check" and args.output is not None:
         log.warning("-o %s is ignored: the check analysis writes no result file",
@@ -140,7 +141,8 @@ def _run_locked(args, out) -> int:
     log.info("%s: %d position nodes, %d orientation nodes, %d elements; %s analysis, %s "
              "deformations", args.deck, model.position_ids.size, model.orientation_ids.size,
              n_elem, settings.analysis, settings.deformations)
-    progress = (_ProgressBar(sys.stderr) if settings.analysis == "transient" and not args.quiet
+    progress = (_ProgressBar(sys.stderr) if settings.analysis in ("transient", "inverse_dynamics")
+                and not args.quiet
                 and sys.stderr.isatty() else None)
     handlers = logging.getLogger().handlers if progress is not None else []
     for handler in handlers:         # a log line first clears the bar's line
@@ -163,6 +165,9 @@ def _run_locked(args, out) -> int:
                  "(%d rejected by the error control), %d Newton iterations in %.2f s",
                  summary.n_time, summary.integration_steps, summary.rejected_steps,
                  summary.newton_iterations, time.perf_counter() - t0)
+    elif settings.analysis == "inverse_dynamics":
+        log.info("finished inverse dynamics: %d stored time steps, %d Newton iterations in "
+                 "%.2f s", summary.n_time, summary.newton_iterations, time.perf_counter() - t0)
     else:
         log.info("finished %s analysis: %d steps in %.2f s", settings.analysis, summary.n_steps,
                  time.perf_counter() - t0)

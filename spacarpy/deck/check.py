@@ -59,6 +59,7 @@ class DeckSummary:
     dof: int | None = None
     loads: dict = field(default_factory=dict)           # XF/DELXF -> number of lines
     kinematic: int = 0                                  # KINE and KINX coordinates
+    dynamic: list = field(default_factory=list)         # DYNX (node, coordinate), deck order
     slips_held: int = 0                                 # velocity-level modes not released
     forces: int | None = None
     moments: int | None = None
@@ -100,9 +101,11 @@ class DeckSummary:
             rows.append(("deformation modes", f"{self.flexible} flexible and {self.released} "
                                               "released listed (rigid: n/a)"))
         if self.n_coord is not None:
+            n_euler = self.n_coord - self.n_position_coord - self.warping_nodes
+            warp = f" + {self.warping_nodes} warping" if self.warping_nodes else ""
             rows.append(("coordinates", f"{self.n_coord} ({self.n_position_coord} position + "
-                                        f"{self.n_coord - self.n_position_coord} Euler "
-                                        f"parameters), {self.n_fixed} fixed"))
+                                        f"{n_euler} Euler parameters{warp}), "
+                                        f"{self.n_fixed} fixed"))
             n_con = self.n_rigid_constraints + self.n_euler_constraints
             rows.append(("constraints", f"{n_con} ({self.n_rigid_constraints} rigid modes + "
                                         f"{self.n_euler_constraints} Euler normalisations)"))
@@ -114,6 +117,8 @@ class DeckSummary:
         else:
             rows.append(("coordinates", "n/a"))
             rows.append(("degrees of freedom", "n/a"))
+        if self.dynamic:
+            rows.append(("dynamic (DYNX)", dynamic_text(self.dynamic, self.flexible)))
         loads = ", ".join(f"{n} {kw}" for kw, n in self.loads.items() if n) or "none"
         if self.forces is not None and (self.forces or self.moments):
             loads += f" ({self.forces} force{'s' * (self.forces != 1)}, {self.moments} " \
@@ -254,6 +259,20 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
     return s
 
 
+def dynamic_text(dynamic, n_dyne: int, limit: int = 8) -> str:
+    """The DYNX coordinates in one line: ``3 coordinates: node 2 (1 2), node 4 (3); with 1
+    DYNE mode, 4 degrees of freedom`` (the first ``limit`` nodes named)."""
+    by_node: dict = {}
+    for n, c in dynamic:
+        by_node.setdefault(n, []).append(c)
+    named = [f"node {n} ({' '.join(map(str, cs))})" for n, cs in list(by_node.items())[:limit]]
+    more = len(by_node) - limit
+    text = (f"{len(dynamic)} coordinate{'s' * (len(dynamic) != 1)}: " + ", ".join(named)
+            + (f" and {more} more node{'s' * (more != 1)}" if more > 0 else ""))
+    return (text + f"; with {n_dyne} DYNE mode{'s' * (n_dyne != 1)}, "
+            f"{len(dynamic) + n_dyne} degrees of freedom (SPACAR's)")
+
+
 def _from_model(s: DeckSummary, model: Model, settings: AnalysisSettings) -> None:
     from spacarpy.numbering import number_model
 
@@ -271,6 +290,7 @@ def _from_model(s: DeckSummary, model: Model, settings: AnalysisSettings) -> Non
     s.n_euler_constraints = int(num.euler_nodes.size)
     s.dof = num.n_unknown - num.n_constraint
     s.kinematic = len(model.kinematic)
+    s.dynamic = [(d.node, d.coord) for d in model.dynamic_coords]
     s.slips_held = sum(int(np.count_nonzero(es.def_class[:, m] == RIGID))
                        for kw, es in model.elements.items()
                        for m in getattr(KINDS[kw], "velocity_modes", ()))

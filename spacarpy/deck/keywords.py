@@ -236,6 +236,10 @@ def _spacar_only(name, summary, section) -> KeywordSpec:
                                     "value"))
 
 
+#: The node role letter of each slot type (position, orientation, warping node).
+_ROLE_OF_SLOT = {"pos": "p", "rot": "r", "warp": "w"}
+
+
 def element_keyword(kind) -> KeywordSpec:
     """The deck keyword of an element kind, from what the kind declares (its node fields and
     the optional trailing vector): ``KEYWORD e nodes... [v1 v2 v3]`` (``v1 v2 v3`` required
@@ -245,10 +249,10 @@ def element_keyword(kind) -> KeywordSpec:
     if kind.vector_required:
         return KeywordSpec(kind.keyword, kind.summary, section="element",
                            required=(ELEMENT, *nodes, *vector),
-                           node_roles="".join("p" if s == "pos" else "r" for s in kind.slots))
+                           node_roles="".join(_ROLE_OF_SLOT[s] for s in kind.slots))
     return KeywordSpec(kind.keyword, kind.summary, section="element",
                        required=(ELEMENT, *nodes), optional=(vector,) if vector else (),
-                       node_roles="".join("p" if s == "pos" else "r" for s in kind.slots))
+                       node_roles="".join(_ROLE_OF_SLOT[s] for s in kind.slots))
 
 
 _KEYWORD_LIST = (
@@ -294,14 +298,10 @@ _KEYWORD_LIST = (
                 required=(ELEMENT,), variadic=_MODE, range_first=True),
     KeywordSpec("KINX", "kinematic nodal coordinates (rates fixed by the rolling constraints)",
                 required=(NODE,), variadic=_COORD),
-    _unsupported("DYNX", "dynamic (free) nodal coordinates of a transient analysis",
-                 "kinematics", required=(NODE,), variadic=_COORD),
+    KeywordSpec("DYNX", "nodal coordinates that are degrees of freedom (dynamic)",
+                required=(NODE,), variadic=_COORD),
     # ------------------------------------------------------------------ elements
     *(element_keyword(kind) for kind in KINDS.values()),
-    _unsupported("BEAMW", "spatial beam with warping nodes", "element",
-                 required=(ELEMENT, _POS_P, _ROT_P, _f("warping node at p", "wp", "int", True),
-                           _POS_Q, _ROT_Q, _f("warping node at q", "wq", "int", True)),
-                 optional=(_ORIENTATION,), node_roles="prwprw"),
     # SPACAR element and kinematics keywords whose field layouts are not publicly documented
     # (../shared/spacar/README.md: element type codes; issue 18): any fields, always refused
     *(_spacar_only(name, summary, section) for name, summary, section in _SPACAR_ONLY),

@@ -165,9 +165,11 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
                     for row in es.def_class]
             out += _element_lines(keyword, es.ids, data, compact)
     out += _kinematic_lines(model)
-    position_nodes = set(model.position_ids.tolist())
+    out += [format_record("DYNX", d.node, d.coord) for d in model.dynamic_coords]
+    position_nodes, warping_nodes = set(model.position_ids.tolist()), set(
+        model.warping_ids.tolist())
     for fix in model.fixes:
-        size = 3 if fix.node in position_nodes else 4
+        size = 3 if fix.node in position_nodes else 1 if fix.node in warping_nodes else 4
         coords = () if tuple(fix.coords) == tuple(range(1, size + 1)) else fix.coords
         out.append(format_record("FIX", fix.node, *coords))
     for p in model.prescribed:

@@ -99,6 +99,10 @@ class Fields(NamedTuple):
         return len(self.names)
 
 
+#: Coordinates per node of each slot type: a position node (x, y, z), an orientation node
+#: (four Euler parameters), a warping node (the rate of twist, BEAMW).
+SLOT_SIZE = {"pos": 3, "rot": 4, "warp": 1}
+
 #: Node fields of the element lines, by role.
 POS_P, POS_Q = ("position node p", "p"), ("position node q", "q")
 ROT_AT_P, ROT_AT_Q = ("orientation node at p", "r"), ("orientation node at q", "s")
@@ -147,8 +151,8 @@ class ElementKind:
     keyword : str
         The deck keyword.
     slots : tuple of str
-        Per node of the element line: ``"pos"`` (3 coordinates) or ``"rot"`` (4 Euler
-        parameters), in deck order.
+        Per node of the element line: ``"pos"`` (3 coordinates), ``"rot"`` (4 Euler
+        parameters) or ``"warp"`` (1: a BEAMW's rate of twist), in deck order.
     node_roles : tuple of str
         A name per node for messages and docs, e.g. ``("p", "r", "q", "s")``.
     modes, mode_units : tuple of str
@@ -200,6 +204,9 @@ class ElementKind:
     reference_type : type
         The kind's :class:`Reference` record, what ``reference`` returns and the kernels
         read.
+    always_free : tuple of int
+        0-based modes that are never rigid (the BEAMW's warping modes): released when no
+        DYNE/RLSE lists them, carrying their ESTIFF stiffness when ESTIFF is given.
     """
 
     keyword: str = ""
@@ -226,6 +233,7 @@ class ElementKind:
     rate_units: tuple = ()
     stress_sign: tuple = ()
     reference_type: type = Reference
+    always_free: tuple = ()
 
     # optional kernels: None where the kind has none
     tangent: Callable | None = None
@@ -247,7 +255,7 @@ class ElementKind:
 
     @property
     def n_ldof(self) -> int:
-        return sum(3 if s == "pos" else 4 for s in self.slots)
+        return sum(SLOT_SIZE[s] for s in self.slots)
 
     @property
     def n_estiff(self) -> int:
@@ -261,7 +269,7 @@ class ElementKind:
     def position_starts(self) -> np.ndarray:
         """Local slots where the position triples (x, y, z of each position node) start
         (cached: the element-wise products of every CG iteration ask for it)."""
-        width = [3 if s == "pos" else 4 for s in self.slots]
+        width = [SLOT_SIZE[s] for s in self.slots]
         starts = np.cumsum([0] + width[:-1])
         return np.array([a for a, s in zip(starts, self.slots) if s == "pos"], dtype=np.int64)
 

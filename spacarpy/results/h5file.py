@@ -40,6 +40,7 @@ import h5py
 import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.results.header_crc import header_problems
 from spacarpy.results.schema import DATASETS, KIND_NAMES, legacy_name
 
 log = logging.getLogger(__name__)
@@ -305,13 +306,7 @@ def create_with(path, write, libver=LIBVER) -> h5py.File:
     interpreter crashes at exit when HDF5 closes them; ``spacarpy`` itself ends by
     ``os._exit``, a library caller of ``spacarpy.cli.main`` does not.)"""
     import io
-    image = io.BytesIO()
-    with h5py.File(image, "w", libver=libver) as mem:
-        write(mem)
-    with open(path, "wb") as out:
-        out.write(image.getbuffer())
-    del image
-    return h5py.File(path, "r+", libver=libver)
+    return _write_image(path, io.BytesIO(), "w", write, libver)
 
 
 def rebuild_with(path, f, write) -> h5py.File:
@@ -320,13 +315,18 @@ def rebuild_with(path, f, write) -> h5py.File:
     :func:`create_with` does (the same reason); return ``path`` open for appending."""
     import io
     f.close()
-    image = io.BytesIO(Path(path).read_bytes())
-    with h5py.File(image, "r+", libver=LIBVER) as mem:
+    return _write_image(path, io.BytesIO(Path(path).read_bytes()), "r+", write, LIBVER)
+
+
+def _write_image(path, image, mode, write, libver) -> h5py.File:
+    """Open the in-memory HDF5 file ``image`` in ``mode``, let ``write`` fill it, write its
+    bytes to ``path`` by one plain write and return ``path`` open for appending."""
+    with h5py.File(image, mode, libver=libver) as mem:
         write(mem)
     with open(path, "wb") as out:
         out.write(image.getbuffer())
     del image
-    return h5py.File(path, "r+", libver=LIBVER)
+    return h5py.File(path, "r+", libver=libver)
 
 
 def discard_written(f, path) -> None:
@@ -478,7 +478,7 @@ def fixed_damaged(ds: h5py.Dataset) -> bool:
 def checksum_problems(f: h5py.File, committed: dict) -> list[str]:
     """Every dataset of an opened file that fails its checksum, one message each;
     ``committed`` gives the number of committed steps of each step group."""
-    problems = []
+    problems = header_problems(f.attrs)
 
     def visit(name, obj):
         if isinstance(obj, h5py.Dataset) and CRC_ATTR in obj.attrs and fixed_damaged(obj):

@@ -19,6 +19,7 @@ import numpy as np
 from spacarpy.model import Model
 from spacarpy.results import h5file
 from spacarpy.results.h5file import create
+from spacarpy.results.header_crc import HEADER_CRC_ATTR, header_crc
 from spacarpy.results.schema import (
     CRITICAL_POINT_NAMES,
     DATASETS,
@@ -123,6 +124,7 @@ def write_header(f: h5py.File, model: Model, model_data: dict, *, program_versio
     a["deformations"] = deformations
     if rotary_inertia is not None:
         a["rotary_inertia"] = rotary_inertia
+    a[HEADER_CRC_ATTR] = header_crc(a)  # of the values as read back (schema 2.18)
     create(f, "deck", text, dtype=h5py.string_dtype("utf-8"))
     for path, value in model_data.items():
         if path not in DATASETS:

@@ -53,6 +53,8 @@ def model_datasets(model: Model, num=None) -> dict:
         "model/position_x0": np.asarray(model.position_x0, dtype=np.float64).reshape(-1, 3),
         "model/orientation_nodes": np.asarray(model.orientation_ids, dtype=np.int64),
     }
+    if model.warping_ids.size:
+        out["model/warping_nodes"] = np.asarray(model.warping_ids, dtype=np.int64)
     b = "model/elements/BEAM"
     group = num.group("BEAM")
     idx = group.idx if group is not None else np.zeros((0, 14), np.int64)
@@ -97,6 +99,7 @@ def model_datasets(model: Model, num=None) -> dict:
     index = np.zeros(num.n_coord, dtype=np.int8)
     index[num.pos_idx] = np.arange(1, 4, dtype=np.int8)
     index[num.rot_idx] = np.arange(1, 5, dtype=np.int8)
+    index[num.warp_idx] = 1
     out["model/coordinate_node"] = num.node_of_coord(model)
     out["model/coordinate_index"] = index
     out["model/coordinate_fixed"] = num.fixed_mask.astype(bool)

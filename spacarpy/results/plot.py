@@ -23,11 +23,13 @@ from spacarpy.results.plot_shapes import (
     shape_figure,
     straight_lines,
 )
+from spacarpy.results.plot_sweep import root_locus_figure
 from spacarpy.results.reader import ResultsFile, ResultsQueryError
 
 __all__ = ["PlotUnavailableError", "PLOTS", "make_figure", "shape_figure",
            "load_displacement_figure", "path_figure", "frequency_figure", "buckling_figure",
-           "history_figure", "mode_figure", "animate", "save", "centre_lines", "straight_lines"]
+           "history_figure", "mode_figure", "root_locus_figure", "animate", "save",
+           "centre_lines", "straight_lines"]
 
 _X = ("; x axis: the quantity the run prescribes (a DELINPE angle in mrad, a DELXF force in "
       "N) where it has one, else the load factor (--x)")
@@ -49,6 +51,9 @@ PLOTS = {
                "euler, deformation, stress_resultant or energy",
     "mode": "eigenmode --mode (default 1) at --step, over the deformed shape",
     "buckling-mode": "buckling mode --mode (default 1) at --step",
+    "root-locus": "a sweep file's poles (spacarpy sweep DECK --set V=0:10:101 --collect "
+                  "/state_space/pole) against the swept parameter: real and imaginary parts "
+                  "(docs/rolling.md)",
     "animate": "an animation of the time steps (or the load steps) to -o NAME.gif (or .mp4 "
                "when ffmpeg is installed)",
 }
@@ -60,7 +65,8 @@ def make_figure(res: ResultsFile, kind: str, **options):
     builders = {"shape": shape_figure, "load-displacement": load_displacement_figure,
                 "frequency": frequency_figure, "buckling": buckling_figure,
                 "history": history_figure, "mode": mode_figure, "path": path_figure,
-                "buckling-mode": lambda r, **kw: mode_figure(r, group="buckling", **kw)}
+                "buckling-mode": lambda r, **kw: mode_figure(r, group="buckling", **kw),
+                "root-locus": lambda r, **kw: root_locus_figure(r.path)}
     if kind not in builders:
         raise ResultsQueryError(f"unknown plot {kind!r}; choose one of "
                                 f"{', '.join(k for k in PLOTS if k != 'animate')}")

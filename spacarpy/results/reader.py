@@ -49,6 +49,7 @@ from spacarpy.results.h5file import (
     reading,
     schema_major,
 )
+from spacarpy.results.header_crc import header_problems
 from spacarpy.results.linearized_views import (
     BucklingView,
     ComplianceView,
@@ -132,6 +133,8 @@ class ResultsFile(RootAttributes):
         self._context = None
         with open_for_reading(self.path) as f:
             self.attrs = check_readable(f, self.path)
+            if verify and (problems := header_problems(f.attrs)):
+                raise damaged(self.path, problems[0])
             groups = set(f.keys())
             self._major = schema_major(f)
         self.model = ModelView(self)

@@ -16,6 +16,7 @@ Node-based datasets (``/static/position`` ...) keep their 1.x paths and shapes.
 
 Dimension names: ``step`` (committed load steps), ``time_step`` (committed time steps),
 ``linearized_step``, ``mode``, ``position_node`` (n_pos), ``orientation_node`` (n_rot),
+``warping_node`` (n_warp, a BEAMW's warping nodes),
 ``element`` (elements of the dataset's kind), ``deformation_mode`` (the kind's n_def),
 ``slot`` (the kind's node slots), ``reaction``, ``coordinate`` (3), ``euler_parameter`` (4),
 ``global_coordinate`` (n_coord), ``load`` (load lines), ``input`` (prescribed deformations),
@@ -32,8 +33,8 @@ import numpy as np
 
 from spacarpy.elements.registry import KINDS as _KINDS
 
-__all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "KIND_NAMES",
-           "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
+__all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS",
+           "KIND_NAMES", "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
            "STEP_GROUPS", "CRITICAL_POINT_NAMES",
            "REACTION_COMPONENTS", "REACTION_UNITS", "MODE_KIND_NAMES",
            "DEFORMATION_CLASS_NAMES", "ROOT_ATTRS", "n_def", "n_slots", "slot_roles"]
@@ -41,7 +42,7 @@ __all__ = ["SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS", "
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 14)
+SCHEMA_VERSION = (2, 18)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -53,6 +54,8 @@ ROOT_ATTRS = ("filetype", "schema_version", "program", "program_version", "creat
 REACTION_COMPONENTS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mx": "N m", "My": "N m", "Mz": "N m"}
 #: ``units`` attribute of ``/static/reaction`` (units depend on the component).
 REACTION_UNITS = "N | N m (see reaction_component)"
+#: The /transient datasets of inverse dynamics (SPACAR mode 2) only.
+ACCELERATIONS = ("transient/acceleration", "transient/euler_acceleration")
 #: Names of the ``/eigen/kind`` codes.
 MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite",
                    "undetermined")
@@ -147,7 +150,7 @@ def _units(per_mode) -> str:
 #: Schema version that introduced each kind's datasets (kinds added later: their own).
 _KIND_SINCE = {"BEAM": (1, 0), "TRUSS": (1, 2), "HINGE": (1, 2), "RBEAM": (1, 2),
                "PLBEAM": (1, 3), "PLTRUSS": (1, 3), "PLHINGE": (1, 3), "PINBODY": (2, 11),
-               "WHEEL": (2, 11)}
+               "WHEEL": (2, 11), "BEAMW": (2, 17)}
 
 _LIN_SHAPE = {"mode": ("linearized_step", "mode"),
               "position": ("linearized_step", "mode", "position_node", "coordinate"),
@@ -165,6 +168,9 @@ def _spec_list() -> list[DatasetSpec]:
           "initial position of each position node"),
         S("model/orientation_nodes", "i8", ("orientation_node",), "1",
           "deck number of each orientation node"),
+        S("model/warping_nodes", "i8", ("warping_node",), "1",
+          "deck number of each warping node (BEAMW), present when the model has them",
+          (2, 17), optional=True),
         S("model/input_deformation", "i8", ("input", 2), "1",
           "[element, mode] of each prescribed deformation (INPUTE), present when the model "
           "has them", (1, 2), optional=True),
@@ -184,7 +190,8 @@ def _spec_list() -> list[DatasetSpec]:
         S("model/coordinate_node", "i8", ("global_coordinate",), "1",
           "deck node number owning each global coordinate", v11),
         S("model/coordinate_index", "i1", ("global_coordinate",), "1",
-          "index of the coordinate in its node: 1..3 = x y z, 1..4 = lambda0..lambda3", v11),
+          "index of the coordinate in its node: 1..3 = x y z, 1..4 = lambda0..lambda3, 1 = "
+          "the rate of twist of a warping node", v11),
         S("model/coordinate_fixed", "?", ("global_coordinate",), "1",
           "whether the coordinate is fixed (FIX)", v11),
         # static
@@ -194,6 +201,10 @@ def _spec_list() -> list[DatasetSpec]:
           "position of each position node"),
         S("static/euler", "f8", ("step", "orientation_node", "euler_parameter"), "1",
           "Euler parameters (lambda0, lambda1, lambda2, lambda3) of each orientation node"),
+        S("static/warping", "f8", ("step", "warping_node"), "1/m",
+          "coordinate of each warping node: the rate of twist that sets the warping "
+          "amplitude (BEAMW), present when the model has warping nodes", (2, 17),
+          optional=True),
         S("static/reaction", "f8", ("step", "reaction"), REACTION_UNITS,
           "reaction force or moment of each reaction component"),
         S("static/iterations", "i4", ("step",), "1", "Newton iterations used in the load step"),
@@ -217,6 +228,9 @@ def _spec_list() -> list[DatasetSpec]:
           "position of each position node", v14),
         S("transient/euler", "f8", ("time_step", "orientation_node", "euler_parameter"), "1",
           "Euler parameters of each orientation node", v14),
+        S("transient/warping", "f8", ("time_step", "warping_node"), "1/m",
+          "coordinate of each warping node (rate of twist, BEAMW), present when the model "
+          "has warping nodes", (2, 17), optional=True),
         S("transient/velocity", "f8", ("time_step", "position_node", "coordinate"), "m/s",
           "velocity of each position node", v14),
         S("transient/euler_rate", "f8", ("time_step", "orientation_node", "euler_parameter"),
@@ -242,6 +256,13 @@ def _spec_list() -> list[DatasetSpec]:
           "how the last time step was accepted: 0 its residual meets the tolerance, 1 it is "
           "above the tolerance but within its round-off floor measured at that state, with "
           "converged increments (docs/transient.md, Convergence)", (2, 10), optional=True),
+        S("transient/acceleration", "f8", ("time_step", "position_node", "coordinate"),
+          "m/s^2", "acceleration of each position node (inverse dynamics, SPACAR mode 2)",
+          (2, 15), optional=True),
+        S("transient/euler_acceleration", "f8",
+          ("time_step", "orientation_node", "euler_parameter"), "1/s^2",
+          "second time derivative of the Euler parameters (inverse dynamics, SPACAR mode 2)",
+          (2, 15), optional=True),
         # linearized groups
         S("eigen/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),
@@ -401,9 +422,15 @@ def _state_space_specs() -> list[DatasetSpec]:
           "time of the linearized state (transient_linearized, SPACAR 3); NaN for a static "
           "step", (2, 6), optional=True),
         S("state_space/dof_element", "i8", ("dof",), "1",
-          "deck element number of each degree of freedom (a deformation mode)", v),
+          "deck element number of each degree of freedom (a deformation mode; 0 for a DYNX "
+          "coordinate)", v),
         S("state_space/dof_mode", "i4", ("dof",), "1",
-          "deformation mode number (1-based) of each degree of freedom", v),
+          "deformation mode number (1-based) of each degree of freedom; of a DYNX "
+          "coordinate its coordinate number", v),
+        S("state_space/dof_node", "i8", ("dof",), "1",
+          "deck node of each degree of freedom that is a DYNX coordinate (its dof_element is "
+          "0), 0 for a deformation mode; only in a file with DYNX coordinates",
+          (2, 16), optional=True),
         S("state_space/state_name", "ascii", ("state",), "1",
           "name of each state: 'BEAM 3 mode 2' (the deformation), then 'rate of BEAM 3 mode "
           "2'", v),

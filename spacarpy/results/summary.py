@@ -88,11 +88,15 @@ def _state_space_summary(v) -> list:
            "  outputs  " + (", ".join(v.output_name) or "none")]
     if n_dof:
         poles = np.linalg.eigvals(a)
-        low = poles[np.argmin(np.abs(poles))]
+        zero = poles == 0            # exact zeros: a steady motion's kinematic states
+        low = poles[~zero][np.argmin(np.abs(poles[~zero]))] if (~zero).any() else 0j
         # a real part at round-off level of the pole (an undamped one) is shown as 0
         re = low.real if abs(low.real) > 1e-9 * abs(low) else 0.0
+        besides = (f" (besides {np.count_nonzero(zero)} zero poles)"
+                   if zero.any() and (~zero).any() else "")
         out.append(f"  at step {int(v.step[-1])}: the pole of smallest magnitude is "
-                   f"{re:.4g} +- {abs(low.imag):.4g}i 1/s ({abs(low) / (2 * np.pi):.4g} Hz)")
+                   f"{re:.4g} +- {abs(low.imag):.4g}i 1/s ({abs(low) / (2 * np.pi):.4g} Hz)"
+                   + besides)
     return out
 
 

@@ -200,13 +200,15 @@ def _sizes(sf: SchemaFile, kinds: list) -> dict:
         return ds.shape[0] if isinstance(ds, h5py.Dataset) and ds.shape else None
 
     n_pos, n_rot = rows("model/position_nodes"), rows("model/orientation_nodes")
+    n_warp = rows("model/warping_nodes") or 0
     types = sf.get("model/elements/BEAM/cross_section_type")
     sections = isinstance(types, h5py.Dataset) and types.ndim == 1 and any(str_list(types))
     return {
         "position_node": n_pos, "orientation_node": n_rot, "coordinate": 3,
+        "warping_node": n_warp,
         "euler_parameter": 4, "reaction": rows("static/reaction_node"),
-        "global_coordinate": (3 * n_pos + 4 * n_rot if n_pos is not None and n_rot is not None
-                              else None),
+        "global_coordinate": (3 * n_pos + 4 * n_rot + n_warp
+                              if n_pos is not None and n_rot is not None else None),
         "load": rows("model/load_node"), "input": None, "kinematic": None,
         "sections": sections,
         "dof": rows("state_space/dof_element"),
@@ -321,19 +323,22 @@ def _check_values(sf, kinds, found, problems) -> None:
         ds = found.get(path)
         return ds[()] if ds is not None else None
 
-    for path in ["model/position_nodes", "model/orientation_nodes"] + [
+    for path in ["model/position_nodes", "model/orientation_nodes", "model/warping_nodes"] + [
             f"model/elements/{k}/ids" for k in kinds]:
         v = ids(path)
         if v is not None and np.unique(v).size != v.size:
             problems.append(f"/{sf.name(path)} has duplicate numbers")
     pos, rot = ids("model/position_nodes"), ids("model/orientation_nodes")
+    warp = ids("model/warping_nodes")
+    warp = np.zeros(0, np.int64) if warp is None else warp
     for kind in kinds:
         nodes = ids(f"model/elements/{kind}/nodes")
         if nodes is None or pos is None or rot is None or kind not in KIND_NAMES \
                 or nodes.ndim != 2 or nodes.shape[1] != n_slots(kind):
             continue
         roles = slot_roles(kind)
-        for role, known, what in (("pos", pos, "position"), ("rot", rot, "orientation")):
+        for role, known, what in (("pos", pos, "position"), ("rot", rot, "orientation"),
+                                  ("warp", warp, "warping")):
             cols = [j for j, r in enumerate(roles) if r == role]
             unknown = np.setdiff1d(nodes[:, cols], known)
             if cols and unknown.size:
@@ -365,7 +370,7 @@ def _check_values(sf, kinds, found, problems) -> None:
     if index is not None and (index.min() < 1 or index.max() > 4):
         problems.append("/model/coordinate_index has values outside 1..4")
     if pos is not None and rot is not None:
-        every = np.concatenate([pos, rot])
+        every = np.concatenate([pos, rot, warp])
         for path in ("model/coordinate_node", "model/load_node"):
             v = values(path)
             if v is not None and np.setdiff1d(v, every).size:

@@ -505,6 +505,15 @@ class TransientView(_StepView):
         rows = None if node is None else self._res.model.orientation_row(node)
         return self._select("euler_rate", step, rows)
 
+    def acceleration(self, node=None, step=None) -> np.ndarray:
+        """Accelerations of position node(s) (m/s^2), shaped as :meth:`position`; only
+        inverse dynamics (SPACAR mode 2) stores them (schema 2.15)."""
+        if not self._res._has("transient/acceleration"):
+            raise ResultsQueryError("this file has no /transient/acceleration: only inverse "
+                                    "dynamics (MODE 2) stores the accelerations")
+        rows = None if node is None else self._res.model.position_row(node)
+        return self._select("acceleration", step, rows)
+
     @property
     def kinetic_energy(self) -> np.ndarray:
         """(n_step,): kinetic energy T (J)."""

@@ -12,8 +12,7 @@ fsync) is :mod:`spacarpy.results.h5file`'s.
   flushing again.
 - A Python exception (solver failure, Ctrl-C) inside the ``with`` block closes the file
   cleanly with ``completed = False`` and the error message; the partial file is kept.
-
-The empty groups and the header it appends to are :mod:`spacarpy.results.layout`'s.
+  The empty groups and the header it appends to are :mod:`spacarpy.results.layout`'s.
 """
 from __future__ import annotations
 
@@ -36,7 +35,7 @@ from spacarpy.results.layout import (
     state_space_values,
     write_header,
 )
-from spacarpy.results.schema import DATASETS, REACTION_COMPONENTS, n_def
+from spacarpy.results.schema import ACCELERATIONS, DATASETS, REACTION_COMPONENTS, n_def
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
@@ -183,7 +182,7 @@ class ResultsWriter:
                      reaction_component, *, n_eigen_modes: int = 0,
                      n_buckling_modes: int = 0, compliance_node=None,
                      transient: bool = False, state_space: dict | None = None,
-                     arclength: bool = False) -> None:
+                     arclength: bool = False, accelerations: bool = False) -> None:
         """Create the ``/static`` group (and the others asked for) with empty step datasets.
 
         After this call the file is switched to SWMR mode: no new datasets or groups can be
@@ -213,7 +212,7 @@ class ResultsWriter:
             ``input_name`` and ``output_name``.
         arclength : bool
             An arc-length run: ``/static/arc_length`` per step and the ``/critical`` group
-            (:meth:`critical_step`).
+            (:meth:`critical_step`). ``accelerations``: /transient has them (mode 2).
         """
         f = self._require_open("begin_static")
         if "static" in self._groups:
@@ -235,8 +234,10 @@ class ResultsWriter:
                              f"expected {list(REACTION_COMPONENTS)}")
         self._sizes = {"position_node": int(n_position_node),
                        "orientation_node": int(n_orientation_node),
+                       "warping_node": int(md.get("model/warping_nodes", np.zeros(0)).size),
                        "reaction": reaction_node.size, "coordinate": 3, "euler_parameter": 4}
         self._arclength = bool(arclength)
+        self._accelerations = bool(accelerations)
         # built in memory and written in one piece, as the header (h5file.rebuild_with);
         # if that fails, abort() reopens the file that rebuild_with closed
         self._file = None
@@ -273,15 +274,15 @@ class ResultsWriter:
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
                     max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length: float | None = None, converged_by: int = 0) -> None:
+                    arc_length: float | None = None, converged_by: int = 0, warping=None) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
         ----------
         load_factor : float
             Factor on DELXF (load = XF + load_factor * DELXF).
-        position, euler : array_like, (n_pos, 3) and (n_rot, 4)
-            Node positions (m) and Euler parameters of the orientation nodes (1).
+        position, euler, warping : array_like, (n_pos, 3), (n_rot, 4) and (n_warp,)
+            Node positions (m), Euler parameters (1), warping coordinates (1/m; None: none).
         deformation, stress_resultant : dict of str -> array_like (n_elem_of_kind, n_def)
             Generalized deformations and stress resultants of every element kind of the
             model, by kind keyword (``"BEAM"``, ``"TRUSS"`` ...).
@@ -300,7 +301,7 @@ class ResultsWriter:
             0: the residual met the tolerance; 1: it lies within its measured round-off
             floor (``/static/converged_by``).
         """
-        given = {"position": position, "euler": euler, "reaction": reaction,
+        given = {"position": position, "euler": euler, "reaction": reaction, "warping": warping,
                  "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "converged_by": operator.index(converged_by),
@@ -312,23 +313,23 @@ class ResultsWriter:
                        deformation: dict, stress_resultant: dict, kinetic_energy: float,
                        elastic_energy: float, external_work: float, iterations: int,
                        residual: float, dissipated_energy: float = 0.0,
-                       reaction=None, converged_by: int = 0,
-                       deformation_rate: dict | None = None) -> None:
-        """Append one time step (arrays as in :meth:`static_step`, plus the velocities, the
-        energies, ``reaction`` (required, inertia included) and ``deformation_rate`` (kind ->
-        (n, n_def), zeros where missing)) and make it durable: the arrays first, then
-        ``/transient/time`` commits it. ``converged_by``: 0 the residual met the tolerance, 1
-        it lies within its measured round-off floor (``/transient/converged_by``)."""
-        given = {"position": position, "euler": euler, "velocity": velocity,
+                       reaction=None, converged_by: int = 0, deformation_rate: dict | None = None,
+                       acceleration=None, euler_acceleration=None, warping=None) -> None:
+        """Append one time step (as :meth:`static_step`, plus the velocities, the energies,
+        ``reaction`` (required, inertia included), ``deformation_rate`` (kind -> (n, n_def),
+        zeros where missing), the accelerations where the group has them) and make it durable:
+        the arrays first, then ``/transient/time`` commits it. ``converged_by``: 0 the residual
+        met the tolerance, 1 within its round-off floor (/transient/converged_by)."""
+        given = {"position": position, "euler": euler, "velocity": velocity, "warping": warping,
+                 "acceleration": acceleration, "euler_acceleration": euler_acceleration,
                  "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
                  "elastic_energy": elastic_energy, "external_work": external_work,
                  "dissipated_energy": float(dissipated_energy), "reaction": reaction,
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "converged_by": operator.index(converged_by)}
-        for kind, n in self.kinds.items():
-            rate = (deformation_rate or {}).get(kind)
-            given[f"elements/{kind}/deformation_rate"] = np.zeros((n, n_def(kind))) \
-                if rate is None else rate
+        rates = deformation_rate or {}
+        given.update({f"elements/{k}/deformation_rate": rates.get(k, np.zeros((n, n_def(k))))
+                      for k, n in self.kinds.items()})
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
@@ -397,8 +398,8 @@ class ResultsWriter:
                            system_output=len(names["output_name"]))
         self._create_step_group(f, "state_space", n_mode=1)
         g = f["state_space"]
-        create(g, "dof_element", np.asarray(names["dof_element"], dtype=np.int64))
-        create(g, "dof_mode", np.asarray(names["dof_mode"], dtype=np.int32))
+        for key in (k for k in ("dof_element", "dof_mode", "dof_node") if k in names):  # DYNX
+            create(g, key, np.asarray(names[key], np.int32 if key == "dof_mode" else np.int64))
         for key in ("state_name", "input_name", "output_name") + (
                 ("kinematic_name",) if kinematic else ()):
             text = ascii_array(names[key])
@@ -470,11 +471,11 @@ class ResultsWriter:
             if spec.group != group or not spec.shape or spec.shape[0] not in (
                     "step", "time_step", "linearized_step"):
                 continue
-            if spec.kind is not None and spec.kind not in self.kinds:
-                continue
-            if path.endswith(_STRESS) and not self.has_stress:
-                continue
-            if path == "static/arc_length" and not self._arclength:
+            if (spec.kind is not None and spec.kind not in self.kinds) or (
+                    path.endswith(_STRESS) and not self.has_stress) or (
+                    path == "static/arc_length" and not self._arclength) or (
+                    path in ACCELERATIONS and not self._accelerations) or (
+                    "warping_node" in spec.shape and not self._sizes["warping_node"]):
                 continue
             yield path, spec
 
@@ -531,8 +532,7 @@ class ResultsWriter:
             log.debug("static step %d written (load factor %g)", k, value)
 
     def _steps_held(self) -> str:
-        """What the file holds, for the log: the static steps, and the time steps with the
-        time they reach (a transient without START static has no static steps to name)."""
+        """What the file holds, for the log: static steps, time steps and the time reached."""
         if "transient" not in self._groups:
             return f"{self.n_step} static steps"
         tr = self._groups["transient"]
@@ -568,11 +568,11 @@ class ResultsWriter:
         return self._file
 
     def _close(self) -> None:
-        if self._file is not None:
-            try:
+        try:
+            if self._file is not None:
                 self._file.close()
-            finally:
-                self._file = None
+        finally:
+            self._file = None
 
     def _mark(self, completed: bool, error: str | None) -> None:
         """Set ``completed``/``error`` and close the file (leaving SWMR mode first)."""

@@ -52,7 +52,7 @@ from spacarpy.deck.semantics.topology import (
     _row_norms,
 )
 from spacarpy.deck.visualization import collect_cross_sections
-from spacarpy.elements.registry import PLANAR_KINDS
+from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.job import Job
 from spacarpy.model import FLEXIBLE, ElementSet, Model
 
@@ -261,7 +261,8 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
     general = parsed.general()
     keywords = {st.keyword for _, st in general} | {t.keyword for t in parsed.tables}
     if keywords & (set(GENERATORS) | set(UNSUPPORTED) | set(PLANAR_KINDS)
-                    | {"KINE", "KINX", "USERSIG", "USERINP"}):
+                   | {"KINE", "KINX", "DYNX", "USERSIG", "USERINP"}
+                   | {kw for kw, k in KINDS.items() if "warp" in k.slots}):
         raise _GiveUp
     statements = [st for _, st in general]
     errors = ErrorCollector(statements)

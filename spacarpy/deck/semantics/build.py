@@ -118,7 +118,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     topology = _topology.from_statements(by_kw, ctx, errors)
     element_data = _element_data.from_statements(by_kw, ctx, errors, topology)
     constraints = _constraints.from_statements(by_kw, ctx, errors, topology)
-    kinematic = _kinematic.from_statements(by_kw, ctx, errors, topology, constraints)
+    kinematic, dynamic = _kinematic.from_statements(by_kw, ctx, errors, topology, constraints)
     loads = _loads.from_statements(by_kw, ctx, errors, topology, constraints)
     settings = _settings.from_statements(by_kw, ctx, errors, topology,
                                          deformations=deformations, analysis=analysis)
@@ -140,6 +140,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         position_ids=ids,
         position_x0=[topology.positions[k][0] for k in ids] if ids else [],
         orientation_ids=sorted(topology.orientation_use),
+        warping_ids=sorted(topology.warping_use),
         elements=_element_sets(topology),
         fixes=constraints.model_fixes(),
         loads=loads.loads,
@@ -156,6 +157,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         initial_rates=element_data.initial_rates,
         kinematic=kinematic,
         user_routines=loads.user_routines,
+        dynamic_coords=dynamic,
         source_path=path,
         source_text=text,
     )

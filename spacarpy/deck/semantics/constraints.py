@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
-from spacarpy.deck.semantics.topology import ORIENTATION_TOL, Topology, UsesTopology
+from spacarpy.deck.semantics.topology import NODE_SIZE, ORIENTATION_TOL, Topology, UsesTopology
 from spacarpy.deck.statement import Statement
 from spacarpy.elements.registry import KINDS
 from spacarpy.model import (
@@ -81,13 +81,14 @@ class Constraints(UsesTopology):
                 self.error(st.field_locs[0], f"FIX: node {n} is not defined (no X line and not "
                                              "used by any element)", st)
             return
-        size = 3 if kind == "position" else 4
+        size = NODE_SIZE[kind]
         if self.planar:                 # planar: x y, or the angle (held: the whole node)
             size = 2 if kind == "position" else 1
         coords = set()
         for i, c in enumerate(st.fields[1:], start=1):
             if not 1 <= c <= size:
-                what = (f"coordinates 1 to {size}" if size > 1 else "coordinate 1 (its angle)")
+                what = (f"coordinates 1 to {size}" if size > 1 else "coordinate 1 (its angle)"
+                        if kind == "orientation" else "coordinate 1 (its rate of twist)")
                 plane = "planar " if self.planar else ""
                 self.error(st.field_locs[i], f"FIX: node {n} is a {plane}{kind} node with "
                                              f"{what}, got {c}", st)
@@ -113,7 +114,7 @@ class Constraints(UsesTopology):
                 self.error(st.field_locs[0], f"INPUTX: node {n} is not defined (no X line and "
                                              "not used by any element)", st)
             return
-        size = 3 if kind == "position" else 4
+        size = NODE_SIZE[kind]
         if self.planar:
             size = 2 if kind == "position" else 1
         coords = st.fields[1:] or tuple(range(1, size + 1))

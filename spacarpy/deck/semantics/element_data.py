@@ -154,7 +154,8 @@ class _ElementDataPass(UsesTopology):
             if v < 0:
                 self.error(st.field_locs[i + 1], f"ESTIFF {el.id}: {info['stiff_names'][i]} "
                                                  f"must not be negative, got {v:g}", st)
-        el.stiffness = tuple(float(v) for v in values) + (0.0,) * (3 - len(values))
+        width = max(3, len(info["stiff_names"]))
+        el.stiffness = tuple(float(v) for v in values) + (0.0,) * (width - len(values))
 
     def em(self, st: Statement) -> None:
         """An EM line."""
@@ -180,7 +181,8 @@ class _ElementDataPass(UsesTopology):
             if v < 0:
                 self.error(st.field_locs[i + 1], f"EM {beam.id}: {_MASS_NAMES[i]} must not be "
                                                  f"negative, got {v:g}", st)
-        beam.mass = tuple(values[:5]) + (0.0,) * (5 - len(values[:5]))
+        width = beam.info["em_width"]
+        beam.mass = tuple(values[:width]) + (0.0,) * (width - len(values[:width]))
 
     def check_flexible_stiffness(self) -> None:
         """Every flexible mode (DYNE) of an element but a hinge has a stiffness."""
@@ -327,6 +329,12 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,
             beam.flex_locs = dict(zip(modes, zip(repeat(st), modes)))
             continue
         part.deformation_class(st)
+    for beam in elements.values():
+        # modes that are never rigid (a BEAMW's warping modes: "ep_7 and ep_8 are always
+        # calculable"): released unless DYNE made them flexible; ESTIFF gives them stiffness
+        for k in beam.info["always_free"]:
+            if beam.def_class[k] == RIGID:
+                beam.def_class[k] = RELEASED
     for st in by_kw.get("ESTIFF", []):
         # the usual BEAM line (4 to 6 values, none negative, given once), here
         fields = st.fields

@@ -1,4 +1,4 @@
-"""Deck semantics, kinematic coordinates: the KINX and KINE lines of the kinematics module.
+"""Deck semantics, the coordinate classes of the kinematics module: KINX, KINE and DYNX.
 
 ``KINX n c`` makes coordinate c of node n kinematic, ``KINE e k`` deformation mode k of
 element e (SPACAR's class K, docs/rolling.md): free in the holonomic constraints, with a rate
@@ -8,14 +8,20 @@ that do not exist, coordinate and mode numbers out of range, a coordinate that i
 prescribed (INPUTE), a slip mode (a velocity-level mode cannot be a coordinate), and a
 coordinate or mode given twice. Whether their number matches the slips and whether the slips
 determine their rates needs the model's Jacobians: :mod:`spacarpy.solvers.statics.nonholonomic`.
+
+``DYNX n [c ...]`` makes coordinates c of node n (all of them without c) dynamic: degrees of
+freedom (SPACAR's class m). Checked the same way (a coordinate also fixed, prescribed by
+INPUTX/INPUTR or kinematic, or given twice, is an error at its field); whether the DYNX
+coordinates and DYNE modes parameterize the model exactly needs its Jacobians:
+:mod:`spacarpy.solvers.statics.dynamic_coords`.
 """
 from __future__ import annotations
 
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
-from spacarpy.deck.semantics.topology import Topology, UsesTopology
+from spacarpy.deck.semantics.topology import NODE_SIZE, Topology, UsesTopology
 from spacarpy.deck.statement import Statement
 from spacarpy.elements.registry import KINDS
-from spacarpy.model import FLEXIBLE, KINEMATIC, RIGID, Kinematic
+from spacarpy.model import FLEXIBLE, KINEMATIC, RIGID, DynamicCoordinate, Kinematic
 
 __all__ = ["from_statements"]
 
@@ -27,6 +33,7 @@ class _KinematicPass(UsesTopology):
         self.constraints = constraints
         self.seen: dict[tuple, Statement] = {}
         self.out: list[Kinematic] = []
+        self.dynamic: list[DynamicCoordinate] = []
 
     def _once(self, key: tuple, st: Statement, loc, what: str) -> bool:
         first = self.seen.get(key)
@@ -46,7 +53,7 @@ class _KinematicPass(UsesTopology):
                 self.error(st.field_locs[0], f"KINX: node {n} is not defined (no X line and "
                                              "not used by any element)", st)
             return
-        size = 3 if kind == "position" else 4
+        size = NODE_SIZE[kind]
         if self.planar:
             size = 2 if kind == "position" else 1
         if len(st.fields) == 1:
@@ -73,6 +80,54 @@ class _KinematicPass(UsesTopology):
                 continue
             if self._once(("KINX", n, c), st, loc, f"coordinate {c} of node {n}"):
                 self.out.append(Kinematic("KINX", int(n), int(c), loc=st.loc))
+
+    def dynx(self, st: Statement, kinx: set) -> None:
+        """``DYNX n [c ...]``: dynamic nodal coordinates (all of the node's without c)."""
+        n = st.fields[0]
+        kind = self.node_kind(n)
+        if kind is None:
+            if n not in self.foreign_nodes:
+                self.error(st.field_locs[0], f"DYNX: node {n} is not defined (no X line and "
+                                             "not used by any element)", st)
+            return
+        size = 3 if kind == "position" else 4
+        if self.planar:
+            size = 2 if kind == "position" else 1
+        coords = st.fields[1:] or tuple(range(1, size + 1))
+        for i, c in enumerate(coords, start=1):
+            loc = st.field_locs[i] if i < len(st.field_locs) else st.loc
+            if not 1 <= c <= size:
+                article = "a" if kind == "position" else "an"
+                plane = "planar " if self.planar else ""
+                self.error(loc, f"DYNX: node {n} is {article} {plane}{kind} node with "
+                                f"coordinates 1 to {size}, got {c}", st)
+                continue
+            fix = self.constraints.fix_lines.get((n, c))
+            if fix is not None:
+                self.error(loc, f"DYNX: coordinate {c} of node {n} is also fixed (FIX at line "
+                                f"{fix.loc.line}); a coordinate is either fixed or a degree "
+                                "of freedom", st)
+                continue
+            presc = self.constraints.prescribed.get((n, c))
+            rot = self.constraints.rotations.get(n)
+            if presc is not None or rot is not None:
+                what = "INPUTX" if presc is not None else "INPUTR/INPUTX"
+                line = (presc or rot)["loc"].line
+                self.error(loc, f"DYNX: coordinate {c} of node {n} is also prescribed ({what} "
+                                f"at line {line}); a coordinate is either prescribed or a "
+                                "degree of freedom", st)
+                continue
+            if (n, c) in kinx:
+                self.error(loc, f"DYNX: coordinate {c} of node {n} is also kinematic (KINX); "
+                                "a coordinate is either kinematic or a degree of freedom", st)
+                continue
+            first = self.seen.get(("DYNX", n, c))
+            if first is not None:
+                self.error(loc, f"DYNX: coordinate {c} of node {n} is declared dynamic twice "
+                                f"(lines {first.loc.line} and {st.loc.line})", st)
+                continue
+            self.seen[("DYNX", n, c)] = st
+            self.dynamic.append(DynamicCoordinate(int(n), int(c), loc=st.loc))
 
     def kine(self, st: Statement) -> None:
         """``KINE e k ...``: kinematic deformation modes."""
@@ -118,9 +173,10 @@ class _KinematicPass(UsesTopology):
 
 
 def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,
-                    topology: Topology, constraints) -> list:
-    """The :class:`~spacarpy.model.Kinematic` entries of the KINX and KINE lines (deck
-    order), after the element data and the constraints (``constraints``: the
+                    topology: Topology, constraints) -> tuple[list, list]:
+    """The :class:`~spacarpy.model.Kinematic` entries of the KINX and KINE lines and the
+    :class:`~spacarpy.model.DynamicCoordinate` entries of the DYNX lines (deck order), after
+    the element data and the constraints (``constraints``: the
     :class:`~spacarpy.deck.semantics.constraints.Constraints`); problems go to ``errors``."""
     part = _KinematicPass(ctx, errors, topology, constraints)
     for st in ctx.in_deck_order("KINX", "KINE"):
@@ -131,4 +187,11 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector,
             part.kinx(st)
         else:
             part.kine(st)
-    return part.out
+    kinx = {(k.target, k.number) for k in part.out if k.keyword == "KINX"}
+    for st in ctx.in_deck_order("DYNX"):
+        if st.module != 0:
+            errors.error(st.loc, "DYNX belongs in the kinematics module (before the first "
+                                 "END)", st)
+        else:
+            part.dynx(st, kinx)
+    return part.out, part.dynamic

@@ -48,6 +48,10 @@ class _LoadsPass(UsesTopology):
                 self.error(st.field_locs[0], f"{st.keyword}: node {n} is not defined (no X line "
                                              "and not used by any element)", st)
             return
+        if self.node_kind(n) == "warping":
+            self.error(st.field_locs[0], f"{st.keyword}: node {n} is a warping node (BEAMW); "
+                                         "a load on it (a bimoment) is not supported", st)
+            return
         values = tuple(float(v) for v in st.fields[1:4])
         if self.planar:
             want, usage = ((2, f"{st.keyword} {n} fx fy") if self.node_kind(n) == "position"
@@ -102,6 +106,10 @@ class _LoadsPass(UsesTopology):
             if n not in self.foreign_nodes:
                 self.error(st.field_locs[0], f"XM: node {n} is not defined (no X line and not "
                                              "used by any element)", st)
+            return
+        if kind == "warping":
+            self.error(st.field_locs[0], f"XM: node {n} is a warping node (BEAMW): give its "
+                                         "warping inertia as the sixth EM value instead", st)
             return
         if self.planar and kind == "orientation" and len(values) == 1:
             values = (0.0, 0.0, 0.0, 0.0, 0.0, values[0])     # planar: J about z

@@ -16,7 +16,7 @@ state space and draws a warning naming it.
 from __future__ import annotations
 
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
-from spacarpy.deck.semantics.topology import Topology, UsesTopology
+from spacarpy.deck.semantics.topology import NODE_SIZE, Topology, UsesTopology
 from spacarpy.deck.statement import Statement
 from spacarpy.settings import SystemSignal
 
@@ -42,14 +42,16 @@ class _SignalsPass(UsesTopology):
                     self.error(st.field_locs[1], f"{st.keyword}: node {target} is not defined "
                                                  "(no X line and not used by any element)", st)
                 return None
-            n_coord = 3 if kind == "position" else 4
+            n_coord = NODE_SIZE[kind]
             if self.planar:
                 n_coord = 2 if kind == "position" else 1
             if not 1 <= number <= n_coord:
                 what = ("x y z"[:2 * n_coord - 1] if kind == "position"
+                        else "the rate of twist" if kind == "warping"
                         else "the rotation about z" if self.planar else "lambda0..lambda3")
                 self.error(st.field_locs[2], f"{st.keyword}: node {target} is "
-                                             f"{'a' if kind == 'position' else 'an'} {kind} node: "
+                                             f"{'an' if kind == 'orientation' else 'a'} {kind} "
+                                             "node: "
                                              f"coordinate 1..{n_coord} ({what}), got {number}",
                            st)
                 return None

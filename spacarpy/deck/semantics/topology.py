@@ -20,12 +20,14 @@ from spacarpy.elements.registry import KINDS, PLANAR_KINDS
 from spacarpy.errors import SourceLoc
 from spacarpy.model import RIGID
 
-__all__ = ["ELEMENT_KEYWORDS", "ORIENTATION_TOL", "ZERO_LENGTH_RTOL", "ElementRecord",
+__all__ = ["ELEMENT_KEYWORDS", "NODE_SIZE", "ORIENTATION_TOL", "ZERO_LENGTH_RTOL", "ElementRecord",
            "Topology", "UsesTopology", "from_statements"]
 
 #: Relative length below which an element counts as zero-length (times the largest
 #: coordinate magnitude of its two end nodes).
 ZERO_LENGTH_RTOL = 1e-12
+#: Coordinates of each node kind (a warping node, a BEAMW's, has one: the rate of twist).
+NODE_SIZE = {"position": 3, "orientation": 4, "warping": 1}
 #: Orientation vectors shorter than this, or with |n_x x o| < this * |o|, are rejected
 #: (SPACAR's getLocalframe rule).
 ORIENTATION_TOL = 1e-5
@@ -72,18 +74,21 @@ def _kind_info(kind) -> dict:
     info = dict(n_def=kind.n_def, vector_at=1 + len(kind.slots) if kind.vector else None,
                 roles=roles, mode_stiffnesses=_picker(sorted(set(kind.mode_stiffness))),
                 nodes=_picker(range(1, 1 + len(roles))),
-                no_stiffness=(0.0,) * (6 if kind.keyword == "BEAM" else 3 if est else 0),
+                no_stiffness=(0.0,) * (6 if kind.keyword == "BEAM" else est.width
+                                       if kind.keyword == "BEAMW" else 3 if est else 0),
                 position_nodes=_picker([i for i, r in enumerate(roles, start=1) if r == "p"]),
                 orientation_nodes=_picker([i for i, r in enumerate(roles, start=1)
                                            if r == "r"]),
                 position_fields=[i for i, r in enumerate(roles, start=1) if r == "p"],
                 orientation_fields=[i for i, r in enumerate(roles, start=1) if r == "r"],
+                warping_fields=[i for i, r in enumerate(roles, start=1) if r == "w"],
                 n_estiff=(est.required, est.allowed) if est is not None else (0, 0),
                 stiff_names=est.names if est is not None else (),
                 mode_stiffness=kind.mode_stiffness, has_mass=em is not None,
                 estiff_usage=est.usage if est is not None else "",
                 zero_length_ok=kind.zero_length, reference_problems=kind.reference_problems,
-                flexible_ok=est is not None, no_stiffness_why=kind.no_stiffness_why)
+                flexible_ok=est is not None, no_stiffness_why=kind.no_stiffness_why,
+                always_free=kind.always_free, em_width=max(5, em.width) if em else 5)
     if em is not None and em.allowed is not None:
         info.update(n_em=em.allowed, em_usage=em.usage)
     return info
@@ -126,6 +131,8 @@ class ElementRecord:
         self.class_line = [0] * n_def      # line of the DYNE/RLSE that set each mode
         self.flex_locs: dict[int, tuple] = {}   # mode -> (DYNE statement, field index)
         self.stiffness = info["no_stiffness"]
+        if info["em_width"] != 5:
+            self.mass = (0.0,) * info["em_width"]
 
     # made from the element line when asked for (all elements at once: the info's getters)
     @property
@@ -167,6 +174,8 @@ class Topology(Part):
         Position node -> ((x, y, z), its X statement), in deck order.
     orientation_use : dict
         Orientation node -> the first element line using it.
+    warping_use : dict
+        Warping node (a BEAMW's) -> the first element line using it.
     elements : dict
         Element number -> :class:`ElementRecord`, all kinds, in deck order.
     """
@@ -175,14 +184,17 @@ class Topology(Part):
         self.ctx, self.errors = ctx, errors
         self.positions: dict[int, tuple[tuple, Statement]] = {}
         self.orientation_use: dict[int, Statement] = {}
+        self.warping_use: dict[int, Statement] = {}
         self.elements: dict[int, ElementRecord] = {}
 
     def node_kind(self, n: int) -> str | None:
-        """``"position"``, ``"orientation"`` or None (not defined)."""
+        """``"position"``, ``"orientation"``, ``"warping"`` or None (not defined)."""
         if n in self.positions:
             return "position"
         if n in self.orientation_use:
             return "orientation"
+        if n in self.warping_use:
+            return "warping"
         return None
 
     def node(self, st: Statement) -> None:
@@ -267,7 +279,8 @@ class Topology(Part):
             info = b.info
             has = positions.__contains__
             if all(map(has, info["position_nodes"](fields))) and \
-                    not any(map(has, info["orientation_nodes"](fields))):
+                    not any(map(has, info["orientation_nodes"](fields))) and \
+                    not info["warping_fields"]:
                 self.elements[b.id] = b         # nothing to report
                 return
         st = b.st
@@ -282,7 +295,7 @@ class Topology(Part):
                                          "unsupported element", st)
         name = _element_name(st, b.id)
         slots = {0: "p", 1: "q"}
-        pos_k = rot_k = 0
+        pos_k = rot_k = warp_k = 0
         for i, role in enumerate(b.roles, start=1):
             n = st.fields[i]
             if role == "p":
@@ -295,6 +308,18 @@ class Topology(Part):
                     if use is not None:
                         msg += f"; node {n} is used as an orientation node (line {use.loc.line})"
                     self.error(st.field_locs[i], msg, st)
+            elif role == "w":
+                slot = slots.get(warp_k, "?")
+                warp_k += 1
+                clash = ("a position node (X at line "
+                         f"{self.positions[n][1].loc.line})" if n in self.positions else
+                         "an orientation node (line "
+                         f"{self.orientation_use[n].loc.line})" if n in self.orientation_use
+                         else None)
+                if clash:
+                    ok = False
+                    self.error(st.field_locs[i], f"{name}: node {n} is {clash} and cannot be "
+                                                 f"the warping node at {slot}", st)
             else:
                 slot = slots.get(rot_k, "?")
                 rot_k += 1
@@ -414,6 +439,8 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector) -> To
         for i in KIND_INFO[st.keyword]["orientation_fields"]:
             if fields[i] not in use:
                 use[fields[i]] = st
+        for i in KIND_INFO[st.keyword]["warping_fields"]:
+            topology.warping_use.setdefault(fields[i], st)
     elements = [ElementRecord(st) for st in element_sts]
     for b, geometry in zip(elements, topology.element_geometry(elements)):
         topology.element(b, *geometry)

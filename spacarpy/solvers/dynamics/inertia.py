@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from spacarpy.assembly import BlockPattern, scatter_add
+from spacarpy.elements.base import SLOT_SIZE
 from spacarpy.elements.beam_mass import nodal_rotary_mass
 from spacarpy.rotation import tangent_part
 from spacarpy.solvers.statics.nodal import nodal_masses
@@ -145,8 +146,7 @@ class Inertia:
             def mass_of(xl, reps, g=g, tiles=tiles):
                 return g.kind.mass(xl, *tiles(reps), self.rotary)
             # local Euler-parameter coordinates: the only ones the mass matrix depends on
-            rot = np.concatenate([np.arange(4) + sum(3 if t == "pos" else 4
-                                                     for t in g.kind.slots[:j])
+            rot = np.concatenate([np.arange(4) + sum(SLOT_SIZE[t] for t in g.kind.slots[:j])
                                   for j, s in enumerate(g.kind.slots) if s == "rot"]
                                  + [np.zeros(0, np.int64)]).astype(np.int64)
             conv_of = force_of = None

@@ -9,9 +9,10 @@ linearized constraints ``C dx = 0`` (:mod:`spacarpy.solvers.linear.linearize`), 
 with K = K0 + G0 + N0 the tangent the eigen analysis uses, C_d the damping (DAMPING's
 ``alpha M + beta K0`` and EDAMP's ``D^T diag(d) D``; at a static state the velocity-dependent
 terms vanish), F the INPUTF and INPUTS columns and O the output rows. The degrees of freedom q are
-SPACAR's: the flexible deformation modes (DYNE), with RLSE modes added when the DYNE modes
-alone are too few. With ``E`` the rows of the chosen deformations, the coordinates follow
-from q by ``dx = Phi q``, where Phi is the one solution of ``C Phi = 0, E Phi = I``
+SPACAR's: the flexible deformation modes (DYNE), with a BEAMW warping mode for each free
+warping node, or with RLSE modes added when the DYNE modes alone are too few. With ``E``
+the rows of the chosen deformations, the coordinates follow from q by ``dx = Phi q``,
+where Phi is the one solution of ``C Phi = 0, E Phi = I``
 (``Phi = T (E T)^-1`` for any basis T of the null space of C, so no basis choice enters).
 Then
 
@@ -37,18 +38,19 @@ coordinates are zero rows / columns; so are the numbers without a line (gaps).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from spacarpy.elements.base import FLEXIBLE, RELEASED
+from spacarpy.elements.base import FLEXIBLE, RELEASED, SLOT_SIZE
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.linear.eigen import null_space_basis
 
-__all__ = ["DofLayout", "StateSpace", "StateSpaceError", "dof_layout", "dof_map", "first_order",
+__all__ = ["DofLayout", "StateSpace", "StateSpaceError", "dof_layout", "dof_map", "dof_rows",
+           "first_order",
            "input_columns", "output_rows", "state_space"]
 
 #: Smallest singular value, relative to the largest, of the scaled map from the degrees of
@@ -65,9 +67,10 @@ class StateSpaceError(SpacarError):
 
 @dataclass(frozen=True)
 class DofLayout:
-    """The degrees of freedom: deformation mode ``mode[i]`` (1-based) of element
-    ``element[i]`` (deck number) of kind ``keyword[i]``; ``group``/``row``/``col`` locate it
-    in the numbering's element groups (0-based)."""
+    """The degrees of freedom: first the DYNX coordinates (``coords``: (node, coordinate)
+    rows, in the order of the numbering's ``dynamic_idx``), then deformation mode
+    ``mode[i]`` (1-based) of element ``element[i]`` (deck number) of kind ``keyword[i]``;
+    ``group``/``row``/``col`` locate it in the numbering's element groups (0-based)."""
 
     element: np.ndarray
     mode: np.ndarray
@@ -75,16 +78,32 @@ class DofLayout:
     group: np.ndarray
     row: np.ndarray
     col: np.ndarray
+    coords: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
 
     @property
     def n_dof(self) -> int:
-        return int(self.element.size)
+        return int(self.coords.shape[0] + self.element.size)
 
     @property
     def names(self) -> list[str]:
-        """``BEAM 3 mode 2`` for each degree of freedom."""
-        return [f"{k} {e} mode {m}" for k, e, m in zip(self.keyword, self.element.tolist(),
-                                                       self.mode.tolist())]
+        """``node 4 coordinate 1`` for each DYNX coordinate, then ``BEAM 3 mode 2`` for
+        each deformation mode."""
+        return ([f"node {n} coordinate {c}" for n, c in self.coords.tolist()]
+                + [f"{k} {e} mode {m}" for k, e, m in zip(self.keyword, self.element.tolist(),
+                                                          self.mode.tolist())])
+
+    @property
+    def file_names(self) -> dict:
+        """``dof_element``, ``dof_mode`` (and ``dof_node`` with DYNX coordinates) as the
+        result file stores them: a DYNX coordinate has element 0, its coordinate number as
+        the mode and its node; a deformation mode node 0."""
+        n_x = self.coords.shape[0]
+        out = dict(dof_element=np.concatenate([np.zeros(n_x, np.int64), self.element]),
+                   dof_mode=np.concatenate([self.coords[:, 1], self.mode]).astype(np.int64))
+        if n_x:
+            out["dof_node"] = np.concatenate([self.coords[:, 0],
+                                              np.zeros(self.element.size, np.int64)])
+        return out
 
     @property
     def state_names(self) -> list[str]:
@@ -108,7 +127,8 @@ class StateSpace:
 
 
 def _modes_of(num, classes) -> DofLayout:
-    """The deformation modes of the classes ``classes``, group by group, element-major."""
+    """The DYNX coordinates, then the deformation modes of the classes ``classes``, group
+    by group, element-major."""
     group, row, col, element, keyword = [], [], [], [], []
     for gi, g in enumerate(num.groups):
         r, c = np.nonzero(np.isin(g.def_class, classes))
@@ -122,7 +142,40 @@ def _modes_of(num, classes) -> DofLayout:
         return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
     return DofLayout(element=cat(element), mode=cat(col) + 1, keyword=tuple(keyword),
-                     group=cat(group), row=cat(row), col=cat(col))
+                     group=cat(group), row=cat(row), col=cat(col),
+                     coords=np.asarray(num.dynamic_label, np.int64).reshape(-1, 2))
+
+
+def _with_warping(num, free, lay: DofLayout) -> DofLayout:
+    """``lay`` with, for each free warping node (BEAMW) that no mode of ``lay`` holds, the
+    warping mode (7 at p, 8 at q) of the first BEAMW using it: SPACAR's warping coordinates
+    of free warping nodes are degrees of freedom ("ep_7 and ep_8 are always calculable"),
+    and that mode is ``l0^2 w`` minus the torsion, so it stands for the coordinate."""
+    if not num.warp_idx.size:
+        return lay
+    taken = {(int(g), int(r), int(c)) for g, r, c in zip(lay.group, lay.row, lay.col)}
+    held, extra = set(), []
+    for gi, g in enumerate(num.groups):
+        slots = [j for j, s in enumerate(g.kind.slots) if s == "warp"]
+        if not slots:
+            continue
+        local = np.cumsum([0] + [SLOT_SIZE[s] for s in g.kind.slots])
+        for r in range(g.n_elem):
+            for m, j in enumerate(slots):
+                coord = int(g.idx[r, local[j]])
+                if (gi, r, 6 + m) in taken:
+                    held.add(coord)
+                elif free[coord] and coord not in held:
+                    held.add(coord)
+                    extra.append((gi, r, 6 + m))
+    if not extra:
+        return lay
+    rows = sorted(taken | set(extra))
+    group, row, col = (np.array(v, np.int64) for v in zip(*rows))
+    keyword = tuple(num.groups[g].keyword for g in group)
+    element = np.array([num.groups[g].ids[r] for g, r in zip(group, row)], np.int64)
+    return DofLayout(element=element, mode=col + 1, keyword=keyword, group=group, row=row,
+                     col=col)
 
 
 def deformation_rows(lin, num, free, group, row, col, scaled: bool = False) -> np.ndarray:
@@ -149,10 +202,29 @@ def deformation_rows(lin, num, free, group, row, col, scaled: bool = False) -> n
     return out
 
 
+def dof_rows(lin, num, free, layout: DofLayout, scaled: bool = False) -> np.ndarray:
+    """E (n_dof, n_x): the rows of the degrees of freedom over the free coordinates at the
+    state of ``lin``: the DYNX coordinates' (:meth:`Numbering.dynamic_rows
+    <spacarpy.numbering.Numbering.dynamic_rows>`), then the deformation modes'
+    (:func:`deformation_rows`); ``scaled`` as there (a position coordinate per length
+    scale)."""
+    E = deformation_rows(lin, num, free, layout.group, layout.row, layout.col, scaled=scaled)
+    if not layout.coords.shape[0]:
+        return E
+    X = num.dynamic_rows(lin.x)[:, free]
+    if scaled:                      # dimensionless: a position coordinate per length scale
+        X[:, ~num.is_rotation_coord[free]] *= num.length_scale
+        X[~num.is_rotation_coord[num.dynamic_idx]] /= num.length_scale
+    return np.vstack([X, E])
+
+
 def dof_layout(lin, num, free) -> DofLayout:
-    """The degrees of freedom of the linearization ``lin``: the flexible modes (DYNE), or
-    the flexible and released ones (DYNE, RLSE) when the first are too few; they must be
-    independent and as many as the model's degrees of freedom.
+    """The degrees of freedom of the linearization ``lin``: the flexible modes (DYNE); or
+    those and, for each free warping node, a warping mode (:func:`_with_warping`); or the
+    flexible and released ones (DYNE, RLSE) when the first are too few; a model with DYNX
+    lines has its DYNX coordinates and DYNE modes (and warping modes), never RLSE ones
+    (SPACAR's dynamic class). They must be independent and as many as the model's degrees
+    of freedom.
 
     Raises
     ------
@@ -163,17 +235,28 @@ def dof_layout(lin, num, free) -> DofLayout:
     T = null_space_basis(lin.C, n_x)
     n_dof = T.shape[1]
     counts = []
-    for classes in ((FLEXIBLE,), (FLEXIBLE, RELEASED)):
-        lay = _modes_of(num, classes)
-        counts.append(lay.n_dof)
+    dynx = bool(num.dynamic_idx.size)
+    candidates = ((FLEXIBLE,), "warping") + (() if dynx else ((FLEXIBLE, RELEASED),))
+    for classes in candidates:
+        if classes == "warping":    # the flexible modes and the free warping nodes' modes
+            lay = _with_warping(num, free, _modes_of(num, (FLEXIBLE,)))
+            if lay.n_dof == counts[0]:
+                continue
+        else:
+            lay = _modes_of(num, classes)
+            counts.append(lay.n_dof)
         if lay.n_dof != n_dof:
             continue
         if n_dof == 0:
             return lay
-        w = deformation_rows(lin, num, free, lay.group, lay.row, lay.col, scaled=True)
-        sv = np.linalg.svd(w @ T, compute_uv=False)
+        sv = np.linalg.svd(dof_rows(lin, num, free, lay, scaled=True) @ T, compute_uv=False)
         if sv.min() > INDEPENDENCE_RTOL * sv.max():
             return lay
+    if dynx:
+        raise ModelError(
+            f"the state space needs SPACAR's degrees of freedom: the DYNX coordinates and "
+            f"DYNE modes ({counts[0]}) must be independent and as many as the model's "
+            f"degrees of freedom ({n_dof})")
     raise ModelError(
         f"the state space needs SPACAR's degrees of freedom: as many independent flexible "
         f"(DYNE) deformation modes as the model has degrees of freedom ({n_dof}); the model "
@@ -217,6 +300,10 @@ def coordinate_row(num, model, x, node: int, c: int) -> np.ndarray:
     if hit.size:
         row[num.pos_idx[hit[0], c - 1]] = 1.0
         return row
+    hit = np.flatnonzero(model.warping_ids == node)
+    if hit.size:                            # a warping node's rate of twist (a bimoment in)
+        row[num.warp_idx[hit[0]]] = 1.0
+        return row
     ri = num.rot_idx[np.flatnonzero(model.orientation_ids == node)[0]]
     if model.planar:
         row[ri] = 2.0 * lambda_matrix(x[ri])[2]
@@ -244,15 +331,15 @@ def dof_map(lin, num, free, layout: DofLayout) -> np.ndarray:
     """
     n_x = int(np.count_nonzero(free))
     T = null_space_basis(lin.C, n_x)
-    E = deformation_rows(lin, num, free, layout.group, layout.row, layout.col)
+    E = dof_rows(lin, num, free, layout)
     W = E @ T
     if layout.n_dof:
-        ws = deformation_rows(lin, num, free, layout.group, layout.row, layout.col,
-                              scaled=True) @ T
+        ws = dof_rows(lin, num, free, layout, scaled=True) @ T
         sv = np.linalg.svd(ws, compute_uv=False)
         if W.shape[0] != W.shape[1] or sv.min() <= INDEPENDENCE_RTOL * sv.max():
-            raise ModelError("the degrees of freedom of the state space (the flexible "
-                             "deformation modes) are not independent at this state")
+            raise ModelError("the degrees of freedom of the state space (the DYNX "
+                             "coordinates and flexible deformation modes) are not "
+                             "independent at this state")
     return T @ np.linalg.solve(W, np.eye(layout.n_dof)) if layout.n_dof else T
 
 

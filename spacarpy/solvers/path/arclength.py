@@ -56,6 +56,7 @@ import scipy.sparse as sp
 
 from spacarpy.errors import ConvergenceError, ModelError
 from spacarpy.rotation import moment_matrix
+from spacarpy.solvers.path.inertia_bracket import locate_crossing
 from spacarpy.solvers.path.stability import (
     UNDETERMINED_POINT,
     PathCertificate,
@@ -82,8 +83,7 @@ MAX_CHORD = 1.25
 #: eigenvector (on a crossing branch) when the cosine of the angle between the arrival
 #: direction and the eigenvector (scaled inner product) exceeds this.
 ALONG_EIGENVECTOR = 0.5
-#: Largest number of refinement iterations of one critical point.
-MAX_REFINE = 60
+MAX_REFINE = 60             # largest number of refinement iterations of one critical point
 #: Solve with the tangent-space LDL^T of :mod:`spacarpy.solvers.statics.reduced` where it applies
 #: (False: always the bordered system by SuperLU; the tests compare the two).
 USE_REDUCED = True
@@ -495,6 +495,8 @@ class ArcLengthPath:
             elif kind is not None:
                 turn = np.sign(new.ts) != np.sign(p.ts)
                 crit = self.refine(p, ds, new, direction, turn)
+                if kind == 2 and not turn and getattr(new, "bracket", None) is not None:
+                    crit = locate_crossing(self, p, ds, new, crit, direction)   # (index bound)
                 if kind == 2 and not turn and not self.check.passes_zero(p, new, crit) \
                         and ds / 2 >= self.ds_min:
                     log.info("arc-length point %d: signs changed with no eigenvalue passing "

@@ -38,6 +38,7 @@ from spacarpy.solvers.linalg.certificate import (
 )
 from spacarpy.solvers.linear.eigen import DENSE_LIMIT, FEW_MODES_DENSE_LIMIT, null_space_basis
 from spacarpy.solvers.linear.linearize import linearize
+from spacarpy.solvers.path.inertia_bracket import bracket_verdict
 from spacarpy.solvers.statics.errors import StepFailed
 from spacarpy.solvers.statics.loads import LoadState
 from spacarpy.solvers.statics.newton import newton
@@ -291,6 +292,8 @@ class PathCertificate:
         if not (turned or self.pending is not None or not new.same_stability(p)):
             return None, None
         verdict, cert = certify_crossing(self.near(ref), self.near(new))
+        if verdict == "undetermined" and not turned:      # the componentwise index bound
+            verdict, cert = bracket_verdict(self.prob, self.load, ref, new) or (verdict, cert)
         if turned:
             # a limit point changes the determinant's sign; a turn with the certified
             # eigenvalues' signs kept is a symmetric bifurcation seen from its crossing

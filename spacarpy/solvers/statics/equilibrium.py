@@ -362,6 +362,14 @@ class StaticProblem:
             np.abs(c) <= FLOOR_MULTIPLE * floor_c)
         return bool(r_ok.all() and c_ok.all())
 
+    def clears_floor(self, floor_r, floor_c, level: float, tol: float) -> bool:
+        """Whether ``tol`` lies above :data:`FLOOR_MULTIPLE` times the floor of every force
+        equation (relative to ``level``, weighted as in :meth:`residual_norm`) and of every
+        constraint: then a converged residual meets or misses the tolerance by more than
+        round-off can change."""
+        return bool(np.all(FLOOR_MULTIPLE * floor_r * self._force_w_free < tol * level)
+                    and np.all(FLOOR_MULTIPLE * floor_c * self.constraint_weight < tol))
+
     def null_state(self, x, load: LoadState) -> bool:
         """Whether (x, load) is the unloaded initial configuration of a model without
         pre-stress or history: no force, moment or gravity, no prescribed motion, x = x0.

@@ -24,6 +24,7 @@ from spacarpy.solvers.statics.diagnose import (
     numerical_rank,
     unit_rows,
 )
+from spacarpy.solvers.statics.dynamic_coords import check_dynamic, dynamic_report
 from spacarpy.solvers.statics.newton import bordered_solve
 from spacarpy.solvers.statics.nonholonomic import kinematic_report
 
@@ -33,7 +34,8 @@ from spacarpy.solvers.statics.nonholonomic import kinematic_report
 KINEMATIC_LIMIT = 1200
 
 
-def check_initial(prob, allow_mechanism: bool = False) -> ModelError | None:
+def check_initial(prob, allow_mechanism: bool = False,
+                  dynamic: bool = True) -> ModelError | None:
     """Factorize the unloaded Newton matrix of ``prob`` (a
     :class:`~spacarpy.solvers.statics.equilibrium.StaticProblem`) in the initial configuration.
 
@@ -41,16 +43,28 @@ def check_initial(prob, allow_mechanism: bool = False) -> ModelError | None:
     and they are reported (with the nodes/elements involved) before any load step, even
     when the loads are zero and Newton would not need a matrix at all. With
     ``allow_mechanism`` (an unloaded model, a transient run) a mechanism's ModelError is
-    returned instead of raised; redundant constraints always raise.
+    returned instead of raised; redundant constraints always raise. A model with DYNX lines
+    is then checked to be parameterized by its DYNX coordinates and DYNE modes (unless
+    ``dynamic`` is False: :mod:`spacarpy.solvers.statics.dynamic_coords`).
     """
     if allow_mechanism:
         try:
-            check_initial(prob)
+            check_initial(prob, dynamic=dynamic)
         except ModelError as exc:
-            if getattr(exc, "over_constrained", True):
+            if getattr(exc, "over_constrained", True) or getattr(exc, "dynamic", False):
                 raise
+            if dynamic:
+                check_dynamic(prob)
             return exc
         return None
+    _check_singular(prob)
+    if dynamic:
+        check_dynamic(prob)
+    return None
+
+
+def _check_singular(prob) -> None:
+    """The factorization of :func:`check_initial`: raise its ModelError."""
     num = prob.num
     x, mu = num.x0.copy(), np.zeros(num.n_constraint)
     ev = prob.evaluate(x, mu, prob.loads.unloaded())
@@ -162,8 +176,12 @@ class KinematicAnalysis:
         return self.rank.clear and self.motion_rank.clear
 
 
-def kinematic_analysis(prob) -> KinematicAnalysis:
+def kinematic_analysis(prob, stiff_resists: bool = True) -> KinematicAnalysis:
     """The rank-revealing analysis of the kinematic check in the initial configuration.
+
+    With ``stiff_resists=False`` the modes with stiffness (DYNE) count as free like the
+    released ones: the motions are then those the constraints leave, each a degree of
+    freedom that inverse dynamics (SPACAR mode 2) needs prescribed.
 
     Dense SVDs of the scaled Jacobians (positions in units of the model's length scale,
     every row of unit norm): for models up to :data:`KINEMATIC_LIMIT` unknowns plus
@@ -198,7 +216,7 @@ def kinematic_analysis(prob) -> KinematicAnalysis:
                 rows.append(r)
                 names.append((g.keyword, int(g.ids[e]), k + 1))
                 kinds.append(0 if g.def_class[e, k] == RIGID else
-                             1 if g.stiff_mask[e, k] else 2)
+                             1 if g.stiff_mask[e, k] and stiff_resists else 2)
     J = np.array(rows).reshape(len(rows), num.n_coord)[:, free] / col
     kinds = np.array(kinds, dtype=int)
     node_of = num.node_of_coord(model)[free]
@@ -278,11 +296,11 @@ def dof_report(prob) -> str:
     ev = prob.evaluate(x, np.zeros(n_con), prob.loads.unloaded())
     if (num.n_unknown + n_con > KINEMATIC_LIMIT or not prob.pattern.n
             or determinate(prob, ev.states, x)):
-        check_initial(prob)          # raises ModelError for mechanisms / over-constraints
+        check_initial(prob, dynamic=False)  # raises for mechanisms / over-constraints
         return "\n".join([f"{model.source_path}: kinematic check passed", *head,
                           con + ", all independent",
                           f"  degrees of freedom  {num.n_unknown - n_con}, no free motion",
-                          *kinematic_report(prob)])
+                          *dynamic_report(prob), *kinematic_report(prob)])
     ka = kinematic_analysis(prob)
     n_red, n_mot = len(ka.redundant), len(ka.motions)
     if not n_red and not n_mot:
@@ -314,7 +332,7 @@ def dof_report(prob) -> str:
     lines.append(f"  rank decision       {ka.rank.describe()}")
     if ka.rank.clear and not ka.motion_rank.clear:
         lines.append(f"  free motions        {ka.motion_rank.describe()}")
-    return "\n".join(lines + kinematic_report(prob))
+    return "\n".join(lines + dynamic_report(prob) + kinematic_report(prob))
 
 
 __all__ = ["KINEMATIC_LIMIT", "KinematicAnalysis", "analysis_error", "check_initial",
