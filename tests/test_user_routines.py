@@ -381,9 +381,8 @@ CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "spacar-decks"
 
 def _corpus_job(tmp_path, name, timestep=None):
     """A FIS corpus deck loaded from a copy in tmp_path (TIMESTEP shortened when given).
-    While spacarpy refuses DYNX (another branch adds it), the copy leaves the DYNX lines out:
-    they only say which coordinates SPACAR integrates as independent ones; spacarpy
-    integrates all free coordinates, and the free coordinates are the same."""
+    Where spacarpy refuses DYNX (before its merge), the copy leaves the DYNX lines out: they
+    only say which coordinates SPACAR integrates as independent ones."""
     from spacarpy.deck import load
     from spacarpy.deck.keywords import KEYWORDS
     src = CORPUS / name
