@@ -272,6 +272,11 @@ class TransientProblem:
             load = replace(load, user=self.prob.loads.bind(t, v))
         return load
 
+    def loads_at(self, t: float, v) -> LoadState:
+        """:meth:`loads` with a user routine's loads at velocities v (``loads(t)`` where
+        there is none, so that a replaced ``loads`` keeps working)."""
+        return self.loads(t, v) if self.prob.loads.user is not None else self.loads(t)
+
     # ---------------------------------------------------------------- residual
     def residual(self, t, x, v, a, mu, trial_level: float | None = None,
                  mass_blocks: bool = True) -> Residual:
@@ -288,7 +293,7 @@ class TransientProblem:
         ``mass_blocks=False`` may leave mass blocks out (None) where the force needs no mass
         matrix (:meth:`Inertia.forces`): a step's Newton iterations complete them only when
         they build an iteration matrix, not for the check that ends the step."""
-        load = self.loads(t, v)
+        load = self.loads_at(t, v)
         ev = self.prob.evaluate(x, mu, load)
         blocks, f_in = self.inertia.forces(x, v, a,
                                            blocks=mass_blocks or bool(self.model.damping[0]))
