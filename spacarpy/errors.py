@@ -13,6 +13,9 @@ EXIT_OK = 0
 EXIT_SOLVER = 1        # the model is valid but the analysis failed (no convergence, ...)
 EXIT_INPUT = 2         # the deck or the command line is wrong
 EXIT_MODEL = 3         # the deck parses but the model is not analysable (mechanism, ...)
+# (4 is EXPECT's: spacarpy.deck.expect.EXIT_EXPECTATION)
+EXIT_USER_CODE_REFUSED = 5  # the deck names user code and --allow-user-code was not given
+EXIT_USER_ROUTINE = 6  # a user routine (USERSIG/USERINP) raised or returned a bad value
 EXIT_INTERRUPTED = 130  # Ctrl-C
 EXIT_TERMINATED = 143  # SIGTERM (128 + 15), e.g. from a job scheduler
 
@@ -86,6 +89,20 @@ class SolverError(SpacarError):
 
 class ConvergenceError(SolverError):
     """Newton iterations did not converge even after the allowed step cuts."""
+
+
+class UserCodeRefused(SpacarError):
+    """The deck names user routines (USERSIG/USERINP), which are code, and the command was
+    not given ``--allow-user-code``: refused before any work (exit 5)."""
+
+    exit_code = EXIT_USER_CODE_REFUSED
+
+
+class UserRoutineError(SpacarError):
+    """A user routine raised, returned the wrong shape or a value that is not finite, or
+    cannot be loaded (exit 6); the steps computed before it are kept."""
+
+    exit_code = EXIT_USER_ROUTINE
 
 
 class DiskFull(SpacarError):

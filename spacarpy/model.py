@@ -28,7 +28,7 @@ from spacarpy.errors import SourceLoc
 __all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "DynamicCoordinate", "ElementSet", "Fix",
            "Kinematic",
            "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
-           "PrescribedRotation"]
+           "PrescribedRotation", "UserRoutine"]
 
 # The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED, KINEMATIC) are declared with
 # the element kinds and re-exported here.
@@ -240,6 +240,17 @@ class NodalMass:
     loc: SourceLoc | None = None
 
 
+@dataclass(frozen=True)
+class UserRoutine:
+    """A ``USERSIG name`` (nodal loads) or ``USERINP name`` (prescribed motion) line: a user
+    routine the run calls (docs/user-routines.md). The model only names it; the code is
+    found and loaded at the edge (``spacarpy run --allow-user-code``)."""
+
+    keyword: str
+    name: str
+    loc: SourceLoc | None = None
+
+
 @dataclass
 class Model:
     """A complete, validated spacarpy model.
@@ -286,6 +297,8 @@ class Model:
         entry marks its mode KINEMATIC in the element set's ``def_class``.
     dynamic_coords : list of DynamicCoordinate
         The DYNX coordinates (nodal coordinates as degrees of freedom), in deck order.
+    user_routines : list of UserRoutine
+        The USERSIG and USERINP lines (at most one of each).
     source_path, source_text : str
         Where the deck came from and its text verbatim (stored in the results file).
     warping_ids : (n_warp,) int
@@ -312,6 +325,7 @@ class Model:
     initial_rates: dict = field(default_factory=dict)      # (element, mode) -> STARTDE rate
     kinematic: list = field(default_factory=list)          # KINX / KINE lines (Kinematic)
     dynamic_coords: list = field(default_factory=list)     # DYNX lines (DynamicCoordinate)
+    user_routines: list = field(default_factory=list)      # USERSIG / USERINP (UserRoutine)
     source_path: str = "<model>"
     source_text: str = ""
     warping_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))

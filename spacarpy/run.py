@@ -44,7 +44,7 @@ inverse_dynamics (SPACAR 2)
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -73,11 +73,16 @@ class RunOptions:
     orientation node) deck numbers whose 6x6 compliance is computed at every linearized step;
     ``progress``: a callback of the transient run; ``ignore_conditioning``: only warn where
     the residual's round-off floor exceeds its limit
-    (:func:`~spacarpy.solvers.statics.conditioning.check_residual_floor`)."""
+    (:func:`~spacarpy.solvers.statics.conditioning.check_residual_floor`);
+    ``allow_user_code``, ``user_modules``: the deck's user routines (spacarpy.user_routines)."""
 
     compliance_node: tuple | None = None
     progress: object = None          # transient: progress(t, t_end), e.g. a terminal bar
     ignore_conditioning: bool = False
+    #: the deck's user routines (USERSIG, USERINP) run only when allowed (--allow-user-code),
+    #: found beside the deck or in these files/folders (--user-module)
+    allow_user_code: bool = False
+    user_modules: tuple = ()
 
 
 @dataclass
@@ -141,6 +146,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     from spacarpy.results.stress import SurfaceStress
 
     opts = options or RunOptions()
+    from spacarpy.user_routines import refuse_unless_allowed
+    refuse_unless_allowed(model, opts.allow_user_code)      # before any work
     n_modes = settings.linearized.count
     analysis = settings.analysis
     static_lin = analysis == "static_linearized"          # SPACAR mode 10
@@ -171,6 +178,14 @@ def run_model(model: Model, settings: AnalysisSettings, out,
     if problem.loads.any:
         from spacarpy.solvers.statics.conditioning import check_residual_floor
         check_residual_floor(problem, ignore=opts.ignore_conditioning)
+    user_motion = None       # (the floor above is the deck's loads')
+    if model.user_routines:
+        from spacarpy.user_routines import loaded_routines
+        user_loads, user_motion = loaded_routines(model, num, analysis, model.source_path,
+                                                  opts.user_modules)
+        if user_loads is not None:
+            problem.loads.set_user(user_loads)
+            problem.reduced = None      # (its tangent-space steps assume dead loads)
     mass = MassAssembler(model, num, rotary=settings.rotary_inertia)
     # (a deck's model: the deck reader has warned already, naming the GRAVITY line)
     if any(model.gravity) and not mass.has_mass and model.source_path == "<model>":
@@ -281,7 +296,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
 
         if transient:
             _run_transient(model, settings, problem, writer, on_step, opts, summary,
-                           ss_setup[0] if want_ss else None)
+                           ss_setup[0] if want_ss else None, user_motion)
         elif inverse:
             from spacarpy.run_inverse import run_inverse
             run_inverse(model, settings, problem, writer, summary, opts.progress)
@@ -299,14 +314,14 @@ def run_model(model: Model, settings: AnalysisSettings, out,
 
 
 def _run_transient(model, settings, problem, writer, on_static_step, opts, summary,
-                   ss_layout=None):
+                   ss_layout=None, user_motion=None):
     from spacarpy.solvers.dynamics.transient import (
         TransientOptions,
         TransientProblem,
         solve_transient,
     )
     num = problem.num
-    topts = TransientOptions.from_settings(settings)
+    topts = replace(TransientOptions.from_settings(settings), user_motion=user_motion)
     along = None
     if callable(ss_layout):                     # SPACAR 3 with slips (run_steady.py)
         along = ss_layout

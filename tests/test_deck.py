@@ -616,13 +616,14 @@ def test_fix_and_load_on_unknown_node():
     assert "node 8 is not defined" in err.items[0][1]
 
 
-def test_unsupported_keyword_one_error_each():
-    err = deck_error(BASE + "USERSIG f\nUSERINP g\nUSERINP h\n")
+def test_user_routine_lines_one_error_each():
+    """USERSIG/USERINP name Python functions (docs/user-routines.md): a name that cannot be
+    one, USERINP without input coordinates, and a repeat are each one error at its line."""
+    err = deck_error(BASE + 'USERSIG "f-g"\nUSERINP g\nUSERINP h\n')
     assert [(loc.line, msg.split(":")[0]) for loc, msg, _ in err.items] == [
-        (4, "SPACAR keyword USERSIG is not supported yet"),
-        (5, "SPACAR keyword USERINP is not supported yet"),
-        (6, "SPACAR keyword USERINP is not supported yet")]
-    assert "user routine" in err.items[0][1] and "nodal loads" in err.items[0][1]
+        (4, "USERSIG"), (5, "USERINP"), (6, "USERINP is given twice (lines 5 and 6)")]
+    assert "'f-g' cannot name a Python function" in err.items[0][1]
+    assert "the deck declares none: add INPUTX lines" in err.items[1][1]
 
 
 def test_several_errors_reported_at_once_ordered_by_line():

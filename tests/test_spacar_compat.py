@@ -37,8 +37,10 @@ CORPUS_OUTCOME = {
     "oopspa_slidercrank_as.dat": ("runs", "transient"),
     "mod8_flexure_mode9.dat": ("runs", "static"),
     "mod8mk3_flexure_mode9.dat": ("runs", "static"),
-    "fis_flex_cat_s_3d.dat": ("refused", {"USERSIG": 1, "USERINP": 1}),
-    "fis_rig_cat_s_3d.dat": ("refused", {"USERSIG": 1, "USERINP": 1}),
+    # USERSIG/USERINP call the Python routines of decks/user-routines/fis
+    # (tests/test_user_routines.py; --allow-user-code)
+    "fis_flex_cat_s_3d.dat": ("runs", "transient"),
+    "fis_rig_cat_s_3d.dat": ("runs", "transient"),
     "oopspa_default.dat": ("deck error", ["position node 10 is not connected",
                                           "position node 16 is not connected",
                                           "element 2: position node 13 (at p) has no X line"]),
@@ -139,25 +141,22 @@ def test_spacar_keywords_without_a_known_layout_are_refused(line):
 
 
 def test_every_unsupported_keyword_has_the_one_message():
-    """The parsed-but-unsupported keywords (BEAMW, DYNX, USERSIG, ...) and the refused ones
+    """The parsed-but-unsupported keywords (BEAMW, DYNX, ...) and the refused ones
     share the message, which `spacarpy check` recognises; none says "unknown keyword"."""
     from spacarpy.deck.keywords import unsupported_message
     for kw in UNSUPPORTED:
         msg = unsupported_message(kw)
         assert UNSUPPORTED_PATTERN.match(msg).group(1) == kw
         assert not KEYWORDS[kw].supported
-    assert "user routine" in unsupported_message("USERINP")
-    assert "prescribed motions" in unsupported_message("USERINP")
+    assert KEYWORDS["USERSIG"].supported and KEYWORDS["USERINP"].supported
 
 
 def test_refusal_from_the_command_line_exits_2_without_a_traceback(tmp_path, capsys):
     deck = tmp_path / "wheel.dat"
-    deck.write_text(BASE + "TUBE 3 3 4 7 8 1 0 0\n" + DATA + "USERSIG FFESFVA\nEND\nEND\n")
+    deck.write_text(BASE + "TUBE 3 3 4 7 8 1 0 0\n" + DATA + "END\nEND\n")
     assert main(["run", str(deck), "-o", str(tmp_path / "out.h5")]) == 2
     err = capsys.readouterr().err
     assert f"{deck}:7:1: error: SPACAR keyword TUBE is not supported yet" in err
-    assert f"{deck}:11:1: error: SPACAR keyword USERSIG is not supported yet: it names a " \
-           "user routine" in err
     assert "Traceback" not in err and "did you mean" not in err
     assert not (tmp_path / "out.h5").exists()
 

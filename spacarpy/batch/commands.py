@@ -40,11 +40,13 @@ def batch_command(args, jobs: int, progress=None) -> int:
     check_report_paths(args.report, inputs=[d for d, _ in decks])
     if args.dask is not None:
         check_dask_address(args.dask)
+    from spacarpy.user_routines import batch_run_args
+    run_args = shlex.split(args.run_args) + batch_run_args(args, [d for d, _ in decks])
     try:
         outcomes = run_batch(args.paths, baseline=args.baseline, jobs=jobs, rtol=args.rtol,
                              atol=args.atol, timeout=args.timeout or None,
                              update_baseline=args.update_baseline,
-                             output_dir=args.output_dir, run_args=shlex.split(args.run_args),
+                             output_dir=args.output_dir, run_args=run_args,
                              dask=args.dask, progress=progress)
     except BatchInterrupted as stop:
         _finish_batch(stop.outcomes, args.report, format_table, write_report)
@@ -83,6 +85,8 @@ def sweep_command(args, jobs: int, progress=None) -> int:
     if not deck.is_file():
         from spacarpy.batch.runner import BatchInputError
         raise BatchInputError(f"sweep: no deck '{deck}'")
+    from spacarpy.user_routines import batch_run_args
+    run_args = shlex.split(args.run_args) + batch_run_args(args, [deck])
     # at once (the INCLUDE files are known once run_sweep has read the deck; it checks again)
     check_output_path(out, "-o", inputs=[deck], warn=False)
     if args.csv is not None:
@@ -93,7 +97,7 @@ def sweep_command(args, jobs: int, progress=None) -> int:
         try:
             result = run_sweep(deck, axes, fixed=fixed, collect=args.collect or None,
                                jobs=jobs, timeout=args.timeout or None,
-                               run_args=shlex.split(args.run_args), dask=args.dask,
+                               run_args=run_args, dask=args.dask,
                                progress=progress, output=target,
                                outputs=[("--csv", args.csv)])
         except SweepInterrupted as stop:

@@ -9,6 +9,7 @@ from spacarpy.cli.common import (
     _jobs,
     _nonnegative_float,
     _Progress,
+    _user_code_options,
     _verbosity,
 )
 
@@ -35,6 +36,7 @@ def add_parser(sub) -> None:
     bat.add_argument("--output-dir", type=Path, default=None, metavar="DIR",
                      help="keep the result files there (default: not kept)")
     _execution_options(bat)
+    _user_code_options(bat)
     _verbosity(bat)
 
 

@@ -3,7 +3,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from spacarpy.cli.common import _require_elements, _set_option, _verbosity
+from spacarpy.cli.common import (
+    _require_elements,
+    _set_option,
+    _user_code_options,
+    _verbosity,
+)
 from spacarpy.errors import EXIT_INPUT, EXIT_OK
 
 
@@ -12,6 +17,7 @@ def add_parser(sub) -> None:
     check = sub.add_parser("check", help="parse and validate a deck without solving it, and "
                                          "print a summary")
     check.add_argument("deck", type=Path, help="SPACAR-style deck (.dat)")
+    _user_code_options(check, check=True)
     _set_option(check)
     _verbosity(check)
 
@@ -34,6 +40,13 @@ def cmd_check(args) -> int:
         lines = text.split("\n")      # the estimate above the final "OK" line
         lines.insert(len(lines) - 1,
                      f"  {'memory estimate':<20}{memory_line(summary.model.n_elem)}")
+        text = "\n".join(lines)
+    if summary.model is not None and summary.model.user_routines:
+        from spacarpy.user_routines import ALLOW_FLAG, routine_report
+        lines = text.split("\n")      # above the final "OK" line; no code is run
+        lines[len(lines) - 1:len(lines) - 1] = [
+            f"  user routines (Python, run only with {ALLOW_FLAG}):",
+            *("  " + ln for ln in routine_report(summary.model, args.deck, args.user_module))]
         text = "\n".join(lines)
     print(text)
     return EXIT_OK if summary.ok else EXIT_INPUT

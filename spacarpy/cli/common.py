@@ -1,5 +1,5 @@
-"""The pieces the subcommands share: argument types, the -q/-v, --set, selection and
-execution options, the usage error, the empty-deck check, the batch progress line."""
+"""The pieces the subcommands share: argument types, the -q/-v, --set, user-code, selection
+and execution options, the usage error, the empty-deck check, the batch progress line."""
 from __future__ import annotations
 
 import argparse
@@ -68,6 +68,18 @@ def _set_option(p):
                    action="append", default=[],
                    help="override the deck's 'SET NAME ...' line (a number or an expression; "
                         "repeat for several parameters)")
+
+
+def _user_code_options(p, check: bool = False):
+    """--allow-user-code and --user-module (run, batch, sweep; check: --user-module)."""
+    if not check:
+        p.add_argument("--allow-user-code", action="store_true",
+                       help="run the Python user routines the deck names (USERSIG, "
+                            "USERINP): they are code, run with your rights; without this "
+                            "flag such a deck is refused before any work (exit 5)")
+    p.add_argument("--user-module", action="append", type=Path, default=[], metavar="PATH",
+                   help="a .py file (or a folder of name.py files) holding the deck's user "
+                        "routines, searched before name.py beside the deck; repeatable")
 
 
 def _verbosity(p):

@@ -13,6 +13,7 @@ from spacarpy.cli.common import (
     _positive_int,
     _require_elements,
     _set_option,
+    _user_code_options,
     _verbosity,
 )
 from spacarpy.errors import EXIT_OK
@@ -85,6 +86,7 @@ def add_parser(sub) -> None:
     run.add_argument("--ignore-conditioning-limit", action="store_true",
                      help="run even when the beams are too finely meshed for double "
                           "precision (spacarpy.solvers.statics.conditioning)")
+    _user_code_options(run)
     _set_option(run)
     _verbosity(run)
 
@@ -117,8 +119,10 @@ def _run_locked(args, out) -> int:
                                               input_files=inputs)
     finally:
         BEFORE_BUILD.reset(token)
-    check_output_path(out, "-o", inputs=inputs, warn=False)   # not an INCLUDEd file
     model = job.model
+    from spacarpy.user_routines import refuse_unless_allowed
+    refuse_unless_allowed(model, args.allow_user_code)     # before any work
+    check_output_path(out, "-o", inputs=inputs, warn=False)   # not an INCLUDEd file
     _require_elements(model, args.deck)
     check_memory(model.n_elem, ignore=args.ignore_memory_limit)
     from spacarpy.solvers.statics.conditioning import check_conditioning
@@ -145,7 +149,8 @@ def _run_locked(args, out) -> int:
         handler.addFilter(progress.clear_line)
     summary = run_model(model, settings, out, RunOptions(
         compliance_node=args.compliance, progress=progress,
-        ignore_conditioning=args.ignore_conditioning_limit))
+        ignore_conditioning=args.ignore_conditioning_limit,
+        allow_user_code=args.allow_user_code, user_modules=tuple(args.user_module)))
     if progress is not None:
         progress.close()
     for handler in handlers:

@@ -12,6 +12,7 @@ from spacarpy.cli.common import (
     _parse_set,
     _positive_int,
     _Progress,
+    _user_code_options,
     _verbosity,
 )
 
@@ -49,6 +50,7 @@ def add_parser(sub) -> None:
     swp.add_argument("--columns", type=_positive_int, default=3, metavar="N",
                      help="values of each vector shown in the table (default 3)")
     _execution_options(swp)
+    _user_code_options(swp)
     _verbosity(swp)
 
 

@@ -220,25 +220,10 @@ _SPACAR_ONLY = (
     ("ENHC", "SPACAR ENHC line (layout not publicly documented)", "kinematics"),
 )
 
-#: User routines of SPACAR (code linked into SPACAR): keyword -> what the routine gives.
-USER_ROUTINES = {"USERSIG": ("nodal loads", "XF/DELXF and a TIMEFUNCTION"),
-                 "USERINP": ("prescribed motions",
-                             "INPUTX/INPUTE (value, velocity, acceleration), or DELINPX/"
-                             "DELINPE and a TIMEFUNCTION")}
-
-
 def unsupported_message(keyword: str) -> str:
     """The one message of a real SPACAR keyword that spacarpy does not implement:
-    ``SPACAR keyword X is not supported yet`` (for USERSIG/USERINP followed by what they
-    are)."""
-    msg = f"SPACAR keyword {keyword} is not supported yet"
-    routine = USER_ROUTINES.get(keyword)
-    if routine is not None:
-        what, instead = routine
-        msg += (f": it names a user routine (a function compiled or linked into SPACAR that "
-                f"computes {what} during the run), which spacarpy cannot call; give the "
-                f"{what} with {instead} instead")
-    return msg
+    ``SPACAR keyword X is not supported yet``."""
+    return f"SPACAR keyword {keyword} is not supported yet"
 
 
 #: Matches :func:`unsupported_message`; group 1 is the keyword.
@@ -393,10 +378,14 @@ _KEYWORD_LIST = (
     KeywordSpec("STARTDE", "initial rate of a deformation mode in a transient analysis",
                 section="data",
                 required=(ELEMENT, _MODE, _f("initial rate of the deformation", "rate"))),
-    _unsupported("USERSIG", "user routine giving nodal loads", "data",
-                 required=(_f("name of the user load routine", "name", "word"),)),
-    _unsupported("USERINP", "user routine giving prescribed motion", "data",
-                 required=(_f("name of the user motion routine", "name", "word"),)),
+    # a Python function ``name`` of ``name.py`` beside the deck (docs/user-routines.md); it
+    # runs only with ``--allow-user-code``
+    KeywordSpec("USERSIG", "user routine giving nodal loads (Python, --allow-user-code)",
+                section="data",
+                required=(_f("name of the user load routine", "name", "word"),)),
+    KeywordSpec("USERINP", "user routine giving prescribed motion (Python, "
+                "--allow-user-code)", section="data",
+                required=(_f("name of the user motion routine", "name", "word"),)),
     # ------------------------------------------------------------------ output / linearization
     KeywordSpec("OUTLEVEL", "SPACAR output level (accepted; no effect in spacarpy)",
                 section="output", required=(_f("output level", "level", "int"),),

@@ -196,6 +196,8 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         out.append(format_record("ESIG", int(e), *[float(v) for v in values]))
     for (e, k), rate in model.initial_rates.items():
         out.append(format_record("STARTDE", int(e), int(k), float(rate)))
+    for routine in getattr(model, "user_routines", ()):
+        out.append(format_record(routine.keyword, routine.name))
     for xm in model.nodal_masses:
         out.append(format_record("XM", xm.node, *[float(v) for v in xm.values]))
     for load in model.loads:

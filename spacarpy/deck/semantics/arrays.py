@@ -261,7 +261,7 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
     general = parsed.general()
     keywords = {st.keyword for _, st in general} | {t.keyword for t in parsed.tables}
     if keywords & (set(GENERATORS) | set(UNSUPPORTED) | set(PLANAR_KINDS)
-                   | {"KINE", "KINX", "DYNX"}
+                   | {"KINE", "KINX", "DYNX", "USERSIG", "USERINP"}
                    | {kw for kw, k in KINDS.items() if "warp" in k.slots}):
         raise _GiveUp
     statements = [st for _, st in general]

@@ -1,4 +1,5 @@
-"""Deck semantics, loads and masses: XF/DELXF, XM and GRAVITY.
+"""Deck semantics, loads and masses: XF/DELXF, XM, GRAVITY, and the user routines USERSIG
+(loads) and USERINP (prescribed motion), which the model only names.
 
 Dead nodal loads (forces on position nodes, moments on orientation nodes, a planar deck's
 fx fy or m), point masses and inertia tensors on nodes, and the gravitational acceleration.
@@ -16,7 +17,7 @@ from spacarpy.deck.semantics.constraints import Constraints
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
 from spacarpy.deck.statement import Statement
-from spacarpy.model import Load, NodalMass
+from spacarpy.model import Load, NodalMass, UserRoutine
 
 __all__ = ["Loads", "from_statements"]
 
@@ -28,6 +29,7 @@ class Loads:
     loads: list = field(default_factory=list)
     nodal_masses: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
+    user_routines: list = field(default_factory=list)
 
 
 class _LoadsPass(UsesTopology):
@@ -148,4 +150,26 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
     for st in by_kw.get("GRAVITY", []):
         if ctx.once(st, errors):
             part.result.gravity = tuple(float(v) for v in st.fields[:3])
+    for keyword in ("USERSIG", "USERINP"):
+        for st in by_kw.get(keyword, []):
+            if ctx.once(st, errors):
+                routine = _user_routine(st, by_kw, errors)
+                if routine is not None:
+                    part.result.user_routines.append(routine)
     return part.result
+
+
+def _user_routine(st: Statement, by_kw: dict, errors: ErrorCollector) -> UserRoutine | None:
+    """A USERSIG/USERINP line: its name must be a Python function name; USERINP drives
+    input coordinates, so the deck must declare some (INPUTX)."""
+    name = str(st.fields[0])
+    if not name.isidentifier():
+        errors.error(st.field_locs[0], f"{st.keyword}: {name!r} cannot name a Python function "
+                                       "(letters, digits and _, not starting with a digit)", st)
+        return None
+    if st.keyword == "USERINP" and not by_kw.get("INPUTX"):
+        errors.error(st.loc, "USERINP: the routine gives the motion of input coordinates, and "
+                             "the deck declares none: add INPUTX lines for the coordinates it "
+                             "drives", st)
+        return None
+    return UserRoutine(keyword=st.keyword, name=name, loc=st.loc)

@@ -122,7 +122,7 @@ class TrajectoryLinearizer:
         :class:`~spacarpy.solvers.dynamics.transient.TransientStep`."""
         tp = self.tp
         t, x, v, a, mu = step.time, step.x, step.v, step.a, step.mu
-        load = tp.loads(t)
+        load = tp.loads_at(t, v)
         a, mu = self.consistent_state(t, x, v, mu)
         lin, phi, rows, rate = self._map(x, mu, load)
         n = phi.shape[1]

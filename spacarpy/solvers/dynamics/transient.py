@@ -112,6 +112,9 @@ class TransientProblem:
         # the exact inertia tangent, switched on for the rest of the run at the first
         # iteration whose residual fell by less than a factor 10 (see _newton_step)
         self.exact_tangent_on = False
+        # the user loads' difference quotients in the Newton matrix, likewise
+        # (transient_step._user_tangent)
+        self.user_tangent_on = False
         self.frame_on = False            # the step's rotating frame (frame_rate)
         self.turned = np.zeros(3)        # the net angle turned: sum of h omega (frame_rate)
         self.frame_from_start = None     # the frame at full rate from t = 0 (frame_rate)
@@ -230,7 +233,18 @@ class TransientProblem:
             x[:n] += dx
             v[:n] += dv
             a[:n] += da
+        if self.opts.user_motion is not None:        # USERINP: the routine's coordinates
+            u_idx, ux, uv, ua = self.opts.user_motion(t)
+            rows = np.searchsorted(self._presc_sorted[0], u_idx)
+            rows = self._presc_sorted[1][rows]
+            x[rows], v[rows], a[rows] = ux, uv, ua
         return idx, x, v, a
+
+    @cached_property
+    def _presc_sorted(self):
+        """(the prescribed coordinates sorted, their rows in :meth:`prescribed`'s arrays)."""
+        order = np.argsort(self.presc_idx, kind="stable")
+        return self.presc_idx[order], order
 
     def rigid_rates(self, t: float):
         """(rate, second derivative) of the rigid-mode targets at time t: the prescribed
@@ -244,17 +258,26 @@ class TransientProblem:
         _, dv, da = num.input_motion(t, rigid=True)
         return num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
 
-    def loads(self, t: float) -> LoadState:
+    def loads(self, t: float, v=None) -> LoadState:
         """The load at time t: XF and gravity, ``phi(t)`` times DELXF, and the prescribed
-        deformations at ``phi(t)`` (plus the motion of the 5-field INPUTE lines)."""
+        deformations at ``phi(t)`` (plus the motion of the 5-field INPUTE lines); a user
+        routine's loads (USERSIG) at time t and velocities ``v`` (None: at rest)."""
         if self._load_at is not None and self._load_at[0] == t:
-            return self._load_at[1]                  # a step's iterations share its time
-        load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
-        if self.num.rigid_rate.size:                 # 5-field INPUTE: + v0 t + a0 t^2/2
-            load = replace(load, rigid_target=load.rigid_target
-                           + self.num.input_motion(t, rigid=True)[0])
-        self._load_at = (t, load)
+            load = self._load_at[1]                  # a step's iterations share its time
+        else:
+            load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
+            if self.num.rigid_rate.size:             # 5-field INPUTE: + v0 t + a0 t^2/2
+                load = replace(load, rigid_target=load.rigid_target
+                               + self.num.input_motion(t, rigid=True)[0])
+            self._load_at = (t, load)
+        if self.prob.loads.user is not None:
+            load = replace(load, user=self.prob.loads.bind(t, v))
         return load
+
+    def loads_at(self, t: float, v) -> LoadState:
+        """:meth:`loads` with a user routine's loads at velocities v (``loads(t)`` where
+        there is none, so that a replaced ``loads`` keeps working)."""
+        return self.loads(t, v) if self.prob.loads.user is not None else self.loads(t)
 
     # ---------------------------------------------------------------- residual
     def residual(self, t, x, v, a, mu, trial_level: float | None = None,
@@ -272,7 +295,7 @@ class TransientProblem:
         ``mass_blocks=False`` may leave mass blocks out (None) where the force needs no mass
         matrix (:meth:`Inertia.forces`): a step's Newton iterations complete them only when
         they build an iteration matrix, not for the check that ends the step."""
-        load = self.loads(t)
+        load = self.loads_at(t, v)
         ev = self.prob.evaluate(x, mu, load)
         blocks, f_in = self.inertia.forces(x, v, a,
                                            blocks=mass_blocks or bool(self.model.damping[0]))

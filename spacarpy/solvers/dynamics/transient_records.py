@@ -50,6 +50,10 @@ class TransientOptions:
     #: a step's later Newton iterations reuse its iteration matrix while that contracts
     #: (chord iterations); False forms a new one at every iteration
     reuse_matrix: bool = True
+    #: a user routine's prescribed motion (USERINP): ``user_motion(t) -> (idx, x, v, a)``
+    #: for input coordinates ``idx`` (global coordinate numbers), replacing the deck's
+    #: values of those coordinates
+    user_motion: object = None
 
     @classmethod
     def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:

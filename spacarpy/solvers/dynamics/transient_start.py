@@ -114,7 +114,7 @@ def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0, quiet: bool = F
     num, free, prob = tp.num, tp.free, tp.prob
     a = np.zeros(num.n_coord)
     a[tp.presc_idx] = a_presc
-    ev = prob.evaluate(x, np.zeros_like(mu), tp.loads(t))       # no constraint forces
+    ev = prob.evaluate(x, np.zeros_like(mu), tp.loads_at(t, v))  # no constraint forces
     blocks, f_in = tp.inertia.forces(x, v, a)                     # h + M_fp a_p
     M = tp.inertia.assemble(blocks)
     rhs_f = -(ev.f_int - ev.f_ext + f_in)[free]

@@ -204,6 +204,8 @@ class StaticProblem:
             q_m = x[num.rot_idx[loads.moment_rot]]
             f_ext[num.rot_idx[loads.moment_rot]] += 2.0 * np.einsum(
                 "nab,nb->na", moment_matrix(load.moment), q_m)
+        if load.user is not None:                   # a user routine's loads (USERSIG)
+            f_ext += load.user(x, states)
         gk = []
         if loads.has_gravity and load.gravity_factor:
             gv = load.gravity_factor * loads.gravity
@@ -376,7 +378,7 @@ class StaticProblem:
         num = self.num
         idx, target = num.prescribed_state(load.a, load.s)
         return bool(not np.any(load.force) and not np.any(load.moment)
-                    and np.array_equal(num.x0[idx], target)
+                    and load.user is None and np.array_equal(num.x0[idx], target)
                     and not (self.loads.has_gravity and load.gravity_factor)
                     and not np.any(load.rigid_target) and not self.has_commit
                     and all(g.sigma0 is None or not np.any(g.sigma0) for g in num.groups)

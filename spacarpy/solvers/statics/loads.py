@@ -5,10 +5,16 @@ their XF and DELXF parts, gravity, prescribed deformations) and builds from it, 
 parameters ``(a, s)`` (``a`` on the initial XF load, ``s`` on the DELXF increments), a frozen
 :class:`LoadState`. A LoadState is what the equilibrium evaluation takes as its load: the
 problem object carries no load of its own.
+
+A user routine's loads (USERSIG, docs/user-routines.md) depend on the state: they arrive as
+a plain callable ``user(t, x, v, states) -> (n_coord,)`` (:attr:`Loads.user`, set by the
+driver), and a LoadState carries it bound to its time and velocities (:attr:`LoadState.user`:
+``user(x, states)``), evaluated at every configuration the solvers try.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -32,6 +38,10 @@ class LoadState:
     rigid_target : (n_rigid,)
         Values the rigid-mode constraints hold: zero for ordinary rigid modes, the
         prescribed deformations (INPUTE/DELINPE) at ``(a, s)``.
+    user : callable or None
+        The user routine's loads at this load's time and velocities: ``user(x, states)``
+        gives the generalized forces (n_coord,) at configuration x (``states``: the element
+        kernels' states at x), added to the dead ones; None without a routine.
     """
 
     a: float
@@ -40,6 +50,7 @@ class LoadState:
     moment: np.ndarray
     gravity_factor: float
     rigid_target: np.ndarray
+    user: object = None
 
 
 class Loads:
@@ -73,6 +84,20 @@ class Loads:
         self.point_weight = np.zeros(num.n_coord)
         for idx, m in zip(point.point_idx, point.point_mass):
             self.point_weight[idx] += m * self.gravity
+        self.user = None
+
+    def set_user(self, user) -> None:
+        """Add a user routine's loads: ``user(t, x, v, states) -> (n_coord,)`` generalized
+        forces (forces on positions, Euler-parameter forces on orientation nodes). In a
+        static analysis ``t`` is the load factor of the DELXF increments and ``v`` is None."""
+        self.user = user
+        if user is not None:
+            self.any = True
+
+    def bind(self, t: float, v) -> object:
+        """The user loads at time t and velocities v, as a function of (x, states); None
+        without a routine."""
+        return None if self.user is None else partial(_bound, self.user, float(t), v)
 
     def at(self, a: float, s: float, gravity_factor: float | None = None) -> LoadState:
         """The load ``a * XF + s * DELXF`` with gravity times ``gravity_factor`` (default
@@ -81,13 +106,18 @@ class Loads:
                          force=a * self.force["XF"] + s * self.force["DELXF"],
                          moment=a * self.moment["XF"] + s * self.moment["DELXF"],
                          gravity_factor=float(a if gravity_factor is None else gravity_factor),
-                         rigid_target=self.num.rigid_targets(a, s))
+                         rigid_target=self.num.rigid_targets(a, s),
+                         user=self.bind(s, None))
 
     def unloaded(self) -> LoadState:
         """No load at all: no forces, moments or gravity, rigid modes held at zero."""
         return LoadState(a=0.0, s=0.0, force=np.zeros(self.num.n_coord),
                          moment=np.zeros((self.moment_rot.size, 3)), gravity_factor=0.0,
                          rigid_target=np.zeros(self.num.n_rigid))
+
+
+def _bound(user, t, v, x, states):
+    return user(t, x, v, states)
 
 
 __all__ = ["LoadState", "Loads"]

@@ -199,7 +199,8 @@ class Predictor:
             self.rigid_target = load.rigid_target
             return moved, None
         unloaded = dataclasses.replace(load, force=np.zeros(num.n_coord),
-                                       moment=np.zeros((prob.loads.moment_rot.size, 3)))
+                                       moment=np.zeros((prob.loads.moment_rot.size, 3)),
+                                       user=None)
         states = prob.evaluate(x, mu, unloaded).states
         self.rigid_target = load.rigid_target
         moved = x.copy()
