@@ -42,7 +42,9 @@ def corpus_decks():
 #   orientation nodes keep a free Euler parameter: 15 constraints, DOF = 21 - 15 = 6. ESIG
 #   (line 59, a pre-stress) and TIMESTEP (88) are supported (issue 18, the transient issue).
 # fis_rig_cat_s_3d: 13 X lines (1, 5, ..., 49), 12 RBEAM + 33 HINGE, 34 distinct orientation
-#   nodes (RBEAM r, HINGE r and s), 33 RLSE lines, 33 XM lines.
+#   nodes (RBEAM r, HINGE r and s), 33 RLSE lines, 33 XM lines; 24 DYNX lines (12 position
+#   nodes' y and z, 12 orientation nodes' second Euler parameter: 36 coordinates), which are
+#   its 36 degrees of freedom; USERSIG/USERINP are supported (run with --allow-user-code).
 HAND_COUNTED = {
     "spatools_cantilever.dat": dict(
         position_nodes=5, orientation_nodes=5, elements={"BEAM": 4}, flexible=24, released=0,
@@ -61,7 +63,7 @@ HAND_COUNTED = {
         unsupported=[]),
     "fis_rig_cat_s_3d.dat": dict(
         position_nodes=13, orientation_nodes=34, elements={"RBEAM": 12, "HINGE": 33},
-        flexible=0, released=33, nodal_masses=33, dof=None),
+        flexible=0, released=33, nodal_masses=33, dof=36, unsupported=[]),
 }
 
 
