@@ -134,6 +134,7 @@ _READ_ONLY_SCRIPT = """
 import os, sys
 import spacarpy.batch.backends, spacarpy.batch.commands, spacarpy.batch.report
 import spacarpy.batch.runner, spacarpy.batch.sweep, spacarpy.deck.parser, spacarpy.outputs
+import spacarpy.user_routines  # batch and sweep scan the decks for user routines
 from spacarpy.cli import main
 import contextlib, io, locale  # noqa
 tmp, deck, sweep, uid = sys.argv[1:5]
