@@ -3,8 +3,8 @@
 Fixtures live in conftest.py; this module holds what is called, not injected: deck-error
 collection, finite differences, an independent planar four-bar solution, the arguments of the
 documented sweep, a results writer process killed with SIGKILL, the perfect column's
-arc-length path, the kinematic correction's pattern of a chain and the driven slider deck. No
-test module imports another test module.
+arc-length path, the kinematic correction's pattern of a chain, the driven slider deck and
+the rolling coin deck. No test module imports another test module.
 """
 from __future__ import annotations
 
@@ -385,3 +385,22 @@ def slider_deck(v0: float, a0: float, steps: int = 50, gravity: bool = False) ->
             "X 1 0 0 0\nX 3 1 0 0\nTRUSS 1 1 3\nRLSE 1 1\nFIX 1\nFIX 3 2 3\nINPUTX 3 1\n"
             f"END\nHALT\nXM 3 2.0\nINPUTX 3 1 1.0 {v0} {a0}\n{g}TIMESTEP 1.0 {steps}\n"
             "MODE transient\nEND\nEND\n")
+
+
+def rolling_coin_deck(gravity: str = "0 0 -9.81", timestep: str = "0 0", sets: str = "",
+                      title: str = "a uniform thin disc rolling upright on the ground (z up)"
+                      ) -> str:
+    """A uniform thin disc (m = 2 kg, r = R = 0.3 m, A = 0.045, C = 0.09 kg m^2) rolling
+    upright at V = 3 m/s (``SET V``), heading, lean and spin DYNE, the contact's x and y
+    KINX, in MODE 3 with the given GRAVITY, TIMESTEP and extra SET lines."""
+    return (f"# {title}\nSET V 3\nSET R 0.3\n{sets}"
+            "X 1 0 0 {R}                    # hub\n"
+            "X 2 0 0 0                      # contact point\n"
+            "HINGE 1 3 4 0 0 1              # heading\n"
+            "HINGE 2 4 5 1 0 0              # lean\n"
+            "HINGE 3 5 6 0 1 0              # spin\n"
+            "WHEEL 4 1 6 2 0 1 0\nFIX 3\nDYNE 1 1\nDYNE 2 1\nDYNE 3 1\nKINX 2 1\nKINX 2 2\n"
+            "END\nHALT\nXM 1 2.0\n"
+            "XM 6 0.045 0 0 0.09 0 0.045    # A about a diameter, C about the axle\n"
+            f"GRAVITY {gravity}\nSTARTDE 3 1 {{V/R}}\nMODE 3\nTIMESTEP {timestep}\n"
+            "END\nEND\n")

@@ -17,6 +17,8 @@ from scipy.optimize import brentq
 from spacarpy.deck import job_from_text, load
 from spacarpy.solvers.linear.steady_motion import SteadyMotion, certified, richardson
 
+from helpers import rolling_coin_deck
+
 DECK = Path(__file__).resolve().parents[1] / "decks" / "benchmark_bicycle.dat"
 G = 9.81
 
@@ -207,32 +209,7 @@ def test_b11_placement_invariance(runs):
 
 
 # ---------------------------------------------------------------- C1, C2: the rolling disc
-COIN = """# a uniform thin disc rolling upright on the ground (z up)
-SET V 3
-SET R 0.3
-X 1 0 0 {R}                    # hub
-X 2 0 0 0                      # contact point
-HINGE 1 3 4 0 0 1              # heading
-HINGE 2 4 5 1 0 0              # lean
-HINGE 3 5 6 0 1 0              # spin
-WHEEL 4 1 6 2 0 1 0
-FIX 3
-DYNE 1 1
-DYNE 2 1
-DYNE 3 1
-KINX 2 1
-KINX 2 2
-END
-HALT
-XM 1 2.0
-XM 6 0.045 0 0 0.09 0 0.045    # A about a diameter, C about the axle
-GRAVITY 0 0 -9.81
-STARTDE 3 1 {V/R}
-MODE 3
-TIMESTEP 0 0
-END
-END
-"""
+COIN = rolling_coin_deck()
 M_D, R_D, A_D, C_D = 2.0, 0.3, 0.045, 0.09
 
 

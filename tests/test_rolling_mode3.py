@@ -15,6 +15,8 @@ from spacarpy.cli import main
 from spacarpy.deck import job_from_text
 from spacarpy.solvers.linear.steady_motion import SteadyMotion
 
+from helpers import rolling_coin_deck
+
 DECK = Path(__file__).resolve().parents[1] / "decks" / "benchmark_bicycle.dat"
 G = 9.81
 
@@ -92,33 +94,9 @@ def test_b8_two_seconds_in_100_steps(tmp_path):
     _b8(tmp_path, "2 100", 101)
 
 
-COIN_SLOPE = """# a uniform thin disc rolling upright down a slope (gravity tilted by AL)
-SET V 3
-SET R 0.3
-SET AL 0.1
-X 1 0 0 {R}
-X 2 0 0 0
-HINGE 1 3 4 0 0 1              # heading
-HINGE 2 4 5 1 0 0              # lean
-HINGE 3 5 6 0 1 0              # spin
-WHEEL 4 1 6 2 0 1 0
-FIX 3
-DYNE 1 1
-DYNE 2 1
-DYNE 3 1
-KINX 2 1
-KINX 2 2
-END
-HALT
-XM 1 2.0
-XM 6 0.045 0 0 0.09 0 0.045
-GRAVITY {9.81*sin(AL)} 0 {-9.81*cos(AL)}
-STARTDE 3 1 {V/R}
-MODE 3
-TIMESTEP 0.2 4
-END
-END
-"""
+COIN_SLOPE = rolling_coin_deck(
+    gravity="{9.81*sin(AL)} 0 {-9.81*cos(AL)}", timestep="0.2 4", sets="SET AL 0.1\n",
+    title="a uniform thin disc rolling upright down a slope (gravity tilted by AL)")
 M_D, R_D, A_D, C_D, AL = 2.0, 0.3, 0.045, 0.09, 0.1
 
 
