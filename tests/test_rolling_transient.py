@@ -156,19 +156,27 @@ def _linear_lean_rate(v, lean_rate0, t):
     return np.array([(expm(A * s) @ z0)[2] for s in t])
 
 
+def _bicycle_run(tmp_path, timestep: str, substeps: str, startde: str = "STARTDE 2 1 0.5"):
+    """Run the Fig. 4 deck with its TIMESTEP, SUBSTEPS and lean-rate STARTDE lines replaced;
+    return the result file."""
+    text = (_DECKS / "benchmark_bicycle_transient.dat").read_text()
+    for old, new in (("STARTDE 2 1 0.5", startde), ("TIMESTEP {TEND} {20*TEND}", timestep),
+                     ("SUBSTEPS 50", substeps)):
+        assert old in text
+        text = text.replace(old, new)
+    deck = tmp_path / "bike.dat"
+    deck.write_text(text)
+    out = tmp_path / "bike.h5"
+    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    return out
+
+
 @pytest.mark.slow                  # (300 steps of the bicycle: about 30 s on one core)
 def test_b12_b14_bicycle_short_run(tmp_path):
     """The Fig. 4 deck with a lean rate of 0.05 rad/s, 0.3 s at h = 1e-3 s: the lean rate
     follows the linearized benchmark equations to 5e-3 of its peak (B14 on a short run),
     T + U - W stays within 1e-5 of T(0) (B12), the contact forces hold the bicycle up."""
-    text = (_DECKS / "benchmark_bicycle_transient.dat").read_text()
-    text = text.replace("STARTDE 2 1 0.5", "STARTDE 2 1 0.05")
-    text = text.replace("TIMESTEP {TEND} {20*TEND}", "TIMESTEP 0.3 300")
-    text = text.replace("SUBSTEPS 50", "SUBSTEPS 1")
-    deck = tmp_path / "bike.dat"
-    deck.write_text(text)
-    out = tmp_path / "bike.h5"
-    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    out = _bicycle_run(tmp_path, "TIMESTEP 0.3 300", "SUBSTEPS 1", "STARTDE 2 1 0.05")
     with h5py.File(out) as f:
         tr = f["transient"]
         t = tr["time"][()]
@@ -243,13 +251,7 @@ def test_b12_b15_bicycle_lean_period_and_energy(tmp_path):
     1.57-1.63 s (B15; measured 1.5951 s, the linearized weave 1.6224 s), and T + U - W
     stays within 1e-5 of T(0) (B12; measured 2.9e-7 over 20 s). The 20 s run of B12/B13 is
     in docs/rolling.md."""
-    text = (_DECKS / "benchmark_bicycle_transient.dat").read_text()
-    text = text.replace("TIMESTEP {TEND} {20*TEND}", "TIMESTEP 2.5 250")
-    text = text.replace("SUBSTEPS 50", "SUBSTEPS 5")
-    deck = tmp_path / "bike.dat"
-    deck.write_text(text)
-    out = tmp_path / "bike.h5"
-    assert main(["run", str(deck), "-o", str(out), "-q"]) == 0
+    out = _bicycle_run(tmp_path, "TIMESTEP 2.5 250", "SUBSTEPS 5")
     with h5py.File(out) as f:
         tr = f["transient"]
         t = tr["time"][()]
