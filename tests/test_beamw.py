@@ -93,17 +93,23 @@ def test_the_stiffness_is_vlasov_s_energy_of_the_cubic():
 
 
 # ------------------------------------------------------------------ non-uniform torsion
+def _chain(n: int, length: float, dyne: str) -> list[str]:
+    """The X, BEAMW and DYNE lines of n BEAMWs along x from the origin: position node 3i+1,
+    orientation 3i+2, warping 3i+3 of node i; each element's DYNE modes ``dyne``."""
+    lines = [f"X {3 * i + 1} {length * i / n!r} 0 0" for i in range(n + 1)]
+    for e in range(1, n + 1):
+        a, b = 3 * (e - 1), 3 * e
+        lines.append(f"BEAMW {e} {a + 1} {a + 2} {a + 3} {b + 1} {b + 2} {b + 3} 0 1 0")
+        lines.append(f"DYNE {e} {dyne}")
+    return lines
+
+
 def _torsion_deck(n: int, length: float, gj: float, ecw: float, torque: float,
                   root_warping: bool = True, tip_warping: bool = False) -> str:
     """A cantilever of n BEAMWs along x: position node 3i+1, orientation 3i+2, warping 3i+3
     of node i; the root clamped, its warping fixed (or not), a torque about x at the tip."""
     lines = ["DEFORMATIONS modified"]
-    for i in range(n + 1):
-        lines.append(f"X {3 * i + 1} {length * i / n!r} 0 0")
-    for e in range(1, n + 1):
-        a, b = 3 * (e - 1), 3 * e
-        lines.append(f"BEAMW {e} {a + 1} {a + 2} {a + 3} {b + 1} {b + 2} {b + 3} 0 1 0")
-        lines.append(f"DYNE {e} 1 2 3 4 5 6")
+    lines += _chain(n, length, "1 2 3 4 5 6")
     lines += ["FIX 1", "FIX 2"]
     if root_warping:
         lines.append("FIX 3")
@@ -166,12 +172,7 @@ def _ltb_deck(n: int, ecw: float, mode: str = "buckling", moment: float = 1.0,
     in their twist (lambda1), free to turn about y and z; warping free everywhere; a lateral
     force ``imperfection`` along z at midspan (n even) for the static path."""
     lines = ["DEFORMATIONS modified", f"MODE {mode}"]
-    for i in range(n + 1):
-        lines.append(f"X {3 * i + 1} {L_B * i / n!r} 0 0")
-    for e in range(1, n + 1):
-        a, b = 3 * (e - 1), 3 * e
-        lines.append(f"BEAMW {e} {a + 1} {a + 2} {a + 3} {b + 1} {b + 2} {b + 3} 0 1 0")
-        lines.append(f"DYNE {e} 2 3 4")
+    lines += _chain(n, L_B, "2 3 4")
     lines += ["FIX 1", "FIX 2 2", f"FIX {3 * n + 1} 2 3", f"FIX {3 * n + 2} 2", "END", "HALT"]
     for e in range(1, n + 1):
         lines.append(f"ESTIFF {e} 0 {GJ_B!r} {EI_B!r} 0 0 0 {ecw!r}")
@@ -351,12 +352,7 @@ def _vibration_deck(n: int, riw: float = RIW_V) -> str:
     """n BEAMWs along x, both ends clamped with their warping restrained; only the twist
     deforms (the other modes rigid, released in the last element, which closes the loop)."""
     lines = ["MODE eigen", "MODES 3"]
-    for i in range(n + 1):
-        lines.append(f"X {3 * i + 1} {L_V * i / n!r} 0 0")
-    for e in range(1, n + 1):
-        a, b = 3 * (e - 1), 3 * e
-        lines.append(f"BEAMW {e} {a + 1} {a + 2} {a + 3} {b + 1} {b + 2} {b + 3} 0 1 0")
-        lines.append(f"DYNE {e} 2")
+    lines += _chain(n, L_V, "2")
     lines.append(f"RLSE {n} 1 3 4 5 6")
     lines += ["FIX 1", "FIX 2", "FIX 3", f"FIX {3 * n + 1}", f"FIX {3 * n + 2}",
               f"FIX {3 * n + 3}", "END", "HALT"]
