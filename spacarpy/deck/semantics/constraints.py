@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
-from spacarpy.deck.semantics.topology import NODE_SIZE, ORIENTATION_TOL, Topology, UsesTopology
+from spacarpy.deck.semantics.topology import ORIENTATION_TOL, Topology, UsesTopology
 from spacarpy.deck.statement import Statement
 from spacarpy.elements.registry import KINDS
 from spacarpy.model import (
@@ -74,16 +74,10 @@ class Constraints(UsesTopology):
 
     def fix(self, st: Statement) -> None:
         """A FIX line: the coordinates given, or all of the node."""
-        n = st.fields[0]
-        kind = self.node_kind(n)
-        if kind is None:
-            if n not in self.foreign_nodes:
-                self.error(st.field_locs[0], f"FIX: node {n} is not defined (no X line and not "
-                                             "used by any element)", st)
+        node = self.coordinate_node(st)
+        if node is None:
             return
-        size = NODE_SIZE[kind]
-        if self.planar:                 # planar: x y, or the angle (held: the whole node)
-            size = 2 if kind == "position" else 1
+        n, kind, size = node
         coords = set()
         for i, c in enumerate(st.fields[1:], start=1):
             if not 1 <= c <= size:
@@ -107,16 +101,10 @@ class Constraints(UsesTopology):
 
     def inputx_declare(self, st: Statement) -> None:
         """``INPUTX n c ...`` (kinematics module): coordinates c of node n are prescribed."""
-        n = st.fields[0]
-        kind = self.node_kind(n)
-        if kind is None:
-            if n not in self.foreign_nodes:
-                self.error(st.field_locs[0], f"INPUTX: node {n} is not defined (no X line and "
-                                             "not used by any element)", st)
+        node = self.coordinate_node(st)
+        if node is None:
             return
-        size = NODE_SIZE[kind]
-        if self.planar:
-            size = 2 if kind == "position" else 1
+        n, kind, size = node
         coords = st.fields[1:] or tuple(range(1, size + 1))
         for i, c in enumerate(coords, start=1):
             loc = st.field_locs[i] if i < len(st.field_locs) else st.loc

@@ -18,7 +18,7 @@ coordinates and DYNE modes parameterize the model exactly needs its Jacobians:
 from __future__ import annotations
 
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
-from spacarpy.deck.semantics.topology import NODE_SIZE, Topology, UsesTopology
+from spacarpy.deck.semantics.topology import Topology, UsesTopology
 from spacarpy.deck.statement import Statement
 from spacarpy.elements.registry import KINDS
 from spacarpy.model import FLEXIBLE, KINEMATIC, RIGID, DynamicCoordinate, Kinematic
@@ -46,16 +46,10 @@ class _KinematicPass(UsesTopology):
 
     def kinx(self, st: Statement) -> None:
         """``KINX n c ...``: kinematic nodal coordinates."""
-        n = st.fields[0]
-        kind = self.node_kind(n)
-        if kind is None:
-            if n not in self.foreign_nodes:
-                self.error(st.field_locs[0], f"KINX: node {n} is not defined (no X line and "
-                                             "not used by any element)", st)
+        node = self.coordinate_node(st)
+        if node is None:
             return
-        size = NODE_SIZE[kind]
-        if self.planar:
-            size = 2 if kind == "position" else 1
+        n, kind, size = node
         if len(st.fields) == 1:
             self.error(st.loc, f"KINX {n}: expected coordinate numbers after the node number "
                                f"(1 to {size} for a {kind} node)", st)
@@ -83,16 +77,10 @@ class _KinematicPass(UsesTopology):
 
     def dynx(self, st: Statement, kinx: set) -> None:
         """``DYNX n [c ...]``: dynamic nodal coordinates (all of the node's without c)."""
-        n = st.fields[0]
-        kind = self.node_kind(n)
-        if kind is None:
-            if n not in self.foreign_nodes:
-                self.error(st.field_locs[0], f"DYNX: node {n} is not defined (no X line and "
-                                             "not used by any element)", st)
+        node = self.coordinate_node(st)
+        if node is None:
             return
-        size = 3 if kind == "position" else 4
-        if self.planar:
-            size = 2 if kind == "position" else 1
+        n, kind, size = node
         coords = st.fields[1:] or tuple(range(1, size + 1))
         for i, c in enumerate(coords, start=1):
             loc = st.field_locs[i] if i < len(st.field_locs) else st.loc

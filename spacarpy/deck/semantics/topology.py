@@ -458,6 +458,22 @@ class UsesTopology(Part):
     def node_kind(self, n: int) -> str | None:
         return self.topology.node_kind(n)
 
+    def coordinate_node(self, st: Statement) -> tuple[int, str, int] | None:
+        """The node of a line about node coordinates (FIX, INPUTX, KINX, DYNX: the first
+        field), its kind and its number of coordinates (planar: x, y or the angle); None,
+        with the error reported (unless the node belongs to a refused element), where the
+        node is not defined."""
+        n = st.fields[0]
+        kind = self.node_kind(n)
+        if kind is None:
+            if n not in self.foreign_nodes:
+                self.error(st.field_locs[0], f"{st.keyword}: node {n} is not defined (no X line "
+                                             "and not used by any element)", st)
+            return None
+        if self.planar:
+            return n, kind, 2 if kind == "position" else 1
+        return n, kind, NODE_SIZE[kind]
+
     def element_for(self, st: Statement) -> ElementRecord | None:
         return self.topology.element_for(st)
 
