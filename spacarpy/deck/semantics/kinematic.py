@@ -57,7 +57,7 @@ class _KinematicPass(UsesTopology):
         for i, c in enumerate(st.fields[1:], start=1):
             loc = st.field_locs[i]
             if not 1 <= c <= size:
-                article = "a" if kind == "position" else "an"
+                article = "an" if kind[0] in "aeiou" else "a"
                 self.error(loc, f"KINX: node {n} is {article} {kind} node with coordinates 1 "
                                 f"to {size}, got {c}", st)
                 continue
@@ -85,7 +85,7 @@ class _KinematicPass(UsesTopology):
         for i, c in enumerate(coords, start=1):
             loc = st.field_locs[i] if i < len(st.field_locs) else st.loc
             if not 1 <= c <= size:
-                article = "a" if kind == "position" else "an"
+                article = "an" if kind[0] in "aeiou" else "a"
                 plane = "planar " if self.planar else ""
                 self.error(loc, f"DYNX: node {n} is {article} {plane}{kind} node with "
                                 f"coordinates 1 to {size}, got {c}", st)
