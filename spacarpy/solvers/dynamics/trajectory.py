@@ -39,6 +39,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from spacarpy.solvers.dynamics.transient_start import (
+    _initial_acceleration,
+    _project_velocities,
+)
 from spacarpy.solvers.linear.linearize import linearize
 from spacarpy.solvers.linear.state_space import (
     dof_map,
@@ -94,14 +98,22 @@ class TrajectoryLinearizer:
         return self.tp.residual(t, x, v, a, mu).r
 
     def consistent_state(self, t, x, v, mu):
-        """The accelerations and multipliers of the equations of motion at the stored
-        (t, x, v) (:func:`spacarpy.solvers.dynamics.transient._initial_acceleration` at time t). The
-        stored ones are the integrator's: its recurrences leave an error in the acceleration
-        of constraint-driven coordinates (undamped with RHOINF 1) and in the multipliers,
-        whose tension enters K_x."""
-        from spacarpy.solvers.dynamics.transient import _initial_acceleration
+        """The velocities, accelerations and multipliers of the equations of motion at the
+        stored (t, x), from the stored v. The stored ones are the integrator's: the index-3
+        scheme holds the constraints at position level only, so its velocities violate
+        ``C v = -c_t`` by O(h^2) (a rigid rod's end moving along the rod), and Phi' taken
+        along them reads that as stretching (C0 of a swinging planar rod was 1e-3 of
+        sqrt(K0 M0), not 0); its recurrences leave an error in the acceleration of
+        constraint-driven coordinates (undamped with RHOINF 1) and in the multipliers,
+        whose tension enters K_x. So the velocities are projected on the velocity form of
+        the constraints (:func:`spacarpy.solvers.dynamics.transient_start.
+        _project_velocities`, the closest in the mass norm), and the accelerations and
+        multipliers are :func:`spacarpy.solvers.dynamics.transient_start._initial_acceleration`'s
+        at time t with them. Returns ``(v, a, mu)``."""
+        v = _project_velocities(self.tp, x, v, t)
         a_presc = self.tp.prescribed(t)[3]
-        return _initial_acceleration(self.tp, x, v, mu, a_presc, t=t)
+        a, mu = _initial_acceleration(self.tp, x, v, mu, a_presc, t=t)
+        return v, a, mu
 
     def _directional(self, t, x, v, a, mu, wrt: str, d: np.ndarray) -> np.ndarray:
         """Central difference of r along the free-coordinate direction d of x or v."""
@@ -122,8 +134,8 @@ class TrajectoryLinearizer:
         :class:`~spacarpy.solvers.dynamics.transient.TransientStep`."""
         tp = self.tp
         t, x, v, a, mu = step.time, step.x, step.v, step.a, step.mu
+        v, a, mu = self.consistent_state(t, x, v, mu)
         load = tp.loads_at(t, v)
-        a, mu = self.consistent_state(t, x, v, mu)
         lin, phi, rows, rate = self._map(x, mu, load)
         n = phi.shape[1]
         # Phi' and Phi'' (and the output rows' rate) along the Taylor path x + s v + s^2 a/2
