@@ -209,3 +209,14 @@ def test_show_export_and_reader_along_the_trajectory(pendulum, tmp_path, capsys)
     full = read_results(pendulum).state_space
     assert full.K0.shape == (61, 1, 1)
     np.testing.assert_array_equal(full.K0[30], m["K0"])
+
+
+def test_the_run_says_how_many_time_steps_it_linearized(tmp_path, capsys):
+    """`spacarpy run` of a mode-3 deck ends with the stored time steps it linearized (it said
+    "0 steps": the static counter)."""
+    deck = tmp_path / "plp.dat"
+    deck.write_text(PLANAR_PENDULUM.replace("TIMESTEP 0.6 60", "TIMESTEP 0.1 10"))
+    assert main(["run", str(deck), "-o", str(tmp_path / "plp.h5")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"finished transient_linearized analysis \(linearized at every stored "
+                     r"time step\): 11 stored time steps, 10 integration steps", err), err

@@ -160,8 +160,9 @@ def _run_locked(args, out) -> int:
         return EXIT_OK
     if settings.analysis in ("transient", "transient_linearized"):
         _warn_energy_error(out)
-    if settings.analysis == "transient":
-        log.info("finished transient analysis: %d stored time steps, %d integration steps "
+        what = ("transient analysis" if settings.analysis == "transient" else
+                "transient_linearized analysis (linearized at every stored time step)")
+        log.info("finished " + what + ": %d stored time steps, %d integration steps "
                  "(%d rejected by the error control), %d Newton iterations in %.2f s",
                  summary.n_time, summary.integration_steps, summary.rejected_steps,
                  summary.newton_iterations, time.perf_counter() - t0)
