@@ -124,3 +124,18 @@ def test_mode_1_driven_rear_wheel_does_the_work_it_should(tmp_path):
         kinetic = g["kinetic_energy"][()]
     assert kinetic[0] > 1000.0                      # 94 kg at 5 m/s and the wheels' spin
     assert np.abs(energy - energy[0]).max() < 2e-6 * kinetic.max()
+
+
+def test_mode_10_stores_the_mechanism_multipliers_as_exact_zeros(tmp_path):
+    """At rest only the rider's hinge has a material stiffness (ESTIFF 14): K0 has rank 1 on
+    the three degrees of freedom, so two of the load multipliers of K0 + mu G are zero (frame
+    lean and steer resist nothing but through the load). Computed they came out as -3e-15
+    and -7e-15 (+ with another BLAS would make one of them the 'critical' multiplier); they
+    are certified zero (|v^T K0 v| within its round-off) and stored as 0. The third one is
+    -k cof_33(G)/det(G) of the reduced pencil: finite, positive, the critical one."""
+    with h5py.File(_run(DECK, tmp_path / "b.h5", "--mode", "10")) as f:
+        mu, kind = f["buckling/load_multiplier"][-1], f["buckling/kind"][-1]
+        critical = f["buckling/critical_load_multiplier"][-1]
+    assert kind.tolist()[:3] == [0, 0, 0] and set(kind.tolist()[3:]) == {4}
+    assert mu[0] == 0.0 and mu[1] == 0.0
+    assert mu[2] > 1.0 and critical == mu[2]

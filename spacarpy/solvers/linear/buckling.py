@@ -20,7 +20,10 @@ deck). Equivalently, ``|mu|`` exceeds the bound ``|v^T K0 v|`` divided by that r
 side (:func:`infinite_bound`). Such a multiplier has no correct digit; it is reported as
 infinite. A load term that vanishes (``G = 0``) makes every multiplier infinite. A state
 whose stresses cannot make the structure unstable (one basic-deformation element in Table 3)
-has no finite multiplier: :attr:`Buckling.critical` is then ``inf``.
+has no finite multiplier: :attr:`Buckling.critical` is then ``inf``. A mode that the material
+stiffness K0 does not resist beyond its round-off (a mechanism: ``|v^T K0 v|`` within
+``SAFETY eps (n ||K0||_F + |v|^T |K0| |v|)``) has the multiplier 0 exactly (:func:`_zero`);
+it is never the critical one.
 
 Order (deterministic): the finite multipliers by magnitude; multipliers whose magnitudes agree
 to :data:`TIE_RTOL` (the ``+mu, -mu`` pairs of a load whose reversal is symmetric) form one
@@ -107,6 +110,21 @@ def _infinite(mu, v, vx, lin, G, g_norm, n):
     return ~np.isfinite(mu) | (certified_sign(gv, bound) == UNDETERMINED)
 
 
+def _zero(v, K0, k_norm: float) -> np.ndarray:
+    """True for the eigenvectors ``v`` (columns; of the pencil whose first matrix is K0, n
+    coordinates) that K0 does not resist beyond its round-off: ``|v^T K0 v| <= SAFETY eps
+    (n ||K0||_F + |v|^T |K0| |v|)`` for unit v. Their multiplier ``-v^T K0 v / v^T G v`` is
+    zero to round-off (a mechanism of the material stiffness: the lean and steer of a
+    bicycle at rest), stored as exactly 0: computed, it came out as -3e-15 or +3e-15 with
+    another BLAS, and a positive one would be the 'critical' multiplier."""
+    norm = np.linalg.norm(v, axis=0)
+    u = v / np.where(norm > 0, norm, 1.0)
+    n = v.shape[0]
+    with np.errstate(invalid="ignore"):
+        bound = round_off_bound(n * k_norm + _quad(np.abs(u), abs(K0)), 1, SAFETY)
+        return certified_sign(_quad(u, K0), bound) == UNDETERMINED
+
+
 def canonical_order(mu: np.ndarray) -> np.ndarray:
     """Indices ordering finite real ``mu`` by magnitude, ties (to :data:`TIE_RTOL`) by
     signed value."""
@@ -135,6 +153,7 @@ def buckling_modes(lin, n_modes: int = 6, dense_limit: int = DENSE_LIMIT) -> Buc
             mu, v = sla.eig(k0, -g0)
         v_red, v = v, T @ v
         infinite = _infinite(mu, v_red, v, lin, g0, float(np.linalg.norm(g0)), k0.shape[0])
+        zero = _zero(v_red, k0, float(np.linalg.norm(k0)))
     else:
         n_c = lin.C.shape[0]
         a = sp.bmat([[lin.K_mat, lin.C.T], [lin.C, None]], format="csc")
@@ -146,10 +165,11 @@ def buckling_modes(lin, n_modes: int = 6, dense_limit: int = DENSE_LIMIT) -> Buc
             mu = 1.0 / nu
         v = v[:n_x]
         infinite = _infinite(mu, v, v, lin, G, float(sp.linalg.norm(G)), n_x)
+        zero = _zero(v, lin.K_mat, float(sp.linalg.norm(lin.K_mat)))
     real = ~infinite & (np.abs(mu.imag) <= 1e-8 * np.abs(mu))
     if np.any(~infinite & ~real):
         log.warning("complex buckling multipliers ignored (non-symmetric load terms)")
-    mu_f = mu[real].real
+    mu_f = np.where(zero[real], 0.0, mu[real].real)
     v_f = canonical_sign(v[:, real])
     positive = mu_f[mu_f > 0]
     critical = float(positive.min()) if positive.size else np.inf
