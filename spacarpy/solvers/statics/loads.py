@@ -131,18 +131,23 @@ class Loads:
                          rigid_target=self.num.rigid_targets(a, s),
                          user=self.bind(s, None))
 
-    def at_time(self, phi: float, named_phi: dict) -> LoadState:
-        """The load of a transient run: XF, the increments that name no time function
-        times ``phi`` and each named part times its function's value (``named_phi``: name
-        -> value); :meth:`at` ``(1, phi)`` where there are no named parts."""
-        if not self.named:
-            return self.at(1.0, phi)
-        force = self.force["XF"] + phi * self.default_force
-        moment = self.moment["XF"] + phi * self.default_moment
+    def at_time(self, phi: dict) -> LoadState:
+        """The load of a transient run at time functions' values ``phi`` (name -> value;
+        None: the deck's function): XF, the increments that name no function times
+        ``phi[None]``, each named part times its function's value, and the prescribed
+        deformations at their functions' values (:meth:`at` ``(1, phi[None])`` where
+        nothing names a function)."""
+        load = self.at(1.0, phi[None])
+        if not self.named and not self.num.rigid_tf:
+            return load
+        force = self.force["XF"] + phi[None] * self.default_force
+        moment = self.moment["XF"] + phi[None] * self.default_moment
         for name, (f, m) in self.named.items():
-            force = force + named_phi[name] * f
-            moment = moment + named_phi[name] * m
-        return replace(self.at(1.0, phi), force=force, moment=moment)
+            force = force + phi[name] * f
+            moment = moment + phi[name] * m
+        target = (self.num.rigid_targets(1.0, np.array([phi[n] for n in self.num.rigid_tf]))
+                  if self.num.rigid_tf else load.rigid_target)
+        return replace(load, force=force, moment=moment, rigid_target=target)
 
     def unloaded(self) -> LoadState:
         """No load at all: no forces, moments or gravity, rigid modes held at zero."""
