@@ -1,12 +1,13 @@
 """Line loads on beams (QE/DELQE, issue 37): the consistent lumping against quadrature of the
 beam's shape functions, closed-form beam solutions (simply supported beam under uniform load,
-cantilever under a linear load, Greenhill's heavy column), the arc-length path, and the deck
-errors."""
+cantilever under a linear load, Greenhill's heavy column), a large deflection against the
+elastica, the arc-length path, and the deck errors."""
 from __future__ import annotations
 
 import h5py
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.special import jv
 
@@ -145,6 +146,38 @@ def test_cantilever_under_a_linear_load(tmp_path):
     # the tip's orientation node: the one turned most
     angle = 2 * np.arcsin(np.abs(euler[:, 3])).max()
     assert abs(angle - q0 / 8) < 1e-6 * q0 / 8
+
+
+def _elastica_tip(k: float) -> np.ndarray:
+    """The tip (x, y) of a cantilever (L = EI = 1, clamped along x) under a uniform dead
+    load k along -y per unit length: EI theta'' = k (L - s) cos(theta), theta(0) = 0,
+    theta'(L) = 0, shot from the tip."""
+    def rhs(s, y):
+        return [y[1], k * (1 - s) * np.cos(y[0]), np.cos(y[0]), np.sin(y[0])]
+
+    def root(t1):
+        return solve_ivp(rhs, [1, 0], [t1, 0, 0, 0], rtol=1e-12, atol=1e-13).y[0, -1]
+
+    t1 = brentq(root, -1.5, 0.0, xtol=1e-14)
+    y = solve_ivp(rhs, [1, 0], [t1, 0, 0, 0], rtol=1e-12, atol=1e-13).y[:, -1]
+    return -y[2:]
+
+
+def test_cantilever_under_a_large_dead_line_load_converges_to_the_elastica(tmp_path):
+    """qL^3/EI = 10 (the tip turns by 60 degrees), lumped in the reference configuration:
+    the tip converges as h^2 to the elastica; Richardson of 16 and 32 elements within 5e-6
+    of it (EA = 1e7 stretches the beam by 1e-6)."""
+    ref = _elastica_tip(10.0)
+    assert np.allclose(ref, [0.656354, -0.700200], atol=1e-6)
+    tips = []
+    for n in (16, 32):
+        text = (f"X 1 0 0 0\nX 3 1 0 0\nBEAMS 1 1 2 3 4 {n} 0 1 0\nDYNE 1:{n} 1 2 3 4 5 6\n"
+                f"FIX 1\nFIX 2\nEND\nHALT\nESTIFF 1:{n} 1e7 1 1 1\nDELQE 1:{n} 0 -10 0\n"
+                "ITERSTEP 30 10\nEND\nEND\n")
+        tips.append(run(tmp_path, text, f"c{n}")["static/position"][-1, 1, :2])
+    err = [np.linalg.norm(t - ref) for t in tips]
+    assert 3.5 < err[0] / err[1] < 4.5 and err[1] < 4e-4
+    assert np.linalg.norm(tips[1] + (tips[1] - tips[0]) / 3 - ref) < 5e-6
 
 
 def _greenhill() -> float:
