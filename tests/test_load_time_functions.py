@@ -169,3 +169,28 @@ def deck_errors(lines: str) -> list[str]:
 def test_time_function_errors(lines, want):
     errors = deck_errors(lines)
     assert len(errors) == 1 and errors[0].startswith(want), errors
+
+
+def test_the_deck_writer_keeps_line_loads_names_and_functions():
+    """model_to_deck writes QE/DELQE, the named TIMEFUNCTIONs and the LOADTF lines: the
+    deck it writes builds the same loads, motions and settings (planar and 3D)."""
+    from dataclasses import replace
+
+    from spacarpy.deck import model_to_deck
+
+    def strip(items):
+        return [replace(x, loc=None) for x in items]
+
+    for text in (_cantilever(1e-6, 2e-6).replace("TIMESTEP", "QE 1 0 1e-6 0\nTIMESTEP"),
+                 (DECKS / "slider_crank_flexible.dat").read_text().replace(
+                     "TIMEFUNCTION spinup 0.05", "TIMEFUNCTION crank spinup 0.05\n"
+                     "LOADTF crank DELINPX 2 1").replace("DELINPX 2 1 {w}",
+                                                         "DELINPX 2 1 {w}\nDELQE 1 0 -1")):
+        job = job_from_text(text, "a.dat")
+        again = job_from_text(model_to_deck(job.model, job.settings), "b.dat")
+        assert job.model.line_loads and strip(again.model.line_loads) == strip(
+            job.model.line_loads)
+        assert strip(again.model.loads) == strip(job.model.loads)
+        assert strip(again.model.prescribed_rotations) == strip(
+            job.model.prescribed_rotations)
+        assert again.settings.transient == job.settings.transient
