@@ -91,11 +91,15 @@ def _short(text: str, steps: str) -> str:
     ("slider_crank_flexible.dat", "TIMEFUNCTION spinup 0.05",
      "TIMEFUNCTION ramp 1\nTIMEFUNCTION crank spinup 0.05\nLOADTF crank DELINPX 2 1",
      "TIMESTEP 0.02 10"),
+    ("two_link_arm_inverse.dat", "\nTIMEFUNCTION smoothstep 1.25",
+     "\nTIMEFUNCTION zero\nTIMEFUNCTION s smoothstep 1.25\nLOADTF s DELINPE 10 1\n"
+     "LOADTF s DELINPE 11 1", "TIMESTEP 1 8"),
 ])
 def test_a_named_motion_function_is_the_unnamed_one_bit_for_bit(tmp_path, deck, old, new,
                                                                  steps):
-    """Prescribed rotations (DELINPR) and coordinates (DELINPX, here a planar angle) that
-    name a function move exactly as under the deck's function of that kind."""
+    """Prescribed rotations (DELINPR), coordinates (DELINPX, here a planar angle) and
+    deformations (DELINPE, in an inverse dynamics run) that name a function move exactly as
+    under the deck's function of that kind."""
     text = _short((DECKS / deck).read_text(), steps)
     assert old in text
     _same(run(tmp_path, text.replace(old, new), "named"), run(tmp_path, text, "plain"))
