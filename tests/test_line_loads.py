@@ -261,3 +261,10 @@ def test_line_load_range_and_model():
     assert (qe.kind, qe.q_p, qe.q_q) == ("QE", (1.0, 2.0, 3.0), (1.0, 2.0, 3.0))
     assert (delqe.kind, delqe.q_p, delqe.q_q) == ("DELQE", (4.0, 5.0, 6.0), (7.0, 8.0, 9.0))
     assert qe.tf is None and delqe.tf is None
+
+
+def test_check_counts_the_line_loads(tmp_path, capsys):
+    deck = tmp_path / "d.dat"
+    deck.write_text(_BASE.format(lines="QE 1 0 1 0\nDELQE 1:1 0 2 0"))
+    assert main(["check", str(deck)]) == 0
+    assert "1 QE, 1 DELQE" in capsys.readouterr().out
