@@ -268,3 +268,20 @@ def test_check_counts_the_line_loads(tmp_path, capsys):
     deck.write_text(_BASE.format(lines="QE 1 0 1 0\nDELQE 1:1 0 2 0"))
     assert main(["check", str(deck)]) == 0
     assert "1 QE, 1 DELQE" in capsys.readouterr().out
+
+
+def test_warping_beam_takes_a_line_load(tmp_path):
+    """BEAMW (its nodes p r wp q s wq): a cantilever (L = EI = 1) under q = 1e-4 + 1e-4 x/L
+    along z, each element its own linear piece: tip deflection q L^4/8 + 11 q L^4/120."""
+    n = 4
+    xs = "\n".join(f"X {3 * i + 1} {i / n} 0 0" for i in range(n + 1))
+    els = "\n".join(f"BEAMW {i + 1} {3 * i + 1} {3 * i + 2} {3 * i + 3} {3 * i + 4} "
+                    f"{3 * i + 5} {3 * i + 6} 0 1 0" for i in range(n))
+    loads = "\n".join(f"DELQE {i + 1} 0 0 {1e-4 * (1 + i / n)} 0 0 {1e-4 * (1 + (i + 1) / n)}"
+                      for i in range(n))
+    text = (f"{xs}\n{els}\nDYNE 1:{n} 1 2 3 4 5 6 7 8\nFIX 1\nFIX 2\nFIX 3\nEND\nHALT\n"
+            f"ESTIFF 1:{n} 1e6 1 1 1 0 0 0.01\n{loads}\nEND\nEND\n")
+    pos = run(tmp_path, text)["static/position"][-1]
+    tip = int(np.argmax(pos[:, 0]))
+    exact = 1e-4 / 8 + 11e-4 / 120
+    assert abs(pos[tip, 2] - exact) < 1e-6 * exact
