@@ -27,7 +27,7 @@ from spacarpy.errors import SourceLoc
 
 __all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "DynamicCoordinate", "ElementSet", "Fix",
            "Kinematic",
-           "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
+           "LineLoad", "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
            "PrescribedRotation", "UserRoutine"]
 
 # The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED, KINEMATIC) are declared with
@@ -177,6 +177,7 @@ class Prescribed:
     loc: SourceLoc | None = None
     velocity: float = 0.0          # INPUTX n c value velocity acceleration: the rate at t = 0
     acceleration: float = 0.0      # and its constant second derivative (transient runs)
+    tf: str | None = None          # LOADTF: the named time function of its DELINPX
 
 
 @dataclass(frozen=True)
@@ -199,6 +200,7 @@ class PrescribedDeformation:
     loc: SourceLoc | None = None
     velocity: float = 0.0          # INPUTE e k value velocity acceleration (transient runs)
     acceleration: float = 0.0
+    tf: str | None = None          # LOADTF: the named time function of its DELINPE
 
 
 @dataclass(frozen=True)
@@ -212,6 +214,7 @@ class PrescribedRotation:
     angle: float = 0.0
     loc: SourceLoc | None = None
     initial: float = 0.0          # angle reached at step 0 (a planar deck's INPUTX n 1 value)
+    tf: str | None = None         # LOADTF: the named time function of its DELINPR
 
 
 @dataclass(frozen=True)
@@ -226,6 +229,24 @@ class Load:
     kind: str
     value: tuple[float, float, float]
     loc: SourceLoc | None = None
+    tf: str | None = None          # LOADTF: the named time function of a DELXF (transient)
+
+
+@dataclass(frozen=True)
+class LineLoad:
+    """A dead line load on a beam element (``QE``/``DELQE e q1 q2 q3 [q1 q2 q3]``): force per
+    unit reference length in global axes, ``q_p`` at the element's end p and ``q_q`` at its
+    end q, linear in between (uniform where they are equal). ``kind`` is ``"QE"`` (present
+    from the start, like XF) or ``"DELQE"`` (applied over the load steps, like DELXF); ``tf``
+    names its time function (LOADTF) or is None. The solvers lump it at the element's nodes
+    from the beam's interpolation (:mod:`spacarpy.elements.line_load`)."""
+
+    element: int
+    kind: str
+    q_p: tuple[float, float, float]
+    q_q: tuple[float, float, float]
+    loc: SourceLoc | None = None
+    tf: str | None = None
 
 
 @dataclass(frozen=True)
@@ -268,6 +289,8 @@ class Model:
         (:data:`spacarpy.elements.registry.KINDS`), only kinds the model has.
     fixes : list of Fix
     loads : list of Load
+    line_loads : list of LineLoad
+        The line loads on beams (QE/DELQE), in deck order.
     nodal_masses : list of NodalMass
     prescribed : list of Prescribed
         Prescribed (input) coordinates with their initial values and increments.
@@ -312,6 +335,7 @@ class Model:
     elements: dict = field(default_factory=dict)
     fixes: list = field(default_factory=list)
     loads: list = field(default_factory=list)
+    line_loads: list = field(default_factory=list)
     nodal_masses: list = field(default_factory=list)
     prescribed: list = field(default_factory=list)
     prescribed_rotations: list = field(default_factory=list)

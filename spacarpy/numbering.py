@@ -148,6 +148,11 @@ class Numbering:
     rotation_angle: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rotation_initial: np.ndarray = field(default_factory=lambda: np.zeros(0))
     planar_mask: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    # LOADTF: the named time function of each INPUTX coordinate, INPUTR node and rigid-mode
+    # constraint (None: the deck's); empty where no motion names one
+    prescribed_tf: tuple = ()
+    rotation_tf: tuple = ()
+    rigid_tf: tuple = ()
     warp_idx: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     # DYNX: the global index of each dynamic coordinate, the row in rot_idx of a planar
     # orientation node's angle (-1 otherwise) and the deck (node, coordinate)
@@ -175,14 +180,17 @@ class Numbering:
         start = self.x0[self.prescribed_idx]
         return start + a * (self.prescribed_initial - start) + s * self.prescribed_delta
 
-    def prescribed_state(self, a: float, s: float):
+    def prescribed_state(self, a: float, s, s_rot=None):
         """(indices, values) of every prescribed coordinate at load parameters (a, s):
         INPUTX coordinates, then the Euler parameters of the nodes turned by INPUTR
-        (identity turned by ``s * angle`` about the axis)."""
+        (identity turned by ``s * angle`` about the axis). ``s`` may be one value per INPUTX
+        coordinate and ``s_rot`` (default ``s``) one per INPUTR node (named time
+        functions)."""
         from spacarpy.rotation import from_axis_angle
         idx = np.concatenate([self.prescribed_idx, self.rotation_idx.ravel()])
+        s_rot = s if s_rot is None else s_rot
         q = (from_axis_angle(self.rotation_axis,
-                             a * self.rotation_initial + s * self.rotation_angle).ravel()
+                             a * self.rotation_initial + s_rot * self.rotation_angle).ravel()
              if self.rotation_angle.size else np.zeros(0))
         return idx, np.concatenate([self.prescribed_values(a, s), q])
 
@@ -372,6 +380,7 @@ def number_model(model: Model) -> Numbering:
     rigid_initial = np.zeros(n_rigid if model.prescribed_deformations else 0)
     rigid_delta, rigid_presc = np.zeros_like(rigid_initial), np.zeros(rigid_initial.size, bool)
     rigid_rate = np.zeros((rigid_initial.size, 2))
+    rigid_tf: list = [None] * rigid_initial.size
     for pd in model.prescribed_deformations:
         for g in groups:
             hit = np.flatnonzero(g.ids[g.rigid_elem] == int(pd.element))
@@ -382,6 +391,8 @@ def number_model(model: Model) -> Numbering:
                 rigid_delta[k] = float(pd.delta)
                 rigid_presc[k] = True
                 rigid_rate[k] = (pd.velocity, pd.acceleration)
+                if pd.tf is not None:
+                    rigid_tf[k] = pd.tf
     if not rigid_rate.any():
         rigid_rate = np.zeros((0, 2))
 
@@ -451,7 +462,18 @@ def number_model(model: Model) -> Numbering:
                      rotation_initial=np.array([r.initial for r in model.prescribed_rotations],
                                                dtype=float),
                      planar_mask=planar, warp_idx=warp_idx,
+                     **_motion_tf(model, rigid_tf),
                      dynamic_idx=np.array(dyn_idx, dtype=np.int64),
                      dynamic_rot=np.array(dyn_rot, dtype=np.int64),
                      dynamic_label=np.array([(d.node, d.coord) for d in model.dynamic_coords],
                                             dtype=np.int64).reshape(-1, 2))
+
+
+def _motion_tf(model, rigid_tf: list) -> dict:
+    """The LOADTF names of the prescribed motions (:class:`Numbering`'s ``prescribed_tf``,
+    ``rotation_tf``, ``rigid_tf``), all empty where no motion names a function."""
+    presc = tuple(p.tf for p in model.prescribed)
+    rot = tuple(r.tf for r in model.prescribed_rotations)
+    if not any(presc + rot + tuple(rigid_tf)):
+        return {}
+    return dict(prescribed_tf=presc, rotation_tf=rot, rigid_tf=tuple(rigid_tf))

@@ -236,7 +236,11 @@ class TransientSettings:
     start : str
         START: ``"deck"`` (at rest in the deck's configuration) or ``"static"``.
     time_function : (kind, params)
-        TIMEFUNCTION (:mod:`spacarpy.time_functions`).
+        TIMEFUNCTION (:mod:`spacarpy.time_functions`), the deck's function: of every load
+        increment and prescribed motion that names none.
+    named_time_functions : tuple of (name, (kind, params))
+        The named ``TIMEFUNCTION name kind params`` lines (names in lower case), of the
+        loads and motions that LOADTF gives them.
     initial_velocities : dict of node -> (3,)
         VELOCITY lines.
     """
@@ -247,6 +251,7 @@ class TransientSettings:
     error_tol: tuple | None = None
     start: str = "deck"
     time_function: tuple = ("constant", ())
+    named_time_functions: tuple = ()
     initial_velocities: dict = field(default_factory=dict)
 
 

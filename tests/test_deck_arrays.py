@@ -38,7 +38,8 @@ def _state(job, locs: bool = True):
     m = job.model
     out = {"position_ids": plain(m.position_ids), "position_x0": plain(m.position_x0),
            "orientation_ids": plain(m.orientation_ids), "settings": job.settings}
-    for name in ("fixes", "loads", "nodal_masses", "prescribed", "prescribed_rotations",
+    for name in ("fixes", "loads", "line_loads", "nodal_masses", "prescribed",
+                 "prescribed_rotations",
                  "prescribed_deformations", "gravity", "cross_sections", "planar", "damping",
                  "element_damping", "element_prestress", "initial_rates", "source_path",
                  "source_text"):
@@ -174,6 +175,23 @@ def test_a_large_explicit_deck_on_arrays_equals_its_generator_form(monkeypatch):
     # and both equal what the per-statement semantics make of the explicit deck
     text = _cantilever(n)
     assert ("job", _state(explicit)) == _per_statement(text, "<explicit>")
+
+
+def test_line_loads_and_load_functions_build_the_same_on_arrays(monkeypatch):
+    """QE/DELQE lines (one per element), a named TIMEFUNCTION and LOADTF lines in a large
+    deck: the array path keeps them as the per-statement semantics do."""
+    spy = _Spy(monkeypatch)
+    n = 1000
+    data = [f"DELQE {i + 1} 0 -1 0" for i in range(n)]
+    data += ["QE 1:4 1 2 3 4 5 6", "TIMEFUNCTION gust sine 2", f"LOADTF gust DELXF {2 * n + 1}",
+             "LOADTF gust DELQE 7"]
+    text = _cantilever(n, data_extra=data)
+    job = job_from_text(text, "<lines>")
+    assert (spy.built, spy.gave_up) == (1, 0)
+    assert len(job.model.line_loads) == n + 4
+    assert [ld.element for ld in job.model.line_loads if ld.tf == "gust"] == [7]
+    assert [ld.tf for ld in job.model.loads] == ["gust"]
+    assert ("job", _state(job)) == _per_statement(text, "<lines>")
 
 
 # lines that are not plain (an expression, a comment, a range), lines of other keywords

@@ -200,6 +200,15 @@ _ORIENTATION = (_f("x component of the initial local y-axis", "ox"),
 _LOAD_FIELDS = (NODE, _f("x component (N or N m)", "f1"))
 _LOAD_OPTIONAL = _each_optional(_f("y component (N or N m)", "f2"),
                                 _f("z component (N or N m)", "f3"))
+# QE/DELQE e q1 q2 q3 [q1 q2 q3 at the end q]: force per length at the element's end p
+# (and at its end q: a linear variation); a planar deck gives qx qy [qx qy]
+_LINE_LOAD_FIELDS = (ELEMENT, _f("x component of the line load at p (N/m)", "q1"))
+_LINE_LOAD_OPTIONAL = _each_optional(
+    _f("y component of the line load at p (N/m)", "q2"),
+    _f("z component of the line load at p (N/m)", "q3"),
+    _f("x component of the line load at q (N/m)", "q4"),
+    _f("y component of the line load at q (N/m)", "q5"),
+    _f("z component of the line load at q (N/m)", "q6"))
 _COUNT = _f("number of elements", "count", "int", positive=True)
 _IO_FIELDS = (_f("input/output index", "i", "int", True), NODE, _COORD)
 _IO_ELEMENT_FIELDS = (_f("output index", "i", "int", True), ELEMENT, _MODE)
@@ -333,6 +342,14 @@ _KEYWORD_LIST = (
                 required=_LOAD_FIELDS, optional=_LOAD_OPTIONAL),
     KeywordSpec("DELXF", "dead nodal load increment applied over the load steps",
                 section="data", required=_LOAD_FIELDS, optional=_LOAD_OPTIONAL),
+    # a line load on a beam: three components (a planar deck: two) of q at p, then
+    # optionally those at q (a linear variation); the builder checks the count
+    KeywordSpec("QE", "dead line load on a beam (force per length, global axes) from the "
+                "start", section="data", extension=True, range_first=True,
+                required=_LINE_LOAD_FIELDS, optional=_LINE_LOAD_OPTIONAL),
+    KeywordSpec("DELQE", "dead line load increment on a beam applied over the load steps",
+                section="data", extension=True, range_first=True,
+                required=_LINE_LOAD_FIELDS, optional=_LINE_LOAD_OPTIONAL),
     KeywordSpec(
         "ITERSTEP", "load stepping and Newton iteration settings", section="data",
         required=(_f("maximum number of iterations", "max_iter", "int"),
@@ -441,12 +458,21 @@ _KEYWORD_LIST = (
                 section="extension", extension=True,
                 required=(_f("'deck' (at rest in the deck's configuration) or 'static'",
                              "start", "word", choices=("deck", "static")),)),
-    KeywordSpec("TIMEFUNCTION", "time function phi(t) of DELXF and the prescribed motions",
+    KeywordSpec("TIMEFUNCTION", "time function phi(t) of DELXF and the prescribed motions "
+                "(or, named, of those LOADTF gives it)",
                 section="extension", extension=True,
                 required=(_f("constant, zero, linear, ramp, smoothstep, spinup, sine, table or "
-                             "expr", "kind", "word"),),
+                             "expr (or a name, then the kind)", "kind", "word"),),
                 variadic=_f("parameter of the time function (expr: \"expression in t\")", "p",
                             "value")),
+    KeywordSpec("LOADTF", "the named time function a load increment or a prescribed motion "
+                "follows", section="extension", extension=True,
+                required=(_f("name of a TIMEFUNCTION", "name", "word"),
+                          _f("DELXF, DELXFL, DELQE, DELINPX, DELINPE or DELINPR", "what",
+                             "word"),
+                          _f("node or element number", "target", "int", True)),
+                optional=((_f("coordinate or deformation mode number", "number", "int",
+                              True),),)),
     KeywordSpec("MODES", "number of eigen/buckling modes and where to linearize",
                 section="extension", extension=True,
                 required=(_f("number of modes per linearization", "count", "int", True),),

@@ -205,6 +205,12 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         if planar:
             value = value[:2] if load.node in position_nodes else value[2:]
         out.append(format_record(load.kind, load.node, *value))
+    for ll in getattr(model, "line_loads", ()):
+        q = [float(v) for v in ll.q_p] + ([] if ll.q_q == ll.q_p
+                                          else [float(v) for v in ll.q_q])
+        if planar:
+            q = [v for i, v in enumerate(q) if i % 3 != 2]
+        out.append(format_record(ll.kind, ll.element, *q))
     for p in model.prescribed:
         if p.velocity or p.acceleration:        # the 5-field form (a transient's motion)
             value = p.initial
@@ -264,6 +270,9 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
     kind, params = tr.time_function
     if (kind, tuple(params)) != ("constant", ()):
         out.append(" ".join(["TIMEFUNCTION", kind] + [_quoted(v) for v in params]))
+    for name, (kind, params) in getattr(tr, "named_time_functions", ()):
+        out.append(" ".join(["TIMEFUNCTION", name, kind] + [_quoted(v) for v in params]))
+    out += _load_tf_lines(model)
     for n, v in tr.initial_velocities.items():
         out.append(format_record("VELOCITY", int(n), *[float(c) for c in v]))
     if lin.inputs or lin.outputs:          # the third module: the state-space signals
@@ -281,3 +290,17 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
             out.append(f"CROSSTYPE {shape}")
             out.append(format_record("CROSSDIM", *dims))
     return "\n".join(out) + "\n"
+
+
+def _load_tf_lines(model) -> list[str]:
+    """The LOADTF lines of the loads and motions that name a time function."""
+    named = [("DELXF", (ld.node,), ld.tf) for ld in model.loads if ld.kind == "DELXF"]
+    named += [("DELQE", (ld.element,), ld.tf) for ld in getattr(model, "line_loads", ())
+              if ld.kind == "DELQE"]
+    named += [("DELINPX", (p.node, p.coord), p.tf) for p in model.prescribed]
+    named += [(("DELINPX", (r.node, 1)) if model.planar else ("DELINPR", (r.node,))) + (r.tf,)
+              for r in model.prescribed_rotations]
+    named += [("DELINPE", (d.element, d.mode), d.tf) for d in model.prescribed_deformations]
+    lines = (format_record("LOADTF", tf, what, *target) for what, target, tf in named
+             if tf is not None)
+    return list(dict.fromkeys(lines))

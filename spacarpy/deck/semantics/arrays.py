@@ -326,7 +326,7 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
     _check_flexible_stiffness(kinds)
     _unconnected(kinds, positions, ctx)
 
-    prescribed, deformations_in, rotations = constraints.model_prescribed()
+    prescribed, deformations_in, rotations = constraints.model_prescribed(loads.motion_tf)
     sets = {kind.keyword: ElementSet(
         kind=kind.keyword, ids=kind.ids, nodes=kind.nodes, vector=kind.vector,
         def_class=kind.def_class, stiffness=kind.stiffness, has_stiffness=kind.has_stiffness,
@@ -339,6 +339,7 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
         elements=sets,
         fixes=constraints.model_fixes(),
         loads=loads.loads,
+        line_loads=loads.line_loads,
         nodal_masses=loads.nodal_masses,
         prescribed=prescribed,
         prescribed_deformations=deformations_in,

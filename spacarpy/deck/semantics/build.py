@@ -135,7 +135,8 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
     for msg in errors.warnings:
         logger.warning(msg)
     ids = list(topology.positions)
-    prescribed, deformations_in, rotations = constraints.model_prescribed()
+    prescribed, deformations_in, rotations = constraints.model_prescribed(
+        loads.motion_tf)
     model = Model(
         position_ids=ids,
         position_x0=[topology.positions[k][0] for k in ids] if ids else [],
@@ -144,6 +145,7 @@ def _semantics(statements: list[Statement], path: str, text: str, deformations, 
         elements=_element_sets(topology),
         fixes=constraints.model_fixes(),
         loads=loads.loads,
+        line_loads=loads.line_loads,
         nodal_masses=loads.nodal_masses,
         prescribed=prescribed,
         prescribed_deformations=deformations_in,

@@ -57,19 +57,25 @@ class Constraints(UsesTopology):
         return [Fix(node=k, coords=tuple(sorted(c)), loc=loc)
                 for k, (c, loc) in self.fixes.items()]
 
-    def model_prescribed(self) -> tuple[list, list, list]:
-        """The prescribed coordinates, deformations and rotations of the model."""
+    def model_prescribed(self, tf_of: dict | None = None) -> tuple[list, list, list]:
+        """The prescribed coordinates, deformations and rotations of the model; ``tf_of``
+        (LOADTF: ``("DELINPX", n, c)``, ``("DELINPE", e, k)``, ``("DELINPR", n)`` -> name)
+        names their time functions."""
+        tf = (tf_of or {}).get
         return ([Prescribed(node=n, coord=c, initial=v["initial"], delta=v["delta"],
                             loc=v["loc"], velocity=v.get("velocity", 0.0),
-                            acceleration=v.get("acceleration", 0.0))
+                            acceleration=v.get("acceleration", 0.0),
+                            tf=tf(("DELINPX", n, c)))
                  for (n, c), v in self.prescribed.items()],
                 [PrescribedDeformation(element=e, mode=k, initial=v["initial"],
                                        delta=v["delta"], loc=v["loc"],
                                        velocity=v.get("velocity", 0.0),
-                                       acceleration=v.get("acceleration", 0.0))
+                                       acceleration=v.get("acceleration", 0.0),
+                                       tf=tf(("DELINPE", e, k)))
                  for (e, k), v in self.input_deformations.items()],
                 [PrescribedRotation(node=n, axis=v["axis"], angle=v["angle"], loc=v["loc"],
-                                    initial=v.get("initial", 0.0))
+                                    initial=v.get("initial", 0.0),
+                                    tf=tf(("DELINPR", n)) or tf(("DELINPX", n, 1)))
                  for n, v in self.rotations.items()])
 
     def fix(self, st: Statement) -> None:

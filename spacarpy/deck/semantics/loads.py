@@ -1,32 +1,45 @@
-"""Deck semantics, loads and masses: XF/DELXF, XM, GRAVITY, and the user routines USERSIG
-(loads) and USERINP (prescribed motion), which the model only names.
+"""Deck semantics, loads and masses: XF/DELXF, QE/DELQE, LOADTF, XM, GRAVITY, and the user
+routines USERSIG (loads) and USERINP (prescribed motion), which the model only names.
 
 Dead nodal loads (forces on position nodes, moments on orientation nodes, a planar deck's
-fx fy or m), point masses and inertia tensors on nodes, and the gravitational acceleration.
-Checked here: nodes that do not exist, value counts for the node's kind, negative masses,
-inertia tensors that are not positive semi-definite, and load components on fixed
-coordinates (they would go straight into the support).
+fx fy or m), dead line loads on beams, the named time functions of load increments and
+prescribed motions (LOADTF), point masses and inertia tensors on nodes, and the
+gravitational acceleration. Checked here: nodes and elements that do not exist, value counts
+for the node's kind, line loads on elements that are not beams, LOADTF lines naming no
+TIMEFUNCTION or no load, negative masses, inertia tensors that are not positive
+semi-definite, and load components on fixed coordinates (they would go straight into the
+support).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from spacarpy.deck.semantics.constraints import Constraints
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
+from spacarpy.deck.semantics.settings import named_time_function
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
 from spacarpy.deck.statement import Statement
-from spacarpy.model import Load, NodalMass, UserRoutine
+from spacarpy.model import LineLoad, Load, NodalMass, UserRoutine
 
-__all__ = ["Loads", "from_statements"]
+__all__ = ["LINE_LOAD_KINDS", "Loads", "from_statements"]
+
+#: The element kinds a line load (QE/DELQE) acts on: the beams, whose bending is cubic.
+LINE_LOAD_KINDS = ("BEAM", "PLBEAM", "BEAMW")
+#: What LOADTF gives a time function: the load increments and the prescribed motions.
+_TF_TARGETS = ("DELXF", "DELXFL", "DELQE", "DELINPX", "DELINPE", "DELINPR")
 
 
 @dataclass
 class Loads:
-    """The loads (in deck order), nodal masses and gravity of a deck."""
+    """The loads (in deck order), line loads, nodal masses and gravity of a deck, and the
+    LOADTF names of the prescribed motions (``("DELINPX", n, c)``, ``("DELINPE", e, k)``,
+    ``("DELINPR", n)`` -> name)."""
 
     loads: list = field(default_factory=list)
+    line_loads: list = field(default_factory=list)
+    motion_tf: dict = field(default_factory=dict)
     nodal_masses: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
     user_routines: list = field(default_factory=list)
@@ -67,6 +80,80 @@ class _LoadsPass(UsesTopology):
             return
         self.result.loads.append(Load(node=n, kind=st.keyword, value=values, loc=st.loc))
         self.load_sts.append(st)
+
+    def line_load(self, st: Statement) -> None:
+        """A QE or DELQE line: a line load on a beam, uniform or linear."""
+        e = st.fields[0]
+        b = self.element_for(st)
+        if b is None:
+            return
+        if b.keyword not in LINE_LOAD_KINDS:
+            self.error(st.field_locs[0], f"{st.keyword}: element {e} is a {b.keyword}; a line "
+                                         f"load acts on a beam ({', '.join(LINE_LOAD_KINDS)})",
+                       st)
+            return
+        values = tuple(float(v) for v in st.fields[1:])
+        width = 2 if self.planar else 3
+        usage = (f"{st.keyword} {e} qx qy [qx qy at q]" if self.planar
+                 else f"{st.keyword} {e} q1 q2 q3 [q1 q2 q3 at q]")
+        if len(values) not in (width, 2 * width):
+            plane = "a planar deck: " if self.planar else ""
+            self.error(st.loc, f"{st.keyword}: expected {width} or {2 * width} components "
+                               f"({plane}{usage}), got {len(values)}", st)
+            return
+        if self.planar:
+            values = tuple(v for pair in zip(values[0::2], values[1::2]) for v in (*pair, 0.0))
+        q_p = values[:3]
+        q_q = values[3:6] if len(values) == 6 else q_p
+        self.result.line_loads.append(LineLoad(element=e, kind=st.keyword, q_p=q_p, q_q=q_q,
+                                               loc=st.loc))
+
+    def load_tf(self, st: Statement, names: dict, by_kw: dict, given: dict) -> None:
+        """A LOADTF line: the named time function of the load increments (DELXF, DELQE,
+        DELXFL) on a node or element, or of a prescribed motion (DELINPX n c, DELINPE e k,
+        DELINPR n)."""
+        name, what, target = str(st.fields[0]), str(st.fields[1]).upper(), st.fields[2]
+        number = st.fields[3] if len(st.fields) > 3 else None
+        if name.lower() not in names:
+            known = ", ".join(sorted(names)) or "none"
+            self.error(st.field_locs[0], f"LOADTF: no TIMEFUNCTION is named {name!r} (named "
+                                         f"ones: {known}; write TIMEFUNCTION {name} kind "
+                                         "p...)", st)
+            return
+        if what not in _TF_TARGETS:
+            self.error(st.field_locs[1], f"LOADTF: {st.fields[1]} has no time function; "
+                                         f"expected one of {', '.join(_TF_TARGETS)}", st)
+            return
+        wants_number = what in ("DELINPX", "DELINPE")
+        if wants_number != (number is not None):
+            usage = (f"LOADTF {name} {what} {'n c' if what == 'DELINPX' else 'e k'}"
+                     if wants_number else f"LOADTF {name} {what} "
+                     f"{'e' if what == 'DELQE' else 'n'}")
+            self.error(st.loc, f"LOADTF: expected {usage}", st)
+            return
+        key = (what, target) if number is None else (what, target, number)
+        lines = by_kw.get(what, ())
+        if what == "DELQE":
+            lines = [ld for ld in self.result.line_loads if ld.kind == "DELQE"]
+            hit = any(ld.element == target for ld in lines)
+        elif what == "DELXF":
+            hit = any(ld.node == target for ld in self.result.loads if ld.kind == "DELXF")
+        else:
+            hit = any(tuple(x.fields[:len(key) - 1]) == key[1:] for x in lines)
+        if not hit:
+            thing = "element" if what in ("DELQE", "DELINPE") else "node"
+            extra = f" {number}" if number is not None else ""
+            self.error(st.field_locs[2], f"LOADTF: no {what} line on {thing} "
+                                         f"{target}{extra}", st)
+            return
+        first = given.get(key)
+        if first is not None:
+            self.error(st.loc, f"LOADTF: {what} {target}"
+                               f"{'' if number is None else f' {number}'} is given a time "
+                               f"function twice (lines {first.loc.line} and {st.loc.line})", st)
+            return
+        given[key] = st
+        self.result.motion_tf[key] = name.lower()
 
     def check_loads_on_fixed_coordinates(self) -> None:
         """A load component on a fixed coordinate goes straight into the support: an error.
@@ -145,6 +232,20 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
     for st in ctx.in_deck_order("XF", "DELXF"):
         part.load(st)
     part.check_loads_on_fixed_coordinates()
+    for st in ctx.in_deck_order("QE", "DELQE"):
+        part.line_load(st)
+    names = {named_time_function(st).lower() for st in by_kw.get("TIMEFUNCTION", ())
+             if named_time_function(st) is not None}
+    given: dict = {}
+    for st in by_kw.get("LOADTF", ()):
+        part.load_tf(st, names, by_kw, given)
+    tf_of = part.result.motion_tf
+    if tf_of:
+        res = part.result
+        res.loads = [replace(ld, tf=tf_of.get(("DELXF", ld.node))) if ld.kind == "DELXF"
+                     else ld for ld in res.loads]
+        res.line_loads = [replace(ld, tf=tf_of.get(("DELQE", ld.element)))
+                          if ld.kind == "DELQE" else ld for ld in res.line_loads]
     for st in by_kw.get("XM", []):
         part.nodal_mass(st)
     for st in by_kw.get("GRAVITY", []):

@@ -33,6 +33,15 @@ from spacarpy.time_functions import TIME_FUNCTIONS
 __all__ = ["from_statements"]
 
 
+def named_time_function(st: Statement) -> str | None:
+    """The name of a named ``TIMEFUNCTION name kind p...`` line (its first field is not a
+    kind and its second is a word), None for the deck's ``TIMEFUNCTION kind p...``."""
+    first = st.fields[0]
+    if str(first).lower() in TIME_FUNCTION_KINDS or len(st.fields) < 2:
+        return None
+    return str(first) if isinstance(st.fields[1], str) else None
+
+
 class _SettingsPass(UsesTopology):
     def __init__(self, ctx: DeckContext, errors: ErrorCollector, topology: Topology):
         self.ctx, self.errors, self.topology = ctx, errors, topology
@@ -50,6 +59,8 @@ class _SettingsPass(UsesTopology):
         self.error_tol = None
         self.start = "deck"
         self.time_function = ("constant", ())
+        self.named_time_functions: dict = {}      # name (lower case) -> (kind, params)
+        self.named_lines: dict = {}               # name (lower case) -> its TIMEFUNCTION line
         self.initial_velocities: dict = {}
 
     def settings(self) -> AnalysisSettings:
@@ -65,6 +76,7 @@ class _SettingsPass(UsesTopology):
             transient=TransientSettings(
                 timestep=self.timestep, rho_inf=self.rho_inf, substeps=self.substeps,
                 error_tol=self.error_tol, start=self.start, time_function=self.time_function,
+                named_time_functions=tuple(sorted(self.named_time_functions.items())),
                 initial_velocities=self.initial_velocities))
 
     def timestep_line(self, st: Statement) -> None:
@@ -215,47 +227,77 @@ class _SettingsPass(UsesTopology):
             self.rotary_inertia = value
 
     def time_function_line(self, st: Statement) -> None:
-        """``TIMEFUNCTION kind p...``, checked against :mod:`spacarpy.time_functions`."""
-        kind = str(st["kind"]).lower()
+        """``TIMEFUNCTION kind p...`` (the deck's function) or ``TIMEFUNCTION name kind p...``
+        (a named one, for the loads LOADTF gives it), checked against
+        :mod:`spacarpy.time_functions`."""
+        name = named_time_function(st)
+        if name is None:
+            if self.ctx.once(st, self.errors):
+                parsed = self._time_function(st, str(st["kind"]), st.values("p"),
+                                             st.loc_of("kind"), st.loc_of("p"))
+                if parsed is not None:
+                    self.time_function = parsed
+            return
+        if not name.isidentifier():
+            self.error(st.loc_of("kind"), f"TIMEFUNCTION: the name {name!r} must be a word of "
+                                          "letters, digits and _ (TIMEFUNCTION name kind "
+                                          "p...)", st)
+            return
+        first = self.named_lines.get(name.lower())
+        if first is not None:
+            self.error(st.loc_of("kind"), f"TIMEFUNCTION {name} is given twice (lines "
+                                          f"{first.loc.line} and {st.loc.line})", st)
+            return
+        self.named_lines[name.lower()] = st
+        given = st.values("p")
+        p_loc = st.field_locs[2] if len(st.field_locs) > 2 else st.loc
+        parsed = self._time_function(st, str(given[0]), given[1:], st.field_locs[1], p_loc)
+        if parsed is not None:
+            self.named_time_functions[name.lower()] = parsed
+
+    def _time_function(self, st: Statement, kind: str, given: tuple, kind_loc,
+                       p_loc) -> tuple | None:
+        """(kind, params) of a TIMEFUNCTION line's kind and parameters, or None after an
+        error."""
+        written, kind = kind, kind.lower()
         spec = TIME_FUNCTION_KINDS.get(kind)
         if spec is None:
-            self.error(st.loc_of("kind"), f"TIMEFUNCTION: unknown kind '{st['kind']}'; "
-                                          f"expected {', '.join(TIME_FUNCTIONS)}", st)
-            return
-        given = st.values("p")
+            self.error(kind_loc, f"TIMEFUNCTION: unknown kind '{written}'; expected "
+                                 f"{', '.join(TIME_FUNCTIONS)} (or a name, then the kind)",
+                       st)
+            return None
         if kind == "expr":
             if len(given) != 1 or not isinstance(given[0], str):
                 self.error(st.loc, 'TIMEFUNCTION expr takes one expression in t, in double '
                                    'quotes: TIMEFUNCTION expr "1 - exp(-t/0.1)"', st)
-                return
+                return None
             from spacarpy.expressions import ExpressionError, evaluate  # Lark: only here
             try:
                 evaluate(given[0], {"t": 0.0})
             except (ExpressionError, ValueError, ZeroDivisionError) as exc:
-                self.error(st.loc_of("p"), f"TIMEFUNCTION expr: {exc} (the expression may use "
-                                           "t, pi and the functions of {expressions})", st)
-                return
-            self.time_function = ("expr", given)
-            return
+                self.error(p_loc, f"TIMEFUNCTION expr: {exc} (the expression may use "
+                                  "t, pi and the functions of {expressions})", st)
+                return None
+            return ("expr", tuple(given))
         if any(isinstance(v, str) for v in given):
             self.error(st.loc, f"TIMEFUNCTION {kind}: expected numbers after the kind", st)
-            return
+            return None
         params = tuple(float(v) for v in given)
         if kind == "table":
             ok = len(params) >= 4 and len(params) % 2 == 0 and np.all(np.diff(params[0::2]) > 0)
             if not ok:
                 self.error(st.loc, "TIMEFUNCTION table: expected pairs t1 phi1 t2 phi2 ... (at "
                                    "least two, times increasing)", st)
-                return
+                return None
         elif len(params) != spec.n_params:
             self.error(st.loc, f"TIMEFUNCTION {kind} takes {spec.n_params} parameter(s) "
                                f"({spec.description}), got {len(params)}", st)
-            return
+            return None
         elif spec.positive_first and params[0] <= 0:
-            self.error(st.loc_of("p"), f"TIMEFUNCTION {kind}: the parameter must be positive, "
-                                       f"got {params[0]:g}", st)
-            return
-        self.time_function = (kind, params)
+            self.error(p_loc, f"TIMEFUNCTION {kind}: the parameter must be positive, "
+                              f"got {params[0]:g}", st)
+            return None
+        return (kind, params)
 
     def modes_line(self, st: Statement) -> None:
         """``MODES count [each|last]`` (the choices of its ``where`` field)."""
@@ -315,10 +357,11 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
     for st in by_kw.get("VELOCITY", []):
         part.velocity_line(st)
     for keyword, line in (("ERROR", part.error_line), ("SUBSTEPS", part.substeps_line),
-                          ("RHOINF", part.rho_inf_line), ("START", part.start_line),
-                          ("TIMEFUNCTION", part.time_function_line)):
+                          ("RHOINF", part.rho_inf_line), ("START", part.start_line)):
         for st in by_kw.get(keyword, []):
             if ctx.once(st, errors):
                 line(st)
+    for st in by_kw.get("TIMEFUNCTION", []):
+        part.time_function_line(st)
     part.overrides(deformations, analysis)
     return part.settings()

@@ -150,19 +150,20 @@ class InverseDynamics:
         """(indices, x, v, a) of the prescribed coordinates at t, with exact derivatives
         (INPUTX values are linear in phi; INPUTR turns by ``initial + phi angle``)."""
         num, tp = self.num, self.tp
-        phi, dphi, ddphi = tp.opts.phi(t)
-        idx, x = num.prescribed_state(1.0, phi)
+        phi, phi_rot, dphi, ddphi = tp.opts.prescribed_phi(t, num)   # (LOADTF: arrays)
+        idx, x = num.prescribed_state(1.0, phi, phi_rot)
         n = num.prescribed_idx.size
+        dphi, ddphi = (np.broadcast_to(d, x.shape) for d in (dphi, ddphi))
         v, a = np.zeros(x.size), np.zeros(x.size)
-        v[:n], a[:n] = num.prescribed_delta * dphi, num.prescribed_delta * ddphi
+        v[:n], a[:n] = num.prescribed_delta * dphi[:n], num.prescribed_delta * ddphi[:n]
         if num.prescribed_rate.size:
             dx, dv, da = num.input_motion(t)
             x[:n] += dx
             v[:n] += dv
             a[:n] += da
         if num.rotation_angle.size:             # q = (cos th/2, sin th/2 n)
-            th = num.rotation_initial + phi * num.rotation_angle
-            w, dw = num.rotation_angle * dphi, num.rotation_angle * ddphi
+            th = num.rotation_initial + phi_rot * num.rotation_angle
+            w, dw = num.rotation_angle * dphi[n::4], num.rotation_angle * ddphi[n::4]
             c, s = np.cos(th / 2)[:, None], np.sin(th / 2)[:, None]
             dq = 0.5 * np.hstack([-s, c * num.rotation_axis])
             q = np.hstack([c, s * num.rotation_axis])

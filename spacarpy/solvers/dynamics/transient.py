@@ -219,11 +219,11 @@ class TransientProblem:
         if not self.presc_idx.size:                  # (the same at every step)
             x = np.zeros(0)
             return self.presc_idx, x, x, x
-        phi, dphi, ddphi = self.opts.phi(t)
-        idx, x = self.num.prescribed_state(1.0, phi)
+        phi, phi_rot, dphi, ddphi = self.opts.prescribed_phi(t, self.num)
         eps = 1e-4
-        _, xp = self.num.prescribed_state(1.0, phi + eps)
-        _, xm = self.num.prescribed_state(1.0, phi - eps)
+        idx, x = self.num.prescribed_state(1.0, phi, phi_rot)
+        _, xp = self.num.prescribed_state(1.0, phi + eps, phi_rot + eps)
+        _, xm = self.num.prescribed_state(1.0, phi - eps, phi_rot - eps)
         d1 = (xp - xm) / (2 * eps)
         d2 = (xp - 2 * x + xm) / eps**2
         v, a = d1 * dphi, d2 * dphi**2 + d1 * ddphi
@@ -250,11 +250,12 @@ class TransientProblem:
         """(rate, second derivative) of the rigid-mode targets at time t: the prescribed
         deformations' ``phi'(t) delta`` and ``phi''(t) delta`` plus the 5-field INPUTE
         motion's; (n_rigid,) each."""
-        _, dphi, ddphi = self.opts.phi(t)
         num = self.num
         if not num.rigid_prescribed.size:
             z = np.zeros(num.n_rigid)
             return z, z
+        _, dphi, ddphi = (self.opts.motion_phi(t, num.rigid_tf) if num.rigid_tf  # LOADTF
+                          else self.opts.phi(t))
         _, dv, da = num.input_motion(t, rigid=True)
         return num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
 
@@ -265,7 +266,11 @@ class TransientProblem:
         if self._load_at is not None and self._load_at[0] == t:
             load = self._load_at[1]                  # a step's iterations share its time
         else:
-            load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
+            if self.prob.loads.named or self.num.rigid_tf:   # LOADTF: named functions
+                load = self.prob.loads.at_time({name: v[0] for name, v
+                                                in self.opts.named_values(t).items()})
+            else:
+                load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
             if self.num.rigid_rate.size:             # 5-field INPUTE: + v0 t + a0 t^2/2
                 load = replace(load, rigid_target=load.rigid_target
                                + self.num.input_motion(t, rigid=True)[0])

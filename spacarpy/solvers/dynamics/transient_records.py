@@ -35,6 +35,9 @@ class TransientOptions:
     max_cuts: int = 10
     start: str = "deck"                      # "deck" (at rest) or "static" (equilibrium)
     phi: TimeFunction = field(default_factory=TimeFunction)
+    #: the named time functions (TIMEFUNCTION name kind p...): name -> TimeFunction, of the
+    #: load increments and prescribed motions that LOADTF gives them
+    named_phi: dict = field(default_factory=dict)
     error: tuple | None = None               # ERROR (abs, rel): adaptive step size
     deformations: str = "modified"
     rotary_inertia: str = "lumped"           # ROTARYINERTIA: the beams' section inertia
@@ -55,6 +58,31 @@ class TransientOptions:
     #: values of those coordinates
     user_motion: object = None
 
+    def named_values(self, t: float) -> dict:
+        """(phi, phi', phi'') at t of the deck's time function (key None) and of each named
+        one (LOADTF)."""
+        out = {None: self.phi(t)}
+        for name, f in self.named_phi.items():
+            out[name] = f(t)
+        return out
+
+    def motion_phi(self, t: float, names: tuple) -> np.ndarray:
+        """(3, n): phi, phi', phi'' at t of the time function of each of n motions
+        (``names``: a LOADTF name, or None for the deck's function)."""
+        values = self.named_values(t)
+        return np.array([values[name] for name in names], dtype=float).reshape(-1, 3).T
+
+    def prescribed_phi(self, t: float, num) -> tuple:
+        """(phi of the INPUTX coordinates, phi of the INPUTR nodes, phi' and phi'' of the
+        prescribed coordinates) at t: the deck's function's values, or arrays of each
+        motion's own where LOADTF names some (:meth:`Numbering.prescribed_state`'s order)."""
+        if not (num.prescribed_tf or num.rotation_tf):
+            phi, dphi, ddphi = self.phi(t)
+            return phi, phi, dphi, ddphi
+        ps, pr = (self.motion_phi(t, tf) for tf in (num.prescribed_tf, num.rotation_tf))
+        return (ps[0], pr[0], *(np.concatenate([ps[k], np.repeat(pr[k], 4)])
+                                for k in (1, 2)))
+
     @classmethod
     def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:
         """The options of a deck's settings: TIMESTEP, SUBSTEPS, ERROR, RHOINF, START,
@@ -65,6 +93,7 @@ class TransientOptions:
         return cls(t_end=t_end, n_steps=n_steps, substeps=tr.substeps, error=tr.error_tol,
                    rho_inf=tr.rho_inf, tol=min(it.tol, 1e-10), max_iter=max(it.max_iter, 20),
                    start=tr.start, phi=TimeFunction(*tr.time_function),
+                   named_phi={name: TimeFunction(*f) for name, f in tr.named_time_functions},
                    deformations=settings.deformations,
                    rotary_inertia=settings.rotary_inertia,
                    initial_velocities=dict(tr.initial_velocities))

@@ -13,11 +13,13 @@ driver), and a LoadState carries it bound to its time and velocities (:attr:`Loa
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
 
+from spacarpy.elements.line_load import lump_line_load
+from spacarpy.elements.registry import kind_of
 from spacarpy.solvers.statics.nodal import nodal_masses, node_rows
 
 
@@ -63,16 +65,36 @@ class Loads:
         pos_row, rot_row = node_rows(model)
         self.force = {k: np.zeros(num.n_coord) for k in ("XF", "DELXF")}
         moment = {k: np.zeros((model.orientation_ids.size, 3)) for k in ("XF", "DELXF")}
+        # the increments that follow a named time function (LOADTF), by name
+        named = {}
         for ld in model.loads:
             n = int(ld.node)
+            force, mom = self.force[ld.kind], moment[ld.kind]
+            if ld.kind == "DELXF" and ld.tf is not None:
+                force, mom = named.setdefault(ld.tf, _zero_part(num, model))
             if n in pos_row:
-                self.force[ld.kind][num.pos_idx[pos_row[n]]] += ld.value
+                force[num.pos_idx[pos_row[n]]] += ld.value
             else:
-                moment[ld.kind][rot_row[n]] += ld.value
+                mom[rot_row[n]] += ld.value
+        for kind, tf, pos, f, rot, m in line_load_parts(model):
+            force, mom = self.force[kind], moment[kind]
+            if tf is not None:
+                force, mom = named.setdefault(tf, _zero_part(num, model))
+            np.add.at(force, num.pos_idx[pos], f)
+            np.add.at(mom, rot, m)
+        # DELXF (all increments: the static path's); named: the parts with their own
+        # function (transient), each also in DELXF
+        self.default_force, default_moment = self.force["DELXF"].copy(), moment["DELXF"]
+        moment["DELXF"] = default_moment.copy()
+        for force, mom in named.values():
+            self.force["DELXF"] += force
+            moment["DELXF"] += mom
         loaded = np.flatnonzero(np.any(moment["XF"] != 0, axis=1)
                                 | np.any(moment["DELXF"] != 0, axis=1))
         self.moment_rot = loaded                            # orientation-node indices
         self.moment = {k: v[loaded] for k, v in moment.items()}
+        self.default_moment = default_moment[loaded]
+        self.named = {name: (force, mom[loaded]) for name, (force, mom) in named.items()}
         self.has_xf = bool(np.any(self.force["XF"]) or np.any(self.moment["XF"]))
         # gravity belongs to the initial load, reached in phase A
         self.has_xf = self.has_xf or bool(np.any(model.gravity))
@@ -109,6 +131,24 @@ class Loads:
                          rigid_target=self.num.rigid_targets(a, s),
                          user=self.bind(s, None))
 
+    def at_time(self, phi: dict) -> LoadState:
+        """The load of a transient run at time functions' values ``phi`` (name -> value;
+        None: the deck's function): XF, the increments that name no function times
+        ``phi[None]``, each named part times its function's value, and the prescribed
+        deformations at their functions' values (:meth:`at` ``(1, phi[None])`` where
+        nothing names a function)."""
+        load = self.at(1.0, phi[None])
+        if not self.named and not self.num.rigid_tf:
+            return load
+        force = self.force["XF"] + phi[None] * self.default_force
+        moment = self.moment["XF"] + phi[None] * self.default_moment
+        for name, (f, m) in self.named.items():
+            force = force + phi[name] * f
+            moment = moment + phi[name] * m
+        target = (self.num.rigid_targets(1.0, np.array([phi[n] for n in self.num.rigid_tf]))
+                  if self.num.rigid_tf else load.rigid_target)
+        return replace(load, force=force, moment=moment, rigid_target=target)
+
     def unloaded(self) -> LoadState:
         """No load at all: no forces, moments or gravity, rigid modes held at zero."""
         return LoadState(a=0.0, s=0.0, force=np.zeros(self.num.n_coord),
@@ -116,8 +156,53 @@ class Loads:
                          rigid_target=np.zeros(self.num.n_rigid))
 
 
+def _zero_part(num, model) -> tuple:
+    """Zero (force, moment) arrays of one named part of the load increments."""
+    return np.zeros(num.n_coord), np.zeros((model.orientation_ids.size, 3))
+
+
+def _rows(ids, nodes):
+    """The rows of deck numbers ``nodes`` in ``ids`` (all present)."""
+    order = np.argsort(ids, kind="stable")
+    return order[np.searchsorted(ids, nodes, sorter=order)]
+
+
+def line_load_parts(model):
+    """The line loads (QE/DELQE) lumped at the nodes (:func:`~spacarpy.elements.line_load.
+    lump_line_load`, in the reference configuration), grouped by (kind, time function):
+    a list of ``(kind, tf, pos_rows, forces, rot_rows, moments)``, ``kind`` "XF" for QE and
+    "DELXF" for DELQE, rows of the position and orientation nodes (``num.pos_idx``,
+    ``num.rot_idx``) with their (m, 3) forces and moments."""
+    if not model.line_loads:
+        return []
+    element = np.array([ld.element for ld in model.line_loads], dtype=np.int64)
+    q_p = np.array([ld.q_p for ld in model.line_loads], dtype=float)
+    q_q = np.array([ld.q_q for ld in model.line_loads], dtype=float)
+    group = [("XF" if ld.kind == "QE" else "DELXF", ld.tf) for ld in model.line_loads]
+    ends = np.zeros((element.size, 4), dtype=np.int64)      # p, r, q, s (deck numbers)
+    for keyword, es in model.elements.items():
+        hit = np.isin(element, es.ids)
+        if not hit.any():
+            continue
+        slots = kind_of(keyword).slots
+        pick = [slots.index("pos"), slots.index("rot"),
+                len(slots) - 1 - slots[::-1].index("pos"),
+                len(slots) - 1 - slots[::-1].index("rot")]
+        ends[hit] = es.nodes[_rows(es.ids, element[hit])][:, pick]
+    pos = _rows(model.position_ids, ends[:, [0, 2]])
+    rot = _rows(model.orientation_ids, ends[:, [1, 3]])
+    f_p, f_q, m_p, m_q = lump_line_load(model.position_x0[pos[:, 0]],
+                                        model.position_x0[pos[:, 1]], q_p, q_q)
+    out = []
+    for key in dict.fromkeys(group):
+        sel = np.array([g == key for g in group])
+        out.append((*key, pos[sel].T.ravel(), np.concatenate([f_p[sel], f_q[sel]]),
+                    rot[sel].T.ravel(), np.concatenate([m_p[sel], m_q[sel]])))
+    return out
+
+
 def _bound(user, t, v, x, states):
     return user(t, x, v, states)
 
 
-__all__ = ["LoadState", "Loads"]
+__all__ = ["LoadState", "Loads", "line_load_parts"]
