@@ -109,7 +109,8 @@ def arc_frame(xp: np.ndarray, xq: np.ndarray, centre: np.ndarray):
     sin_a = np.linalg.norm(normal, axis=1)
     alpha = np.arctan2(sin_a, np.sum(u * v, axis=1))
     ny = normal - np.sum(normal * nx, axis=1)[:, None] * nx
-    ny /= np.linalg.norm(ny, axis=1)[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):      # (a straight "arc": NaN,
+        ny /= np.linalg.norm(ny, axis=1)[:, None]             # refused by arc_problems)
     nz = np.cross(nx, ny)
     return nx, ny, nz, l0, alpha
 
