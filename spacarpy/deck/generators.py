@@ -5,9 +5,9 @@ position node q into ``count`` equal BEAM elements; ``BEAMARC e p r q s count cx
 [ox oy oz] [shape]`` places them on the circular arc about the centre (cx, cy, cz): as
 straight chords (BEAM, shape ``chords``, the default) or, with ``curved``, as initially
 curved BEAMC elements on the arc itself (:mod:`spacarpy.elements.beamc`; then an orientation
-vector given must be the BEAMC's local y-axis, the arc's normal ``(q - c) x (p - c)``). Both end nodes are
-ordinary nodes of the deck (they need X lines; r and s are the orientation nodes at the ends);
-the intermediate nodes are created here.
+vector given must be the BEAMC's local y-axis, the arc's normal ``(q - c) x (p - c)``). Both
+end nodes are ordinary nodes of the deck (they need X lines; r and s are the orientation nodes
+at the ends); the intermediate nodes are created here.
 
 Numbering rule (stable, documented in docs/deck.md): let N be the largest node number that an X
 line or an element line (BEAM, a generator's end nodes, an unsupported element) uses anywhere in
