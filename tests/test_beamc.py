@@ -259,3 +259,85 @@ def test_centre_at_the_origin_is_accepted():
     model = model_from_text("X 1 1 0 0\nX 3 0 1 0\nBEAMC 1 1 2 3 4 0 0 0\nFIX 1\nFIX 2\n"
                             "DYNE 1 1 2 3 4 5 6\nEND\nHALT\nESTIFF 1 1 1 1 1\nEND\nEND\n")
     assert model.elements["BEAMC"].n_elem == 1
+
+
+@pytest.mark.parametrize("rotary", ["lumped", "consistent"])
+def test_inertia_kernels_are_lagranges_equations_of_the_arc_mass(rotary):
+    """``M a + dM/dt v - 1/2 d(v^T M v)/dx`` of the BEAMC mass matrix by central differences
+    (exact: M is quadratic in the Euler parameters and does not depend on positions)
+    against its inertia force and its convective terms, at random states with section
+    inertia (the per-node tangents of the arc in the BEAM's mass kernels)."""
+    rng = np.random.default_rng(5)
+    n = 4
+    centre = rng.standard_normal((n, 3))
+    u, w = rng.standard_normal((n, 3)), rng.standard_normal((n, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    w -= np.sum(w * u, axis=1)[:, None] * u
+    w /= np.linalg.norm(w, axis=1)[:, None]
+    ang = rng.uniform(0.2, 1.5, size=(n, 1))
+    xp, xq = centre + 2.0 * u, centre + 2.0 * (np.cos(ang) * u + np.sin(ang) * w)
+    ref, _ = KIND.reference([xp, None, xq, None], centre)
+    x = np.concatenate([xp, rng.standard_normal((n, 4)), xq, rng.standard_normal((n, 4))],
+                       axis=1)
+    v, a = rng.standard_normal((n, 14)), rng.standard_normal((n, 14))
+    em = np.abs(rng.standard_normal((n, 5)))
+
+    def mass(xx):
+        return KIND.mass(xx, ref, em, rotary)
+
+    mdot = np.einsum("nij,nj->ni", 0.5 * (mass(x + v) - mass(x - v)), v)
+    grad = np.zeros((n, 14))
+    for j in range(14):
+        e = np.zeros(14)
+        e[j] = 1.0
+        vmv = [np.einsum("ni,nij,nj->n", v, mass(x + s * e), v) for s in (1.0, -1.0)]
+        grad[:, j] = 0.5 * (vmv[0] - vmv[1])
+    want = np.einsum("nij,nj->ni", mass(x), a) + mdot - 0.5 * grad
+    got = KIND.inertia_force(x, v, a, ref, em, rotary)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+    got_mdot, got_grad = KIND.convective(x, v, ref, em, rotary)
+    np.testing.assert_allclose(got_mdot, mdot, rtol=0, atol=1e-12 * np.abs(mdot).max())
+    np.testing.assert_allclose(got_grad, grad, rtol=0, atol=1e-12 * np.abs(grad).max())
+
+
+def test_gravity_is_the_arc_centre_lines_and_its_derivative():
+    """Generalized gravity: the work of g on the Hermite centre line of the arc; at the
+    reference the position rows carry rho A L g / 2 each, and df/dx is its exact derivative."""
+    xp, xq, ref, _ = one_arc()
+    g = np.array([0.3, -9.81, 1.2])
+    rng = np.random.default_rng(2)
+    x = np.concatenate([xp[0], rng.standard_normal(4), xq[0], rng.standard_normal(4)])[None]
+    em = np.array([[2.5, 0, 0, 0, 0]])
+    f, k = KIND.gravity(x, ref, em, g)
+    np.testing.assert_allclose(f[0, 0:3], 0.5 * 2.5 * ref.arc[0] * g, rtol=1e-15)
+    h = 1e-6
+    for j in range(14):
+        e = np.zeros(14)
+        e[j] = h
+        fd = (KIND.gravity(x + e, ref, em, g)[0] - KIND.gravity(x - e, ref, em, g)[0]) / (2 * h)
+        np.testing.assert_allclose(k[0, :, j], fd[0], rtol=0, atol=1e-8 * np.abs(k).max())
+
+
+def test_results_and_check_name_the_beamc_elements(tmp_path, capsys):
+    """A run stores the BEAMC group's deformations and stress resultants (sigma = S e for
+    the flexible modes) and `check` reports the kind."""
+    deck = tmp_path / "bend.dat"
+    deck.write_text(bend_deck(4).replace("0 0 {R}  0 1 0", "0 0 {R}  0 1 0 curved"))
+    out = tmp_path / "bend.h5"
+    assert main(["run", str(deck), "-o", str(out), "-q"]) in (0, 4)
+    with h5py.File(out) as f:
+        e = f["static/elements/BEAMC/deformation"][-1]
+        s = f["static/elements/BEAMC/stress_resultant"][-1]
+        assert f["model/elements/BEAMC/ids"][:].tolist() == [1, 2, 3, 4]
+    job = build_job(parse_deck(deck.read_text(), str(deck)), text="", path=str(deck))
+    es = job.model.elements["BEAMC"]
+    ids = list(job.model.position_ids)
+    x0 = job.model.position_x0
+    ref, _ = KIND.reference([x0[[ids.index(n) for n in es.nodes[:, 0]]], None,
+                             x0[[ids.index(n) for n in es.nodes[:, 2]]], None], es.vector)
+    sk = KIND.stiffness(es.stiffness, ref)
+    np.testing.assert_allclose(s, np.einsum("nij,nj->ni", sk, e), rtol=1e-9,
+                               atol=1e-9 * np.abs(s).max())
+    capsys.readouterr()
+    assert main(["check", str(deck)]) == 0
+    assert "BEAMC" in capsys.readouterr().out
