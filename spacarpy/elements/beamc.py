@@ -33,6 +33,7 @@ EIy, cy) are in the plane of the arc, 5, 6 (about z, EIz, cz) out of it.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,9 +70,17 @@ from spacarpy.elements.chunks import in_chunks
 #: polynomials of degree <= 4 in sin, cos of the angle along the arc (< pi): 24 points
 #: integrate them to round-off (the truncation error is below 1e-20 for any arc).
 GAUSS_POINTS = 24
-_XG, _WG = np.polynomial.legendre.leggauss(GAUSS_POINTS)
-#: Quadrature on tau in [-1/2, 1/2] (tau = 0 the middle of the arc).
-TAU, TAU_WEIGHTS = 0.5 * _XG, 0.5 * _WG
+
+
+@functools.cache
+def quadrature() -> tuple[np.ndarray, np.ndarray]:
+    """Points and weights on tau in [-1/2, 1/2] (tau = 0 the middle of the arc); made on
+    first use (numpy.polynomial is not loaded by a run without BEAMC)."""
+    from numpy.polynomial.legendre import leggauss
+
+    x, w = leggauss(GAUSS_POINTS)
+    return 0.5 * x, 0.5 * w
+
 #: Relative tolerance on the two radii |p - c| and |q - c| of a BEAMC line.
 RADIUS_RTOL = 1e-6
 #: Smallest and largest arc angle (rad) of a BEAMC: nearly straight arcs have an undefined
@@ -184,10 +193,11 @@ def arc_flexibility(props: np.ndarray, l0: np.ndarray, alpha: np.ndarray) -> np.
     """The flexibility F (n, 6, 6) of circular arc segments, ``e = F sigma`` in the linear
     theory: ``F = L int B^T C B dtau`` (Castigliano), by :data:`GAUSS_POINTS`-point
     Gauss-Legendre quadrature."""
-    b = _section_forms(l0, alpha, TAU)
+    tau, weights = quadrature()
+    b = _section_forms(l0, alpha, tau)
     c = section_compliances(props)
     cb = c[:, None, :, None] * b
-    f = np.einsum("g,ngki,ngkj->nij", TAU_WEIGHTS, b, cb)
+    f = np.einsum("g,ngki,ngkj->nij", weights, b, cb)
     f *= arc_length(l0, alpha)[:, None, None]
     return 0.5 * (f + f.transpose(0, 2, 1))
 
