@@ -187,7 +187,8 @@ def test_ring_in_plane_frequencies_equal_the_closed_form(tmp_path):
     with h5py.File(out) as f:
         w = np.ravel(f["eigen/frequency"][...]) * 2 * np.pi
         assert f["model/elements/BEAMC/ids"].shape == (32,)
-    np.testing.assert_allclose(w[:6], 0, atol=1e-5)                 # six rigid motions
+    # six rigid motions (their w^2 are round-off sized, whatever their stored kind)
+    np.testing.assert_allclose(w[:6], 0, atol=1e-2)
     n = np.arange(2, 5)
     exact = n * (n**2 - 1) / np.sqrt(n**2 + 1)
     np.testing.assert_allclose(w[6:12:2], exact, rtol=3e-4)       # each a double pair
