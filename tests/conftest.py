@@ -147,8 +147,15 @@ def result_files(tmp_path_factory) -> dict:
     (tmp / "beamw.dat").write_text(beamw + "ITERSTEP 20 2 1e-12\nEND\nEND\n")
     (tmp / "beamw_dyn.dat").write_text("MODE transient\n" + beamw
                                        + "TIMESTEP 0.01 2\nEND\nEND\n")
+    # BEAMC (schema 2.20): a quarter-circle cantilever of two curved beams, static, transient
+    beamc = ("X 1 1 0 0\nX 3 0 1 0\nBEAMARC 1 1 2 3 4 2 0 0 0 0 0 -1 curved\n"
+             "DYNE 1:2 1 2 3 4 5 6\nFIX 1\nFIX 2\nEND\nHALT\nESTIFF 1:2 1e6 10 100 100\n"
+             "EM 1:2 1 0.1 0.05 0.05\nDELXF 3 0 0 1\n")
+    (tmp / "beamc.dat").write_text(beamc + "ITERSTEP 20 2 1e-12\nEND\nEND\n")
+    (tmp / "beamc_dyn.dat").write_text("MODE transient\n" + beamc
+                                       + "TIMESTEP 0.01 2\nEND\nEND\n")
     for key in ("truss_dyn", "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn", "dynx",
-                "beamw", "beamw_dyn"):
+                "beamw", "beamw_dyn", "beamc", "beamc_dyn"):
         runs[key] = (key, [])
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}

@@ -10,7 +10,7 @@ from spacarpy.model import ElementSet
 
 def test_registry_order_and_planar_set():
     assert list(KINDS) == ["BEAM", "TRUSS", "HINGE", "RBEAM", "PLBEAM", "PLTRUSS", "PLHINGE",
-                           "PINBODY", "WHEEL", "BEAMW"]
+                           "PINBODY", "WHEEL", "BEAMW", "BEAMC"]
     assert PLANAR_KINDS == ("PLBEAM", "PLTRUSS", "PLHINGE")
     assert kind_of("TRUSS") is KINDS["TRUSS"]
     with pytest.raises(KeyError, match="not an element kind"):

@@ -126,11 +126,18 @@ class ModelBuilder:
         return self._add(self._kinematics, "BEAMS", e, p, r, q, s, count, *(orientation or ()))
 
     def beam_arc(self, e: int, p: int, r: int, q: int, s: int, count: int, center,
-                 orientation=None) -> ModelBuilder:
+                 orientation=None, shape=None) -> ModelBuilder:
         """``BEAMARC``: ``count`` equal beams on the circular arc from p to q about
-        ``center`` (the shorter arc)."""
+        ``center`` (the shorter arc); ``shape="curved"``: initially curved BEAMC elements
+        (then ``orientation`` is required by the deck's positional fields: the arc's normal
+        ``(q - c) x (p - c)``)."""
         return self._add(self._kinematics, "BEAMARC", e, p, r, q, s, count, *center,
-                         *(orientation or ()))
+                         *(orientation or ()), *((shape,) if shape else ()))
+
+    def beam_c(self, e: int, p: int, r: int, q: int, s: int, center) -> ModelBuilder:
+        """``BEAMC e p r q s cx cy cz``: an initially curved beam on the circular arc from p
+        to q about ``center`` (docs/curved-beam.md)."""
+        return self._add(self._kinematics, "BEAMC", e, p, r, q, s, *center)
 
     def flexible(self, elements, modes=_ALL_MODES) -> ModelBuilder:
         """``DYNE``: deformation modes (1..6) of the elements (a number, a range or a list)

@@ -2,9 +2,12 @@
 
 ``BEAMS e p r q s count [ox oy oz]`` divides the straight line from position node p to
 position node q into ``count`` equal BEAM elements; ``BEAMARC e p r q s count cx cy cz
-[ox oy oz]`` places them on the circular arc about the centre (cx, cy, cz). Both end nodes are
-ordinary nodes of the deck (they need X lines; r and s are the orientation nodes at the ends);
-the intermediate nodes are created here.
+[ox oy oz] [shape]`` places them on the circular arc about the centre (cx, cy, cz): as
+straight chords (BEAM, shape ``chords``, the default) or, with ``curved``, as initially
+curved BEAMC elements on the arc itself (:mod:`spacarpy.elements.beamc`; then an orientation
+vector given must be the BEAMC's local y-axis, the arc's normal ``(q - c) x (p - c)``). Both
+end nodes are ordinary nodes of the deck (they need X lines; r and s are the orientation nodes
+at the ends); the intermediate nodes are created here.
 
 Numbering rule (stable, documented in docs/deck.md): let N be the largest node number that an X
 line or an element line (BEAM, a generator's end nodes, an unsupported element) uses anywhere in
@@ -132,9 +135,11 @@ class _Generator:
         self.e, self.p, self.r, self.q, self.s, self.count = f[:6]
         self.arc = st.keyword == "BEAMARC"
         self.center = np.array(f[6:9], dtype=float) if self.arc else None
-        rest = f[9:] if self.arc else f[6:]
+        rest = f[9:12] if self.arc else f[6:]
         self.orientation = tuple(rest) if rest else None
         self.o_index = 9 if self.arc else 6       # field index of ox
+        #: BEAMARC's shape: straight chords (BEAM) or curved arcs (BEAMC)
+        self.curved = self.arc and len(f) > 12 and str(f[12]).lower() == "curved"
 
 
 def count_elements(statements) -> int:
@@ -244,10 +249,21 @@ def _points(gen: _Generator, positions: dict, errors: list):
                     "undefined (a half circle); split the arc into two BEAMARC lines")
             return None
         inner = arc_points(a, b, gen.center, gen.count)
+        if gen.curved and gen.orientation is not None:
+            o = np.array(gen.orientation, dtype=float)
+            normal = np.cross(b - gen.center, a - gen.center)
+            normal /= np.linalg.norm(normal)
+            if np.linalg.norm(np.cross(o, normal)) > ORIENTATION_TOL * max(
+                    float(np.linalg.norm(o)), 1e-300) or float(o @ normal) <= 0.0:
+                shown = ", ".join(f"{v:.6g}" for v in normal)
+                fail(gen.o_index, "curved elements have their local y-axis normal to the "
+                                  f"arc's plane, ({shown}) (docs/curved-beam.md); give that "
+                                  "vector or leave the orientation out")
+                return None
     else:
         inner = line_points(a, b, gen.count)
     points = np.concatenate([a[None], inner, b[None]])
-    if gen.orientation is not None:
+    if gen.orientation is not None and not gen.curved:
         o = np.array(gen.orientation, dtype=float)
         norm = float(np.linalg.norm(o))
         shown = "(" + ", ".join(f"{v:g}" for v in o) + ")"
@@ -283,11 +299,16 @@ def _generated(gen: _Generator, inner: np.ndarray, base: int) -> list[Statement]
     rot = [gen.r] + [int(n) for n in rot_ids] + [gen.s]
     o_fields = tuple(float(v) for v in gen.orientation) if gen.orientation else ()
     o_locs = tuple(locs[gen.o_index:gen.o_index + 3]) if gen.orientation else ()
+    keyword = "BEAM"
+    if gen.curved:                 # BEAMC lines: the arc's centre is their trailing point
+        keyword = "BEAMC"
+        o_fields = tuple(float(v) for v in gen.center)
+        o_locs = tuple(locs[6:9])
     for i in range(count):
         field_locs = (locs[0], locs[1] if i == 0 else locs[5], locs[2] if i == 0 else locs[5],
                       locs[3] if i == count - 1 else locs[5],
                       locs[4] if i == count - 1 else locs[5]) + o_locs
-        out.append(Statement(keyword="BEAM",
+        out.append(Statement(keyword=keyword,
                              fields=(gen.e + i, pos[i], rot[i], pos[i + 1], rot[i + 1]) + o_fields,
                              loc=st.loc, field_locs=field_locs, source_line=st.source_line,
                              module=st.module, origin=kw))

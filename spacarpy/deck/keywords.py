@@ -498,13 +498,16 @@ _KEYWORD_LIST = (
                 required=(_f("first element number", "e", "int", True), _POS_P, _ROT_P, _POS_Q,
                           _ROT_Q, _COUNT),
                 optional=(_ORIENTATION,)),
-    KeywordSpec("BEAMARC", "a circular arc of equal BEAM elements", section="extension",
+    KeywordSpec("BEAMARC", "a circular arc of equal BEAM (or curved BEAMC) elements",
+                section="extension",
                 extension=True, node_roles="prpr",
                 required=(_f("first element number", "e", "int", True), _POS_P, _ROT_P, _POS_Q,
                           _ROT_Q, _COUNT, _f("x coordinate of the arc centre (m)", "cx"),
                           _f("y coordinate of the arc centre (m)", "cy"),
                           _f("z coordinate of the arc centre (m)", "cz")),
-                optional=(_ORIENTATION,)),
+                optional=(_ORIENTATION,
+                          (_f("element shape: chords (straight BEAMs, the default) or curved "
+                              "(BEAMC arcs)", "shape", "word", choices=("chords", "curved")),))),
 )
 
 #: Every keyword spacarpy recognises before the VISUALIZATION section, by upper-case name.

@@ -192,6 +192,9 @@ class ElementKind:
     vector_required : bool
         The trailing vector must be given by the deck line (the WHEEL's axle; a HINGE without
         its axis gets a message of its own).
+    vector_point : bool
+        The trailing three numbers are a point, not a direction (the BEAMC's arc centre):
+        no zero or parallel check; the kind's ``reference_problems`` checks it.
     velocity_modes : tuple of int
         The 0-based velocity-level (non-holonomic) modes (the WHEEL's slips); empty for a
         purely holonomic kind.
@@ -229,6 +232,7 @@ class ElementKind:
     planar: bool = False
     zero_length: bool = False
     vector_required: bool = False
+    vector_point: bool = False
     velocity_modes: tuple = ()
     rate_units: tuple = ()
     stress_sign: tuple = ()

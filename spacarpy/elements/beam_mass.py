@@ -164,6 +164,17 @@ def _section_global(nx, ny, nz, mass, section):
     return (mass[:, None, 1:5] @ section).reshape(-1, 3, 3)
 
 
+def _tangent_jacobians(q: np.ndarray, nx: np.ndarray) -> np.ndarray:
+    """``d(R(q_m) t_m)/dq_m`` (n, m, 3, 4) of the Hermite tangents of m nodes per element:
+    ``t_m = n_x`` (nx (n, 3), the straight BEAM) or, for nx (n, 2, 3), the tangent of node
+    p for the even m and of node q for the odd m (the curved BEAMC's arc end tangents)."""
+    if nx.ndim == 2:
+        return nodal_jacobians(q, nx[:, None])
+    m = q.shape[1]
+    both = nodal_jacobians(q, nx).reshape(q.shape[0], m, 2, 3, 4)
+    return both[:, np.arange(m), np.arange(m) % 2]
+
+
 def _has_rotary(mass: np.ndarray, section) -> bool:
     """Whether the rotary terms are evaluated: the caller's forms (it has checked the EM
     values), or any nonzero section inertia."""
@@ -194,7 +205,8 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     Parameters
     ----------
     nx, ny, nz : (n_elem, 3)
-        Reference triads.
+        Reference triads; nx (n_elem, 2, 3): the Hermite tangents of nodes p and q apart
+        (the curved BEAMC, :mod:`spacarpy.elements.beamc`; then l0 is the arc length).
     l0 : (n_elem,)
     mass : (n_elem, 5)
         EM data ``rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz`` (kg/m, kg m).
@@ -208,7 +220,7 @@ def beam_mass_matrix(x: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarr
     n = x.shape[0]
     q2 = x.reshape(n, 2, 7)[:, :, 3:]
     ra = mass[:, 0] * l0                                        # rho A l0
-    lb = nodal_jacobians(q2, nx[:, None]) * l0[:, None, None, None]   # l0 B (n, 2, 3, 4)
+    lb = _tangent_jacobians(q2, nx) * l0[:, None, None, None]   # l0 B (n, 2, 3, 4)
     m = ra[:, None, None] * _M_POS
     m4 = m.reshape(n, 2, 7, 2, 7)
     # position rows of node a, tangent columns of node b: C_(a, b) rho A l0 (l0 B_b)
@@ -247,7 +259,8 @@ def beam_inertia_force(x: np.ndarray, v: np.ndarray, a: np.ndarray, nx: np.ndarr
     rotary_on = _has_rotary(mass, section)
     # the maps linear in q of all four: 2 H_k(e_j) q (for B) and, with rotary inertia, G
     lin = q4.reshape(4 * n, 4) @ (_TQ_G if rotary_on else TQ_VEC)
-    b = (nx[:, None, None] @ lin[:, :36].reshape(n, 4, 3, 12)).reshape(n, 4, 3, 4)
+    t4 = nx[:, None, None] if nx.ndim == 2 else nx[:, [0, 1, 0, 1], None]
+    b = (t4 @ lin[:, :36].reshape(n, 4, 3, 12)).reshape(n, 4, 3, 4)
     if rotary_on:
         # B(q), G(q) and B(v) applied to [v_q, a_q] of both nodes in one product
         g = lin[:, 36:].reshape(n, 4, 3, 4)
@@ -315,7 +328,7 @@ def beam_convective(x: np.ndarray, v: np.ndarray, nx: np.ndarray, ny: np.ndarray
     v2 = v.reshape(n, 2, 7)
     vq2 = v2[:, :, 3:]
     q4 = np.concatenate([x.reshape(n, 2, 7)[:, :, 3:], vq2], axis=1)    # q^p q^q v^p v^q
-    b = nodal_jacobians(q4, nx[:, None])                        # B(q), dB/dt (n, 4, 3, 4)
+    b = _tangent_jacobians(q4, nx)                              # B(q), dB/dt (n, 4, 3, 4)
     # u = N v and u' = dN/dt v per Hermite function, side by side: (n, 2 [u, u'], 4, 3)
     uu = np.zeros((n, 2, 2, 2, 3))
     uu[:, 0, :, 0] = v2[:, :, :3]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from spacarpy.elements.base import ElementKind
 from spacarpy.elements.beam import Beam
+from spacarpy.elements.beamc import BeamC
 from spacarpy.elements.beamw import BeamW
 from spacarpy.elements.hinge import Hinge
 from spacarpy.elements.pinbody import PinBody
@@ -21,7 +22,7 @@ from spacarpy.elements.wheel import Wheel
 #: Keyword -> kind, in the order the model keeps and the solver assembles them.
 KINDS: dict[str, ElementKind] = {k.keyword: k for k in (
     Beam(), Truss(), Hinge(), RBeam(), PlBeam(), PlTruss(), PlHinge(), PinBody(), Wheel(),
-    BeamW())}
+    BeamW(), BeamC())}
 
 #: The planar kinds (a model with them is planar and may not have the others).
 PLANAR_KINDS = tuple(k for k, kind in KINDS.items() if kind.planar)

@@ -55,7 +55,7 @@ log = logging.getLogger(__name__)
 __all__ = ["write_xdmf", "write_vtk", "ExportUnavailableError", "ExportError",
            "check_export_output", "line_cells", "write_state_space_mat"]
 
-_LINE_KINDS = ("BEAM", "TRUSS", "RBEAM", "PLBEAM", "PLTRUSS")
+_LINE_KINDS = ("BEAM", "TRUSS", "RBEAM", "PLBEAM", "PLTRUSS", "BEAMC")
 
 
 class ExportUnavailableError(SpacarError):

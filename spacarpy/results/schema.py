@@ -42,7 +42,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 19)
+SCHEMA_VERSION = (2, 20)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -150,7 +150,7 @@ def _units(per_mode) -> str:
 #: Schema version that introduced each kind's datasets (kinds added later: their own).
 _KIND_SINCE = {"BEAM": (1, 0), "TRUSS": (1, 2), "HINGE": (1, 2), "RBEAM": (1, 2),
                "PLBEAM": (1, 3), "PLTRUSS": (1, 3), "PLHINGE": (1, 3), "PINBODY": (2, 11),
-               "WHEEL": (2, 11), "BEAMW": (2, 17)}
+               "WHEEL": (2, 11), "BEAMW": (2, 17), "BEAMC": (2, 20)}
 
 _LIN_SHAPE = {"mode": ("linearized_step", "mode"),
               "position": ("linearized_step", "mode", "position_node", "coordinate"),

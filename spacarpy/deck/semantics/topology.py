@@ -74,7 +74,7 @@ def _kind_info(kind) -> dict:
     info = dict(n_def=kind.n_def, vector_at=1 + len(kind.slots) if kind.vector else None,
                 roles=roles, mode_stiffnesses=_picker(sorted(set(kind.mode_stiffness))),
                 nodes=_picker(range(1, 1 + len(roles))),
-                no_stiffness=(0.0,) * (6 if kind.keyword == "BEAM" else est.width
+                no_stiffness=(0.0,) * (6 if kind.keyword in ("BEAM", "BEAMC") else est.width
                                        if kind.keyword == "BEAMW" else 3 if est else 0),
                 position_nodes=_picker([i for i, r in enumerate(roles, start=1) if r == "p"]),
                 orientation_nodes=_picker([i for i, r in enumerate(roles, start=1)
@@ -87,6 +87,7 @@ def _kind_info(kind) -> dict:
                 mode_stiffness=kind.mode_stiffness, has_mass=em is not None,
                 estiff_usage=est.usage if est is not None else "",
                 zero_length_ok=kind.zero_length, reference_problems=kind.reference_problems,
+                vector_point=kind.vector_point,
                 flexible_ok=est is not None, no_stiffness_why=kind.no_stiffness_why,
                 always_free=kind.always_free, em_width=max(5, em.width) if em else 5)
     if em is not None and em.allowed is not None:
@@ -264,6 +265,8 @@ class Topology(Part):
         # a kind with reference checks of its own (the WHEEL's axle) is not a local y-axis
         own = np.array([b.info["reference_problems"] is not None for b in elements], dtype=bool)
         parallel &= ~own
+        # a point (the BEAMC's arc centre) may be anywhere, the origin too
+        zero_vector &= ~np.array([b.info["vector_point"] for b in elements], dtype=bool)
         return zip(zero_length.tolist(), zero_vector.tolist(), parallel.tolist())
 
     def element(self, b: ElementRecord, zero_length: bool, zero_vector: bool,
