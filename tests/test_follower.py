@@ -1,0 +1,93 @@
+"""Follower loads (XFL/DELXFL, spacarpy/solvers/statics/follower.py): the analytic load
+stiffness against central differences of the generalized forces, and the Newton matrix of a
+follower-loaded model against the differences of its residual."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from spacarpy.deck import model_from_text
+from spacarpy.solvers.statics.equilibrium import StaticProblem
+
+#: A 3D frame of two beams, 1 -(2)- 3 -(4)- 5, clamped at node 1: follower loads on node 5
+#: (force) in the axes of node 4, a moment on 6 in its own axes and one on 4 in the axes of 6.
+FRAME = """X 1 0 0 0
+X 3 1 0 0
+X 5 1 1 0.3
+BEAM 1 1 2 3 4 0 0 1
+BEAM 2 3 4 5 6 0 0 1
+DYNE 1 1 2 3 4 5 6
+DYNE 2 1 2 3 4 5 6
+FIX 1
+FIX 2
+END
+HALT
+ESTIFF 1 10 3 2 2.5
+ESTIFF 2 12 3 2 2.5
+XFL 5 4 0.3 -0.2 0.5
+DELXFL 6 6 0.1 0.4 -0.3
+DELXFL 4 6 -0.2 0.1 0.6
+ITERSTEP 20 2 1e-10
+END
+END
+"""
+
+
+def _problem():
+    return StaticProblem(model_from_text(FRAME, "frame.dat"))
+
+
+def _perturbed(prob, rng, size=0.3):
+    """A configuration away from the reference, Euler parameters not normalized."""
+    x = prob.num.x0 + size * rng.standard_normal(prob.num.n_coord)
+    return x
+
+
+def test_part_stiffness_is_the_derivative_of_its_force():
+    prob = _problem()
+    rng = np.random.default_rng(3)
+    assert [p.name for p in prob.loads.parts] == ["XFL force", "XFL moment"]
+    n = prob.num.n_coord
+    for part in prob.loads.parts:
+        amp = rng.standard_normal(part.initial.shape)
+        x = _perturbed(prob, rng)
+        k = part.stiffness(x, amp)
+        dense = np.zeros((n, n))
+        for b in range(part.rows.shape[0]):
+            np.add.at(dense, (part.rows[b][:, None], part.cols[b][None, :]), k[b])
+        h = 1e-6
+        fd = np.zeros((n, n))
+        for j in range(n):
+            e = np.zeros(n)
+            e[j] = h
+            fd[:, j] = (part.force(x + e, amp, n) - part.force(x - e, amp, n)) / (2 * h)
+        scale = np.abs(fd).max()
+        assert scale > 0.1
+        np.testing.assert_allclose(dense, fd, rtol=0, atol=1e-8 * scale)
+        # not symmetric: a follower load is not conservative
+        assert np.abs(dense - dense.T).max() > 0.1 * scale
+
+
+@pytest.mark.parametrize("s", [0.0, 0.7])
+def test_newton_matrix_is_the_derivative_of_the_residual(s):
+    prob = _problem()
+    rng = np.random.default_rng(5)
+    x = _perturbed(prob, rng, 0.05)
+    x = prob.normalize(x)
+    mu = rng.standard_normal(prob.n_multiplier)
+    load = prob.loads.at(1.0, s)
+    ev = prob.evaluate(x, mu, load)
+    n_x = prob.pattern.n_x
+    K = prob.matrix(ev, mu)[:n_x, :n_x].toarray()
+    free = np.flatnonzero(prob.free)
+    h = 1e-7
+    fd = np.zeros((n_x, n_x))
+    for j, c in enumerate(free):
+        e = np.zeros(prob.num.n_coord)
+        e[c] = h
+        fd[:, j] = (prob.evaluate(x + e, mu, load).r - prob.evaluate(x - e, mu, load).r) / (2 * h)
+    scale = np.abs(fd).max()
+    np.testing.assert_allclose(K, fd, rtol=0, atol=2e-6 * scale)
+    # the follower part matters: its blocks are far above the tolerance of the comparison
+    blocks = prob.load_blocks(ev)
+    assert max(np.abs(b).max() for b in blocks) > 1e3 * 2e-6 * scale
