@@ -91,3 +91,47 @@ def test_newton_matrix_is_the_derivative_of_the_residual(s):
     # the follower part matters: its blocks are far above the tolerance of the comparison
     blocks = prob.load_blocks(ev)
     assert max(np.abs(b).max() for b in blocks) > 1e3 * 2e-6 * scale
+
+
+BAD = """X 1 0 0 0
+X 3 1 0 0
+BEAM 1 1 2 3 4 0 1 0
+FIX 1
+FIX 2
+END
+HALT
+ESTIFF 1 1 1 1 1
+XFL 3 3 1 0 0
+DELXFL 9 4 1 0 0
+DELXFL 3 7 1 0 0
+XFL 4 4 1 0
+END
+END
+"""
+
+
+def test_deck_errors_name_line_and_column():
+    from spacarpy.errors import DeckError
+
+    with pytest.raises(DeckError) as info:
+        model_from_text(BAD, "bad.dat")
+    got = [(loc.line, loc.column, msg) for loc, msg, _ in info.value.items]
+    assert [(line, col) for line, col, _ in got] == [(9, 7), (10, 8), (11, 10), (12, 1)]
+    assert "node 3 is a position node" in got[0][2] and "orientation node" in got[0][2]
+    assert "node 9 is not defined" in got[1][2]
+    assert "node 7 is not defined" in got[2][2]
+    assert "expected three components (XFL 4 4 f1 f2 f3), got 2" in got[3][2]
+
+
+def test_model_and_check_list_the_follower_loads(tmp_path, capsys):
+    from spacarpy.cli.main import main
+
+    model = model_from_text(FRAME, "frame.dat")
+    assert [(ld.node, ld.axes, ld.kind) for ld in model.follower_loads] == [
+        (5, 4, "XFL"), (6, 6, "DELXFL"), (4, 6, "DELXFL")]
+    assert model.follower_loads[0].value == (0.3, -0.2, 0.5)
+    deck = tmp_path / "frame.dat"
+    deck.write_text(FRAME)
+    assert main(["check", str(deck)]) == 0
+    out = capsys.readouterr().out
+    assert "1 XFL, 2 DELXFL (1 force, 2 moments)" in out

@@ -198,6 +198,11 @@ _ORIENTATION = (_f("x component of the initial local y-axis", "ox"),
 # three components; a planar model gives fx fy (position node) or the moment m (orientation
 # node): the builder checks the count
 _LOAD_FIELDS = (NODE, _f("x component (N or N m)", "f1"))
+# XFL/DELXFL: the loaded node, the orientation node whose current axes the components are in
+_FOLLOWER_FIELDS = (NODE, _f("orientation node of the load's axes", "r", "int", positive=True),
+                    _f("component along the first axis (N or N m)", "f1"))
+_FOLLOWER_OPTIONAL = _each_optional(_f("component along the second axis (N or N m)", "f2"),
+                                    _f("component along the third axis (N or N m)", "f3"))
 _LOAD_OPTIONAL = _each_optional(_f("y component (N or N m)", "f2"),
                                 _f("z component (N or N m)", "f3"))
 _COUNT = _f("number of elements", "count", "int", positive=True)
@@ -333,6 +338,12 @@ _KEYWORD_LIST = (
                 required=_LOAD_FIELDS, optional=_LOAD_OPTIONAL),
     KeywordSpec("DELXF", "dead nodal load increment applied over the load steps",
                 section="data", required=_LOAD_FIELDS, optional=_LOAD_OPTIONAL),
+    KeywordSpec("XFL", "follower nodal load in the current axes of an orientation node, "
+                "present from the start", section="data", extension=True,
+                required=_FOLLOWER_FIELDS, optional=_FOLLOWER_OPTIONAL),
+    KeywordSpec("DELXFL", "follower nodal load increment (current axes of an orientation "
+                "node) applied over the load steps", section="data", extension=True,
+                required=_FOLLOWER_FIELDS, optional=_FOLLOWER_OPTIONAL),
     KeywordSpec(
         "ITERSTEP", "load stepping and Newton iteration settings", section="data",
         required=(_f("maximum number of iterations", "max_iter", "int"),

@@ -339,6 +339,7 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
         elements=sets,
         fixes=constraints.model_fixes(),
         loads=loads.loads,
+        follower_loads=loads.follower_loads,
         nodal_masses=loads.nodal_masses,
         prescribed=prescribed,
         prescribed_deformations=deformations_in,
