@@ -135,3 +135,85 @@ def test_model_and_check_list_the_follower_loads(tmp_path, capsys):
     assert main(["check", str(deck)]) == 0
     out = capsys.readouterr().out
     assert "1 XFL, 2 DELXFL (1 force, 2 moments)" in out
+
+
+# --- Beck's column: clamped-free, a tangential follower force at the tip ------------------
+#: Beck's flutter load P L^2 / EI of the inextensible Euler-Bernoulli column (Beck 1952;
+#: Bolotin 1963, Timoshenko & Gere): the first two frequencies coalesce there.
+BECK = 20.0509
+
+
+def _column(n: int, P: float, dead: bool = False, ea: float = 1e8) -> str:
+    """A planar clamped-free column along x, L = EI = rhoA = 1, n PLBEAM elements, under a
+    compressive tip force P: a follower (in the tip's axes) or a dead one."""
+    lines = [f"X {2 * i + 1} {i / n} 0 0" for i in range(n + 1)]
+    lines += [f"PLBEAM {i + 1} {2 * i + 1} {2 * i + 2} {2 * i + 3} {2 * i + 4}"
+              for i in range(n)]
+    lines += [f"DYNE 1:{n} 1 2 3", "FIX 1", "FIX 2", "END", "HALT",
+              f"ESTIFF 1:{n} {ea} 1", f"EM 1:{n} 1"]
+    tip = 2 * n + 1
+    lines += [f"DELXF {tip} {-P} 0" if dead else f"DELXFL {tip} {tip + 1} {-P} 0",
+              "ITERSTEP 20 1 1e-10", "END", "END"]
+    return "\n".join(lines) + "\n"
+
+
+def _linearized(text: str):
+    from spacarpy.deck import job_from_text
+    from spacarpy.solvers.linear.linearize import MassAssembler, linearize
+    from spacarpy.solvers.statics.static import solve_static
+
+    job = job_from_text(text, "column.dat")
+    res = solve_static(job.model, job.settings)
+    prob, st = res.problem, res.steps[-1]
+    lin = linearize(prob, st.x, st.mu, prob.loads.at(1.0, st.load_factor),
+                    mass=MassAssembler(job.model, prob.num))
+    return lin, prob
+
+
+def _lowest(n: int, P: float, k: int = 2):
+    from spacarpy.solvers.linear.eigen import eigenmodes
+
+    lin, prob = _linearized(_column(n, P))
+    return eigenmodes(lin, prob.num, prob.free, n_modes=k)
+
+
+def test_beck_column_flutter_load():
+    """The load where the two lowest w^2 meet and turn into a complex conjugate pair, by
+    bisection on the eigenvalue analysis: 20.0509 EI/L^2 within 1e-3 (measured 2e-5 at 24
+    elements; a dead load of the same size is far beyond the Euler load pi^2/4)."""
+    from spacarpy.solvers.linear.eigen import COMPLEX, ELASTIC
+
+    lo, hi = 19.9, 20.2
+    below = _lowest(24, lo)
+    above = _lowest(24, hi)
+    assert list(below.kind) == [ELASTIC, ELASTIC] and below.eigenvalue[0].real > 0
+    assert list(above.kind) == [COMPLEX, COMPLEX]
+    lam = above.eigenvalue
+    assert lam[0] == np.conj(lam[1]) and lam[0].imag > 0       # one exact conjugate pair
+    while hi - lo > 1e-5 * lo:
+        mid = 0.5 * (lo + hi)
+        if (_lowest(24, mid).kind == COMPLEX).any():
+            hi = mid
+        else:
+            lo = mid
+    assert abs(0.5 * (lo + hi) / BECK - 1) < 1e-3
+    # just below flutter the two frequencies are close, far apart unloaded
+    near = _lowest(24, lo).eigenvalue.real
+    free = _lowest(24, 0.0).eigenvalue.real
+    assert near[1] / near[0] < 1.05 and free[1] / free[0] > 30
+
+
+def test_beck_column_has_no_divergence_and_euler_column_keeps_its_load(caplog):
+    """Buckling (det(K0 + mu G) = 0) of Beck's column has no real positive multiplier (the
+    follower column does not diverge) and says why; the same column under a dead force
+    keeps its Euler load pi^2 EI / 4 L^2."""
+    from spacarpy.solvers.linear.buckling import buckling_modes
+
+    lin, _ = _linearized(_column(24, 5.0))
+    with caplog.at_level("WARNING"):
+        follower = buckling_modes(lin)
+    assert follower.critical == np.inf
+    assert "flutter shows as complex w^2 in MODE eigen" in caplog.text
+    lin, _ = _linearized(_column(24, 1.0, dead=True))
+    dead = buckling_modes(lin)
+    assert abs(dead.critical / (np.pi ** 2 / 4) - 1) < 2e-4

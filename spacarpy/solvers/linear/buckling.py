@@ -148,7 +148,9 @@ def buckling_modes(lin, n_modes: int = 6, dense_limit: int = DENSE_LIMIT) -> Buc
         infinite = _infinite(mu, v, v, lin, G, float(sp.linalg.norm(G)), n_x)
     real = ~infinite & (np.abs(mu.imag) <= 1e-8 * np.abs(mu))
     if np.any(~infinite & ~real):
-        log.warning("complex buckling multipliers ignored (non-symmetric load terms)")
+        log.warning("complex buckling multipliers ignored: the load terms are not symmetric "
+                    "(follower loads, moments); a buckling analysis finds divergence (real "
+                    "multipliers) only, flutter shows as complex w^2 in MODE eigen")
     mu_f = mu[real].real
     v_f = canonical_sign(v[:, real])
     positive = mu_f[mu_f > 0]
