@@ -217,3 +217,71 @@ def test_beck_column_has_no_divergence_and_euler_column_keeps_its_load(caplog):
     lin, _ = _linearized(_column(24, 1.0, dead=True))
     dead = buckling_modes(lin)
     assert abs(dead.critical / (np.pi ** 2 / 4) - 1) < 2e-4
+
+
+# --- a cantilever rolled into a circle by a tip follower moment ---------------------------
+
+def _rolled(n: int, k: float, steps: int = 4, arc: str | None = None):
+    """Node positions (n + 1, 2) of a planar cantilever, L = EI = 1 (EA = 1e7), under the
+    tip follower moment M = k pi EI / L (DELXFL on the tip's own orientation node), by
+    ``steps`` load steps or by the arc length ``arc``; and the number of stored steps."""
+    from spacarpy.deck import job_from_text
+    from spacarpy.solvers.statics.static import solve_static
+
+    lines = [f"X {2 * i + 1} {i / n} 0 0" for i in range(n + 1)]
+    lines += [f"PLBEAM {i + 1} {2 * i + 1} {2 * i + 2} {2 * i + 3} {2 * i + 4}"
+              for i in range(n)]
+    lines += [f"DYNE 1:{n} 1 2 3", "FIX 1", "FIX 2", "END", "HALT", f"ESTIFF 1:{n} 1e7 1",
+              f"DELXFL {2 * n + 2} {2 * n + 2} {k * np.pi!r}", f"ITERSTEP 30 {steps} 1e-10"]
+    lines += ([arc] if arc else []) + ["END", "END"]
+    job = job_from_text("\n".join(lines) + "\n", "roll.dat")
+    res = solve_static(job.model, job.settings)
+    x = res.steps[-1].x
+    assert res.steps[-1].load_factor == 1.0
+    return x[res.problem.num.pos_idx][:, :2], len(res.steps)
+
+
+def _circle(pos: np.ndarray) -> tuple[float, float]:
+    """The circle through the nodes (least squares, x^2 + y^2 + D x + E y + F = 0): its
+    radius and the largest distance of a node from it."""
+    a = np.column_stack([pos, np.ones(len(pos))])
+    (d, e, f), *_ = np.linalg.lstsq(a, -(pos ** 2).sum(axis=1), rcond=None)
+    centre = -0.5 * np.array([d, e])
+    radius = float(np.sqrt(centre @ centre - f))
+    return radius, float(np.abs(np.hypot(*(pos - centre).T) - radius).max())
+
+
+@pytest.mark.parametrize("k", [0.5, 1.0, 2.0])
+def test_follower_moment_rolls_a_circle_second_order(k):
+    """Every node lies on one circle (each element deforms alike), whose radius converges
+    to EI/M as h^2 (the beam element's error, measured ratio 4.00 per halving): the
+    Richardson value of 128 and 256 elements is EI/M to 1e-7; and the arc length gives
+    the load steps' configuration."""
+    radii = []
+    for n in (128, 256):
+        pos, _ = _rolled(n, k)
+        radius, off = _circle(pos)
+        assert off < 1e-9 * radius                     # one circle
+        radii.append(radius)
+    R = 1.0 / (k * np.pi)
+    e128, e256 = radii[0] - R, radii[1] - R
+    assert abs(e128 / e256 - 4.0) < 0.01
+    assert 1e-7 < abs(e256) / R < 2e-3                # a real, small discretization error
+    assert abs((4 * radii[1] - radii[0]) / 3 - R) < 1e-7 * R
+    pos_arc, points = _rolled(128, k, steps=1, arc="ARCLENGTH 200 0.2")
+    assert points > 2                                  # a path, not one step
+    np.testing.assert_allclose(pos_arc, _rolled(128, k)[0], rtol=0, atol=1e-8)
+
+
+@pytest.mark.slow
+def test_follower_moment_rolls_a_full_circle_at_a_fine_mesh():
+    """k = 2 (a full turn) at 4096 elements: every node on the circle of radius EI/M, to
+    1e-6 of it (measured 7.8e-7), the tip back at the root to 1e-6 L."""
+    pos, _ = _rolled(4096, 2.0)
+    R = 1.0 / (2.0 * np.pi)
+    r = np.hypot(pos[:, 0], pos[:, 1] - R)
+    assert np.abs(r - R).max() < 1e-6 * R
+    assert np.abs(pos[-1]).max() < 1e-6
+    th = 2 * np.pi * np.arange(pos.shape[0]) / (pos.shape[0] - 1)
+    exact = np.stack([R * np.sin(th), R * (1 - np.cos(th))], axis=1)
+    assert np.abs(pos - exact).max() < 1e-6
