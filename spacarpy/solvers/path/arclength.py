@@ -474,6 +474,11 @@ class ArcLengthPath:
             kind, undetermined = None, None
             if not switched:
                 kind, cert = self.check.classify(p, new)
+                if kind is not None and self.prob.loads.parts:
+                    log.warning("a critical point on a path with follower loads (XFL/DELXFL) "
+                                "at s = %.6g: classified by the tangent's symmetric part, "
+                                "which does not decide stability for loads that are not "
+                                "conservative; check it with MODE eigen", new.s)
             if kind == UNDETERMINED_KIND or (crossed and self.check.pending is not None):
                 cert = cert if kind == UNDETERMINED_KIND else self.check.pending[1]
                 kind = UNDETERMINED_KIND
