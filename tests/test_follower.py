@@ -381,3 +381,30 @@ def test_transient_beck_column_flutters_above_its_load(tmp_path, P, grows):
         assert last > 50 * first
     else:
         assert 0.8 * first < last < 1.05 * first
+
+
+@pytest.mark.parametrize("P", [15.0, 25.0])
+def test_state_space_poles_of_beck_column(tmp_path, P):
+    """Mode 9 (state space) about Beck's column (16 elements, undamped): below the flutter
+    load every pole is on the imaginary axis; above it the coalesced pair gives poles with a
+    positive real part, equal to the one the eigenvalue analysis gives (s^2 = -w^2)."""
+    import h5py
+
+    from spacarpy.deck import job_from_text
+    from spacarpy.run import run_job
+
+    n, tip = 16, 33
+    text = _column(n, P).replace("END\nEND\n", "END\nHALT\nINPUTF 1 33 2\nOUTX 1 33 2\n"
+                                 "END\nEND\n").replace("ITERSTEP", "MODE 9\nITERSTEP")
+    out = tmp_path / "beck_ss.h5"
+    run_job(job_from_text(text, "beck_ss.dat"), out)
+    with h5py.File(out, "r") as f:
+        poles = np.asarray(f["state_space/pole"][()])[-1]
+    scale = np.abs(poles).max()
+    w2 = _lowest(n, P).eigenvalue
+    if P < 20:
+        assert np.abs(poles.real).max() < 1e-6 * scale
+    else:
+        expected = abs(np.sqrt(-complex(w2[0])).real)          # s = +-sqrt(-w^2)
+        assert expected > 0.5
+        assert abs(poles.real.max() - expected) < 1e-6 * scale
