@@ -394,7 +394,7 @@ def test_state_space_poles_of_beck_column(tmp_path, P):
     from spacarpy.run import run_job
 
     n, tip = 16, 33
-    text = _column(n, P).replace("END\nEND\n", "END\nHALT\nINPUTF 1 33 2\nOUTX 1 33 2\n"
+    text = _column(n, P).replace("END\nEND\n", f"END\nHALT\nINPUTF 1 {tip} 2\nOUTX 1 {tip} 2\n"
                                  "END\nEND\n").replace("ITERSTEP", "MODE 9\nITERSTEP")
     out = tmp_path / "beck_ss.h5"
     run_job(job_from_text(text, "beck_ss.dat"), out)
