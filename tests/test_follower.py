@@ -408,3 +408,34 @@ def test_state_space_poles_of_beck_column(tmp_path, P):
         expected = abs(np.sqrt(-complex(w2[0])).real)          # s = +-sqrt(-w^2)
         assert expected > 0.5
         assert abs(poles.real.max() - expected) < 1e-6 * scale
+
+
+def test_flutter_pair_stored_in_the_results_file(tmp_path):
+    """MODE eigen on Beck's column above its flutter load: the results file holds the
+    coalesced pair as two exact conjugates, kind 3 (complex), frequency NaN."""
+    import h5py
+
+    from spacarpy.deck import job_from_text
+    from spacarpy.run import run_job
+
+    out = tmp_path / "beck_eigen.h5"
+    run_job(job_from_text(_column(16, 21.0).replace("ITERSTEP", "MODE eigen\nITERSTEP"),
+                          "beck_eigen.dat"), out)
+    with h5py.File(out, "r") as f:
+        re = np.asarray(f["eigen/eigenvalue_real"][()])[-1]
+        im = np.asarray(f["eigen/eigenvalue_imag"][()])[-1]
+        kind = np.asarray(f["eigen/kind"][()])[-1]
+        freq = np.asarray(f["eigen/frequency"][()])[-1]
+    assert list(kind[:3]) == [3, 3, 0]
+    assert re[0] == re[1] and im[0] == -im[1] and im[0] > 1.0
+    assert np.isnan(freq[:2]).all() and freq[2] > 0
+
+
+def test_deck_writer_writes_the_follower_lines():
+    from spacarpy.deck.writer import model_to_deck
+
+    model = model_from_text(FRAME, "frame.dat")
+    again = model_from_text(model_to_deck(model), "again.dat")
+    assert again.follower_loads == [
+        type(ld)(node=ld.node, axes=ld.axes, kind=ld.kind, value=ld.value,
+                 loc=again.follower_loads[i].loc) for i, ld in enumerate(model.follower_loads)]
