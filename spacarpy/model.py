@@ -26,7 +26,7 @@ from spacarpy.elements.registry import KINDS, kind_of
 from spacarpy.errors import SourceLoc
 
 __all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "DynamicCoordinate", "ElementSet", "Fix",
-           "FollowerLoad", "Kinematic",
+           "FollowerLineLoad", "FollowerLoad", "Kinematic",
            "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
            "PrescribedRotation", "UserRoutine"]
 
@@ -245,6 +245,18 @@ class FollowerLoad:
 
 
 @dataclass(frozen=True)
+class FollowerLineLoad:
+    """A follower line load on a planar beam (``QEL e qx qy``, ``DELQEL``): force per current
+    length with components along the deformed element (its chord p -> q) and along its
+    local y-axis (z x the chord), consistently lumped at the element's nodes."""
+
+    element: int
+    kind: str
+    value: tuple[float, float]
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
 class NodalMass:
     """``XM`` line: a point mass on a position node (``values = (m,)``, kg) or an inertia
     tensor on an orientation node (``values = (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)``, kg m^2,
@@ -286,6 +298,8 @@ class Model:
     loads : list of Load
     follower_loads : list of FollowerLoad
         The XFL/DELXFL lines (follower loads in the current axes of an orientation node).
+    follower_line_loads : list of FollowerLineLoad
+        The QEL/DELQEL lines (follower line loads on planar beams).
     nodal_masses : list of NodalMass
     prescribed : list of Prescribed
         Prescribed (input) coordinates with their initial values and increments.
@@ -348,6 +362,7 @@ class Model:
     source_text: str = ""
     warping_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     follower_loads: list = field(default_factory=list)     # XFL / DELXFL (FollowerLoad)
+    follower_line_loads: list = field(default_factory=list)  # QEL / DELQEL
 
     def __post_init__(self):
         self.position_ids = np.asarray(self.position_ids, dtype=np.int64).reshape(-1)

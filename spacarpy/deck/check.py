@@ -234,7 +234,8 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
     s.warping_nodes = len(warp - positions)
     s.elements = {kw: len(ids) for kw, ids in elements.items()}
     s.parameters = {st.fields[0]: st.fields[1] for st in statements if st.keyword == "SET"}
-    s.loads = {kw: sum(st.keyword == kw for st in kin) for kw in ("XF", "DELXF", "XFL", "DELXFL")}
+    s.loads = {kw: sum(st.keyword == kw for st in kin) for kw in ("XF", "DELXF", "XFL", "DELXFL",
+                                                          "QEL", "DELQEL")}
     s.nodal_masses = sum(st.keyword == "XM" for st in kin)
     sections, _, _ = collect_cross_sections(expanded)
     for cs in sections.by_element.values():

@@ -19,7 +19,7 @@ from spacarpy.deck.semantics.constraints import Constraints
 from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
 from spacarpy.deck.statement import Statement
-from spacarpy.model import FollowerLoad, Load, NodalMass, UserRoutine
+from spacarpy.model import FollowerLineLoad, FollowerLoad, Load, NodalMass, UserRoutine
 
 __all__ = ["Loads", "from_statements"]
 
@@ -30,6 +30,7 @@ class Loads:
 
     loads: list = field(default_factory=list)
     follower_loads: list = field(default_factory=list)
+    follower_line_loads: list = field(default_factory=list)
     nodal_masses: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
     user_routines: list = field(default_factory=list)
@@ -69,6 +70,20 @@ class _LoadsPass(UsesTopology):
             return
         self.result.follower_loads.append(FollowerLoad(node=n, axes=r, kind=st.keyword,
                                                        value=values, loc=st.loc))
+
+    def follower_line(self, st: Statement) -> None:
+        """A QEL or DELQEL line: ``e qx qy`` on a PLBEAM, in its current axes."""
+        beam = self.element_for(st)
+        if beam is None:
+            return
+        if beam.keyword != "PLBEAM":
+            self.error(st.field_locs[0], f"{st.keyword}: element {beam.id} is a "
+                                         f"{beam.keyword}: follower line loads act on planar "
+                                         "beams (PLBEAM) only so far", st)
+            return
+        self.result.follower_line_loads.append(FollowerLineLoad(
+            element=beam.id, kind=st.keyword, value=(float(st.fields[1]), float(st.fields[2])),
+            loc=st.loc))
 
     def _load_values(self, st: Statement, n, fields):
         """The three components of a load line on node n (a planar deck's fx fy or m
@@ -178,6 +193,8 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
         part.load(st)
     for st in ctx.in_deck_order("XFL", "DELXFL"):
         part.follower(st)
+    for st in ctx.in_deck_order("QEL", "DELQEL"):
+        part.follower_line(st)
     part.check_loads_on_fixed_coordinates()
     for st in by_kw.get("XM", []):
         part.nodal_mass(st)

@@ -25,7 +25,7 @@ from functools import partial
 import numpy as np
 
 from spacarpy.rotation import moment_matrix
-from spacarpy.solvers.statics.follower import nodal_followers
+from spacarpy.solvers.statics.follower import line_followers, nodal_followers
 from spacarpy.solvers.statics.nodal import nodal_masses, node_rows
 
 
@@ -98,7 +98,8 @@ class Loads:
             self.point_weight[idx] += m * self.gravity
         self.user = None
         # configuration-dependent (follower) loads: XFL/DELXFL, follower.py
-        self.parts = nodal_followers(model, num, pos_row, rot_row)
+        self.parts = (nodal_followers(model, num, pos_row, rot_row)
+                      + line_followers(model, num, pos_row, rot_row))
         if self.parts:
             self.has_xf = self.has_xf or any(bool(np.any(p.initial)) for p in self.parts)
             self.any = self.any or self.has_xf or any(bool(np.any(p.increment))
