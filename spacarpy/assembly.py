@@ -64,9 +64,14 @@ class BorderedPattern:
     moment_rot : (n_m,) int
         Orientation-node indices that carry a moment load (their load derivative adds a
         4x4 block).
+    load_parts : list of ((n_b, p), (n_b, q)) int, optional
+        The coordinate blocks of configuration-dependent loads (rows they load, columns
+        they depend on; :mod:`spacarpy.solvers.statics.follower`): each adds its load
+        stiffness there, after every other block (a model without them has the same
+        pattern and the same sums as before they existed).
     """
 
-    def __init__(self, num: Numbering, moment_rot: np.ndarray):
+    def __init__(self, num: Numbering, moment_rot: np.ndarray, load_parts=()):
         u = num.unknown_of
         n_x = num.n_unknown
         self.n_x = n_x
@@ -83,11 +88,13 @@ class BorderedPattern:
             rrow = (n_x + g.rigid_offset + np.arange(g.rigid_elem.size))[:, None]
             blocks += [(rrow, ru), (ru, rrow)]
         blocks += [(erow, eu), (eu, erow)]                     # C_euler and its transpose
+        blocks += [(u[r], u[c]) for r, c in load_parts]        # load stiffness (followers)
+        self.n_parts = len(load_parts)
         self.indices, self.indptr, self.scatter = _csc_pattern(self.n, blocks)
         self.nnz = self.indices.size
 
     def assemble(self, k_elem, euler_diag, moment_blocks, c_rigid, c_euler,
-                 scale: float = 1.0) -> sp.csc_matrix:
+                 scale: float = 1.0, load_blocks=()) -> sp.csc_matrix:
         """Fill the pattern.
 
         Parameters
@@ -99,6 +106,8 @@ class BorderedPattern:
         c_euler : (n_eu, 4)
         scale : float
             Factor applied to the constraint rows and columns (balances the saddle point).
+        load_blocks : list of (n_b, p, q), one per load part of the pattern
+            Their load stiffness ``-df/dx`` (zeros where a part is not loaded).
         """
         parts = [k.ravel() for k in k_elem]
         parts += [np.repeat(euler_diag, 4), moment_blocks.ravel()]
@@ -107,6 +116,8 @@ class BorderedPattern:
             parts += [cr, cr]
         ce = scale * c_euler.ravel()
         parts += [ce, ce]
+        if self.n_parts:
+            parts += [b.ravel() for b in load_blocks]
         data = np.bincount(self.scatter, weights=np.concatenate(parts),
                            minlength=self.nnz + 1)[:self.nnz]
         return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))

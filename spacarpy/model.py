@@ -26,7 +26,7 @@ from spacarpy.elements.registry import KINDS, kind_of
 from spacarpy.errors import SourceLoc
 
 __all__ = ["FLEXIBLE", "KINEMATIC", "RELEASED", "RIGID", "DynamicCoordinate", "ElementSet", "Fix",
-           "Kinematic",
+           "FollowerLineLoad", "FollowerLoad", "Kinematic",
            "LineLoad", "Load", "Model", "NodalMass", "Prescribed", "PrescribedDeformation",
            "PrescribedRotation", "UserRoutine"]
 
@@ -250,6 +250,34 @@ class LineLoad:
 
 
 @dataclass(frozen=True)
+class FollowerLoad:
+    """A follower nodal load (``XFL n r f1 f2 f3``, ``DELXFL``): a force on position node
+    ``node`` or a moment on orientation node ``node``, with components ``value`` in the
+    current axes of orientation node ``axes`` (they turn with it; not conservative).
+
+    ``kind`` is ``"XFL"`` (present from the start) or ``"DELXFL"`` (increment applied over
+    the load steps, scaled by the time function in a transient)."""
+
+    node: int
+    axes: int
+    kind: str
+    value: tuple[float, float, float]
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
+class FollowerLineLoad:
+    """A follower line load on a planar beam (``QEL e qx qy``, ``DELQEL``): force per current
+    length with components along the deformed element (its chord p -> q) and along its
+    local y-axis (z x the chord), consistently lumped at the element's nodes."""
+
+    element: int
+    kind: str
+    value: tuple[float, float]
+    loc: SourceLoc | None = None
+
+
+@dataclass(frozen=True)
 class NodalMass:
     """``XM`` line: a point mass on a position node (``values = (m,)``, kg) or an inertia
     tensor on an orientation node (``values = (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)``, kg m^2,
@@ -291,6 +319,10 @@ class Model:
     loads : list of Load
     line_loads : list of LineLoad
         The line loads on beams (QE/DELQE), in deck order.
+    follower_loads : list of FollowerLoad
+        The XFL/DELXFL lines (follower loads in the current axes of an orientation node).
+    follower_line_loads : list of FollowerLineLoad
+        The QEL/DELQEL lines (follower line loads on planar beams).
     nodal_masses : list of NodalMass
     prescribed : list of Prescribed
         Prescribed (input) coordinates with their initial values and increments.
@@ -353,6 +385,8 @@ class Model:
     source_path: str = "<model>"
     source_text: str = ""
     warping_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    follower_loads: list = field(default_factory=list)     # XFL / DELXFL (FollowerLoad)
+    follower_line_loads: list = field(default_factory=list)  # QEL / DELQEL
 
     def __post_init__(self):
         self.position_ids = np.asarray(self.position_ids, dtype=np.int64).reshape(-1)

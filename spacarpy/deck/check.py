@@ -57,7 +57,7 @@ class DeckSummary:
     n_rigid_constraints: int | None = None
     n_euler_constraints: int | None = None
     dof: int | None = None
-    loads: dict = field(default_factory=dict)   # XF/DELXF/QE/DELQE -> number of lines
+    loads: dict = field(default_factory=dict)   # XF/DELXF/QE/DELQE/XFL/DELXFL/QEL/DELQEL
     kinematic: int = 0                                  # KINE and KINX coordinates
     dynamic: list = field(default_factory=list)         # DYNX (node, coordinate), deck order
     slips_held: int = 0                                 # velocity-level modes not released
@@ -234,7 +234,8 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
     s.warping_nodes = len(warp - positions)
     s.elements = {kw: len(ids) for kw, ids in elements.items()}
     s.parameters = {st.fields[0]: st.fields[1] for st in statements if st.keyword == "SET"}
-    s.loads = {kw: sum(st.keyword == kw for st in kin) for kw in ("XF", "DELXF", "QE", "DELQE")}
+    s.loads = {kw: sum(st.keyword == kw for st in kin)
+               for kw in ("XF", "DELXF", "QE", "DELQE", "XFL", "DELXFL", "QEL", "DELQEL")}
     s.nodal_masses = sum(st.keyword == "XM" for st in kin)
     sections, _, _ = collect_cross_sections(expanded)
     for cs in sections.by_element.values():
@@ -295,8 +296,9 @@ def _from_model(s: DeckSummary, model: Model, settings: AnalysisSettings) -> Non
                        for kw, es in model.elements.items()
                        for m in getattr(KINDS[kw], "velocity_modes", ()))
     positions = set(model.position_ids.tolist())
-    s.forces = sum(ld.node in positions for ld in model.loads)
-    s.moments = len(model.loads) - s.forces
+    every = list(model.loads) + list(model.follower_loads)
+    s.forces = sum(ld.node in positions for ld in every)
+    s.moments = len(every) - s.forces
     s.analysis, s.deformations = settings.analysis, settings.deformations
     it = settings.static.iterstep
     s.iterstep = (it.max_iter, it.n_steps, it.tol)

@@ -198,6 +198,14 @@ _ORIENTATION = (_f("x component of the initial local y-axis", "ox"),
 # three components; a planar model gives fx fy (position node) or the moment m (orientation
 # node): the builder checks the count
 _LOAD_FIELDS = (NODE, _f("x component (N or N m)", "f1"))
+# XFL/DELXFL: the loaded node, the orientation node whose current axes the components are in
+_FOLLOWER_FIELDS = (NODE, _f("orientation node of the load's axes", "r", "int", positive=True),
+                    _f("component along the first axis (N or N m)", "f1"))
+# QEL/DELQEL e qx qy: a follower line load (N/m) in a PLBEAM's current axes
+_FOLLOWER_LINE_FIELDS = (ELEMENT, _f("component along the element (N/m)", "qx"),
+                         _f("component along its local y-axis (N/m)", "qy"))
+_FOLLOWER_OPTIONAL = _each_optional(_f("component along the second axis (N or N m)", "f2"),
+                                    _f("component along the third axis (N or N m)", "f3"))
 _LOAD_OPTIONAL = _each_optional(_f("y component (N or N m)", "f2"),
                                 _f("z component (N or N m)", "f3"))
 # QE/DELQE e q1 q2 q3 [q1 q2 q3 at the end q]: force per length at the element's end p
@@ -350,6 +358,18 @@ _KEYWORD_LIST = (
     KeywordSpec("DELQE", "dead line load increment on a beam applied over the load steps",
                 section="data", extension=True, range_first=True,
                 required=_LINE_LOAD_FIELDS, optional=_LINE_LOAD_OPTIONAL),
+    KeywordSpec("XFL", "follower nodal load in the current axes of an orientation node, "
+                "present from the start", section="data", extension=True,
+                required=_FOLLOWER_FIELDS, optional=_FOLLOWER_OPTIONAL),
+    KeywordSpec("DELXFL", "follower nodal load increment (current axes of an orientation "
+                "node) applied over the load steps", section="data", extension=True,
+                required=_FOLLOWER_FIELDS, optional=_FOLLOWER_OPTIONAL),
+    KeywordSpec("QEL", "follower line load on a planar beam (current element axes), present "
+                "from the start", section="data", extension=True, range_first=True,
+                required=_FOLLOWER_LINE_FIELDS),
+    KeywordSpec("DELQEL", "follower line load increment on a planar beam (current element "
+                "axes) applied over the load steps", section="data", extension=True,
+                range_first=True, required=_FOLLOWER_LINE_FIELDS),
     KeywordSpec(
         "ITERSTEP", "load stepping and Newton iteration settings", section="data",
         required=(_f("maximum number of iterations", "max_iter", "int"),

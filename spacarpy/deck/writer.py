@@ -211,6 +211,13 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         if planar:
             q = [v for i, v in enumerate(q) if i % 3 != 2]
         out.append(format_record(ll.kind, ll.element, *q))
+    for load in model.follower_loads:
+        value = [float(v) for v in load.value]
+        if planar:
+            value = value[:2] if load.node in position_nodes else value[2:]
+        out.append(format_record(load.kind, load.node, load.axes, *value))
+    for line in model.follower_line_loads:
+        out.append(format_record(line.kind, line.element, *[float(v) for v in line.value]))
     for p in model.prescribed:
         if p.velocity or p.acceleration:        # the 5-field form (a transient's motion)
             value = p.initial

@@ -340,6 +340,8 @@ def _build(parsed, path, text, deformations, analysis) -> Job | None:
         fixes=constraints.model_fixes(),
         loads=loads.loads,
         line_loads=loads.line_loads,
+        follower_loads=loads.follower_loads,
+        follower_line_loads=loads.follower_line_loads,
         nodal_masses=loads.nodal_masses,
         prescribed=prescribed,
         prescribed_deformations=deformations_in,

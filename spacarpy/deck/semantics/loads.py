@@ -1,14 +1,15 @@
-"""Deck semantics, loads and masses: XF/DELXF, QE/DELQE, LOADTF, XM, GRAVITY, and the user
-routines USERSIG (loads) and USERINP (prescribed motion), which the model only names.
+"""Deck semantics, loads and masses: XF/DELXF, the follower loads XFL/DELXFL and QEL/DELQEL,
+QE/DELQE, LOADTF, XM, GRAVITY, and the user routines USERSIG (loads) and USERINP (prescribed
+motion), which the model only names.
 
 Dead nodal loads (forces on position nodes, moments on orientation nodes, a planar deck's
-fx fy or m), dead line loads on beams, the named time functions of load increments and
-prescribed motions (LOADTF), point masses and inertia tensors on nodes, and the
-gravitational acceleration. Checked here: nodes and elements that do not exist, value counts
-for the node's kind, line loads on elements that are not beams, LOADTF lines naming no
-TIMEFUNCTION or no load, negative masses, inertia tensors that are not positive
+fx fy or m), follower loads, dead line loads on beams, the named time functions of load
+increments and prescribed motions (LOADTF), point masses and inertia tensors on nodes, and
+the gravitational acceleration. Checked here: nodes and elements that do not exist, value
+counts for the node's kind, line loads on elements that are not beams, LOADTF lines naming
+no TIMEFUNCTION or no load, negative masses, inertia tensors that are not positive
 semi-definite, and load components on fixed coordinates (they would go straight into the
-support).
+support). A follower load's axes node must be an orientation node.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from spacarpy.deck.semantics.errors import DeckContext, ErrorCollector
 from spacarpy.deck.semantics.settings import named_time_function
 from spacarpy.deck.semantics.topology import Topology, UsesTopology
 from spacarpy.deck.statement import Statement
-from spacarpy.model import LineLoad, Load, NodalMass, UserRoutine
+from spacarpy.model import FollowerLineLoad, FollowerLoad, LineLoad, Load, NodalMass, UserRoutine
 
 __all__ = ["LINE_LOAD_KINDS", "Loads", "from_statements"]
 
@@ -40,6 +41,8 @@ class Loads:
     loads: list = field(default_factory=list)
     line_loads: list = field(default_factory=list)
     motion_tf: dict = field(default_factory=dict)
+    follower_loads: list = field(default_factory=list)
+    follower_line_loads: list = field(default_factory=list)
     nodal_masses: list = field(default_factory=list)
     gravity: tuple = (0.0, 0.0, 0.0)
     user_routines: list = field(default_factory=list)
@@ -55,31 +58,73 @@ class _LoadsPass(UsesTopology):
 
     def load(self, st: Statement) -> None:
         """An XF or DELXF line."""
-        n = st.fields[0]
+        values = self._load_values(st, st.fields[0], st.fields[1:4])
+        if values is not None:
+            self.result.loads.append(Load(node=st.fields[0], kind=st.keyword, value=values,
+                                          loc=st.loc))
+            self.load_sts.append(st)
+
+    def follower(self, st: Statement) -> None:
+        """An XFL or DELXFL line: ``n r f1 f2 f3``, components in the axes of node r."""
+        n, r = st.fields[0], st.fields[1]
+        values = self._load_values(st, n, st.fields[2:5])
+        if values is None:
+            return
+        kind = self.node_kind(r)
+        if kind != "orientation":
+            what = ("is not defined (no element uses it)" if kind is None
+                    else f"is a {kind} node")
+            if kind is None and r in self.foreign_nodes:
+                return
+            self.error(st.field_locs[1], f"{st.keyword}: node {r} {what}: the load's axes "
+                                         "are those of an orientation node (the r of a BEAM "
+                                         "line)", st)
+            return
+        self.result.follower_loads.append(FollowerLoad(node=n, axes=r, kind=st.keyword,
+                                                       value=values, loc=st.loc))
+
+    def follower_line(self, st: Statement) -> None:
+        """A QEL or DELQEL line: ``e qx qy`` on a PLBEAM, in its current axes."""
+        beam = self.element_for(st)
+        if beam is None:
+            return
+        if beam.keyword != "PLBEAM":
+            self.error(st.field_locs[0], f"{st.keyword}: element {beam.id} is a "
+                                         f"{beam.keyword}: follower line loads act on planar "
+                                         "beams (PLBEAM) only so far", st)
+            return
+        self.result.follower_line_loads.append(FollowerLineLoad(
+            element=beam.id, kind=st.keyword, value=(float(st.fields[1]), float(st.fields[2])),
+            loc=st.loc))
+
+    def _load_values(self, st: Statement, n, fields):
+        """The three components of a load line on node n (a planar deck's fx fy or m
+        completed), None after an error."""
+        usage = f"{st.keyword} {n}" + (f" {st.fields[1]}" if st.keyword.endswith("XFL")
+                                        else "")
         if self.node_kind(n) is None:
             if n not in self.foreign_nodes:
                 self.error(st.field_locs[0], f"{st.keyword}: node {n} is not defined (no X line "
                                              "and not used by any element)", st)
-            return
+            return None
         if self.node_kind(n) == "warping":
             self.error(st.field_locs[0], f"{st.keyword}: node {n} is a warping node (BEAMW); "
                                          "a load on it (a bimoment) is not supported", st)
-            return
-        values = tuple(float(v) for v in st.fields[1:4])
+            return None
+        values = tuple(float(v) for v in fields)
         if self.planar:
-            want, usage = ((2, f"{st.keyword} {n} fx fy") if self.node_kind(n) == "position"
-                           else (1, f"{st.keyword} {n} m (the moment about z)"))
+            want, usage = ((2, f"{usage} fx fy") if self.node_kind(n) == "position"
+                           else (1, f"{usage} m (the moment about z)"))
             if len(values) != want:
                 self.error(st.loc, f"{st.keyword}: node {n} is a planar {self.node_kind(n)} node: "
                                    f"expected {usage}, got {len(values)} value(s)", st)
-                return
-            values = (values + (0.0,)) if want == 2 else (0.0, 0.0, values[0])
-        elif len(values) != 3:
-            self.error(st.loc, f"{st.keyword}: expected three components ({st.keyword} {n} f1 "
-                               f"f2 f3), got {len(values)}", st)
-            return
-        self.result.loads.append(Load(node=n, kind=st.keyword, value=values, loc=st.loc))
-        self.load_sts.append(st)
+                return None
+            return (values + (0.0,)) if want == 2 else (0.0, 0.0, values[0])
+        if len(values) != 3:
+            self.error(st.loc, f"{st.keyword}: expected three components ({usage} f1 f2 f3), "
+                               f"got {len(values)}", st)
+            return None
+        return values
 
     def line_load(self, st: Statement) -> None:
         """A QE or DELQE line: a line load on a beam, uniform or linear."""
@@ -227,10 +272,15 @@ class _LoadsPass(UsesTopology):
 
 def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topology: Topology,
                     constraints: Constraints) -> Loads:
-    """The XF/DELXF (in deck order), XM and GRAVITY lines; problems go to ``errors``."""
+    """The XF/DELXF and XFL/DELXFL (in deck order), XM and GRAVITY lines; problems go to
+    ``errors``."""
     part = _LoadsPass(ctx, errors, topology, constraints)
     for st in ctx.in_deck_order("XF", "DELXF"):
         part.load(st)
+    for st in ctx.in_deck_order("XFL", "DELXFL"):
+        part.follower(st)
+    for st in ctx.in_deck_order("QEL", "DELQEL"):
+        part.follower_line(st)
     part.check_loads_on_fixed_coordinates()
     for st in ctx.in_deck_order("QE", "DELQE"):
         part.line_load(st)

@@ -168,7 +168,9 @@ def buckling_modes(lin, n_modes: int = 6, dense_limit: int = DENSE_LIMIT) -> Buc
         zero = _zero(v, lin.K_mat, float(sp.linalg.norm(lin.K_mat)))
     real = ~infinite & (np.abs(mu.imag) <= 1e-8 * np.abs(mu))
     if np.any(~infinite & ~real):
-        log.warning("complex buckling multipliers ignored (non-symmetric load terms)")
+        log.warning("complex buckling multipliers ignored: the load terms are not symmetric "
+                    "(follower loads, moments); a buckling analysis finds divergence (real "
+                    "multipliers) only, flutter shows as complex w^2 in MODE eigen")
     mu_f = np.where(zero[real], 0.0, mu[real].real)
     v_f = canonical_sign(v[:, real])
     positive = mu_f[mu_f > 0]

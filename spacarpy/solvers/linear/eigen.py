@@ -140,6 +140,27 @@ def canonical_order(key: np.ndarray, *ties: np.ndarray) -> np.ndarray:
     return order[np.lexsort(tuple(t[order] for t in reversed(ties)) + (group,))]
 
 
+def exact_conjugates(lam: np.ndarray) -> np.ndarray:
+    """Complex eigenvalues of a real pencil come in conjugate pairs, but LAPACK's generalized
+    solver divides each by its own ``beta``: the pair's real parts may differ in the last
+    bits, and round-off would order it. Each pair (the conjugate within :data:`TIE_RTOL` of
+    the value) is made exactly conjugate, its mean; real ones are returned unchanged."""
+    cplx = np.flatnonzero(np.isfinite(lam) & (lam.imag != 0))
+    if not cplx.size:
+        return lam
+    lam = lam.copy()
+    free = set(cplx[lam[cplx].imag < 0].tolist())
+    for i in cplx[lam[cplx].imag > 0]:
+        if not free:
+            break
+        j = min(free, key=lambda j: abs(lam[j] - np.conj(lam[i])))
+        if abs(lam[j] - np.conj(lam[i])) <= TIE_RTOL * abs(lam[i]):
+            re, im = 0.5 * (lam[i].real + lam[j].real), 0.5 * (lam[i].imag - lam[j].imag)
+            lam[i], lam[j] = complex(re, im), complex(re, -im)
+            free.discard(j)
+    return lam
+
+
 def _norm(A) -> float:
     return float(sp.linalg.norm(A)) if sp.issparse(A) else float(np.linalg.norm(A))
 
@@ -263,6 +284,7 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
         log.warning("the sparse eigen solver gives %d of the %d mode(s) asked for: the "
                     "others are infinite (motions without inertia) or were not resolved",
                     int(lam.size), n_modes)
+    lam = exact_conjugates(lam)
     key = np.abs(lam.real)
     order = canonical_order(key, lam.real, -lam.imag)
     lam, vec = lam[order][:n_modes], vec[:, order][:, :n_modes]
@@ -271,7 +293,8 @@ def eigenmodes(lin, num, free, n_modes: int = 10, dense_limit: int | None = None
     kind = classify(lam, rigid, bound)
     for k, name in ((UNSTABLE, "negative w^2 (unstable or buckled state)"),
                     (UNDETERMINED_SIGN, "w^2 within its round-off bound (sign undetermined)"),
-                    (COMPLEX, "complex w^2 (non-conservative loading)")):
+                    (COMPLEX, "complex w^2 (non-conservative loading: flutter where its "
+                              "imaginary part grows the motion)")):
         if np.any(kind == k):
             log.warning("%d mode(s) with %s", int(np.sum(kind == k)), name)
     return Modes(eigenvalue=lam, frequency=frequencies(lam, kind), kind=kind, shape=vec,

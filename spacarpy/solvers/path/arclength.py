@@ -55,7 +55,6 @@ import numpy as np
 import scipy.sparse as sp
 
 from spacarpy.errors import ConvergenceError, ModelError
-from spacarpy.rotation import moment_matrix
 from spacarpy.solvers.path.inertia_bracket import locate_crossing
 from spacarpy.solvers.path.stability import (
     UNDETERMINED_POINT,
@@ -175,9 +174,9 @@ def check_applies(prob) -> None:
     """ARCLENGTH needs a load increment (DELXF) and no prescribed motion that changes with
     the load factor (those are displacement control, the other way of tracing a path)."""
     num, loads = prob.num, prob.loads
-    if not (np.any(loads.force["DELXF"]) or np.any(loads.moment["DELXF"])):
+    if not loads.has_increment:
         raise ModelError("ARCLENGTH follows the path of the DELXF load: the model has no "
-                         "DELXF line")
+                         "DELXF or DELXFL line")
     moving = (not np.array_equal(num.prescribed_values(1.0, 1.0), num.prescribed_values(1.0, 0.0))
               or bool(np.any(num.rotation_angle))
               or not np.array_equal(num.rigid_targets(1.0, 1.0), num.rigid_targets(1.0, 0.0)))
@@ -227,16 +226,9 @@ class ArcLengthPath:
         return self.prob.loads.at(1.0, s)
 
     def load_vector(self, x) -> np.ndarray:
-        """q = d f_ext / ds at x over the free coordinates (DELXF forces and the generalized
-        forces of the DELXF moments)."""
-        prob, num = self.prob, self.prob.num
-        q = prob.loads.force["DELXF"].copy()
-        rot = prob.loads.moment_rot
-        if rot.size:
-            idx = num.rot_idx[rot]
-            q[idx] += 2.0 * np.einsum("nab,nb->na", moment_matrix(prob.loads.moment["DELXF"]),
-                                      x[idx])
-        return q[self.free]
+        """q = d f_ext / ds at x over the free coordinates (DELXF forces, the generalized
+        forces of the DELXF moments and of the follower increments DELXFL at x)."""
+        return self.prob.loads.rate(x)[self.free]
 
     def _solve(self, ev, mu, x, bordered: bool = False):
         """``K a = -r`` and ``K b = q`` with one factorization, bordered by the linearized
@@ -482,6 +474,11 @@ class ArcLengthPath:
             kind, undetermined = None, None
             if not switched:
                 kind, cert = self.check.classify(p, new)
+                if kind is not None and self.prob.loads.parts:
+                    log.warning("a critical point on a path with follower loads (XFL/DELXFL) "
+                                "at s = %.6g: classified by the tangent's symmetric part, "
+                                "which does not decide stability for loads that are not "
+                                "conservative; check it with MODE eigen", new.s)
             if kind == UNDETERMINED_KIND or (crossed and self.check.pending is not None):
                 cert = cert if kind == UNDETERMINED_KIND else self.check.pending[1]
                 kind = UNDETERMINED_KIND

@@ -12,8 +12,10 @@ Equilibrium (Eq. 16/55 without inertia) with the constraint forces:
 
 where ``sigma = S e`` for flexible (DYNE) and stiff released (RLSE + ESTIFF) modes and
 ``sigma = mu`` for rigid ones, and ``f_ext`` holds the dead forces and the generalized forces
-``2 Lambda(q)^T T`` of dead moments. Newton's matrix is the bordered tangent
-``[[K_T, C^T], [C, 0]]`` with ``K_T = D^T S D + sum sigma_i d2e_i + 2 mu I4 - df_ext/dx``,
+``2 Lambda(q)^T T`` of dead moments, and those of follower loads (XFL,
+:mod:`spacarpy.solvers.statics.follower`). Newton's matrix is the bordered tangent
+``[[K_T, C^T], [C, 0]]`` with ``K_T = D^T S D + sum sigma_i d2e_i + 2 mu I4 - df_ext/dx``
+(not symmetric with moments or follower loads: SuperLU factorizes it),
 assembled on a fixed sparsity pattern (documented in docs/solver.md).
 
 Held slips (rolling wheels, :mod:`spacarpy.solvers.statics.slips`) add ``S^T nu`` to the
@@ -97,7 +99,8 @@ class StaticProblem:
         self.num = num if num is not None else number_model(model)
         self.variant = deformations or "modified"
         self.loads = Loads(model, self.num)
-        self.pattern = BorderedPattern(self.num, self.loads.moment_rot)
+        self.pattern = BorderedPattern(self.num, self.loads.moment_rot,
+                                       [(p.rows, p.cols) for p in self.loads.parts])
         num = self.num
         self.timings = Timings()
         # the kinematic correction after each Newton update (kinematic_correction.py)
@@ -206,6 +209,10 @@ class StaticProblem:
                 "nab,nb->na", moment_matrix(load.moment), q_m)
         if load.user is not None:                   # a user routine's loads (USERSIG)
             f_ext += load.user(x, states)
+        if load.follow:                             # follower loads (XFL, follower.py)
+            f_part = loads.part_forces(x, load)
+            if f_part is not None:
+                f_ext += f_part
         gk = []
         if loads.has_gravity and load.gravity_factor:
             gv = load.gravity_factor * loads.gravity
@@ -246,7 +253,8 @@ class StaticProblem:
                                   [st.D[g.rigid_elem, g.rigid_mode]
                                    for g, st in zip(num.groups, ev.states)],
                                   2.0 * ev.q_eu,
-                                  scale=self.scale if scale is None else scale)
+                                  scale=self.scale if scale is None else scale,
+                                  load_blocks=self.load_blocks(ev, material_only))
         if self.slips:        # the slip rows, and the tangent of their forces d(S^T nu)/dx
             free = np.flatnonzero(self.free)
             k_add = None if material_only else self.slips.force_dx(ev.x, ev.nu, cols=free)
@@ -255,6 +263,18 @@ class StaticProblem:
         self.timings.kernels += t1 - t0
         self.timings.assembly += time.perf_counter() - t1
         return A
+
+    def load_blocks(self, ev: Evaluation, material_only: bool = False) -> list:
+        """The load stiffness ``-df/dx`` of the follower load parts at ``ev`` (one block
+        batch per part of :attr:`Loads.parts`; zeros with ``material_only``). Not
+        symmetric: the Newton matrix with them is factorized by SuperLU (LU), never by a
+        symmetric factorization (:func:`~spacarpy.solvers.statics.reduced.applies`)."""
+        loads = self.loads
+        if not loads.parts:
+            return []
+        if material_only or ev.x is None:
+            return [np.zeros(p.rows.shape + (p.cols.shape[1],)) for p in loads.parts]
+        return loads.part_blocks(ev.x, ev.load)
 
     def element_blocks(self, ev: Evaluation, mu, material_only: bool = False, extra=None):
         """The K block's pieces: element tangents (one (n_elem, n_ldof, n_ldof) array per
@@ -378,7 +398,8 @@ class StaticProblem:
         num = self.num
         idx, target = num.prescribed_state(load.a, load.s)
         return bool(not np.any(load.force) and not np.any(load.moment)
-                    and load.user is None and np.array_equal(num.x0[idx], target)
+                    and load.user is None and not any(np.any(f) for f in load.follow)
+                    and np.array_equal(num.x0[idx], target)
                     and not (self.loads.has_gravity and load.gravity_factor)
                     and not np.any(load.rigid_target) and not self.has_commit
                     and all(g.sigma0 is None or not np.any(g.sigma0) for g in num.groups)

@@ -10,6 +10,12 @@ A user routine's loads (USERSIG, docs/user-routines.md) depend on the state: the
 a plain callable ``user(t, x, v, states) -> (n_coord,)`` (:attr:`Loads.user`, set by the
 driver), and a LoadState carries it bound to its time and velocities (:attr:`LoadState.user`:
 ``user(x, states)``), evaluated at every configuration the solvers try.
+
+Follower loads (XFL/DELXFL, and any load whose force depends on the configuration) are
+:class:`~spacarpy.solvers.statics.follower.LoadPart` s in :attr:`Loads.parts`, with initial and
+incremental amplitudes; a LoadState carries their amplitudes at its factors
+(:attr:`LoadState.follow`), :meth:`Loads.part_forces` gives their forces at x and
+:meth:`Loads.part_blocks` their load stiffness ``-df/dx`` for the Newton matrix.
 """
 from __future__ import annotations
 
@@ -20,6 +26,8 @@ import numpy as np
 
 from spacarpy.elements.line_load import lump_line_load
 from spacarpy.elements.registry import kind_of
+from spacarpy.rotation import moment_matrix
+from spacarpy.solvers.statics.follower import line_followers, nodal_followers
 from spacarpy.solvers.statics.nodal import nodal_masses, node_rows
 
 
@@ -44,6 +52,9 @@ class LoadState:
         The user routine's loads at this load's time and velocities: ``user(x, states)``
         gives the generalized forces (n_coord,) at configuration x (``states``: the element
         kernels' states at x), added to the dead ones; None without a routine.
+    follow : tuple of (n_b, k) arrays
+        The amplitudes of the follower load parts (:attr:`Loads.parts`, in their order) at
+        ``(a, s)``; empty without follower loads.
     """
 
     a: float
@@ -53,6 +64,7 @@ class LoadState:
     gravity_factor: float
     rigid_target: np.ndarray
     user: object = None
+    follow: tuple = ()
 
 
 class Loads:
@@ -107,6 +119,65 @@ class Loads:
         for idx, m in zip(point.point_idx, point.point_mass):
             self.point_weight[idx] += m * self.gravity
         self.user = None
+        # configuration-dependent (follower) loads: XFL/DELXFL, follower.py
+        self.parts = (nodal_followers(model, num, pos_row, rot_row)
+                      + line_followers(model, num, pos_row, rot_row))
+        if self.parts:
+            self.has_xf = self.has_xf or any(bool(np.any(p.initial)) for p in self.parts)
+            self.any = self.any or self.has_xf or any(bool(np.any(p.increment))
+                                                      for p in self.parts)
+
+    def add_part(self, part) -> None:
+        """Add a configuration-dependent load part (a
+        :class:`~spacarpy.solvers.statics.follower.LoadPart`); before the static problem
+        builds its sparsity pattern."""
+        self.parts.append(part)
+        self.has_xf = self.has_xf or bool(np.any(part.initial))
+        self.any = self.any or self.has_xf or bool(np.any(part.increment))
+
+    @property
+    def has_increment(self) -> bool:
+        """Whether the load steps add a load (DELXF, DELXFL or another part's increment)."""
+        return bool(np.any(self.force["DELXF"]) or np.any(self.moment["DELXF"])
+                    or any(np.any(p.increment) for p in self.parts))
+
+    def part_forces(self, x, load: LoadState):
+        """The generalized forces (n_coord,) of the follower parts at x under ``load``; None
+        without parts."""
+        if not self.parts or not load.follow:
+            return None
+        n = self.num.n_coord
+        out = np.zeros(n)
+        for part, amp in zip(self.parts, load.follow):
+            if np.any(amp):
+                out += part.force(x, amp, n)
+        return out
+
+    def part_blocks(self, x, load: LoadState) -> list:
+        """The load stiffness ``-d f/dx`` of each part at x under ``load`` ((n_b, p, q) per
+        part, zeros where its amplitude is zero): the blocks the Newton matrix adds."""
+        out = []
+        for i, part in enumerate(self.parts):
+            amp = load.follow[i] if load.follow else None
+            if amp is None or not np.any(amp):
+                out.append(np.zeros(part.rows.shape + (part.cols.shape[1],)))
+            else:
+                out.append(-part.stiffness(x, amp))
+        return out
+
+    def rate(self, x):
+        """``d f_ext / ds`` at x (n_coord,): the DELXF forces, the generalized forces of the
+        DELXF moments and the forces of the follower increments (DELXFL) at x."""
+        num = self.num
+        out = self.force["DELXF"].copy()
+        if self.moment_rot.size:
+            idx = num.rot_idx[self.moment_rot]
+            out[idx] += 2.0 * np.einsum("nab,nb->na", moment_matrix(self.moment["DELXF"]),
+                                        x[idx])
+        for part in self.parts:
+            if np.any(part.increment):
+                out += part.force(x, part.increment, num.n_coord)
+        return out
 
     def set_user(self, user) -> None:
         """Add a user routine's loads: ``user(t, x, v, states) -> (n_coord,)`` generalized
@@ -129,7 +200,8 @@ class Loads:
                          moment=a * self.moment["XF"] + s * self.moment["DELXF"],
                          gravity_factor=float(a if gravity_factor is None else gravity_factor),
                          rigid_target=self.num.rigid_targets(a, s),
-                         user=self.bind(s, None))
+                         user=self.bind(s, None),
+                         follow=tuple(p.amplitude(a, s) for p in self.parts))
 
     def at_time(self, phi: dict) -> LoadState:
         """The load of a transient run at time functions' values ``phi`` (name -> value;

@@ -200,7 +200,7 @@ class Predictor:
             return moved, None
         unloaded = dataclasses.replace(load, force=np.zeros(num.n_coord),
                                        moment=np.zeros((prob.loads.moment_rot.size, 3)),
-                                       user=None)
+                                       user=None, follow=())
         states = prob.evaluate(x, mu, unloaded).states
         self.rigid_target = load.rigid_target
         moved = x.copy()

@@ -70,9 +70,11 @@ def _element_products(k, idx, z, shift):
 def applies(prob) -> bool:
     """Whether the model's Newton steps can use :class:`ReducedNewton`: every constraint is
     the normalization of a node with four free Euler parameters, no rigid modes, no moment
-    loads, and element kinds whose Euler parameters come in slots of four."""
+    loads or follower loads (their load stiffness is not symmetric), and element kinds whose
+    Euler parameters come in slots of four."""
     num = prob.num
-    if num.n_rigid or prob.loads.moment_rot.size or not num.euler_nodes.size:
+    if (num.n_rigid or prob.loads.moment_rot.size or prob.loads.parts
+            or not num.euler_nodes.size):
         return False
     free = ~num.fixed_mask
     if not free[num.euler_coords].all():

@@ -174,6 +174,14 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         return _advance(prob, predictor, x, mu, p_from, p_to, n_sub, opts, stored_step)
 
     path = PathStability(prob, opts, predictor, advance)
+    if path.on and prob.loads.parts:
+        # its index counts the negative eigenvalues of the tangent's symmetric part: no
+        # stability criterion where follower loads make the tangent unsymmetric
+        log.warning("BIFURCATION %s is off: the follower loads (XFL/DELXFL) are not "
+                    "conservative and the index of the tangent's symmetric part does not "
+                    "decide stability; divergence and flutter show in MODE eigen",
+                    opts.bifurcation)
+        path.on = False
     # phase A: reach XF (a: 0 -> 1) at s = 0
     x, mu, its, res, by = advance(x, mu, (0.0, 0.0), (1.0, 0.0),
                                   opts.n_init if prob.loads.has_xf else 1, stored_step=0)

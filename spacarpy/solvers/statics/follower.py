@@ -1,0 +1,194 @@
+"""Configuration-dependent (follower) loads: their generalized forces and their load
+stiffness, the derivative of those forces by the coordinates.
+
+A follower load turns with the structure, so its generalized force ``f(x)`` depends on the
+configuration and its derivative ``df/dx`` (the load stiffness) is not symmetric: the load
+is not conservative. Every such load is a :class:`LoadPart`, one batch of ``n_b`` loads of
+one kind, that declares once which coordinates it loads (``rows``) and which it depends on
+(``cols``), and then gives, for an amplitude ``amp`` (n_b, k):
+
+- ``force(x, amp) -> (n_coord,)``: the generalized forces, **linear in amp** (so that the
+  load path's factors ``a XF + s DELXF``, a transient's ``phi(t)``, scale it and ``df/ds``
+  is the force of the increment's amplitude),
+- ``stiffness(x, amp) -> (n_b, p, q)``: ``d force / dx`` restricted to rows x cols.
+
+:class:`~spacarpy.solvers.statics.loads.Loads` holds the parts (``Loads.parts``) with their
+initial (XF-like) and incremental (DELXF-like) amplitudes; a
+:class:`~spacarpy.solvers.statics.loads.LoadState` carries the amplitudes at its load
+factors; the static problem adds the forces to ``f_ext`` and ``-stiffness`` to the Newton
+matrix on blocks its sparsity pattern reserves (:class:`~spacarpy.assembly.BorderedPattern`),
+so statics, arc length, the transient's iteration matrix and the linearizations all see them.
+
+:class:`NodalFollower` is the XFL/DELXFL part: a force on a position node n, or a moment on
+an orientation node n, with components in the current axes of orientation node r
+(docs/loads.md):
+
+- force: ``f_n = R(q_r) F``; ``d f_n / d q_r = 2 H(F) q_r`` (:mod:`spacarpy.rotation`);
+- moment: ``T = R(q_r) M`` acts on q_n as ``2 Lambda(q_n)^T T = 2 B(T) q_n``; its
+  derivatives are ``2 B(T)`` by q_n and ``2 Lambda(q_n)^T (2 H(M) q_r)`` by q_r (both
+  blocks, summed where n = r).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from spacarpy.rotation import lambda_matrix, moment_matrix, rotate, vector_jacobians
+
+
+@dataclass
+class LoadPart:
+    """One batch of configuration-dependent loads (module docstring).
+
+    Attributes
+    ----------
+    name : str
+        What the loads are (``"XFL force"``), for messages.
+    rows : (n_b, p) int
+        The coordinates each load acts on (global coordinate indices).
+    cols : (n_b, q) int
+        The coordinates its force depends on (repeated indices add up).
+    initial, increment : (n_b, k) float
+        The amplitudes present from the start (XF-like) and added over the load steps
+        (DELXF-like).
+    """
+
+    name: str
+    rows: np.ndarray
+    cols: np.ndarray
+    initial: np.ndarray
+    increment: np.ndarray
+
+    def force(self, x: np.ndarray, amp: np.ndarray, n_coord: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def stiffness(self, x: np.ndarray, amp: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def amplitude(self, a: float, s: float) -> np.ndarray:
+        """``a initial + s increment``."""
+        return a * self.initial + s * self.increment
+
+
+def _add(n_coord: int, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
+    out = np.zeros(n_coord)
+    np.add.at(out, rows.ravel(), values.ravel())
+    return out
+
+
+class FollowerForces(LoadPart):
+    """Forces ``R(q_r) F`` on position nodes: rows the node's 3 positions, cols q_r."""
+
+    def force(self, x, amp, n_coord):
+        return _add(n_coord, self.rows, rotate(x[self.cols], amp))
+
+    def stiffness(self, x, amp):
+        return vector_jacobians(x[self.cols], amp[:, None, :])[:, 0]
+
+
+class FollowerMoments(LoadPart):
+    """Moments ``R(q_r) M`` on orientation nodes: rows q_n, cols ``[q_n, q_r]``."""
+
+    def force(self, x, amp, n_coord):
+        qn, qr = x[self.cols[:, :4]], x[self.cols[:, 4:]]
+        t = rotate(qr, amp)
+        return _add(n_coord, self.rows, 2.0 * np.einsum("nab,nb->na", moment_matrix(t), qn))
+
+    def stiffness(self, x, amp):
+        qn, qr = x[self.cols[:, :4]], x[self.cols[:, 4:]]
+        t = rotate(qr, amp)
+        dt = vector_jacobians(qr, amp[:, None, :])[:, 0]              # (n, 3, 4)
+        d_r = 2.0 * lambda_matrix(qn).transpose(0, 2, 1) @ dt          # (n, 4, 4)
+        return np.concatenate([2.0 * moment_matrix(t), d_r], axis=2)
+
+
+#: ``[z~]``: ``z x d`` for the planar element's local y-axis (times its length).
+_ZX = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+#: ``B(z)``: the generalized force of a unit moment about z on Euler parameters is 2 B q.
+_BZ = moment_matrix(np.array([0.0, 0.0, 1.0]))
+
+
+class FollowerLinePlanar(LoadPart):
+    """QEL/DELQEL on PLBEAMs: ``(qx, qy)`` per current length along the chord ``d = x_q -
+    x_p`` and along ``z x d / |d|``, lumped as the cubic interpolation of a straight beam
+    gives it (docs/follower.md): each end ``(qx d + qy z x d) / 2``, end moments ``+-qy
+    |d|^2 / 12`` about z at the orientation nodes r (at p) and s (at q). Rows = cols =
+    ``[x_p, x_q, q_r, q_s]`` (14)."""
+
+    def _parts(self, x, amp):
+        xe = x[self.cols]
+        d = xe[:, 3:6] - xe[:, 0:3]
+        qr, qs = xe[:, 6:10], xe[:, 10:14]
+        m = amp[:, 1] * np.einsum("na,na->n", d, d) / 12.0
+        return d, qr, qs, m
+
+    def force(self, x, amp, n_coord):
+        d, qr, qs, m = self._parts(x, amp)
+        f = 0.5 * (amp[:, :1] * d + amp[:, 1:2] * (d @ _ZX.T))
+        g_r = 2.0 * m[:, None] * (qr @ _BZ.T)
+        g_s = -2.0 * m[:, None] * (qs @ _BZ.T)
+        return _add(n_coord, self.rows, np.concatenate([f, f, g_r, g_s], axis=1))
+
+    def stiffness(self, x, amp):
+        d, qr, qs, m = self._parts(x, amp)
+        n = len(d)
+        k = np.zeros((n, 14, 14))
+        F = 0.5 * (amp[:, 0, None, None] * np.eye(3) + amp[:, 1, None, None] * _ZX)
+        for r0 in (0, 3):
+            k[:, r0:r0 + 3, 0:3] = -F
+            k[:, r0:r0 + 3, 3:6] = F
+        dm = amp[:, 1, None] * d / 6.0                          # d m / d x_q (= -d/dx_p)
+        for rows, q, sign in ((slice(6, 10), qr, 1.0), (slice(10, 14), qs, -1.0)):
+            bq = 2.0 * sign * (q @ _BZ.T)                        # (n, 4)
+            k[:, rows, 0:3] = -bq[:, :, None] * dm[:, None, :]
+            k[:, rows, 3:6] = bq[:, :, None] * dm[:, None, :]
+            k[:, rows, rows] = 2.0 * sign * m[:, None, None] * _BZ
+        return k
+
+
+def line_followers(model, num, pos_row: dict, rot_row: dict) -> list:
+    """The QEL/DELQEL lines of a model (``model.follower_line_loads``) as one load part."""
+    lines = getattr(model, "follower_line_loads", ())
+    if not lines:
+        return []
+    es = model.elements["PLBEAM"]
+    where = {int(e): i for i, e in enumerate(es.ids)}
+    rows = []
+    for ld in lines:
+        p, r, q, s = (int(v) for v in es.nodes[where[int(ld.element)]])
+        rows.append(np.concatenate([num.pos_idx[pos_row[p]], num.pos_idx[pos_row[q]],
+                                    num.rot_idx[rot_row[r]], num.rot_idx[rot_row[s]]]))
+    rows = np.array(rows).reshape(len(lines), 14)
+    amp = {k: np.array([ld.value if ld.kind == k else (0.0, 0.0) for ld in lines],
+                       dtype=float).reshape(len(lines), 2) for k in ("QEL", "DELQEL")}
+    return [FollowerLinePlanar(name="QEL line load", rows=rows, cols=rows,
+                               initial=amp["QEL"], increment=amp["DELQEL"])]
+
+
+def nodal_followers(model, num, pos_row: dict, rot_row: dict) -> list:
+    """The XFL/DELXFL lines of a model (``model.follower_loads``) as load parts: one for
+    the forces, one for the moments (only those the model has)."""
+    lines = getattr(model, "follower_loads", ())
+    out = []
+    for cls, is_force in ((FollowerForces, True), (FollowerMoments, False)):
+        mine = [ld for ld in lines if (int(ld.node) in pos_row) == is_force]
+        if not mine:
+            continue
+        n = len(mine)
+        qr = np.array([num.rot_idx[rot_row[int(ld.axes)]] for ld in mine]).reshape(n, 4)
+        if is_force:
+            rows = np.array([num.pos_idx[pos_row[int(ld.node)]] for ld in mine]).reshape(n, 3)
+            cols = qr
+        else:
+            rows = np.array([num.rot_idx[rot_row[int(ld.node)]] for ld in mine]).reshape(n, 4)
+            cols = np.concatenate([rows, qr], axis=1)
+        amp = {k: np.array([ld.value if ld.kind == k else (0.0, 0.0, 0.0) for ld in mine],
+                           dtype=float).reshape(n, 3) for k in ("XFL", "DELXFL")}
+        out.append(cls(name="XFL " + ("force" if is_force else "moment"), rows=rows,
+                       cols=cols, initial=amp["XFL"], increment=amp["DELXFL"]))
+    return out
+
+
+__all__ = ["FollowerForces", "FollowerLinePlanar", "FollowerMoments", "LoadPart",
+           "line_followers", "nodal_followers"]
