@@ -164,6 +164,9 @@ def state_space_values(ss, k: int) -> dict:
     n = np.shape(ss.M0)[0]
     for name, shape in (("K0p", (n, k)), ("G", (k, n)), ("Gq", (k, n)), ("Gp", (k, k))):
         values[name] = getattr(ss, name, np.zeros(shape))
-    lam = np.linalg.eigvals(ss.A) if np.size(ss.A) else np.zeros(0, complex)
+    lam = getattr(ss, "pole", None)                # refined (solvers/linear/refine.py)
+    if lam is None:
+        lam = np.linalg.eigvals(ss.A) if np.size(ss.A) else np.zeros(0, complex)
+    lam = np.asarray(lam, complex)
     values["pole"] = lam[np.lexsort((lam.imag, lam.real))]
     return values
