@@ -134,8 +134,13 @@ def _mod8(tmp: Path, threads: int):
     _run(["--mode", "9"], tmp / f"ss{threads}.h5", threads)
     with h5py.File(tmp / f"eig{threads}.h5") as f:
         freq, kind = f["eigen/frequency"][-1], f["eigen/kind"][-1]
+        lam, lam_bound = f["eigen/eigenvalue_real"][-1], f["eigen/eigenvalue_bound"][-1]
     with h5py.File(tmp / f"ss{threads}.h5") as f:
-        pole = f["state_space/pole"][-1]
+        pole, pole_bound = f["state_space/pole"][-1], f["state_space/pole_bound"][-1]
+    # the stored error bounds (schema 2.20): of the pencils as assembled
+    ok = np.isfinite(lam)
+    assert np.all(lam_bound[ok] >= 0) and np.all(lam_bound[ok] / lam[ok] < 1e-14)
+    assert np.all(pole_bound >= 0) and np.all(pole_bound / np.abs(pole) < 1e-14)
     return freq, kind, pole
 
 
