@@ -479,7 +479,8 @@ def _state_space_specs() -> list[DatasetSpec]:
           "deck line of each kinematic coordinate, the last states of A: 'KINE e k', "
           "'KINX n c'", (2, 13), optional=True),
         S("state_space/pole", "c16", (lin, "state"), "s^-1",
-          "eigenvalues of A, sorted by real part, then imaginary part", (2, 13)),
+          "eigenvalues of A, sorted by real part, then imaginary part; since 2.20 computed "
+          "from the second-order equations and refined (docs/linearized.md, Poles)", (2, 13)),
         S("state_space/pole_bound", "f8", (lin, "state"), "s^-1",
           "error bound of each pole of /state_space/pole (docs/linearized.md, Poles); NaN "
           "where none was computed (a steady motion's poles)", (2, 20), optional=True),
