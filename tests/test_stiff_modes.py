@@ -139,8 +139,8 @@ def _mod8(tmp: Path, threads: int):
         pole, pole_bound = f["state_space/pole"][-1], f["state_space/pole_bound"][-1]
     # the stored error bounds (schema 2.20): of the pencils as assembled
     ok = np.isfinite(lam)
-    assert np.all(lam_bound[ok] >= 0) and np.all(lam_bound[ok] / lam[ok] < 1e-14)
-    assert np.all(pole_bound >= 0) and np.all(pole_bound / np.abs(pole) < 1e-14)
+    assert np.all(lam_bound[ok] >= 0) and np.all(lam_bound[ok] / lam[ok] < 1e-10)
+    assert np.all(pole_bound >= 0) and np.all(pole_bound / np.abs(pole) < 1e-10)
     return freq, kind, pole
 
 
@@ -194,7 +194,9 @@ def mod8_linearized():
 @needs_corpus
 def test_mod8_error_bounds(mod8_linearized):
     """Each eigenvalue w^2 and each pole comes with an error bound (residual^2 / gap and the
-    quotient's rounding), below 1e-14 relative here; the eigen analysis' w^2 (over the 58
+    quotient's rounding), below 1e-10 relative (the plain sums are used where their rounding
+    bound is that small; the 2.5 Hz mode's, whose terms cancel by 6e5, are summed
+    accurately: 1.3e-13); the eigen analysis' w^2 (over the 58
     coordinates) and the poles' (over the 8 degrees of freedom, whose matrices are formed
     with their own rounding) agree to 1e-10."""
     from spacarpy.solvers.linear.eigen import eigenmodes
@@ -202,10 +204,11 @@ def test_mod8_error_bounds(mod8_linearized):
     md = eigenmodes(lin, problem.num, problem.free, n_modes=10)
     lam = md.eigenvalue.real
     assert lam.size == 8 and md.n_available == 8
-    assert np.all(md.bound >= 0) and np.all(md.bound / lam < 1e-14)
+    assert np.all(md.bound >= 0) and np.all(md.bound / lam < 1e-10)
+    assert md.bound[0] / lam[0] < 1e-12           # the soft mode: its sums done accurately
     up = ss.pole.imag > 0
     w2 = np.sort(ss.pole.imag[up]) ** 2
-    assert np.all(ss.pole_bound[up] / ss.pole.imag[up] < 1e-14)
+    assert np.all(ss.pole_bound[up] / ss.pole.imag[up] < 1e-10)
     np.testing.assert_allclose(w2, np.sort(lam), rtol=1e-10, atol=0)
 
 

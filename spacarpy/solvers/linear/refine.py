@@ -30,9 +30,10 @@ calls a real 46 kHz mode "massless". Three steps fix both:
    ``eps_r^2 / gap`` (``eps_r = ||r||_{M^-1} / ||v||_M`` the residual ``r = K v - rho M v``
    of the constrained motions, ``gap`` the distance to the nearest other eigenvalue less
    that one's residual; ``eps_r`` itself where the gap does not exceed it, a cluster) and
-   the rounding of the quotient, whose numerator and denominator are summed exactly
-   (:func:`quadratic_form`: in a soft motion the stiffness entries cancel, by 6e5 in the
-   2.5 Hz mode of mod8, so a plain product would lose 1e-10 and could lose 1e-7).
+   the rounding of the quotient, whose numerator and denominator are summed as if in twice
+   the working precision (:func:`quadratic_forms`: in a soft motion the stiffness entries
+   cancel, by 6e5 in the 2.5 Hz mode of mod8, so a plain product would lose 1e-10 and
+   could lose 1e-7).
 
 :func:`second_order_poles`: the poles of ``M0 q'' + C0 q' + K0 q = 0`` (the state space of
 :mod:`spacarpy.solvers.linear.state_space`). Undamped (C0 zero, symmetric K0): ``+-i w``
@@ -44,7 +45,6 @@ the bound ``eta kappa`` of Tisseur (2000), backward error times condition number
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,7 +54,8 @@ import scipy.sparse as sp
 from spacarpy.solvers.linalg.certificate import EPS, certified_sign, round_off_bound
 
 __all__ = ["ScaledPencil", "mass_scaled_basis", "massive_mask", "split_pencil",
-           "quadratic_form", "refine_symmetric", "second_order_poles", "pole_bounds"]
+           "quadratic_form", "quadratic_forms", "refine_symmetric", "second_order_poles",
+           "pole_bounds"]
 
 
 def _sym(a: np.ndarray) -> np.ndarray:
@@ -145,31 +146,89 @@ def _two_product(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return p, a2 * b2 - (((p - a1 * b1) - a2 * b1) - a1 * b2)
 
 
-def quadratic_form(A, v: np.ndarray) -> float:
-    """``v^T A v`` correctly rounded (A sparse or dense, v real): each term ``v_i A_ij v_j``
-    written exactly as four floating-point numbers (:func:`_two_product`) and all of them
-    summed exactly (``math.fsum``), so that the cancellation of large stiffness entries in
-    a soft motion costs nothing (step 3)."""
+def _two_sum(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Knuth's sum: ``a + b = s + e`` exactly."""
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+def _cascaded_sum(x: np.ndarray) -> tuple[np.ndarray, int]:
+    """The column sums of x (n, k) as if in twice the working precision: a pairwise tree of
+    error-free sums (:func:`_two_sum`) whose errors are summed apart (Ogita, Rump & Oishi
+    2005, Sum2, in pairwise order); and the depth of the tree."""
+    errs, depth = [], 0
+    while x.shape[0] > 1:
+        if x.shape[0] % 2:
+            x = np.vstack([x, np.zeros((1, x.shape[1]))])
+        x, e = _two_sum(x[0::2], x[1::2])
+        errs.append(e.sum(axis=0))
+        depth += 1
+    total = x[0] if x.shape[0] else np.zeros(x.shape[1])
+    return total + np.sum(errs, axis=0) if errs else total, depth
+
+
+def quadratic_forms(A, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(q, bound)``: ``v^T A v`` of each column v of V (A sparse or dense, V real) as if
+    computed in twice the working precision (step 3): each term ``v_i A_ij v_j`` written
+    exactly as four floating-point numbers (:func:`_two_product`), the large ones summed by
+    :func:`_cascaded_sum`, so that the cancellation of large stiffness entries in a soft
+    motion costs nothing; ``bound`` its rounding, ``2 eps |q| + (2 (depth + 2) eps)^2
+    sum |terms|``."""
     if sp.issparse(A):
         a = A.tocoo()
         i, j, d = a.row, a.col, a.data
     else:
         i, j = np.nonzero(A)
-        d = A[i, j]
-    p1, e1 = _two_product(v[i], d)
-    p2, e2 = _two_product(p1, v[j])
-    p3, e3 = _two_product(e1, v[j])
-    return math.fsum(np.concatenate([p2, e2, p3, e3]).tolist())
+        d = np.asarray(A)[i, j]
+    q = np.zeros(V.shape[1])
+    bound = np.zeros(V.shape[1])
+    for c0 in range(0, V.shape[1], 16):                # 16 columns at a time (memory)
+        v = V[:, c0:c0 + 16]
+        p1, e1 = _two_product(v[i], d[:, None])
+        p2, e2 = _two_product(p1, v[j])
+        small = e2 + e1 * v[j]                         # e1 v_j: its rounding is eps^2
+        big, depth = _cascaded_sum(p2)
+        q[c0:c0 + 16] = big + small.sum(axis=0)
+        total = np.abs(p2).sum(axis=0)
+        bound[c0:c0 + 16] = (2 * EPS * np.abs(q[c0:c0 + 16])
+                             + (2 * (depth + 2) * EPS) ** 2 * total)
+    return q, bound
 
 
-def _quotient(K, M, V: np.ndarray):
-    """Rayleigh quotients of the columns of V, their numerators and denominators correctly
-    rounded (:func:`quadratic_form`), and the rounding bound of the quotient."""
-    num = np.array([quadratic_form(K, V[:, c]) for c in range(V.shape[1])])
-    den = np.array([quadratic_form(M, V[:, c]) for c in range(V.shape[1])])
+def quadratic_form(A, v: np.ndarray) -> float:
+    """``v^T A v`` of one vector by :func:`quadratic_forms`."""
+    return float(quadratic_forms(A, np.asarray(v, float)[:, None])[0][0])
+
+
+#: Relative rounding bound of a plain quadratic form above which :func:`_quotient` sums it
+#: accurately (a choice of method only: each value's bound is the one of its method).
+ACCURATE_RTOL = 1e-10
+
+
+def _forms(A, V: np.ndarray, kv: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``v^T A v`` of the columns of V and the bound of each: the plain sum (``kv = A V``)
+    where its rounding bound ``SAFETY n eps |v|^T |A| |v|`` is below :data:`ACCURATE_RTOL`
+    of it, else :func:`quadratic_forms`."""
+    q = np.einsum("ij,ij->j", V, kv)
+    aV = np.abs(V)
+    bound = round_off_bound(np.einsum("ij,ij->j", aV, abs(A) @ aV), n)
+    again = ~(bound <= ACCURATE_RTOL * np.abs(q))
+    if again.any():
+        q[again], bound[again] = quadratic_forms(A, V[:, again])
+    return q, bound
+
+
+def _quotient(K, M, V: np.ndarray, n: int):
+    """Rayleigh quotients of the columns of V, their numerators and denominators summed
+    accurately where needed (:func:`_forms`), and the rounding bound of the quotient."""
+    kv, mv = K @ V, M @ V
+    num, nb = _forms(K, V, kv, n)
+    den, db = _forms(M, V, mv, n)
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = num / den
-    return rho, 4.0 * EPS * np.abs(rho), K @ V, M @ V
+        rounding = 2 * EPS * np.abs(rho) + (nb + np.abs(rho) * db) / np.abs(den)
+    return rho, rounding, kv, mv
 
 
 def refine_symmetric(K, M, B: np.ndarray, pencil: ScaledPencil, n: int,
@@ -183,7 +242,7 @@ def refine_symmetric(K, M, B: np.ndarray, pencil: ScaledPencil, n: int,
     V = B @ pencil.U[:, select]
     if V.shape[1] == 0:
         return np.zeros(0), V, np.zeros(0)
-    rho, rounding, kv, mv = _quotient(K, M, V)
+    rho, rounding, kv, mv = _quotient(K, M, V, n)
     # the residual of the constrained motions, in the inverse of the (massive) reduced mass
     r = B.T @ (kv - mv * rho)
     W1, mu1 = pencil.W[:, pencil.massive], pencil.mu[pencil.massive]
