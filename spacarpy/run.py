@@ -411,7 +411,8 @@ def _linearized_step(problem, mass, step, k, writer, n_modes, want_eigen, want_b
         md = eigenmodes(lin, num, problem.free, n_modes=n_modes)
         shape_pos, shape_rot = _node_shapes(num, problem.free, md.shape)
         writer.eigen_step(k, md.eigenvalue, md.frequency, md.kind, shape_pos, shape_rot,
-                          n_available=-1 if md.n_available is None else md.n_available)
+                          n_available=-1 if md.n_available is None else md.n_available,
+                          bound=np.nan if md.bound is None else md.bound)
         summary.frequencies.append(md.frequency)
         shown = ", ".join(f"{f:.4g}" if kd in (0, 2) else KIND_NAMES[int(kd)]
                           for f, kd in zip(md.frequency[:4], md.kind[:4]))

@@ -159,11 +159,17 @@ def state_space_values(ss, k: int) -> dict:
     """The datasets of one /state_space step from ``ss`` (attributes M0, C0, K0, B0, A, B, C,
     D, and K0p, G, Gq, Gp where the model has ``k`` kinematic coordinates; zero-sized
     otherwise) and the poles, the eigenvalues of A sorted by real, then imaginary part
-    (schema 2.13)."""
+    (schema 2.13), with their error bounds (schema 2.20; NaN where ``ss`` has none)."""
     values = {name: getattr(ss, name) for name in ("M0", "C0", "K0", "B0", "A", "B", "C", "D")}
     n = np.shape(ss.M0)[0]
     for name, shape in (("K0p", (n, k)), ("G", (k, n)), ("Gq", (k, n)), ("Gp", (k, k))):
         values[name] = getattr(ss, name, np.zeros(shape))
-    lam = np.linalg.eigvals(ss.A) if np.size(ss.A) else np.zeros(0, complex)
-    values["pole"] = lam[np.lexsort((lam.imag, lam.real))]
+    lam = getattr(ss, "pole", None)         # refined (solvers/linear/refine.py)
+    bound = getattr(ss, "pole_bound", None)
+    if lam is None:
+        lam = np.linalg.eigvals(ss.A) if np.size(ss.A) else np.zeros(0, complex)
+    lam = np.asarray(lam, complex)
+    bound = np.full(lam.shape, np.nan) if bound is None else np.asarray(bound, float)
+    order = np.lexsort((lam.imag, lam.real))
+    values["pole"], values["pole_bound"] = lam[order], bound[order]
     return values

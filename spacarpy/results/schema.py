@@ -42,7 +42,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 20)
+SCHEMA_VERSION = (2, 21)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -286,6 +286,10 @@ def _spec_list() -> list[DatasetSpec]:
           "without inertia (-1: not counted, where the sparse solver found only the lowest); the "
           "lowest of them are stored",
           (2, 5)),
+        S("eigen/eigenvalue_bound", "f8", _LIN_SHAPE["mode"], "s-2",
+          "error bound of the eigenvalue omega^2 of the assembled pencil (Kato-Temple's "
+          "residual^2 / gap and the Rayleigh quotient's rounding, docs/linearized.md); NaN "
+          "where the solver did not refine it (the sparse solvers)", (2, 21), optional=True),
         S("buckling/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),
         S("buckling/load_multiplier", "f8", _LIN_SHAPE["mode"], "1",
@@ -475,7 +479,11 @@ def _state_space_specs() -> list[DatasetSpec]:
           "deck line of each kinematic coordinate, the last states of A: 'KINE e k', "
           "'KINX n c'", (2, 13), optional=True),
         S("state_space/pole", "c16", (lin, "state"), "s^-1",
-          "eigenvalues of A, sorted by real part, then imaginary part", (2, 13)),
+          "eigenvalues of A, sorted by real part, then imaginary part; since 2.21 computed "
+          "from the second-order equations and refined (docs/linearized.md, Poles)", (2, 13)),
+        S("state_space/pole_bound", "f8", (lin, "state"), "s^-1",
+          "error bound of each pole of /state_space/pole (docs/linearized.md, Poles); NaN "
+          "where none was computed (a steady motion's poles)", (2, 21), optional=True),
         S("state_space/K0p", "f8", (lin, "dof", "kinematic_state"), per_dof,
           "dR/dp: the generalized forces of the kinematic coordinates p", (2, 13)),
         S("state_space/G", "f8", (lin, "kinematic_state", "dof"), per_dof,

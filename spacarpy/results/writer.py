@@ -333,21 +333,21 @@ class ResultsWriter:
         self._step("transient", float(time), given, deformation, stress_resultant)
 
     def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
-                   shape_euler, n_available: int | None = None) -> None:
+                   shape_euler, n_available: int | None = None, bound=np.nan) -> None:
         """Append the modes of one linearized static step (``step`` = its row in /static).
 
         Arrays may hold fewer modes than the group was created for; missing ones are NaN
         (kind 4). ``eigenvalue`` is complex (omega^2), ``shape_*`` (n_mode, n_pos, 3) and
-        (n_mode, n_rot, 4). ``n_available``: the number of finite modes the linearization
-        has (``/eigen/n_modes_available``; -1: not counted; default: the finite modes given).
-        """
+        (n_mode, n_rot, 4). ``n_available``: the finite modes the linearization has
+        (``/eigen/n_modes_available``; -1: not counted; default: the finite modes given);
+        ``bound`` each eigenvalue's error bound (``/eigen/eigenvalue_bound``)."""
         lam = np.asarray(eigenvalue, dtype=complex)
         if n_available is None:
             n_available = int(np.sum(np.asarray(kind) != 4))
         self._append_linearized("eigen", step, {
             "frequency": frequency, "eigenvalue_real": lam.real, "eigenvalue_imag": lam.imag,
             "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler,
-            "n_modes_available": n_available})
+            "n_modes_available": n_available, "eigenvalue_bound": bound})
 
     def buckling_step(self, step: int, load_multiplier, critical: float, shape_position,
                       shape_euler, kind=None) -> None:

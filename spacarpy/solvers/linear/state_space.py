@@ -20,7 +20,10 @@ Then
 
 the eigenvalues of (K0, M0) are those of :mod:`spacarpy.solvers.linear.eigen`, and the state
 ``z = [q; q']`` gives ``A = [[0, I], [-M0^-1 K0, -M0^-1 C0]]``, ``B = [[0], [M0^-1 B0]]``,
-``C = [O_x Phi, O_v Phi]`` and ``D = 0``.
+``C = [O_x Phi, O_v Phi]`` and ``D = 0``. The poles, the eigenvalues of A, are computed from
+the second-order equations and refined (:mod:`spacarpy.solvers.linear.refine`): undamped,
+``+-i w`` with w^2 the refined eigenvalues of (K0, M0), equal to the eigen analysis' to
+their bounds even beside modes 10^4 times stiffer.
 
 Inputs and outputs (:class:`spacarpy.settings.SystemSignal`): ``INPUTF i n c`` is a unit
 generalized force on coordinate c of node n: a force along x, y or z on a position node; on
@@ -48,6 +51,7 @@ from spacarpy.elements.base import FLEXIBLE, RELEASED, SLOT_SIZE
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.rotation import lambda_matrix
 from spacarpy.solvers.linear.eigen import null_space_basis
+from spacarpy.solvers.linear.refine import second_order_poles
 
 __all__ = ["DofLayout", "StateSpace", "StateSpaceError", "dof_layout", "dof_map", "dof_rows",
            "first_order",
@@ -114,7 +118,9 @@ class DofLayout:
 @dataclass
 class StateSpace:
     """The linearized equations at one state: second order in the degrees of freedom (M0,
-    C0, K0, B0) and first order (A, B, C, D)."""
+    C0, K0, B0) and first order (A, B, C, D); ``pole`` the eigenvalues of A computed from
+    the second-order equations and refined, ``pole_bound`` an error bound of each
+    (:func:`spacarpy.solvers.linear.refine.second_order_poles`)."""
 
     M0: np.ndarray
     C0: np.ndarray
@@ -124,6 +130,8 @@ class StateSpace:
     B: np.ndarray
     C: np.ndarray
     D: np.ndarray
+    pole: np.ndarray | None = field(default=None, kw_only=True)
+    pole_bound: np.ndarray | None = field(default=None, kw_only=True)
 
 
 def _modes_of(num, classes) -> DofLayout:
@@ -405,7 +413,9 @@ def first_order(M0, C0, K0, B0, out_q, out_dq, names) -> StateSpace:
     B[n:] = sla.cho_solve(chol, B0)
     C = np.hstack([out_q, out_dq])
     D = np.zeros((C.shape[0], B0.shape[1]))
-    return StateSpace(M0=M0, C0=C0, K0=K0, B0=B0, A=A, B=B, C=C, D=D)
+    pole, bound = second_order_poles(M0, C0, K0, A)
+    return StateSpace(M0=M0, C0=C0, K0=K0, B0=B0, A=A, B=B, C=C, D=D, pole=pole,
+                      pole_bound=bound)
 
 
 def state_space(lin, num, free, model, layout: DofLayout, inputs, outputs) -> StateSpace:
