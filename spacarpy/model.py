@@ -263,6 +263,7 @@ class FollowerLoad:
     kind: str
     value: tuple[float, float, float]
     loc: SourceLoc | None = None
+    tf: str | None = None          # LOADTF: the named time function of a DELXFL (transient)
 
 
 @dataclass(frozen=True)

@@ -80,6 +80,24 @@ def test_a_named_load_function_is_the_unnamed_one_bit_for_bit(tmp_path):
     _same(run(tmp_path, named, "named"), run(tmp_path, plain, "plain"))
 
 
+def test_a_named_follower_load_function_is_the_unnamed_one_bit_for_bit(tmp_path):
+    """A follower tip force (DELXFL, in the tip's axes) following ``TIMEFUNCTION pulse sine
+    3`` with the deck's own function zero gives exactly the states of the same DELXFL under
+    the deck's ``TIMEFUNCTION sine 3`` (LOADTF DELXFL was read, then ignored)."""
+    def deck(text):
+        return text.replace("DELXF 3 0 0.001 0", "DELXFL 3 4 0 0.001 0").replace(
+            "LOADTF pulse DELXF 3", "LOADTF pulse DELXFL 3")
+    named = deck(_cantilever(1e-3, 0.0)).replace("TIMEFUNCTION ramp 0.05", "TIMEFUNCTION zero")
+    plain = deck(_cantilever(1e-3, 0.0, named=False)).replace("TIMEFUNCTION ramp 0.05",
+                                                              "TIMEFUNCTION sine 3")
+    assert "LOADTF pulse DELXFL 3" in named and "DELXFL" in plain
+    a, b = run(tmp_path, named, "named"), run(tmp_path, plain, "plain")
+    _same(a, b)
+    assert np.abs(a["position"] - a["position"][0]).max() > 1e-6   # it did move
+    job = job_from_text(named, "n.dat")
+    assert [ld.tf for ld in job.model.follower_loads] == ["pulse"]
+
+
 def _short(text: str, steps: str) -> str:
     return "\n".join(steps if line.startswith("TIMESTEP") else line
                      for line in text.splitlines()) + "\n"

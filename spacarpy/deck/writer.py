@@ -302,6 +302,8 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
 def _load_tf_lines(model) -> list[str]:
     """The LOADTF lines of the loads and motions that name a time function."""
     named = [("DELXF", (ld.node,), ld.tf) for ld in model.loads if ld.kind == "DELXF"]
+    named += [("DELXFL", (ld.node,), ld.tf) for ld in getattr(model, "follower_loads", ())
+              if ld.kind == "DELXFL"]
     named += [("DELQE", (ld.element,), ld.tf) for ld in getattr(model, "line_loads", ())
               if ld.kind == "DELQE"]
     named += [("DELINPX", (p.node, p.coord), p.tf) for p in model.prescribed]

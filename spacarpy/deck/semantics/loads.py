@@ -296,6 +296,8 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
                      else ld for ld in res.loads]
         res.line_loads = [replace(ld, tf=tf_of.get(("DELQE", ld.element)))
                           if ld.kind == "DELQE" else ld for ld in res.line_loads]
+        res.follower_loads = [replace(ld, tf=tf_of.get(("DELXFL", ld.node)))
+                              if ld.kind == "DELXFL" else ld for ld in res.follower_loads]
     for st in by_kw.get("XM", []):
         part.nodal_mass(st)
     for st in by_kw.get("GRAVITY", []):

@@ -266,7 +266,7 @@ class TransientProblem:
         if self._load_at is not None and self._load_at[0] == t:
             load = self._load_at[1]                  # a step's iterations share its time
         else:
-            if self.prob.loads.named or self.num.rigid_tf:   # LOADTF: named functions
+            if self.prob.loads.uses_named or self.num.rigid_tf:   # LOADTF: named functions
                 load = self.prob.loads.at_time({name: v[0] for name, v
                                                 in self.opts.named_values(t).items()})
             else:

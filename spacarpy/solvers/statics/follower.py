@@ -30,7 +30,7 @@ an orientation node n, with components in the current axes of orientation node r
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -52,6 +52,9 @@ class LoadPart:
     initial, increment : (n_b, k) float
         The amplitudes present from the start (XF-like) and added over the load steps
         (DELXF-like).
+    named : dict
+        The parts of ``increment`` whose lines name a time function (LOADTF), by its name
+        ((n_b, k) each); a transient scales them by that function instead of the deck's.
     """
 
     name: str
@@ -59,6 +62,7 @@ class LoadPart:
     cols: np.ndarray
     initial: np.ndarray
     increment: np.ndarray
+    named: dict = field(default_factory=dict)
 
     def force(self, x: np.ndarray, amp: np.ndarray, n_coord: int) -> np.ndarray:
         raise NotImplementedError
@@ -69,6 +73,16 @@ class LoadPart:
     def amplitude(self, a: float, s: float) -> np.ndarray:
         """``a initial + s increment``."""
         return a * self.initial + s * self.increment
+
+    def amplitude_at(self, phi: dict) -> np.ndarray:
+        """The amplitude of a transient at the time functions' values ``phi`` (name ->
+        value; None the deck's function): ``initial + phi[None] (increment - sum named) +
+        sum phi[name] named[name]``."""
+        if not self.named:
+            return self.amplitude(1.0, phi[None])
+        default = self.increment - sum(self.named.values())
+        return (self.initial + phi[None] * default
+                + sum(phi[name] * inc for name, inc in self.named.items()))
 
 
 def _add(n_coord: int, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -185,8 +199,12 @@ def nodal_followers(model, num, pos_row: dict, rot_row: dict) -> list:
             cols = np.concatenate([rows, qr], axis=1)
         amp = {k: np.array([ld.value if ld.kind == k else (0.0, 0.0, 0.0) for ld in mine],
                            dtype=float).reshape(n, 3) for k in ("XFL", "DELXFL")}
+        named = {}
+        for tf in {getattr(ld, "tf", None) for ld in mine} - {None}:
+            named[tf] = np.where(np.array([getattr(ld, "tf", None) == tf for ld in mine])[:, None],
+                                 amp["DELXFL"], 0.0)
         out.append(cls(name="XFL " + ("force" if is_force else "moment"), rows=rows,
-                       cols=cols, initial=amp["XFL"], increment=amp["DELXFL"]))
+                       cols=cols, initial=amp["XFL"], increment=amp["DELXFL"], named=named))
     return out
 
 

@@ -136,6 +136,11 @@ class Loads:
         self.any = self.any or self.has_xf or bool(np.any(part.increment))
 
     @property
+    def uses_named(self) -> bool:
+        """Whether a load increment (DELXF, DELQE, DELXFL) names its own time function."""
+        return bool(self.named) or any(p.named for p in self.parts)
+
+    @property
     def has_increment(self) -> bool:
         """Whether the load steps add a load (DELXF, DELXFL or another part's increment)."""
         return bool(np.any(self.force["DELXF"]) or np.any(self.moment["DELXF"])
@@ -210,6 +215,8 @@ class Loads:
         deformations at their functions' values (:meth:`at` ``(1, phi[None])`` where
         nothing names a function)."""
         load = self.at(1.0, phi[None])
+        if any(p.named for p in self.parts):
+            load = replace(load, follow=tuple(p.amplitude_at(phi) for p in self.parts))
         if not self.named and not self.num.rigid_tf:
             return load
         force = self.force["XF"] + phi[None] * self.default_force
