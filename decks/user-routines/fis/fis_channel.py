@@ -178,36 +178,93 @@ def friction_force(fn, vt):
             + MU_KINETIC * fn * np.tanh(vt / (V_BREAKAWAY / 10)))
 
 
-def contact_rows(state, nodes, stride, vel_ratio):
-    """USERSIG rows ``[node, direction, value]`` of the wall's contact on the position nodes
-    ``nodes`` (the tip first); the next position node is ``node + stride``, the orientation
-    node ``node + 1``."""
-    nodes = np.asarray(nodes)
-    pos = np.asarray(state.x[nodes], dtype=float)
-    nxt = np.asarray(state.x[nodes + stride], dtype=float)
-    vel = np.asarray(state.xd[nodes], dtype=float) / vel_ratio
-    q = np.asarray(state.x[nodes + 1], dtype=float)
-    qd = np.asarray(state.xd[nodes + 1], dtype=float)
+def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip):
+    """The wall's force (k, 3) on position nodes at ``pos`` (velocities ``vel``, m/s of the
+    run) and the Euler-parameter forces (k, 4) on their orientation nodes (``q``, ``qd``);
+    ``nxt`` the next position node's coordinates, which set the axis of the rows ``tip``
+    (bool, k) whose radius towards the wall is reduced."""
+    vel = vel / vel_ratio
     omega = angular_velocity(q, qd) / vel_ratio
     foot, d = nearest(pos)
     n = _unit(pos - foot)                                    # outward normal
     vn = (vel * n).sum(-1)
     t = _unit(vel - vn[:, None] * n)                         # slip direction
-    ro = np.full(nodes.size, R_OUTER)
-    axis = _unit(nxt[:1] - pos[:1])                          # the tip's axis
-    perp = _unit(_cross(_cross(axis, n[:1]), axis))      # n's part across the axis
-    ro[0] = float((perp * n[:1]).sum()) * R_OUTER
+    ro = np.full(pos.shape[0], R_OUTER)
+    if tip.any():
+        axis = _unit(nxt[tip] - pos[tip])                    # the tip's axis
+        perp = _unit(_cross(_cross(axis, n[tip]), axis))     # n's part across the axis
+        ro[tip] = (perp * n[tip]).sum(-1) * R_OUTER
     a, b = R_A - ro, R_B - ro
     vt = (vel * t).sum(-1) + (_cross(omega, ro[:, None] * n) * t).sum(-1)
     fn = normal_force(d, vn, a, b)
     ff = friction_force(fn, vt)
     force = -fn[:, None] * n - ff[:, None] * t
     moment = _cross(ro[:, None] * n, force)
-    gen = euler_forces(q, moment)
-    rows = [np.column_stack([nodes, np.full(nodes.size, c + 1), force[:, c]]) for c in range(3)]
-    rows += [np.column_stack([nodes + 1, np.full(nodes.size, c + 1), gen[:, c]])
-             for c in range(4)]
-    return np.concatenate(rows)
+    return force, euler_forces(q, moment)
+
+
+#: The difference quotients' steps of :func:`contact_derivatives`: positions (m), Euler
+#: parameters, velocities (m/s of the run), Euler-parameter rates (1/s).
+FD_STEPS = (1e-9, 1e-8, 1e-8, 1e-7)
+
+
+def contact_derivatives(pos, nxt, vel, q, qd, vel_ratio, tip):
+    """The derivatives of :func:`contact_loads`' 7 outputs (force x, y, z, then the Euler-
+    parameter forces) of each row with respect to its own inputs, by central differences
+    of all rows at once (each row's loads depend on its own inputs only): ``(d/dx (k, 7,
+    10), d/dxd (k, 7, 7))``, the inputs ``[pos, q, nxt]`` and ``[vel, qd]``."""
+    k = pos.shape[0]
+    base = np.concatenate([pos, q, nxt, vel, qd], axis=1)          # (k, 17)
+    steps = np.repeat([FD_STEPS[0], FD_STEPS[1], FD_STEPS[0], FD_STEPS[2], FD_STEPS[3]],
+                      [3, 4, 3, 3, 4])
+    m = base.shape[1]
+    z = np.repeat(base[None], 2 * m, axis=0)                       # (2m, k, 17)
+    cols = np.arange(m)
+    z[cols, :, cols] += steps[:, None]
+    z[m + cols, :, cols] -= steps[:, None]
+    z = z.reshape(2 * m * k, m)
+    force, gen = contact_loads(z[:, :3], z[:, 7:10], z[:, 10:13], z[:, 3:7], z[:, 13:],
+                               vel_ratio, np.tile(tip, 2 * m))
+    out = np.concatenate([force, gen], axis=1).reshape(2, m, k, 7)
+    jac = ((out[0] - out[1]) / (2 * steps[:, None, None])).transpose(1, 2, 0)   # (k, 7, m)
+    return jac[:, :, :10], jac[:, :, 10:]
+
+
+def contact_rows(state, nodes, stride, vel_ratio):
+    """USERSIG rows ``[node, direction, value]`` of the wall's contact on the position nodes
+    ``nodes`` (the tip first); the next position node is ``node + stride``, the orientation
+    node ``node + 1``. Where the solver asks for them (``state.derivatives``), also the
+    derivative rows ``[node, direction, wrt_node, wrt_direction, d/dx, d/dxd]``."""
+    nodes = np.asarray(nodes)
+    pos = np.asarray(state.x[nodes], dtype=float)
+    nxt = np.asarray(state.x[nodes + stride], dtype=float)
+    vel = np.asarray(state.xd[nodes], dtype=float)
+    q = np.asarray(state.x[nodes + 1], dtype=float)
+    qd = np.asarray(state.xd[nodes + 1], dtype=float)
+    tip = np.zeros(nodes.size, dtype=bool)
+    tip[0] = True
+    force, gen = contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip)
+    out_node = np.repeat([[0, 0, 0, 1, 1, 1, 1]], nodes.size, axis=0) + nodes[:, None]
+    out_dir = np.tile([1, 2, 3, 1, 2, 3, 4], (nodes.size, 1))
+    rows = np.column_stack([out_node.ravel(), out_dir.ravel(),
+                            np.concatenate([force, gen], axis=1).ravel()])
+    if not getattr(state, "derivatives", False):
+        return rows
+    dx, dv = contact_derivatives(pos, nxt, vel, q, qd, vel_ratio, tip)
+    # the inputs' coordinates: [pos 1-3, q 1-4, nxt 1-3]; the rates those of pos and q
+    wrt_node = np.concatenate([np.repeat(nodes[:, None], 3, 1),
+                               np.repeat(nodes[:, None] + 1, 4, 1),
+                               np.repeat(nodes[:, None] + stride, 3, 1)], axis=1)  # (k, 10)
+    wrt_dir = np.tile([1, 2, 3, 1, 2, 3, 4, 1, 2, 3], (nodes.size, 1))
+    d_dxd = np.concatenate([dv, np.zeros((nodes.size, 7, 3))], axis=2)     # (k, 7, 10)
+    shape = (nodes.size, 7, 10)
+    drows = np.column_stack([np.broadcast_to(out_node[:, :, None], shape).ravel(),
+                             np.broadcast_to(out_dir[:, :, None], shape).ravel(),
+                             np.broadcast_to(wrt_node[:, None, :], shape).ravel(),
+                             np.broadcast_to(wrt_dir[:, None, :], shape).ravel(),
+                             dx.ravel(), d_dxd.ravel()])
+    drows = drows[(drows[:, 4] != 0) | (drows[:, 5] != 0)]
+    return rows, drows
 
 
 def insertion(t, node, t_end, speed, x0=X_INPUT):
