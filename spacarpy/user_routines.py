@@ -447,17 +447,48 @@ def _is_pair(out) -> bool:
 
 
 class _MotionAdapter:
-    """USERINP as the transient's ``user_motion(t) -> (idx, x, v, a)``."""
+    """USERINP as the transient's ``user_motion(t) -> (idx, x, v, a)`` (the input
+    coordinates it drives) with :meth:`deformations` (the prescribed deformations it
+    drives). The routine returns rows ``[node, coordinate, x, x', x'']`` of INPUTX
+    coordinates, or a dict ``{"x": those rows, "e": rows [element, mode, e, e', e'']}`` of
+    INPUTE deformations (either key may be left out)."""
 
     FORM = "[node, coordinate, value, velocity, acceleration]"
+    FORM_E = "[element, mode, value, rate, second derivative]"
 
     def __init__(self, routine, model, num):
         self.routine = routine
         self.table = _lookup_table(_node_maps(model, num)[0])
         self.inputs = set(int(i) for i in num.prescribed_idx)
+        # (element number, mode) -> rigid-mode constraint row, of the INPUTE modes
+        self.modes = {}
+        presc = num.rigid_prescribed
+        for g in num.groups:
+            for k, (el, mode) in enumerate(zip(g.rigid_elem, g.rigid_mode)):
+                row = g.rigid_offset + k
+                if row < presc.size and presc[row]:
+                    self.modes[(int(g.ids[el]), int(mode) + 1)] = row
+        self._at = None                  # (t, x part, e part) of the last call
 
-    def __call__(self, t):
-        rows = _rows(self.routine.call(t), 5, self.routine, t, self.FORM)
+    def _parts(self, t):
+        if self._at is not None and self._at[0] == t:
+            return self._at[1], self._at[2]
+        out = self.routine.call(t)
+        e_rows = None
+        if isinstance(out, dict):
+            unknown = set(out) - {"x", "e"}
+            if unknown:
+                self.routine.fail(t, f"returned a dict with the key(s) {sorted(unknown)}; "
+                                     "expected 'x' (rows " + self.FORM + ") and/or 'e' (rows "
+                                     + self.FORM_E + ")")
+            e_rows = _rows(out.get("e", []), 5, self.routine, t, self.FORM_E)
+            out = out.get("x", [])
+        x_part = self._x_part(t, _rows(out, 5, self.routine, t, self.FORM))
+        e_part = None if e_rows is None else self._e_part(t, e_rows)
+        self._at = (t, x_part, e_part)
+        return x_part, e_part
+
+    def _x_part(self, t, rows):
         idx = _coordinates(self.table, self.routine, t, rows[:, 0], rows[:, 1])
         for r, i in zip(rows, idx):
             if int(i) not in self.inputs:
@@ -466,6 +497,27 @@ class _MotionAdapter:
         if len(set(idx.tolist())) != idx.size:
             self.routine.fail(t, "gives a coordinate twice")
         return idx, rows[:, 2].copy(), rows[:, 3].copy(), rows[:, 4].copy()
+
+    def _e_part(self, t, rows):
+        idx = []
+        for r in rows:
+            key = (int(r[0]), int(r[1]))
+            if key != (r[0], r[1]) or key not in self.modes:
+                self.routine.fail(t, f"gives element {r[0]:g} mode {r[1]:g}, which is not a "
+                                     "prescribed deformation (declare it with INPUTE)")
+            idx.append(self.modes[key])
+        idx = np.asarray(idx, dtype=np.int64)
+        if len(set(idx.tolist())) != idx.size:
+            self.routine.fail(t, "gives a deformation twice")
+        return idx, rows[:, 2].copy(), rows[:, 3].copy(), rows[:, 4].copy()
+
+    def __call__(self, t):
+        return self._parts(t)[0]
+
+    def deformations(self, t):
+        """(rigid-mode constraint rows, e, e', e'') the routine prescribes at time t, or
+        None where it returns no ``"e"`` rows."""
+        return self._parts(t)[1]
 
 
 def loaded_routines(model, num, analysis: str, deck_path, user_modules=()):

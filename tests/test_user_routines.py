@@ -134,8 +134,10 @@ def test_routine_motion_equals_the_deck_motion(tmp_path):
     """USERINP giving y = 0.1 sin(2 pi t) with its exact rates on the tip equals INPUTX with
     DELINPX 0.1 and TIMEFUNCTION sine 1."""
     data = "TIMESTEP 0.5 40\n"
+    # (VELOCITY on the clamped node: the reference, too, starts with the velocities made
+    # consistent with the prescribed one, as a routine's motion does)
     ref = deck(tmp_path, "ref", "INPUTX 5 2 0 0 0\nDELINPX 5 2 0.1\nTIMEFUNCTION sine 1\n"
-               + data, inputs="INPUTX 5 2\n")
+               "VELOCITY 1 0 0 0\n" + data, inputs="INPUTX 5 2\n")
     usr = deck(tmp_path, "usr", "USERINP mv\n" + data, inputs="INPUTX 5 2\n",
                routines={"mv": """
         import math
@@ -275,8 +277,8 @@ def test_deck_errors_of_user_routine_lines(tmp_path, capsys):
     path = deck(tmp_path, "usr", "USERINP mv\nUSERSIG a\nUSERSIG b\n")
     assert run(path, "--allow-user-code") == 2
     err = capsys.readouterr().err
-    assert f"{path}:16:1: error: USERINP: the routine gives the motion of input coordinates, " \
-           "and the deck declares none" in err
+    assert f"{path}:16:1: error: USERINP: the routine gives the motion of input coordinates " \
+           "or prescribed deformations, and the deck declares none" in err
     assert f"{path}:18:1: error: USERSIG is given twice (lines 17 and 18)" in err
 
 

@@ -256,7 +256,16 @@ class TransientProblem:
             z = np.zeros(num.n_rigid)
             return z, z
         _, dv, da = num.input_motion(t, rigid=True)
-        return num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
+        rate, accel = num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
+        user = self._user_deformations(t)
+        if user is not None:                         # USERINP's deformations
+            rate[user[0]], accel[user[0]] = user[2], user[3]
+        return rate, accel
+
+    def _user_deformations(self, t: float):
+        """(rows, e, e', e'') of the deformations a USERINP routine drives at t, or None."""
+        part = getattr(self.opts.user_motion, "deformations", None)
+        return None if part is None else part(t)
 
     def loads(self, t: float, v=None) -> LoadState:
         """The load at time t: XF and gravity, ``phi(t)`` times DELXF, and the prescribed
@@ -269,6 +278,9 @@ class TransientProblem:
             if self.num.rigid_rate.size:             # 5-field INPUTE: + v0 t + a0 t^2/2
                 load = replace(load, rigid_target=load.rigid_target
                                + self.num.input_motion(t, rigid=True)[0])
+            if (user := self._user_deformations(t)) is not None:     # USERINP's
+                load = replace(load, rigid_target=load.rigid_target.copy())
+                load.rigid_target[user[0]] = user[1]
             self._load_at = (t, load)
         if self.prob.loads.user is not None:
             load = replace(load, user=self.prob.loads.bind(t, v))
@@ -457,6 +469,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     v = np.zeros(num.n_coord)
     v[idx] = vp0
     if opts.initial_velocities or num.prescribed_rate.size or num.rigid_rate.size \
+            or opts.user_motion is not None \
             or model.initial_rates:
         v = _initial_velocities(tp, x, v, opts.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
