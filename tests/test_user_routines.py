@@ -447,7 +447,7 @@ def test_fis_rig_deck_runs_with_its_routines(tmp_path, fis):
         tip = tr.position(1)
         push = tr.reaction(49)[:, 0]
     assert tip[-1, 0] == pytest.approx(0.021, abs=1e-3)
-    _, d = fis.nearest(tip)
+    _, d, _ = fis.nearest(tip)
     assert d.max() < fis.R_B - fis.R_OUTER + 2e-5
     assert tip[-1, 1] > 5e-4                         # along the arc, bending to +y
     assert push[t > 0.2].min() > 1.0                 # N: the wall resists the insertion

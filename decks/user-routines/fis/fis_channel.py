@@ -125,17 +125,24 @@ def centreline(n=N_POINTS):
 CENTRELINE = centreline()
 
 
-def nearest(points, line=CENTRELINE):
-    """(nearest points (k, 3), distances (k,)) of ``points`` on the polyline ``line``."""
+def nearest(points, line=CENTRELINE, near=None):
+    """(nearest points (k, 3), distances (k,), segment indices (k,)) of ``points`` on the
+    polyline ``line``; with ``near`` (k,) segment indices, among those segments and their
+    neighbours only (points that moved little since ``near`` was found)."""
     a, b = line[:-1], line[1:]
-    ab = b - a
-    rel = points[:, None, :] - a[None]
-    s = np.clip((rel * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
-    foot = a[None] + s[..., None] * ab[None]
-    dist = np.linalg.norm(points[:, None, :] - foot, axis=-1)
-    k = dist.argmin(axis=1)
+    if near is None:
+        cand = np.broadcast_to(np.arange(a.shape[0]), (points.shape[0], a.shape[0]))
+    else:
+        cand = np.clip(np.asarray(near)[:, None] + np.arange(-1, 2), 0, a.shape[0] - 1)
+    a, ab = a[cand], (b - a)[cand]                            # (k, m, 3)
+    rel = points[:, None, :] - a
+    s = np.clip(np.einsum("kmi,kmi->km", rel, ab) / np.einsum("kmi,kmi->km", ab, ab),
+                0.0, 1.0)
+    diff = rel - s[..., None] * ab
+    dist2 = np.einsum("kmi,kmi->km", diff, diff)
+    k = dist2.argmin(axis=1)
     rows = np.arange(points.shape[0])
-    return foot[rows, k], dist[rows, k]
+    return (points - diff[rows, k], np.sqrt(dist2[rows, k]), cand[rows, k])
 
 
 def _cross(a, b):
@@ -178,14 +185,15 @@ def friction_force(fn, vt):
             + MU_KINETIC * fn * np.tanh(vt / (V_BREAKAWAY / 10)))
 
 
-def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip):
+def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, near=None):
     """The wall's force (k, 3) on position nodes at ``pos`` (velocities ``vel``, m/s of the
     run) and the Euler-parameter forces (k, 4) on their orientation nodes (``q``, ``qd``);
     ``nxt`` the next position node's coordinates, which set the axis of the rows ``tip``
-    (bool, k) whose radius towards the wall is reduced."""
+    (bool, k) whose radius towards the wall is reduced; ``near``: the centreline segments
+    near which the nodes lie (:func:`nearest`), if known."""
     vel = vel / vel_ratio
     omega = angular_velocity(q, qd) / vel_ratio
-    foot, d = nearest(pos)
+    foot, d, _ = nearest(pos, near=near)
     n = _unit(pos - foot)                                    # outward normal
     vn = (vel * n).sum(-1)
     t = _unit(vel - vn[:, None] * n)                         # slip direction
@@ -223,8 +231,9 @@ def contact_derivatives(pos, nxt, vel, q, qd, vel_ratio, tip):
     z[cols, :, cols] += steps[:, None]
     z[m + cols, :, cols] -= steps[:, None]
     z = z.reshape(2 * m * k, m)
+    near = np.tile(nearest(pos)[2], 2 * m)      # (the perturbations move nodes by 1e-9 m)
     force, gen = contact_loads(z[:, :3], z[:, 7:10], z[:, 10:13], z[:, 3:7], z[:, 13:],
-                               vel_ratio, np.tile(tip, 2 * m))
+                               vel_ratio, np.tile(tip, 2 * m), near)
     out = np.concatenate([force, gen], axis=1).reshape(2, m, k, 7)
     jac = ((out[0] - out[1]) / (2 * steps[:, None, None])).transpose(1, 2, 0)   # (k, 7, m)
     return jac[:, :, :10], jac[:, :, 10:]
