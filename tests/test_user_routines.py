@@ -451,3 +451,37 @@ def test_fis_rig_deck_runs_with_its_routines(tmp_path, fis):
     assert d.max() < fis.R_B - fis.R_OUTER + 2e-5
     assert tip[-1, 1] > 5e-4                         # along the arc, bending to +y
     assert push[t > 0.2].min() > 1.0                 # N: the wall resists the insertion
+
+
+@pytest.mark.slow
+def test_fis_flex_deck_runs_into_the_wall(tmp_path, fis):
+    """fis_flex_cat_s_3d.dat with FFESFVA/FFESMVA to t = 0.105 s in 700 steps (the deck's
+    step, 0.15 ms; it runs to 1.2 s in 8000): the proximal node follows the insertion at
+    0.2 m/s, the tip meets the wall of the first arc (from t = 0.073 s) and bends along
+    it, no node passes the wall by more than the penetration its stiffness allows, the
+    insertion force grows, and the energy balance T + U + D - W (W: the insertion's and the
+    wall's work) holds to 1 % of the work done. (Under a minute: the routine gives its
+    derivatives; docs/user-routines.md has the full run.)"""
+    path, _ = _corpus_job(tmp_path, "fis_flex_cat_s_3d.dat", timestep="0.105 700")
+    out = tmp_path / "flex.h5"
+    assert main(["run", str(path), "--mode", "transient", "-o", str(out), "-q",
+                 "--allow-user-code", "--user-module", str(FIS)]) == 0
+    with open_results(out) as r:
+        tr = r.transient
+        t = tr.time
+        np.testing.assert_allclose(tr.position(49)[:, 0], -0.12 + 0.2 * t, atol=1e-12)
+        pos = np.stack([tr.position(n) for n in range(1, 48, 2)], axis=1)
+        push = tr.reaction(49)[:, 0]
+        bal = (tr.kinetic_energy + tr.elastic_energy + tr.dissipated_energy
+               - tr.external_work)
+        work = tr.external_work
+    _, d, _ = fis.nearest(pos.reshape(-1, 3))
+    d = d.reshape(pos.shape[:2])
+    a, b = fis.R_A - fis.R_OUTER, fis.R_B - fis.R_OUTER
+    first = t[np.argmax((d >= a).any(axis=1))]
+    assert 0.06 < first < 0.08                       # the tip reaches the arc at x = 0.01
+    assert d.max() < b + 3e-5                         # inside the wall's penetration
+    assert pos[-1, 0, 0] == pytest.approx(0.021, abs=1e-3)
+    assert pos[-1, 0, 1] > 2e-4                       # along the arc, bending to +y
+    assert push[-1] > 0.05 and push[-1] > 5 * abs(push[t < 0.06]).max()
+    assert np.ptp(bal) < 0.01 * np.abs(work).max()

@@ -257,15 +257,9 @@ class TransientProblem:
             return z, z
         _, dv, da = num.input_motion(t, rigid=True)
         rate, accel = num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
-        user = self._user_deformations(t)
-        if user is not None:                         # USERINP's deformations
+        if (user := self.opts.user_deformations(t)) is not None:     # USERINP's
             rate[user[0]], accel[user[0]] = user[2], user[3]
         return rate, accel
-
-    def _user_deformations(self, t: float):
-        """(rows, e, e', e'') of the deformations a USERINP routine drives at t, or None."""
-        part = getattr(self.opts.user_motion, "deformations", None)
-        return None if part is None else part(t)
 
     def loads(self, t: float, v=None) -> LoadState:
         """The load at time t: XF and gravity, ``phi(t)`` times DELXF, and the prescribed
@@ -275,13 +269,12 @@ class TransientProblem:
             load = self._load_at[1]                  # a step's iterations share its time
         else:
             load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
+            target = load.rigid_target.copy()
             if self.num.rigid_rate.size:             # 5-field INPUTE: + v0 t + a0 t^2/2
-                load = replace(load, rigid_target=load.rigid_target
-                               + self.num.input_motion(t, rigid=True)[0])
-            if (user := self._user_deformations(t)) is not None:     # USERINP's
-                load = replace(load, rigid_target=load.rigid_target.copy())
-                load.rigid_target[user[0]] = user[1]
-            self._load_at = (t, load)
+                target += self.num.input_motion(t, rigid=True)[0]
+            if (user := self.opts.user_deformations(t)) is not None:     # USERINP's
+                target[user[0]] = user[1]
+            self._load_at = (t, load := replace(load, rigid_target=target))
         if self.prob.loads.user is not None:
             load = replace(load, user=self.prob.loads.bind(t, v))
         return load
@@ -469,8 +462,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     v = np.zeros(num.n_coord)
     v[idx] = vp0
     if opts.initial_velocities or num.prescribed_rate.size or num.rigid_rate.size \
-            or opts.user_motion is not None \
-            or model.initial_rates:
+            or opts.user_motion is not None or model.initial_rates:
         v = _initial_velocities(tp, x, v, opts.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)

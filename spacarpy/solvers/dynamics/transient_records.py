@@ -52,8 +52,14 @@ class TransientOptions:
     reuse_matrix: bool = True
     #: a user routine's prescribed motion (USERINP): ``user_motion(t) -> (idx, x, v, a)``
     #: for input coordinates ``idx`` (global coordinate numbers), replacing the deck's
-    #: values of those coordinates
+    #: values of those coordinates; its ``deformations(t)`` (if any) likewise for the
+    #: prescribed deformations (:meth:`user_deformations`)
     user_motion: object = None
+
+    def user_deformations(self, t: float):
+        """(rigid-mode constraint rows, e, e', e'') of the prescribed deformations a USERINP
+        routine drives at time t, or None."""
+        return getattr(self.user_motion, "deformations", lambda t: None)(t)
 
     @classmethod
     def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:
