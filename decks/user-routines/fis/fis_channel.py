@@ -185,12 +185,13 @@ def friction_force(fn, vt):
             + MU_KINETIC * fn * np.tanh(vt / (V_BREAKAWAY / 10)))
 
 
-def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, near=None):
+def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, near=None, distance=False):
     """The wall's force (k, 3) on position nodes at ``pos`` (velocities ``vel``, m/s of the
     run) and the Euler-parameter forces (k, 4) on their orientation nodes (``q``, ``qd``);
     ``nxt`` the next position node's coordinates, which set the axis of the rows ``tip``
     (bool, k) whose radius towards the wall is reduced; ``near``: the centreline segments
-    near which the nodes lie (:func:`nearest`), if known."""
+    near which the nodes lie (:func:`nearest`), if known; with ``distance`` also the nodes'
+    distances from the centreline."""
     vel = vel / vel_ratio
     omega = angular_velocity(q, qd) / vel_ratio
     foot, d, _ = nearest(pos, near=near)
@@ -208,6 +209,8 @@ def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, near=None):
     ff = friction_force(fn, vt)
     force = -fn[:, None] * n - ff[:, None] * t
     moment = _cross(ro[:, None] * n, force)
+    if distance:
+        return force, euler_forces(q, moment), d
     return force, euler_forces(q, moment)
 
 
@@ -252,7 +255,7 @@ def contact_rows(state, nodes, stride, vel_ratio):
     qd = np.asarray(state.xd[nodes + 1], dtype=float)
     tip = np.zeros(nodes.size, dtype=bool)
     tip[0] = True
-    force, gen = contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip)
+    force, gen, d = contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, distance=True)
     out_node = np.repeat([[0, 0, 0, 1, 1, 1, 1]], nodes.size, axis=0) + nodes[:, None]
     out_dir = np.tile([1, 2, 3, 1, 2, 3, 4], (nodes.size, 1))
     rows = np.column_stack([out_node.ravel(), out_dir.ravel(),
@@ -261,7 +264,7 @@ def contact_rows(state, nodes, stride, vel_ratio):
         return rows
     # only the nodes near the wall have loads that change (zone I, d < a, has none; the
     # difference steps move a node by 1e-9 m)
-    touch = nearest(pos)[1] >= R_A - R_OUTER - 1e-6
+    touch = d >= R_A - R_OUTER - 1e-6
     dx = np.zeros((nodes.size, 7, 10))
     dv = np.zeros((nodes.size, 7, 7))
     if touch.any():
