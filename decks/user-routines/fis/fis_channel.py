@@ -22,9 +22,9 @@ and ``b = rb - ro`` (xi = (d - a)/(b - a)):
     zone III  d >= b      fn = k (b - a) (xi - 1/2) + c vn
 
 (continuous with its slope; vn the node's velocity along the outward normal n). Friction
-acts against the slip velocity vt of the contact point (the node's tangential velocity plus
-omega x ro n), with a Stribeck peak mu_s at the breakaway velocity v_brk above the Coulomb
-level mu_k:
+acts against the slip velocity of the contact point (the node's tangential velocity plus
+omega x ro n; vt its size, t its direction), with a Stribeck peak mu_s at the breakaway
+velocity v_brk above the Coulomb level mu_k:
 
     ff = sqrt(2 e) (mu_s - mu_k) fn exp(-u^2) u + mu_k fn tanh(10 vt / v_brk),
     u = vt / (v_brk sqrt 2)
@@ -41,7 +41,10 @@ driver script writes (here they are constants below, the driver's values), find 
 point with a third-party curve-distance function (here: the exact nearest point of the
 polyline), zero a node's whole load when its slip direction is undefined (here only the
 friction, whose limit at zero slip is zero), and keep the tip's reduced radius for every
-later node of the loop (here the tip alone, as their comment says).
+later node of the loop (here the tip alone, as their comment says). The slip direction is
+the contact point's (the node's velocity alone gave a friction that jumped where the node
+stopped and the section still turned: the flexible deck's Newton iterations stalled there,
+after the insertion stops at t = 0.6 s).
 """
 from __future__ import annotations
 
@@ -197,14 +200,17 @@ def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, near=None, distance=Fals
     foot, d, _ = nearest(pos, near=near)
     n = _unit(pos - foot)                                    # outward normal
     vn = (vel * n).sum(-1)
-    t = _unit(vel - vn[:, None] * n)                         # slip direction
     ro = np.full(pos.shape[0], R_OUTER)
     if tip.any():
         axis = _unit(nxt[tip] - pos[tip])                    # the tip's axis
         perp = _unit(_cross(_cross(axis, n[tip]), axis))     # n's part across the axis
         ro[tip] = (perp * n[tip]).sum(-1) * R_OUTER
     a, b = R_A - ro, R_B - ro
-    vt = (vel * t).sum(-1) + (_cross(omega, ro[:, None] * n) * t).sum(-1)
+    # the contact point's slip: its velocity across n (omega x ro n is across n already);
+    # friction acts against it, ff(|slip|) slip/|slip|, smooth through zero slip (ff is odd)
+    slip = vel - vn[:, None] * n + _cross(omega, ro[:, None] * n)
+    vt = np.linalg.norm(slip, axis=-1)
+    t = _unit(slip)                                          # slip direction
     fn = normal_force(d, vn, a, b)
     ff = friction_force(fn, vt)
     force = -fn[:, None] * n - ff[:, None] * t
