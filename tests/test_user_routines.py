@@ -435,7 +435,8 @@ def test_fis_rig_deck_runs_with_its_routines(tmp_path, fis):
     the insertion, the tip enters the channel's first arc (from x = 0.01 m, at t = 0.19 s) and
     stays inside the wall (its distance from the centreline below b plus the penetration the
     wall's stiffness allows), and the insertion force (the reaction of node 49 along x) pushes
-    against the wall. (About 15 minutes on 2 loaded cores to t = 0.24 s: kept short.)"""
+    against the wall. (96 s on the 2 cores under a load of 14; 15 minutes to t = 0.24 s
+    before the routine gave its derivatives.)"""
     path, _ = _corpus_job(tmp_path, "fis_rig_cat_s_3d.dat", timestep="0.21 210")
     out = tmp_path / "rig.h5"
     assert main(["run", str(path), "--mode", "transient", "-o", str(out), "-q",
@@ -460,8 +461,8 @@ def test_fis_flex_deck_runs_into_the_wall(tmp_path, fis):
     0.2 m/s, the tip meets the wall of the first arc (from t = 0.073 s) and bends along
     it, no node passes the wall by more than the penetration its stiffness allows, the
     insertion force grows, and the energy balance T + U + D - W (W: the insertion's and the
-    wall's work) holds to 1 % of the work done. (Under a minute: the routine gives its
-    derivatives; docs/user-routines.md has the full run.)"""
+    wall's work) holds to 1 % of the work done. (81 s on the 2 cores under a load of 14,
+    about 15 s of CPU; docs/user-routines.md has the full run.)"""
     path, _ = _corpus_job(tmp_path, "fis_flex_cat_s_3d.dat", timestep="0.105 700")
     out = tmp_path / "flex.h5"
     assert main(["run", str(path), "--mode", "transient", "-o", str(out), "-q",
