@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 
 from spacarpy.errors import UserCodeRefused, UserRoutineError
 
@@ -217,14 +218,16 @@ def _load(routine, deck_path, user_modules) -> _Routine:
 class _ByNumber:
     """Rows of an array by deck numbers: ``m[n]`` one row, ``m[[n1, n2]]`` stacked rows."""
 
-    def __init__(self, rows: dict, values, what: str):
-        self._rows, self._values, self._what = rows, values, what
+    def __init__(self, rows: dict, values, what: str, read: set | None = None):
+        self._rows, self._values, self._what, self._read = rows, values, what, read
 
     def _value(self, n):
         try:
             where = self._rows[int(n)]
         except (KeyError, TypeError, ValueError):
             raise KeyError(f"{self._what} {n} is not in the model") from None
+        if self._read is not None:
+            self._read.add(int(n))
         return self._values(where)
 
     def __getitem__(self, n):
@@ -248,17 +251,23 @@ class _ByNumber:
 class UserState:
     """What a USERSIG routine sees at one evaluation: ``t``; ``x``, ``xd`` (nodal
     coordinates and velocities by node number), ``e``, ``ed`` (deformations and their rates
-    by element number). Read-only: the routine cannot change the solver's state."""
+    by element number); ``derivatives``: whether the solver takes the loads' derivatives
+    from this call (a routine that can give them returns ``(rows, derivative_rows)``).
+    Read-only: the routine cannot change the solver's state. ``read`` collects the nodes
+    whose coordinates or velocities the routine read (the difference quotients perturb only
+    those)."""
 
-    def __init__(self, t, x, v, states, maps):
+    def __init__(self, t, x, v, states, maps, derivatives: bool = False):
         self.t = float(t)
+        self.derivatives = bool(derivatives)
+        self.read: set[int] = set()
         node_idx, elem_rows, groups = maps
         x = x.view()                       # read-only views of the solver's arrays
         x.flags.writeable = False
         v = np.zeros_like(x) if v is None else v.view()
         v.flags.writeable = False
-        self.x = _ByNumber(node_idx, lambda i: x[i], "node")
-        self.xd = _ByNumber(node_idx, lambda i: v[i], "node")
+        self.x = _ByNumber(node_idx, lambda i: x[i], "node", self.read)
+        self.xd = _ByNumber(node_idx, lambda i: v[i], "node", self.read)
         cache = {}
 
         def rates(gi):
@@ -332,8 +341,17 @@ def _coordinates(table, routine, t, nodes, dirs) -> np.ndarray:
     return idx
 
 
+#: The difference quotients' step (positions: times the model's length scale; Euler
+#: parameters: absolute) for a routine that gives no derivatives.
+USER_FD_STEP = 1e-7
+
+#: The columns of a derivative row.
+DERIVATIVE_FORM = "[node, direction, wrt_node, wrt_direction, d value/d x, d value/d xd]"
+
+
 class _LoadAdapter:
-    """USERSIG as the solvers' ``user(t, x, v, states) -> (n_coord,)``."""
+    """USERSIG as the solvers' ``user(t, x, v, states) -> (n_coord,)``, with
+    :meth:`tangent`, the loads' derivative for the Newton matrices."""
 
     FORM = "[node, direction, value]"
 
@@ -341,26 +359,136 @@ class _LoadAdapter:
         self.routine, self.n = routine, num.n_coord
         self.maps = _node_maps(model, num)
         self.table = _lookup_table(self.maps[0])
+        self.rot = np.zeros(num.n_coord, dtype=bool)
+        self.rot[np.asarray(num.rot_idx, dtype=np.int64).ravel()] = True
+        self.length_scale = float(num.length_scale)
+        #: whether the routine returned derivative rows at its last derivative call
+        #: (None before the first)
+        self.gives_derivatives: bool | None = None
+        self.calls = 0                   # routine calls (the solvers' cost report)
+
+    def _evaluate(self, t, x, v, states, derivatives: bool):
+        """(loads (n_coord,), derivative rows or None, the state the routine saw)."""
+        state = UserState(t, x, v, states, self.maps, derivatives)
+        self.calls += 1
+        out = self.routine.call(t, state)
+        drows = None
+        if _is_pair(out):
+            out, drows = out
+            drows = _rows(drows, 6, self.routine, t, DERIVATIVE_FORM) if derivatives \
+                else None
+        rows = _rows(out, 3, self.routine, t, self.FORM)
+        idx = _coordinates(self.table, self.routine, t, rows[:, 0], rows[:, 1])
+        return np.bincount(idx, weights=rows[:, 2], minlength=self.n), drows, state
 
     def __call__(self, t, x, v, states):
-        state = UserState(t, x, v, states, self.maps)
-        rows = _rows(self.routine.call(t, state), 3, self.routine, t, self.FORM)
-        idx = _coordinates(self.table, self.routine, t, rows[:, 0], rows[:, 1])
-        return np.bincount(idx, weights=rows[:, 2], minlength=self.n)
+        return self._evaluate(t, x, v, states, False)[0]
+
+    def tangent(self, t, x, v, states, gamma: float, cols, difference: bool = True):
+        """``d f/dx + gamma d f/dxd`` (sparse, n_coord rows, the columns ``cols``: global
+        coordinate indices) at (t, x, v): from the routine's derivative rows where it gives
+        them, else by one forward difference per column the routine read (the others have
+        none), along ``(e_j, gamma e_j)``. ``v`` None: at rest (statics; the velocity
+        part is then not asked for). The dependence on the deformations is not
+        differentiated (the element states stay those at x). None where the routine gives
+        no derivatives and ``difference`` is False."""
+        cols = np.asarray(cols, dtype=np.int64)
+        where = np.full(self.n, -1, dtype=np.int64)
+        where[cols] = np.arange(cols.size)
+        f0, drows, state = self._evaluate(t, x, v, states, True)
+        self.gives_derivatives = drows is not None
+        if drows is not None:
+            i = _coordinates(self.table, self.routine, t, drows[:, 0], drows[:, 1])
+            j = _coordinates(self.table, self.routine, t, drows[:, 2], drows[:, 3])
+            val = drows[:, 4] + (gamma * drows[:, 5] if v is not None else 0.0)
+            keep = where[j] >= 0
+            return sp.csr_matrix((val[keep], (i[keep], where[j[keep]])),
+                                 shape=(self.n, cols.size))
+        if not difference:
+            return None
+        read = [np.asarray(self.maps[0][n]) for n in sorted(state.read)]
+        read = np.concatenate(read) if read else np.zeros(0, dtype=np.int64)
+        read = read[where[read] >= 0]
+        rows, cc, vals = [], [], []
+        xp = x.copy()
+        vp = None if v is None else v.copy()
+        for j in read:
+            h = USER_FD_STEP * (1.0 if self.rot[j] else self.length_scale)
+            xp[j] += h
+            if vp is not None:
+                vp[j] += gamma * h
+            df = (self._evaluate(t, xp, vp, states, False)[0] - f0) / h
+            xp[j] = x[j]
+            if vp is not None:
+                vp[j] = v[j]
+            nz = np.flatnonzero(df)
+            rows.append(nz)
+            cc.append(np.full(nz.size, where[j]))
+            vals.append(df[nz])
+        if not rows:
+            return sp.csr_matrix((self.n, cols.size))
+        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows),
+                                                     np.concatenate(cc))),
+                             shape=(self.n, cols.size))
+
+
+def _is_pair(out) -> bool:
+    """Whether a USERSIG result is ``(rows, derivative_rows)``: a tuple of two whose second
+    part has rows of 6 values (or none)."""
+    if not (isinstance(out, tuple) and len(out) == 2):
+        return False
+    second = out[1]
+    try:
+        shape = np.shape(second)
+    except (TypeError, ValueError):
+        return False
+    return (len(shape) == 2 and shape[1] == 6) or (
+        len(shape) >= 1 and shape[0] == 0 and np.ndim(out[0]) != 1)
 
 
 class _MotionAdapter:
-    """USERINP as the transient's ``user_motion(t) -> (idx, x, v, a)``."""
+    """USERINP as the transient's ``user_motion(t) -> (idx, x, v, a)`` (the input
+    coordinates it drives) with :meth:`deformations` (the prescribed deformations it
+    drives). The routine returns rows ``[node, coordinate, x, x', x'']`` of INPUTX
+    coordinates, or a dict ``{"x": those rows, "e": rows [element, mode, e, e', e'']}`` of
+    INPUTE deformations (either key may be left out)."""
 
     FORM = "[node, coordinate, value, velocity, acceleration]"
+    FORM_E = "[element, mode, value, rate, second derivative]"
 
     def __init__(self, routine, model, num):
         self.routine = routine
         self.table = _lookup_table(_node_maps(model, num)[0])
         self.inputs = set(int(i) for i in num.prescribed_idx)
+        # (element number, mode) -> rigid-mode constraint row, of the INPUTE modes
+        self.modes = {}
+        presc = num.rigid_prescribed
+        for g in num.groups:
+            for k, (el, mode) in enumerate(zip(g.rigid_elem, g.rigid_mode)):
+                row = g.rigid_offset + k
+                if row < presc.size and presc[row]:
+                    self.modes[(int(g.ids[el]), int(mode) + 1)] = row
+        self._at = None                  # (t, x part, e part) of the last call
 
-    def __call__(self, t):
-        rows = _rows(self.routine.call(t), 5, self.routine, t, self.FORM)
+    def _parts(self, t):
+        if self._at is not None and self._at[0] == t:
+            return self._at[1], self._at[2]
+        out = self.routine.call(t)
+        e_rows = None
+        if isinstance(out, dict):
+            unknown = set(out) - {"x", "e"}
+            if unknown:
+                self.routine.fail(t, f"returned a dict with the key(s) {sorted(unknown)}; "
+                                     "expected 'x' (rows " + self.FORM + ") and/or 'e' (rows "
+                                     + self.FORM_E + ")")
+            e_rows = _rows(out.get("e", []), 5, self.routine, t, self.FORM_E)
+            out = out.get("x", [])
+        x_part = self._x_part(t, _rows(out, 5, self.routine, t, self.FORM))
+        e_part = None if e_rows is None else self._e_part(t, e_rows)
+        self._at = (t, x_part, e_part)
+        return x_part, e_part
+
+    def _x_part(self, t, rows):
         idx = _coordinates(self.table, self.routine, t, rows[:, 0], rows[:, 1])
         for r, i in zip(rows, idx):
             if int(i) not in self.inputs:
@@ -369,6 +497,27 @@ class _MotionAdapter:
         if len(set(idx.tolist())) != idx.size:
             self.routine.fail(t, "gives a coordinate twice")
         return idx, rows[:, 2].copy(), rows[:, 3].copy(), rows[:, 4].copy()
+
+    def _e_part(self, t, rows):
+        idx = []
+        for r in rows:
+            key = (int(r[0]), int(r[1]))
+            if key != (r[0], r[1]) or key not in self.modes:
+                self.routine.fail(t, f"gives element {r[0]:g} mode {r[1]:g}, which is not a "
+                                     "prescribed deformation (declare it with INPUTE)")
+            idx.append(self.modes[key])
+        idx = np.asarray(idx, dtype=np.int64)
+        if len(set(idx.tolist())) != idx.size:
+            self.routine.fail(t, "gives a deformation twice")
+        return idx, rows[:, 2].copy(), rows[:, 3].copy(), rows[:, 4].copy()
+
+    def __call__(self, t):
+        return self._parts(t)[0]
+
+    def deformations(self, t):
+        """(rigid-mode constraint rows, e, e', e'') the routine prescribes at time t, or
+        None where it returns no ``"e"`` rows."""
+        return self._parts(t)[1]
 
 
 def loaded_routines(model, num, analysis: str, deck_path, user_modules=()):

@@ -623,7 +623,7 @@ def test_user_routine_lines_one_error_each():
     assert [(loc.line, msg.split(":")[0]) for loc, msg, _ in err.items] == [
         (4, "USERSIG"), (5, "USERINP"), (6, "USERINP is given twice (lines 5 and 6)")]
     assert "'f-g' cannot name a Python function" in err.items[0][1]
-    assert "the deck declares none: add INPUTX lines" in err.items[1][1]
+    assert "the deck declares none: add INPUTX or INPUTE lines" in err.items[1][1]
 
 
 def test_several_errors_reported_at_once_ordered_by_line():

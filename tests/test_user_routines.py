@@ -134,8 +134,10 @@ def test_routine_motion_equals_the_deck_motion(tmp_path):
     """USERINP giving y = 0.1 sin(2 pi t) with its exact rates on the tip equals INPUTX with
     DELINPX 0.1 and TIMEFUNCTION sine 1."""
     data = "TIMESTEP 0.5 40\n"
+    # (VELOCITY on the clamped node: the reference, too, starts with the velocities made
+    # consistent with the prescribed one, as a routine's motion does)
     ref = deck(tmp_path, "ref", "INPUTX 5 2 0 0 0\nDELINPX 5 2 0.1\nTIMEFUNCTION sine 1\n"
-               + data, inputs="INPUTX 5 2\n")
+               "VELOCITY 1 0 0 0\n" + data, inputs="INPUTX 5 2\n")
     usr = deck(tmp_path, "usr", "USERINP mv\n" + data, inputs="INPUTX 5 2\n",
                routines={"mv": """
         import math
@@ -275,8 +277,8 @@ def test_deck_errors_of_user_routine_lines(tmp_path, capsys):
     path = deck(tmp_path, "usr", "USERINP mv\nUSERSIG a\nUSERSIG b\n")
     assert run(path, "--allow-user-code") == 2
     err = capsys.readouterr().err
-    assert f"{path}:16:1: error: USERINP: the routine gives the motion of input coordinates, " \
-           "and the deck declares none" in err
+    assert f"{path}:16:1: error: USERINP: the routine gives the motion of input coordinates " \
+           "or prescribed deformations, and the deck declares none" in err
     assert f"{path}:18:1: error: USERSIG is given twice (lines 17 and 18)" in err
 
 
@@ -433,7 +435,8 @@ def test_fis_rig_deck_runs_with_its_routines(tmp_path, fis):
     the insertion, the tip enters the channel's first arc (from x = 0.01 m, at t = 0.19 s) and
     stays inside the wall (its distance from the centreline below b plus the penetration the
     wall's stiffness allows), and the insertion force (the reaction of node 49 along x) pushes
-    against the wall. (About 15 minutes on 2 loaded cores to t = 0.24 s: kept short.)"""
+    against the wall. (96 s on the 2 cores under a load of 14; 15 minutes to t = 0.24 s
+    before the routine gave its derivatives.)"""
     path, _ = _corpus_job(tmp_path, "fis_rig_cat_s_3d.dat", timestep="0.21 210")
     out = tmp_path / "rig.h5"
     assert main(["run", str(path), "--mode", "transient", "-o", str(out), "-q",
@@ -445,7 +448,41 @@ def test_fis_rig_deck_runs_with_its_routines(tmp_path, fis):
         tip = tr.position(1)
         push = tr.reaction(49)[:, 0]
     assert tip[-1, 0] == pytest.approx(0.021, abs=1e-3)
-    _, d = fis.nearest(tip)
+    _, d, _ = fis.nearest(tip)
     assert d.max() < fis.R_B - fis.R_OUTER + 2e-5
     assert tip[-1, 1] > 5e-4                         # along the arc, bending to +y
     assert push[t > 0.2].min() > 1.0                 # N: the wall resists the insertion
+
+
+@pytest.mark.slow
+def test_fis_flex_deck_runs_into_the_wall(tmp_path, fis):
+    """fis_flex_cat_s_3d.dat with FFESFVA/FFESMVA to t = 0.105 s in 700 steps (the deck's
+    step, 0.15 ms; it runs to 1.2 s in 8000): the proximal node follows the insertion at
+    0.2 m/s, the tip meets the wall of the first arc (from t = 0.073 s) and bends along
+    it, no node passes the wall by more than the penetration its stiffness allows, the
+    insertion force grows, and the energy balance T + U + D - W (W: the insertion's and the
+    wall's work) holds to 1 % of the work done. (81 s on the 2 cores under a load of 14,
+    about 15 s of CPU; docs/user-routines.md has the full run.)"""
+    path, _ = _corpus_job(tmp_path, "fis_flex_cat_s_3d.dat", timestep="0.105 700")
+    out = tmp_path / "flex.h5"
+    assert main(["run", str(path), "--mode", "transient", "-o", str(out), "-q",
+                 "--allow-user-code", "--user-module", str(FIS)]) == 0
+    with open_results(out) as r:
+        tr = r.transient
+        t = tr.time
+        np.testing.assert_allclose(tr.position(49)[:, 0], -0.12 + 0.2 * t, atol=1e-12)
+        pos = np.stack([tr.position(n) for n in range(1, 48, 2)], axis=1)
+        push = tr.reaction(49)[:, 0]
+        bal = (tr.kinetic_energy + tr.elastic_energy + tr.dissipated_energy
+               - tr.external_work)
+        work = tr.external_work
+    _, d, _ = fis.nearest(pos.reshape(-1, 3))
+    d = d.reshape(pos.shape[:2])
+    a, b = fis.R_A - fis.R_OUTER, fis.R_B - fis.R_OUTER
+    first = t[np.argmax((d >= a).any(axis=1))]
+    assert 0.06 < first < 0.08                       # the tip reaches the arc at x = 0.01
+    assert d.max() < b + 3e-5                         # inside the wall's penetration
+    assert pos[-1, 0, 0] == pytest.approx(0.021, abs=1e-3)
+    assert pos[-1, 0, 1] > 2e-4                       # along the arc, bending to +y
+    assert push[-1] > 0.05 and push[-1] > 5 * abs(push[t < 0.06]).max()
+    assert np.ptp(bal) < 0.01 * np.abs(work).max()

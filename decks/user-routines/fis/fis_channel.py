@@ -22,9 +22,9 @@ and ``b = rb - ro`` (xi = (d - a)/(b - a)):
     zone III  d >= b      fn = k (b - a) (xi - 1/2) + c vn
 
 (continuous with its slope; vn the node's velocity along the outward normal n). Friction
-acts against the slip velocity vt of the contact point (the node's tangential velocity plus
-omega x ro n), with a Stribeck peak mu_s at the breakaway velocity v_brk above the Coulomb
-level mu_k:
+acts against the slip velocity of the contact point (the node's tangential velocity plus
+omega x ro n; vt its size, t its direction), with a Stribeck peak mu_s at the breakaway
+velocity v_brk above the Coulomb level mu_k:
 
     ff = sqrt(2 e) (mu_s - mu_k) fn exp(-u^2) u + mu_k fn tanh(10 vt / v_brk),
     u = vt / (v_brk sqrt 2)
@@ -41,7 +41,10 @@ driver script writes (here they are constants below, the driver's values), find 
 point with a third-party curve-distance function (here: the exact nearest point of the
 polyline), zero a node's whole load when its slip direction is undefined (here only the
 friction, whose limit at zero slip is zero), and keep the tip's reduced radius for every
-later node of the loop (here the tip alone, as their comment says).
+later node of the loop (here the tip alone, as their comment says). The slip direction is
+the contact point's (the node's velocity alone gave a friction that jumped where the node
+stopped and the section still turned: the flexible deck's Newton iterations stalled there,
+after the insertion stops at t = 0.6 s).
 """
 from __future__ import annotations
 
@@ -125,17 +128,24 @@ def centreline(n=N_POINTS):
 CENTRELINE = centreline()
 
 
-def nearest(points, line=CENTRELINE):
-    """(nearest points (k, 3), distances (k,)) of ``points`` on the polyline ``line``."""
+def nearest(points, line=CENTRELINE, near=None):
+    """(nearest points (k, 3), distances (k,), segment indices (k,)) of ``points`` on the
+    polyline ``line``; with ``near`` (k,) segment indices, among those segments and their
+    neighbours only (points that moved little since ``near`` was found)."""
     a, b = line[:-1], line[1:]
-    ab = b - a
-    rel = points[:, None, :] - a[None]
-    s = np.clip((rel * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
-    foot = a[None] + s[..., None] * ab[None]
-    dist = np.linalg.norm(points[:, None, :] - foot, axis=-1)
-    k = dist.argmin(axis=1)
+    if near is None:
+        cand = np.broadcast_to(np.arange(a.shape[0]), (points.shape[0], a.shape[0]))
+    else:
+        cand = np.clip(np.asarray(near)[:, None] + np.arange(-1, 2), 0, a.shape[0] - 1)
+    a, ab = a[cand], (b - a)[cand]                            # (k, m, 3)
+    rel = points[:, None, :] - a
+    s = np.clip(np.einsum("kmi,kmi->km", rel, ab) / np.einsum("kmi,kmi->km", ab, ab),
+                0.0, 1.0)
+    diff = rel - s[..., None] * ab
+    dist2 = np.einsum("kmi,kmi->km", diff, diff)
+    k = dist2.argmin(axis=1)
     rows = np.arange(points.shape[0])
-    return foot[rows, k], dist[rows, k]
+    return (points - diff[rows, k], np.sqrt(dist2[rows, k]), cand[rows, k])
 
 
 def _cross(a, b):
@@ -178,36 +188,108 @@ def friction_force(fn, vt):
             + MU_KINETIC * fn * np.tanh(vt / (V_BREAKAWAY / 10)))
 
 
-def contact_rows(state, nodes, stride, vel_ratio):
-    """USERSIG rows ``[node, direction, value]`` of the wall's contact on the position nodes
-    ``nodes`` (the tip first); the next position node is ``node + stride``, the orientation
-    node ``node + 1``."""
-    nodes = np.asarray(nodes)
-    pos = np.asarray(state.x[nodes], dtype=float)
-    nxt = np.asarray(state.x[nodes + stride], dtype=float)
-    vel = np.asarray(state.xd[nodes], dtype=float) / vel_ratio
-    q = np.asarray(state.x[nodes + 1], dtype=float)
-    qd = np.asarray(state.xd[nodes + 1], dtype=float)
+def contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, near=None, distance=False):
+    """The wall's force (k, 3) on position nodes at ``pos`` (velocities ``vel``, m/s of the
+    run) and the Euler-parameter forces (k, 4) on their orientation nodes (``q``, ``qd``);
+    ``nxt`` the next position node's coordinates, which set the axis of the rows ``tip``
+    (bool, k) whose radius towards the wall is reduced; ``near``: the centreline segments
+    near which the nodes lie (:func:`nearest`), if known; with ``distance`` also the nodes'
+    distances from the centreline."""
+    vel = vel / vel_ratio
     omega = angular_velocity(q, qd) / vel_ratio
-    foot, d = nearest(pos)
+    foot, d, _ = nearest(pos, near=near)
     n = _unit(pos - foot)                                    # outward normal
     vn = (vel * n).sum(-1)
-    t = _unit(vel - vn[:, None] * n)                         # slip direction
-    ro = np.full(nodes.size, R_OUTER)
-    axis = _unit(nxt[:1] - pos[:1])                          # the tip's axis
-    perp = _unit(_cross(_cross(axis, n[:1]), axis))      # n's part across the axis
-    ro[0] = float((perp * n[:1]).sum()) * R_OUTER
+    ro = np.full(pos.shape[0], R_OUTER)
+    if tip.any():
+        axis = _unit(nxt[tip] - pos[tip])                    # the tip's axis
+        perp = _unit(_cross(_cross(axis, n[tip]), axis))     # n's part across the axis
+        ro[tip] = (perp * n[tip]).sum(-1) * R_OUTER
     a, b = R_A - ro, R_B - ro
-    vt = (vel * t).sum(-1) + (_cross(omega, ro[:, None] * n) * t).sum(-1)
+    # the contact point's slip: its velocity across n (omega x ro n is across n already);
+    # friction acts against it, ff(|slip|) slip/|slip|, smooth through zero slip (ff is odd)
+    slip = vel - vn[:, None] * n + _cross(omega, ro[:, None] * n)
+    vt = np.linalg.norm(slip, axis=-1)
+    t = _unit(slip)                                          # slip direction
     fn = normal_force(d, vn, a, b)
     ff = friction_force(fn, vt)
     force = -fn[:, None] * n - ff[:, None] * t
     moment = _cross(ro[:, None] * n, force)
-    gen = euler_forces(q, moment)
-    rows = [np.column_stack([nodes, np.full(nodes.size, c + 1), force[:, c]]) for c in range(3)]
-    rows += [np.column_stack([nodes + 1, np.full(nodes.size, c + 1), gen[:, c]])
-             for c in range(4)]
-    return np.concatenate(rows)
+    if distance:
+        return force, euler_forces(q, moment), d
+    return force, euler_forces(q, moment)
+
+
+#: The difference quotients' steps of :func:`contact_derivatives`: positions (m), Euler
+#: parameters, velocities (m/s of the run), Euler-parameter rates (1/s).
+FD_STEPS = (1e-9, 1e-8, 1e-8, 1e-7)
+
+
+def contact_derivatives(pos, nxt, vel, q, qd, vel_ratio, tip):
+    """The derivatives of :func:`contact_loads`' 7 outputs (force x, y, z, then the Euler-
+    parameter forces) of each row with respect to its own inputs, by central differences
+    of all rows at once (each row's loads depend on its own inputs only): ``(d/dx (k, 7,
+    10), d/dxd (k, 7, 7))``, the inputs ``[pos, q, nxt]`` and ``[vel, qd]``."""
+    k = pos.shape[0]
+    base = np.concatenate([pos, q, nxt, vel, qd], axis=1)          # (k, 17)
+    steps = np.repeat([FD_STEPS[0], FD_STEPS[1], FD_STEPS[0], FD_STEPS[2], FD_STEPS[3]],
+                      [3, 4, 3, 3, 4])
+    m = base.shape[1]
+    z = np.repeat(base[None], 2 * m, axis=0)                       # (2m, k, 17)
+    cols = np.arange(m)
+    z[cols, :, cols] += steps[:, None]
+    z[m + cols, :, cols] -= steps[:, None]
+    z = z.reshape(2 * m * k, m)
+    near = np.tile(nearest(pos)[2], 2 * m)      # (the perturbations move nodes by 1e-9 m)
+    force, gen = contact_loads(z[:, :3], z[:, 7:10], z[:, 10:13], z[:, 3:7], z[:, 13:],
+                               vel_ratio, np.tile(tip, 2 * m), near)
+    out = np.concatenate([force, gen], axis=1).reshape(2, m, k, 7)
+    jac = ((out[0] - out[1]) / (2 * steps[:, None, None])).transpose(1, 2, 0)   # (k, 7, m)
+    return jac[:, :, :10], jac[:, :, 10:]
+
+
+def contact_rows(state, nodes, stride, vel_ratio):
+    """USERSIG rows ``[node, direction, value]`` of the wall's contact on the position nodes
+    ``nodes`` (the tip first); the next position node is ``node + stride``, the orientation
+    node ``node + 1``. Where the solver asks for them (``state.derivatives``), also the
+    derivative rows ``[node, direction, wrt_node, wrt_direction, d/dx, d/dxd]``."""
+    nodes = np.asarray(nodes)
+    pos = np.asarray(state.x[nodes], dtype=float)
+    nxt = np.asarray(state.x[nodes + stride], dtype=float)
+    vel = np.asarray(state.xd[nodes], dtype=float)
+    q = np.asarray(state.x[nodes + 1], dtype=float)
+    qd = np.asarray(state.xd[nodes + 1], dtype=float)
+    tip = np.zeros(nodes.size, dtype=bool)
+    tip[0] = True
+    force, gen, d = contact_loads(pos, nxt, vel, q, qd, vel_ratio, tip, distance=True)
+    out_node = np.repeat([[0, 0, 0, 1, 1, 1, 1]], nodes.size, axis=0) + nodes[:, None]
+    out_dir = np.tile([1, 2, 3, 1, 2, 3, 4], (nodes.size, 1))
+    rows = np.column_stack([out_node.ravel(), out_dir.ravel(),
+                            np.concatenate([force, gen], axis=1).ravel()])
+    if not getattr(state, "derivatives", False):
+        return rows
+    # only the nodes near the wall have loads that change (zone I, d < a, has none; the
+    # difference steps move a node by 1e-9 m)
+    touch = d >= R_A - R_OUTER - 1e-6
+    dx = np.zeros((nodes.size, 7, 10))
+    dv = np.zeros((nodes.size, 7, 7))
+    if touch.any():
+        dx[touch], dv[touch] = contact_derivatives(pos[touch], nxt[touch], vel[touch],
+                                                   q[touch], qd[touch], vel_ratio, tip[touch])
+    # the inputs' coordinates: [pos 1-3, q 1-4, nxt 1-3]; the rates those of pos and q
+    wrt_node = np.concatenate([np.repeat(nodes[:, None], 3, 1),
+                               np.repeat(nodes[:, None] + 1, 4, 1),
+                               np.repeat(nodes[:, None] + stride, 3, 1)], axis=1)  # (k, 10)
+    wrt_dir = np.tile([1, 2, 3, 1, 2, 3, 4, 1, 2, 3], (nodes.size, 1))
+    d_dxd = np.concatenate([dv, np.zeros((nodes.size, 7, 3))], axis=2)     # (k, 7, 10)
+    shape = (nodes.size, 7, 10)
+    drows = np.column_stack([np.broadcast_to(out_node[:, :, None], shape).ravel(),
+                             np.broadcast_to(out_dir[:, :, None], shape).ravel(),
+                             np.broadcast_to(wrt_node[:, None, :], shape).ravel(),
+                             np.broadcast_to(wrt_dir[:, None, :], shape).ravel(),
+                             dx.ravel(), d_dxd.ravel()])
+    drows = drows[(drows[:, 4] != 0) | (drows[:, 5] != 0)]
+    return rows, drows
 
 
 def insertion(t, node, t_end, speed, x0=X_INPUT):

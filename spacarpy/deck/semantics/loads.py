@@ -314,15 +314,16 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
 
 def _user_routine(st: Statement, by_kw: dict, errors: ErrorCollector) -> UserRoutine | None:
     """A USERSIG/USERINP line: its name must be a Python function name; USERINP drives
-    input coordinates, so the deck must declare some (INPUTX)."""
+    input coordinates or prescribed deformations, so the deck must declare some (INPUTX,
+    INPUTE)."""
     name = str(st.fields[0])
     if not name.isidentifier():
         errors.error(st.field_locs[0], f"{st.keyword}: {name!r} cannot name a Python function "
                                        "(letters, digits and _, not starting with a digit)", st)
         return None
-    if st.keyword == "USERINP" and not by_kw.get("INPUTX"):
-        errors.error(st.loc, "USERINP: the routine gives the motion of input coordinates, and "
-                             "the deck declares none: add INPUTX lines for the coordinates it "
-                             "drives", st)
+    if st.keyword == "USERINP" and not (by_kw.get("INPUTX") or by_kw.get("INPUTE")):
+        errors.error(st.loc, "USERINP: the routine gives the motion of input coordinates or "
+                             "prescribed deformations, and the deck declares none: add INPUTX "
+                             "or INPUTE lines for those it drives", st)
         return None
     return UserRoutine(keyword=st.keyword, name=name, loc=st.loc)

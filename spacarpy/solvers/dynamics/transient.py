@@ -247,17 +247,8 @@ class TransientProblem:
         return self.presc_idx[order], order
 
     def rigid_rates(self, t: float):
-        """(rate, second derivative) of the rigid-mode targets at time t: the prescribed
-        deformations' ``phi'(t) delta`` and ``phi''(t) delta`` plus the 5-field INPUTE
-        motion's; (n_rigid,) each."""
-        num = self.num
-        if not num.rigid_prescribed.size:
-            z = np.zeros(num.n_rigid)
-            return z, z
-        _, dphi, ddphi = (self.opts.motion_phi(t, num.rigid_tf) if num.rigid_tf  # LOADTF
-                          else self.opts.phi(t))
-        _, dv, da = num.input_motion(t, rigid=True)
-        return num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
+        """:meth:`TransientOptions.rigid_rates` of this problem's numbering."""
+        return self.opts.rigid_rates(t, self.num)
 
     def loads(self, t: float, v=None) -> LoadState:
         """The load at time t: XF and gravity, ``phi(t)`` times DELXF, and the prescribed
@@ -266,15 +257,15 @@ class TransientProblem:
         if self._load_at is not None and self._load_at[0] == t:
             load = self._load_at[1]                  # a step's iterations share its time
         else:
-            if self.prob.loads.uses_named or self.num.rigid_tf:   # LOADTF: named functions
-                load = self.prob.loads.at_time({name: v[0] for name, v
-                                                in self.opts.named_values(t).items()})
-            else:
-                load = self.prob.loads.at(1.0, self.opts.phi(t)[0])
+            named = self.prob.loads.uses_named or self.num.rigid_tf      # LOADTF
+            load = (self.prob.loads.at_time({n: v[0] for n, v in self.opts.named_values(t).items()})
+                    if named else self.prob.loads.at(1.0, self.opts.phi(t)[0]))
+            target = load.rigid_target.copy()
             if self.num.rigid_rate.size:             # 5-field INPUTE: + v0 t + a0 t^2/2
-                load = replace(load, rigid_target=load.rigid_target
-                               + self.num.input_motion(t, rigid=True)[0])
-            self._load_at = (t, load)
+                target += self.num.input_motion(t, rigid=True)[0]
+            if (user := self.opts.user_deformations(t)) is not None:     # USERINP's
+                target[user[0]] = user[1]
+            self._load_at = (t, load := replace(load, rigid_target=target))
         if self.prob.loads.user is not None:
             load = replace(load, user=self.prob.loads.bind(t, v))
         return load
@@ -462,7 +453,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     v = np.zeros(num.n_coord)
     v[idx] = vp0
     if opts.initial_velocities or num.prescribed_rate.size or num.rigid_rate.size \
-            or model.initial_rates:
+            or opts.user_motion is not None or model.initial_rates:
         v = _initial_velocities(tp, x, v, opts.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)

@@ -55,7 +55,8 @@ class TransientOptions:
     reuse_matrix: bool = True
     #: a user routine's prescribed motion (USERINP): ``user_motion(t) -> (idx, x, v, a)``
     #: for input coordinates ``idx`` (global coordinate numbers), replacing the deck's
-    #: values of those coordinates
+    #: values of those coordinates; its ``deformations(t)`` (if any) likewise for the
+    #: prescribed deformations (:meth:`user_deformations`)
     user_motion: object = None
 
     def named_values(self, t: float) -> dict:
@@ -82,6 +83,26 @@ class TransientOptions:
         ps, pr = (self.motion_phi(t, tf) for tf in (num.prescribed_tf, num.rotation_tf))
         return (ps[0], pr[0], *(np.concatenate([ps[k], np.repeat(pr[k], 4)])
                                 for k in (1, 2)))
+
+    def user_deformations(self, t: float):
+        """(rigid-mode constraint rows, e, e', e'') of the prescribed deformations a USERINP
+        routine drives at time t, or None."""
+        return getattr(self.user_motion, "deformations", lambda t: None)(t)
+
+    def rigid_rates(self, t: float, num):
+        """(rate, second derivative) of the rigid-mode targets of ``num`` at time t: the
+        prescribed deformations' ``phi'(t) delta`` and ``phi''(t) delta`` (each deformation's
+        own function where LOADTF names one), the 5-field INPUTE motion's and a USERINP
+        routine's; (n_rigid,) each."""
+        if not num.rigid_prescribed.size:
+            z = np.zeros(num.n_rigid)
+            return z, z
+        _, dphi, ddphi = self.motion_phi(t, num.rigid_tf) if num.rigid_tf else self.phi(t)
+        _, dv, da = num.input_motion(t, rigid=True)
+        rate, accel = num.rigid_delta * dphi + dv, num.rigid_delta * ddphi + da
+        if (user := self.user_deformations(t)) is not None:
+            rate[user[0]], accel[user[0]] = user[2], user[3]
+        return rate, accel
 
     @classmethod
     def from_settings(cls, settings: AnalysisSettings) -> TransientOptions:

@@ -212,11 +212,7 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     if motion is not None:
         coriolis = tp.frame_terms(blocks, c_h, W, gamma_p)
         nodal = coriolis if nodal is None else nodal + coriolis
-    if tp.prob.loads.user is not None and slow_newton and not tp.user_tangent_on:
-        tp.user_tangent_on = True
-        log.info("the user routine's loads slow Newton down at t = %.6g s: their difference "
-                 "quotients join the iteration matrix from here on", t1)
-    user = _user_tangent(tp, t1, x1, v1, ev.states, gamma_p) if tp.user_tangent_on else None
+    user = _user_tangent(tp, t1, x1, v1, ev.states, gamma_p, slow_newton)
     if user is not None:
         nodal = user if nodal is None else nodal + user
     if nodal is not None:
@@ -234,37 +230,29 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     return KeptMatrix(m_max, solve), solve(ev, x1, r)
 
 
-#: The relative step of the user loads' difference quotients (positions: times the model's
-#: length scale; Euler parameters: absolute).
-USER_FD_STEP = 1e-7
+def _user_tangent(tp, t, x, v, states, gamma_p, slow_newton):
+    """-(d f_user/dx + gamma' d f_user/dv) over the free coordinates (sparse), the direction
+    in which a Newton increment moves (x, v), or None: without a user routine's loads, or
+    before the difference quotients of a routine that gives no derivatives are needed.
 
-
-def _user_tangent(tp, t, x, v, states, gamma_p):
-    """-(d f_user/dx + gamma' d f_user/dv) over the free coordinates (sparse), by one
-    forward difference per free coordinate along (e_j, gamma' e_j), the direction in which a
-    Newton increment moves (x, v); None without a user routine's loads. The element states
+    A routine that returns its derivatives (docs/user-routines.md) has them in every
+    iteration matrix (one call); one that does not gets difference quotients (one call per
+    free coordinate it reads, :meth:`~spacarpy.user_routines._LoadAdapter.tangent`) from the
+    first iteration whose residual fell by less than SLOW_CONTRACTION on. The element states
     are those at x (a routine's dependence on the deformations is not differentiated)."""
     user = tp.prob.loads.user
-    if user is None:
+    if getattr(user, "tangent", None) is None:
         return None
+    fd_on = tp.user_tangent_on or slow_newton
+    if fd_on and not tp.user_tangent_on and not getattr(user, "gives_derivatives", False):
+        tp.user_tangent_on = True
+        log.info("the user routine's loads slow Newton down at t = %.6g s: their difference "
+                 "quotients join the iteration matrix from here on", t)
     free = tp.free_idx
-    f0 = user(t, x, v, states)[free]
-    steps = np.where(tp.free_rot, USER_FD_STEP, USER_FD_STEP * tp.num.length_scale)
-    rows, cols, vals = [], [], []
-    xp, vp = x.copy(), v.copy()
-    for k, j in enumerate(free):
-        h = float(steps[k])
-        xp[j] += h
-        vp[j] += gamma_p * h
-        df = (user(t, xp, vp, states)[free] - f0) / h
-        xp[j], vp[j] = x[j], v[j]
-        nz = np.flatnonzero(df)
-        rows.append(nz)
-        cols.append(np.full(nz.size, k))
-        vals.append(-df[nz])
-    n = free.size
-    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(n, n))
+    if getattr(user, "gives_derivatives", None) is False and not fd_on:
+        return None
+    k = user.tangent(t, x, v, states, gamma_p, free, difference=fd_on)
+    return None if k is None else -k.tocsr()[free]
 
 
 def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max):

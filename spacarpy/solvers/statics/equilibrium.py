@@ -33,6 +33,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from spacarpy.assembly import BorderedPattern, border_slips, scatter_add
 from spacarpy.elements.chunks import in_chunks
@@ -255,6 +256,9 @@ class StaticProblem:
                                   2.0 * ev.q_eu,
                                   scale=self.scale if scale is None else scale,
                                   load_blocks=self.load_blocks(ev, material_only))
+        user = ev.load.user
+        if not material_only and user is not None and user.static:
+            A = self._with_user_tangent(A, ev)
         if self.slips:        # the slip rows, and the tangent of their forces d(S^T nu)/dx
             free = np.flatnonzero(self.free)
             k_add = None if material_only else self.slips.force_dx(ev.x, ev.nu, cols=free)
@@ -275,6 +279,19 @@ class StaticProblem:
         if material_only or ev.x is None:
             return [np.zeros(p.rows.shape + (p.cols.shape[1],)) for p in loads.parts]
         return loads.part_blocks(ev.x, ev.load)
+
+    def _with_user_tangent(self, A, ev: Evaluation):
+        """The bordered matrix A plus ``-d f_user/dx`` of a user routine's loads in its
+        free-coordinate block (the routine's derivative rows, or difference quotients:
+        docs/user-routines.md)."""
+        free = np.flatnonzero(self.free)
+        k = ev.load.user.tangent(ev.x, ev.states, free)
+        if k is None:
+            return A
+        k = sp.csc_matrix(-k.tocsr()[free])
+        n = A.shape[0]
+        indptr = np.concatenate([k.indptr, np.full(n - k.shape[1], k.indptr[-1])])
+        return (A + sp.csc_matrix((k.data, k.indices, indptr), shape=(n, n))).tocsc()
 
     def element_blocks(self, ev: Evaluation, mu, material_only: bool = False, extra=None):
         """The K block's pieces: element tangents (one (n_elem, n_ldof, n_ldof) array per

@@ -9,7 +9,9 @@ problem object carries no load of its own.
 A user routine's loads (USERSIG, docs/user-routines.md) depend on the state: they arrive as
 a plain callable ``user(t, x, v, states) -> (n_coord,)`` (:attr:`Loads.user`, set by the
 driver), and a LoadState carries it bound to its time and velocities (:attr:`LoadState.user`:
-``user(x, states)``), evaluated at every configuration the solvers try.
+``user(x, states)``, a :class:`BoundUser`), evaluated at every configuration the solvers try;
+bound at rest (statics) it also gives its derivative ``d f/dx`` for the Newton matrix
+(:meth:`BoundUser.tangent`).
 
 Follower loads (XFL/DELXFL, and any load whose force depends on the configuration) are
 :class:`~spacarpy.solvers.statics.follower.LoadPart` s in :attr:`Loads.parts`, with initial and
@@ -20,7 +22,6 @@ incremental amplitudes; a LoadState carries their amplitudes at its factors
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import partial
 
 import numpy as np
 
@@ -195,7 +196,7 @@ class Loads:
     def bind(self, t: float, v) -> object:
         """The user loads at time t and velocities v, as a function of (x, states); None
         without a routine."""
-        return None if self.user is None else partial(_bound, self.user, float(t), v)
+        return None if self.user is None else BoundUser(self.user, float(t), v)
 
     def at(self, a: float, s: float, gravity_factor: float | None = None) -> LoadState:
         """The load ``a * XF + s * DELXF`` with gravity times ``gravity_factor`` (default
@@ -280,8 +281,26 @@ def line_load_parts(model):
     return out
 
 
-def _bound(user, t, v, x, states):
-    return user(t, x, v, states)
+class BoundUser:
+    """A user routine's loads bound to a time t and velocities v (None: at rest, a static
+    analysis): ``f = bound(x, states)``."""
+
+    def __init__(self, user, t: float, v):
+        self.user, self.t, self.v = user, t, v
+
+    @property
+    def static(self) -> bool:
+        """Bound at rest: the static problem's Newton matrix takes its derivative."""
+        return self.v is None
+
+    def __call__(self, x, states):
+        return self.user(self.t, x, self.v, states)
+
+    def tangent(self, x, states, cols):
+        """``d f/dx`` (sparse, n_coord rows, the columns ``cols``) at x, or None where the
+        routine's adapter has no derivative (a plain callable)."""
+        tangent = getattr(self.user, "tangent", None)
+        return None if tangent is None else tangent(self.t, x, self.v, states, 0.0, cols)
 
 
-__all__ = ["LoadState", "Loads", "line_load_parts"]
+__all__ = ["BoundUser", "LoadState", "Loads", "line_load_parts"]
