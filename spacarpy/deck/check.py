@@ -57,7 +57,7 @@ class DeckSummary:
     n_rigid_constraints: int | None = None
     n_euler_constraints: int | None = None
     dof: int | None = None
-    loads: dict = field(default_factory=dict)   # XF/DELXF/QE/DELQE/XFL/DELXFL/QEL/DELQEL
+    loads: dict = field(default_factory=dict)   # XF, DELXF and the other load lines present
     kinematic: int = 0                                  # KINE and KINX coordinates
     dynamic: list = field(default_factory=list)         # DYNX (node, coordinate), deck order
     slips_held: int = 0                                 # velocity-level modes not released
@@ -234,8 +234,8 @@ def summarize(statements: list[Statement], model: Model | None = None, *,
     s.warping_nodes = len(warp - positions)
     s.elements = {kw: len(ids) for kw, ids in elements.items()}
     s.parameters = {st.fields[0]: st.fields[1] for st in statements if st.keyword == "SET"}
-    s.loads = {kw: sum(st.keyword == kw for st in kin)
-               for kw in ("XF", "DELXF", "QE", "DELQE", "XFL", "DELXFL", "QEL", "DELQEL")}
+    s.loads = {kw: n for kw in ("XF", "DELXF", "QE", "DELQE", "XFL", "DELXFL", "QEL", "DELQEL")
+               if (n := sum(st.keyword == kw for st in kin)) or kw in ("XF", "DELXF")}
     s.nodal_masses = sum(st.keyword == "XM" for st in kin)
     sections, _, _ = collect_cross_sections(expanded)
     for cs in sections.by_element.values():
