@@ -146,8 +146,9 @@ def _angle(q, q_ref):
 def test_a_precessing_body_converges_at_second_order(tmp_path, monkeypatch):
     """A torque-free asymmetric body (inertia 0.3, 0.5, 0.4 kg m^2) started turning at
     (0.5, 10, 1) rad/s: the orientation after 1 s against solve_ivp's (1e-13), at 50 and
-    100 steps: second order (ratio 4 within 3 %; measured 3.97), and half the error of
-    the linear update (measured 4.2e-3 and 1.07e-3 rad, linear 8.7e-3 and 2.2e-3)."""
+    100 steps: second order (ratio 4 within 3 %; measured 4.00), and a tenth of the
+    linear update's error at most (measured 2.55e-4 and 6.39e-5 rad, linear 8.73e-3 and
+    2.19e-3: the angular velocity turns slowly in body axes, which the update follows)."""
     rates = (1.0, 0.5, 10.0)
     w0 = np.array([rates[1], rates[2], rates[0]])
     L, Ji = _J @ w0, np.linalg.inv(_J)
@@ -160,4 +161,4 @@ def test_a_precessing_body_converges_at_second_order(tmp_path, monkeypatch):
     err = [_angle(_gimbal(tmp_path, monkeypatch, n, rates)[2][-1], exact) for n in (50, 100)]
     assert 0.97 * 4 < err[0] / err[1] < 1.03 * 4
     old = _angle(_gimbal(tmp_path, monkeypatch, 100, rates, lie=False)[2][-1], exact)
-    assert err[1] < 0.6 * old
+    assert err[1] < 0.1 * old
