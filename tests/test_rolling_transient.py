@@ -221,7 +221,8 @@ def test_c3_steady_turn_of_a_leaning_disc(tmp_path):
 def test_c4_stationary_centre_spin(tmp_path):
     """C4: the leaning disc (0.3 rad) spinning about the vertical at Omega^2 = m g r/(A cos)
     with no spin along its axle (w_y = 0): its centre stays put, within 1e-6 m in 2 s
-    (measured: 1.9e-11 m at h = 0.01 s), and it keeps its lean."""
+    (measured: 5.4e-8 m at h = 0.01 s; 1.9e-11 m with the linear update of the Euler
+    parameters, by a symmetry of that scheme), and it keeps its lean (3.1e-8 rad)."""
     omega = math.sqrt(M * G * R / (A * math.cos(0.3)))
     assert omega == pytest.approx(11.7010730055487, rel=1e-13)
     text = (_DECKS / "rolling_disc_turn.dat").read_text()
@@ -238,7 +239,7 @@ def test_c4_stationary_centre_spin(tmp_path):
         lean = f["transient/elements/HINGE/deformation"][()][:, 1, 0]
         heading = f["transient/elements/HINGE/deformation"][()][:, 0, 0]
     assert np.abs(hub - hub[0]).max() < 1e-6
-    assert np.abs(lean).max() < 1e-9
+    assert np.abs(lean).max() < 1e-7
     assert heading[-1] == pytest.approx(2 * omega, rel=1e-3)      # it spins (O(h^2) rate)
 
 
