@@ -128,9 +128,11 @@ def test_the_driven_wheel_receives_the_kinetic_energy_it_gains():
 
 #: The shipped driven decks (issue 34): (deck, its drive, shortened run (s), stored steps of
 #: it, SUBSTEPS of the three runs (h, h/2, h/4), the error measured at the deck's own h).
-#: The error of ``T + U + D - W`` relative to max(T + U), docs/transient.md's table.
+#: The error of ``T + U + D - W`` relative to max(T + U), docs/transient.md's table. None:
+#: exact (the driven wheel's constant angular acceleration about its axle, exact for the
+#: update of the Euler parameters on the rotation group, issue 32; 9.0e-4 before).
 DRIVEN = [
-    ("driven_wheel", "INPUTE", 0.5, 100, (1, 2, 4), 9.0e-4),
+    ("driven_wheel", "INPUTE", 0.5, 100, (1, 2, 4), None),
     ("planar_four_bar_driven", "INPUTE", 1.0, 100, (2, 4, 8), 4.7e-4),
     ("slider_crank_flexible", "INPUTX", 0.05, 50, (1, 2, 4), 1.67e-3),
     ("spinup_beam", "INPUTR", 6.0, 60, (1, 2, 4), 6.45e-5),
@@ -164,6 +166,9 @@ def test_every_shipped_driven_deck_conserves_energy_to_second_order(name, drive,
     own = own_substeps(name, t_end, n)
     assert own in subs[:2]
     errors = [balance_error(shortened(name, t_end, n, s)) for s in subs]
+    if measured is None:                          # exact: round-off (measured 1e-13..2e-11)
+        assert max(errors) < 1e-9, errors
+        return
     assert errors[0] / errors[1] > 3.0 and errors[1] / errors[2] > 3.0, errors
     k = subs.index(own)
     assert errors[k] < 4.5 * errors[k + 1]

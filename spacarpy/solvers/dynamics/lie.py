@@ -130,9 +130,10 @@ class LieNodes:
         """Per node, whether its step is taken in global axes (True) or in its body axes:
         all nodes in the axes in which their angular accelerations changed less since the
         last step's start (summed over the nodes: the Newmark part of the update is exact
-        for a constant one, and nodes joined by hinges fare better in the same axes). Body
-        axes without a history (the first step); a step that starts where the last one did
-        (a retry) keeps its axes. Measured: docs/transient.md."""
+        for a constant one, and nodes joined by hinges fare better in the same axes), by
+        ``SWITCH_FACTOR`` at least, else the last step's axes. Body axes without a history
+        (the first step); a step that starts where the last one did (a retry) keeps its
+        axes. Measured: docs/transient.md."""
         qc = conj(q0)
         dw_s = 2.0 * qmul(qdd, qc)[:, 1:]
         dw_b = 2.0 * qmul(qc, qdd)[:, 1:]
@@ -142,8 +143,17 @@ class LieNodes:
         if hist is None or hist[0].shape != q0.shape:
             left = np.zeros(len(q0), bool)
         else:
-            left = np.full(len(q0), float(np.abs(dw_s - hist[1]).sum())
-                           <= float(np.abs(dw_b - hist[2]).sum()))
+            now = bool(hist[3][0]) if len(hist[3]) else False
+            change_s = float(np.abs(dw_s - hist[1]).sum())
+            change_b = float(np.abs(dw_b - hist[2]).sum())
+            # the other axes only where they are better by SWITCH_FACTOR: two nearly equal
+            # changes (or two at round-off) must not flip the scheme from step to step or
+            # from one run to an equal one
+            if now and change_b * SWITCH_FACTOR < change_s:
+                now = False
+            elif not now and change_s * SWITCH_FACTOR < change_b:
+                now = True
+            left = np.full(len(q0), now)
         self.history = (q0, dw_s, dw_b, left)
         return left
 
@@ -154,6 +164,10 @@ class LieNodes:
 #: (the two-point Magnus formula); 0 would be the plain Lie-group generalized-alpha method.
 COMMUTATOR = -1.0 / 12.0
 
+
+#: The axes of the update change only where the other axes' change of the angular
+#: accelerations is smaller by this factor (LieNodes.choose_axes).
+SWITCH_FACTOR = 2.0
 
 #: A Newton increment whose turn (rad) is at most this turns the Euler parameters by
 #: itself instead of evaluating them anew (LieStep.update): its square is round-off.
