@@ -42,10 +42,13 @@ def _major(path) -> int:
 #: The baselines written before schema 2.0; decks added later have 2.x baselines
 #: (state_space_cantilever: schema 2.3).
 BASELINES_1X = [p for p in BASELINES if _major(p) == 1]
-#: Transient decks run once for the reader tests below; the pendulum's baseline is a 1.x file,
-#: the slider-crank's was rewritten in schema 2.6 when the turning frame of issue 21 changed
-#: its results.
+#: Transient decks run once for the reader tests below; the slider-crank's baseline was
+#: rewritten in schema 2.6 when the turning frame of issue 21 changed its results, the
+#: pendulum's in 2.19 when the Lie-group update of issue 32 did.
 TRANSIENT = ("pendulum_rigid_90deg", "slider_crank_flexible")
+#: The pendulum's former baseline, a 1.x file (schema 1.1, before issue 32): the same deck
+#: run with the linear update of the Euler parameters (``lie_group=False``) equals it.
+PENDULUM_1X = Path(__file__).resolve().parent / "data" / "pendulum_rigid_90deg_schema1x.h5"
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +59,18 @@ def runs(tmp_path_factory):
         path = tmp / f"{deck}.h5"
         assert main(["run", str(DECKS / f"{deck}.dat"), "-o", str(path), "-q"]) == 0
         out[deck] = path
+    # the pendulum with the linear update of the Euler parameters, against its 1.x file
+    from dataclasses import replace
+
+    from spacarpy.solvers.dynamics.transient_records import TransientOptions
+    orig = TransientOptions.from_settings.__func__
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(TransientOptions, "from_settings", classmethod(
+            lambda cls, s: replace(orig(cls, s), lie_group=False)))
+        path = tmp / "pendulum_linear.h5"
+        assert main(["run", str(DECKS / "pendulum_rigid_90deg.dat"), "-o", str(path),
+                     "-q"]) == 0
+    out["linear"] = path
     return out
 
 
@@ -113,8 +128,8 @@ def _close(a, b):
 
 def test_a_2_0_run_equals_its_1x_baseline_through_both_readers(runs):
     checked = 0
-    for deck, path in runs.items():
-        base = DECKS / "baseline" / f"{deck}.h5"
+    pairs = [(runs[d], DECKS / "baseline" / f"{d}.h5") for d in TRANSIENT]
+    for path, base in pairs + [(runs["linear"], PENDULUM_1X)]:
         assert validate_file(path) == [] and validate_file(base) == []
         assert compare_files(path, base) == []
         new, old = open_results(path), open_results(base)
@@ -142,8 +157,9 @@ def test_a_2_0_run_equals_its_1x_baseline_through_both_readers(runs):
 
 
 def test_old_names_read_a_2_0_file_and_new_names_a_1x_file(runs):
-    new = open_results(runs["pendulum_rigid_90deg"])
-    old = open_results(DECKS / "baseline" / "pendulum_rigid_90deg.h5")
+    new = open_results(runs["linear"])
+    old = open_results(PENDULUM_1X)
+    assert old.schema_version[0] == 1
     _close(new._read("transient/hinge_deformation"),
            old._read("transient/elements/HINGE/deformation"))
 

@@ -50,6 +50,7 @@ from spacarpy.model import Model
 from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.dynamics.frame import FRAME_FULL_ANGLE, FRAME_ON_ANGLE, RotatingFrame
 from spacarpy.solvers.dynamics.inertia import Inertia
+from spacarpy.solvers.dynamics.lie import LieNodes
 from spacarpy.solvers.dynamics.transient_records import (  # noqa: F401  (re-exported)
     KEEP_CONTRACTION,
     SLOW_CONTRACTION,
@@ -96,6 +97,7 @@ class TransientProblem:
         self.free_idx = np.flatnonzero(self.free)
         self.free_rot = self.prob.rot_mask[self.free]
         self.presc_idx, _ = self.num.prescribed_state(1.0, 0.0)
+        self.lie = LieNodes.of(self.num, self.free) if opts.lie_group else None   # (lie.py)
         # the slips held at zero (WHEEL rolling without slip): velocity-level constraints
         # with multipliers nu, the tangential contact forces (docs/rolling.md "Transient")
         self.slips = held_slips(self.num)

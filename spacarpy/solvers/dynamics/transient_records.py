@@ -53,6 +53,10 @@ class TransientOptions:
     #: a step's later Newton iterations reuse its iteration matrix while that contracts
     #: (chord iterations); False forms a new one at every iteration
     reuse_matrix: bool = True
+    #: update the Euler parameters on the rotation group (solvers/dynamics/lie.py: exact
+    #: for a constant angular velocity) in the steps taken in the global frame; False: the
+    #: linear update of all coordinates (the former scheme, kept to measure the difference)
+    lie_group: bool = True
     #: a user routine's prescribed motion (USERINP): ``user_motion(t) -> (idx, x, v, a)``
     #: for input coordinates ``idx`` (global coordinate numbers), replacing the deck's
     #: values of those coordinates; its ``deformations(t)`` (if any) likewise for the

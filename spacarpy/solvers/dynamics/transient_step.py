@@ -13,6 +13,7 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import scatter_add
 from spacarpy.rotation import tangent_part
+from spacarpy.solvers.dynamics.lie import LieStep, lie_terms
 from spacarpy.solvers.dynamics.transient_records import KEEP_CONTRACTION, SLOW_CONTRACTION
 from spacarpy.solvers.statics.errors import StepFailed
 
@@ -149,14 +150,16 @@ def _increment_fault(tp, dx, dmu) -> str | None:
 
 
 def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
-                      damp_blocks, motion, W, beta_p, gamma_p, nu1=None, g=None
+                      damp_blocks, motion, W, beta_p, gamma_p, nu1=None, g=None, lie=None
                       ) -> tuple[KeptMatrix, tuple]:
     """Form and factorize the iteration matrix at (x1, v1, a1, mu1): the tangent-space
     LDL^T of the static solver (solvers/statics/reduced.py) where it applies, else the bordered
     SuperLU. ``slow_newton``: the last Newton increment reduced the residual by less than
     SLOW_CONTRACTION (switches the exact inertia tangent on). With held slips, ``nu1`` their
     multipliers and ``g`` the pair (slip rows' residual, S over the free coordinates) of
-    :meth:`TransientProblem.slip_residual`. Returns the matrix and its Newton increment
+    :meth:`TransientProblem.slip_residual`. ``lie``: the step's Lie-group update
+    (:class:`~spacarpy.solvers.dynamics.lie.LieStep`, or None), whose rate derivatives join
+    the matrix with the exact inertia tangent. Returns the matrix and its Newton increment
     ``(dx, dmu)`` for the residual r."""
     num, prob = tp.num, tp.prob
     n_x = prob.pattern.n_x
@@ -181,9 +184,10 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
                  "exact iteration matrix is used from here on", t1)
     if motion is not None and opts.exact_tangent:
         tp.exact_tangent_on = True   # the frame's W terms are not symmetric anyway
-    c_h = [] if motion is not None else None
+    with_tangent = opts.exact_tangent and tp.exact_tangent_on
+    c_h = [] if motion is not None or lie is not None else None
     tangent = (tp.inertia.tangent(x1, v1, a1, gamma_p, velocity_part=c_h)
-               if opts.exact_tangent and tp.exact_tangent_on else None)
+               if with_tangent else None)
     exact = tangent is not None and any(t is not None for t in tangent)
     extra, nodal = tp.inertia.iteration_parts(
         blocks, beta_p + gamma_p * tp.model.damping[0], tangent)
@@ -215,10 +219,16 @@ def _iteration_matrix(tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
     user = _user_tangent(tp, t1, x1, v1, ev.states, gamma_p, slow_newton)
     if user is not None:
         nodal = user if nodal is None else nodal + user
+    E_v = None
+    if lie is not None and with_tangent:
+        # the rates' derivatives of the Lie-group update beyond gamma' I and beta' I
+        E_v, E_a = lie.jacobians()
+        part = lie_terms(tp, blocks, c_h, E_v, E_a)
+        nodal = part if nodal is None else nodal + part
     if nodal is not None:
         S = S + _padded(nodal, S.shape[0])
     if slips:
-        return _slip_matrix(tp, S, scale, ev, r, x1, v1, nu1, *g, gamma_p, m_max)
+        return _slip_matrix(tp, S, scale, ev, r, x1, v1, nu1, *g, gamma_p, m_max, E_v)
     try:
         lu = spla.splu(S, permc_spec="COLAMD")
     except RuntimeError:
@@ -255,18 +265,21 @@ def _user_tangent(tp, t, x, v, states, gamma_p, slow_newton):
     return None if k is None else -k.tocsr()[free]
 
 
-def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max):
+def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max, E_v=None):
     """The iteration matrix of a model with held slips: the bordered matrix ``A`` (free
     coordinates, then the constraints) with ``d(S^T nu)/dx`` added to its force block and
     bordered again by the slip rows ``S + d(S v)/dx / gamma'`` (the derivative of ``S(x)
     v / gamma'`` along ``dv = gamma' dx``) and the columns ``S^T``, both scaled like the
-    holonomic rows. Its Newton increment is ``(dx, [dmu, dnu])`` for the residuals
-    (r, c, g)."""
+    holonomic rows (with the Lie-group update's ``E_v``, ``dv = (gamma' + E_v) dx``: the
+    rows add ``S E_v / gamma'``). Its Newton increment is ``(dx, [dmu, dnu])`` for the
+    residuals (r, c, g)."""
     slips, fi = tp.slips, tp.free_idx
     n_x = tp.prob.pattern.n_x
     n_c = A.shape[0] - n_x
     k = slips.n
     rows = S_f + slips.rates_dx(x1, v1, fi) / gamma_p
+    if E_v is not None:
+        rows = rows + (S_f @ E_v) / gamma_p
     F = slips.force_dx(x1, nu1, fi)
     big = sp.bmat([[A + _padded(F, A.shape[0]),
                     sp.vstack([scale * S_f.T, sp.csc_matrix((n_c, k))])],
@@ -319,10 +332,15 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
     at_pred = at_new + (1 - af) / (1 - am) * a1
     x1 = x + h * yd + h * h * (0.5 - beta) * aty + h * h * beta * at_pred
     v1 = yd + h * (1 - gamma) * aty + h * gamma * at_pred
-    W = None
+    W = lie = None
     if motion is not None:
         x1, v1, a1 = tp.frame.from_frame(motion, h, x1, v1, a1)
         W = tp.frame.matrix(motion.omega, free)
+    elif tp.lie:
+        # the orientations on their group (solvers/dynamics/lie.py): exact for a constant
+        # angular velocity, where the linear update above moves q along a chord
+        lie = LieStep(tp.lie, x, v, a, a_tilde, params, h)
+        lie.predict(x1, v1, a1)
     idx, xp, vp, ap = tp.prescribed(t1)
     if idx.size:
         x1[idx], v1[idx], a1[idx] = xp, vp, ap
@@ -388,6 +406,8 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
                 y1, yd1, ydd1 = tp.frame.back(motion, h, x1, v1, a1)
                 a_tilde_new = tp.frame.from_frame(
                     motion, h, y1, yd1, at_new + (1 - af) / (1 - am) * ydd1)[2]
+            if lie is not None:
+                lie.a_tilde(a_tilde_new)
             _gauge(num, x1, v1, a1, a_tilde_new)
             tp.step_nu = nu1
             tp.accept_level(level)
@@ -417,7 +437,7 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
             try:
                 kept, step = _iteration_matrix(
                     tp, opts, slow_newton, t1, x1, v1, a1, mu1, ev, r, blocks,
-                    damp_blocks, motion, W, beta_p, gamma_p, nu1, (g, slip_S))
+                    damp_blocks, motion, W, beta_p, gamma_p, nu1, (g, slip_S), lie)
             except StepFailed as fail:
                 raise StepFailed(fail.reason, history, chord=used_chord) from None
             fault = _increment_fault(tp, *step)
@@ -432,6 +452,8 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
             wd = W @ dx
             v1[fi] += wd
             a1[fi] += 2 * gamma_p * wd + W @ wd
+        elif lie is not None:
+            lie.update(x1, v1, a1, dx)        # (the nodes' x1, v1, a1 anew)
         if slips:
             nu1 = nu1 + dmu[mu1.size:]
             dmu = dmu[:mu1.size]
