@@ -278,6 +278,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 stress_resultant=step.stress,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
                 arc_length=step.arc_length, converged_by=int(step.converged_by == "floor"),
+                stability=step.stability,
                 **surface_stress(step.stress.get("BEAM")))
             summary.n_steps += 1
             if step.warning:

@@ -272,7 +272,8 @@ class ResultsWriter:
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
                     max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length: float | None = None, converged_by: int = 0, warping=None) -> None:
+                    arc_length: float | None = None, converged_by: int = 0, warping=None,
+                    stability: int = -1) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
@@ -298,11 +299,15 @@ class ResultsWriter:
         converged_by : int
             0: the residual met the tolerance; 1: it lies within its measured round-off
             floor (``/static/converged_by``).
+        stability : int
+            An arc-length run: the point's certified stability (``/static/stability``: 0
+            stable, 1 unstable, 2 undetermined, 3 a critical point; -1 not checked).
         """
         given = {"position": position, "euler": euler, "reaction": reaction, "warping": warping,
                  "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
                  "converged_by": operator.index(converged_by),
+                 "stability": operator.index(stability),
                  "elements/BEAM/max_normal_stress": max_normal_stress,
                  "elements/BEAM/max_von_mises_stress": max_von_mises_stress}
         self._step("static", float(load_factor), given, deformation, stress_resultant)
@@ -473,7 +478,8 @@ class ResultsWriter:
                 continue
             if (spec.kind is not None and spec.kind not in self.kinds) or (
                     path.endswith(_STRESS) and not self.has_stress) or (
-                    path == "static/arc_length" and not self._arclength) or (
+                    path in ("static/arc_length", "static/stability")
+                    and not self._arclength) or (
                     path in ACCELERATIONS and not self._accelerations) or (
                     "warping_node" in spec.shape and not self._sizes["warping_node"]):
                 continue
