@@ -317,7 +317,7 @@ class ArcLengthPath:
                     res <= opts.tol or prob.at_floor(ev, x, mu, opts.tol)):
                 prob.check_element_range(ev.states)
                 return _Point(x=prob.normalize(x), mu=mu, s=s, arc=p.arc + ds, its=it,
-                              res=res, by="tolerance" if res <= opts.tol else "floor"
+                              res=res, by=prob.accepted_by(ev, x, mu, res, opts.tol)
                               ), history
             if it == opts.max_iter:
                 break
