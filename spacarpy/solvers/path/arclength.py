@@ -422,16 +422,18 @@ class ArcLengthPath:
 
     # ------------------------------------------------------------------ the path
     def start_status(self, x0, mu0) -> int:
-        """The certified stability (:mod:`~spacarpy.solvers.path.point_status`) of the
-        starting state (x0, mu0) at s = 0, stored as step 0 before :meth:`follow`."""
-        p = self._start = _Point(x=x0, mu=mu0, s=0.0, arc=0.0)
-        self.tangent(p)
+        """The certified stability (point_status.py) of the start (x0, mu0): step 0."""
+        p = _Point(x=x0, mu=mu0, s=0.0, arc=0.0)
+        try:
+            self.tangent(p)
+        except StepFailed:
+            return -1                  # (follow says why, with step 0 stored)
+        self._start = p
         return self.status.stored(self.status.check(p)[0])
 
     def follow(self, x0, mu0, store) -> None:
-        """Follow the path from the converged state (x0, mu0) at s = 0 (stored already).
-        ``store(s, x, mu, its, res, arc, critical, by=, stability=)`` stores a point
-        (critical: a :class:`CriticalPoint` or None; stability: its status, point_status)."""
+        """Follow the path from the converged state (x0, mu0) at s = 0 (stored already);
+        ``store(s, x, mu, its, res, arc, critical, by=, stability=)`` stores a point."""
         try:
             self._follow(x0, mu0, store)
         finally:
@@ -445,9 +447,7 @@ class ArcLengthPath:
             self.tangent(p)
             self.status.stored(self.status.check(p)[0])
         direction = (p.tx, p.ts)
-        ds = arc.ds0
-        n_stored = 0
-        switched = False
+        ds, n_stored, switched = arc.ds0, 0, False
         while n_stored < arc.n_max:
             try:
                 new, _ = self.correct(p, ds, direction)
