@@ -278,6 +278,7 @@ def run_model(model: Model, settings: AnalysisSettings, out,
                 stress_resultant=step.stress,
                 reaction=step.reaction, iterations=step.iterations, residual=step.residual,
                 arc_length=step.arc_length, converged_by=int(step.converged_by == "floor"),
+                stability=step.stability,
                 **surface_stress(step.stress.get("BEAM")))
             summary.n_steps += 1
             if step.warning:
@@ -475,8 +476,9 @@ def step_line(k: int, n_steps: int, step, tol: float) -> str:
                 f"{step.load_factor:.4f}  {step.iterations:2d} iterations  residual "
                 f"{step.residual:.2e}")
     if getattr(step, "converged_by", "tolerance") == "floor":
-        line += (f" (above the tolerance {tol:.0e}, within its round-off floor measured at "
-                 "this state; the increments are below the tolerance)")
+        line += (f" ({'above' if step.residual > tol else 'at'} the tolerance {tol:.0e}, "
+                 "within its round-off floor measured at this state; the increments are "
+                 "below the tolerance)")
     return line
 
 

@@ -16,6 +16,7 @@ from spacarpy.solvers.linalg.certificate import (
     EPS,
     SAFETY,
     UNDETERMINED,
+    Certificate,
     certified_sign,
     inertia,
     round_off_bound,
@@ -153,3 +154,37 @@ def test_an_eigenmode_whose_w2_is_within_round_off_is_undetermined():
         SAFETY * 3 * EPS * 50.0, rel=1e-12)
     from spacarpy.results.schema import MODE_KIND_NAMES
     assert tuple(E.KIND_NAMES[k] for k in range(len(E.KIND_NAMES))) == MODE_KIND_NAMES
+
+
+def test_an_index_change_across_an_undetermined_stretch_is_told_and_a_flip_is_not(
+        monkeypatch):
+    """spacarpy/solvers/path/point_status.py: a stretch of undetermined points between two
+    certified points of the same index stores nothing (a pivot flip inside it decides
+    nothing); between different indices it is a certified, unlocated change; after a
+    critical point the index is compared with nothing before it. The warning names the
+    undetermined steps."""
+    from types import SimpleNamespace
+
+    from spacarpy.solvers.path import point_status as ps
+
+    def fake(prob, load, q, m=0):
+        cert = Certificate(0.0, 1.0)
+        return ((ps.UNDETERMINED, None, cert) if q.index is None else
+                (ps.STABLE if q.index == 0 else ps.UNSTABLE, q.index, cert))
+    monkeypatch.setattr(ps, "point_status", fake)
+    track = ps.StatusTrack(None, None)
+    seen = []
+    for index in (0, None, None, 0, None, 1, None, 1):
+        status, changed = track.check(SimpleNamespace(index=index))
+        track.stored(status)
+        seen.append((status, changed))
+    assert seen == [(0, False), (2, False), (2, False), (0, False), (2, False), (1, True),
+                    (2, False), (1, False)]
+    track.critical()
+    for index in (None, 0):          # after a critical point: nothing to compare with
+        status, changed = track.check(SimpleNamespace(index=index))
+        assert not changed
+        track.stored(status)
+    assert track.steps == [0, 2, 2, 0, 2, 1, 2, 1, 3, 2, 0]
+    assert track.undetermined == [1, 2, 4, 6, 9]
+    assert ps._ranges(track.undetermined) == "1-2, 4, 6, 9"

@@ -3,6 +3,9 @@ accepted only within its round-off floor measured at that state, with converged 
 and the stored /static/converged_by says which rule accepted it; the unloaded initial
 configuration is its own equilibrium (N10); the last allowed iteration is tested (N11); a
 load-control failure at a limit point is named with its load factor."""
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import h5py
@@ -78,6 +81,41 @@ def test_a_step_below_its_floor_is_accepted_by_it_and_stored_so(tmp_path):
     with h5py.File(out, "r") as f:
         assert not f["static/converged_by"][()].any()
         assert f["static/residual"][()].max() <= 1e-9
+
+
+def _flags(deck, out, threads: int = 1):
+    env = dict(os.environ, PYTHONPATH=str(DECKS.parent), OMP_NUM_THREADS=str(threads),
+               OPENBLAS_NUM_THREADS=str(threads), MKL_NUM_THREADS=str(threads))
+    proc = subprocess.run([sys.executable, "-m", "spacarpy", "run", str(deck), "-o", str(out),
+                           "-q"], env=env, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with h5py.File(out, "r") as f:
+        return f["static/converged_by"][()].tolist(), f["static/residual"][()]
+
+
+def test_the_stored_rule_does_not_hang_on_round_off(tmp_path):
+    """decks/table1_cantilever_128el_modified.dat (tolerance 1e-9): its converged residuals
+    are 0.5e-9 to 1.3e-9, at their round-off floor, so which side of the tolerance each
+    falls on is round-off. With the earlier rule (0 wherever the residual met the
+    tolerance) the deck stored 0,1,1,1,0,0,1,0,0,0,0 and, with the tip load changed by one
+    ulp (1293750 -> 1293750.0000000002), 0,1,1,1,1,0,0,0,0,0,0: steps 4 and 6 flipped. Now
+    a step stores 0 only where the tolerance clears 10 times every equation's floor
+    (StaticProblem.accepted_by): every loaded step is 1, for the deck, the load changed by
+    one and by three ulp, and one and two BLAS threads; step 0 (the unloaded start) is 0."""
+    load = 1293750.0
+    runs = []
+    for ulps, threads in ((0, 1), (0, 2), (1, 1), (3, 1)):
+        value = load
+        for _ in range(ulps):
+            value = float(np.nextafter(value, 2 * load))
+        deck = _deck("table1_cantilever_128el_modified.dat", tmp_path,
+                     ("DELXF 257 0 1293750 0", f"DELXF 257 0 {value!r} 0"))
+        runs.append(_flags(deck, tmp_path / f"u{ulps}t{threads}.h5", threads))
+    for flags, res in runs:
+        assert flags == [0] + [1] * 10
+        assert np.all((res[1:] > 1e-10) & (res[1:] < 1e-8))
+    # the residuals themselves differ: the flags do not follow them
+    assert not np.array_equal(runs[0][1], runs[2][1])
 
 
 def test_a_residual_outside_its_measured_floor_is_not_accepted(tmp_path, monkeypatch):

@@ -291,6 +291,11 @@ def test_a_step_accepted_at_its_round_off_floor_says_so():
     step = SimpleNamespace(load_factor=0.5, iterations=4, residual=5e-4, converged_by="floor")
     line = step_line(3, 10, step, 1e-9)
     assert "residual 5.00e-04" in line and "round-off floor" in line and "1e-09" in line
+    assert "(above the tolerance" in line
+    # recorded on its floor with the residual below the tolerance (the tolerance does not
+    # clear the floor: StaticProblem.accepted_by): not "above"
+    step.residual = 5e-10
+    assert "(at the tolerance 1e-09, within its round-off floor" in step_line(3, 10, step, 1e-9)
     for res, by in ((1e-10, "tolerance"), (5e-4, "tolerance")):
         assert "round-off" not in step_line(3, 10, SimpleNamespace(
             load_factor=0.5, iterations=4, residual=res, converged_by=by), 1e-9)

@@ -42,7 +42,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 21)
+SCHEMA_VERSION = (2, 22)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -216,6 +216,11 @@ def _spec_list() -> list[DatasetSpec]:
         S("static/arc_length", "f8", ("step",), "1",
           "arc length from step 0 in the scaled norm of the arc-length method (present in "
           "ARCLENGTH runs)", (2, 4), optional=True),
+        S("static/stability", "i1", ("step",), "1",
+          "certified stability of each point of an ARCLENGTH run: 0 stable, 1 unstable, 2 "
+          "undetermined (an eigenvalue nearest zero within its round-off bound), 3 a "
+          "critical point of /critical; -1 not checked (docs/path.md, Critical points)",
+          (2, 22), optional=True),
         S("static/reaction_node", "i8", ("reaction",), "1",
           "deck node number of each reaction component"),
         S("static/reaction_component", "ascii", ("reaction",), "1",

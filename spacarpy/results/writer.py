@@ -43,6 +43,7 @@ __all__ = ["ResultsWriter"]
 _INTERRUPTED = "interrupted by user"
 _NOT_FINISHED = "results writer closed without finish()"
 _STRESS = ("max_normal_stress", "max_von_mises_stress")
+_ARC_ONLY = ("static/arc_length", "static/stability")     # arc-length runs only
 
 
 class ResultsWriter:
@@ -272,7 +273,7 @@ class ResultsWriter:
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
                     max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length: float | None = None, converged_by: int = 0, warping=None) -> None:
+                    arc_length=None, converged_by=0, warping=None, stability=-1) -> None:
         """Append one converged static load step and make it durable.
 
         Parameters
@@ -286,23 +287,21 @@ class ResultsWriter:
             model, by kind keyword (``"BEAM"``, ``"TRUSS"`` ...).
         reaction : array_like, shape (n_reac,)
             Reactions in the order of ``reaction_component`` (N or N m).
-        iterations : int
-            Newton iterations used.
-        residual : float
-            Final relative residual.
+        iterations, residual : int, float
+            Newton iterations used, final relative residual.
         max_normal_stress, max_von_mises_stress : array_like, shape (n_beam,), optional
             Largest surface stresses of the BEAM elements (Pa); required when the model has
             cross-sections (:class:`spacarpy.results.stress.SurfaceStress` computes them).
         arc_length : float, optional
             The arc length from step 0 (required in an arc-length run).
-        converged_by : int
-            0: the residual met the tolerance; 1: it lies within its measured round-off
-            floor (``/static/converged_by``).
+        converged_by, stability : int
+            ``/static/converged_by`` (0 the tolerance, 1 the round-off floor) and, in an
+            arc-length run, ``/static/stability`` (docs/results.md).
         """
         given = {"position": position, "euler": euler, "reaction": reaction, "warping": warping,
                  "arc_length": None if arc_length is None else float(arc_length),
                  "iterations": operator.index(iterations), "residual": float(residual),
-                 "converged_by": operator.index(converged_by),
+                 "converged_by": operator.index(converged_by), "stability": int(stability),
                  "elements/BEAM/max_normal_stress": max_normal_stress,
                  "elements/BEAM/max_von_mises_stress": max_von_mises_stress}
         self._step("static", float(load_factor), given, deformation, stress_resultant)
@@ -473,7 +472,7 @@ class ResultsWriter:
                 continue
             if (spec.kind is not None and spec.kind not in self.kinds) or (
                     path.endswith(_STRESS) and not self.has_stress) or (
-                    path == "static/arc_length" and not self._arclength) or (
+                    path in _ARC_ONLY and not self._arclength) or (
                     path in ACCELERATIONS and not self._accelerations) or (
                     "warping_node" in spec.shape and not self._sizes["warping_node"]):
                 continue

@@ -55,7 +55,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from spacarpy.errors import ConvergenceError, ModelError
+from spacarpy.solvers.linalg.lu_sign import determinant_sign
 from spacarpy.solvers.path.inertia_bracket import locate_crossing
+from spacarpy.solvers.path.point_status import StatusTrack
 from spacarpy.solvers.path.stability import (
     UNDETERMINED_POINT,
     PathCertificate,
@@ -145,31 +147,6 @@ class _Point:
         return True
 
 
-def _permutation_sign(perm) -> int:
-    """(-1)^(number of transpositions) of a permutation array."""
-    perm = np.asarray(perm)
-    seen = np.zeros(perm.size, bool)
-    sign = 1
-    for i in range(perm.size):
-        if seen[i]:
-            continue
-        j, length = i, 0
-        while not seen[j]:
-            seen[j] = True
-            j = perm[j]
-            length += 1
-        if length % 2 == 0:
-            sign = -sign
-    return sign
-
-
-def determinant_sign(lu) -> int:
-    """Sign of the determinant of a matrix from its SuperLU factors (L has a unit diagonal)."""
-    d = lu.U.diagonal()
-    neg = int(np.sum(d < 0))
-    return (-1) ** neg * _permutation_sign(lu.perm_r) * _permutation_sign(lu.perm_c)
-
-
 def check_applies(prob) -> None:
     """ARCLENGTH needs a load increment (DELXF) and no prescribed motion that changes with
     the load factor (those are displacement control, the other way of tracing a path)."""
@@ -216,6 +193,8 @@ class ArcLengthPath:
         self.m = prob.pattern.n - self.n_x                 # constraint rows
         self.increments: list = []
         self.check = PathCertificate(prob, self.load)     # classifies the changes
+        self.status = StatusTrack(prob, self.load, self.m)  # each stored point's stability
+        self._start = None
 
     # ------------------------------------------------------------------ small pieces
     def inner(self, ux, us, vx, vs) -> float:
@@ -330,7 +309,7 @@ class ArcLengthPath:
                     res <= opts.tol or prob.at_floor(ev, x, mu, opts.tol)):
                 prob.check_element_range(ev.states)
                 return _Point(x=prob.normalize(x), mu=mu, s=s, arc=p.arc + ds, its=it,
-                              res=res, by="tolerance" if res <= opts.tol else "floor"
+                              res=res, by=prob.accepted_by(ev, x, mu, res, opts.tol)
                               ), history
             if it == opts.max_iter:
                 break
@@ -434,17 +413,33 @@ class ArcLengthPath:
         return v / np.abs(v).max()
 
     # ------------------------------------------------------------------ the path
-    def follow(self, x0, mu0, store) -> None:
-        """Follow the path from the converged state (x0, mu0) at s = 0 (stored already).
-        ``store(s, x, mu, its, res, arc, critical)`` stores a point (critical: a
-        :class:`CriticalPoint` or None)."""
-        arc = self.arc
+    def start_status(self, x0, mu0) -> int:
+        """The certified stability (point_status.py) of the start (x0, mu0): step 0."""
         p = _Point(x=x0, mu=mu0, s=0.0, arc=0.0)
-        self.tangent(p)
+        try:
+            self.tangent(p)
+        except StepFailed:
+            return -1                  # (follow says why, with step 0 stored)
+        self._start = p
+        return self.status.stored(self.status.check(p)[0])
+
+    def follow(self, x0, mu0, store) -> None:
+        """Follow the path from the converged state (x0, mu0) at s = 0 (stored already);
+        ``store(s, x, mu, its, res, arc, critical, by=, stability=)`` stores a point."""
+        try:
+            self._follow(x0, mu0, store)
+        finally:
+            self.status.warn()
+
+    def _follow(self, x0, mu0, store) -> None:
+        arc = self.arc
+        p = self._start
+        if p is None or p.x is not x0:
+            p = _Point(x=x0, mu=mu0, s=0.0, arc=0.0)
+            self.tangent(p)
+            self.status.stored(self.status.check(p)[0])
         direction = (p.tx, p.ts)
-        ds = arc.ds0
-        n_stored = 0
-        switched = False
+        ds, n_stored, switched = arc.ds0, 0, False
         while n_stored < arc.n_max:
             try:
                 new, _ = self.correct(p, ds, direction)
@@ -471,26 +466,18 @@ class ArcLengthPath:
                 continue
             crossed = (p.s - 1.0) * (new.s - 1.0) <= 0 and new.s != p.s
             # (at a bifurcation point just left, the stability is that of neither branch)
-            kind, undetermined = None, None
-            if not switched:
+            kind, undetermined, turn = None, None, np.sign(new.ts) != np.sign(p.ts)
+            if not switched:     # (a pivot flip's "undetermined": the statuses decide, below)
                 kind, cert = self.check.classify(p, new)
+                kind = None if kind == UNDETERMINED_KIND and not turn else kind
                 if kind is not None and self.prob.loads.parts:
-                    log.warning("a critical point on a path with follower loads (XFL/DELXFL) "
-                                "at s = %.6g: classified by the tangent's symmetric part, "
-                                "which does not decide stability for loads that are not "
-                                "conservative; check it with MODE eigen", new.s)
-            if kind == UNDETERMINED_KIND or (crossed and self.check.pending is not None):
-                cert = cert if kind == UNDETERMINED_KIND else self.check.pending[1]
-                kind = UNDETERMINED_KIND
-                undetermined = CriticalPoint(kind=kind, load_factor=new.s, arc_length=new.arc,
-                                             shape=self.critical_shape(new),
-                                             margin=cert.margin, bound=cert.bound)
-                log.warning("ARCLENGTH: stability undetermined up to load factor %.6g: an "
-                            "eigenvalue nearest zero within its round-off bound (margin %.3g, "
-                            "bound %.3g); stored as undetermined, not as a bifurcation",
-                            new.s, cert.margin, cert.bound)
+                    log.warning("a critical point on a path with follower loads at s = %.6g: "
+                                "classified by the tangent's symmetric part, no stability "
+                                "criterion for loads that are not conservative; check it with "
+                                "MODE eigen", new.s)
+            if kind == UNDETERMINED_KIND:
+                undetermined = self._undetermined(new, cert)
             elif kind is not None:
-                turn = np.sign(new.ts) != np.sign(p.ts)
                 crit = self.refine(p, ds, new, direction, turn)
                 if kind == 2 and not turn and getattr(new, "bracket", None) is not None:
                     crit = locate_crossing(self, p, ds, new, crit, direction)   # (index bound)
@@ -506,7 +493,7 @@ class ArcLengthPath:
                                        shape=self.critical_shape(crit),
                                        margin=cert.margin, bound=cert.bound)
                     store(crit.s, crit.x, crit.mu, crit.its, crit.res, crit.arc, cp,
-                          by=crit.by)
+                          by=crit.by, stability=self.status.critical())
                     self.check.stored()
                     n_stored += 1
                     self._commit(crit)
@@ -521,15 +508,17 @@ class ArcLengthPath:
                         continue
                     if n_stored >= arc.n_max:
                         break
+            last = self._land(p, new) if crossed else new
+            status, changed = self.status.check(last)
+            if changed and undetermined is None:
+                undetermined = self._undetermined(last, self.status.stretch)
+            if undetermined is not None:
+                undetermined.load_factor, undetermined.arc_length = last.s, last.arc
+            store(last.s, last.x, last.mu, last.its, last.res, last.arc, undetermined,
+                  by=last.by, stability=self.status.stored(status))
             if crossed:
-                last = self._land(p, new)
-                if undetermined is not None:
-                    undetermined.load_factor, undetermined.arc_length = last.s, last.arc
-                store(last.s, last.x, last.mu, last.its, last.res, last.arc, undetermined,
-                      by=last.by)
                 self._commit(last)
                 return
-            store(new.s, new.x, new.mu, new.its, new.res, new.arc, undetermined, by=new.by)
             self.check.seen(new)
             n_stored += 1
             switched = False
@@ -540,6 +529,16 @@ class ArcLengthPath:
             direction = (p.tx, p.ts)
         log.warning("ARCLENGTH: %d points stored and the load factor is %.6g, not 1: raise "
                     "n_max (or ds0) to follow the path further", n_stored, p.s)
+
+    def _undetermined(self, q: _Point, cert) -> CriticalPoint:
+        """An "undetermined" critical point at q: a turn of the path, or a change of the
+        certified index across a stretch of undetermined points, not located."""
+        log.warning("ARCLENGTH: a change of stability before load factor %.6g cannot be "
+                    "located: an eigenvalue nearest zero within its round-off bound (margin "
+                    "%.3g, bound %.3g); stored as undetermined", q.s, cert.margin, cert.bound)
+        return CriticalPoint(kind=UNDETERMINED_KIND, load_factor=q.s, arc_length=q.arc,
+                             shape=self.critical_shape(q), margin=cert.margin,
+                             bound=cert.bound)
 
     def _leave_along(self, crit: _Point, shape, arrival) -> _Point:
         """At a bifurcation point (BIFURCATION switch): leave along the other branch. Arrived

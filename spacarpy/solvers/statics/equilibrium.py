@@ -407,6 +407,21 @@ class StaticProblem:
         return bool(np.all(FLOOR_MULTIPLE * floor_r * self._force_w_free < tol * level)
                     and np.all(FLOOR_MULTIPLE * floor_c * self.constraint_weight < tol))
 
+    def accepted_by(self, ev: Evaluation, x, mu, res: float, tol: float,
+                    level: float | None = None) -> str:
+        """How a converged state is recorded (``/static/converged_by``): "tolerance" where
+        its residual ``res`` meets ``tol`` and ``tol`` clears every equation's floor
+        (:meth:`clears_floor`, forces relative to ``level``, default :meth:`force_level`),
+        else "floor" whichever side of ``tol`` the residual fell: where the tolerance does
+        not clear the floor, that side is round-off (the flag would flip with the BLAS
+        thread count), docs/solver.md, Convergence."""
+        if res > tol:
+            return "floor"
+        if level is None:
+            level = self.force_level(ev.f_ext, ev.f_int)
+        clear = self.clears_floor(*self.roundoff_floor(ev, x, mu), level, tol)
+        return "tolerance" if clear else "floor"
+
     def null_state(self, x, load: LoadState) -> bool:
         """Whether (x, load) is the unloaded initial configuration of a model without
         pre-stress or history: no force, moment or gravity, no prescribed motion, x = x0.

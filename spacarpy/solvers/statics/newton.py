@@ -134,7 +134,8 @@ def newton(prob, x, mu, load: LoadState, opts, states=None):
                 by = "tolerance"
         if by is not None:
             prob.check_element_range(ev.states)
-            history.converged_by = by
+            # (the stored rule: "tolerance" only where the tolerance clears the floors)
+            history.converged_by = prob.accepted_by(ev, x, mu, res, opts.tol, level)
             return x, mu, it, res, history
         if it == opts.max_iter:
             break

@@ -54,6 +54,7 @@ class StaticStep:
     critical: object = None           # ARCLENGTH: a CriticalPoint refined at this step
     warning: str | None = None        # load stepping: the step jumped (snap-through)
     converged_by: str = "tolerance"   # or "floor": within the measured round-off floor
+    stability: int = -1               # ARCLENGTH: certified status (path/point_status.py)
 
 
 @dataclass
@@ -151,7 +152,7 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
     contact = ContactMonitor(num)
 
     def store(load_factor, x, mu, its, res, arc=None, critical=None, warning=None,
-              by="tolerance"):
+              by="tolerance", stability=-1):
         ev = prob.evaluate(x, mu, prob.loads.at(1.0, load_factor))
         if not warned:
             warned.extend(_strain_warnings(num, ev.states, len(result.steps)))
@@ -163,7 +164,8 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         step = StaticStep(load_factor=load_factor, x=x.copy(), deformation=deformation,
                           stress=stress, reaction=prob.reactions(x, ev.f_int, ev.f_ext),
                           iterations=its, residual=res, mu=mu.copy(), arc_length=arc,
-                          critical=critical, warning=warning, converged_by=by)
+                          critical=critical, warning=warning, converged_by=by,
+                          stability=stability)
         result.steps.append(step)
         if on_step is not None:
             on_step(step)
@@ -190,8 +192,9 @@ def solve_static(model: Model, settings: AnalysisSettings | None = None, *,
         if prob.slips:
             raise ModelError("ARCLENGTH is not supported with rolling wheels (WHEEL slips "
                              "held) yet: use load steps (ITERSTEP, DELXF)")
-        store(0.0, x, mu, its, res, arc=0.0, by=by)
-        ArcLengthPath(prob, opts, opts.arclength).follow(x, mu, store)
+        arc_path = ArcLengthPath(prob, opts, opts.arclength)
+        store(0.0, x, mu, its, res, arc=0.0, by=by, stability=arc_path.start_status(x, mu))
+        arc_path.follow(x, mu, store)
         prob.timings.total = time.perf_counter() - t_start
         return result
     store(0.0, x, mu, its, res, by=by)
