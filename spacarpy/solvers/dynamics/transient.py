@@ -455,7 +455,8 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
     v = np.zeros(num.n_coord)
     v[idx] = vp0
     if opts.initial_velocities or num.prescribed_rate.size or num.rigid_rate.size \
-            or opts.user_motion is not None or model.initial_rates:
+            or opts.user_motion is not None or model.initial_rates \
+            or np.any(vp0) or np.any(tp.rigid_rates(0.0)[0]):    # a drive moving at t = 0
         v = _initial_velocities(tp, x, v, opts.initial_velocities)
     a, mu = _initial_acceleration(tp, x, v, mu, ap0)
     am, af, gamma, beta = alpha_parameters(opts.rho_inf)
