@@ -69,8 +69,11 @@ def test_inpute_five_fields_turn_a_wheel_at_its_rate_and_acceleration(w, alpha):
 @pytest.mark.parametrize("w, alpha", [(20.0, 0.0), (20.0, 10.0)])
 def test_inpute_driven_wheel_torque_is_minus_i_alpha(w, alpha):
     """The stress resultant of the driven hinge, the torque that holds the prescribed motion,
-    is ``-I alpha`` (zero for the balanced wheel at constant rate). It converges as h^2 (the
-    index-3 multipliers; RHOINF 0 damps their start-up oscillation)."""
+    is ``-I alpha`` (zero for the balanced wheel at constant rate). With the Euler parameters
+    updated on the rotation group (docs/transient.md) a rotation at w t + alpha t^2/2 about a
+    fixed axis is integrated exactly, so the torque is exact to round-off at 100 and at 200
+    steps (3e-10 to 1e-9 N m measured; with the linear update it converged as h^2, 1.5e-2 N m
+    of 5 N m at 200 steps). RHOINF 0 damps the multipliers' start-up oscillation."""
     inertia = 0.5
     errors = []
     for n in (100, 200):
@@ -80,8 +83,7 @@ def test_inpute_driven_wheel_torque_is_minus_i_alpha(w, alpha):
         late = t > 0.1                         # after the start-up of the multipliers
         errors.append(np.abs(torque[late] + inertia * alpha).max())
     scale = inertia * max(alpha, 1.0)
-    assert errors[1] < 5e-3 * scale            # 1.5e-2 N m of 5 N m at 200 steps
-    assert errors[0] > 3.0 * errors[1]         # second order in the time step
+    assert max(errors) < 1e-7 * scale
 
 
 # ------------------------------------------------------------------ 5-field INPUTX: a slider
