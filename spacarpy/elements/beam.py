@@ -576,17 +576,22 @@ class Beam(ElementKind):
     def stiffness(self, props, ref):
         return stiffness_matrix(props, ref.l0)
 
+    def inertia_geometry(self, ref) -> tuple:
+        """``(tangents, n_y, n_z, length)`` of the mass kernels: the end tangents (one for
+        both ends here, the chord's) and the length the mass is spread over."""
+        return ref.nx, ref.ny, ref.nz, ref.l0
+
     def mass(self, x, ref, m, rotary="lumped"):
-        return in_chunks(beam_mass_matrix, len(x), x, ref.nx, ref.ny, ref.nz,
-                         ref.l0, m, rotary, _section(ref, m))
+        return in_chunks(beam_mass_matrix, len(x), x, *self.inertia_geometry(ref), m, rotary,
+                         _section(ref, m))
 
     def convective(self, x, v, ref, m, rotary="lumped"):
-        return in_chunks(beam_convective, len(x), x, v, ref.nx, ref.ny, ref.nz,
-                         ref.l0, m, rotary, _section(ref, m))
+        return in_chunks(beam_convective, len(x), x, v, *self.inertia_geometry(ref), m,
+                         rotary, _section(ref, m))
 
     def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
-        return in_chunks(beam_inertia_force, len(x), x, v, a, ref.nx, ref.ny, ref.nz,
-                         ref.l0, m, rotary, _section(ref, m))
+        return in_chunks(beam_inertia_force, len(x), x, v, a, *self.inertia_geometry(ref), m,
+                         rotary, _section(ref, m))
 
     def check(self, st, ref):
         return check_saturation(st, ref)

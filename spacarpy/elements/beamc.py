@@ -38,33 +38,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spacarpy.elements.base import (
-    POS_P,
-    POS_Q,
-    ROT_AT_P,
-    ROT_AT_Q,
-    SECTION_MASS,
-    ElementKind,
-    Fields,
-)
-from spacarpy.elements.beam import (
-    DENSE_MAX,
-    Beam,
-    BeamReference,
-    _section,
-    beam_deformations,
-    beam_state,
-    beam_tangent,
-    beam_weighted_hessian,
-    check_saturation,
-)
-from spacarpy.elements.beam_mass import (
-    beam_convective,
-    beam_inertia_force,
-    beam_mass_matrix,
-    tangent_gravity,
-)
-from spacarpy.elements.chunks import in_chunks
+from spacarpy.elements.base import Fields
+from spacarpy.elements.beam import Beam, BeamReference
+from spacarpy.elements.beam_mass import tangent_gravity
 
 #: Gauss-Legendre points of the flexibility integral over the arc. The integrands are
 #: polynomials of degree <= 4 in sin, cos of the angle along the arc (< pi): 24 points
@@ -80,6 +56,7 @@ def quadrature() -> tuple[np.ndarray, np.ndarray]:
 
     x, w = leggauss(GAUSS_POINTS)
     return 0.5 * x, 0.5 * w
+
 
 #: Relative tolerance on the two radii |p - c| and |q - c| of a BEAMC line.
 RADIUS_RTOL = 1e-6
@@ -277,34 +254,25 @@ def arc_gravity(x: np.ndarray, ref: BeamCReference, mass: np.ndarray, g: np.ndar
     return f, k
 
 
-_BEAM = Beam()
-
-
-class BeamC(ElementKind):
-    """``BEAMC e p r q s cx cy cz``: the initially curved beam (module docstring)."""
+class BeamC(Beam):
+    """``BEAMC e p r q s cx cy cz``: the initially curved beam (module docstring): the BEAM's
+    kernels in the chord frame, with the arc's reference, stiffness, end tangents, length
+    and weight."""
 
     keyword = "BEAMC"
-    slots = Beam.slots
-    node_roles = Beam.node_roles
     modes = ("elongation", "torsion", "bending y (in-plane) at p", "bending y (in-plane) at q",
              "bending z (out-of-plane) at p", "bending z (out-of-plane) at q")
-    mode_units = ("m",) * 6
-    stress_units = ("N",) * 6
     deformation_meaning = ("generalized deformations of each BEAMC element (chord frame: "
                            "elongation, torsion, bending in and out of the arc's plane)")
     stress_meaning = ("generalized stress resultants (dual to the deformations) of each "
                       "BEAMC element")
-    length_modes = (True,) * 6
     estiff = Fields(("EA", "GJ", "EIy", "EIz", "cy", "cz"),
                     ("N", "N m^2", "N m^2", "N m^2", "m^2", "m^2"), 4, 6,
                     "EA GJ EIy EIz [cy cz]")
-    mode_stiffness = (0, 1, 2, 2, 3, 3)
-    em = SECTION_MASS
     vector = "arc centre"
     vector_required = True
     vector_point = True
     summary = "initially curved beam: a circular arc between two position nodes"
-    node_fields = (POS_P, ROT_AT_P, POS_Q, ROT_AT_Q)
     vector_fields = (("x coordinate of the arc centre (m)", "cx"),
                      ("y coordinate of the arc centre (m)", "cy"),
                      ("z coordinate of the arc centre (m)", "cz"))
@@ -322,37 +290,12 @@ class BeamC(ElementKind):
         return arc_problems(np.asarray(x0[0], float), np.asarray(x0[2], float),
                             np.asarray(vector, float))
 
-    def state(self, x, ref, variant, prev):
-        return in_chunks(beam_state, len(x), x, ref.ny, ref.nz, ref.l0, variant,
-                         ref.u, len(x) <= DENSE_MAX)
-
-    def deformations(self, x, ref, variant, prev):
-        return in_chunks(beam_deformations, len(x), x, ref.ny, ref.nz, ref.l0, variant,
-                         ref.u)
-
-    def hessian(self, st, w):
-        return in_chunks(beam_weighted_hessian, len(w), st, w, len(w) <= DENSE_MAX)
-
-    def tangent(self, st, S, w):
-        return in_chunks(beam_tangent, len(w), st, S, w, len(w) <= DENSE_MAX)
-
     def stiffness(self, props, ref):
         return arc_stiffness(props, ref.l0, ref.alpha)
 
-    def mass(self, x, ref, m, rotary="lumped"):
-        return in_chunks(beam_mass_matrix, len(x), x, ref.tangents, ref.ny, ref.nz,
-                         ref.arc, m, rotary, _section(ref, m))
-
-    def convective(self, x, v, ref, m, rotary="lumped"):
-        return in_chunks(beam_convective, len(x), x, v, ref.tangents, ref.ny, ref.nz,
-                         ref.arc, m, rotary, _section(ref, m))
-
-    def inertia_force(self, x, v, a, ref, m, rotary="lumped"):
-        return in_chunks(beam_inertia_force, len(x), x, v, a, ref.tangents, ref.ny, ref.nz,
-                         ref.arc, m, rotary, _section(ref, m))
-
-    def check(self, st, ref):
-        return check_saturation(st, ref)
+    def inertia_geometry(self, ref) -> tuple:
+        """The arc's own end tangents and its length (the chord's are the BEAM's)."""
+        return ref.tangents, ref.ny, ref.nz, ref.arc
 
     def gravity(self, x, ref, mass, g):
         return arc_gravity(x, ref, mass, g)
