@@ -1,10 +1,11 @@
-"""The drivers of mode 3 for models with slips (docs/rolling.md): with ``TIMESTEP 0 0`` the
-linearized equations about the initial steady motion (:mod:`spacarpy.solvers.linear.
-steady_motion`) written to one result file (the state at t = 0 as the one row of /transient:
-positions, velocities, deformations, the constraint forces as stress resultants, the WHEEL
-contact forces among them; its linearization in /state_space with the kinematic states, the
-inputs and outputs and the poles); along a trajectory, :class:`SlipTrajectory`, the same
-linearization at each stored step of the transient run."""
+"""The drivers of mode 3 for models with slips (docs/rolling.md).
+
+With ``TIMESTEP 0 0`` the linearized equations about the initial steady motion
+(:mod:`spacarpy.solvers.linear.steady_motion`) written to one result file (the state at t = 0
+as the one row of /transient: positions, velocities, deformations, the constraint forces as
+stress resultants, the WHEEL contact forces among them; its linearization in /state_space with
+the kinematic states, the inputs and outputs and the poles); along a trajectory,
+:class:`SlipTrajectory`, the same linearization at each stored step of the transient run."""
 from __future__ import annotations
 
 import logging

@@ -61,7 +61,7 @@ def spinup_deck(n: int = 10, h: float = 0.05, rho_inf: float = 0.5, rate: float 
 def lag_summary(t, lag, t_end: float | None = None) -> dict:
     """``peak`` (m, the most negative lag during the spin-up t <= T) and ``t_peak`` (s), both
     from the parabola through the lowest sample and its two neighbours (the sampled minimum
-    alone would quantize the time to the step); ``amplitude``: the largest |lag| from
+    alone would quantize the time to the step); ``amplitude``: the largest ``|lag|`` from
     :data:`T_SETTLED` on (NaN unless the history reaches ``t_end``, default its last time,
     and :data:`T_SETTLED`);
     ``t_reached``."""

@@ -32,9 +32,9 @@ __all__ = ["MAX_GENERATED", "arc_points", "count_elements", "expand_generators",
 
 #: Most elements one generator line may create.
 MAX_GENERATED = 1_000_000
-#: Relative tolerance on the two radii |p - c| and |q - c| of an arc.
+#: Relative tolerance on the two radii ``|p - c|`` and ``|q - c|`` of an arc.
 RADIUS_RTOL = 1e-6
-#: Orientation vectors shorter than this, or with |axis x o| < this * |o|, are rejected.
+#: Orientation vectors shorter than this, or with ``|axis x o| < this * |o|``, are rejected.
 ORIENTATION_TOL = 1e-5
 
 
@@ -57,7 +57,7 @@ def arc_geometry(a, b, center):
     Returns
     -------
     ra, rb : float
-        |a - c| and |b - c|.
+        ``|a - c|`` and ``|b - c|``.
     u, w : (3,) float
         Unit vector from c to a, and the unit vector perpendicular to it in the arc plane,
         towards b.

@@ -38,6 +38,10 @@ SECTIONS = ("structure", "kinematics", "element", "data", "output", "extension",
 class FieldSpec:
     """One field of a keyword record.
 
+    ``short`` is also the field's name for named access
+    (:meth:`spacarpy.deck.statement.Statement.value`). The choices and ranges are checked by
+    the deck semantics, each with its own message.
+
     Attributes
     ----------
     name : str
@@ -50,12 +54,10 @@ class FieldSpec:
         The value must be >= 1 (node and element numbers).
     choices : tuple of str or None
         The words a "word" field accepts (compared in lower case).
-    min, max : float or None
-        The range of a number field, inclusive (None: unbounded).
-
-    ``short`` is also the field's name for named access (:meth:`Statement.value
-    <spacarpy.deck.statement.Statement.value>`). The choices and ranges are checked by the deck
-    semantics, each with its own message.
+    min : float or None
+        The lower end of a number field's range, inclusive (None: unbounded).
+    max : float or None
+        The upper end of a number field's range, inclusive (None: unbounded).
     """
 
     name: str

@@ -13,9 +13,11 @@ reference(x0_slots, vector) -> (ref, scale)
     (n, n_def) that makes deformations dimensionless (a length for length-like modes, 1 for
     angles); used to weigh residuals and the kinematic correction.
 state(x_local, ref, variant, prev) -> state with ``.e`` (n, n_def) and ``.D`` (n, n_def, n_ldof)
+    The deformations and their Jacobian (first derivatives) at x.
 deformations(x_local, ref, variant, prev) -> e (n, n_def), optional
     ``state(...).e`` without the derivatives, where that is much cheaper (the BEAM).
 hessian(state, w) -> (n, n_ldof, n_ldof)
+    The weighted second derivatives ``sum_i w_i d2e_i/dx2`` (the geometric stiffness for w = σ).
 tangent(state, S, w) -> (n, n_ldof, n_ldof), optional
     The element tangent ``D^T S D + hessian(state, w)`` in one pass; without it the solver
     adds the two.
@@ -51,7 +53,9 @@ offers the slip kernels instead (the WHEEL, :mod:`spacarpy.elements.wheel`):
 slip(x_local, ref) -> S (n, len(velocity_modes), n_ldof)
     The modes' rates ``s = S(x) v``.
 slip_dx(x_local, v_local, ref) -> d(S v)/dx (n, len(velocity_modes), n_ldof)
+    The derivative of the slip rates at fixed velocities.
 slip_force_dx(x_local, nu, ref) -> d(S^T nu)/dx (n, n_ldof, n_ldof)
+    The derivative of the slip constraints' forces at fixed multipliers.
 
 An optional kernel a kind does not have is ``None`` (the solvers test ``kind.mass is None``).
 The deformation classes of a mode (RIGID, FLEXIBLE, RELEASED) live here too, so that the model,

@@ -15,7 +15,7 @@ n_x, n_y, n_z : (n_elem, 3)
     The nodal triads are ``n_y^p = R(q^p) n_y`` etc. (Eq. 1); all orientation nodes start at
     the identity, so every element is undeformed in the initial configuration.
 l0 : (n_elem,)
-    Reference length |r^q - r^p| in the initial configuration.
+    Reference length ``|r^q - r^p|`` in the initial configuration.
 e_hat : (n_elem, 6)
     Basic deformations, Eq. (7): elongation, torsion, four bending modes (unit: length).
 e : (n_elem, 6)
@@ -430,7 +430,7 @@ _TQ_H14 = _TQ_H14.reshape(18, N_LDOF * N_LDOF)
 
 
 # ------------------------------------------------------------------------------ the kind
-#: Largest |e_hat_k| / l0 (torsion, bending) accepted in a converged BEAM state: the basic
+#: Largest ``|e_hat_k| / l0`` (torsion, bending) accepted in a converged BEAM state: the basic
 #: deformations of Eq. (7) are sines of relative rotations, near 1 (90 degrees) they
 #: saturate, the Jacobian loses rank and Newton can land on a spurious equilibrium.
 MAX_BEAM_ROTATION = 0.95

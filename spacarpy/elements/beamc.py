@@ -58,7 +58,7 @@ def quadrature() -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * x, 0.5 * w
 
 
-#: Relative tolerance on the two radii |p - c| and |q - c| of a BEAMC line.
+#: Relative tolerance on the two radii ``|p - c|`` and ``|q - c|`` of a BEAMC line.
 RADIUS_RTOL = 1e-6
 #: Smallest and largest arc angle (rad) of a BEAMC: nearly straight arcs have an undefined
 #: plane (use BEAM), half circles an undefined centre side.

@@ -70,7 +70,7 @@ N_DEF = 6
 #: The 0-based holonomic and velocity-level modes.
 HOLONOMIC = (0, 1, 2, 5)
 VELOCITY = (3, 4)
-#: Relative tolerance of the reference checks (times the radius); the smallest |a0 x n|.
+#: Relative tolerance of the reference checks (times the radius); the smallest ``|a0 x n|``.
 REFERENCE_TOL = 1e-6
 VERTICAL_TOL = 1e-6
 

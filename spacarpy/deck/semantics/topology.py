@@ -28,7 +28,7 @@ __all__ = ["ELEMENT_KEYWORDS", "NODE_SIZE", "ORIENTATION_TOL", "ZERO_LENGTH_RTOL
 ZERO_LENGTH_RTOL = 1e-12
 #: Coordinates of each node kind (a warping node, a BEAMW's, has one: the rate of twist).
 NODE_SIZE = {"position": 3, "orientation": 4, "warping": 1}
-#: Orientation vectors shorter than this, or with |n_x x o| < this * |o|, are rejected
+#: Orientation vectors shorter than this, or with ``|n_x x o| < this * |o|``, are rejected
 #: (SPACAR's getLocalframe rule).
 ORIENTATION_TOL = 1e-5
 

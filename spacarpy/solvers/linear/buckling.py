@@ -9,7 +9,7 @@ shift-invert about mu = 0 on the bordered pencil for large ones.
 Classification (round-off never decides it). A mode whose load term does not load it has an
 infinite multiplier; computed, it comes out as ``inf``, ``nan`` or, with the round-off of
 another machine's BLAS, as 1e16. A multiplier ``mu`` with unit eigenvector ``v`` is
-**infinite** when ``|v^T G v|`` is within its round-off,
+**infinite** when ``|v^T G v|`` is within its round-off::
 
     |v^T G v| <= SAFETY eps (n ||G||_F + |v|^T (|K| + |K0|) |v|),
 

@@ -153,7 +153,7 @@ def near_zero(prob, x, mu, load: LoadState, k: int = NEAR_ZERO):
     Dense reduction (at most ``FEW_MODES_DENSE_LIMIT`` free coordinates):
     ``ks = D^-1 T^T K T D^-1``,
     all its eigenvalues, the eigenvectors ``u`` of the k nearest zero. Larger models: the
-    pencil ``[[K, C^T], [C, 0]] - lam [[W, 0], [0, 0]]`` (W the diagonal of |K|, the same
+    pencil ``[[K, C^T], [C, 0]] - lam [[W, 0], [0, 0]]`` (W the diagonal of ``|K|``, the same
     scaling) in shift-invert about zero with one sparse LU (the signs are those of the
     reduced tangent: Sylvester). An eigenvalue's round-off is that of ``y^T K y`` for its
     mode y in the coordinates (``y = T u / d``), entry by entry ``eps |y|^T |K| |y|`` (the

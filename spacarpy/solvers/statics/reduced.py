@@ -141,8 +141,8 @@ class ReducedNewton:
         self.negative_pivots = None             # see step
 
     def basis(self, q: np.ndarray, nq: np.ndarray | None = None) -> np.ndarray:
-        """B(q) = [q/|q|, Lambda(q)^T/|q|], (n, 4, 4) orthonormal for every q != 0 (``nq``:
-        the norms |q| where the caller has them)."""
+        """``B(q) = [q/|q|, Lambda(q)^T/|q|]``, (n, 4, 4) orthonormal for every q != 0 (``nq``:
+        the norms ``|q|`` where the caller has them)."""
         if nq is None:
             nq = np.linalg.norm(q, axis=1)
         # [q, Lambda(q)^T] is linear in q, its entries signed copies of q's: one product
