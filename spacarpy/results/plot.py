@@ -198,30 +198,51 @@ def history_figure(res: ResultsFile, quantity: str = "displacement", node=None, 
         raise ResultsQueryError(f"history of {quantity}: give --node")
     if quantity not in ("displacement", "position", "euler", "reaction") and element is None:
         raise ResultsQueryError(f"history of {quantity}: give --element")
-    _, Figure = _mpl()
     table = extract(res, quantity, node=node, element=element)
     names = table.names
-    fig = Figure(figsize=(6.4, 4.4))
-    ax = fig.add_subplot()
     step = np.asarray(table.columns[0])
+    curves = []                                   # (x, y, label, unit)
     if quantity == "reaction":
         comp = np.asarray(table.columns[3])
         value = np.asarray(table.columns[4], dtype=float)
         for c in dict.fromkeys(comp.tolist()):
             sel = comp == c
-            unit = "N" if c[0] == "F" else "N m"
-            ax.plot(step[sel], value[sel], "o-", ms=3, label=f"{c} [{unit}]")
+            curves.append((step[sel], value[sel], c, "N" if c[0] == "F" else "N m"))
     else:
         for j in range(3, len(names)):
-            ax.plot(step, np.asarray(table.columns[j], dtype=float), "o-", ms=3,
-                    label=f"{names[j]} [{table.units[j]}]")
-    ax.set_xlabel("step")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    _load_factor_ticks(ax, step, np.asarray(table.columns[1], dtype=float))
+            curves.append((step, np.asarray(table.columns[j], dtype=float), names[j],
+                           table.units[j]))
+    fig, axes = _unit_panels(quantity, curves, "o-", dict(ms=3))
+    axes[-1].set_xlabel("step")
+    _load_factor_ticks(axes[0], step, np.asarray(table.columns[1], dtype=float))
     what = f"node {node}" if element is None else f"element {element}"
-    ax.set_title(title(res, f"{quantity}, {what}"), fontsize=10)
+    axes[0].set_title(title(res, f"{quantity}, {what}"), fontsize=10)
     return fig
+
+
+_UNIT_NAMES = {"N": "force", "N m": "moment", "m": "length", "J": "energy", "Pa": "stress",
+               "rad": "angle", "m/s": "velocity", "1": "value"}
+
+
+def _unit_panels(quantity, curves, fmt, style):
+    """A figure with one panel per unit of ``curves`` [(x, y, label, unit), ...] stacked on
+    a shared x axis; each y axis labelled with the quantity and its one unit. Returns
+    (figure, axes)."""
+    _, Figure = _mpl()
+    units = list(dict.fromkeys(c[3] for c in curves))
+    fig = Figure(figsize=(6.4, 4.4 if len(units) == 1 else 2.2 + 2.2 * len(units)))
+    axes = fig.subplots(len(units), 1, sharex=True, squeeze=False)[:, 0]
+    name = quantity.replace("_", " ")
+    for ax, unit in zip(axes, units):
+        for x, y, label, u in curves:
+            if u == unit:
+                ax.plot(x, y, fmt, label=label, **style)
+        what = name if len(units) == 1 else f"{name}: {_UNIT_NAMES.get(unit, unit)}"
+        ax.set_ylabel(what if unit == "1" else f"{what} [{unit}]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                  borderaxespad=0.0)
+    return fig, axes
 
 
 def _load_factor_ticks(ax, step, lf) -> None:
@@ -254,24 +275,57 @@ def _time_history_figure(res, what, quantity, node, element):
 
     if quantity in ("displacement", "position", "velocity", "euler") and node is None:
         raise ResultsQueryError(f"history of {quantity}: give --node")
-    _, Figure = _mpl()
     table = extract(res, what, node=node, element=element)
     time = np.asarray(table.columns[0], dtype=float)
-    first = 4 if what == "energy" else 3          # after time, step and the entity
+    if what == "energy":
+        return _energy_figure(res, table, time)
     names = table.names
-    fig = Figure(figsize=(6.4, 4.4))
-    ax = fig.add_subplot()
-    for j in range(first, len(names)):
-        unit = table.units[j]
-        ax.plot(time, np.asarray(table.columns[j], dtype=float), "-", lw=1.2,
-                label=f"{names[j]} [{unit}]" if unit != "1" else names[j])
-    ax.set_xlabel("time [s]")
-    ax.grid(True, alpha=0.3)
-    # outside the axes: inside, the energy curves (which fill the plot) run under it
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
-    what_of = ("energies" if what == "energy" else
-               f"node {node}" if element is None else f"element {element}")
+    curves = [(time, np.asarray(table.columns[j], dtype=float), names[j], table.units[j])
+              for j in range(3, len(names))]
+    fig, axes = _unit_panels(quantity, curves, "-", dict(lw=1.2))
+    axes[-1].set_xlabel("time [s]")
+    ax = axes[0]
+    what_of = f"node {node}" if element is None else f"element {element}"
     if res.static is not None and res.static.n_step > 1:
         what_of += f" (after {res.static.n_step - 1} static preload steps)"
     ax.set_title(title(res, f"{quantity} against time, {what_of}"), fontsize=10)
+    return fig
+
+
+def _energy_figure(res, table, time):
+    """Energies against time (upper panel, J) and, on its own axis below, the balance
+    ``T + U + D - W`` (kinetic, elastic, dissipated energy, work of the loads) and its drift
+    from t = 0, which an exact integration keeps constant."""
+    _, Figure = _mpl()
+    col = {n: np.asarray(c, dtype=float) for n, c in zip(table.names, table.columns)}
+    fig = Figure(figsize=(6.4, 6.2))
+    top, low = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    names = {"kinetic_energy": "kinetic T", "elastic_energy": "elastic U",
+             "external_work": "work of the loads W", "dissipated_energy": "dissipated D"}
+    for j, (key, label) in enumerate(names.items()):
+        if key == "dissipated_energy" and not np.any(col[key]):
+            continue
+        top.plot(time, col[key], ("-", "--", ":", "-.")[j], lw=1.4, label=label)
+    top.set_ylabel("energy [J]")
+    balance = col["kinetic_energy"] + col["elastic_energy"] + col["dissipated_energy"] \
+        - col["external_work"]
+    drift = balance - balance[0]
+    low.plot(time, balance, "C4-", lw=1.2, label="T + U + D - W")
+    low.axhline(balance[0], color="k", lw=0.6, ls=":", label=f"at t = {time[0]:.3g} s")
+    low.set_ylabel("energy balance [J]")
+    low.set_xlabel("time [s]")
+    worst = int(np.argmax(np.abs(drift)))
+    scale = max(float(np.max(np.abs(col["kinetic_energy"]))),
+                float(np.max(np.abs(col["elastic_energy"]))),
+                float(np.max(np.abs(col["external_work"]))))
+    rel = f" ({abs(drift[worst]) / scale:.2g} of the largest energy)" if scale > 0 else ""
+    low.set_title(f"drift: largest |change| {abs(drift[worst]):.3g} J at t = "
+                  f"{time[worst]:.3g} s{rel}", fontsize=9)
+    for ax in (top, low):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    pre = (f" (after {res.static.n_step - 1} static preload steps)"
+           if res.static is not None and res.static.n_step > 1 else "")
+    top.set_title(title(res, f"energies against time{pre}"), fontsize=10)
+    fig.spacarpy_balance = balance
     return fig
