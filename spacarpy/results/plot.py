@@ -36,12 +36,14 @@ _X = ("; x axis: the quantity the run prescribes (a DELINPE angle in mrad, a DEL
 
 #: Plot kinds of ``spacarpy plot`` and what they show.
 PLOTS = {
-    "shape": "undeformed and deformed shape in 3D (equal axes); --step, or --time for a "
+    "shape": "undeformed and deformed shape (2-D for a planar model, else 3-D; equal axes); "
+             "--step, --all-steps, or --time for a "
              "transient run; displacements magnified automatically when small (--scale); "
              "coloured by the von Mises stress when cross-sections are known",
     "load-displacement": "load against the displacement of --node" + _X,
     "path": "the equilibrium path: the load (the reaction of a prescribed coordinate, a DELXF "
-            "force or the load factor) against the displacement --dof (x, y, z) of --node, "
+            "force or the load factor) against the displacement --dof (x, y, z) of --node "
+            "(default: the loaded node), "
             "critical points marked where the file has them (docs/path.md)",
     "frequency": "natural frequencies against the load (--modes-per-step runs)" + _X,
     "buckling": "buckling load multipliers against the load" + _X,
@@ -102,10 +104,13 @@ def path_figure(res: ResultsFile, node=None, dof=None, x="auto", **_):
     """The equilibrium path of :func:`~spacarpy.results.path.path_curve`: the load against
     the displacement ``dof`` of ``node``, its points in step order (an arc-length path may
     turn back), the critical points of ``/critical`` marked and labelled."""
-    from spacarpy.results.path import path_curve
+    from spacarpy.results.path import loaded_node, path_curve
 
     _, Figure = _mpl()
     c = path_curve(res, node=node, dof=dof, x=x)
+    named = (" (the loaded node)" if c.node == loaded_node(res) else
+             " (the prescribed coordinate)" if node is None and c.load_name.startswith(
+                 "reaction") else "")
     fig = Figure(figsize=(6.4, 4.4))
     ax = fig.add_subplot()
     ax.plot(c.displacement, c.load, "o-", ms=2.5, lw=1.2, label="stored steps")
@@ -123,7 +128,8 @@ def path_figure(res: ResultsFile, node=None, dof=None, x="auto", **_):
     ax.set_ylabel(c.load_label)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(title(res, f"equilibrium path, node {c.node}, u{c.dof}"), fontsize=10)
+    ax.set_title(title(res, f"equilibrium path, node {c.node}{named}, u{c.dof}"),
+                 fontsize=10)
     return fig
 
 
