@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 from pathlib import Path
 
 from spacarpy.cli.common import (
@@ -89,8 +91,13 @@ def cmd_plot(args) -> int:
     with open_results(args.file) as res, discarding(out) as target, \
             atomic_output(target) as staged:      # whole or not at all (a full disk)
         if animation:
-            animate(res, staged, fps=args.fps, max_frames=args.frames, scale=args.scale,
-                    view=args.view)
+            bar = None if args.quiet else _FrameProgress(sys.stderr)
+            try:
+                animate(res, staged, fps=args.fps, max_frames=args.frames, scale=args.scale,
+                        view=args.view, progress=bar)
+            finally:
+                if bar is not None:
+                    bar.close()
         else:
             fig = make_figure(res, args.kind, node=args.node, element=args.element,
                               step=step, mode=args.mode, quantity=args.quantity,
@@ -99,3 +106,42 @@ def cmd_plot(args) -> int:
             save(fig, staged)
     print(out)
     return EXIT_OK
+
+
+class _FrameProgress:
+    """Progress of ``plot animate`` on stderr: on a terminal one line redrawn (frames done, a
+    bar, the time left, at most 5 times a second); otherwise a line at every 10 %."""
+
+    def __init__(self, stream, width: int = 30):
+        self.stream, self.width = stream, width
+        self.tty = bool(getattr(stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+        self.last, self.shown, self.tenth = 0.0, False, -1
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        frac = done / total if total else 1.0
+        elapsed = now - self.t0
+        eta = elapsed * (1 - frac) / frac if frac > 0 else float("nan")
+        bar = "#" * int(round(frac * self.width))
+        text = (f"animate: frame {done}/{total} [{bar:<{self.width}}] {100 * frac:5.1f}%  "
+                f"remaining {eta:5.1f} s")
+        if self.tty:
+            if now - self.last < 0.2 and done < total:
+                return
+            self.last = now
+            self.stream.write("\r" + text + " ")
+            self.shown = True
+        else:
+            tenth = int(10 * frac)
+            if tenth == self.tenth:
+                return
+            self.tenth = tenth
+            self.stream.write(f"animate: frame {done}/{total} ({100 * frac:.0f}%), "
+                              f"{elapsed:.1f} s\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()

@@ -427,18 +427,61 @@ def animate(res: ResultsFile, out, fps: float = 20, max_frames: int = 200, scale
           label="undeformed")
     cv.limits(every, view)
     fixed = set(cv.ax.collections) | set(cv.ax.lines)
+
+    def frame(i, k, pos, eul):
+        """The moving artists of frame i (the configuration, its hinges, the title)."""
+        for artist in list(cv.ax.collections) + list(cv.ax.lines):
+            if artist not in fixed:
+                artist.remove()
+        _draw(cv, res, pos, eul, color="C0", width=2.0, ribbon=ribbon,
+              label=f"deformed{magnified}")
+        _hinges(cv, res, pos)
+        cv.ax.set_title(title(res, what_of.format(x[k])), fontsize=10)
+        return [a for a in list(cv.ax.collections) + list(cv.ax.lines) if a not in fixed]
+
+    if out.suffix.lower() == ".gif":
+        _blit_gif(fig, cv, frames, configs, frame, out, fps, progress)
+        return frames
     with writer.saving(fig, str(out), dpi=80):
         for i, (k, (pos, eul)) in enumerate(zip(frames, configs)):
-            for artist in list(cv.ax.collections) + list(cv.ax.lines):
-                if artist not in fixed:
-                    artist.remove()
-            _draw(cv, res, pos, eul, color="C0", width=2.0, ribbon=ribbon,
-                  label=f"step {k}{magnified}")
-            _hinges(cv, res, pos)
+            frame(i, k, pos, eul)
             if i == 0:
                 cv.ax.legend(loc="upper left", fontsize=8)
-            cv.ax.set_title(title(res, what_of.format(x[k])), fontsize=10)
             writer.grab_frame()
             if progress is not None:
                 progress(i + 1, frames.size)
     return frames
+
+
+def _blit_gif(fig, cv, frames, configs, frame, out, fps, progress) -> None:
+    """Write the GIF by blitting: the axes, ticks, legend and undeformed shape are drawn
+    once; each frame restores that picture and draws only its own artists (the full redraw
+    of every frame spent most of its time on tick labels)."""
+    from PIL import Image
+
+    fig.set_dpi(80)
+    canvas = fig.canvas
+    moving = frame(0, frames[0], *configs[0])
+    cv.ax.legend(loc="upper left", fontsize=8)
+    title_artist = cv.ax.title
+    for a in moving + [title_artist]:
+        a.set_animated(True)
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    images = []
+    for i, (k, (pos, eul)) in enumerate(zip(frames, configs)):
+        if i:
+            moving = frame(i, k, pos, eul)
+        canvas.restore_region(background)
+        for a in moving:
+            a.set_animated(True)
+            if hasattr(a, "do_3d_projection"):
+                a.do_3d_projection()
+            cv.ax.draw_artist(a)
+        fig.draw_artist(title_artist)
+        images.append(Image.frombuffer("RGBA", canvas.get_width_height(),
+                                       bytes(canvas.buffer_rgba()), "raw", "RGBA", 0, 1))
+        if progress is not None:
+            progress(i + 1, frames.size)
+    images[0].save(out, save_all=True, append_images=images[1:],
+                   duration=int(1000 / fps), loop=0)
