@@ -45,8 +45,9 @@ def add_parser(sub, vocabularies: bool = True) -> None:
     plot.add_argument("--scale", type=float, default=None,
                       help="shape, animate: displacement magnification (default: automatic "
                            "when the displacements are small, stated in the legend; 1 = true "
-                           "scale); mode: amplitude of the mode shape (default: 15%% of the "
-                           "model size)")
+                           "scale); mode: amplitude of the mode shape (default: its largest "
+                           "displacement 15%% of the model size or its largest rotation "
+                           "0.5 rad, whichever is smaller)")
     plot.add_argument("--x", dest="x_axis", choices=("auto", "prescribed", "load-factor"),
                       default="auto",
                       help="frequency, buckling, load-displacement: the load axis: the "
@@ -59,8 +60,8 @@ def add_parser(sub, vocabularies: bool = True) -> None:
                       help="animate: at most this many frames, spread over the steps "
                            "(default 200)")
     plot.add_argument("--view", type=float, nargs=2, default=None, metavar=("ELEV", "AZIM"),
-                      help="shape, mode: camera elevation and azimuth in degrees (default "
-                           "30 -60)")
+                      help="shape, mode: camera elevation and azimuth in degrees for a 3-D "
+                           "model (default 30 -60; a planar model is drawn in 2-D)")
     plot.add_argument("-o", "--output", type=_output_path, default=None,
                       help="image file; the suffix picks the format: .png, .pdf, .svg; "
                            "animate: .gif, .mp4 (default: <file>_<kind>.png, .gif)")

@@ -48,10 +48,12 @@ PLOTS = {
     "frequency": "natural frequencies against the load (--modes-per-step runs)" + _X,
     "buckling": "buckling load multipliers against the load" + _X,
     "history": "a quantity against the step: --quantity (displacement, position, reaction, "
-               "section_forces, stress, strain_energy) with --node or --element; for a "
+               "section_forces, stress, strain_energy) with --node or --element, one panel "
+               "per unit; for a "
                "transient run against the time: --quantity displacement, position, velocity, "
                "euler, deformation, stress_resultant or energy",
-    "mode": "eigenmode --mode (default 1) at --step, over the deformed shape",
+    "mode": "eigenmode --mode (default 1) at --step, over the deformed shape; a twist "
+            "shows as the turn of the band along each beam",
     "buckling-mode": "buckling mode --mode (default 1) at --step",
     "root-locus": "a sweep file's poles (spacarpy sweep DECK --set V=0:10:101 --collect "
                   "/state_space/pole) against the swept parameter: real and imaginary parts "
