@@ -228,23 +228,28 @@ def history_figure(res: ResultsFile, quantity: str = "displacement", node=None, 
     return fig
 
 
-_UNIT_NAMES = {"N": "force", "N m": "moment", "m": "length", "J": "energy", "Pa": "stress",
+_UNIT_NAMES = {"N": "force", "N m": "moment", "m": "length", "J": "energy", "MPa": "stress",
                "rad": "angle", "m/s": "velocity", "1": "value"}
 
 
 def _unit_panels(quantity, curves, fmt, style):
     """A figure with one panel per unit of ``curves`` [(x, y, label, unit), ...] stacked on
-    a shared x axis; each y axis labelled with the quantity and its one unit. Returns
-    (figure, axes)."""
+    a shared x axis; each y axis labelled with the quantity and its one unit (stresses in
+    MPa). Returns (figure, axes)."""
     _, Figure = _mpl()
+    curves = [(x, y / 1e6, label, "MPa") if unit == "Pa" else (x, y, label, unit)
+              for x, y, label, unit in curves]          # stresses in MPa, as the shapes
     units = list(dict.fromkeys(c[3] for c in curves))
     fig = Figure(figsize=(6.4, 4.4 if len(units) == 1 else 2.2 + 2.2 * len(units)))
     axes = fig.subplots(len(units), 1, sharex=True, squeeze=False)[:, 0]
     name = quantity.replace("_", " ")
     for ax, unit in zip(axes, units):
-        for x, y, label, u in curves:
-            if u == unit:
-                ax.plot(x, y, fmt, label=label, **style)
+        mine = [c for c in curves if c[3] == unit]
+        for n, (x, y, label, _) in enumerate(mine):
+            # line styles and markers differ, so that equal curves do not hide each other
+            ax.plot(x, y, ls=("-", "--", "-.", ":")[n % 4], label=label,
+                    marker=("o", "s", "^", "v", "D", "x")[n % 6] if fmt.startswith("o")
+                    else None, **style)
         what = name if len(units) == 1 else f"{name}: {_UNIT_NAMES.get(unit, unit)}"
         ax.set_ylabel(what if unit == "1" else f"{what} [{unit}]")
         ax.grid(True, alpha=0.3)
