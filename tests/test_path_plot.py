@@ -15,6 +15,7 @@ from spacarpy.cli import main
 from spacarpy.deck import job_from_text
 from spacarpy.errors import EXIT_INPUT
 from spacarpy.results import open_results
+from spacarpy.results.plot import make_figure
 from spacarpy.results.schema import CRITICAL_POINT_NAMES
 from spacarpy.run import run_job
 
@@ -93,14 +94,22 @@ def test_plot_path_writes_a_png(runs, tmp_path, capsys):
 
 
 def test_path_defaults_and_refusals(runs, capsys):
-    # default node: the one that moves most; default dof: its component that moves most
+    # default node: the loaded node (DELXF 5 0 -1.8 0), its component along the load (y)
     head, rows = _csv(capsys, runs["lees_frame_load"], "path")
     with open_results(runs["lees_frame_load"]) as res:
-        u = res.static.displacement()                      # (step, node, 3)
-        node = np.argmax(np.linalg.norm(u[-1], axis=-1))
-        dof = int(np.argmax(np.ptp(u[:, node], axis=0)))
-        assert head[2] == f"u{'xyz'[dof]} [m]"
-        np.testing.assert_array_equal([float(x[2]) for x in rows], u[:, node, dof])
+        assert head[2] == "uy [m]"
+        np.testing.assert_array_equal([float(x[2]) for x in rows],
+                                      res.static.displacement(node=5)[:, 1])
+        assert res.model.position_nodes[np.argmax(np.linalg.norm(
+            res.static.displacement(step=-1), axis=-1))] != 5     # not the node moving most
+        title = make_figure(res, "path").axes[0].get_title()
+        assert title.endswith("equilibrium path, node 5 (the loaded node), uy"), title
+    # displacement control (INPUTX 5 2): the prescribed coordinate, and its reaction
+    head, rows = _csv(capsys, runs["lees_frame"], "path")
+    assert head[2:4] == ["uy [m]", "reaction_Fy [N]"]
+    with open_results(runs["lees_frame"]) as res:
+        np.testing.assert_array_equal([float(x[2]) for x in rows],
+                                      res.static.displacement(node=5)[:, 1])
     assert main(["extract", str(runs["lees_frame"]), "path", "--node", "6"]) == EXIT_INPUT
     assert "orientation node" in capsys.readouterr().err
     assert main(["extract", str(runs["lees_frame"]), "path", "--node", "99"]) == EXIT_INPUT

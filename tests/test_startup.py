@@ -23,7 +23,8 @@ NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.s
                "scipy.io", "scipy.optimize", "scipy.integrate", "scipy.interpolate",
                "spacarpy.batch", "spacarpy.bench",
                "spacarpy.results.plot", "spacarpy.results.plot_base",
-               "spacarpy.results.plot_shapes", "spacarpy.results.export",
+               "spacarpy.results.plot_shapes", "spacarpy.results.plot_geometry",
+               "spacarpy.results.export",
                "spacarpy.results.tables", "spacarpy.results.summary",
                # the readers and the validator: a run writes its file, its EXPECT lines
                # read it with h5py

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 from pathlib import Path
 
 from spacarpy.cli.common import (
@@ -43,8 +45,9 @@ def add_parser(sub, vocabularies: bool = True) -> None:
     plot.add_argument("--scale", type=float, default=None,
                       help="shape, animate: displacement magnification (default: automatic "
                            "when the displacements are small, stated in the legend; 1 = true "
-                           "scale); mode: amplitude of the mode shape (default: 15%% of the "
-                           "model size)")
+                           "scale); mode: amplitude of the mode shape (default: its largest "
+                           "displacement 15%% of the model size or its largest rotation "
+                           "0.5 rad, whichever is smaller)")
     plot.add_argument("--x", dest="x_axis", choices=("auto", "prescribed", "load-factor"),
                       default="auto",
                       help="frequency, buckling, load-displacement: the load axis: the "
@@ -57,8 +60,8 @@ def add_parser(sub, vocabularies: bool = True) -> None:
                       help="animate: at most this many frames, spread over the steps "
                            "(default 200)")
     plot.add_argument("--view", type=float, nargs=2, default=None, metavar=("ELEV", "AZIM"),
-                      help="shape, mode: camera elevation and azimuth in degrees (default "
-                           "30 -60)")
+                      help="shape, mode: camera elevation and azimuth in degrees for a 3-D "
+                           "model (default 30 -60; a planar model is drawn in 2-D)")
     plot.add_argument("-o", "--output", type=_output_path, default=None,
                       help="image file; the suffix picks the format: .png, .pdf, .svg; "
                            "animate: .gif, .mp4 (default: <file>_<kind>.png, .gif)")
@@ -89,8 +92,13 @@ def cmd_plot(args) -> int:
     with open_results(args.file) as res, discarding(out) as target, \
             atomic_output(target) as staged:      # whole or not at all (a full disk)
         if animation:
-            animate(res, staged, fps=args.fps, max_frames=args.frames, scale=args.scale,
-                    view=args.view)
+            bar = None if args.quiet else _FrameProgress(sys.stderr)
+            try:
+                animate(res, staged, fps=args.fps, max_frames=args.frames, scale=args.scale,
+                        view=args.view, progress=bar)
+            finally:
+                if bar is not None:
+                    bar.close()
         else:
             fig = make_figure(res, args.kind, node=args.node, element=args.element,
                               step=step, mode=args.mode, quantity=args.quantity,
@@ -99,3 +107,42 @@ def cmd_plot(args) -> int:
             save(fig, staged)
     print(out)
     return EXIT_OK
+
+
+class _FrameProgress:
+    """Progress of ``plot animate`` on stderr: on a terminal one line redrawn (frames done, a
+    bar, the time left, at most 5 times a second); otherwise a line at every 10 %."""
+
+    def __init__(self, stream, width: int = 30):
+        self.stream, self.width = stream, width
+        self.tty = bool(getattr(stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+        self.last, self.shown, self.tenth = 0.0, False, -1
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        frac = done / total if total else 1.0
+        elapsed = now - self.t0
+        eta = elapsed * (1 - frac) / frac if frac > 0 else float("nan")
+        bar = "#" * int(round(frac * self.width))
+        text = (f"animate: frame {done}/{total} [{bar:<{self.width}}] {100 * frac:5.1f}%  "
+                f"remaining {eta:5.1f} s")
+        if self.tty:
+            if now - self.last < 0.2 and done < total:
+                return
+            self.last = now
+            self.stream.write("\r" + text + " ")
+            self.shown = True
+        else:
+            tenth = int(10 * frac)
+            if tenth == self.tenth:
+                return
+            self.tenth = tenth
+            self.stream.write(f"animate: frame {done}/{total} ({100 * frac:.0f}%), "
+                              f"{elapsed:.1f} s\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()

@@ -4,7 +4,9 @@
 This module's one job is to choose the two axes of that curve from a results file:
 
 - the displacement: component ``dof`` (x, y or z) of position node ``node`` at every stored
-  step (default: the component that moves most);
+  step (default: the node with the largest force, :func:`loaded_node`, and the component
+  along that force; else the prescribed coordinate that moves most, found as the supported
+  coordinate that moves; else the node that moves most and its component that moves most);
 - the load: where that coordinate is prescribed (``INPUTX``/``DELINPX``, displacement
   control) or supported, its reaction (the force that imposes the displacement, N), read from
   ``/static/reaction``; otherwise the quantity the run prescribes (a DELXF force in N, see
@@ -26,7 +28,7 @@ from spacarpy.results.plot_base import x_axis
 from spacarpy.results.reader import ResultsFile, ResultsQueryError
 from spacarpy.results.schema import CRITICAL_POINT_NAMES
 
-__all__ = ["DOFS", "PathCurve", "path_curve", "critical_points"]
+__all__ = ["DOFS", "PathCurve", "path_curve", "critical_points", "loaded_node"]
 
 #: the displacement components a path can be drawn against
 DOFS = ("x", "y", "z")
@@ -71,8 +73,51 @@ def critical_points(res: ResultsFile):
     return step, kind, lf
 
 
+def loaded_node(res: ResultsFile) -> int | None:
+    """The position node with the largest force of the model's loads (DELXF lines first, then
+    the other force lines; the first of equal ones), or None when no force acts on a
+    position node (a moment, a prescribed motion)."""
+    found = _largest_force(res)
+    return None if found is None else found[0]
+
+
+def _largest_force(res: ResultsFile):
+    """(node, force vector) of :func:`loaded_node`, or None."""
+    m = res.model
+    if m.load_node is None or not len(m.load_node):
+        return None
+    nodes = np.asarray(m.load_node, dtype=int)
+    value = np.asarray(m.load_value, dtype=float).reshape(len(nodes), -1)
+    size = np.linalg.norm(value, axis=1)
+    kinds = np.asarray(m.load_type).astype(str)
+    on_position = np.array([m.node_kind(int(n)) == "position" for n in nodes])
+    for rows in (np.flatnonzero(on_position & (kinds == "DELXF") & (size > 0)),
+                 np.flatnonzero(on_position & (size > 0))):
+        if rows.size:
+            j = rows[int(np.argmax(size[rows]))]
+            return int(nodes[j]), value[j]
+    return None
+
+
+def _driven_coordinate(res: ResultsFile, dof):
+    """(node, dof) of the coordinate with a reaction that moves most (a prescribed motion,
+    INPUTX/DELINPX: a support does not move), or (None, dof) when none moves."""
+    s, m = res.static, res.model
+    best, found = 0.0, (None, dof)
+    comps = list(s.reaction_component)
+    for node, comp in zip(np.asarray(s.reaction_node).tolist(), comps):
+        if comp not in ("Fx", "Fy", "Fz") or m.node_kind(int(node)) != "position":
+            continue
+        c = "xyz".index(comp[1])
+        moved = float(np.ptp(s.displacement(node=int(node))[:, c]))
+        if moved > best:
+            best, found = moved, (int(node), DOFS[c] if dof is None else dof)
+    return found
+
+
 def path_curve(res: ResultsFile, node=None, dof=None, x: str = "auto") -> PathCurve:
-    """The equilibrium path of position node ``node`` (default: the one that moves most) in
+    """The equilibrium path of position node ``node`` (default: the loaded node,
+    :func:`loaded_node`, else the one that moves most) in
     direction ``dof`` (default: its component that moves most); ``x`` picks the load axis of
     a run without a prescribed coordinate at that node as in
     :func:`~spacarpy.results.plot_base.x_axis`."""
@@ -80,6 +125,13 @@ def path_curve(res: ResultsFile, node=None, dof=None, x: str = "auto") -> PathCu
     if s is None or s.n_step == 0:
         raise ResultsQueryError(f"{res.path} has no static load steps (/static)")
     m = res.model
+    loaded = _largest_force(res)
+    if node is None and loaded is not None:
+        node = loaded[0]
+        if dof is None and loaded[1].size == 3:       # along the load
+            dof = DOFS[int(np.argmax(np.abs(loaded[1])))]
+    if node is None:                  # displacement control: a supported coordinate moves
+        node, dof = _driven_coordinate(res, dof)
     if node is None:
         moved = np.linalg.norm(s.displacement(step=-1), axis=-1)
         node = int(m.position_nodes[int(np.argmax(moved))])

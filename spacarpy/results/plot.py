@@ -36,20 +36,24 @@ _X = ("; x axis: the quantity the run prescribes (a DELINPE angle in mrad, a DEL
 
 #: Plot kinds of ``spacarpy plot`` and what they show.
 PLOTS = {
-    "shape": "undeformed and deformed shape in 3D (equal axes); --step, or --time for a "
+    "shape": "undeformed and deformed shape (2-D for a planar model, else 3-D; equal axes); "
+             "--step, --all-steps, or --time for a "
              "transient run; displacements magnified automatically when small (--scale); "
              "coloured by the von Mises stress when cross-sections are known",
     "load-displacement": "load against the displacement of --node" + _X,
     "path": "the equilibrium path: the load (the reaction of a prescribed coordinate, a DELXF "
-            "force or the load factor) against the displacement --dof (x, y, z) of --node, "
+            "force or the load factor) against the displacement --dof (x, y, z) of --node "
+            "(default: the loaded node), "
             "critical points marked where the file has them (docs/path.md)",
     "frequency": "natural frequencies against the load (--modes-per-step runs)" + _X,
     "buckling": "buckling load multipliers against the load" + _X,
     "history": "a quantity against the step: --quantity (displacement, position, reaction, "
-               "section_forces, stress, strain_energy) with --node or --element; for a "
+               "section_forces, stress, strain_energy) with --node or --element, one panel "
+               "per unit; for a "
                "transient run against the time: --quantity displacement, position, velocity, "
                "euler, deformation, stress_resultant or energy",
-    "mode": "eigenmode --mode (default 1) at --step, over the deformed shape",
+    "mode": "eigenmode --mode (default 1) at --step, over the deformed shape; a twist "
+            "shows as the turn of the band along each beam",
     "buckling-mode": "buckling mode --mode (default 1) at --step",
     "root-locus": "a sweep file's poles (spacarpy sweep DECK --set V=0:10:101 --collect "
                   "/state_space/pole) against the swept parameter: real and imaginary parts "
@@ -102,10 +106,13 @@ def path_figure(res: ResultsFile, node=None, dof=None, x="auto", **_):
     """The equilibrium path of :func:`~spacarpy.results.path.path_curve`: the load against
     the displacement ``dof`` of ``node``, its points in step order (an arc-length path may
     turn back), the critical points of ``/critical`` marked and labelled."""
-    from spacarpy.results.path import path_curve
+    from spacarpy.results.path import loaded_node, path_curve
 
     _, Figure = _mpl()
     c = path_curve(res, node=node, dof=dof, x=x)
+    named = (" (the loaded node)" if c.node == loaded_node(res) else
+             " (the prescribed coordinate)" if node is None and c.load_name.startswith(
+                 "reaction") else "")
     fig = Figure(figsize=(6.4, 4.4))
     ax = fig.add_subplot()
     ax.plot(c.displacement, c.load, "o-", ms=2.5, lw=1.2, label="stored steps")
@@ -123,7 +130,8 @@ def path_figure(res: ResultsFile, node=None, dof=None, x="auto", **_):
     ax.set_ylabel(c.load_label)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(title(res, f"equilibrium path, node {c.node}, u{c.dof}"), fontsize=10)
+    ax.set_title(title(res, f"equilibrium path, node {c.node}{named}, u{c.dof}"),
+                 fontsize=10)
     return fig
 
 
@@ -198,30 +206,56 @@ def history_figure(res: ResultsFile, quantity: str = "displacement", node=None, 
         raise ResultsQueryError(f"history of {quantity}: give --node")
     if quantity not in ("displacement", "position", "euler", "reaction") and element is None:
         raise ResultsQueryError(f"history of {quantity}: give --element")
-    _, Figure = _mpl()
     table = extract(res, quantity, node=node, element=element)
     names = table.names
-    fig = Figure(figsize=(6.4, 4.4))
-    ax = fig.add_subplot()
     step = np.asarray(table.columns[0])
+    curves = []                                   # (x, y, label, unit)
     if quantity == "reaction":
         comp = np.asarray(table.columns[3])
         value = np.asarray(table.columns[4], dtype=float)
         for c in dict.fromkeys(comp.tolist()):
             sel = comp == c
-            unit = "N" if c[0] == "F" else "N m"
-            ax.plot(step[sel], value[sel], "o-", ms=3, label=f"{c} [{unit}]")
+            curves.append((step[sel], value[sel], c, "N" if c[0] == "F" else "N m"))
     else:
         for j in range(3, len(names)):
-            ax.plot(step, np.asarray(table.columns[j], dtype=float), "o-", ms=3,
-                    label=f"{names[j]} [{table.units[j]}]")
-    ax.set_xlabel("step")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    _load_factor_ticks(ax, step, np.asarray(table.columns[1], dtype=float))
+            curves.append((step, np.asarray(table.columns[j], dtype=float), names[j],
+                           table.units[j]))
+    fig, axes = _unit_panels(quantity, curves, "o-", dict(ms=3))
+    axes[-1].set_xlabel("step")
+    _load_factor_ticks(axes[0], step, np.asarray(table.columns[1], dtype=float))
     what = f"node {node}" if element is None else f"element {element}"
-    ax.set_title(title(res, f"{quantity}, {what}"), fontsize=10)
+    axes[0].set_title(title(res, f"{quantity}, {what}"), fontsize=10)
     return fig
+
+
+_UNIT_NAMES = {"N": "force", "N m": "moment", "m": "length", "J": "energy", "MPa": "stress",
+               "rad": "angle", "m/s": "velocity", "1": "value"}
+
+
+def _unit_panels(quantity, curves, fmt, style):
+    """A figure with one panel per unit of ``curves`` [(x, y, label, unit), ...] stacked on
+    a shared x axis; each y axis labelled with the quantity and its one unit (stresses in
+    MPa). Returns (figure, axes)."""
+    _, Figure = _mpl()
+    curves = [(x, y / 1e6, label, "MPa") if unit == "Pa" else (x, y, label, unit)
+              for x, y, label, unit in curves]          # stresses in MPa, as the shapes
+    units = list(dict.fromkeys(c[3] for c in curves))
+    fig = Figure(figsize=(6.4, 4.4 if len(units) == 1 else 2.2 + 2.2 * len(units)))
+    axes = fig.subplots(len(units), 1, sharex=True, squeeze=False)[:, 0]
+    name = quantity.replace("_", " ")
+    for ax, unit in zip(axes, units):
+        mine = [c for c in curves if c[3] == unit]
+        for n, (x, y, label, _) in enumerate(mine):
+            # line styles and markers differ, so that equal curves do not hide each other
+            ax.plot(x, y, ls=("-", "--", "-.", ":")[n % 4], label=label,
+                    marker=("o", "s", "^", "v", "D", "x")[n % 6] if fmt.startswith("o")
+                    else None, **style)
+        what = name if len(units) == 1 else f"{name}: {_UNIT_NAMES.get(unit, unit)}"
+        ax.set_ylabel(what if unit == "1" else f"{what} [{unit}]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                  borderaxespad=0.0)
+    return fig, axes
 
 
 def _load_factor_ticks(ax, step, lf) -> None:
@@ -254,24 +288,57 @@ def _time_history_figure(res, what, quantity, node, element):
 
     if quantity in ("displacement", "position", "velocity", "euler") and node is None:
         raise ResultsQueryError(f"history of {quantity}: give --node")
-    _, Figure = _mpl()
     table = extract(res, what, node=node, element=element)
     time = np.asarray(table.columns[0], dtype=float)
-    first = 4 if what == "energy" else 3          # after time, step and the entity
+    if what == "energy":
+        return _energy_figure(res, table, time)
     names = table.names
-    fig = Figure(figsize=(6.4, 4.4))
-    ax = fig.add_subplot()
-    for j in range(first, len(names)):
-        unit = table.units[j]
-        ax.plot(time, np.asarray(table.columns[j], dtype=float), "-", lw=1.2,
-                label=f"{names[j]} [{unit}]" if unit != "1" else names[j])
-    ax.set_xlabel("time [s]")
-    ax.grid(True, alpha=0.3)
-    # outside the axes: inside, the energy curves (which fill the plot) run under it
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
-    what_of = ("energies" if what == "energy" else
-               f"node {node}" if element is None else f"element {element}")
+    curves = [(time, np.asarray(table.columns[j], dtype=float), names[j], table.units[j])
+              for j in range(3, len(names))]
+    fig, axes = _unit_panels(quantity, curves, "-", dict(lw=1.2))
+    axes[-1].set_xlabel("time [s]")
+    ax = axes[0]
+    what_of = f"node {node}" if element is None else f"element {element}"
     if res.static is not None and res.static.n_step > 1:
         what_of += f" (after {res.static.n_step - 1} static preload steps)"
     ax.set_title(title(res, f"{quantity} against time, {what_of}"), fontsize=10)
+    return fig
+
+
+def _energy_figure(res, table, time):
+    """Energies against time (upper panel, J) and, on its own axis below, the balance
+    ``T + U + D - W`` (kinetic, elastic, dissipated energy, work of the loads) and its drift
+    from t = 0, which an exact integration keeps constant."""
+    _, Figure = _mpl()
+    col = {n: np.asarray(c, dtype=float) for n, c in zip(table.names, table.columns)}
+    fig = Figure(figsize=(6.4, 6.2))
+    top, low = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    names = {"kinetic_energy": "kinetic T", "elastic_energy": "elastic U",
+             "external_work": "work of the loads W", "dissipated_energy": "dissipated D"}
+    for j, (key, label) in enumerate(names.items()):
+        if key == "dissipated_energy" and not np.any(col[key]):
+            continue
+        top.plot(time, col[key], ("-", "--", ":", "-.")[j], lw=1.4, label=label)
+    top.set_ylabel("energy [J]")
+    balance = col["kinetic_energy"] + col["elastic_energy"] + col["dissipated_energy"] \
+        - col["external_work"]
+    drift = balance - balance[0]
+    low.plot(time, balance, "C4-", lw=1.2, label="T + U + D - W")
+    low.axhline(balance[0], color="k", lw=0.6, ls=":", label=f"at t = {time[0]:.3g} s")
+    low.set_ylabel("energy balance [J]")
+    low.set_xlabel("time [s]")
+    worst = int(np.argmax(np.abs(drift)))
+    scale = max(float(np.max(np.abs(col["kinetic_energy"]))),
+                float(np.max(np.abs(col["elastic_energy"]))),
+                float(np.max(np.abs(col["external_work"]))))
+    rel = f" ({abs(drift[worst]) / scale:.2g} of the largest energy)" if scale > 0 else ""
+    low.set_title(f"drift: largest |change| {abs(drift[worst]):.3g} J at t = "
+                  f"{time[worst]:.3g} s{rel}", fontsize=9)
+    for ax in (top, low):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    pre = (f" (after {res.static.n_step - 1} static preload steps)"
+           if res.static is not None and res.static.n_step > 1 else "")
+    top.set_title(title(res, f"energies against time{pre}"), fontsize=10)
+    fig.spacarpy_balance = balance
     return fig
