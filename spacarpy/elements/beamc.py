@@ -39,9 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from spacarpy.elements.base import Fields
-from spacarpy.elements.beam import DENSE_MAX, Beam, BeamReference
+from spacarpy.elements.beam import Beam, BeamReference
 from spacarpy.elements.beam_mass import tangent_gravity
-from spacarpy.elements.chunks import in_chunks
 
 #: Gauss-Legendre points of the flexibility integral over the arc. The integrands are
 #: polynomials of degree <= 4 in sin, cos of the angle along the arc (< pi): 24 points
@@ -113,7 +112,7 @@ def arc_end_tangents(nx, nz, alpha) -> np.ndarray:
     return np.stack([c * nx - s * nz, c * nx + s * nz], axis=1)
 
 
-def section_forms(l0, alpha, tau):
+def _section_forms(l0, alpha, tau):
     """B(tau) (n, g, 6, 6): the section resultants ``[N, Qy, Qz, T, My, Mz]`` at the points
     tau of the arc per unit generalized stress resultant, in the chord frame.
 
@@ -132,6 +131,7 @@ def section_forms(l0, alpha, tau):
     h = (l0[:, None] * a * (0.25 - tau**2) * 0.5 * _sinc(0.5 * a * (0.5 + tau))
          * _sinc(0.5 * a * (0.5 - tau)) / _sinc(half))
     a1, a3 = 0.5 * l0[:, None] - xc, h                          # X_q - X = (a1, 0, a3)
+    ct, st = np.cos(at), np.sin(at)
     fm = np.zeros((3, 6))                                       # F^q per sigma
     fm[0, 0] = 1.0
     fm[1, 4], fm[1, 5] = 1.0, -1.0
@@ -142,23 +142,14 @@ def section_forms(l0, alpha, tau):
     cross[..., 0, 1], cross[..., 1, 0] = -a3, a3
     cross[..., 1, 2], cross[..., 2, 1] = -a1, a1
     mm = tm + cross @ fm
-    axes = section_axes_along(alpha, tau)
+    axes = np.zeros((n, g, 3, 3))                               # rows t, e_y, t x e_y
+    axes[..., 0, 0], axes[..., 0, 2] = ct, st
+    axes[..., 1, 1] = 1.0
+    axes[..., 2, 0], axes[..., 2, 2] = -st, ct
     b = np.empty((n, g, 6, 6))
     b[..., :3, :] = axes @ fm
     b[..., 3:, :] = axes @ mm
     return b
-
-
-def section_axes_along(alpha, tau):
-    """The section axes (n, g, 3, 3) at the points tau of the arcs, rows ``[t, e_y, t x e_y]``
-    in the chord frame: ``t = (cos a tau, 0, sin a tau)``."""
-    at = alpha[:, None] * tau[None, :]
-    ct, st = np.cos(at), np.sin(at)
-    axes = np.zeros(at.shape + (3, 3))
-    axes[..., 0, 0], axes[..., 0, 2] = ct, st
-    axes[..., 1, 1] = 1.0
-    axes[..., 2, 0], axes[..., 2, 2] = -st, ct
-    return axes
 
 
 def section_compliances(props: np.ndarray) -> np.ndarray:
@@ -180,7 +171,7 @@ def arc_flexibility(props: np.ndarray, l0: np.ndarray, alpha: np.ndarray) -> np.
     theory: ``F = L int B^T C B dtau`` (Castigliano), by :data:`GAUSS_POINTS`-point
     Gauss-Legendre quadrature."""
     tau, weights = quadrature()
-    b = section_forms(l0, alpha, tau)
+    b = _section_forms(l0, alpha, tau)
     c = section_compliances(props)
     cb = c[:, None, :, None] * b
     f = np.einsum("g,ngki,ngkj->nij", weights, b, cb)
@@ -241,16 +232,11 @@ class BeamCReference(BeamReference):
         Arc length L (m).
     tangents : (n_elem, 2, 3)
         Unit tangents of the arc at p and q (the mass kernels' Hermite tangents).
-    quad : (n_elem, 6, 6, 6)
-        The quadratic forms of the modified deformations
-        (:func:`spacarpy.elements.beamc_quad.arc_quadratic_forms`); they depend on the
-        rigidities, so :meth:`BeamC.stiffness` fills them in place (NaN until then).
     """
 
     alpha: np.ndarray | None = None
     arc: np.ndarray | None = None
     tangents: np.ndarray | None = None
-    quad: np.ndarray | None = None
 
 
 def arc_gravity(x: np.ndarray, ref: BeamCReference, mass: np.ndarray, g: np.ndarray):
@@ -297,8 +283,7 @@ class BeamC(Beam):
                                           np.asarray(vector, float))
         axes = np.stack([nx, ny, nz], axis=1)
         ref = BeamCReference(nx, ny, nz, l0, axes, axes[:, 1:], alpha, arc_length(l0, alpha),
-                             arc_end_tangents(nx, nz, alpha),
-                             np.full((l0.size, 6, 6, 6), np.nan))
+                             arc_end_tangents(nx, nz, alpha))
         return ref, np.repeat(l0[:, None], 6, axis=1)
 
     def reference_problems(self, x0, vector):
@@ -306,34 +291,7 @@ class BeamC(Beam):
                             np.asarray(vector, float))
 
     def stiffness(self, props, ref):
-        """The arc's S; also fills the reference's quadratic forms (they need the rigidities:
-        the arc's linear fields couple the modes)."""
-        from spacarpy.elements.beamc_quad import arc_quadratic_forms
-
-        ref.quad[...] = arc_quadratic_forms(np.asarray(props, float), ref.l0, ref.alpha)
         return arc_stiffness(props, ref.l0, ref.alpha)
-
-    def state(self, x, ref, variant, prev):
-        from spacarpy.elements.beamc_quad import arc_state
-
-        return in_chunks(arc_state, len(x), x, ref.ny, ref.nz, ref.l0, ref.u, ref.quad, variant,
-                         len(x) <= DENSE_MAX)
-
-    def deformations(self, x, ref, variant, prev):
-        from spacarpy.elements.beamc_quad import arc_deformations
-
-        return in_chunks(arc_deformations, len(x), x, ref.ny, ref.nz, ref.l0, ref.u, ref.quad,
-                         variant)
-
-    def hessian(self, st, w):
-        from spacarpy.elements.beamc_quad import arc_weighted_hessian
-
-        return in_chunks(arc_weighted_hessian, len(w), st, w, len(w) <= DENSE_MAX)
-
-    def tangent(self, st, S, w):
-        from spacarpy.elements.beamc_quad import arc_tangent
-
-        return in_chunks(arc_tangent, len(w), st, S, w, len(w) <= DENSE_MAX)
 
     def inertia_geometry(self, ref) -> tuple:
         """The arc's own end tangents and its length (the chord's are the BEAM's)."""
