@@ -5,13 +5,17 @@ node p to position node q about the centre (cx, cy, cz) (the shorter arc, less t
 degrees). The derivation is in docs/curved-beam.md; in short:
 
 Deformations
-    The six deformation modes of the straight BEAM (Eq. 7, or the modified Eq. 48b), taken
-    in the element's chord frame: elongation of the chord, relative twist about it, and l0
-    times the sines of the end rotations relative to the chord. They are functions of the
-    nodal coordinates alone, invariant under any rigid motion, and zero in the initial
-    (curved, unloaded) state because the nodal rotations are measured from it; so the
-    kinematic kernels, their exact derivatives and the saturation check are the BEAM's
-    (:mod:`spacarpy.elements.beam`), unchanged.
+    The six deformation modes of the straight BEAM (Eq. 7) in the element's chord frame:
+    elongation of the chord, relative twist about it, and the end rotations relative to the
+    chord; torsion and bending are measured as angles, ``l0 arcsin(e_hat / l0)`` of the
+    BEAM's sines (the same to second order; a linear law in the sines makes the element's
+    moment ``2 sin(t/2)/t`` of the rotation's, the DDM's large-deflection error), then the
+    modified deformations of Eq. (48b) on top. They are functions of the nodal coordinates
+    alone, invariant under any rigid motion, and zero in the initial (curved, unloaded)
+    state because the nodal rotations are measured from it; the kinematic kernels, their
+    exact derivatives and the saturation check are the BEAM's
+    (:mod:`spacarpy.elements.beam`) with the chain rule of the arcsine
+    (:func:`arc_state`, :func:`arc_tangent`).
 Stiffness
     What the curvature changes is the constitutive relation between these deformations
     and their dual stress resultants: ``S = F^-1`` with the flexibility of the circular arc
