@@ -14,7 +14,13 @@ from spacarpy.bench.cases import bend_deck
 from spacarpy.cli.main import main
 from spacarpy.deck import build_job, model_from_text, parse_deck
 from spacarpy.elements.beam import beam_state, stiffness_matrix
-from spacarpy.elements.beamc import BeamC, arc_flexibility, arc_stiffness
+from spacarpy.elements.beamc import (
+    BeamC,
+    arc_flexibility,
+    arc_state,
+    arc_stiffness,
+    arc_tangent,
+)
 from spacarpy.elements.registry import KINDS
 from spacarpy.rotation import from_axis_angle, rotation_matrix
 from spacarpy.solvers.statics.static import solve_static
@@ -153,6 +159,11 @@ def test_deformations_derivatives_are_exact_against_finite_differences(variant):
                                rtol=0, atol=1e-12 * np.abs(hess).max())
     np.testing.assert_allclose(KIND.deformations(x, ref, variant, None), st.e, rtol=0,
                                atol=1e-15)
+    # the dense and the blocked second derivatives of the BEAM's kernels agree here too
+    blocked = arc_state(x, ref.ny, ref.nz, ref.l0, ref.u, variant, False)
+    np.testing.assert_allclose(arc_tangent(blocked, stiff, w, False),
+                               arc_tangent(st, stiff, w, True), rtol=0,
+                               atol=1e-13 * np.abs(hess).max())
 
 
 def test_torsion_and_bending_are_measured_as_angles():
