@@ -14,7 +14,13 @@ from spacarpy.bench.cases import bend_deck
 from spacarpy.cli.main import main
 from spacarpy.deck import build_job, model_from_text, parse_deck
 from spacarpy.elements.beam import beam_state, stiffness_matrix
-from spacarpy.elements.beamc import BeamC, arc_flexibility, arc_stiffness
+from spacarpy.elements.beamc import (
+    BeamC,
+    arc_flexibility,
+    arc_state,
+    arc_stiffness,
+    arc_tangent,
+)
 from spacarpy.elements.registry import KINDS
 from spacarpy.rotation import from_axis_angle, rotation_matrix
 from spacarpy.solvers.statics.static import solve_static
@@ -111,6 +117,73 @@ def test_deformations_vanish_in_the_curved_state_and_under_rigid_motions():
         e = KIND.state(x, refs, variant, None).e
         assert np.abs(e).max() < 1e-13 * (1 + np.abs(shift).max())
         assert np.abs(KIND.state(x0, ref, variant, None).e).max() < 1e-15
+
+
+def _random_states(n=6, seed=11, spread=0.6):
+    """One arc's reference and n configurations with large nodal rotations and moved ends."""
+    xp, xq, ref, _ = one_arc()
+    rng = np.random.default_rng(seed)
+    qs = [from_axis_angle(rng.normal(size=(n, 3)), rng.uniform(-spread, spread, n))
+          for _ in range(2)]
+    x = np.concatenate([xp + 0.1 * rng.normal(size=(n, 3)), qs[0],
+                        xq + 0.1 * rng.normal(size=(n, 3)), qs[1]], axis=1)
+    return x, ref.tile(n)
+
+
+@pytest.mark.parametrize("variant", ["basic", "modified"])
+def test_deformations_derivatives_are_exact_against_finite_differences(variant):
+    """D = de/dx, the weighted second derivatives and the tangent D^T S D + H of the
+    angle-measured deformations against central differences (step 1e-6: truncation
+    1e-12, round-off 1e-10 of the entries)."""
+    x, ref = _random_states()
+    n = x.shape[0]
+    st = KIND.state(x, ref, variant, None)
+    rng = np.random.default_rng(4)
+    w = rng.normal(size=(n, 6))
+    h = 1e-6
+    fd_d = np.empty((n, 6, 14))
+    fd_h = np.empty((n, 14, 14))
+    for j in range(14):
+        dx = np.zeros(14)
+        dx[j] = h
+        sp, sm = KIND.state(x + dx, ref, variant, None), KIND.state(x - dx, ref, variant, None)
+        fd_d[:, :, j] = (sp.e - sm.e) / (2 * h)
+        fd_h[:, :, j] = np.einsum("ni,nik->nk", w, sp.D - sm.D) / (2 * h)
+    np.testing.assert_allclose(st.D, fd_d, rtol=0, atol=1e-8 * np.abs(st.D).max())
+    hess = KIND.hessian(st, w)
+    np.testing.assert_allclose(hess, fd_h, rtol=0, atol=1e-7 * np.abs(hess).max())
+    assert np.abs(hess).max() > 1e-2
+    stiff = np.repeat(KIND.stiffness(PROPS, ref.take([0])), n, axis=0)
+    np.testing.assert_allclose(KIND.tangent(st, stiff, w),
+                               st.D.transpose(0, 2, 1) @ stiff @ st.D + hess,
+                               rtol=0, atol=1e-12 * np.abs(hess).max())
+    np.testing.assert_allclose(KIND.deformations(x, ref, variant, None), st.e, rtol=0,
+                               atol=1e-15)
+    # the dense and the blocked second derivatives of the BEAM's kernels agree here too
+    blocked = arc_state(x, ref.ny, ref.nz, ref.l0, ref.u, variant, False)
+    np.testing.assert_allclose(arc_tangent(blocked, stiff, w, False),
+                               arc_tangent(st, stiff, w, True), rtol=0,
+                               atol=1e-13 * np.abs(hess).max())
+
+
+def test_torsion_and_bending_are_measured_as_angles():
+    """Node q turned by phi about the chord: the BEAM's torsion is l0 sin(phi), the BEAMC's
+    l0 phi; about the arc's normal (in-plane bending at q): l0 beta, where the BEAM has
+    l0 sin(beta). At the reference the Jacobian is the BEAM's (the linear theory is
+    unchanged)."""
+    xp, xq, ref, _ = one_arc()
+    phi = 0.7
+    for axis, mode in ((ref.nx[0], 1), (ref.ny[0], 3)):
+        q = from_axis_angle(axis[None], np.array([phi]))[0]
+        x = np.concatenate([xp[0], [1, 0, 0, 0], xq[0], q])[None]
+        e = KIND.state(x, ref, "basic", None).e[0]
+        straight = beam_state(x, ref.ny, ref.nz, ref.l0, "basic", ref.u).e[0]
+        np.testing.assert_allclose(e[mode], ref.l0[0] * phi, rtol=1e-14)
+        np.testing.assert_allclose(straight[mode], ref.l0[0] * np.sin(phi), rtol=1e-14)
+    x0 = np.concatenate([xp[0], [1, 0, 0, 0], xq[0], [1, 0, 0, 0]])[None]
+    np.testing.assert_allclose(KIND.state(x0, ref, "modified", None).D,
+                               beam_state(x0, ref.ny, ref.nz, ref.l0, "modified", ref.u).D,
+                               rtol=0, atol=1e-15)
 
 
 def test_flexibility_is_symmetric_positive_and_the_arc_couples_the_modes():
@@ -212,6 +285,76 @@ def _bend_tip(n: int, shape: str, force: float = 600.0) -> np.ndarray:
 BEND_LIMIT = np.array([47.15024, 53.47504, 15.68473])
 
 
+def _rod_tip(force: float, steps: int) -> np.ndarray:
+    """The tip of Table 2's bend from the rod equations themselves (Reissner's rod: strains
+    ``Lambda^T r' - E1``, curvature change ``Lambda^T Lambda' - K0``, linear section laws
+    with EA, kGA, GJ, EI; dead tip force along y), by shooting on the moment at the clamp
+    with the load raised in ``steps`` steps. Independent of any element."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import fsolve
+
+    radius, ei = 100.0, 1e7 / 12
+    cf = np.array([1e-7, 2e-7, 2e-7])                         # 1/EA, 1/kGA, 1/kGA
+    cm = np.full(3, 1.0 / ei)                                 # 1/GJ, 1/EIy, 1/EIz
+    k0 = np.array([0.0, -1.0 / radius, 0.0])                  # section axes [t, y, t x y]
+    frame0 = np.array([[1.0, 0, 0], [0, 1, 0], [0, 0, 1]])    # columns t, y, t x y at s = 0
+
+    def hat(v):
+        return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+    def shoot(m0, f):
+        def rhs(_s, y):
+            lam, m = y[3:12].reshape(3, 3), y[12:]
+            dr = lam @ (np.array([1.0, 0, 0]) + cf * (lam.T @ f))
+            dlam = lam @ hat(k0 + cm * (lam.T @ m))
+            return np.concatenate([dr, dlam.ravel(), -np.cross(dr, f)])
+        y0 = np.concatenate([np.zeros(3), frame0.ravel(), m0])
+        return solve_ivp(rhs, (0.0, radius * np.pi / 4), y0, method="DOP853",
+                         rtol=1e-10, atol=1e-10).y[:, -1]
+
+    m0 = np.zeros(3)
+    for f in np.linspace(force / steps, force, steps):
+        load = np.array([0.0, f, 0.0])
+        m0 = fsolve(lambda m, load=load: shoot(m, load)[12:], m0, xtol=1e-13)
+    end = shoot(m0, load)
+    assert np.abs(end[12:]).max() < 1e-8 * force * radius           # free end: no moment
+    return end[:3]
+
+
+@pytest.fixture(scope="module")
+def rod_tips():
+    return {600.0: _rod_tip(600.0, 3), 60.0: _rod_tip(60.0, 1)}
+
+
+def test_rod_equations_give_the_converged_bend(rod_tips):
+    """The rod's tip and the 256-element DDM limit agree to 3e-4 m (the DDM's error at 256
+    elements, second order); the paper's 48-element DDM row (47.14, 53.48, 15.68) to 1.1e-2."""
+    np.testing.assert_allclose(rod_tips[600.0], BEND_LIMIT, atol=4e-4)
+    np.testing.assert_allclose(rod_tips[600.0], [47.14, 53.48, 15.68], atol=1.1e-2)
+    np.testing.assert_allclose(rod_tips[60.0], [69.8965, 11.0392, 28.8010], atol=1e-4)
+
+
+def test_curved_elements_need_fewer_elements_than_chords(rod_tips):
+    """The convergence table (docs/curved-beam.md): tip errors against the rod at the
+    paper's load (600 N, the tip moves as far as the bend is long) and at 60 N. Curved
+    elements measure torsion and bending as angles, so their large-rotation error is about
+    a sixth of the chords' (whose DDM modes are sines): 4 and 8 curved elements beat 8 and
+    16 chords at 600 N, and 4 curved elements beat 16 chords at 60 N."""
+    err = {}
+    for force in (600.0, 60.0):
+        for shape, counts in (("curved", (4, 8)), ("chords", (8, 16))):
+            for n in counts:
+                tip = _bend_tip(n, shape, force)
+                err[force, shape, n] = float(np.linalg.norm(tip - rod_tips[force]))
+    table = "; ".join(f"{f:g} N {s} {n}: {e:.3e}" for (f, s, n), e in err.items())
+    assert err[600.0, "curved", 8] < 5e-2 < err[600.0, "chords", 16], table
+    assert err[600.0, "curved", 4] < err[600.0, "chords", 8], table
+    assert err[60.0, "curved", 4] < err[60.0, "chords", 16], table
+    # second order for both: halving the elements quarters the error (within 15 %)
+    for shape, n in (("curved", 4), ("chords", 8)):
+        assert 3.4 < err[600.0, shape, n] / err[600.0, shape, 2 * n] < 4.6, table
+
+
 def test_curved_bend_in_the_linear_range_is_exact_with_one_element():
     """At 6 mN the bend is linear: one curved element gives the arc's exact tip deflection
     (Castigliano; the chords' 64-element value to 1e-5), where 8 chords are 1.2e-3 off."""
@@ -220,16 +363,6 @@ def test_curved_bend_in_the_linear_range_is_exact_with_one_element():
     eight = _bend_tip(8, "chords", 0.006)
     assert abs(one[1] / fine[1] - 1) < 3e-5
     assert abs(eight[1] / fine[1] - 1) > 1e-3
-
-
-def test_curved_bend_table2_converges_to_the_reference():
-    """Table 2 (600 N): the curved elements converge to the chords' limit; at 32 elements
-    both are within 1.5e-2 m of it, and the paper's 8-element row is reproduced within its
-    spread (the error at this load is the DDM's large-rotation one, docs/curved-beam.md)."""
-    tip = _bend_tip(32, "curved")
-    np.testing.assert_allclose(tip, BEND_LIMIT, atol=1.5e-2)
-    eight = _bend_tip(8, "curved")
-    np.testing.assert_allclose(eight, [46.94, 53.69, 15.58], atol=6e-3)
 
 
 def test_beamarc_curved_writes_beamc_lines_and_default_stays_chords():

@@ -5,13 +5,17 @@ node p to position node q about the centre (cx, cy, cz) (the shorter arc, less t
 degrees). The derivation is in docs/curved-beam.md; in short:
 
 Deformations
-    The six deformation modes of the straight BEAM (Eq. 7, or the modified Eq. 48b), taken
-    in the element's chord frame: elongation of the chord, relative twist about it, and l0
-    times the sines of the end rotations relative to the chord. They are functions of the
-    nodal coordinates alone, invariant under any rigid motion, and zero in the initial
-    (curved, unloaded) state because the nodal rotations are measured from it; so the
-    kinematic kernels, their exact derivatives and the saturation check are the BEAM's
-    (:mod:`spacarpy.elements.beam`), unchanged.
+    The six deformation modes of the straight BEAM (Eq. 7) in the element's chord frame:
+    elongation of the chord, relative twist about it, and the end rotations relative to the
+    chord; torsion and bending are measured as angles, ``l0 arcsin(e_hat / l0)`` of the
+    BEAM's sines (the same to second order; a linear law in the sines makes the element's
+    moment ``2 sin(t/2)/t`` of the rotation's, the DDM's large-deflection error), then the
+    modified deformations of Eq. (48b) on top. They are functions of the nodal coordinates
+    alone, invariant under any rigid motion, and zero in the initial (curved, unloaded)
+    state because the nodal rotations are measured from it; the kinematic kernels, their
+    exact derivatives and the saturation check are the BEAM's
+    (:mod:`spacarpy.elements.beam`) with the chain rule of the arcsine
+    (:func:`arc_state`, :func:`arc_tangent`).
 Stiffness
     What the curvature changes is the constitutive relation between these deformations
     and their dual stress resultants: ``S = F^-1`` with the flexibility of the circular arc
@@ -34,13 +38,24 @@ EIy, cy) are in the plane of the arc, 5, 6 (about z, EIz, cz) out of it.
 from __future__ import annotations
 
 import functools
+from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
 
 from spacarpy.elements.base import Fields
-from spacarpy.elements.beam import Beam, BeamReference
+from spacarpy.elements.beam import (
+    DENSE_MAX,
+    Q_MODIFIED,
+    Beam,
+    BeamReference,
+    BeamState,
+    beam_deformations,
+    beam_state,
+)
+from spacarpy.elements.beam import _second_derivatives as second_derivatives
 from spacarpy.elements.beam_mass import tangent_gravity
+from spacarpy.elements.chunks import in_chunks
 
 #: Gauss-Legendre points of the flexibility integral over the arc. The integrands are
 #: polynomials of degree <= 4 in sin, cos of the angle along the arc (< pi): 24 points
@@ -254,6 +269,88 @@ def arc_gravity(x: np.ndarray, ref: BeamCReference, mass: np.ndarray, g: np.ndar
     return f, k
 
 
+# ----------------------------------------------------------------- deformations as angles
+#: The modes measured as angles: torsion and the four bending modes (not the elongation).
+ANGLE_MODES = np.array([False, True, True, True, True, True])
+_QM = np.ascontiguousarray(Q_MODIFIED.reshape(36, 6).T)      # as in beam.py
+_QW = Q_MODIFIED.reshape(6, 36)
+
+#: A BEAMC state: the BEAM's (:class:`~spacarpy.elements.beam.BeamState`, its fields with
+#: e_hat, D_hat, J those of the BEAM's basic deformations: the sines) and the first and
+#: second derivatives gp, gpp (n, 6) of the angles ``l0 arcsin(e_hat / l0)`` in e_hat.
+ArcState = namedtuple("ArcState", BeamState._fields + ("gp", "gpp"))
+
+
+def _angles(e_hat: np.ndarray, l0: np.ndarray):
+    """``l0 arcsin(e_hat / l0)`` for the :data:`ANGLE_MODES` (the elongation as it is), and
+    its first and second derivatives in e_hat."""
+    s = np.where(ANGLE_MODES, e_hat / l0[:, None], 0.0)
+    c = 1.0 - s * s
+    g = np.where(ANGLE_MODES, l0[:, None] * np.arcsin(s), e_hat)
+    gp = np.where(ANGLE_MODES, 1.0 / np.sqrt(c), 1.0)
+    gpp = s / (c * np.sqrt(c) * l0[:, None])
+    return g, gp, gpp
+
+
+def _modified_map(g: np.ndarray, l0: np.ndarray):
+    """Eq. (48b) on the angles g: ``e = g + g^T Q g / (2 l0)`` and ``J = de/dg``."""
+    qe = (g @ _QM).reshape(-1, 6, 6)
+    qe /= l0[:, None, None]
+    e = g + 0.5 * (qe @ g[:, :, None])[:, :, 0]
+    qe += np.eye(6)
+    return e, qe
+
+
+def arc_state(x, ny, nz, l0, u, variant: str, dense: bool) -> ArcState:
+    """BEAMC deformations and their exact Jacobian: the BEAM's basic deformations
+    (:func:`~spacarpy.elements.beam.beam_state`, same arguments), turned into angles, then
+    Eq. (48b) for ``variant == "modified"``."""
+    st = beam_state(x, ny, nz, l0, "basic", u, dense)
+    g, gp, gpp = _angles(st.e_hat, l0)
+    dg = gp[:, :, None] * st.D_hat
+    if variant == "basic":
+        return ArcState(*st._replace(e=g, D=dg, J=None), gp, gpp)
+    if variant != "modified":
+        raise ValueError(f"unknown deformation variant {variant!r}")
+    e, jac = _modified_map(g, l0)
+    return ArcState(*st._replace(e=e, D=jac @ dg, J=jac), gp, gpp)
+
+
+def arc_deformations(x, ny, nz, l0, u, variant: str) -> np.ndarray:
+    """The deformations of :func:`arc_state` alone (the kinematic correction's iterations)."""
+    g = _angles(beam_deformations(x, ny, nz, l0, "basic", u), l0)[0]
+    return g if variant == "basic" else _modified_map(g, l0)[0]
+
+
+def _chain(st: ArcState, w: np.ndarray, stiff: np.ndarray | None):
+    """The weights on the BEAM's basic deformations and the inner matrix (on D_hat) of
+    ``sum_i w_i d^2 e_i/dx^2 [+ D^T S D]``: with ``e = h(g(e_hat))``, ``d^2 e_i = sum_k
+    (dh_i/dg_k) (g'_k d^2 e_hat_k + g''_k de_hat_k de_hat_k^T) + D_g^T d^2 h_i D_g``."""
+    wj = w if st.J is None else (w[:, None, :] @ st.J)[:, 0]
+    n = w.shape[0]
+    inner = np.zeros((n, 6, 6))
+    diag = np.arange(6)
+    inner[:, diag, diag] = wj * st.gpp
+    if st.J is not None:
+        qw = (w @ _QW).reshape(n, 6, 6)
+        qw /= st.l0[:, None, None]
+        inner += st.gp[:, :, None] * qw * st.gp[:, None, :]
+    if stiff is not None:
+        jg = st.gp[:, None, :] * (np.eye(6) if st.J is None else st.J)
+        inner += jg.transpose(0, 2, 1) @ (stiff @ jg)
+    return wj * st.gp, inner
+
+
+def arc_weighted_hessian(st: ArcState, w: np.ndarray, dense: bool) -> np.ndarray:
+    """``sum_i w_i d^2 e_i / dx^2`` (n, 14, 14), exact, by the BEAM's kernels."""
+    return second_derivatives(st, *_chain(st, w, None), dense)
+
+
+def arc_tangent(st: ArcState, stiff: np.ndarray, w: np.ndarray, dense: bool) -> np.ndarray:
+    """``D^T S D + sum_i w_i d^2 e_i / dx^2`` (n, 14, 14), exact, by the BEAM's kernels."""
+    return second_derivatives(st, *_chain(st, w, stiff), dense)
+
+
 class BeamC(Beam):
     """``BEAMC e p r q s cx cy cz``: the initially curved beam (module docstring): the BEAM's
     kernels in the chord frame, with the arc's reference, stiffness, end tangents, length
@@ -292,6 +389,19 @@ class BeamC(Beam):
 
     def stiffness(self, props, ref):
         return arc_stiffness(props, ref.l0, ref.alpha)
+
+    def state(self, x, ref, variant, prev):
+        return in_chunks(arc_state, len(x), x, ref.ny, ref.nz, ref.l0, ref.u, variant,
+                         len(x) <= DENSE_MAX)
+
+    def deformations(self, x, ref, variant, prev):
+        return in_chunks(arc_deformations, len(x), x, ref.ny, ref.nz, ref.l0, ref.u, variant)
+
+    def hessian(self, st, w):
+        return in_chunks(arc_weighted_hessian, len(w), st, w, len(w) <= DENSE_MAX)
+
+    def tangent(self, st, S, w):
+        return in_chunks(arc_tangent, len(w), st, S, w, len(w) <= DENSE_MAX)
 
     def inertia_geometry(self, ref) -> tuple:
         """The arc's own end tangents and its length (the chord's are the BEAM's)."""
