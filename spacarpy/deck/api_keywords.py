@@ -1,4 +1,4 @@
-"""The keyword methods of :class:`~spacarpy.deck.api.ModelBuilder`, generated from the keyword table.
+"""The keyword methods of :class:`~spacarpy.deck.api.ModelBuilder`, made from the keyword table.
 
 One method per deck keyword, named after the keyword in lower case (``hinge``, ``rbeam``,
 ``plbeam``, ``estiff``, ``gravity``, ``timestep``, ...), made from its
