@@ -8,7 +8,7 @@ Jonker & Meijaard (2013), writes HDF5 results. Entry points: the ``spacarpy`` co
 (models scripted in Python, run in memory: :mod:`spacarpy.scripting`); both imported on first
 use, so ``import spacarpy`` stays light.
 """
-__version__ = "0.1.0"
+from spacarpy.version import __version__
 
 __all__ = ["__version__", "open_results", "ModelBuilder"]
 

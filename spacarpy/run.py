@@ -48,7 +48,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from spacarpy import __version__
 from spacarpy.elements.registry import KINDS
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
@@ -57,6 +56,7 @@ from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.linear.linearize import MassAssembler, linearize
 from spacarpy.solvers.statics.equilibrium import StaticProblem
 from spacarpy.solvers.statics.static import solve_static
+from spacarpy.version import __version__
 
 log = logging.getLogger(__name__)
 
