@@ -48,7 +48,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from spacarpy import __version__
 from spacarpy.elements.registry import KINDS
 from spacarpy.errors import EXIT_INPUT, ModelError, SpacarError
 from spacarpy.job import Job
@@ -57,6 +56,7 @@ from spacarpy.settings import AnalysisSettings
 from spacarpy.solvers.linear.linearize import MassAssembler, linearize
 from spacarpy.solvers.statics.equilibrium import StaticProblem
 from spacarpy.solvers.statics.static import solve_static
+from spacarpy.version import __version__
 
 log = logging.getLogger(__name__)
 
@@ -74,10 +74,14 @@ class RunOptions:
     ``progress``: a callback of the transient run; ``ignore_conditioning``: only warn where
     the residual's round-off floor exceeds its limit
     (:func:`~spacarpy.solvers.statics.conditioning.check_residual_floor`);
-    ``allow_user_code``, ``user_modules``: the deck's user routines (spacarpy.user_routines)."""
+    ``allow_user_code``, ``user_modules``: the deck's user routines (spacarpy.user_routines);
+    ``step_progress``: a callback of the static path, ``step_progress(k, n_steps)`` after
+    every stored load step (``k`` = 0 is the initial state; an ARCLENGTH path: its points and
+    n_max)."""
 
     compliance_node: tuple | None = None
     progress: object = None          # transient: progress(t, t_end), e.g. a terminal bar
+    step_progress: object = None     # static path: step_progress(k, n_steps)
     ignore_conditioning: bool = False
     #: the deck's user routines (USERSIG, USERINP) run only when allowed (--allow-user-code),
     #: found beside the deck or in these files/folders (--user-module)
@@ -135,6 +139,36 @@ def refuse_velocity_modes(model: Model, analysis: str) -> None:
 def run_job(job: Job, out, options: RunOptions | None = None) -> RunSummary:
     """Run a job (:func:`spacarpy.deck.load`): ``run_model(job.model, job.settings, ...)``."""
     return run_model(job.model, job.settings, out, options)
+
+
+def run_in_memory(job: Job, out=None, options: RunOptions | None = None):
+    """Run a job and return its results as views (:class:`~spacarpy.results.reader.
+    ResultsFile`): with ``out``, the file written there, opened; without, the results in
+    memory (:class:`~spacarpy.results.in_memory.InMemoryResults`; the run writes a temporary
+    file, which is read into memory and removed). The run's :class:`RunSummary` is the
+    ``summary`` attribute of what is returned. MODE check writes no results: it returns its
+    :class:`RunSummary` (``report``)."""
+    import os
+    import tempfile
+
+    from spacarpy.results.in_memory import InMemoryResults
+    from spacarpy.results.reader import open_results
+    if job.settings.analysis == "check":
+        return run_job(job, os.devnull, options)
+    if out is not None:
+        summary = run_job(job, out, options)
+        res = open_results(out)
+        res.summary = summary
+        return res
+    with tempfile.TemporaryDirectory(prefix="spacarpy-run-") as tmp:
+        path = os.path.join(tmp, "results.h5")
+        summary = run_job(job, path, options)
+        with open(path, "rb") as f:
+            image = f.read()
+    name = os.path.basename(job.model.source_path or "") or "model"
+    res = InMemoryResults(image, f"<memory: {name}>")
+    res.summary = summary
+    return res
 
 
 def run_model(model: Model, settings: AnalysisSettings, out,
@@ -294,6 +328,8 @@ def run_model(model: Model, settings: AnalysisSettings, out,
             if want_ss and not transient:
                 msg += _state_space_step(problem, mass, step, k, writer, settings, ss_setup[0])
             log.info(msg)
+            if opts.step_progress is not None:
+                opts.step_progress(k, arc.n_max if arc is not None else n_steps)
 
         if transient:
             _run_transient(model, settings, problem, writer, on_step, opts, summary,

@@ -13,12 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spacarpy import __version__
 from spacarpy.elements.registry import KINDS
 from spacarpy.errors import EXIT_INPUT, SpacarError
 from spacarpy.model import RIGID
 from spacarpy.solvers.linear.state_space import StateSpace
 from spacarpy.solvers.linear.steady_motion import SteadyMotion
+from spacarpy.version import __version__
 
 log = logging.getLogger(__name__)
 

@@ -423,17 +423,29 @@ def test_model_builder_other_keywords():
 
 
 def test_model_builder_errors_point_at_the_script_line():
+    # the arguments are checked at the call (the deck's field specs), so the error names
+    # the method, the argument and the script line of the call
     mb = ModelBuilder().node(1, 0, 0, 0).node(3, 1, 0, 0)
+    here = inspect.currentframe().f_lineno + 2
+    with pytest.raises(DeckError) as info:
+        mb.beam(1, 1, 2.5, 3, 4)
+    ((loc1, msg1, _),) = info.value.items
+    assert (loc1.file, loc1.line) == (__file__, here)
+    assert msg1 == ("ModelBuilder.beam(): r (orientation node at p) must be a whole number, "
+                    "got 2.5")
+    with pytest.raises(DeckError) as info:
+        mb.node(5, float("nan"), 0, 0)
+    ((loc2, msg2, _),) = info.value.items
+    assert loc2.line == here + 6 and "must be a finite number, got nan" in msg2
+    # what the argument checks cannot see (a node that does not exist) is the deck
+    # reader's, located at the call's line and showing the deck line
     here = inspect.currentframe().f_lineno + 1
-    mb.beam(1, 1, 2.5, 3, 4)
-    mb.node(5, float("nan"), 0, 0)
+    mb.beam(1, 1, 2, 7, 4)
     with pytest.raises(DeckError) as info:
         mb.build()
-    (loc1, msg1, src1), (loc2, msg2, src2) = info.value.items
-    assert (loc1.file, loc1.line, loc1.column) == (__file__, here, 10)
-    assert msg1 == "BEAM: expected the orientation node at p (a whole number), found '2.5'"
-    assert src1 == "BEAM 1 1 2.5 3 4"
-    assert loc2.line == here + 1 and "found 'nan'" in msg2
+    ((loc, msg, src),) = [it for it in info.value.items if it[2] == "BEAM 1 1 2 7 4"]
+    assert (loc.file, loc.line) == (__file__, here)
+    assert msg == "element 1: position node 7 (at q) has no X line"
 
 
 # ------------------------------------------------------------------ round trips

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from spacarpy.results.labelled import LabelledView
 from spacarpy.results.schema import MODE_KIND_NAMES
 from spacarpy.results.views import ModeShape, ResultsQueryError, _number_list
 
@@ -81,7 +82,7 @@ class _LinearizedView:
                          self._res._read(f"{self._group}/shape_euler", (r, m)))
 
 
-class EigenView(_LinearizedView):
+class EigenView(LabelledView, _LinearizedView):
     """``/eigen``: natural frequencies and mass-normalized mode shapes."""
 
     @property
@@ -113,7 +114,7 @@ class EigenView(_LinearizedView):
         return np.sum(self.kind != 4, axis=1).astype(np.int64)
 
 
-class BucklingView(_LinearizedView):
+class BucklingView(LabelledView, _LinearizedView):
     """``/buckling``: load multipliers and buckling shapes."""
 
     @property

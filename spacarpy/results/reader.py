@@ -132,11 +132,15 @@ class ResultsFile(RootAttributes):
         self._handle = None
         self._context = None
         with open_for_reading(self.path) as f:
-            self.attrs = check_readable(f, self.path)
-            if verify and (problems := header_problems(f.attrs)):
-                raise damaged(self.path, problems[0])
-            groups = set(f.keys())
-            self._major = schema_major(f)
+            self._load(f)
+
+    def _load(self, f) -> None:
+        """Check the open file ``f`` once and make the views of its groups."""
+        self.attrs = check_readable(f, self.path)
+        if self.verify and (problems := header_problems(f.attrs)):
+            raise damaged(self.path, problems[0])
+        groups = set(f.keys())
+        self._major = schema_major(f)
         self.model = ModelView(self)
         self.static = StaticView(self) if "static" in groups else None
         self.transient = TransientView(self) if "transient" in groups else None

@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.results.labelled import LabelledView
 from spacarpy.results.schema import (
     KIND_NAMES,
 )
@@ -92,6 +93,12 @@ class ModelView:
 
     def __init__(self, results):
         self._res = results
+
+    def __repr__(self) -> str:
+        kinds = ", ".join(f"{k} {self.element_ids(k).size}" for k in self.element_kinds
+                          if self.element_ids(k).size)
+        return (f"<ModelView /model: {self.n_pos} position nodes, {self.n_rot} orientation "
+                f"nodes; elements {kinds or 'none'}>")
 
     def _get(self, name):
         path = name if name.startswith("model/") else f"model/{name}"
@@ -256,7 +263,7 @@ def _number_list(ids) -> str:
 # static
 # --------------------------------------------------------------------------------------------
 
-class _StepView:
+class _StepView(LabelledView):
     """A group with one row per committed step (``/static``, ``/transient``), read lazily.
 
     Every accessor takes ``step`` (None: all committed steps; an int, negative counting from
