@@ -199,8 +199,7 @@ def write_xdmf(path, out=None, *, every: int | None = None, step: int | None = N
                             h5.create_dataset(where, data=data)
                             written.add(where)
                         att = ET.SubElement(grid, "Attribute", Name=name, Center=center,
-                                            AttributeType="Vector" if data.ndim == 2
-                                            else "Scalar")
+                                            AttributeType=_attribute_type(data))
                         _item(att, href_base, where, data)
             for name, unit in units.items():
                 h5["units"].attrs[name] = unit
@@ -216,10 +215,22 @@ def write_xdmf(path, out=None, *, every: int | None = None, step: int | None = N
     return out
 
 
+def _attribute_type(data: np.ndarray) -> str:
+    """Scalar, Vector (3 components) or Matrix (the other component counts: VTK's reader
+    takes a Vector of 6 too, but warns that it is not a vector)."""
+    if data.ndim == 1:
+        return "Scalar"
+    return "Vector" if data.shape[1] == 3 else "Matrix"
+
+
 def _item(parent, href_base: str, where: str, data: np.ndarray) -> None:
-    """A ``Format="HDF"`` DataItem of dataset ``where`` (shape and type of ``data``)."""
+    """A ``Format="HDF"`` DataItem of dataset ``where`` (shape and type of ``data``; a
+    Matrix attribute's cells as n x 1 x components, how VTK's reader counts its tuples)."""
     int_type = np.issubdtype(data.dtype, np.integer)
-    item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, data.shape)),
+    shape = data.shape
+    if _attribute_type(data) == "Matrix" and parent.tag == "Attribute":
+        shape = (shape[0], 1, shape[1])
+    item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, shape)),
                          NumberType="Int" if int_type else "Float", Precision="8",
                          Format="HDF")
     item.text = f"{href_base}:{where}"

@@ -22,7 +22,8 @@ same names:
   stresses ``max_normal_stress`` and ``max_von_mises_stress`` (Pa) when the file has them.
 - **point arrays**: ``node_id``, ``displacement``, ``velocity`` (transient), the section
   frame ``frame_x``, ``frame_y``, ``frame_z`` (columns of the rotation matrix of the
-  orientation node that rides on the point, NaN for points without one) with
+  orientation node that rides on the point: the node after it on an element line, or the
+  body of an RBEAM whose end q it is; NaN for points without one) with
   ``orientation_node_id`` (-1: none), and at linearized steps ``eigenmode_<j>`` and
   ``buckling_mode_<j>`` (the position part of the mode shape).
 """
@@ -127,6 +128,9 @@ def export_mesh(res) -> Mesh:
                 for p, r in nodes[:, [i - 1, i]].tolist():
                     pos_of_rot.setdefault(r, p)
                     rot_of_pos.setdefault(p, r)
+    if "RBEAM" in kinds:     # the point q of a rigid beam rides on the body of r as well
+        for r, q in m.element_kind_nodes("RBEAM")[:, [1, 2]].tolist():
+            rot_of_pos.setdefault(q, r)
     cells, ids, codes, kind_rows, length = [], [], [], {}, {}
     x0 = m.position_x0
     code_of = {k: c for c, k in KIND_CODES.items()}
