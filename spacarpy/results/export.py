@@ -132,10 +132,10 @@ def _units(name: str) -> str:
         return units[0] if len(set(units)) == 1 else ", ".join(units)
     if name in DERIVED_UNITS:
         return DERIVED_UNITS[name]
+    if name.startswith(("eigenmode_", "buckling_mode_")):
+        return "as /eigen/shape_position" if name[0] == "e" else "as /buckling/shape_position"
     return {"displacement": "m", "position": "m", "velocity": "m/s", "max_normal_stress": "Pa",
-            "max_von_mises_stress": "Pa", "eigenmode": "m",
-            "buckling_mode": "m"}.get(name.rpartition("_")[0] if "mode_" in name else name,
-                                      "1")
+            "max_von_mises_stress": "Pa"}.get(name, "1")
 
 
 _CONSTANT = ("node_id", "orientation_node_id", "element_id", "element_kind")
