@@ -165,6 +165,9 @@ def write_xdmf(path, out=None, *, every: int | None = None, step: int | None = N
     out = check_export_output(out if out is not None else path.with_suffix(".xdmf"), ".xdmf")
     res, group, mesh, steps = _prepare(path, every, step)
     data_file = out.with_name(out.name + ".h5")
+    if data_file.resolve() == path.resolve():
+        raise ExportError(f"export: cannot write {out}: its data file {data_file} would "
+                          "replace the results file")
     tmp_data = data_file.with_name(data_file.name + ".tmp")
     tmp = out.with_name(out.name + ".tmp")
     href_base = os.path.relpath(data_file.resolve(), out.resolve().parent)

@@ -186,9 +186,9 @@ def export_steps(view, every: int | None) -> np.ndarray:
 
 def step_arrays(res, mesh: Mesh, group: str, steps):
     """Yield ``(step, time, position, point_data, cell_data)`` for each of ``steps`` (rows of
-    ``/static`` or ``/transient``); the arrays are described in the module docstring."""
+    ``/static`` or ``/transient``); the arrays are described in the module docstring. The
+    steps are read in batches of about :data:`_BATCH_VALUES` values per array."""
     view = getattr(res, group)
-    m = res.model
     steps = np.asarray(steps, dtype=np.int64)
     if group == "transient":
         times = view.time[steps]
@@ -196,6 +196,20 @@ def step_arrays(res, mesh: Mesh, group: str, steps):
         lf = view.load_factor
         strict = view.n_step < 2 or np.all(np.diff(lf) > 0)
         times = lf[steps] if strict else steps.astype(float)
+    per_step = 3 * max(res.model.n_pos, res.model.n_rot, mesh.n_cell * 2, 1)
+    size = max(1, _BATCH_VALUES // per_step)
+    for start in range(0, len(steps), size):
+        yield from _batch(res, mesh, group, steps[start:start + size],
+                          times[start:start + size])
+
+
+#: Values per array read at once (about 16 MB of float64).
+_BATCH_VALUES = 2_000_000
+
+
+def _batch(res, mesh: Mesh, group: str, steps, times):
+    view = getattr(res, group)
+    m = res.model
     position = view.position(step=steps)
     velocity = view.velocity(step=steps) if group == "transient" else None
     has_frames = bool((mesh.orientation_row >= 0).any())
