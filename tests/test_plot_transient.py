@@ -103,9 +103,10 @@ def test_xdmf_of_the_pendulum_is_its_time_series(files, tmp_path):
     for k, g in enumerate(grids):
         xyz = _evaluate(g.find("Geometry/DataItem"), tmp_path)
         np.testing.assert_array_equal(xyz, tr.position(step=k))
-        # the rigid rod (RBEAM 1, pivot to tip) is the one cell, and its length stays 1 m
+        # the hinge on the ground (at the pivot) and the rigid rod (RBEAM 1, pivot to tip)
+        # are the cells, and the rod's length stays 1 m
         cells = _evaluate(g.find("Topology/DataItem"), tmp_path).astype(int)
-        np.testing.assert_array_equal(cells, [[pivot, tip]])
+        np.testing.assert_array_equal(cells, [[pivot, pivot], [pivot, tip]])
         assert abs(np.linalg.norm(xyz[tip] - xyz[pivot]) - 1.0) < 1e-9
         attrs = {a.get("Name"): a for a in g.findall("Attribute")}
         np.testing.assert_array_equal(_evaluate(attrs["velocity"].find("DataItem"), tmp_path),

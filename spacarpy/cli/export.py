@@ -7,15 +7,35 @@ from pathlib import Path
 from spacarpy.cli.common import _output_path, _verbosity
 from spacarpy.errors import EXIT_INPUT, EXIT_OK
 
+#: Kept equal to :data:`spacarpy.results.export.MAX_FRAMES` (a test checks), not imported:
+#: the parser is built without importing the results layer.
+MAX_FRAMES = 500
+
+
+def _positive(text: str) -> int:
+    """An argparse type: a whole number >= 1."""
+    import argparse
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
+    return value
+
 
 def add_parser(sub) -> None:
     """The ``export`` subcommand's arguments."""
-    exp = sub.add_parser("export", help="files for ParaView: an XDMF sidecar (reads the "
-                                        "HDF5 directly) or VTK .vtu/.pvd (needs meshio)")
+    exp = sub.add_parser("export", help="files for ParaView: XDMF (.xdmf with one .xdmf.h5 "
+                                        "data file) or VTK .vtu/.pvd (needs meshio)")
     exp.add_argument("file", type=Path, help="result file (.h5)")
-    exp.add_argument("--xdmf", action="store_true", help="write <file>.xdmf (the default)")
+    exp.add_argument("--xdmf", action="store_true",
+                     help="write <file>.xdmf and its data <file>.xdmf.h5 (the default)")
     exp.add_argument("--vtk", action="store_true",
-                     help="write <file>.pvd and one .vtu per step")
+                     help="write <file>.pvd and one .vtu per exported step")
+    exp.add_argument("--every", type=_positive, default=None, metavar="N",
+                     help="export every N-th step and the last (default: all, or every k-th "
+                          f"so that a long run has at most {MAX_FRAMES} intervals)")
     exp.add_argument("-o", "--output", type=_output_path, default=None,
                      help="name of the .xdmf or .pvd file (with only one of --xdmf, --vtk)")
     exp.add_argument("--state-space", type=_output_path, default=None, metavar="FILE.mat",
@@ -23,7 +43,8 @@ def add_parser(sub) -> None:
                           "its names as a MATLAB file, for ss(A, B, C, D)")
     exp.add_argument("--step", type=int, default=None,
                      help="--state-space: the static step (0 = initial state; default and -1: "
-                          "the last linearized one)")
+                          "the last linearized one); --xdmf, --vtk: export only this step "
+                          "(an XDMF of one grid, which meshio.read reads)")
     _verbosity(exp)
 
 
@@ -56,6 +77,7 @@ def cmd_export(args) -> int:
         if not (args.xdmf or args.vtk):
             return EXIT_OK
     want_xdmf = args.xdmf or not args.vtk
+    steps = None if args.state_space is not None else args.step
     if args.output is not None and want_xdmf and args.vtk:
         print("export: -o names one file; give only one of --xdmf and --vtk", file=sys.stderr)
         return EXIT_INPUT
@@ -65,7 +87,7 @@ def cmd_export(args) -> int:
     with discarding(args.output) if args.output is not None else nullcontext() as target:
         if want_xdmf:
             try:
-                print(write_xdmf(args.file, target))
+                print(write_xdmf(args.file, target, every=args.every, step=steps))
             except (OSError, RuntimeError) as exc:
                 if not is_disk_full(exc):
                     raise
@@ -75,6 +97,6 @@ def cmd_export(args) -> int:
             vtk = target if target is not None else Path(args.file).with_suffix(".pvd")
             check_export_output(vtk, ".pvd")
             with staged_outputs(vtk) as staged:   # the .pvd and its .vtu: all or none
-                write_vtk(args.file, staged)
+                write_vtk(args.file, staged, every=args.every, step=steps)
             print(vtk)
     return EXIT_OK
