@@ -278,3 +278,31 @@ def test_two_follower_line_loads_with_their_own_functions_superpose(tmp_path):
     ya, zb = u["a"][:, -1, 1], u["b"][:, -1, 2]
     assert np.abs(ya).max() > 0.1 * size and np.abs(zb).max() > 0.1 * size
     assert abs(np.corrcoef(ya, zb)[0, 1]) < 0.9
+
+
+def test_line_and_follower_loads_are_in_the_model_group(tmp_path):
+    """/model holds each QE, DELQE, QEL, DELQEL line (element, kind, force per length at the
+    ends p and q) and each XFL, DELXFL line ([node, axes node], kind, components) (schema
+    2.23), read back by the reader (the dead line loads first, then the follower ones, each
+    in deck order); a model without them has none of these datasets."""
+    from spacarpy.results import open_results
+
+    text = _cantilever(2, "QEL 1 0 1 0 0 2 0\nDELQEL 2 0.5 0 -1\nQE 1 0 0 3\n"
+                       "DELXFL 5 6 0 0 -2e-3\nXFL 6 6 1e-3 0 0", False)
+    deck = tmp_path / "loads.dat"
+    deck.write_text(text)
+    assert main(["run", str(deck), "-o", str(tmp_path / "loads.h5"), "-q"]) == 0
+    with open_results(tmp_path / "loads.h5") as res:
+        m = res.model
+        assert m.line_load_element.tolist() == [1, 1, 2]
+        assert m.line_load_type.tolist() == ["QE", "QEL", "DELQEL"]
+        np.testing.assert_array_equal(m.line_load_value, [
+            [[0, 0, 3], [0, 0, 3]], [[0, 1, 0], [0, 2, 0]], [[0.5, 0, -1], [0.5, 0, -1]]])
+        assert m.follower_load_node.tolist() == [[5, 6], [6, 6]]          # deck order
+        assert m.follower_load_type.tolist() == ["DELXFL", "XFL"]
+        np.testing.assert_array_equal(m.follower_load_value, [[0, 0, -2e-3], [1e-3, 0, 0]])
+    deck.write_text(_cantilever(2, "DELXF 5 0 1e-3 0", False))
+    assert main(["run", str(deck), "-o", str(tmp_path / "none.h5"), "-q"]) == 0
+    with open_results(tmp_path / "none.h5") as res:
+        assert res.model.line_load_element is None and res.model.follower_load_node is None
+        assert res.model.load_type.tolist() == ["DELXF"]

@@ -41,7 +41,7 @@ def test_every_written_file_is_valid(files):
 def test_open_results_is_exported_at_the_top(files):
     assert spacarpy.open_results is open_results
     res = spacarpy.open_results(files["bend"])
-    assert res.completed and res.analysis == "static" and res.schema_version == (2, 22)
+    assert res.completed and res.analysis == "static" and res.schema_version == (2, 23)
     assert "static analysis, completed" in repr(res)
 
 

@@ -46,12 +46,13 @@ _BZ = moment_matrix(np.array([0.0, 0.0, 1.0]))
 def _weights(amp):
     """The lumping weights of amplitudes (n, 6) ``[q_p, q_q]`` (element axes): the force
     factors ``(n, 2, 3)`` (end p, end q; x axial, y and z transverse) and the moment
-    factors ``(n, 2, 3)`` (the x entry unused)."""
+    factors times 12, ``qm -+ dq/10`` ``(n, 2, 3)`` (the x entry unused; a uniform load's
+    ``q |d|^2 / 12`` keeps the operations of the planar element before the linear form)."""
     qm = 0.5 * (amp[:, :3] + amp[:, 3:])
     dq = amp[:, 3:] - amp[:, :3]
     div = np.array([6.0, 5.0, 5.0])
     force = 0.5 * np.stack([qm - dq / div, qm + dq / div], axis=1)
-    moment = np.stack([qm - dq / 10.0, qm + dq / 10.0], axis=1) / 12.0
+    moment = np.stack([qm - dq / 10.0, qm + dq / 10.0], axis=1)
     return force, moment
 
 
@@ -65,8 +66,8 @@ class FollowerLinePlanar(LoadPart):
         d = xe[:, 3:6] - xe[:, 0:3]
         fw, mw = _weights(amp)
         dd = np.einsum("na,na->n", d, d)
-        m_r = mw[:, 0, 1] * dd
-        m_s = mw[:, 1, 1] * dd
+        m_r = mw[:, 0, 1] * dd / 12.0
+        m_s = mw[:, 1, 1] * dd / 12.0
         return d, xe[:, 6:10], xe[:, 10:14], fw, mw, m_r, m_s
 
     def force(self, x, amp, n_coord):
@@ -88,7 +89,7 @@ class FollowerLinePlanar(LoadPart):
             k[:, r0:r0 + 3, 3:6] = F
         for rows, q, sign, c, m in ((slice(6, 10), qr, 1.0, mw[:, 0, 1], m_r),
                                     (slice(10, 14), qs, -1.0, mw[:, 1, 1], m_s)):
-            dm = 2.0 * c[:, None] * d                             # d m / d x_q (= -d/dx_p)
+            dm = c[:, None] * d / 6.0                             # d m / d x_q (= -d/dx_p)
             bq = 2.0 * sign * (q @ _BZ.T)                         # (n, 4)
             k[:, rows, 0:3] = -bq[:, :, None] * dm[:, None, :]
             k[:, rows, 3:6] = bq[:, :, None] * dm[:, None, :]
@@ -141,7 +142,7 @@ class FollowerLineBeam(LoadPart):
         d, length, _, ey, ez, _, _ = frame
         fw, mw = _weights(amp)
         ley, lez = length[:, None] * ey, length[:, None] * ez
-        l2 = (length * length)[:, None]
+        l2 = (length * length)[:, None] / 12.0
         f = [fw[:, e, :1] * d + fw[:, e, 1:2] * ley + fw[:, e, 2:3] * lez for e in (0, 1)]
         m = [sign * l2 * (mw[:, e, 1:2] * ez - mw[:, e, 2:3] * ey)
              for e, sign in ((0, 1.0), (1, -1.0))]
@@ -174,7 +175,8 @@ class FollowerLineBeam(LoadPart):
             rows.append(fw[:, e, 0, None, None] * j_d + fw[:, e, 1, None, None] * j_ley
                         + fw[:, e, 2, None, None] * j_lez)
         for e, sign, q, m, c0 in ((0, 1.0, qr, m_p, 3), (1, -1.0, qs, m_q, 7)):
-            j_m = sign * (mw[:, e, 1, None, None] * j_l2ez - mw[:, e, 2, None, None] * j_l2ey)
+            j_m = sign / 12.0 * (mw[:, e, 1, None, None] * j_l2ez
+                                 - mw[:, e, 2, None, None] * j_l2ey)
             j_g = 2.0 * lambda_matrix(q).transpose(0, 2, 1) @ j_m          # (n, 4, 11)
             j_g[:, :, c0:c0 + 4] += 2.0 * moment_matrix(m)
             rows.append(j_g)
