@@ -3,7 +3,7 @@ spacarpy/solvers/statics/follower_lines.py): the load stiffness against central
 differences, the lumping against the dead line load's, a 3D ring under follower pressure in
 a tilted plane against 3 EI/R^3 and the planar ring, a cantilever in a rotated plane against
 the planar one and against the small-load closed form, and two DELQEL with their own time
-functions superposing."""
+functions superposing, and Leipholz's column fluttering at its load."""
 from __future__ import annotations
 
 import h5py
@@ -306,3 +306,43 @@ def test_line_and_follower_loads_are_in_the_model_group(tmp_path):
     with open_results(tmp_path / "none.h5") as res:
         assert res.model.line_load_element is None and res.model.follower_load_node is None
         assert res.model.load_type.tolist() == ["DELXF"]
+
+
+def _leipholz(n: int, q: float) -> str:
+    """Leipholz's column: a clamped-free column of 3D beams (L = EI = rhoA = 1 in the plane
+    xy, out of it 10 times stiffer; rotary inertia 1e-6), under a uniform tangential follower
+    line load q per length along the element's current -x axis (towards the clamp)."""
+    xs = np.linspace(0.0, 1.0, n + 1)
+    lines = [f"X {2 * i + 1} {float(x)!r} 0 0" for i, x in enumerate(xs)]
+    lines += [f"BEAM {i + 1} {2 * i + 1} {2 * i + 2} {2 * i + 3} {2 * i + 4} 0 1 0"
+              for i in range(n)]
+    lines += [f"DYNE 1:{n} 1 2 3 4 5 6", "FIX 1", "FIX 2", "END", "HALT",
+              f"ESTIFF 1:{n} 1e6 10 10 1", f"EM 1:{n} 1 2e-6 1e-6 1e-6 0",
+              f"DELQEL 1:{n} {-q!r} 0 0", "ITERSTEP 20 1 1e-10", "END", "END"]
+    return "\n".join(lines) + "\n"
+
+
+def test_leipholz_column_flutters_at_its_load():
+    """The eigenvalue analysis with the follower line load's stiffness: the two lowest w^2
+    of Leipholz's column meet and become a complex conjugate pair at q L^3 / EI = 40.05
+    (Leipholz 1962; Langthjem & Sugiyama 2000), within 1e-3 at 20 elements (measured 4e-4,
+    by bisection); below it both are real and positive."""
+    from spacarpy.solvers.linear.eigen import COMPLEX, ELASTIC, eigenmodes
+    from tests.test_follower import _linearized
+
+    def lowest(q):
+        lin, prob = _linearized(_leipholz(20, q))
+        return eigenmodes(lin, prob.num, prob.free, n_modes=2)
+
+    lo, hi = 39.9, 40.2
+    assert list(lowest(lo).kind) == [ELASTIC, ELASTIC]
+    above = lowest(hi)
+    assert list(above.kind) == [COMPLEX, COMPLEX]
+    assert above.eigenvalue[0] == np.conj(above.eigenvalue[1])
+    while hi - lo > 2e-5 * lo:
+        mid = 0.5 * (lo + hi)
+        if (lowest(mid).kind == COMPLEX).any():
+            hi = mid
+        else:
+            lo = mid
+    assert abs(0.5 * (lo + hi) / 40.05 - 1) < 1e-3
