@@ -221,6 +221,22 @@ def test_rotated_3d_cantilever_is_the_planar_one(tmp_path, q):
     np.testing.assert_allclose(spatial, planar @ ROT.T, rtol=0, atol=1e-9)
 
 
+def test_arc_length_reaches_the_load_steps_state(tmp_path):
+    """ARCLENGTH follows the large linear follower line load of the turned cantilever (its
+    load vector ``d f/ds`` at the current configuration) and ends at load factor 1 on the
+    state the load steps reach, to 1e-12."""
+    q = "DELQEL ALL 0.3 -2 0 0.4 -5 0"
+    steps = _tip(tmp_path, _cantilever(16, q, False, ROT), "steps")
+    deck = tmp_path / "arc.dat"
+    deck.write_text(_cantilever(16, q, False, ROT, "ARCLENGTH 30 0.3"))
+    assert main(["run", str(deck), "-o", str(tmp_path / "arc.h5"), "-q"]) == 0
+    with h5py.File(tmp_path / "arc.h5", "r") as f:
+        lf, arc = f["static/load_factor"][:], f["static/position"][-1]
+    assert lf.size >= 3 and lf[-1] == pytest.approx(1.0, abs=1e-12)
+    assert np.abs(steps[-1] - ROT[:, 0]).max() > 0.3       # the tip moved: a large load
+    np.testing.assert_allclose(arc, steps, rtol=0, atol=1e-12)
+
+
 def test_small_follower_line_load_gives_the_closed_form_deflection(tmp_path):
     """At a small load the follower line load is the dead one: a uniform q normal to a
     cantilever deflects its tip by q L^4 / 8 EI, a triangular load 0 -> q by 11 q L^4 /
