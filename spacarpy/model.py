@@ -267,15 +267,13 @@ class FollowerLoad:
 
 
 @dataclass(frozen=True)
-class FollowerLineLoad:
-    """A follower line load on a planar beam (``QEL e qx qy``, ``DELQEL``): force per current
-    length with components along the deformed element (its chord p -> q) and along its
-    local y-axis (z x the chord), consistently lumped at the element's nodes."""
-
-    element: int
-    kind: str
-    value: tuple[float, float]
-    loc: SourceLoc | None = None
+class FollowerLineLoad(LineLoad):
+    """A follower line load on a beam (``QEL``/``DELQEL e q1 q2 q3 [q1 q2 q3]``): the fields
+    of a :class:`LineLoad`, but the components are force per current length in the element's
+    **current axes** (x along the deformed chord p -> q, y its current local y-axis, z = x
+    x y; docs/follower.md), so the load turns with the element (not conservative). A planar
+    deck's ``qx qy`` are stored with a zero z component. ``tf`` names the time function of a
+    DELQEL (LOADTF) or is None."""
 
 
 @dataclass(frozen=True)
@@ -323,7 +321,7 @@ class Model:
     follower_loads : list of FollowerLoad
         The XFL/DELXFL lines (follower loads in the current axes of an orientation node).
     follower_line_loads : list of FollowerLineLoad
-        The QEL/DELQEL lines (follower line loads on planar beams).
+        The QEL/DELQEL lines (follower line loads in the element's current axes).
     nodal_masses : list of NodalMass
     prescribed : list of Prescribed
         Prescribed (input) coordinates with their initial values and increments.

@@ -154,8 +154,13 @@ def result_files(tmp_path_factory) -> dict:
     (tmp / "beamc.dat").write_text(beamc + "ITERSTEP 20 2 1e-12\nEND\nEND\n")
     (tmp / "beamc_dyn.dat").write_text("MODE transient\n" + beamc
                                        + "TIMESTEP 0.01 2\nEND\nEND\n")
+    # line and follower loads in /model (schema 2.23): the tilted ring with a QE and an XFL
+    (tmp / "loads.dat").write_text(
+        (DECKS / "ring_follower_pressure_3d.dat").read_text()
+        .replace("ITERSTEP", "DELQE 2 0 0 1e-3 0 0 2e-3\nXFL 3 4 0 0 1e-3\nITERSTEP")
+        .replace("EXPECT", "# EXPECT"))
     for key in ("truss_dyn", "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn", "dynx",
-                "beamw", "beamw_dyn", "beamc", "beamc_dyn"):
+                "beamw", "beamw_dyn", "beamc", "beamc_dyn", "loads"):
         runs[key] = (key, [])
     (tmp / "column.dat").write_text(COLUMN_DECK)
     files = {}

@@ -521,19 +521,32 @@ def test_ring_under_follower_pressure_buckles_at_3_EI_over_R3():
 
 
 def test_qel_errors_and_the_deck_writer():
+    """A truss takes no line load, a spatial beam's QEL has three (or six) components, an
+    element that does not exist is named; the deck writer writes uniform and linear lines
+    back (planar: two or four components) with their time functions."""
     from spacarpy.deck.writer import model_to_deck
     from spacarpy.errors import DeckError
 
     text = ("X 1 0 0 0\nX 3 1 0 0\nX 5 2 0 0\nBEAM 1 1 2 3 4 0 1 0\nBEAM 2 3 4 5 6 0 1 0\n"
-            "FIX 1\nFIX 2\nEND\nHALT\nESTIFF 1:2 1 1 1 1\nQEL 2 0 1\nDELQEL 7 0 1\nEND\nEND\n")
+            "TRUSS 3 1 5\nFIX 1\nFIX 2\nEND\nHALT\nESTIFF 1:2 1 1 1 1\nQEL 2 0 1\n"
+            "DELQEL 7 0 1 0\nQEL 3 0 1 0\nDELQEL 1 0 1 0 0 2\nEND\nEND\n")
     with pytest.raises(DeckError) as info:
         model_from_text(text, "bad.dat")
     got = [(loc.line, loc.column, msg) for loc, msg, _ in info.value.items]
-    assert [(line, col) for line, col, _ in got] == [(11, 5), (12, 8)]
-    assert "element 2 is a BEAM: follower line loads act on planar beams (PLBEAM)" in got[0][2]
+    assert [(line, col) for line, col, _ in got] == [(12, 1), (13, 8), (14, 5), (15, 1)]
+    assert "QEL: expected 3 or 6 components (QEL 2 q1 q2 q3 [q1 q2 q3 at q]), got 2" in got[0][2]
     assert "element 7 is not defined" in got[1][2]
-    model = model_from_text(_ring(4, 0.5, "QEL", "DELQEL 2 0.1 0.2"), "ring.dat")
-    again = model_from_text(model_to_deck(model), "again.dat")
-    assert [(ld.element, ld.kind, ld.value) for ld in again.follower_line_loads] == [
-        (1, "QEL", (0.0, 0.5)), (2, "QEL", (0.0, 0.5)), (3, "QEL", (0.0, 0.5)),
-        (4, "QEL", (0.0, 0.5)), (2, "DELQEL", (0.1, 0.2))]
+    assert "element 3 is a TRUSS; a follower line load acts on a beam" in got[2][2]
+    assert "expected 3 or 6 components" in got[3][2]
+    from spacarpy.deck import job_from_text
+    job = job_from_text(_ring(4, 0.5, "QEL", "DELQEL 2 0.1 0.2 0.3 0.4\n"
+                                             "TIMEFUNCTION pulse ramp 1\n"
+                                             "LOADTF pulse DELQEL 2"), "ring.dat")
+    again = model_from_text(model_to_deck(job.model, job.settings), "again.dat")
+    assert [(ld.element, ld.kind, ld.q_p, ld.q_q, ld.tf)
+            for ld in again.follower_line_loads] == [
+        (1, "QEL", (0.0, 0.5, 0.0), (0.0, 0.5, 0.0), None),
+        (2, "QEL", (0.0, 0.5, 0.0), (0.0, 0.5, 0.0), None),
+        (3, "QEL", (0.0, 0.5, 0.0), (0.0, 0.5, 0.0), None),
+        (4, "QEL", (0.0, 0.5, 0.0), (0.0, 0.5, 0.0), None),
+        (2, "DELQEL", (0.1, 0.2, 0.0), (0.3, 0.4, 0.0), "pulse")]

@@ -166,7 +166,7 @@ def deck_errors(lines: str) -> list[str]:
     ("LOADTF pulse DELXF 3", "15:8: LOADTF: no TIMEFUNCTION is named 'pulse' (named ones: "
                              "none; write TIMEFUNCTION pulse kind p...)"),
     ("TIMEFUNCTION pulse sine 2\nLOADTF pulse XF 3",
-     "16:14: LOADTF: XF has no time function; expected one of DELXF, DELXFL, DELQE, "
+     "16:14: LOADTF: XF has no time function; expected one of DELXF, DELXFL, DELQE, DELQEL, "
      "DELINPX, DELINPE, DELINPR"),
     ("TIMEFUNCTION pulse sine 2\nLOADTF pulse DELXF 1",
      "16:20: LOADTF: no DELXF line on node 1"),

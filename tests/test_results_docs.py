@@ -30,6 +30,7 @@ _SYMBOLS = {"step": "n_step", "time_step": "n_t", "linearized_step": "n_lin",
             "warping_node": "n_warp",
             "reaction": "n_reac", "coordinate": "3", "euler_parameter": "4",
             "global_coordinate": "n_coord", "load": "n_load", "input": "n_input",
+            "line_load": "n_line_load", "follower_load": "n_follower_load",
             "kinematic": "n_kinematic", "kinematic_state": "n_kin",
             "checked_dataset": "n_checked", "dof": "n_dof", "state": "n_state",
             "system_input": "n_in", "system_output": "n_out"}

@@ -203,9 +203,15 @@ _LOAD_FIELDS = (NODE, _f("x component (N or N m)", "f1"))
 # XFL/DELXFL: the loaded node, the orientation node whose current axes the components are in
 _FOLLOWER_FIELDS = (NODE, _f("orientation node of the load's axes", "r", "int", positive=True),
                     _f("component along the first axis (N or N m)", "f1"))
-# QEL/DELQEL e qx qy: a follower line load (N/m) in a PLBEAM's current axes
-_FOLLOWER_LINE_FIELDS = (ELEMENT, _f("component along the element (N/m)", "qx"),
-                         _f("component along its local y-axis (N/m)", "qy"))
+# QEL/DELQEL e q1 q2 q3 [q1 q2 q3 at q]: a follower line load (N/m) in a beam's current
+# axes (a planar deck: e qx qy [qx qy at q]); the builder checks the count
+_FOLLOWER_LINE_FIELDS = (ELEMENT, _f("component along the element at p (N/m)", "q1"))
+_FOLLOWER_LINE_OPTIONAL = _each_optional(
+    _f("component along its local y-axis at p (N/m)", "q2"),
+    _f("component along its local z-axis at p (N/m)", "q3"),
+    _f("component along the element at q (N/m)", "q4"),
+    _f("component along its local y-axis at q (N/m)", "q5"),
+    _f("component along its local z-axis at q (N/m)", "q6"))
 _FOLLOWER_OPTIONAL = _each_optional(_f("component along the second axis (N or N m)", "f2"),
                                     _f("component along the third axis (N or N m)", "f3"))
 _LOAD_OPTIONAL = _each_optional(_f("y component (N or N m)", "f2"),
@@ -366,12 +372,13 @@ _KEYWORD_LIST = (
     KeywordSpec("DELXFL", "follower nodal load increment (current axes of an orientation "
                 "node) applied over the load steps", section="data", extension=True,
                 required=_FOLLOWER_FIELDS, optional=_FOLLOWER_OPTIONAL),
-    KeywordSpec("QEL", "follower line load on a planar beam (current element axes), present "
+    KeywordSpec("QEL", "follower line load on a beam (current element axes), present "
                 "from the start", section="data", extension=True, range_first=True,
-                required=_FOLLOWER_LINE_FIELDS),
-    KeywordSpec("DELQEL", "follower line load increment on a planar beam (current element "
+                required=_FOLLOWER_LINE_FIELDS, optional=_FOLLOWER_LINE_OPTIONAL),
+    KeywordSpec("DELQEL", "follower line load increment on a beam (current element "
                 "axes) applied over the load steps", section="data", extension=True,
-                range_first=True, required=_FOLLOWER_LINE_FIELDS),
+                range_first=True, required=_FOLLOWER_LINE_FIELDS,
+                optional=_FOLLOWER_LINE_OPTIONAL),
     KeywordSpec(
         "ITERSTEP", "load stepping and Newton iteration settings", section="data",
         required=(_f("maximum number of iterations", "max_iter", "int"),

@@ -205,7 +205,7 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         if planar:
             value = value[:2] if load.node in position_nodes else value[2:]
         out.append(format_record(load.kind, load.node, *value))
-    for ll in getattr(model, "line_loads", ()):
+    for ll in [*getattr(model, "line_loads", ()), *getattr(model, "follower_line_loads", ())]:
         q = [float(v) for v in ll.q_p] + ([] if ll.q_q == ll.q_p
                                           else [float(v) for v in ll.q_q])
         if planar:
@@ -216,8 +216,6 @@ def model_to_deck(model, settings: AnalysisSettings | None = None, *, cross_sect
         if planar:
             value = value[:2] if load.node in position_nodes else value[2:]
         out.append(format_record(load.kind, load.node, load.axes, *value))
-    for line in model.follower_line_loads:
-        out.append(format_record(line.kind, line.element, *[float(v) for v in line.value]))
     for p in model.prescribed:
         if p.velocity or p.acceleration:        # the 5-field form (a transient's motion)
             value = p.initial
@@ -304,8 +302,10 @@ def _load_tf_lines(model) -> list[str]:
     named = [("DELXF", (ld.node,), ld.tf) for ld in model.loads if ld.kind == "DELXF"]
     named += [("DELXFL", (ld.node,), ld.tf) for ld in getattr(model, "follower_loads", ())
               if ld.kind == "DELXFL"]
-    named += [("DELQE", (ld.element,), ld.tf) for ld in getattr(model, "line_loads", ())
-              if ld.kind == "DELQE"]
+    named += [(ld.kind, (ld.element,), ld.tf)
+              for ld in [*getattr(model, "line_loads", ()),
+                         *getattr(model, "follower_line_loads", ())]
+              if ld.kind in ("DELQE", "DELQEL")]
     named += [("DELINPX", (p.node, p.coord), p.tf) for p in model.prescribed]
     named += [(("DELINPX", (r.node, 1)) if model.planar else ("DELINPR", (r.node,))) + (r.tf,)
               for r in model.prescribed_rotations]

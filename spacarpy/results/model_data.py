@@ -4,13 +4,15 @@ This module's one job is turning the analysed model into the arrays the writer s
 ``/model`` (2.0 names, see :mod:`spacarpy.results.schema`): nodes, the element sets per kind
 (``/model/elements/<KIND>/...``), the BEAM element properties and cross-sections, the loads
 and the map of global coordinates (from :class:`spacarpy.numbering.Numbering`). The writer
-receives these arrays and computes nothing itself.
+receives these arrays and computes nothing itself. The line and follower loads' arrays come
+from :mod:`spacarpy.results.model_loads`.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from spacarpy.model import ElementSet, Model
+from spacarpy.results.model_loads import load_datasets
 from spacarpy.results.schema import KIND_NAMES
 
 __all__ = ["element_sets", "model_datasets"]
@@ -96,6 +98,7 @@ def model_datasets(model: Model, num=None) -> dict:
     out["model/load_type"] = np.array([ld.kind.encode("ascii") for ld in loads], dtype="S5")
     out["model/load_value"] = np.array([ld.value for ld in loads],
                                        dtype=np.float64).reshape(len(loads), 3)
+    out.update(load_datasets(model))
     index = np.zeros(num.n_coord, dtype=np.int8)
     index[num.pos_idx] = np.arange(1, 4, dtype=np.int8)
     index[num.rot_idx] = np.arange(1, 5, dtype=np.int8)

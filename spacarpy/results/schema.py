@@ -19,7 +19,8 @@ Dimension names: ``step`` (committed load steps), ``time_step`` (committed time 
 ``warping_node`` (n_warp, a BEAMW's warping nodes),
 ``element`` (elements of the dataset's kind), ``deformation_mode`` (the kind's n_def),
 ``slot`` (the kind's node slots), ``reaction``, ``coordinate`` (3), ``euler_parameter`` (4),
-``global_coordinate`` (n_coord), ``load`` (load lines), ``input`` (prescribed deformations),
+``global_coordinate`` (n_coord), ``load`` (load lines), ``line_load`` and ``follower_load``
+(QE/QEL and XFL lines), ``input`` (prescribed deformations),
 ``checked_dataset`` (the datasets a ``checksum`` covers: its attribute ``columns``);
 ``dof`` (degrees of freedom of the state space), ``state`` (2 dof), ``system_input`` and
 ``system_output`` (its INPUTF and OUT* lines); integers are fixed sizes.
@@ -42,7 +43,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 22)
+SCHEMA_VERSION = (2, 23)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -159,7 +160,7 @@ _LIN_SHAPE = {"mode": ("linearized_step", "mode"),
 
 def _spec_list() -> list[DatasetSpec]:
     S = DatasetSpec
-    v11, v14 = (1, 1), (1, 4)
+    v11, v14, v23 = (1, 1), (1, 4), (2, 23)
     out = [
         S("deck", "utf-8", (), "1", "input deck text, verbatim"),
         S("model/position_nodes", "i8", ("position_node",), "1",
@@ -187,6 +188,22 @@ def _spec_list() -> list[DatasetSpec]:
         S("model/load_value", "f8", ("load", 3), "N | N m",
           "force (position node, N) or moment (orientation node, N m) of each load line, "
           "global axes", v11),
+        S("model/line_load_element", "i8", ("line_load",), "1", "element of each line load "
+          "line (QE, DELQE, QEL, DELQEL), present when the model has them", v23, optional=True),
+        S("model/line_load_type", "ascii", ("line_load",), "1", "QE or DELQE (dead, global "
+          "axes), QEL or DELQEL (follower, the element's current axes); DEL: an increment",
+          v23, optional=True),
+        S("model/line_load_value", "f8", ("line_load", 2, 3), "N/m", "force per length of each "
+          "line load line at the element's ends p and q (linear between), x y z of its axes "
+          "(a planar deck's z 0)", v23, optional=True),
+        S("model/follower_load_node", "i8", ("follower_load", 2), "1", "[node, axes node] of "
+          "each follower load line (XFL, DELXFL), present when the model has them", v23,
+          optional=True),
+        S("model/follower_load_type", "ascii", ("follower_load",), "1",
+          "XFL (acting from the start) or DELXFL (an increment)", v23, optional=True),
+        S("model/follower_load_value", "f8", ("follower_load", 3), "N | N m", "force (position "
+          "node) or moment (orientation node) of each follower load line, in the current "
+          "axes of its axes node", v23, optional=True),
         S("model/coordinate_node", "i8", ("global_coordinate",), "1",
           "deck node number owning each global coordinate", v11),
         S("model/coordinate_index", "i1", ("global_coordinate",), "1",

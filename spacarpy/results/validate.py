@@ -210,6 +210,8 @@ def _sizes(sf: SchemaFile, kinds: list) -> dict:
         "global_coordinate": (3 * n_pos + 4 * n_rot + n_warp
                               if n_pos is not None and n_rot is not None else None),
         "load": rows("model/load_node"), "input": None, "kinematic": None,
+        "line_load": rows("model/line_load_element"),
+        "follower_load": rows("model/follower_load_node"),
         "sections": sections,
         "dof": rows("state_space/dof_element"),
         "kinematic_state": (rows("state_space/kinematic_name") or 0
@@ -353,6 +355,8 @@ def _check_values(sf, kinds, found, problems) -> None:
                             f"/{sf.name(b + '/nodes')}")
     for path, allowed in ((f"{b}/cross_section_type", {"", "RECT", "CIRC"}),
                           ("model/load_type", {"XF", "DELXF"}),
+                          ("model/line_load_type", {"QE", "DELQE", "QEL", "DELQEL"}),
+                          ("model/follower_load_type", {"XFL", "DELXFL"}),
                           ("static/reaction_component", set(REACTION_COMPONENTS))):
         if found.get(path) is not None:
             bad = sorted(set(str_list(found[path])) - allowed)

@@ -141,6 +141,20 @@ class ModelView:
     load_type.__doc__ = "(n_load,) str or None: XF or DELXF."
     load_value = cached_property(lambda self: self._get("load_value"))
     load_value.__doc__ = "(n_load, 3) float64 or None: force (N) or moment (N m)."
+    line_load_element = cached_property(lambda self: self._get("line_load_element"))
+    line_load_element.__doc__ = "(n_line_load,) int64 or None: element of each line load line."
+    line_load_type = cached_property(lambda self: self._get("line_load_type"))
+    line_load_type.__doc__ = "(n_line_load,) str or None: QE, DELQE, QEL or DELQEL."
+    line_load_value = cached_property(lambda self: self._get("line_load_value"))
+    line_load_value.__doc__ = ("(n_line_load, 2, 3) float64 or None: force per length (N/m) "
+                               "at the ends p, q; global (QE) or current element axes (QEL).")
+    follower_load_node = cached_property(lambda self: self._get("follower_load_node"))
+    follower_load_node.__doc__ = "(n_follower_load, 2) int64 or None: [node, axes node]."
+    follower_load_type = cached_property(lambda self: self._get("follower_load_type"))
+    follower_load_type.__doc__ = "(n_follower_load,) str or None: XFL or DELXFL."
+    follower_load_value = cached_property(lambda self: self._get("follower_load_value"))
+    follower_load_value.__doc__ = ("(n_follower_load, 3) float64 or None: force (N) or moment "
+                                   "(N m) in the current axes of the axes node.")
     coordinate_node = cached_property(lambda self: self._get("coordinate_node"))
     coordinate_node.__doc__ = "(n_coord,) int64 or None: node owning each global coordinate."
     coordinate_index = cached_property(lambda self: self._get("coordinate_index"))

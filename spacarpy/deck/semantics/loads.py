@@ -29,7 +29,7 @@ __all__ = ["LINE_LOAD_KINDS", "Loads", "from_statements"]
 #: The element kinds a line load (QE/DELQE) acts on: the beams, whose bending is cubic.
 LINE_LOAD_KINDS = ("BEAM", "PLBEAM", "BEAMW")
 #: What LOADTF gives a time function: the load increments and the prescribed motions.
-_TF_TARGETS = ("DELXF", "DELXFL", "DELQE", "DELINPX", "DELINPE", "DELINPR")
+_TF_TARGETS = ("DELXF", "DELXFL", "DELQE", "DELQEL", "DELINPX", "DELINPE", "DELINPR")
 
 
 @dataclass
@@ -84,18 +84,9 @@ class _LoadsPass(UsesTopology):
                                                        value=values, loc=st.loc))
 
     def follower_line(self, st: Statement) -> None:
-        """A QEL or DELQEL line: ``e qx qy`` on a PLBEAM, in its current axes."""
-        beam = self.element_for(st)
-        if beam is None:
-            return
-        if beam.keyword != "PLBEAM":
-            self.error(st.field_locs[0], f"{st.keyword}: element {beam.id} is a "
-                                         f"{beam.keyword}: follower line loads act on planar "
-                                         "beams (PLBEAM) only so far", st)
-            return
-        self.result.follower_line_loads.append(FollowerLineLoad(
-            element=beam.id, kind=st.keyword, value=(float(st.fields[1]), float(st.fields[2])),
-            loc=st.loc))
+        """A QEL or DELQEL line: ``e q1 q2 q3 [q1 q2 q3 at q]`` on a beam, components in
+        its current axes (a planar deck: ``e qx qy [qx qy at q]`` on a PLBEAM)."""
+        self.line_load(st, follower=True)
 
     def _load_values(self, st: Statement, n, fields):
         """The three components of a load line on node n (a planar deck's fx fy or m
@@ -126,16 +117,18 @@ class _LoadsPass(UsesTopology):
             return None
         return values
 
-    def line_load(self, st: Statement) -> None:
-        """A QE or DELQE line: a line load on a beam, uniform or linear."""
+    def line_load(self, st: Statement, follower: bool = False) -> None:
+        """A QE or DELQE line (or a follower QEL/DELQEL, ``follower``): a line load on a
+        beam, uniform or linear."""
         e = st.fields[0]
         b = self.element_for(st)
         if b is None:
             return
         if b.keyword not in LINE_LOAD_KINDS:
-            self.error(st.field_locs[0], f"{st.keyword}: element {e} is a {b.keyword}; a line "
-                                         f"load acts on a beam ({', '.join(LINE_LOAD_KINDS)})",
-                       st)
+            what = "follower line" if follower else "line"
+            self.error(st.field_locs[0], f"{st.keyword}: element {e} is a {b.keyword}; a "
+                                         f"{what} load acts on a beam "
+                                         f"({', '.join(LINE_LOAD_KINDS)})", st)
             return
         values = tuple(float(v) for v in st.fields[1:])
         width = 2 if self.planar else 3
@@ -150,12 +143,13 @@ class _LoadsPass(UsesTopology):
             values = tuple(v for pair in zip(values[0::2], values[1::2]) for v in (*pair, 0.0))
         q_p = values[:3]
         q_q = values[3:6] if len(values) == 6 else q_p
-        self.result.line_loads.append(LineLoad(element=e, kind=st.keyword, q_p=q_p, q_q=q_q,
-                                               loc=st.loc))
+        cls, where = ((FollowerLineLoad, self.result.follower_line_loads) if follower
+                      else (LineLoad, self.result.line_loads))
+        where.append(cls(element=e, kind=st.keyword, q_p=q_p, q_q=q_q, loc=st.loc))
 
     def load_tf(self, st: Statement, names: dict, by_kw: dict, given: dict) -> None:
         """A LOADTF line: the named time function of the load increments (DELXF, DELQE,
-        DELXFL) on a node or element, or of a prescribed motion (DELINPX n c, DELINPE e k,
+        DELXFL, DELQEL) on a node or element, or of a prescribed motion (DELINPX n c, DELINPE e k,
         DELINPR n)."""
         name, what, target = str(st.fields[0]), str(st.fields[1]).upper(), st.fields[2]
         number = st.fields[3] if len(st.fields) > 3 else None
@@ -173,20 +167,21 @@ class _LoadsPass(UsesTopology):
         if wants_number != (number is not None):
             usage = (f"LOADTF {name} {what} {'n c' if what == 'DELINPX' else 'e k'}"
                      if wants_number else f"LOADTF {name} {what} "
-                     f"{'e' if what == 'DELQE' else 'n'}")
+                     f"{'e' if what in ('DELQE', 'DELQEL') else 'n'}")
             self.error(st.loc, f"LOADTF: expected {usage}", st)
             return
         key = (what, target) if number is None else (what, target, number)
         lines = by_kw.get(what, ())
-        if what == "DELQE":
-            lines = [ld for ld in self.result.line_loads if ld.kind == "DELQE"]
-            hit = any(ld.element == target for ld in lines)
+        if what in ("DELQE", "DELQEL"):
+            lines = (self.result.line_loads if what == "DELQE"
+                     else self.result.follower_line_loads)
+            hit = any(ld.element == target for ld in lines if ld.kind == what)
         elif what == "DELXF":
             hit = any(ld.node == target for ld in self.result.loads if ld.kind == "DELXF")
         else:
             hit = any(tuple(x.fields[:len(key) - 1]) == key[1:] for x in lines)
         if not hit:
-            thing = "element" if what in ("DELQE", "DELINPE") else "node"
+            thing = "element" if what in ("DELQE", "DELQEL", "DELINPE") else "node"
             extra = f" {number}" if number is not None else ""
             self.error(st.field_locs[2], f"LOADTF: no {what} line on {thing} "
                                          f"{target}{extra}", st)
@@ -298,6 +293,9 @@ def from_statements(by_kw: dict, ctx: DeckContext, errors: ErrorCollector, topol
                           if ld.kind == "DELQE" else ld for ld in res.line_loads]
         res.follower_loads = [replace(ld, tf=tf_of.get(("DELXFL", ld.node)))
                               if ld.kind == "DELXFL" else ld for ld in res.follower_loads]
+        res.follower_line_loads = [replace(ld, tf=tf_of.get(("DELQEL", ld.element)))
+                                   if ld.kind == "DELQEL" else ld
+                                   for ld in res.follower_line_loads]
     for st in by_kw.get("XM", []):
         part.nodal_mass(st)
     for st in by_kw.get("GRAVITY", []):

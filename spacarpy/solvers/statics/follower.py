@@ -21,12 +21,15 @@ so statics, arc length, the transient's iteration matrix and the linearizations 
 
 :class:`NodalFollower` is the XFL/DELXFL part: a force on a position node n, or a moment on
 an orientation node n, with components in the current axes of orientation node r
-(docs/loads.md):
+(docs/follower.md):
 
 - force: ``f_n = R(q_r) F``; ``d f_n / d q_r = 2 H(F) q_r`` (:mod:`spacarpy.rotation`);
 - moment: ``T = R(q_r) M`` acts on q_n as ``2 Lambda(q_n)^T T = 2 B(T) q_n``; its
   derivatives are ``2 B(T)`` by q_n and ``2 Lambda(q_n)^T (2 H(M) q_r)`` by q_r (both
   blocks, summed where n = r).
+
+The follower line loads (QEL/DELQEL) are parts of their own,
+:mod:`spacarpy.solvers.statics.follower_lines`.
 """
 from __future__ import annotations
 
@@ -117,69 +120,6 @@ class FollowerMoments(LoadPart):
         return np.concatenate([2.0 * moment_matrix(t), d_r], axis=2)
 
 
-#: ``[z~]``: ``z x d`` for the planar element's local y-axis (times its length).
-_ZX = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
-#: ``B(z)``: the generalized force of a unit moment about z on Euler parameters is 2 B q.
-_BZ = moment_matrix(np.array([0.0, 0.0, 1.0]))
-
-
-class FollowerLinePlanar(LoadPart):
-    """QEL/DELQEL on PLBEAMs: ``(qx, qy)`` per current length along the chord ``d = x_q -
-    x_p`` and along ``z x d / |d|``, lumped as the cubic interpolation of a straight beam
-    gives it (docs/follower.md): each end ``(qx d + qy z x d) / 2``, end moments ``+-qy
-    |d|^2 / 12`` about z at the orientation nodes r (at p) and s (at q). Rows = cols =
-    ``[x_p, x_q, q_r, q_s]`` (14)."""
-
-    def _parts(self, x, amp):
-        xe = x[self.cols]
-        d = xe[:, 3:6] - xe[:, 0:3]
-        qr, qs = xe[:, 6:10], xe[:, 10:14]
-        m = amp[:, 1] * np.einsum("na,na->n", d, d) / 12.0
-        return d, qr, qs, m
-
-    def force(self, x, amp, n_coord):
-        d, qr, qs, m = self._parts(x, amp)
-        f = 0.5 * (amp[:, :1] * d + amp[:, 1:2] * (d @ _ZX.T))
-        g_r = 2.0 * m[:, None] * (qr @ _BZ.T)
-        g_s = -2.0 * m[:, None] * (qs @ _BZ.T)
-        return _add(n_coord, self.rows, np.concatenate([f, f, g_r, g_s], axis=1))
-
-    def stiffness(self, x, amp):
-        d, qr, qs, m = self._parts(x, amp)
-        n = len(d)
-        k = np.zeros((n, 14, 14))
-        F = 0.5 * (amp[:, 0, None, None] * np.eye(3) + amp[:, 1, None, None] * _ZX)
-        for r0 in (0, 3):
-            k[:, r0:r0 + 3, 0:3] = -F
-            k[:, r0:r0 + 3, 3:6] = F
-        dm = amp[:, 1, None] * d / 6.0                          # d m / d x_q (= -d/dx_p)
-        for rows, q, sign in ((slice(6, 10), qr, 1.0), (slice(10, 14), qs, -1.0)):
-            bq = 2.0 * sign * (q @ _BZ.T)                        # (n, 4)
-            k[:, rows, 0:3] = -bq[:, :, None] * dm[:, None, :]
-            k[:, rows, 3:6] = bq[:, :, None] * dm[:, None, :]
-            k[:, rows, rows] = 2.0 * sign * m[:, None, None] * _BZ
-        return k
-
-
-def line_followers(model, num, pos_row: dict, rot_row: dict) -> list:
-    """The QEL/DELQEL lines of a model (``model.follower_line_loads``) as one load part."""
-    lines = getattr(model, "follower_line_loads", ())
-    if not lines:
-        return []
-    es = model.elements["PLBEAM"]
-    where = {int(e): i for i, e in enumerate(es.ids)}
-    rows = []
-    for ld in lines:
-        p, r, q, s = (int(v) for v in es.nodes[where[int(ld.element)]])
-        rows.append(np.concatenate([num.pos_idx[pos_row[p]], num.pos_idx[pos_row[q]],
-                                    num.rot_idx[rot_row[r]], num.rot_idx[rot_row[s]]]))
-    rows = np.array(rows).reshape(len(lines), 14)
-    amp = {k: np.array([ld.value if ld.kind == k else (0.0, 0.0) for ld in lines],
-                       dtype=float).reshape(len(lines), 2) for k in ("QEL", "DELQEL")}
-    return [FollowerLinePlanar(name="QEL line load", rows=rows, cols=rows,
-                               initial=amp["QEL"], increment=amp["DELQEL"])]
-
-
 def nodal_followers(model, num, pos_row: dict, rot_row: dict) -> list:
     """The XFL/DELXFL lines of a model (``model.follower_loads``) as load parts: one for
     the forces, one for the moments (only those the model has)."""
@@ -208,5 +148,4 @@ def nodal_followers(model, num, pos_row: dict, rot_row: dict) -> list:
     return out
 
 
-__all__ = ["FollowerForces", "FollowerLinePlanar", "FollowerMoments", "LoadPart",
-           "line_followers", "nodal_followers"]
+__all__ = ["FollowerForces", "FollowerMoments", "LoadPart", "nodal_followers"]

@@ -28,7 +28,8 @@ import numpy as np
 from spacarpy.elements.line_load import lump_line_load
 from spacarpy.elements.registry import kind_of
 from spacarpy.rotation import moment_matrix
-from spacarpy.solvers.statics.follower import line_followers, nodal_followers
+from spacarpy.solvers.statics.follower import nodal_followers
+from spacarpy.solvers.statics.follower_lines import line_followers
 from spacarpy.solvers.statics.nodal import nodal_masses, node_rows
 
 
