@@ -196,46 +196,66 @@ def _frame(z: np.ndarray, ref: WheelReference, m: int, second: bool) -> _Frame:
     return _Frame(d, a, el, u)
 
 
-class WheelState(NamedTuple):
+class WheelState:
     """Deformations and Jacobian of the holonomic modes (velocity modes: zero rows), plus
-    what the Hessian and the check reuse."""
+    what the Hessian and the check reuse. The Hessians ``H`` are formed on first use (a
+    second-order jet costs three times a first-order one, and a transient step evaluates
+    the states more often than it forms an iteration matrix); they are the same numbers
+    whenever they are formed."""
 
-    e: np.ndarray          # (n, 6)
-    D: np.ndarray          # (n, 6, 10)
-    H: np.ndarray          # (n, 4, 10, 10) the Hessians of modes 1, 2, 3, 6
-    a: np.ndarray          # (n, 3) the current axle
-    n: np.ndarray          # (n, 3) the ground normal
+    __slots__ = ("e", "D", "a", "n", "_x", "_ref", "_H")
+
+    def __init__(self, e, D, a, n, x=None, ref=None, H=None):
+        self.e, self.D, self.a, self.n = e, D, a, n       # (n, 6), (n, 6, 10), axle, normal
+        self._x, self._ref, self._H = x, ref, H
+
+    @property
+    def H(self) -> np.ndarray:
+        """(n, 4, 10, 10) the Hessians of modes 1, 2, 3, 6."""
+        if self._H is None:
+            self._H = _wheel_jets(self._x, self._ref, True)[2]
+        return self._H
 
 
-def wheel_state(x: np.ndarray, ref: WheelReference) -> WheelState:
-    """Deformations e (n, 6), their exact Jacobian D (n, 6, 10) (zero rows for the slips 4
-    and 5, which are no functions of x) and the Hessians of the holonomic modes.
-
-    Modes 1-3 are ``w . d`` with ``w`` = a, e_l, u functions of lambda alone and d linear
-    in x_p, x_q: the jet runs in the 4 Euler parameters only (a tenth of the work of one
-    in all 10 coordinates), and the d parts are assembled from it."""
+def _wheel_jets(x: np.ndarray, ref: WheelReference, second: bool):
+    """``(e, D, H or None, a)`` of :func:`wheel_state`: the jet in the Euler parameters
+    to first or second order (the first-order parts are the same numbers either way)."""
     n = x.shape[0]
-    lam = Jet.variables(x[:, 3:7], 0, 4, 4, True)
+    lam = Jet.variables(x[:, 3:7], 0, 4, 4, second)
     a = rotate(lam, ref.a0)
-    el = unit(cross(a, Jet.constant(ref.n, 4, True)))
+    el = unit(cross(a, Jet.constant(ref.n, 4, second)))
     u = cross(a, el) * norm(a).reciprocal()
     d = x[:, 7:10] - x[:, 0:3]
     e = np.zeros((n, N_DEF))
     D = np.zeros((n, N_DEF, N_LDOF))
-    H = np.zeros((n, 4, N_LDOF, N_LDOF))
+    H = np.zeros((n, 4, N_LDOF, N_LDOF)) if second else None
     for k, (mode, w) in enumerate(zip(HOLONOMIC[:3], (a, el, u))):
         e[:, mode] = (w.val * d).sum(axis=1) - ref.e0[:, k]
         D[:, mode, 0:3] = -w.val
         D[:, mode, 7:10] = w.val
         D[:, mode, 3:7] = np.einsum("ni,nij->nj", d, w.g)
-        H[:, k, 3:7, 3:7] = np.einsum("ni,nijk->njk", d, w.h)
-        H[:, k, 7:10, 3:7] = w.g
-        H[:, k, 0:3, 3:7] = -w.g
-        H[:, k, 3:7, 7:10] = w.g.transpose(0, 2, 1)
-        H[:, k, 3:7, 0:3] = -w.g.transpose(0, 2, 1)
+        if second:
+            H[:, k, 3:7, 3:7] = np.einsum("ni,nijk->njk", d, w.h)
+            H[:, k, 7:10, 3:7] = w.g
+            H[:, k, 0:3, 3:7] = -w.g
+            H[:, k, 3:7, 7:10] = w.g.transpose(0, 2, 1)
+            H[:, k, 3:7, 0:3] = -w.g.transpose(0, 2, 1)
     e[:, 5] = ((x[:, 7:10] - ref.xq0) * ref.n).sum(axis=1)           # e6, linear
     D[:, 5, 7:10] = ref.n
-    return WheelState(e=e, D=D, H=H, a=a.val, n=ref.n)
+    return e, D, H, a.val
+
+
+def wheel_state(x: np.ndarray, ref: WheelReference) -> WheelState:
+    """Deformations e (n, 6), their exact Jacobian D (n, 6, 10) (zero rows for the slips 4
+    and 5, which are no functions of x) and the Hessians of the holonomic modes (formed
+    when first used).
+
+    Modes 1-3 are ``w . d`` with ``w`` = a, e_l, u functions of lambda alone and d linear
+    in x_p, x_q: the jet runs in the 4 Euler parameters only (a tenth of the work of one
+    in all 10 coordinates), and the d parts are assembled from it."""
+    x = np.array(x, dtype=float)
+    e, D, _, a = _wheel_jets(x, ref, False)
+    return WheelState(e, D, a, ref.n, x, ref)
 
 
 def wheel_weighted_hessian(st: WheelState, w: np.ndarray) -> np.ndarray:
@@ -298,7 +318,24 @@ class _SlipFrame(NamedTuple):
     d: np.ndarray          # (n, 3) x_q - x_p
 
 
+_FRAMES: list = []       # [(x, a0, n, frame)]: the last few frames, newest last
+
+
 def _slip_frame(x: np.ndarray, ref: WheelReference, derivatives: bool) -> _SlipFrame:
+    """The slip frame at x (always with its derivatives), one of the last few again where
+    x and the wheels are the same (a Newton iteration forms S, d(S v)/dx and d(S^T nu)/dx
+    at one state, a step's slip integral S v at its two ends): the same numbers."""
+    for last in reversed(_FRAMES):
+        if (last[0].shape == x.shape and np.array_equal(last[0], x)
+                and last[1].shape == ref.a0.shape and np.array_equal(last[1], ref.a0)
+                and np.array_equal(last[2], ref.n)):
+            return last[3]
+    frame = _new_slip_frame(x, ref, True)
+    _FRAMES[:] = _FRAMES[-2:] + [(x.copy(), ref.a0.copy(), ref.n.copy(), frame)]
+    return frame
+
+
+def _new_slip_frame(x: np.ndarray, ref: WheelReference, derivatives: bool) -> _SlipFrame:
     lam = x[:, 3:7]
     a = rotate_plain(lam, ref.a0)
     nvec = ref.n
