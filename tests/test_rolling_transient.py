@@ -94,6 +94,25 @@ def test_c5_disc_rolls_down_a_slope(tmp_path):
     assert np.ptp(balance) < 1e-6 * run["kinetic_energy"][0]
 
 
+def test_sparse_and_dense_slip_steps_agree(tmp_path, monkeypatch):
+    """A model with slips whose bordered matrix has at most DENSE_SLIP_SIZE rows (every
+    shipped one) takes its steps with dense arrays and LAPACK; a larger one with sparse
+    matrices and SuperLU. The disc down the slope with the limit at 0 (sparse) gives the
+    dense run's motion and contact forces to round-off, and the sparse path is used."""
+    from spacarpy.solvers.dynamics import transient_step
+    dense = _slope(tmp_path, 20)
+    calls = []
+    monkeypatch.setattr(transient_step, "DENSE_SLIP_SIZE", 0)
+    monkeypatch.setattr(transient_step.spla, "splu", lambda *a, _f=transient_step.spla.splu,
+                        **k: calls.append(1) or _f(*a, **k))
+    (tmp_path / "s").mkdir()
+    sparse = _slope(tmp_path / "s", 20)
+    assert len(calls) >= 20
+    for key, tol in (("position", 1e-12), ("velocity", 1e-11), ("wheel_s", 1e-9)):
+        np.testing.assert_allclose(sparse[key], dense[key], rtol=0,
+                                   atol=tol * np.abs(dense[key]).max())
+
+
 def test_c7_prescribed_spin_rolls_the_contact_point(tmp_path):
     """C7: the spin prescribed over one turn in 1 s: the contact point moves 2 pi r along
     the heading to 1e-10 m at 40 steps a turn (the spec's tolerance; the Euler parameters

@@ -305,9 +305,9 @@ def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max, E_v=N
 
 def dense_slips(tp) -> bool:
     """Whether a model with held slips is small enough (the bordered matrix of at most
-    DENSE_SLIP_SIZE rows) for dense arrays and LAPACK's LU in its step: the bicycle's 91
+    DENSE_SLIP_SIZE rows) for dense arrays and LAPACK's LU in its step: the bicycle's 87
     rows factorize in microseconds, where the sparse construction of the matrix and its
-    slip blocks cost milliseconds a Newton iteration (docs/performance.md)."""
+    slip blocks cost milliseconds a Newton iteration (docs/rolling.md "Speed")."""
     return 0 < tp.slips.n and (tp.prob.pattern.n_x + tp.num.n_constraint + tp.slips.n
                                <= DENSE_SLIP_SIZE)
 
