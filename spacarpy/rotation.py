@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from spacarpy.linalg import cross3
+
 # Levi-Civita symbol eps[i, j, k].
 _EPS = np.zeros((3, 3, 3))
 _EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
@@ -77,7 +79,7 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     l0 = q[..., :1]
     lam = q[..., 1:]
     return ((l0 * l0 - np.sum(lam * lam, axis=-1, keepdims=True)) * v
-            + 2.0 * l0 * np.cross(lam, v)
+            + 2.0 * l0 * cross3(lam, v)
             + 2.0 * lam * np.sum(lam * v, axis=-1, keepdims=True))
 
 

@@ -9,9 +9,12 @@ from spacarpy.deck import job_from_text
 from spacarpy.elements.registry import KINDS
 from spacarpy.elements.wheel import (
     Wheel,
+    jet_hessians,
     jet_slip,
     jet_slip_dx,
     jet_slip_force_dx,
+    jet_state,
+    wheel_hessians,
     wheel_reference,
     wheel_reference_problems,
     wheel_slip,
@@ -156,6 +159,29 @@ def test_closed_form_slip_kernels_equal_the_jet_oracle_to_round_off():
     np.testing.assert_allclose(wheel_slips(x, v, ref),
                                np.einsum("nkj,nj->nk", jet_slip(x, ref), v),
                                rtol=0, atol=1e-14 * np.abs(v).max() * 10)
+
+
+def test_closed_form_holonomic_modes_equal_the_jet_oracle_to_round_off():
+    """Modes 1-3, their Jacobian and their Hessians are written out in closed form (speed:
+    a bicycle step evaluates them at every Newton iteration); the first- and second-order
+    jets give the same e, D and H to round-off, at random states with |lambda| != 1, z up
+    and z down (a wrong term of the quotient rules is of order one), and the states' lazy
+    Hessians are these."""
+    rng = np.random.default_rng(31)
+    parts = [references(30, down) for down in (False, True)]
+    xp0, xq0, a0 = (np.concatenate([p[k] for p in parts]) for k in range(3))
+    ref = wheel_reference(xp0, xq0, 3.0 * a0)
+    q = from_axis_angle(rng.normal(size=(60, 3)), rng.uniform(-1, 1, 60))
+    q *= rng.uniform(0.7, 1.3, size=(60, 1))                 # |lambda| != 1
+    x = np.concatenate([xp0 + 0.3 * rng.normal(size=(60, 3)), q,
+                        xq0 + 0.3 * rng.normal(size=(60, 3))], axis=1)
+    st = wheel_state(x, ref)
+    e, D = jet_state(x, ref)
+    assert np.abs(st.e - e).max() <= 1e-14 * np.abs(e).max()
+    assert np.abs(st.D - D).max() <= 1e-14 * np.abs(D).max()
+    H = jet_hessians(x, ref)
+    assert np.abs(wheel_hessians(x, ref) - H).max() <= 1e-13 * np.abs(H).max()
+    np.testing.assert_array_equal(st.H, wheel_hessians(x, ref))
 
 
 def test_rigid_motion_about_the_vertical_leaves_the_holonomic_modes_unchanged():

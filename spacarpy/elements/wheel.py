@@ -62,7 +62,7 @@ import numpy as np
 
 from spacarpy.elements.base import POS_P, POS_Q, ROT_AT_P, ElementKind, Reference
 from spacarpy.elements.jet import Jet, cross, dot, norm, rotate, unit
-from spacarpy.rotation import lambda_matrix, skew, vector_jacobians
+from spacarpy.rotation import hessian_combination, lambda_matrix, skew, vector_jacobians
 from spacarpy.rotation import rotate as rotate_plain
 
 N_LDOF = 10
@@ -196,46 +196,169 @@ def _frame(z: np.ndarray, ref: WheelReference, m: int, second: bool) -> _Frame:
     return _Frame(d, a, el, u)
 
 
-class WheelState(NamedTuple):
+class WheelState:
     """Deformations and Jacobian of the holonomic modes (velocity modes: zero rows), plus
-    what the Hessian and the check reuse."""
+    what the Hessian and the check reuse. The Hessians ``H`` are formed on first use (a
+    transient step evaluates states more often than it forms an iteration matrix)."""
 
-    e: np.ndarray          # (n, 6)
-    D: np.ndarray          # (n, 6, 10)
-    H: np.ndarray          # (n, 4, 10, 10) the Hessians of modes 1, 2, 3, 6
-    a: np.ndarray          # (n, 3) the current axle
-    n: np.ndarray          # (n, 3) the ground normal
+    __slots__ = ("e", "D", "a", "n", "_x", "_ref", "_H")
+
+    def __init__(self, e, D, a, n, x=None, ref=None, H=None):
+        self.e, self.D, self.a, self.n = e, D, a, n       # (n, 6), (n, 6, 10), axle, normal
+        self._x, self._ref, self._H = x, ref, H
+
+    @property
+    def H(self) -> np.ndarray:
+        """(n, 4, 10, 10) the Hessians of modes 1, 2, 3, 6."""
+        if self._H is None:
+            self._H = wheel_hessians(self._x, self._ref)
+        return self._H
 
 
-def wheel_state(x: np.ndarray, ref: WheelReference) -> WheelState:
-    """Deformations e (n, 6), their exact Jacobian D (n, 6, 10) (zero rows for the slips 4
-    and 5, which are no functions of x) and the Hessians of the holonomic modes.
+def _outer(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, :, None] * b[:, None, :]
 
-    Modes 1-3 are ``w . d`` with ``w`` = a, e_l, u functions of lambda alone and d linear
-    in x_p, x_q: the jet runs in the 4 Euler parameters only (a tenth of the work of one
-    in all 10 coordinates), and the d parts are assembled from it."""
+
+def _sym(a: np.ndarray, b: np.ndarray) -> np.ndarray:                # a b^T + b a^T
+    return _outer(a, b) + _outer(b, a)
+
+
+def _closed_frame(x: np.ndarray, ref: WheelReference):
+    """``a, A, b, B, beta, e_l, grad beta, de_l/dlambda, u, du/dlambda`` at x (notation of
+    :func:`wheel_hessians`)."""
+    lam, a0, nv = x[:, 3:7], ref.a0, ref.n
+    a = rotate_plain(lam, a0)
+    A = vector_jacobians(lam, a0[:, None, :])[:, 0]                   # (n, 3, 4)
+    B = -skew(nv) @ A
+    b = _cross(a, nv)
+    beta = np.linalg.norm(b, axis=1)
+    el = b / beta[:, None]
+    gb = np.einsum("ni,nij->nj", el, B)                               # grad beta
+    dl = (B - el[:, :, None] * gb[:, None, :]) / beta[:, None, None]
+    al = np.sqrt((a * a).sum(1))
+    ga = np.einsum("ni,nij->nj", a, A) / al[:, None]                  # grad |a|
+    u = _cross(a, el) / al[:, None]
+    du = ((skew(a) @ dl - skew(el) @ A) / al[:, None, None]
+          - u[:, :, None] * (ga / al[:, None])[:, None, :])
+    return a, A, b, B, beta, el, gb, dl, u, du
+
+
+def _closed_state(x: np.ndarray, ref: WheelReference):
+    """``(e, D, a)`` of :func:`wheel_state` in closed form (:func:`_wheel_jets` with
+    first order only is its test oracle)."""
     n = x.shape[0]
-    lam = Jet.variables(x[:, 3:7], 0, 4, 4, True)
+    a, A, _, _, _, el, _, dl, u, du = _closed_frame(x, ref)
+    d = x[:, 7:10] - x[:, 0:3]
+    e = np.zeros((n, N_DEF))
+    D = np.zeros((n, N_DEF, N_LDOF))
+    for k, (mode, w, J) in enumerate(zip(HOLONOMIC[:3], (a, el, u), (A, dl, du))):
+        e[:, mode] = (w * d).sum(axis=1) - ref.e0[:, k]
+        D[:, mode, 0:3] = -w
+        D[:, mode, 7:10] = w
+        D[:, mode, 3:7] = np.einsum("ni,nij->nj", d, J)
+    e[:, 5] = ((x[:, 7:10] - ref.xq0) * ref.n).sum(axis=1)           # e6, linear
+    D[:, 5, 7:10] = ref.n
+    return e, D, a
+
+
+def wheel_hessians(x: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """The Hessians (n, 4, 10, 10) of modes 1, 2, 3, 6 in closed form (the second-order jet
+    of :func:`_wheel_jets` is their test oracle). Mode k is ``w . d``, d = x_q - x_p; its
+    lambda-lambda block is ``d^2(w . d)/dlambda^2`` at fixed d, its lambda-x blocks
+    ``+-dw/dlambda``. With ``a = R a0`` (``A = da/dlambda``, ``Ha(c) = d^2(c . a)``:
+    :func:`~spacarpy.rotation.hessian_combination`), ``b = a x n`` (``B = -[n~] A``,
+    ``d^2(c . b) = Ha(n x c)``), ``beta = |b|``, ``e_l = b/beta``: ``e_l . d = p/beta``
+    with ``p = d . b``; and ``u . d = q/(beta |a|)`` with ``q = d . (a x b) = (d . a)(a .
+    n) - (d . n)(a . a)``."""
+    a0, nv, d = ref.a0, ref.n, x[:, 7:10] - x[:, 0:3]
+    a, A, b, B, beta, el, gb, dl, u, du = _closed_frame(x, ref)
+    def ha(c):                                                        # d^2(c . a)/dlambda^2
+        return hessian_combination(_outer(c, a0))
+    def vt(c, M):                                                     # c^T M (n, 4)
+        return np.einsum("ni,nij->nj", c, M)
+    hb = ((B.transpose(0, 2, 1) @ B - _outer(gb, gb)) / beta[:, None, None]
+          + ha(_cross(nv, el)))                                       # hess beta
+    p = (d * b).sum(1)
+    gp, hp = vt(d, B), ha(_cross(nv, d))
+    ib = (1.0 / beta)[:, None, None]
+    h_el = (hp * ib - _sym(gp, gb) * ib ** 2 - (p[:, None, None] * hb) * ib ** 2
+            + 2.0 * p[:, None, None] * _outer(gb, gb) * ib ** 3)
+    s1, s2, s3, dn = (d * a).sum(1), (a * nv).sum(1), (a * a).sum(1), (d * nv).sum(1)
+    g1, g2, g3 = vt(d, A), vt(nv, A), 2.0 * vt(a, A)
+    h3 = 2.0 * (A.transpose(0, 2, 1) @ A + ha(a))
+    q = s1 * s2 - dn * s3
+    gq = g1 * s2[:, None] + s1[:, None] * g2 - dn[:, None] * g3
+    hq = (ha(d) * s2[:, None, None] + s1[:, None, None] * ha(nv) + _sym(g1, g2)
+          - dn[:, None, None] * h3)
+    al = np.sqrt(s3)
+    ga = g3 / (2.0 * al[:, None])
+    hal = h3 / (2.0 * al[:, None, None]) - _outer(g3, g3) / (4.0 * al ** 3)[:, None, None]
+    phi = 1.0 / (beta * al)
+    gl = -(gb / beta[:, None] + ga / al[:, None])                     # grad log phi
+    hl = -(hb / beta[:, None, None] - _outer(gb, gb) / (beta ** 2)[:, None, None]
+           + hal / al[:, None, None] - _outer(ga, ga) / (al ** 2)[:, None, None])
+    gphi, hphi = phi[:, None] * gl, phi[:, None, None] * (_outer(gl, gl) + hl)
+    h_u = hq * phi[:, None, None] + _sym(gq, gphi) + q[:, None, None] * hphi
+    H = np.zeros((x.shape[0], 4, N_LDOF, N_LDOF))
+    for k, (hw, J) in enumerate(((ha(d), A), (h_el, dl), (h_u, du))):
+        H[:, k, 3:7, 3:7] = hw
+        H[:, k, 7:10, 3:7] = J
+        H[:, k, 0:3, 3:7] = -J
+        H[:, k, 3:7, 7:10] = J.transpose(0, 2, 1)
+        H[:, k, 3:7, 0:3] = -J.transpose(0, 2, 1)
+    return H
+
+
+def jet_hessians(x: np.ndarray, ref: WheelReference) -> np.ndarray:
+    """The Hessians of :func:`wheel_hessians` through the second-order jet (its test
+    oracle)."""
+    return _wheel_jets(np.asarray(x, float), ref, True)[2]
+
+
+def _wheel_jets(x: np.ndarray, ref: WheelReference, second: bool):
+    """``(e, D, H or None, a)`` of :func:`wheel_state`: the jet in the Euler parameters
+    to first or second order (the first-order parts are the same numbers either way)."""
+    n = x.shape[0]
+    lam = Jet.variables(x[:, 3:7], 0, 4, 4, second)
     a = rotate(lam, ref.a0)
-    el = unit(cross(a, Jet.constant(ref.n, 4, True)))
+    el = unit(cross(a, Jet.constant(ref.n, 4, second)))
     u = cross(a, el) * norm(a).reciprocal()
     d = x[:, 7:10] - x[:, 0:3]
     e = np.zeros((n, N_DEF))
     D = np.zeros((n, N_DEF, N_LDOF))
-    H = np.zeros((n, 4, N_LDOF, N_LDOF))
+    H = np.zeros((n, 4, N_LDOF, N_LDOF)) if second else None
     for k, (mode, w) in enumerate(zip(HOLONOMIC[:3], (a, el, u))):
         e[:, mode] = (w.val * d).sum(axis=1) - ref.e0[:, k]
         D[:, mode, 0:3] = -w.val
         D[:, mode, 7:10] = w.val
         D[:, mode, 3:7] = np.einsum("ni,nij->nj", d, w.g)
-        H[:, k, 3:7, 3:7] = np.einsum("ni,nijk->njk", d, w.h)
-        H[:, k, 7:10, 3:7] = w.g
-        H[:, k, 0:3, 3:7] = -w.g
-        H[:, k, 3:7, 7:10] = w.g.transpose(0, 2, 1)
-        H[:, k, 3:7, 0:3] = -w.g.transpose(0, 2, 1)
+        if second:
+            H[:, k, 3:7, 3:7] = np.einsum("ni,nijk->njk", d, w.h)
+            H[:, k, 7:10, 3:7] = w.g
+            H[:, k, 0:3, 3:7] = -w.g
+            H[:, k, 3:7, 7:10] = w.g.transpose(0, 2, 1)
+            H[:, k, 3:7, 0:3] = -w.g.transpose(0, 2, 1)
     e[:, 5] = ((x[:, 7:10] - ref.xq0) * ref.n).sum(axis=1)           # e6, linear
     D[:, 5, 7:10] = ref.n
-    return WheelState(e=e, D=D, H=H, a=a.val, n=ref.n)
+    return e, D, H, a.val
+
+
+def wheel_state(x: np.ndarray, ref: WheelReference) -> WheelState:
+    """Deformations e (n, 6), their exact Jacobian D (n, 6, 10) (zero rows for the slips 4
+    and 5, which are no functions of x) and the Hessians of the holonomic modes (formed
+    when first used).
+
+    Modes 1-3 are ``w . d`` with ``w`` = a, e_l, u functions of lambda alone and d linear
+    in x_p, x_q: the jet runs in the 4 Euler parameters only (a tenth of the work of one
+    in all 10 coordinates), and the d parts are assembled from it."""
+    x = np.array(x, dtype=float)
+    e, D, a = _closed_state(x, ref)
+    return WheelState(e, D, a, ref.n, x, ref)
+
+
+def jet_state(x: np.ndarray, ref: WheelReference):
+    """``(e, D)`` of :func:`wheel_state` through the first-order jet (its test oracle)."""
+    return _wheel_jets(np.asarray(x, float), ref, False)[:2]
 
 
 def wheel_weighted_hessian(st: WheelState, w: np.ndarray) -> np.ndarray:
@@ -298,7 +421,24 @@ class _SlipFrame(NamedTuple):
     d: np.ndarray          # (n, 3) x_q - x_p
 
 
+_FRAMES: list = []       # [(x, a0, n, frame)]: the last few frames, newest last
+
+
 def _slip_frame(x: np.ndarray, ref: WheelReference, derivatives: bool) -> _SlipFrame:
+    """The slip frame at x (always with its derivatives), one of the last few again where
+    x and the wheels are the same (a Newton iteration forms S, d(S v)/dx and d(S^T nu)/dx
+    at one state, a step's slip integral S v at its two ends): the same numbers."""
+    for last in reversed(_FRAMES):
+        if (last[0].shape == x.shape and np.array_equal(last[0], x)
+                and last[1].shape == ref.a0.shape and np.array_equal(last[1], ref.a0)
+                and np.array_equal(last[2], ref.n)):
+            return last[3]
+    frame = _new_slip_frame(x, ref, True)
+    _FRAMES[:] = _FRAMES[-2:] + [(x.copy(), ref.a0.copy(), ref.n.copy(), frame)]
+    return frame
+
+
+def _new_slip_frame(x: np.ndarray, ref: WheelReference, derivatives: bool) -> _SlipFrame:
     lam = x[:, 3:7]
     a = rotate_plain(lam, ref.a0)
     nvec = ref.n

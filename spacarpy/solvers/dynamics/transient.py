@@ -71,6 +71,7 @@ from spacarpy.solvers.dynamics.transient_step import (  # noqa: F401  (re-export
     _error_norm,
     _padded,
     _step,
+    dense_slips,
 )
 from spacarpy.solvers.statics.contact import ContactMonitor
 from spacarpy.solvers.statics.equilibrium import StaticProblem
@@ -387,12 +388,12 @@ class TransientProblem:
         plus ``S^T nu``, and the slip rows ``S(x) v / gamma'`` (in m, like the holonomic
         constraints they are scaled with), their weighted size, and ``S`` over the free
         coordinates (one kernel evaluation for all three, reused by the iteration matrix)."""
-        free = self.free_idx
-        S = self.slips.jacobian(x)
+        free, dense = self.free_idx, dense_slips(self)       # (arrays for a small model)
+        S = self.slips.jacobian(x, dense=dense)
         r = r + (S.T @ nu)[free]
         g = (S @ v) / gamma_p
         return (r, g, float(np.abs(g).max(initial=0.0)) / self.num.length_scale,
-                S.tocsc()[:, free])
+                S[:, free] if dense else S.tocsc()[:, free])
 
     def deformation_work(self, t: float, h: float, mu, mu_new) -> float:
         """Work the prescribed deformations (INPUTE, DELINPE) do on the model from t to
@@ -541,7 +542,7 @@ def solve_transient(model: Model, options: TransientOptions | None = None, *, on
                 # multipliers (the contact forces) are made consistent with them, and so
                 # are those of every step where prescribed motions do work (which the
                 # multipliers give)
-                v_new = _project_velocities(tp, x_new, v_new, t + h)
+                v_new = _project_velocities(tp, x_new, v_new, t + h, ev)
             if tp.slips.n and (driven or t_target - (t + h) <= 1e-9 * h_int):
                 a_out, mu_new = _consistent_acceleration(tp, x_new, v_new, a_new, mu_new,
                                                          t + h)

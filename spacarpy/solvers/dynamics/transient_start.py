@@ -11,6 +11,7 @@ import scipy.sparse.linalg as spla
 
 from spacarpy.errors import SpacarError
 from spacarpy.model import FLEXIBLE
+from spacarpy.solvers.dynamics.transient_step import dense_slips
 from spacarpy.solvers.statics.nodal import node_rows
 
 log = logging.getLogger(__name__)
@@ -147,12 +148,14 @@ def _initial_acceleration(tp, x, v, mu, a_presc, t: float = 0.0, quiet: bool = F
     return a, sol[n_x:n_x + n_mu]
 
 
-def _constraint_rates(prob, x, v):
-    """``C(x) v`` for all constraints (rigid modes and Euler normalizations)."""
+def _constraint_rates(prob, x, v, states=None):
+    """``C(x) v`` for all constraints (rigid modes and Euler normalizations); ``states``:
+    the element states at x where the caller has them."""
     num = prob.num
     rates = []
-    for g in num.groups:
-        st = g.kind.state(x[g.idx], g.ref, prob.variant, g.prev)
+    for i, g in enumerate(num.groups):
+        st = (g.kind.state(x[g.idx], g.ref, prob.variant, g.prev) if states is None
+              else states[i])
         d = np.einsum("nkj,nj->nk", st.D, v[g.idx])
         rates.append(d[g.rigid_elem, g.rigid_mode])
     q = x[num.euler_coords]
@@ -161,7 +164,7 @@ def _constraint_rates(prob, x, v):
     return np.concatenate(rates)
 
 
-def _project_velocities(tp, x, v, t: float):
+def _project_velocities(tp, x, v, t: float, ev=None):
     """The velocities of a converged step made consistent with the velocity form of the
     constraints, ``C v = -c_t`` and ``S v = 0``: the closest ones in the mass norm (a
     weight 1e-9 of the largest mass on the massless coordinates).
@@ -170,24 +173,37 @@ def _project_velocities(tp, x, v, t: float):
     a model with held slips evaluates ``S v`` with those velocities (a wheel's angular
     velocity from its Euler-parameter rates), and the drift would turn into a slip the
     multipliers then enforce against: a wheel driven at a constant rate would speed up
-    (docs/transient.md, "Rolling contact")."""
+    (docs/transient.md, "Rolling contact"). ``ev``: the converged step's evaluation at x
+    (its constraint Jacobian is all this needs of it), else evaluated here."""
     num, prob, free = tp.num, tp.prob, tp.free
-    ev = prob.evaluate(x, np.zeros(num.n_constraint), tp.loads(t))
-    C = sp.vstack([tp.constraint_jacobian(ev), tp.slips.jacobian(x, tp.free_idx)],
-                  format="csc")
+    if ev is None:
+        ev = prob.evaluate(x, np.zeros(num.n_constraint), tp.loads(t))
+    dense = dense_slips(tp)          # a small model: arrays and LAPACK, no sparse set-up
+    C = tp.constraint_jacobian(ev)
+    S = tp.slips.jacobian(x, tp.free_idx, dense=dense)
+    C = np.vstack([C.toarray(), S]) if dense else sp.vstack([C, S], format="csc")
     fixed_part = np.where(free, 0.0, v)
-    rhs_c = -_constraint_rates(prob, x, fixed_part)
+    rhs_c = (-_constraint_rates(prob, x, fixed_part, ev.states) if np.any(fixed_part)
+             else np.zeros(num.n_constraint))
     rhs_c[:num.n_rigid] += tp.rigid_rates(t)[0]
     rhs_c = np.concatenate([rhs_c, -tp.slips.rates(x, fixed_part)])
     M = tp.inertia.matrix(x)[free][:, free]
     d = M.diagonal()
     M = M + sp.diags(np.where(d > 1e-9 * max(float(d.max()), 1e-300), 0.0,
                               1e-9 * max(float(d.max()), 1.0)))
-    big = sp.bmat([[M, C.T], [C, None]], format="csc")
-    try:
-        sol = spla.splu(big).solve(np.concatenate([M @ v[free], rhs_c]))
-    except RuntimeError:
-        return v
+    rhs = np.concatenate([M @ v[free], rhs_c])
+    if dense:
+        big = np.block([[M.toarray(), C.T], [C, np.zeros((C.shape[0], C.shape[0]))]])
+        try:
+            sol = np.linalg.solve(big, rhs)
+        except np.linalg.LinAlgError:
+            return v
+    else:
+        big = sp.bmat([[M, C.T], [C, None]], format="csc")
+        try:
+            sol = spla.splu(big).solve(rhs)
+        except RuntimeError:
+            return v
     if not np.all(np.isfinite(sol)):
         return v
     out = v.copy()

@@ -4,10 +4,12 @@ transient.py (not imported: transient.py imports this module)."""
 from __future__ import annotations
 
 import logging
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -18,6 +20,8 @@ from spacarpy.solvers.dynamics.transient_records import KEEP_CONTRACTION, SLOW_C
 from spacarpy.solvers.statics.errors import StepFailed
 
 log = logging.getLogger(__name__)
+
+DENSE_SLIP_SIZE = 400      # rows of the bordered matrix up to which a step with slips is dense
 
 def _error_norm(tp, h, beta, a_tilde_old, a_tilde_new, x, tol) -> float:
     """Largest local error of a step relative to the tolerance ``abs + rel |x|`` over the
@@ -277,10 +281,13 @@ def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max, E_v=N
     n_x = tp.prob.pattern.n_x
     n_c = A.shape[0] - n_x
     k = slips.n
-    rows = S_f + slips.rates_dx(x1, v1, fi) / gamma_p
+    dense = dense_slips(tp)
+    rows = S_f + slips.rates_dx(x1, v1, fi, dense=dense) / gamma_p
     if E_v is not None:
         rows = rows + (S_f @ E_v) / gamma_p
-    F = slips.force_dx(x1, nu1, fi)
+    F = slips.force_dx(x1, nu1, fi, dense=dense)
+    if dense:
+        return _dense_slip_matrix(A, F, S_f, rows, scale, ev, x1, r, g, m_max)
     big = sp.bmat([[A + _padded(F, A.shape[0]),
                     sp.vstack([scale * S_f.T, sp.csc_matrix((n_c, k))])],
                    [sp.hstack([scale * rows, sp.csc_matrix((k, n_c))]), None]],
@@ -292,6 +299,37 @@ def _slip_matrix(tp, A, scale, ev, r, x1, v1, nu1, g, S_f, gamma_p, m_max, E_v=N
 
     def solve(ev, x, r):         # (the slip rows' residual g of this matrix's state)
         dz = lu.solve(-np.concatenate([r, scale * ev.c, scale * g]))
+        return dz[:n_x], dz[n_x:] * scale
+    return KeptMatrix(m_max, solve), solve(ev, x1, r)
+
+
+def dense_slips(tp) -> bool:
+    """Whether a model with held slips is small enough (the bordered matrix of at most
+    DENSE_SLIP_SIZE rows) for dense arrays and LAPACK's LU in its step: the bicycle's 87
+    rows factorize in microseconds, where the sparse construction of the matrix and its
+    slip blocks cost milliseconds a Newton iteration (docs/rolling.md "Speed")."""
+    return 0 < tp.slips.n and (tp.prob.pattern.n_x + tp.num.n_constraint + tp.slips.n
+                               <= DENSE_SLIP_SIZE)
+
+
+def _dense_slip_matrix(A, F, S_f, rows, scale, ev, x1, r, g, m_max):
+    """:func:`_slip_matrix` with dense arrays (``F``, ``S_f`` and ``rows`` arrays, ``A``
+    sparse) and LAPACK's LU with partial pivoting."""
+    n_x, n_a, k = len(r), A.shape[0], rows.shape[0]
+    big = np.zeros((n_a + k, n_a + k))
+    big[:n_a, :n_a] = A.toarray()
+    big[:n_x, :n_x] += F
+    big[:n_x, n_a:] = scale * S_f.T
+    big[n_a:, :n_x] = scale * rows
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sla.LinAlgWarning)     # (a zero pivot: below)
+        lu = sla.lu_factor(big, check_finite=False)
+    if not np.all(np.isfinite(lu[0])) or not np.all(np.diag(lu[0])):
+        raise StepFailed("singular iteration matrix")
+
+    def solve(ev, x, r):         # (the slip rows' residual g of this matrix's state)
+        dz = sla.lu_solve(lu, -np.concatenate([r, scale * ev.c, scale * g]),
+                          check_finite=False)
         return dz[:n_x], dz[n_x:] * scale
     return KeptMatrix(m_max, solve), solve(ev, x1, r)
 

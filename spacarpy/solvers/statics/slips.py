@@ -95,13 +95,15 @@ class HeldSlips:
         return where, len(cols)
 
     # ------------------------------------------------------------------ assembly
-    def jacobian(self, x: np.ndarray, cols=None) -> sp.csr_matrix:
-        """``S(x)`` (n, len(cols)) (all coordinates when ``cols`` is None)."""
-        return self._rows_matrix(x, None, cols)
+    def jacobian(self, x: np.ndarray, cols=None, dense: bool = False):
+        """``S(x)`` (n, len(cols)) (all coordinates when ``cols`` is None), sparse (CSR) or,
+        with ``dense``, an array (for a small model: no sparse construction)."""
+        return self._rows_matrix(x, None, cols, dense)
 
-    def rates_dx(self, x: np.ndarray, v: np.ndarray, cols=None) -> sp.csr_matrix:
-        """``d(S(x) v)/dx`` at fixed ``v`` (global velocities), (n, len(cols))."""
-        return self._rows_matrix(x, v, cols)
+    def rates_dx(self, x: np.ndarray, v: np.ndarray, cols=None, dense: bool = False):
+        """``d(S(x) v)/dx`` at fixed ``v`` (global velocities), (n, len(cols)), sparse or
+        dense as :meth:`jacobian`."""
+        return self._rows_matrix(x, v, cols, dense)
 
     def rates(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
         """The slip velocities ``S(x) v`` (n,)."""
@@ -126,9 +128,9 @@ class HeldSlips:
             np.add.at(out, g.idx[elem][pos], f)
         return out
 
-    def force_dx(self, x: np.ndarray, nu: np.ndarray, cols=None) -> sp.csr_matrix:
+    def force_dx(self, x: np.ndarray, nu: np.ndarray, cols=None, dense: bool = False):
         """``d(S(x)^T nu)/dx`` (len(cols), len(cols)): rows the generalized forces, columns
-        the coordinates (not symmetric in general)."""
+        the coordinates (not symmetric in general); sparse, or an array with ``dense``."""
         where, m = self._columns(cols)
         r, c, d = [], [], []
         for part in self.parts:
@@ -144,12 +146,9 @@ class HeldSlips:
             r.append(rr[keep])
             c.append(cc[keep])
             d.append(blocks[keep])
-        if not r:
-            return sp.csr_matrix((m, m))
-        return sp.csr_matrix((np.concatenate(d), (np.concatenate(r), np.concatenate(c))),
-                             shape=(m, m))
+        return _matrix(r, c, d, (m, m), dense)
 
-    def _rows_matrix(self, x, v, cols):
+    def _rows_matrix(self, x, v, cols, dense=False):
         where, m = self._columns(cols)
         r, c, d = [], [], []
         for part in self.parts:
@@ -165,10 +164,20 @@ class HeldSlips:
             r.append(rr[keep])
             c.append(gi[keep])
             d.append(rows[keep])
-        if not r:
-            return sp.csr_matrix((self.n, m))
-        return sp.csr_matrix((np.concatenate(d), (np.concatenate(r), np.concatenate(c))),
-                             shape=(self.n, m))
+        return _matrix(r, c, d, (self.n, m), dense)
+
+
+def _matrix(r: list, c: list, d: list, shape: tuple, dense: bool):
+    """The matrix of the triplets (duplicates summed): CSR, or an array with ``dense``."""
+    if dense:
+        out = np.zeros(shape)
+        if r:
+            np.add.at(out, (np.concatenate(r), np.concatenate(c)), np.concatenate(d))
+        return out
+    if not r:
+        return sp.csr_matrix(shape)
+    return sp.csr_matrix((np.concatenate(d), (np.concatenate(r), np.concatenate(c))),
+                         shape=shape)
 
 
 def _cat(a: list, dtype) -> np.ndarray:
