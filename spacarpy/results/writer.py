@@ -26,11 +26,13 @@ from spacarpy.errors import DiskFull, disk_full_text, is_disk_full
 from spacarpy.model import Model
 from spacarpy.outputs import refuse_non_regular
 from spacarpy.results import h5file
-from spacarpy.results.h5file import ascii_array, create, partial_path_for
+from spacarpy.results.h5file import create, partial_path_for, set_index_units
 from spacarpy.results.layout import (
+    add_dimensions,
     bind_step_group,
     create_step_group,
     state_space_values,
+    string_dataset,
     write_header,
 )
 from spacarpy.results.schema import ACCELERATIONS, DATASETS, REACTION_COMPONENTS, n_def
@@ -254,8 +256,7 @@ class ResultsWriter:
         self._create_step_group(f, "static")
         g = f["static"]
         create(g, "reaction_node", reaction_node)
-        names = ascii_array(reaction_component)
-        create(g, "reaction_component", names, dtype=h5py.string_dtype("ascii", names.itemsize))
+        string_dataset(g, "reaction_component", reaction_component)
         for group, n_mode in (("eigen", n_eigen_modes), ("buckling", n_buckling_modes),
                               ("compliance", 1 if compliance_node is not None else 0)):
             if n_mode > 0:
@@ -269,6 +270,11 @@ class ResultsWriter:
             self._begin_state_space(f, state_space)
         if arclength:
             self._create_step_group(f, "critical", n_mode=1)
+        units = [REACTION_COMPONENTS[c] for c in reaction_component]
+        for group in self._groups:
+            if group in ("static", "transient"):
+                set_index_units(f[f"{group}/reaction"], units, ("reaction_number",))
+            add_dimensions(f, group, self.model_data)
 
     def static_step(self, load_factor: float, position, euler, deformation: dict,
                     stress_resultant: dict, reaction, iterations: int, residual: float,
@@ -401,8 +407,7 @@ class ResultsWriter:
             create(g, key, np.asarray(names[key], np.int32 if key == "dof_mode" else np.int64))
         for key in ("state_name", "input_name", "output_name") + (
                 ("kinematic_name",) if kinematic else ()):
-            text = ascii_array(names[key])
-            create(g, key, text, dtype=h5py.string_dtype("ascii", text.itemsize))
+            string_dataset(g, key, names[key])
 
     def finish(self) -> None:
         """Mark the run complete, close the file and move it atomically to :attr:`final_path`
