@@ -87,6 +87,12 @@ DEFORMATION_CLASS_NAMES = ("rigid", "flexible", "released", "kinematic")
 KIND_NAMES = tuple(_KINDS)
 
 
+def base_dim(dim):
+    """The dimension whose length ``dim`` has: ``dof`` for ``dof_column`` (the column axis
+    of a square matrix has a name of its own, as netCDF needs), else ``dim``."""
+    return dim[:-len("_column")] if isinstance(dim, str) and dim.endswith("_column") else dim
+
+
 def n_def(kind: str) -> int:
     """Number of deformation modes of element kind ``kind``."""
     return _KINDS[kind].n_def
@@ -538,16 +544,16 @@ def _state_space_specs() -> list[DatasetSpec]:
         S("state_space/output_name", "utf-8", ("system_output",), "1",
           "deck line of each output: 'OUTX i n c', 'OUTXP i n c', 'OUTE i e k', 'OUTEP i e k'",
           v),
-        S("state_space/M0", "f8", (lin, "dof", "dof"), per_dof,
+        S("state_space/M0", "f8", (lin, "dof", "dof_column"), per_dof,
           "mass matrix in the degrees of freedom", v),
-        S("state_space/C0", "f8", (lin, "dof", "dof"), per_dof,
+        S("state_space/C0", "f8", (lin, "dof", "dof_column"), per_dof,
           "damping matrix in the degrees of freedom (DAMPING, EDAMP; the velocity-dependent "
           "terms vanish at a static state)", v),
-        S("state_space/K0", "f8", (lin, "dof", "dof"), per_dof,
+        S("state_space/K0", "f8", (lin, "dof", "dof_column"), per_dof,
           "tangent stiffness K0 + G0 + N0 in the degrees of freedom", v),
         S("state_space/B0", "f8", (lin, "dof", "system_input"), per_dof,
           "input matrix: generalized force on each degree of freedom per unit input", v),
-        S("state_space/A", "f8", (lin, "state", "state"), per_dof,
+        S("state_space/A", "f8", (lin, "state", "state_column"), per_dof,
           "state matrix of dz/dt = A z + B u, z = [q; dq/dt] (and the kinematic "
           "coordinates p after them: z = [q; dq/dt; p], schema 2.13)", v),
         S("state_space/B", "f8", (lin, "state", "system_input"), per_dof,
@@ -573,7 +579,7 @@ def _state_space_specs() -> list[DatasetSpec]:
           "G = dp'/dq': the kinematic rates of the degrees of freedom's rates", (2, 13)),
         S("state_space/Gq", "f8", (lin, "kinematic_state", "dof"), per_dof,
           "d(p')/dq at the reference rates", (2, 13)),
-        S("state_space/Gp", "f8", (lin, "kinematic_state", "kinematic_state"), per_dof,
+        S("state_space/Gp", "f8", (lin, "kinematic_state", "kinematic_state_column"), per_dof,
           "d(p')/dp at the reference rates", (2, 13)),
     ]
     from dataclasses import replace

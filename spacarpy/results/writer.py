@@ -35,7 +35,14 @@ from spacarpy.results.layout import (
     string_dataset,
     write_header,
 )
-from spacarpy.results.schema import ACCELERATIONS, DATASETS, REACTION_COMPONENTS, n_def
+from spacarpy.results.schema import (
+    ACCELERATIONS,
+    DATASETS,
+    FIXED_DIMS,
+    REACTION_COMPONENTS,
+    base_dim,
+    n_def,
+)
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
@@ -484,6 +491,7 @@ class ResultsWriter:
             yield path, spec
 
     def _size(self, dim, kind, n_mode):
+        dim = base_dim(dim)
         if isinstance(dim, int):
             return dim
         if dim == "element":
@@ -492,7 +500,7 @@ class ResultsWriter:
             return n_def(kind)
         if dim == "mode":
             return n_mode
-        return self._sizes[dim]
+        return len(FIXED_DIMS[dim]) if dim in FIXED_DIMS else self._sizes[dim]
 
     def _create_step_group(self, f, group: str, n_mode: int = 0) -> None:
         self._groups[group] = create_step_group(
