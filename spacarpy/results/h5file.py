@@ -49,7 +49,8 @@ __all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_s
            "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
            "ascii_array", "SchemaFile", "discard_written", "create_with",
            "rebuild_with", "LIBVER", "crc32",
-           "damaged_steps", "fixed_damaged", "checksum_problems", "CRC_ATTR", "python_value",
+           "damaged_steps", "fixed_damaged", "bytes_array", "checksum_problems", "CRC_ATTR",
+           "python_value",
            "str_list"]
 
 # Lowest file-format version that supports SWMR; readable by every HDF5 >= 1.10. ("latest"
@@ -538,6 +539,17 @@ def str_list(ds) -> list[str]:
     """A dataset of strings (fixed-length ASCII before 3.0, UTF-8 since) as a list of str."""
     return [s.decode("utf-8", errors="replace") if isinstance(s, bytes) else str(s)
             for s in ds[()].tolist()]
+
+
+def bytes_array(ds: h5py.Dataset, selection=()) -> np.ndarray:
+    """``ds[selection]``, an array of strings as fixed-length UTF-8 bytes whatever the
+    schema (UTF-8 of variable length since 3.0, fixed-length ASCII before)."""
+    data = ds[selection]
+    if ds.dtype.kind == "O" and ds.ndim and h5py.check_string_dtype(ds.dtype) is not None:
+        data = np.array([v if isinstance(v, bytes) else str(v).encode("utf-8")
+                         for v in np.ravel(data).tolist()] or [b""],
+                        dtype=bytes)[:np.size(data)].reshape(np.shape(data))
+    return data
 
 
 def schema_major(f: h5py.File) -> int:
