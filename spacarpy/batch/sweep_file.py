@@ -96,6 +96,8 @@ class SweepFile:
         f.attrs["n_done"] = np.int64(0)
         try:
             f["deck"] = Path(deck).read_text(encoding="utf-8")
+            f["deck"].attrs["units"] = "1"
+            f["deck"].attrs["long_name"] = "input deck text, verbatim"
         except (OSError, UnicodeDecodeError):
             pass
         for a in self.axes:
