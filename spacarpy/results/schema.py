@@ -27,11 +27,16 @@ Dimension names: ``step`` (committed load steps), ``time_step`` (committed time 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
-
-import numpy as np
 
 from spacarpy.elements.registry import KINDS as _KINDS
+from spacarpy.results.dataset_spec import DatasetSpec
+from spacarpy.results.legacy import (  # noqa: F401  (re-exported: the schema's names)
+    LEGACY_DROPPED,
+    LEGACY_NAMES,
+    LEGACY_OPTIONAL,
+    legacy_name,
+    new_name,
+)
 
 __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS",
            "KIND_NAMES", "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
@@ -106,75 +111,6 @@ def n_slots(kind: str) -> int:
 def slot_roles(kind: str) -> tuple:
     """``"pos"`` or ``"rot"`` for each node slot of element kind ``kind``."""
     return tuple(_KINDS[kind].slots)
-
-
-@dataclass(frozen=True)
-class DatasetSpec:
-    """One dataset of the schema.
-
-    Attributes
-    ----------
-    path : str
-        Path relative to the root, e.g. ``static/elements/TRUSS/deformation``.
-    dtype : str
-        numpy dtype written (``"f8"``, ``"i8"``, ``"i4"``, ``"i1"``, ``"?"``), or ``"ascii"``
-        / ``"utf-8"`` for strings.
-    shape : tuple
-        Named dimensions (see the module docstring) or fixed sizes; axis 0 of a step dataset
-        is ``step``, ``time_step`` or ``linearized_step``.
-    units, long_name : str
-        The CF attributes stored on the dataset.
-    since : tuple
-        Schema version that introduced the quantity (its 2.0 path may be newer; see
-        :data:`LEGACY_NAMES`).
-    kind : str or None
-        The element kind of a per-kind dataset.
-    optional : bool
-        Absent unless the run has it (prescribed deformations, surface stresses).
-    units_v2 : str or None
-        The ``units`` of the dataset in a file of schema 2.x, where they differ (the 2.x
-        strings that UDUNITS2 and pint could not parse).
-    index_units : tuple
-        Where the indices of some axes have different units (``units`` is then ``"1"``):
-        one unit per index of the dimensions ``index_dims``, row-major; written as the
-        attributes ``units_per_index`` and ``units_per_index_dims``. Empty with
-        ``index_dims`` set: the units are the run's (reactions, loads).
-    attrs : tuple
-        Further ``(name, value)`` string attributes (e.g. a mode shape's normalization).
-    """
-
-    path: str
-    dtype: str
-    shape: tuple
-    units: str
-    long_name: str
-    since: tuple = (1, 0)
-    kind: str | None = None
-    optional: bool = False
-    units_v2: str | None = None
-    index_units: tuple = ()
-    index_dims: tuple = ()
-    attrs: tuple = ()
-
-    def units_in(self, major: int) -> str:
-        """The ``units`` of the dataset in a file of schema major version ``major``."""
-        return self.units_v2 if major < 3 and self.units_v2 is not None else self.units
-
-    @property
-    def group(self) -> str:
-        """Top-level group (``model``, ``static`` ...), ``""`` for ``/deck``."""
-        return self.path.split("/")[0] if "/" in self.path else ""
-
-    @property
-    def kind_class(self) -> str:
-        """``int``, ``float``, ``complex``, ``ascii``, ``bool`` or ``str``: what the validator
-        checks."""
-        if self.dtype == "ascii":
-            return "ascii"
-        if self.dtype == "utf-8":
-            return "str"
-        dt = np.dtype(self.dtype)
-        return {"i": "int", "u": "int", "f": "float", "c": "complex", "b": "bool"}[dt.kind]
 
 
 #: Groups whose datasets grow by one row per step, with their commit (scale) dataset.
@@ -590,64 +526,6 @@ def _state_space_specs() -> list[DatasetSpec]:
 
 #: Every dataset of the schema, by path relative to the root.
 DATASETS: dict[str, DatasetSpec] = {s.path: s for s in _spec_list()}
-
-# 1.x names of the BEAM datasets that moved (2.0 name -> 1.x name)
-_BEAM_LEGACY = {
-    "model/elements/BEAM/ids": "model/elements",
-    "model/elements/BEAM/nodes": "model/element_nodes",
-    "model/elements/BEAM/position_rows": "model/element_position_rows",
-    "model/elements/BEAM/length": "model/element_length",
-    "model/elements/BEAM/axes": "model/element_axes",
-    "model/elements/BEAM/deformation_class": "model/element_deformation_class",
-    "model/elements/BEAM/stiffness": "model/element_stiffness",
-    "model/elements/BEAM/mass": "model/element_mass",
-    "model/elements/BEAM/cross_section_type": "model/cross_section_type",
-    "model/elements/BEAM/cross_section_dims": "model/cross_section_dims",
-    "static/elements/BEAM/deformation": "static/deformation",
-    "static/elements/BEAM/stress_resultant": "static/stress_resultant",
-    "static/elements/BEAM/max_normal_stress": "static/max_normal_stress",
-    "static/elements/BEAM/max_von_mises_stress": "static/max_von_mises_stress",
-    "transient/elements/BEAM/deformation": "transient/deformation",
-    "transient/elements/BEAM/stress_resultant": "transient/stress_resultant",
-}
-
-#: 2.0 path -> 1.x path of every dataset that moved in schema 2.0. Paths not listed kept
-#: their name. ``/model/element_type`` (1.x: "BEAM" for every BEAM element) has no 2.0
-#: twin: the kind is the group name.
-LEGACY_NAMES: dict[str, str] = {
-    **_BEAM_LEGACY,
-    **{f"model/elements/{k}/{new}": f"model/{k.lower()}_{old}"
-       for k in KIND_NAMES if k != "BEAM"
-       for new, old in (("ids", "elements"), ("nodes", "element_nodes"))},
-    **{f"{g}/elements/{k}/{w}": f"{g}/{k.lower()}_{w}"
-       for k in KIND_NAMES if k != "BEAM" for g in ("static", "transient")
-       for w in ("deformation", "stress_resultant")},
-}
-_NEW_NAMES = {old: new for new, old in LEGACY_NAMES.items()}
-#: Datasets that 1.x files may lack although their schema version has them:
-#: ``/transient/dissipated_energy`` was added within schema 1.4.
-LEGACY_OPTIONAL = ("transient/dissipated_energy",)
-#: 1.x datasets dropped in 2.0.
-LEGACY_DROPPED = ("model/element_type",)
-
-
-def legacy_name(path: str, major: int) -> str:
-    """Where the dataset ``path`` (its current name) lives in a file of schema major version
-    ``major``: 1.x names (:data:`LEGACY_NAMES`), and a 2.x file's ``/<group>/checksum``
-    (3.0: ``/<group>/integrity/checksum``)."""
-    if major < 3 and path.endswith("/integrity/checksum"):
-        return path[:-len("/integrity/checksum")] + "/checksum"
-    return LEGACY_NAMES.get(path, path) if major < 2 else path
-
-
-def new_name(path: str) -> str | None:
-    """2.0 name of the 1.x dataset ``path`` (leading ``/`` kept); None if dropped."""
-    lead = "/" if path.startswith("/") else ""
-    p = path.lstrip("/")
-    if p in LEGACY_DROPPED:
-        return None
-    return lead + _NEW_NAMES.get(p, p)
-
 
 _KIND_RE = re.compile(r"^(model|static|transient)/elements/([^/]+)/")
 
