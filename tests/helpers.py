@@ -155,6 +155,9 @@ def as_schema_2(f, minor: int) -> None:
             obj.attrs["units"] = spec.units_v2
     f.visititems(units)
     f.attrs["schema_version"] = np.array([2, minor], dtype=np.int32)
+    if minor >= 18:                 # 2.18 wrote the CRC of the header, its version in it
+        from spacarpy.results.header_crc import HEADER_CRC_ATTR, header_crc
+        f.attrs[HEADER_CRC_ATTR] = header_crc(f.attrs)
 
 
 def chain_model(n_elem: int = 2, source_path: str = "decks/tiny.dat") -> Model:

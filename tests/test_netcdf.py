@@ -198,3 +198,36 @@ def test_udunits2_parses_every_unit(result_files, key):
                               text=True, timeout=30)
         assert done.returncode == 0 and "not recognized" not in done.stdout + done.stderr, \
             (unit, done.stdout, done.stderr)
+
+
+def test_older_files_still_read_and_validate(result_files, tmp_path):
+    """Schema 2.x files (checksums in /<group>/checksum, the 2.x unit strings, no dimension
+    scales) are read and validated, and a changed value in one is still reported as damage:
+    every shipped 2.x baseline, and a 3.0 file turned into the 2.22 layout."""
+    from pathlib import Path
+
+    from spacarpy.results import open_results, validate_file
+    from spacarpy.results.h5file import ResultsFormatError
+
+    from helpers import as_schema_2
+
+    base = Path(__file__).resolve().parents[1] / "decks" / "baseline"
+    for path in sorted(base.glob("*.h5")):
+        with h5py.File(path, "r") as f:
+            if int(f.attrs["schema_version"][0]) != 2:
+                continue
+        assert validate_file(path) == [], path
+    old = tmp_path / "old.h5"
+    shutil.copy(result_files["column"], old)
+    with h5py.File(old, "r+") as f:
+        as_schema_2(f, 22)
+        assert "eigen/checksum" in f and "eigen/integrity" not in f
+    assert validate_file(old) == []
+    with open_results(result_files["column"]) as new, open_results(old) as res:
+        np.testing.assert_array_equal(res.eigen.frequency, new.eigen.frequency)
+        assert res.static.reaction_component == new.static.reaction_component
+    with h5py.File(old, "r+") as f:
+        f["eigen/frequency"][1, 0] += 1e-9
+    assert any("/eigen/frequency is damaged at step 1" in p for p in validate_file(old))
+    with pytest.raises(ResultsFormatError, match="frequency"), open_results(old) as res:
+        assert res.eigen.frequency is None
