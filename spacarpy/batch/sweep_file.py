@@ -83,7 +83,6 @@ class SweepFile:
                                   libver="earliest")
         except (OSError, RuntimeError) as exc:
             raise self._given_up(exc) from None
-        self._scales = [self._f[f"parameters/{a.name}"] for a in self.axes]
         self._n_done = 0
 
     def _header(self, f, deck) -> None:
@@ -127,8 +126,8 @@ class SweepFile:
         self._f = None
         return disk_full_error(self.final_path, exc)
 
-    def _dataset(self, path: str, row: np.ndarray):
-        f = self._f
+    def _dataset(self, f, path: str, row: np.ndarray):
+        """Create the collected dataset ``path`` for rows like ``row`` in ``f``."""
         if path not in f:
             ds = f.create_dataset(path, data=np.full(self.shape + row.shape, np.nan,
                                                      dtype=row.dtype))
@@ -176,8 +175,15 @@ class SweepFile:
             raise self._given_up(exc) from None
 
     def _add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
+        new = {path: row for path, row in rows.items() if path not in self._f}
+        if new:     # built in memory, written in one piece (a full disk: h5file.create_with)
+            from spacarpy.results.h5file import rebuild_with
+            f, self._f = self._f, None
+            self._f = rebuild_with(self.partial_path, f, lambda mem: [
+                self._dataset(mem, path, row) for path, row in new.items()],
+                libver="earliest")
         for path, row in rows.items():
-            ds = self._dataset(path, row)
+            ds = self._f[path]
             if ds.shape[len(self.shape):] == row.shape:
                 ds[idx] = row
         if error:

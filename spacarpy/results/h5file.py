@@ -310,13 +310,13 @@ def create_with(path, write, libver=LIBVER) -> h5py.File:
     return _write_image(path, io.BytesIO(), "w", write, libver)
 
 
-def rebuild_with(path, f, write) -> h5py.File:
+def rebuild_with(path, f, write, libver=LIBVER) -> h5py.File:
     """Close ``f`` (the file ``path`` open for writing), add what ``write(mem)`` puts into an
     HDF5 file of its content in memory, and write the result back to ``path`` as
     :func:`create_with` does (the same reason); return ``path`` open for appending."""
     import io
     f.close()
-    return _write_image(path, io.BytesIO(Path(path).read_bytes()), "r+", write, LIBVER)
+    return _write_image(path, io.BytesIO(Path(path).read_bytes()), "r+", write, libver)
 
 
 def _write_image(path, image, mode, write, libver) -> h5py.File:
