@@ -133,7 +133,13 @@ def _dim_length(ds, dim: str) -> int:
     raise AssertionError(f"{ds.name} has no axis {dim}")
 
 
-@pytest.mark.parametrize("key", KEYS)
+#: The files opened in the quick suite (a static, a linearized with compliance, a state
+#: space, an arc-length run); the others, 25-40 s each on a busy 2-core machine, are slow.
+QUICK = ("bend", "column", "state_space", "arclength")
+
+
+@pytest.mark.parametrize("key", [k if k in QUICK else pytest.param(k, marks=pytest.mark.slow)
+                                 for k in KEYS])
 def test_every_group_opens_in_xarray_and_netcdf4(result_files, key):
     _open_everywhere(result_files[key])
 
