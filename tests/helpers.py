@@ -132,6 +132,34 @@ def docs_sweep_args(out, deck: str = "sweep_column_load_ratio") -> list[str]:
 
 # --- a results writer in its own process ------------------------------------------------------
 
+def as_schema_2(f, minor: int) -> None:
+    """Turn an open (``r+``) schema-3.0 results file into the layout of schema ``2.minor``,
+    as a file of that version was written: the checksums back in ``/<group>/checksum``, the
+    2.x ``units`` strings, ``schema_version``. The 3.0 dimension scales are left (a 2.x
+    reader ignores datasets it does not know)."""
+    import h5py
+
+    from spacarpy.results.schema import DATASETS
+
+    for group in list(f):
+        inner = f.get(f"{group}/integrity/checksum")
+        if isinstance(inner, h5py.Dataset):
+            for scale in list(inner.dims[1].values()):      # its columns' scale goes
+                inner.dims[1].detach_scale(scale)
+            f.move(f"{group}/integrity/checksum", f"{group}/checksum")
+            del f[f"{group}/integrity"]
+
+    def units(name, obj):
+        spec = DATASETS.get(name)
+        if isinstance(obj, h5py.Dataset) and spec is not None and spec.units_v2 is not None:
+            obj.attrs["units"] = spec.units_v2
+    f.visititems(units)
+    f.attrs["schema_version"] = np.array([2, minor], dtype=np.int32)
+    if minor >= 18:                 # 2.18 wrote the CRC of the header, its version in it
+        from spacarpy.results.header_crc import HEADER_CRC_ATTR, header_crc
+        f.attrs[HEADER_CRC_ATTR] = header_crc(f.attrs)
+
+
 def chain_model(n_elem: int = 2, source_path: str = "decks/tiny.dat") -> Model:
     """A straight chain of ``n_elem`` beams along x; positions odd, orientations even numbers."""
     pos = np.arange(n_elem + 1) * 2 + 1

@@ -135,6 +135,7 @@ import os, sys
 import spacarpy.batch.backends, spacarpy.batch.commands, spacarpy.batch.report
 import spacarpy.batch.runner, spacarpy.batch.sweep, spacarpy.deck.parser, spacarpy.outputs
 import spacarpy.user_routines  # batch and sweep scan the decks for user routines
+import spacarpy.results.dims, spacarpy.results.h5file, spacarpy.results.schema  # sweep files
 from spacarpy.cli import main
 import contextlib, io, locale  # noqa
 tmp, deck, sweep, uid = sys.argv[1:5]

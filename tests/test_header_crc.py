@@ -36,7 +36,7 @@ def test_a_new_file_carries_the_checksum_of_its_root_attributes(copy):
 @pytest.mark.parametrize("name, value", [("program_version", "9.9.9"),
                                          ("created", "2020-01-01T00:00:00+00:00"),
                                          ("deck_path", "/elsewhere/deck.dat"),
-                                         ("schema_version", np.array([2, 14], np.int32))])
+                                         ("schema_version", np.array([3, 1], np.int32))])
 def test_a_changed_root_attribute_is_damage(copy, capsys, name, value):
     with h5py.File(copy, "r+") as f:
         f.attrs[name] = value

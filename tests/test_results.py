@@ -98,11 +98,11 @@ def test_layout_follows_schema(tmp_path):
     write_run(out, chain_model())
     with h5py.File(out, "r") as f:
         assert f.attrs["schema_version"].dtype == np.int32
-        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [2, 23]
+        assert list(f.attrs["schema_version"]) == list(SCHEMA_VERSION) == [3, 0]
         assert f["deck"].shape == ()
         assert h5py.check_string_dtype(f["deck"].dtype).encoding == "utf-8"
         info = h5py.check_string_dtype(f["model/elements/BEAM/cross_section_type"].dtype)
-        assert info.encoding == "ascii" and info.length == 4
+        assert info.encoding == "utf-8" and info.length is None    # 3.0: variable length
         lf = f["static/load_factor"]
         assert h5py.h5ds.is_scale(lf.id)
         for name in ("position", "euler", "elements/BEAM/deformation",
@@ -122,10 +122,26 @@ def test_layout_follows_schema(tmp_path):
         f.visititems(collect)
         assert units["static/position"] == "m"
         assert units["static/elements/BEAM/stress_resultant"] == "N"
-        assert units["static/reaction"] == "N | N m (see reaction_component)"
+        assert units["static/reaction"] == "1"      # 3.0: one unit per component beside it
+        assert list(f["static/reaction"].attrs["units_per_index"].astype(str)) == [
+            {"F": "N", "M": "N m"}[c[0]]
+            for c in f["static/reaction_component"].asstr()[()]]
         assert units["model/position_nodes"] == "1"
-        assert len(units) == 16 + 14 + 1 + 1  # the 1.0 datasets but element_type, the 1.1
-        # ones, /static/checksum (2.1), /static/converged_by (2.7)
+        schema = [n for n in units if n in DATASETS]
+        assert len(schema) == 16 + 14 + 1 + 1  # the 1.0 datasets but element_type, the 1.1
+        # ones, /static/integrity/checksum (2.1; 3.0 its place), /static/converged_by (2.7)
+        # and the dimension scales of schema 3.0, one per named axis of each group
+        assert sorted(set(units) - set(schema)) == [
+            "model/axis", "model/coordinate", "model/elements/BEAM/deformation_mode",
+            "model/elements/BEAM/element", "model/elements/BEAM/slot", "model/end",
+            "model/global_coordinate", "model/load", "model/mass_term",
+            "model/orientation_node", "model/position_node", "model/section_dim",
+            "model/stiffness_term", "static/coordinate",
+            "static/elements/BEAM/deformation_mode", "static/elements/BEAM/element",
+            "static/euler_parameter", "static/integrity/checked_dataset",
+            "static/orientation_node", "static/position_node", "static/reaction_number"]
+        for name in set(units) - set(schema):
+            assert h5py.h5ds.is_scale(f[name].id), name
 
 
 def test_overwrites_existing_output_only_when_finished(tmp_path):
@@ -150,7 +166,7 @@ def test_newer_major_version_is_refused(tmp_path):
     with pytest.raises(ResultsFormatError) as info:
         read_results(out)
     message = str(info.value)
-    assert "99.0" in message and "2.23" in message
+    assert "99.0" in message and "3.0" in message
     assert isinstance(info.value, SpacarError) and info.value.exit_code == EXIT_INPUT
     problems = validate_file(out)
     assert len(problems) == 1 and "99" in problems[0]

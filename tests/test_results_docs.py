@@ -16,7 +16,7 @@ from pathlib import Path
 
 import h5py
 
-from spacarpy.results.schema import DATASETS, n_def, n_slots
+from spacarpy.results.schema import DATASETS, FIXED_DIMS, base_dim, n_def, n_slots
 
 from helpers import run_and_kill
 
@@ -38,8 +38,11 @@ _SYMBOLS = {"step": "n_step", "time_step": "n_t", "linearized_step": "n_lin",
 
 def _shape(spec) -> str:
     dims = []
-    for d in spec.shape:
+    for d in map(base_dim, spec.shape):
         if isinstance(d, int):
+            dims.append(str(d))
+        elif d in FIXED_DIMS:
+            dims.append(str(len(FIXED_DIMS[d])))
             dims.append(str(d))
         elif d == "element":
             dims.append("n_elem" if spec.kind == "BEAM" else f"n_{spec.kind.lower()}")
@@ -76,11 +79,29 @@ def documented_rows() -> dict:
     return rows
 
 
-def written_paths(path) -> set:
+def documented_dimensions() -> set:
+    """Names of the dimension scales in the table of section ``### Dimensions``."""
+    text = DOC.read_text(encoding="utf-8")
+    section = text[text.index("\n### Dimensions"):]
+    section = section[:section.index("\n## ", 1)]
+    return {m.group(1) for line in section.splitlines()
+            for m in [re.match(r"\|\s*`([A-Za-z0-9_]+)`\s*\|", line)] if m}
+
+
+def written_paths(path, scales: set | None = None) -> set:
+    """Paths of the datasets of a file; the dimension scales that are no schema dataset
+    (schema 3.0, results/dims.py) go to ``scales`` (their names) instead."""
     out = set()
+
+    def visit(name, obj):
+        if not isinstance(obj, h5py.Dataset):
+            return
+        if name not in DATASETS and h5py.h5ds.is_scale(obj.id) and scales is not None:
+            scales.add(name.rsplit("/", 1)[-1])
+        else:
+            out.add("/" + name)
     with h5py.File(path, "r", swmr=True) as f:
-        f.visititems(lambda name, obj: out.add("/" + name)
-                     if isinstance(obj, h5py.Dataset) else None)
+        f.visititems(visit)
     return out
 
 
@@ -97,10 +118,12 @@ def test_written_paths_are_the_schema_table(tmp_path, result_files):
     if hasattr(signal, "SIGKILL"):
         run_and_kill(tmp_path, n_elem=2, pause=0.02)
         files["killed"] = tmp_path / "killed.partial.h5"
-    written = set().union(*(written_paths(p) for p in files.values()))
+    scales = set()
+    written = set().union(*(written_paths(p, scales) for p in files.values()))
     table = {"/" + p for p in DATASETS}
     assert written - table == set(), "written but not in the schema"
     assert table - written == set(), "in the schema but written by no test file"
+    assert scales == documented_dimensions(), "dimension scales written vs documented"
 
 
 if __name__ == "__main__":

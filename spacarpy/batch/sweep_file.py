@@ -34,6 +34,18 @@ def estimated_size(n_points: int, n_values: int) -> int:
     return int(n_points) * (4 + 16 + 8 * max(int(n_values), 1))
 
 
+def _scale(group, name: str, values, long_name: str):
+    """The dimension scale ``name`` of ``group``, made at first use."""
+    import h5py
+    if name not in group:
+        dtype = h5py.string_dtype("utf-8") if values.dtype.kind in "OU" else None
+        sc = group.create_dataset(name, data=values, dtype=dtype)
+        sc.attrs["units"] = "1"
+        sc.attrs["long_name"] = long_name
+        sc.make_scale(name)
+    return group[name]
+
+
 def _cannot_write(path: Path, exc: OSError):
     from spacarpy.outputs import OutputError
     reason = getattr(exc, "strerror", None) or str(exc)
@@ -71,7 +83,6 @@ class SweepFile:
                                   libver="earliest")
         except (OSError, RuntimeError) as exc:
             raise self._given_up(exc) from None
-        self._scales = [self._f[f"parameters/{a.name}"] for a in self.axes]
         self._n_done = 0
 
     def _header(self, f, deck) -> None:
@@ -84,6 +95,8 @@ class SweepFile:
         f.attrs["n_done"] = np.int64(0)
         try:
             f["deck"] = Path(deck).read_text(encoding="utf-8")
+            f["deck"].attrs["units"] = "1"
+            f["deck"].attrs["long_name"] = "input deck text, verbatim"
         except (OSError, UnicodeDecodeError):
             pass
         for a in self.axes:
@@ -94,7 +107,12 @@ class SweepFile:
         st = f.create_dataset("sweep/status", data=np.full(self.shape, NOT_RUN, np.int32))
         st.attrs["long_name"] = ("exit code of each run (0 ok, -1 timeout, -2 not run: "
                                  "the sweep was interrupted first)")
-        f.create_dataset("sweep/error", shape=self.shape, dtype=h5py.string_dtype())
+        st.attrs["units"] = "1"
+        err = f.create_dataset("sweep/error", shape=self.shape, dtype=h5py.string_dtype())
+        err.attrs["long_name"] = "error message of each failed run (empty: none)"
+        err.attrs["units"] = "1"
+        for ds in (st, err):
+            self._attach(f, ds, ())
 
     def _given_up(self, exc):
         """The error to raise after a failed write; on a full disk the partial file is
@@ -108,16 +126,44 @@ class SweepFile:
         self._f = None
         return disk_full_error(self.final_path, exc)
 
-    def _dataset(self, path: str, row: np.ndarray):
-        f = self._f
+    def _dataset(self, f, path: str, row: np.ndarray):
+        """Create the collected dataset ``path`` for rows like ``row`` in ``f``."""
         if path not in f:
             ds = f.create_dataset(path, data=np.full(self.shape + row.shape, np.nan,
                                                      dtype=row.dtype))
+            from spacarpy.results.h5file import set_index_units
+            from spacarpy.results.schema import DATASETS
             ds.attrs["long_name"] = f"last row of {path} of each run"
-            for k, sc in enumerate(self._scales):
-                ds.dims[k].attach_scale(sc)
-                ds.dims[k].label = self.axes[k].name
+            spec = DATASETS.get(path.strip("/"))
+            ds.attrs["units"] = spec.units if spec is not None else "1"
+            if spec is not None and spec.index_units:
+                set_index_units(ds, spec.index_units, spec.index_dims)
+            for name, value in spec.attrs if spec is not None else ():
+                ds.attrs[name] = value
+            self._attach(f, ds, spec.shape[1:] if spec is not None
+                         and len(spec.shape) == 1 + row.ndim else ())
         return f[path]
+
+    def _attach(self, f, ds, dims) -> None:
+        """netCDF-4 dimensions on every axis of ``ds`` (results schema 3.0): the parameters'
+        (copies of /parameters' scales in the dataset's group, which netCDF needs), then the
+        row's, named as in the results file (``dims``) or ``<name>_axis<k>``."""
+        from spacarpy.results.dims import dimension_name
+        from spacarpy.results.schema import FIXED_DIMS, base_dim
+        group, leaf = ds.parent, ds.name.rsplit("/", 1)[-1]
+        for k, a in enumerate(self.axes):
+            ds.dims[k].attach_scale(_scale(group, a.name, np.asarray(a.values, float),
+                                           f"value of the SET parameter {a.name}"))
+            ds.dims[k].label = a.name
+        for j in range(len(self.shape), ds.ndim):
+            n, dim = ds.shape[j], (dims[j - len(self.shape)] if dims else None)
+            name = dimension_name(base_dim(dim)) if isinstance(dim, str) else f"{leaf}_axis{j}"
+            if name in group and group[name].shape != (n,):
+                name = f"{leaf}_{name}"
+            values = (np.array(FIXED_DIMS[dim], dtype=object) if dim in FIXED_DIMS
+                      else np.arange(1, n + 1, dtype=np.int32))
+            ds.dims[j].attach_scale(_scale(group, name, values,
+                                           f"number of each {name.replace('_', ' ')}"))
 
     def add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
         """Write one finished point and flush: its exit code, message and collected rows
@@ -129,8 +175,15 @@ class SweepFile:
             raise self._given_up(exc) from None
 
     def _add(self, idx: tuple, status: int, error: str, rows: dict) -> None:
+        new = {path: row for path, row in rows.items() if path not in self._f}
+        if new:     # built in memory, written in one piece (a full disk: h5file.create_with)
+            from spacarpy.results.h5file import rebuild_with
+            f, self._f = self._f, None
+            self._f = rebuild_with(self.partial_path, f, lambda mem: [
+                self._dataset(mem, path, row) for path, row in new.items()],
+                libver="earliest")
         for path, row in rows.items():
-            ds = self._dataset(path, row)
+            ds = self._f[path]
             if ds.shape[len(self.shape):] == row.shape:
                 ds[idx] = row
         if error:

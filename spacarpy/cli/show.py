@@ -34,6 +34,7 @@ def _sweep_summary(path) -> str | None:
     """The summary of a ``spacarpy sweep`` file (``filetype = "spacarpy-sweep"``): its deck,
     the swept parameters, the points that ran or failed, and the table ``sweep`` printed;
     None for any other file (read as a results file)."""
+    import h5py
     import numpy as np
 
     from spacarpy.results.h5file import open_for_reading, python_value
@@ -49,7 +50,7 @@ def _sweep_summary(path) -> str | None:
 
             def collect(name, obj):
                 if hasattr(obj, "shape") and not name.startswith(("parameters/", "sweep/")) \
-                        and name != "deck":
+                        and name != "deck" and not h5py.h5ds.is_scale(obj.id):   # 3.0 axes
                     data["/" + name] = obj[()]
             f.visititems(collect)
             status = np.asarray(f["sweep/status"][()])

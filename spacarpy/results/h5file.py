@@ -49,7 +49,8 @@ __all__ = ["ResultsFormatError", "partial_path_for", "open_for_reading", "read_s
            "Superblock", "damaged", "is_read_error", "reading", "fsync", "create",
            "ascii_array", "SchemaFile", "discard_written", "create_with",
            "rebuild_with", "LIBVER", "crc32",
-           "damaged_steps", "fixed_damaged", "checksum_problems", "CRC_ATTR", "python_value",
+           "damaged_steps", "fixed_damaged", "bytes_array", "checksum_problems", "CRC_ATTR",
+           "python_value",
            "str_list"]
 
 # Lowest file-format version that supports SWMR; readable by every HDF5 >= 1.10. ("latest"
@@ -309,13 +310,13 @@ def create_with(path, write, libver=LIBVER) -> h5py.File:
     return _write_image(path, io.BytesIO(), "w", write, libver)
 
 
-def rebuild_with(path, f, write) -> h5py.File:
+def rebuild_with(path, f, write, libver=LIBVER) -> h5py.File:
     """Close ``f`` (the file ``path`` open for writing), add what ``write(mem)`` puts into an
     HDF5 file of its content in memory, and write the result back to ``path`` as
     :func:`create_with` does (the same reason); return ``path`` open for appending."""
     import io
     f.close()
-    return _write_image(path, io.BytesIO(Path(path).read_bytes()), "r+", write, LIBVER)
+    return _write_image(path, io.BytesIO(Path(path).read_bytes()), "r+", write, libver)
 
 
 def _write_image(path, image, mode, write, libver) -> h5py.File:
@@ -415,7 +416,19 @@ def new_attrs(obj, values: dict) -> None:
 def set_cf_attrs(ds: h5py.Dataset, extra: dict | None = None) -> None:
     """``units``, ``long_name`` (the schema's) and ``extra`` attributes of a new dataset."""
     spec = DATASETS[ds.name.lstrip("/")]
-    new_attrs(ds, {"units": spec.units, "long_name": spec.long_name, **(extra or {})})
+    new_attrs(ds, {"units": spec.units, "long_name": spec.long_name, **dict(spec.attrs),
+                   **(extra or {})})
+    if spec.index_units:
+        set_index_units(ds, spec.index_units, spec.index_dims)
+
+
+def set_index_units(ds: h5py.Dataset, units, dims) -> None:
+    """The companion attributes of a dataset whose indices have different units (its
+    ``units`` is ``"1"``; schema 3.0): ``units_per_index``, one unit per index of the
+    dimensions ``units_per_index_dims`` (names separated by spaces), row-major."""
+    ds.attrs.create("units_per_index", [str(u) for u in units],
+                    dtype=h5py.string_dtype("utf-8"))
+    new_attrs(ds, {"units_per_index_dims": " ".join(dims)})
 
 
 def create(group: h5py.Group, name: str, data, dtype=None) -> h5py.Dataset:
@@ -426,13 +439,19 @@ def create(group: h5py.Group, name: str, data, dtype=None) -> h5py.Dataset:
     if kind != "O":         # numbers: the data as numpy converts them, not read back
         stored = np.asarray(data, dtype=ds.dtype) if kind in "biuf" else ds[()]
         crc = {CRC_ATTR: np.int64(crc32(stored))}
+    elif ds.ndim:           # an array of strings (schema 3.0), as read back
+        crc = {CRC_ATTR: np.int64(crc32(ds[()]))}
     set_cf_attrs(ds, crc)
     return ds
 
 
 def crc32(values) -> int:
     """CRC-32 of the bytes of ``values`` (little-endian, C order): the same on every machine."""
-    a = np.ascontiguousarray(values)
+    a = np.asarray(values)
+    if a.dtype.kind in "OU":    # strings (vlen): their UTF-8 bytes, each ended by a NUL
+        return zlib.crc32(b"".join((v if isinstance(v, bytes) else str(v).encode("utf-8"))
+                                   + b"\0" for v in a.reshape(-1).tolist()))
+    a = np.ascontiguousarray(a)
     if a.dtype.byteorder == ">" or (a.dtype.byteorder == "=" and _BIG_ENDIAN):
         a = a.astype(a.dtype.newbyteorder("<"))
     return zlib.crc32(a)                # its buffer: the bytes of a uint8 view, uncopied
@@ -444,7 +463,7 @@ def damaged_steps(group: h5py.Group, n: int, only: str | None = None,
     rows do not match their stored checksum; ``{}`` for a group without checksums. ``only``
     checks one dataset (its path in the group, or the scale's). The datasets are read in
     blocks of ``block`` steps."""
-    checksum = group.get("checksum")
+    checksum = group.get("integrity/checksum", group.get("checksum"))   # 3.0, 2.x
     if not isinstance(checksum, h5py.Dataset):
         return {}
     columns = str(python_value(checksum.attrs.get("columns", ""))).split()
@@ -517,9 +536,20 @@ def python_value(value):
 
 
 def str_list(ds) -> list[str]:
-    """An ASCII dataset as a list of str."""
-    return [s.decode("ascii", errors="replace") if isinstance(s, bytes) else str(s)
+    """A dataset of strings (fixed-length ASCII before 3.0, UTF-8 since) as a list of str."""
+    return [s.decode("utf-8", errors="replace") if isinstance(s, bytes) else str(s)
             for s in ds[()].tolist()]
+
+
+def bytes_array(ds: h5py.Dataset, selection=()) -> np.ndarray:
+    """``ds[selection]``, an array of strings as fixed-length UTF-8 bytes whatever the
+    schema (UTF-8 of variable length since 3.0, fixed-length ASCII before)."""
+    data = ds[selection]
+    if ds.dtype.kind == "O" and ds.ndim and h5py.check_string_dtype(ds.dtype) is not None:
+        data = np.array([v if isinstance(v, bytes) else str(v).encode("utf-8")
+                         for v in np.ravel(data).tolist()] or [b""],
+                        dtype=bytes)[:np.size(data)].reshape(np.shape(data))
+    return data
 
 
 def schema_major(f: h5py.File) -> int:

@@ -18,7 +18,8 @@ import numpy as np
 
 from spacarpy.model import Model
 from spacarpy.results import h5file
-from spacarpy.results.h5file import create
+from spacarpy.results.dims import add_dimensions
+from spacarpy.results.h5file import create, set_index_units
 from spacarpy.results.header_crc import HEADER_CRC_ATTR, header_crc
 from spacarpy.results.schema import (
     CRITICAL_POINT_NAMES,
@@ -31,7 +32,7 @@ from spacarpy.results.schema import (
 )
 from spacarpy.results.steps import StepAppender, create_extendable
 
-__all__ = ["create_step_group", "write_header"]
+__all__ = ["create_step_group", "write_header", "string_dataset", "add_dimensions"]
 
 _COLUMNS = {"stiffness": "EA GJ EIy EIz cy cz", "mass": "rhoA rho(Iy+Iz) rhoIy rhoIz rhoIyz"}
 
@@ -52,7 +53,7 @@ def create_step_group(f: h5py.File, group: str, specs, size, n_mode: int = 0) ->
         g.attrs["n_mode"] = np.int32(n_mode)
     for path, spec in specs:
         name = path[len(group) + 1:]
-        if name == "checksum":
+        if name.endswith("checksum"):
             continue
         trailing = tuple(size(d, spec.kind) for d in spec.shape[1:])
         parent = g.require_group(name.rsplit("/", 1)[0]) if "/" in name else g
@@ -74,7 +75,9 @@ def create_step_group(f: h5py.File, group: str, specs, size, n_mode: int = 0) ->
         entry["shapes"][name] = trailing
         entry["dtypes"][name] = np.dtype(spec.dtype)
     columns = [h5file.SCALE_COLUMN] + list(entry["datasets"])
-    checksum = create_extendable(g, "checksum", (len(columns),), np.dtype("i8"))
+    # schema 3.0: in a group of its own, beside the data (netCDF readers list it apart)
+    checksum = create_extendable(g.create_group("integrity"), "checksum", (len(columns),),
+                                 np.dtype("i8"))
     checksum.attrs["columns"] = " ".join(columns)
     _label(checksum, 0, scale_label)
     entry["checksum"] = (checksum, columns)
@@ -82,9 +85,8 @@ def create_step_group(f: h5py.File, group: str, specs, size, n_mode: int = 0) ->
                                      entry["checksum"])
     entry["rows"] = [(name, entry["dtypes"][name], entry["shapes"][name])
                      for name in entry["datasets"]]
-    if not lin:
-        for name, ds in [*entry["datasets"].items(), ("checksum", checksum)]:
-            ds.dims[0].attach_scale(entry["scale"])
+    if not lin:                 # the scales are attached by dims.add_dimensions
+        for name, ds in [*entry["datasets"].items(), ("integrity/checksum", checksum)]:
             spec = DATASETS[f"{group}/{name}"]
             for axis, label in enumerate(spec.shape[1:], start=1):
                 if isinstance(label, str):
@@ -129,9 +131,11 @@ def write_header(f: h5py.File, model: Model, model_data: dict, *, program_versio
     for path, value in model_data.items():
         if path not in DATASETS:
             raise ValueError(f"model data {path!r} is not a dataset of the schema")
-        value = np.asarray(value)
-        dtype = (h5py.string_dtype("ascii", max(value.dtype.itemsize, 1))
-                 if value.dtype.kind == "S" else None)
+        value, dtype = np.asarray(value), None
+        if value.dtype.kind in "SU":        # UTF-8 strings of variable length (3.0)
+            value = np.array([v.decode("utf-8") if isinstance(v, bytes) else str(v)
+                              for v in value.reshape(-1).tolist()], dtype=object)
+            dtype = h5py.string_dtype("utf-8")
         parent, name = path.rsplit("/", 1)
         ds = create(f.require_group(parent), name, value, dtype=dtype)
         what = name
@@ -139,6 +143,24 @@ def write_header(f: h5py.File, model: Model, model_data: dict, *, program_versio
             ds.attrs["class_names"] = ", ".join(DEFORMATION_CLASS_NAMES)
         elif what in _COLUMNS and path.startswith("model/elements/BEAM/"):
             ds.attrs["columns"] = _COLUMNS[what]
+    if "model/load_value" in f:             # N on a position node, N m on an orientation one
+        rot = set(np.asarray(model_data.get("model/orientation_nodes", [])).tolist())
+        set_index_units(f["model/load_value"],
+                        ["N m" if n in rot else "N" for n in
+                         np.asarray(model_data["model/load_node"]).tolist()], ("load",))
+    if "model/follower_load_value" in f:    # the same, by the loaded node (not the axes node)
+        rot = set(np.asarray(model_data.get("model/orientation_nodes", [])).tolist())
+        set_index_units(f["model/follower_load_value"],
+                        ["N m" if n in rot else "N" for n in
+                         np.asarray(model_data["model/follower_load_node"])[:, 0].tolist()],
+                        ("follower_load",))
+    add_dimensions(f, "model", model_data)
+
+
+def string_dataset(group: h5py.Group, name: str, strings) -> h5py.Dataset:
+    """A fixed dataset of UTF-8 strings of variable length (schema 3.0)."""
+    return create(group, name, np.array([str(s) for s in strings], dtype=object),
+                  dtype=h5py.string_dtype("utf-8"))
 
 
 def _absolute_deck_path(source_path: str) -> str:

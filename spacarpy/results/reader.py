@@ -42,6 +42,7 @@ from spacarpy.results.eager import (
     read_results,
 )
 from spacarpy.results.h5file import (
+    bytes_array,
     damaged,
     damaged_steps,
     fixed_damaged,
@@ -190,7 +191,7 @@ class ResultsFile(RootAttributes):
             ds = f[self._name(path)]
             if self.verify and ds.name not in self._verified:
                 self._check(f, ds)
-            return ds[selection]
+            return bytes_array(ds, selection)
 
     def _check(self, f, ds) -> None:
         """Verify a whole dataset against its checksums, once (the first time it is read)."""

@@ -28,11 +28,16 @@ Dimension names: ``step`` (committed load steps), ``time_step`` (committed time 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
-
-import numpy as np
 
 from spacarpy.elements.registry import KINDS as _KINDS
+from spacarpy.results.dataset_spec import DatasetSpec
+from spacarpy.results.legacy import (  # noqa: F401  (re-exported: the schema's names)
+    LEGACY_DROPPED,
+    LEGACY_NAMES,
+    LEGACY_OPTIONAL,
+    legacy_name,
+    new_name,
+)
 
 __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpec", "DATASETS",
            "KIND_NAMES", "LEGACY_NAMES", "LINEARIZED_GROUPS", "legacy_name", "new_name", "spec_for",
@@ -43,7 +48,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (2, 23)
+SCHEMA_VERSION = (3, 0)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -53,8 +58,31 @@ ROOT_ATTRS = ("filetype", "schema_version", "program", "program_version", "creat
               "deck_sha256", "analysis", "deformations", "completed")
 #: Reaction component names and their units.
 REACTION_COMPONENTS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mx": "N m", "My": "N m", "Mz": "N m"}
-#: ``units`` attribute of ``/static/reaction`` (units depend on the component).
-REACTION_UNITS = "N | N m (see reaction_component)"
+#: ``units`` attribute of ``/static/reaction`` (units depend on the component: the
+#: attribute ``units_per_index`` holds one per reaction component, schema 3.0).
+REACTION_UNITS = "1"
+#: The same in a file of schema 2.x.
+REACTION_UNITS_V2 = "N | N m (see reaction_component)"
+#: Dimensions of fixed length and the labels of their indices (schema 3.0: the values of
+#: their dimension scales).
+FIXED_DIMS = {
+    "coordinate": ("x", "y", "z"),
+    "euler_parameter": ("lambda0", "lambda1", "lambda2", "lambda3"),
+    "axis": ("x", "y", "z"),
+    "end": ("p", "q"),
+    "element_mode": ("element", "mode"),
+    "node_coordinate": ("node", "coordinate"),
+    "node_axes": ("node", "axes node"),
+    "stiffness_term": ("EA", "GJ", "EIy", "EIz", "cy", "cz"),
+    "mass_term": ("rhoA", "rho(Iy+Iz)", "rhoIy", "rhoIz", "rhoIyz"),
+    "section_dim": ("w or d", "t"),
+    "response": ("ux", "uy", "uz", "phix", "phiy", "phiz"),
+    "load_component": ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz"),
+}
+#: Units of the 6x6 compliance, row-major over (response, load_component).
+COMPLIANCE_UNITS = tuple(("m/N" if i < 3 else "rad/N") if j < 3 else
+                         ("1/N" if i < 3 else "rad/(N m)")
+                         for i in range(6) for j in range(6))
 #: The /transient datasets of inverse dynamics (SPACAR mode 2) only.
 ACCELERATIONS = ("transient/acceleration", "transient/euler_acceleration")
 #: Names of the ``/eigen/kind`` codes.
@@ -64,6 +92,12 @@ MODE_KIND_NAMES = ("elastic", "rigid-body", "unstable", "complex", "infinite",
 DEFORMATION_CLASS_NAMES = ("rigid", "flexible", "released", "kinematic")
 #: Element kinds, in the order their groups are written.
 KIND_NAMES = tuple(_KINDS)
+
+
+def base_dim(dim):
+    """The dimension whose length ``dim`` has: ``dof`` for ``dof_column`` (the column axis
+    of a square matrix has a name of its own, as netCDF needs), else ``dim``."""
+    return dim[:-len("_column")] if isinstance(dim, str) and dim.endswith("_column") else dim
 
 
 def n_def(kind: str) -> int:
@@ -81,57 +115,6 @@ def slot_roles(kind: str) -> tuple:
     return tuple(_KINDS[kind].slots)
 
 
-@dataclass(frozen=True)
-class DatasetSpec:
-    """One dataset of the schema.
-
-    Attributes
-    ----------
-    path : str
-        Path relative to the root, e.g. ``static/elements/TRUSS/deformation``.
-    dtype : str
-        numpy dtype written (``"f8"``, ``"i8"``, ``"i4"``, ``"i1"``, ``"?"``), or ``"ascii"``
-        / ``"utf-8"`` for strings.
-    shape : tuple
-        Named dimensions (see the module docstring) or fixed sizes; axis 0 of a step dataset
-        is ``step``, ``time_step`` or ``linearized_step``.
-    units, long_name : str
-        The CF attributes stored on the dataset.
-    since : tuple
-        Schema version that introduced the quantity (its 2.0 path may be newer; see
-        :data:`LEGACY_NAMES`).
-    kind : str or None
-        The element kind of a per-kind dataset.
-    optional : bool
-        Absent unless the run has it (prescribed deformations, surface stresses).
-    """
-
-    path: str
-    dtype: str
-    shape: tuple
-    units: str
-    long_name: str
-    since: tuple = (1, 0)
-    kind: str | None = None
-    optional: bool = False
-
-    @property
-    def group(self) -> str:
-        """Top-level group (``model``, ``static`` ...), ``""`` for ``/deck``."""
-        return self.path.split("/")[0] if "/" in self.path else ""
-
-    @property
-    def kind_class(self) -> str:
-        """``int``, ``float``, ``complex``, ``ascii``, ``bool`` or ``str``: what the validator
-        checks."""
-        if self.dtype == "ascii":
-            return "ascii"
-        if self.dtype == "utf-8":
-            return "str"
-        dt = np.dtype(self.dtype)
-        return {"i": "int", "u": "int", "f": "float", "c": "complex", "b": "bool"}[dt.kind]
-
-
 #: Groups whose datasets grow by one row per step, with their commit (scale) dataset.
 STEP_GROUPS = {"static": "load_factor", "transient": "time", "eigen": "step",
                "buckling": "step", "compliance": "step", "state_space": "step",
@@ -143,9 +126,33 @@ CRITICAL_POINT_NAMES = ("limit point (load maximum)", "limit point (load minimum
                         "bifurcation", "undetermined")
 
 
-def _units(per_mode) -> str:
-    """One ``units`` attribute for a dataset whose modes have the units ``per_mode``."""
-    return " | ".join(dict.fromkeys(per_mode)) or "1"
+def _units(per_mode) -> tuple:
+    """``(units, index_units, units_v2)`` of a dataset whose modes have the units
+    ``per_mode``: one unit, or ``"1"`` with one per mode (the 2.x string: them joined)."""
+    distinct = list(dict.fromkeys(per_mode))
+    if len(distinct) <= 1:
+        return (distinct[0] if distinct else "1"), (), None
+    return "1", tuple(per_mode), " | ".join(distinct)
+
+
+def _index_units(units: tuple) -> dict:
+    """The spec fields of a per-kind dataset from :func:`_units`."""
+    if not units[1]:
+        return {}
+    return {"index_units": units[1], "index_dims": ("deformation_mode",),
+            "units_v2": units[2]}
+
+
+#: The normalization of the eigen mode shapes (attribute ``normalization``, schema 3.0).
+_MASS_NORM = ("mass-normalized: shape_position in m and shape_euler in 1 are scaled so that "
+              "phi^T M phi = 1 kg m^2 (M the mass matrix in SI units)")
+#: The units rule of the state-space matrices (attribute ``units_rule``, schema 3.0).
+SS_UNITS_RULE = ("SI units of the degrees of freedom and signals: a degree of freedom is in m "
+                 "(a deformation mode of length, a DYNX position) or 1 (an angle in rad, an "
+                 "Euler parameter), an input in N or N m, an output in the units of its OUT* "
+                 "quantity (and per s for a rate); an entry's units are those that make each "
+                 "equation consistent (e.g. M0[i, j] in kg m^2 / (u_i u_j))")
+_SS_MATRICES = ("M0", "C0", "K0", "B0", "A", "B", "C", "D", "K0p", "G", "Gq", "Gp")
 
 
 #: Schema version that introduced each kind's datasets (kinds added later: their own).
@@ -172,38 +179,40 @@ def _spec_list() -> list[DatasetSpec]:
         S("model/warping_nodes", "i8", ("warping_node",), "1",
           "deck number of each warping node (BEAMW), present when the model has them",
           (2, 17), optional=True),
-        S("model/input_deformation", "i8", ("input", 2), "1",
+        S("model/input_deformation", "i8", ("input", "element_mode"), "1",
           "[element, mode] of each prescribed deformation (INPUTE), present when the model "
           "has them", (1, 2), optional=True),
-        S("model/kinematic_deformation", "i8", ("kinematic", 2), "1",
+        S("model/kinematic_deformation", "i8", ("kinematic", "element_mode"), "1",
           "[element, mode] of each kinematic deformation (KINE), present when the model has "
           "them", (2, 11), optional=True),
-        S("model/kinematic_coordinate", "i8", ("kinematic", 2), "1",
+        S("model/kinematic_coordinate", "i8", ("kinematic", "node_coordinate"), "1",
           "[node, coordinate] of each kinematic nodal coordinate (KINX), present when the "
           "model has them", (2, 11), optional=True),
         S("model/load_node", "i8", ("load",), "1", "deck node number of each nodal load line",
           v11),
-        S("model/load_type", "ascii", ("load",), "1",
+        S("model/load_type", "utf-8", ("load",), "1",
           "XF (acting from the start) or DELXF (scaled by the load factor)", v11),
-        S("model/load_value", "f8", ("load", 3), "N | N m",
+        S("model/load_value", "f8", ("load", "coordinate"), "1",
           "force (position node, N) or moment (orientation node, N m) of each load line, "
-          "global axes", v11),
+          "global axes (units: attribute units_per_index)", v11, units_v2="N | N m",
+          index_dims=("load",)),
         S("model/line_load_element", "i8", ("line_load",), "1", "element of each line load "
           "line (QE, DELQE, QEL, DELQEL), present when the model has them", v23, optional=True),
-        S("model/line_load_type", "ascii", ("line_load",), "1", "QE or DELQE (dead, global "
+        S("model/line_load_type", "utf-8", ("line_load",), "1", "QE or DELQE (dead, global "
           "axes), QEL or DELQEL (follower, the element's current axes); DEL: an increment",
           v23, optional=True),
-        S("model/line_load_value", "f8", ("line_load", 2, 3), "N/m", "force per length of each "
-          "line load line at the element's ends p and q (linear between), x y z of its axes "
-          "(a planar deck's z 0)", v23, optional=True),
-        S("model/follower_load_node", "i8", ("follower_load", 2), "1", "[node, axes node] of "
-          "each follower load line (XFL, DELXFL), present when the model has them", v23,
-          optional=True),
-        S("model/follower_load_type", "ascii", ("follower_load",), "1",
+        S("model/line_load_value", "f8", ("line_load", "end", "coordinate"), "N/m",
+          "force per length of each line load line at the element's ends p and q (linear "
+          "between), x y z of its axes (a planar deck's z 0)", v23, optional=True),
+        S("model/follower_load_node", "i8", ("follower_load", "node_axes"), "1", "[node, axes "
+          "node] of each follower load line (XFL, DELXFL), present when the model has them",
+          v23, optional=True),
+        S("model/follower_load_type", "utf-8", ("follower_load",), "1",
           "XFL (acting from the start) or DELXFL (an increment)", v23, optional=True),
-        S("model/follower_load_value", "f8", ("follower_load", 3), "N | N m", "force (position "
-          "node) or moment (orientation node) of each follower load line, in the current "
-          "axes of its axes node", v23, optional=True),
+        S("model/follower_load_value", "f8", ("follower_load", "coordinate"), "1",
+          "force (position node, N) or moment (orientation node, N m) of each follower load "
+          "line, in the current axes of its axes node (units: attribute units_per_index)",
+          v23, optional=True, units_v2="N | N m", index_dims=("follower_load",)),
         S("model/coordinate_node", "i8", ("global_coordinate",), "1",
           "deck node number owning each global coordinate", v11),
         S("model/coordinate_index", "i1", ("global_coordinate",), "1",
@@ -223,7 +232,8 @@ def _spec_list() -> list[DatasetSpec]:
           "amplitude (BEAMW), present when the model has warping nodes", (2, 17),
           optional=True),
         S("static/reaction", "f8", ("step", "reaction"), REACTION_UNITS,
-          "reaction force or moment of each reaction component"),
+          "reaction force or moment of each reaction component (units: attribute "
+          "units_per_index)", units_v2=REACTION_UNITS_V2, index_dims=("reaction",)),
         S("static/iterations", "i4", ("step",), "1", "Newton iterations used in the load step"),
         S("static/residual", "f8", ("step",), "1", "final relative residual of the load step"),
         S("static/converged_by", "i1", ("step",), "1",
@@ -240,7 +250,7 @@ def _spec_list() -> list[DatasetSpec]:
           (2, 22), optional=True),
         S("static/reaction_node", "i8", ("reaction",), "1",
           "deck node number of each reaction component"),
-        S("static/reaction_component", "ascii", ("reaction",), "1",
+        S("static/reaction_component", "utf-8", ("reaction",), "1",
           "name (Fx Fy Fz Mx My Mz) of each reaction component"),
         # transient
         S("transient/time", "f8", ("time_step",), "s",
@@ -269,7 +279,9 @@ def _spec_list() -> list[DatasetSpec]:
           "energy dissipated by the damping (DAMPING, EDAMP) since t = 0", v14),
         S("transient/reaction", "f8", ("time_step", "reaction"), REACTION_UNITS,
           "reaction force or moment of each reaction component of /static/reaction_node "
-          "(fixed and prescribed coordinates), inertia and damping included", (2, 8)),
+          "(fixed and prescribed coordinates), inertia and damping included (units: "
+          "attribute units_per_index)", (2, 8), units_v2=REACTION_UNITS_V2,
+          index_dims=("reaction",)),
         S("transient/iterations", "i4", ("time_step",), "1",
           "Newton iterations of the last time step", v14),
         S("transient/residual", "f8", ("time_step",), "1",
@@ -291,27 +303,31 @@ def _spec_list() -> list[DatasetSpec]:
         S("eigen/frequency", "f8", _LIN_SHAPE["mode"], "Hz",
           "natural frequency; negative: unstable mode (divergence rate), NaN: complex or "
           "infinite eigenvalue, 0: rigid-body mode or undetermined sign"),
-        S("eigen/eigenvalue_real", "f8", _LIN_SHAPE["mode"], "s-2",
-          "real part of the eigenvalue omega^2"),
-        S("eigen/eigenvalue_imag", "f8", _LIN_SHAPE["mode"], "s-2",
-          "imaginary part of the eigenvalue omega^2"),
+        S("eigen/eigenvalue_real", "f8", _LIN_SHAPE["mode"], "s^-2",
+          "real part of the eigenvalue omega^2", units_v2="s-2"),
+        S("eigen/eigenvalue_imag", "f8", _LIN_SHAPE["mode"], "s^-2",
+          "imaginary part of the eigenvalue omega^2", units_v2="s-2"),
         S("eigen/kind", "i1", _LIN_SHAPE["mode"], "1",
           "mode kind: 0 elastic, 1 rigid-body, 2 unstable, 3 complex, 4 infinite, "
           "5 undetermined (w^2 within its round-off bound; since 2.12) (see attribute "
           "kind_names)"),
-        S("eigen/shape_position", "f8", _LIN_SHAPE["position"], "m kg-1/2",
-          "mass-normalized mode shape: position perturbation of each position node"),
-        S("eigen/shape_euler", "f8", _LIN_SHAPE["euler"], "kg-1/2",
-          "mass-normalized mode shape: Euler-parameter perturbation of each orientation node"),
+        S("eigen/shape_position", "f8", _LIN_SHAPE["position"], "m",
+          "mass-normalized mode shape: position perturbation of each position node (see "
+          "attribute normalization)", units_v2="m kg-1/2", attrs=(("normalization", _MASS_NORM),)),
+        S("eigen/shape_euler", "f8", _LIN_SHAPE["euler"], "1",
+          "mass-normalized mode shape: Euler-parameter perturbation of each orientation node "
+          "(see attribute normalization)", units_v2="kg-1/2",
+          attrs=(("normalization", _MASS_NORM),)),
         S("eigen/n_modes_available", "i4", ("linearized_step",), "1",
           "number of finite modes the linearization has: degrees of freedom minus the motions "
           "without inertia (-1: not counted, where the sparse solver found only the lowest); the "
           "lowest of them are stored",
           (2, 5)),
-        S("eigen/eigenvalue_bound", "f8", _LIN_SHAPE["mode"], "s-2",
+        S("eigen/eigenvalue_bound", "f8", _LIN_SHAPE["mode"], "s^-2",
           "error bound of the eigenvalue omega^2 of the assembled pencil (Kato-Temple's "
           "residual^2 / gap and the Rayleigh quotient's rounding, docs/linearized.md); NaN "
-          "where the solver did not refine it (the sparse solvers)", (2, 21), optional=True),
+          "where the solver did not refine it (the sparse solvers)", (2, 21), optional=True,
+          units_v2="s-2"),
         S("buckling/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),
         S("buckling/load_multiplier", "f8", _LIN_SHAPE["mode"], "1",
@@ -351,18 +367,21 @@ def _spec_list() -> list[DatasetSpec]:
           "orientation node", (2, 4)),
         S("compliance/step", "i4", ("linearized_step",), "1",
           "index of the static step (row of /static) that was linearized"),
-        S("compliance/global", "f8", ("linearized_step", 6, 6),
-          "m/N | rad/(N m) | m/(N m) = rad/N",
-          "6x6 compliance [dr; dphi] = C [dF; dT] of the chosen node, global axes"),
-        S("compliance/local", "f8", ("linearized_step", 6, 6),
-          "m/N | rad/(N m) | m/(N m) = rad/N",
-          "6x6 compliance of the chosen node in its current body axes"),
+        S("compliance/global", "f8", ("linearized_step", "response", "load_component"), "1",
+          "6x6 compliance [dr; dphi] = C [dF; dT] of the chosen node, global axes (units: "
+          "attribute units_per_index)", units_v2="m/N | rad/(N m) | m/(N m) = rad/N",
+          index_units=COMPLIANCE_UNITS, index_dims=("response", "load_component")),
+        S("compliance/local", "f8", ("linearized_step", "response", "load_component"), "1",
+          "6x6 compliance of the chosen node in its current body axes (units: attribute "
+          "units_per_index)", units_v2="m/N | rad/(N m) | m/(N m) = rad/N",
+          index_units=COMPLIANCE_UNITS, index_dims=("response", "load_component")),
     ]
     out += _state_space_specs()
     for kind in KIND_NAMES:
         facts = _KINDS[kind]
         since = _KIND_SINCE.get(kind, SCHEMA_VERSION)
         eu, su = _units(facts.mode_units), _units(facts.stress_units)
+        ru = _units([f"{u}/s" if u != "1" else "1/s" for u in facts.mode_units])
         em = facts.deformation_meaning or f"deformations of each {kind} element"
         sm = facts.stress_meaning or f"stress resultants of each {kind} element"
         m = f"model/elements/{kind}"
@@ -376,18 +395,16 @@ def _spec_list() -> list[DatasetSpec]:
                                                                   max(since, (1, 4)))):
             g = f"{group}/elements/{kind}"
             shape = (axis0, "element", "deformation_mode")
-            out += [S(f"{g}/deformation", "f8", shape, eu,
+            out += [S(f"{g}/deformation", "f8", shape, eu[0],
                       em if group == "static" else f"{kind} deformations, as in /static",
-                      tsince, kind),
-                    S(f"{g}/stress_resultant", "f8", shape, su,
+                      tsince, kind, **_index_units(eu)),
+                    S(f"{g}/stress_resultant", "f8", shape, su[0],
                       sm if group == "static" else f"{kind} stress resultants, as in /static",
-                      tsince, kind)]
+                      tsince, kind, **_index_units(su))]
             if group == "transient":
-                out.append(S(f"{g}/deformation_rate", "f8", shape,
-                             _units([f"{u}/s" if u != "1" else "1/s"
-                                     for u in facts.mode_units]),
+                out.append(S(f"{g}/deformation_rate", "f8", shape, ru[0],
                              f"{kind} deformation rates D v (a WHEEL's slip modes: the slip "
-                             "velocities)", max(since, (2, 14)), kind))
+                             "velocities)", max(since, (2, 14)), kind, **_index_units(ru)))
     # the rolling contact's watch in the transient (schema 2.15)
     if "WHEEL" in KIND_NAMES:
         g = "transient/elements/WHEEL"
@@ -403,28 +420,33 @@ def _spec_list() -> list[DatasetSpec]:
     # BEAM element properties and cross-sections (schema 1.1)
     b = "model/elements/BEAM"
     out += [
-        S(f"{b}/position_rows", "i8", ("element", 2), "1",
+        S(f"{b}/position_rows", "i8", ("element", "end"), "1",
           "rows of /model/position_nodes holding the element's nodes p and q (0-based; a "
           "line-cell connectivity)", v11, "BEAM"),
         S(f"{b}/length", "f8", ("element",), "m", "reference length l0 of each element",
           v11, "BEAM"),
-        S(f"{b}/axes", "f8", ("element", 3, 3), "1",
+        S(f"{b}/axes", "f8", ("element", "axis", "coordinate"), "1",
           "initial element axes: rows x (p to q), y, z as unit vectors in global axes",
           v11, "BEAM"),
         S(f"{b}/deformation_class", "i1", ("element", "deformation_mode"), "1",
           "class of each deformation mode: 0 rigid, 1 flexible (DYNE), 2 released (RLSE), "
           "3 kinematic (KINE)",
           v11, "BEAM"),
-        S(f"{b}/stiffness", "f8", ("element", 6), "N | N m2 | N m2 | N m2 | m2 | m2",
-          "ESTIFF: EA, GJ, EIy, EIz, cy = EIy/kGA, cz = EIz/kGA (0 where not given)",
-          v11, "BEAM"),
-        S(f"{b}/mass", "f8", ("element", 5), "kg/m | kg m | kg m | kg m | kg m",
-          "EM per unit length: rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz (0 where not given)",
-          v11, "BEAM"),
-        S(f"{b}/cross_section_type", "ascii", ("element",), "1",
+        S(f"{b}/stiffness", "f8", ("element", "stiffness_term"), "1",
+          "ESTIFF: EA, GJ, EIy, EIz, cy = EIy/kGA, cz = EIz/kGA (0 where not given; units: "
+          "attribute units_per_index)", v11, "BEAM",
+          units_v2="N | N m2 | N m2 | N m2 | m2 | m2",
+          index_units=("N", "N m^2", "N m^2", "N m^2", "m^2", "m^2"),
+          index_dims=("stiffness_term",)),
+        S(f"{b}/mass", "f8", ("element", "mass_term"), "1",
+          "EM per unit length: rhoA, rho(Iy+Iz), rhoIy, rhoIz, rhoIyz (0 where not given; "
+          "units: attribute units_per_index)", v11, "BEAM",
+          units_v2="kg/m | kg m | kg m | kg m | kg m",
+          index_units=("kg/m", "kg m", "kg m", "kg m", "kg m"), index_dims=("mass_term",)),
+        S(f"{b}/cross_section_type", "utf-8", ("element",), "1",
           "cross-section shape of each element: RECT, CIRC, or empty when not known",
           v11, "BEAM"),
-        S(f"{b}/cross_section_dims", "f8", ("element", 2), "m",
+        S(f"{b}/cross_section_dims", "f8", ("element", "section_dim"), "m",
           "cross-section dimensions: RECT (w along y, t along z), CIRC (d, NaN); NaN when "
           "not known", v11, "BEAM"),
         S("static/elements/BEAM/max_normal_stress", "f8", ("step", "element"), "Pa",
@@ -439,9 +461,9 @@ def _spec_list() -> list[DatasetSpec]:
                          ("eigen", "linearized_step"), ("buckling", "linearized_step"),
                          ("compliance", "linearized_step"), ("state_space", "linearized_step"),
                          ("critical", "linearized_step")):
-        out.append(S(f"{group}/checksum", "i8", (axis0, "checked_dataset"), "1",
+        out.append(S(f"{group}/integrity/checksum", "i8", (axis0, "checked_dataset"), "1",
                      "CRC-32 of each step's row of the group's datasets (columns: attribute "
-                     "columns), stored with the step",
+                     "columns), stored with the step (in /<group>/checksum before 3.0)",
                      {"state_space": (2, 3), "critical": (2, 4)}.get(group, (2, 1))))
     return out
 
@@ -451,8 +473,8 @@ def _state_space_specs() -> list[DatasetSpec]:
     the first-order system of SPACAR mode 9 (docs/linearized.md)."""
     S, v = DatasetSpec, (2, 3)
     lin = "linearized_step"
-    per_dof = "kg, m, rad, s (per degree of freedom)"
-    return [
+    per_dof = "1"
+    specs = [
         S("state_space/step", "i4", (lin,), "1",
           "index of the static step (row of /static) that was linearized; in a "
           "transient_linearized file (SPACAR 3) the row of /transient", v),
@@ -469,24 +491,24 @@ def _state_space_specs() -> list[DatasetSpec]:
           "deck node of each degree of freedom that is a DYNX coordinate (its dof_element is "
           "0), 0 for a deformation mode; only in a file with DYNX coordinates",
           (2, 16), optional=True),
-        S("state_space/state_name", "ascii", ("state",), "1",
+        S("state_space/state_name", "utf-8", ("state",), "1",
           "name of each state: 'BEAM 3 mode 2' (the deformation), then 'rate of BEAM 3 mode "
           "2'", v),
-        S("state_space/input_name", "ascii", ("system_input",), "1",
+        S("state_space/input_name", "utf-8", ("system_input",), "1",
           "deck line of each input: 'INPUTF i n c'", v),
-        S("state_space/output_name", "ascii", ("system_output",), "1",
+        S("state_space/output_name", "utf-8", ("system_output",), "1",
           "deck line of each output: 'OUTX i n c', 'OUTXP i n c', 'OUTE i e k', 'OUTEP i e k'",
           v),
-        S("state_space/M0", "f8", (lin, "dof", "dof"), per_dof,
+        S("state_space/M0", "f8", (lin, "dof", "dof_column"), per_dof,
           "mass matrix in the degrees of freedom", v),
-        S("state_space/C0", "f8", (lin, "dof", "dof"), per_dof,
+        S("state_space/C0", "f8", (lin, "dof", "dof_column"), per_dof,
           "damping matrix in the degrees of freedom (DAMPING, EDAMP; the velocity-dependent "
           "terms vanish at a static state)", v),
-        S("state_space/K0", "f8", (lin, "dof", "dof"), per_dof,
+        S("state_space/K0", "f8", (lin, "dof", "dof_column"), per_dof,
           "tangent stiffness K0 + G0 + N0 in the degrees of freedom", v),
         S("state_space/B0", "f8", (lin, "dof", "system_input"), per_dof,
           "input matrix: generalized force on each degree of freedom per unit input", v),
-        S("state_space/A", "f8", (lin, "state", "state"), per_dof,
+        S("state_space/A", "f8", (lin, "state", "state_column"), per_dof,
           "state matrix of dz/dt = A z + B u, z = [q; dq/dt] (and the kinematic "
           "coordinates p after them: z = [q; dq/dt; p], schema 2.13)", v),
         S("state_space/B", "f8", (lin, "state", "system_input"), per_dof,
@@ -497,7 +519,7 @@ def _state_space_specs() -> list[DatasetSpec]:
           "feedthrough matrix of y = C z + D u (zero)", v),
         # schema 2.13: the kinematic states of a steady motion (mode 3, TIMESTEP 0 0) and
         # the poles (docs/rolling.md)
-        S("state_space/kinematic_name", "ascii", ("kinematic_state",), "1",
+        S("state_space/kinematic_name", "utf-8", ("kinematic_state",), "1",
           "deck line of each kinematic coordinate, the last states of A: 'KINE e k', "
           "'KINX n c'", (2, 13), optional=True),
         S("state_space/pole", "c16", (lin, "state"), "s^-1",
@@ -512,67 +534,17 @@ def _state_space_specs() -> list[DatasetSpec]:
           "G = dp'/dq': the kinematic rates of the degrees of freedom's rates", (2, 13)),
         S("state_space/Gq", "f8", (lin, "kinematic_state", "dof"), per_dof,
           "d(p')/dq at the reference rates", (2, 13)),
-        S("state_space/Gp", "f8", (lin, "kinematic_state", "kinematic_state"), per_dof,
+        S("state_space/Gp", "f8", (lin, "kinematic_state", "kinematic_state_column"), per_dof,
           "d(p')/dp at the reference rates", (2, 13)),
     ]
+    from dataclasses import replace
+    return [replace(s, units_v2="kg, m, rad, s (per degree of freedom)",
+                    attrs=(("units_rule", SS_UNITS_RULE),))
+            if s.path.split("/")[1] in _SS_MATRICES else s for s in specs]
 
 
 #: Every dataset of the schema, by path relative to the root.
 DATASETS: dict[str, DatasetSpec] = {s.path: s for s in _spec_list()}
-
-# 1.x names of the BEAM datasets that moved (2.0 name -> 1.x name)
-_BEAM_LEGACY = {
-    "model/elements/BEAM/ids": "model/elements",
-    "model/elements/BEAM/nodes": "model/element_nodes",
-    "model/elements/BEAM/position_rows": "model/element_position_rows",
-    "model/elements/BEAM/length": "model/element_length",
-    "model/elements/BEAM/axes": "model/element_axes",
-    "model/elements/BEAM/deformation_class": "model/element_deformation_class",
-    "model/elements/BEAM/stiffness": "model/element_stiffness",
-    "model/elements/BEAM/mass": "model/element_mass",
-    "model/elements/BEAM/cross_section_type": "model/cross_section_type",
-    "model/elements/BEAM/cross_section_dims": "model/cross_section_dims",
-    "static/elements/BEAM/deformation": "static/deformation",
-    "static/elements/BEAM/stress_resultant": "static/stress_resultant",
-    "static/elements/BEAM/max_normal_stress": "static/max_normal_stress",
-    "static/elements/BEAM/max_von_mises_stress": "static/max_von_mises_stress",
-    "transient/elements/BEAM/deformation": "transient/deformation",
-    "transient/elements/BEAM/stress_resultant": "transient/stress_resultant",
-}
-
-#: 2.0 path -> 1.x path of every dataset that moved in schema 2.0. Paths not listed kept
-#: their name. ``/model/element_type`` (1.x: "BEAM" for every BEAM element) has no 2.0
-#: twin: the kind is the group name.
-LEGACY_NAMES: dict[str, str] = {
-    **_BEAM_LEGACY,
-    **{f"model/elements/{k}/{new}": f"model/{k.lower()}_{old}"
-       for k in KIND_NAMES if k != "BEAM"
-       for new, old in (("ids", "elements"), ("nodes", "element_nodes"))},
-    **{f"{g}/elements/{k}/{w}": f"{g}/{k.lower()}_{w}"
-       for k in KIND_NAMES if k != "BEAM" for g in ("static", "transient")
-       for w in ("deformation", "stress_resultant")},
-}
-_NEW_NAMES = {old: new for new, old in LEGACY_NAMES.items()}
-#: Datasets that 1.x files may lack although their schema version has them:
-#: ``/transient/dissipated_energy`` was added within schema 1.4.
-LEGACY_OPTIONAL = ("transient/dissipated_energy",)
-#: 1.x datasets dropped in 2.0.
-LEGACY_DROPPED = ("model/element_type",)
-
-
-def legacy_name(path: str, major: int) -> str:
-    """Where the 2.0 dataset ``path`` lives in a file of schema major version ``major``."""
-    return LEGACY_NAMES.get(path, path) if major < 2 else path
-
-
-def new_name(path: str) -> str | None:
-    """2.0 name of the 1.x dataset ``path`` (leading ``/`` kept); None if dropped."""
-    lead = "/" if path.startswith("/") else ""
-    p = path.lstrip("/")
-    if p in LEGACY_DROPPED:
-        return None
-    return lead + _NEW_NAMES.get(p, p)
-
 
 _KIND_RE = re.compile(r"^(model|static|transient)/elements/([^/]+)/")
 

@@ -514,15 +514,15 @@ def _x_time_element(what):
 
 def _component_units(kind: str, what: str, n: int) -> list:
     """The unit of each of the ``n`` components of a kind's transient ``what``, from the
-    schema: ``"rad | 1"`` (HINGE deformation: the joint angle in rad, then the small
-    relative rotations) gives the first part to the first component, the second to the
-    rest."""
+    schema: its ``units``, or one per mode where they differ (``index_units``: a HINGE's
+    deformation, the joint angle in rad, then the small relative rotations in 1)."""
     from spacarpy.results.schema import DATASETS
     spec = DATASETS.get(f"transient/elements/{kind}/{what}")
     if spec is None:
         return ["1"] * n
-    parts = [p.strip() for p in spec.units.split("|")]
-    return [parts[0]] + [parts[-1]] * (n - 1) if n else []
+    if spec.index_units:
+        return list(spec.index_units[:n]) + ["1"] * (n - len(spec.index_units))
+    return [spec.units] * n
 
 
 def _x_time_reaction(res, node, step, **_):

@@ -34,6 +34,7 @@ from spacarpy.results.h5file import (
 from spacarpy.results.schema import (
     DATASETS,
     FILETYPE,
+    FIXED_DIMS,
     KIND_NAMES,
     LEGACY_OPTIONAL,
     LINEARIZED_GROUPS,
@@ -42,6 +43,7 @@ from spacarpy.results.schema import (
     ROOT_ATTRS,
     SCHEMA_VERSION,
     STEP_GROUPS,
+    base_dim,
     n_def,
     n_slots,
     new_name,
@@ -226,8 +228,11 @@ def _sizes(sf: SchemaFile, kinds: list) -> dict:
 
 
 def _dim(dim, spec, sizes, sf):
+    dim = base_dim(dim)
     if isinstance(dim, int):
         return dim
+    if dim in FIXED_DIMS:
+        return len(FIXED_DIMS[dim])
     if dim in _STEP_AXES:
         return None
     if dim == "element":
@@ -255,7 +260,8 @@ def _check_dataset(sf, spec, sizes, problems) -> h5py.Dataset | None:
     ok = {"int": np.issubdtype(dt, np.integer), "float": np.issubdtype(dt, np.floating),
           "complex": np.issubdtype(dt, np.complexfloating),
           "ascii": dt.kind == "S", "bool": dt.kind == "b",
-          "str": h5py.check_string_dtype(dt) is not None}[spec.kind_class]
+          "str": h5py.check_string_dtype(dt) is not None
+          or (sf.major < 3 and spec.path != "deck" and dt.kind == "S")}[spec.kind_class]
     if not ok:
         problems.append(f"/{name} has dtype {dt}, expected {spec.kind_class}")
     shape = tuple(_dim(d, spec, sizes, sf) for d in spec.shape)
@@ -437,6 +443,12 @@ def _check_cf_attrs(sf: SchemaFile, problems: list[str]) -> None:
         # older units on the moved per-kind datasets)
         spec = DATASETS.get(name) if sf.major >= 2 or new_name(name) == name else None
         units = python_value(obj.attrs.get("units"))
-        if spec is not None and isinstance(units, str) and units != spec.units:
-            problems.append(f"/{name} has units {units!r}, expected {spec.units!r}")
+        if spec is not None and isinstance(units, str) and units != spec.units_in(sf.major):
+            problems.append(f"/{name} has units {units!r}, expected "
+                            f"{spec.units_in(sf.major)!r}")
+        if sf.major >= 3 and not h5py.h5ds.is_scale(obj.id):   # netCDF-4: every axis named
+            bare = [k for k in range(obj.ndim) if h5py.h5ds.get_num_scales(obj.id, k) < 1]
+            if bare:
+                problems.append(f"/{name} has no dimension scale on axis "
+                                f"{', '.join(map(str, bare))}")
     sf.f.visititems(visit)

@@ -106,7 +106,7 @@ class ModelView:
             return None
         value = self._res._read(path)
         if value.dtype.kind == "S":
-            return np.char.decode(value, "ascii")
+            return np.char.decode(value, "utf-8")
         return value
 
     position_nodes = cached_property(lambda self: self._get("position_nodes"))
@@ -415,7 +415,7 @@ class StaticView(_StepView):
     @property
     def reaction_component(self) -> list[str]:
         """Name (Fx ... Mz) of each reaction component."""
-        return np.char.decode(self._res._read("static/reaction_component"), "ascii").tolist()
+        return np.char.decode(self._res._read("static/reaction_component"), "utf-8").tolist()
 
     def section_forces(self, element=None, step=None) -> np.ndarray:
         """Normal force N (N), torque T and end moments My_p, My_q, Mz_p, Mz_q (N m), element

@@ -26,14 +26,23 @@ from spacarpy.errors import DiskFull, disk_full_text, is_disk_full
 from spacarpy.model import Model
 from spacarpy.outputs import refuse_non_regular
 from spacarpy.results import h5file
-from spacarpy.results.h5file import ascii_array, create, partial_path_for
+from spacarpy.results.h5file import create, partial_path_for, set_index_units
 from spacarpy.results.layout import (
+    add_dimensions,
     bind_step_group,
     create_step_group,
-    state_space_values,
+    string_dataset,
     write_header,
 )
-from spacarpy.results.schema import ACCELERATIONS, DATASETS, REACTION_COMPONENTS, n_def
+from spacarpy.results.schema import (
+    ACCELERATIONS,
+    DATASETS,
+    FIXED_DIMS,
+    REACTION_COMPONENTS,
+    base_dim,
+    n_def,
+)
+from spacarpy.results.step_writer import StepWriter
 from spacarpy.settings import ANALYSES, DEFORMATION_VARIANTS, ROTARY_CHOICES
 
 log = logging.getLogger(__name__)
@@ -46,7 +55,7 @@ _STRESS = ("max_normal_stress", "max_von_mises_stress")
 _ARC_ONLY = ("static/arc_length", "static/stability")     # arc-length runs only
 
 
-class ResultsWriter:
+class ResultsWriter(StepWriter):
     """Stream the results of one analysis into a crash-safe HDF5 results file.
 
     Use it as a context manager; the file is opened on entering the ``with`` block and is
@@ -254,8 +263,7 @@ class ResultsWriter:
         self._create_step_group(f, "static")
         g = f["static"]
         create(g, "reaction_node", reaction_node)
-        names = ascii_array(reaction_component)
-        create(g, "reaction_component", names, dtype=h5py.string_dtype("ascii", names.itemsize))
+        string_dataset(g, "reaction_component", reaction_component)
         for group, n_mode in (("eigen", n_eigen_modes), ("buckling", n_buckling_modes),
                               ("compliance", 1 if compliance_node is not None else 0)):
             if n_mode > 0:
@@ -269,125 +277,16 @@ class ResultsWriter:
             self._begin_state_space(f, state_space)
         if arclength:
             self._create_step_group(f, "critical", n_mode=1)
-
-    def static_step(self, load_factor: float, position, euler, deformation: dict,
-                    stress_resultant: dict, reaction, iterations: int, residual: float,
-                    max_normal_stress=None, max_von_mises_stress=None,
-                    arc_length=None, converged_by=0, warping=None, stability=-1) -> None:
-        """Append one converged static load step and make it durable.
-
-        Parameters
-        ----------
-        load_factor : float
-            Factor on DELXF (load = XF + load_factor * DELXF).
-        position, euler, warping : array_like, (n_pos, 3), (n_rot, 4) and (n_warp,)
-            Node positions (m), Euler parameters (1), warping coordinates (1/m; None: none).
-        deformation, stress_resultant : dict of str -> array_like (n_elem_of_kind, n_def)
-            Generalized deformations and stress resultants of every element kind of the
-            model, by kind keyword (``"BEAM"``, ``"TRUSS"`` ...).
-        reaction : array_like, shape (n_reac,)
-            Reactions in the order of ``reaction_component`` (N or N m).
-        iterations, residual : int, float
-            Newton iterations used, final relative residual.
-        max_normal_stress, max_von_mises_stress : array_like, shape (n_beam,), optional
-            Largest surface stresses of the BEAM elements (Pa); required when the model has
-            cross-sections (:class:`spacarpy.results.stress.SurfaceStress` computes them).
-        arc_length : float, optional
-            The arc length from step 0 (required in an arc-length run).
-        converged_by, stability : int
-            ``/static/converged_by`` (0 the tolerance, 1 the round-off floor) and, in an
-            arc-length run, ``/static/stability`` (docs/results.md).
-        """
-        given = {"position": position, "euler": euler, "reaction": reaction, "warping": warping,
-                 "arc_length": None if arc_length is None else float(arc_length),
-                 "iterations": operator.index(iterations), "residual": float(residual),
-                 "converged_by": operator.index(converged_by), "stability": int(stability),
-                 "elements/BEAM/max_normal_stress": max_normal_stress,
-                 "elements/BEAM/max_von_mises_stress": max_von_mises_stress}
-        self._step("static", float(load_factor), given, deformation, stress_resultant)
-
-    def transient_step(self, time: float, position, euler, velocity, euler_rate,
-                       deformation: dict, stress_resultant: dict, kinetic_energy: float,
-                       elastic_energy: float, external_work: float, iterations: int,
-                       residual: float, dissipated_energy: float = 0.0, reaction=None,
-                       converged_by: int = 0, deformation_rate=None, acceleration=None,
-                       euler_acceleration=None, warping=None, contact=None) -> None:
-        """Append one time step (as :meth:`static_step`, plus velocities, energies, ``reaction``
-        (required), ``deformation_rate`` (kind -> (n, n_def); zeros where missing), and where the
-        group has them the accelerations and ``contact`` (the WHEEL flags)) and make it durable.
-        ``converged_by``: 0 the residual met the tolerance, 1 within its round-off floor."""
-        given = {"position": position, "euler": euler, "velocity": velocity, "warping": warping,
-                 "acceleration": acceleration, "euler_acceleration": euler_acceleration,
-                 "euler_rate": euler_rate, "kinetic_energy": kinetic_energy,
-                 "elastic_energy": elastic_energy, "external_work": external_work,
-                 "dissipated_energy": float(dissipated_energy), "reaction": reaction,
-                 "iterations": operator.index(iterations), "residual": float(residual),
-                 "converged_by": operator.index(converged_by)}
-        rates = deformation_rate or {}
-        given.update({f"elements/{k}/deformation_rate": rates.get(k, np.zeros((n, n_def(k))))
-                      for k, n in self.kinds.items()})
-        n_w = self.kinds.get("WHEEL")
-        for name, fill in (("lift_off", 0), ("friction_ratio", np.nan)) if n_w is not None else ():
-            given[f"elements/WHEEL/{name}"] = (contact or {}).get(name, np.full(n_w, fill))
-        self._step("transient", float(time), given, deformation, stress_resultant)
-
-    def eigen_step(self, step: int, eigenvalue, frequency, kind, shape_position,
-                   shape_euler, n_available: int | None = None, bound=np.nan) -> None:
-        """Append the modes of one linearized static step (``step`` = its row in /static).
-
-        Arrays may hold fewer modes than the group was created for; missing ones are NaN
-        (kind 4). ``eigenvalue`` is complex (omega^2), ``shape_*`` (n_mode, n_pos, 3) and
-        (n_mode, n_rot, 4). ``n_available``: the finite modes the linearization has
-        (``/eigen/n_modes_available``; -1: not counted; default: the finite modes given);
-        ``bound`` each eigenvalue's error bound (``/eigen/eigenvalue_bound``)."""
-        lam = np.asarray(eigenvalue, dtype=complex)
-        if n_available is None:
-            n_available = int(np.sum(np.asarray(kind) != 4))
-        self._append_linearized("eigen", step, {
-            "frequency": frequency, "eigenvalue_real": lam.real, "eigenvalue_imag": lam.imag,
-            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler,
-            "n_modes_available": n_available, "eigenvalue_bound": bound})
-
-    def buckling_step(self, step: int, load_multiplier, critical: float, shape_position,
-                      shape_euler, kind=None) -> None:
-        """Append the buckling multipliers and shapes of one linearized static step.
-
-        ``kind`` (n_mode,): 0 finite, 4 infinite (default: 4 where the multiplier is NaN);
-        missing modes are NaN of kind 4."""
-        if kind is None:
-            kind = np.where(np.isnan(np.asarray(load_multiplier, dtype=float)), 4, 0)
-        self._append_linearized("buckling", step, {
-            "load_multiplier": load_multiplier, "critical_load_multiplier": critical,
-            "kind": kind, "shape_position": shape_position, "shape_euler": shape_euler})
-
-    def critical_step(self, step: int, point_type: int, load_factor: float, arc_length: float,
-                      shape_position, shape_euler, margin: float = np.nan,
-                      bound: float = np.nan) -> None:
-        """Append a critical point of an arc-length run: ``step`` is the row of /static
-        holding it, ``point_type`` a code of :data:`CRITICAL_POINT_NAMES`, the shapes
-        (n_pos, 3) and (n_rot, 4)."""
-        self._append_linearized("critical", step, {
-            "point_type": np.int8(point_type), "load_factor": float(load_factor),
-            "arc_length": float(arc_length), "margin": float(margin), "bound": float(bound),
-            "shape_position": np.asarray(shape_position, float)[None],
-            "shape_euler": np.asarray(shape_euler, float)[None]})
+        units = [REACTION_COMPONENTS[c] for c in reaction_component]
+        for group in self._groups:
+            if group in ("static", "transient"):
+                set_index_units(f[f"{group}/reaction"], units, ("reaction_number",))
+            add_dimensions(f, group, self.model_data)
 
     def add_warning(self, message: str) -> None:
         """A warning about the run (e.g. a load step that jumped between branches), stored
         in the root attribute ``warnings`` (one per line) when the file is closed."""
         self._warnings.append(str(message))
-
-    def compliance_step(self, step: int, global_, local) -> None:
-        """Append the 6x6 nodal compliance (global and body axes) of one linearized step."""
-        self._append_linearized("compliance", step, {"global": global_, "local": local})
-
-    def state_space_step(self, step: int, ss, time: float = np.nan) -> None:
-        """Append the linearized equations of one static step (or, with ``time``, of row
-        ``step`` of /transient, SPACAR mode 3): ``ss`` has the attributes M0, C0, K0, B0, A,
-        B, C, D (:class:`spacarpy.solvers.linear.state_space.StateSpace`)."""
-        values = state_space_values(ss, self._sizes["kinematic_state"])
-        values["time"] = time
-        self._append_linearized("state_space", step, values)
 
     def _begin_state_space(self, f, names: dict) -> None:
         n_dof = len(names["dof_element"])
@@ -401,8 +300,7 @@ class ResultsWriter:
             create(g, key, np.asarray(names[key], np.int32 if key == "dof_mode" else np.int64))
         for key in ("state_name", "input_name", "output_name") + (
                 ("kinematic_name",) if kinematic else ()):
-            text = ascii_array(names[key])
-            create(g, key, text, dtype=h5py.string_dtype("ascii", text.itemsize))
+            string_dataset(g, key, names[key])
 
     def finish(self) -> None:
         """Mark the run complete, close the file and move it atomically to :attr:`final_path`
@@ -479,6 +377,7 @@ class ResultsWriter:
             yield path, spec
 
     def _size(self, dim, kind, n_mode):
+        dim = base_dim(dim)
         if isinstance(dim, int):
             return dim
         if dim == "element":
@@ -487,48 +386,12 @@ class ResultsWriter:
             return n_def(kind)
         if dim == "mode":
             return n_mode
-        return self._sizes[dim]
+        return len(FIXED_DIMS[dim]) if dim in FIXED_DIMS else self._sizes[dim]
 
     def _create_step_group(self, f, group: str, n_mode: int = 0) -> None:
         self._groups[group] = create_step_group(
             f, group, self._specs(group), lambda dim, kind: self._size(dim, kind, n_mode),
             n_mode)
-
-    def _step(self, group: str, value: float, given: dict, deformation, stress) -> None:
-        self._require_open(f"{group}_step")
-        if group not in self._groups:
-            raise RuntimeError(f"{group}_step called before begin_static"
-                               + ("(transient=True)" if group == "transient" else ""))
-        entry = self._groups[group]
-        for what, values in (("deformation", deformation), ("stress_resultant", stress)):
-            if values is None:
-                values = {}
-            if not isinstance(values, dict):
-                raise TypeError(f"{group}_step: {what} must be a dict kind -> (n, n_def) "
-                                f"array, e.g. {{'BEAM': e}}")
-            if not values.keys() <= self.kinds.keys():
-                extra = sorted(set(values) - set(self.kinds))
-                raise ValueError(f"{group}_step: {what} of {extra}, which the model has not")
-            for kind, n in self.kinds.items():
-                # a kind the model has no elements of (the BEAM group is always written)
-                given[f"elements/{kind}/{what}"] = values.get(
-                    kind, np.zeros((0, n_def(kind))) if n == 0 else None)
-        rows = {}
-        for name, dtype, shape in entry["rows"]:
-            data = given.get(name)
-            if data is None:
-                raise ValueError(f"{group}_step: {name} is missing")
-            row = np.asarray(data, dtype=dtype)
-            if row.shape != shape:
-                raise ValueError(f"{group}_step: {name} has shape {row.shape}, "
-                                 f"expected {shape}")
-            rows[name] = row
-        k = entry["n"]
-        entry["appender"].append(rows, value, k)
-        entry["n"] = k + 1
-        entry["last"] = value
-        if group == "static":
-            log.debug("static step %d written (load factor %g)", k, value)
 
     def _steps_held(self) -> str:
         """What the file holds, for the log: static steps, time steps and the time reached."""
@@ -537,28 +400,6 @@ class ResultsWriter:
         tr = self._groups["transient"]
         held = f"{tr['n']} time steps" + (f" (to t = {tr['last']:.6g} s)" if tr["n"] else "")
         return f"{self.n_step} static steps, {held}" if self.n_step else held
-
-    def _append_linearized(self, group, step, values) -> None:
-        self._require_open(f"{group}_step")
-        if group not in self._groups:
-            raise RuntimeError(f"{group}_step: begin_static was called without "
-                               f"n_{group}_modes")
-        entry = self._groups[group]
-        rows = {}
-        for name, value in values.items():
-            trailing, dtype = entry["shapes"][name], entry["dtypes"][name]
-            fill = 4 if name == "kind" else np.nan if dtype.kind in "fc" else -1
-            row = np.full(trailing, fill, dtype=dtype)
-            given = np.asarray(value, dtype=dtype)
-            if given.ndim:
-                row[tuple(slice(0, min(a, b)) for a, b in zip(given.shape, trailing))] = \
-                    given[tuple(slice(0, b) for b in trailing)]
-            else:
-                row[...] = given
-            rows[name] = row
-        k = entry["n"]
-        entry["appender"].append(rows, int(step), k)
-        entry["n"] = k + 1
 
     def _require_open(self, what: str) -> h5py.File:
         if self._state != "open":

@@ -1,0 +1,239 @@
+"""Result and sweep files open in the netCDF world (schema 3.0, docs/results.md "netCDF").
+
+Every group of every result file of the session's fixtures (each analysis and element kind)
+and of a sweep file opens with xarray (engines h5netcdf and netcdf4, and as a DataTree),
+with netCDF4-python and with ``ncdump -h`` where installed, without a warning; every
+``units`` attribute (and every entry of a ``units_per_index`` companion) parses with pint
+into the dimension the schema documents, and with UDUNITS2 where it is installed.
+"""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import warnings
+
+import h5py
+import numpy as np
+import pytest
+
+xr = pytest.importorskip("xarray")
+pytest.importorskip("h5netcdf")
+netCDF4 = pytest.importorskip("netCDF4")
+pint = pytest.importorskip("pint")
+
+from spacarpy.results.schema import DATASETS  # noqa: E402
+
+UREG = pint.UnitRegistry()
+#: Completed result files of conftest.result_files (the partial ones are SWMR files that a
+#: writer may still hold; they are checked by the validator, not here).
+KEYS = ("bend", "frame", "column", "fourbar", "truss", "driven", "planar", "pltruss",
+        "transient", "state_space", "arclength", "bicycle", "inverse", "truss_dyn",
+        "planar_dyn", "pltruss_dyn", "pinbody", "pinbody_dyn", "dynx", "beamw", "beamw_dyn",
+        "beamc", "beamc_dyn", "wheel")
+
+#: Dimensions of units, independent of the schema's strings: a wrong unit string fails.
+FORCE, LENGTH = UREG.N.dimensionality, UREG.m.dimensionality
+EXPECTED = {
+    "static/position": LENGTH, "transient/velocity": (UREG.m / UREG.s).dimensionality,
+    "eigen/frequency": (1 / UREG.s).dimensionality,
+    "eigen/eigenvalue_real": (1 / UREG.s ** 2).dimensionality,
+    "eigen/shape_position": LENGTH, "transient/kinetic_energy": UREG.J.dimensionality,
+    "static/elements/BEAM/stress_resultant": FORCE,
+    "static/elements/BEAM/max_von_mises_stress": UREG.Pa.dimensionality,
+    "state_space/pole": (1 / UREG.s).dimensionality,
+}
+#: The same for the entries of a units_per_index companion.
+EXPECTED_PER_INDEX = {
+    "model/elements/BEAM/stiffness": [FORCE] + [(UREG.N * UREG.m ** 2).dimensionality] * 3
+    + [(UREG.m ** 2).dimensionality] * 2,
+    "static/elements/HINGE/deformation": [UREG.dimensionless.dimensionality] * 3,
+    "compliance/global": [(UREG.m / UREG.N).dimensionality] * 3
+    + [(1 / UREG.N).dimensionality] * 3,             # the first row: dx per F, then per T
+}
+
+
+def _groups(path) -> list:
+    groups = []
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, obj: groups.append(name)
+                     if isinstance(obj, h5py.Group) else None)
+    return [None] + groups
+
+
+def _open_everywhere(path) -> None:
+    """Every group with both engines, the DataTree, netCDF4-python: no error, no warning."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for group in _groups(path):
+            for engine in ("h5netcdf", "netcdf4"):
+                with xr.open_dataset(path, group=group, engine=engine) as ds:
+                    ds.load()
+                    for name, var in ds.variables.items():     # every axis is named
+                        assert not any(d.startswith("phony_dim") for d in var.dims), \
+                            (path, group, name, var.dims)
+        for engine in ("h5netcdf", "netcdf4"):
+            tree = xr.open_datatree(path, engine=engine)
+            tree.load()
+            tree.close()
+        with netCDF4.Dataset(path) as nc:
+            def walk(g):
+                for var in g.variables.values():
+                    var.set_auto_mask(False)
+                    var[...]
+                for child in g.groups.values():
+                    walk(child)
+            walk(nc)
+
+
+def _units(path) -> dict:
+    """{dataset: (units, units_per_index or None, dims of the index)}."""
+    out = {}
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset):
+            per = obj.attrs.get("units_per_index")
+            out[name] = (obj.attrs["units"], None if per is None else [
+                u.decode() if isinstance(u, bytes) else str(u) for u in per],
+                obj.attrs.get("units_per_index_dims"))
+    with h5py.File(path, "r") as f:
+        f.visititems(visit)
+    return out
+
+
+def _parse(unit: str):
+    return UREG("1").units if unit == "1" else UREG.parse_units(unit)
+
+
+def _check_units(path) -> None:
+    with h5py.File(path, "r") as f:
+        for name, (units, per, dims) in _units(path).items():
+            assert isinstance(units, str), (name, units)
+            parsed = _parse(units)
+            spec = DATASETS.get(name)
+            if spec is not None:
+                assert parsed.dimensionality == _parse(spec.units).dimensionality, name
+            if name in EXPECTED:
+                assert parsed.dimensionality == EXPECTED[name], (name, units)
+            if per is not None:
+                assert units == "1", name
+                n = int(np.prod([_dim_length(f[name], d) for d in str(dims).split()]))
+                assert len(per) == n, (name, per, dims)
+                parsed_per = [_parse(u).dimensionality for u in per]
+                if name in EXPECTED_PER_INDEX:
+                    want = EXPECTED_PER_INDEX[name]
+                    assert parsed_per[:len(want)] == want, (name, per)
+
+
+def _dim_length(ds, dim: str) -> int:
+    """Length of the axis of ``ds`` whose dimension scale is named ``dim``."""
+    for axis in range(ds.ndim):
+        for scale in ds.dims[axis].values():
+            if scale.name.rsplit("/", 1)[-1] == dim:
+                return ds.shape[axis]
+    raise AssertionError(f"{ds.name} has no axis {dim}")
+
+
+#: The files opened in the quick suite (a static, a linearized with compliance, a state
+#: space, an arc-length run); the others, 25-40 s each on a busy 2-core machine, are slow.
+QUICK = ("bend", "column", "state_space", "arclength")
+
+
+@pytest.mark.parametrize("key", [k if k in QUICK else pytest.param(k, marks=pytest.mark.slow)
+                                 for k in KEYS])
+def test_every_group_opens_in_xarray_and_netcdf4(result_files, key):
+    _open_everywhere(result_files[key])
+
+
+@pytest.mark.parametrize("key", KEYS)
+def test_every_units_attribute_parses_into_its_dimension(result_files, key):
+    _check_units(result_files[key])
+
+
+def test_the_coordinates_are_the_deck_numbers(result_files):
+    """The node axes of /static carry the deck node numbers, the element axis the element
+    numbers, the first axis the load factor: xarray selects by them."""
+    path = result_files["bend"]
+    with xr.open_dataset(path, group="static", engine="h5netcdf") as st, \
+            xr.open_dataset(path, group="static/elements/BEAM", engine="netcdf4") as el:
+        tip = st.position.sel(position_node=3, coordinate="y").isel(load_factor=-1)
+        assert float(st.load_factor[-1]) == 1.0
+        assert float(tip) == pytest.approx(53.642106471220565, rel=1e-12)
+        assert el.element.values.tolist() == list(range(1, 9))
+        assert el.stress_resultant.dims == ("load_factor", "element", "deformation_mode")
+        assert st.reaction_component.values.dtype.kind == "U"       # str, not bytes
+    with xr.open_dataset(path, group="static/integrity", engine="h5netcdf") as integ:
+        assert integ.checksum.dims == ("load_factor", "checked_dataset")
+
+
+def test_mode_shapes_and_state_space_document_their_units(result_files):
+    with h5py.File(result_files["column"], "r") as f:
+        assert f["eigen/shape_position"].attrs["units"] == "m"
+        assert "phi^T M phi = 1 kg m^2" in f["eigen/shape_position"].attrs["normalization"]
+    with h5py.File(result_files["state_space"], "r") as f:
+        assert f["state_space/A"].attrs["units"] == "1"
+        assert "u_i u_j" in f["state_space/A"].attrs["units_rule"]
+
+
+def test_sweep_file_opens_with_units(column_sweep):
+    _open_everywhere(column_sweep)
+    _check_units(column_sweep)
+    with xr.open_dataset(column_sweep, group="eigen", engine="h5netcdf") as ds:
+        assert ds.frequency.attrs["units"] == "Hz"
+        assert ds.frequency.dims[-1] == "mode" and ds.frequency.dims[0] in ds.coords
+
+
+@pytest.mark.skipif(shutil.which("ncdump") is None, reason="ncdump (netcdf-bin) not installed")
+@pytest.mark.parametrize("key", ("bend", "column", "transient", "state_space", "arclength"))
+def test_ncdump_reads_the_header(result_files, key):
+    done = subprocess.run(["ncdump", "-h", str(result_files[key])], capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "load_factor" in done.stdout or "time" in done.stdout
+
+
+@pytest.mark.skipif(shutil.which("udunits2") is None,
+                    reason="UDUNITS2 (udunits-bin's udunits2) not installed")
+@pytest.mark.parametrize("key", ("frame", "column", "transient", "state_space"))
+def test_udunits2_parses_every_unit(result_files, key):
+    units = set()
+    for unit, per, _ in _units(result_files[key]).values():
+        units.add(unit)
+        units.update(per or ())
+    for unit in sorted(units):
+        done = subprocess.run(["udunits2", "-H", unit, "-W", ""], capture_output=True,
+                              text=True, timeout=30)
+        assert done.returncode == 0 and "not recognized" not in done.stdout + done.stderr, \
+            (unit, done.stdout, done.stderr)
+
+
+def test_older_files_still_read_and_validate(result_files, tmp_path):
+    """Schema 2.x files (checksums in /<group>/checksum, the 2.x unit strings, no dimension
+    scales) are read and validated, and a changed value in one is still reported as damage:
+    every shipped 2.x baseline, and a 3.0 file turned into the 2.22 layout."""
+    from pathlib import Path
+
+    from spacarpy.results import open_results, validate_file
+    from spacarpy.results.h5file import ResultsFormatError
+
+    from helpers import as_schema_2
+
+    base = Path(__file__).resolve().parents[1] / "decks" / "baseline"
+    for path in sorted(base.glob("*.h5")):
+        with h5py.File(path, "r") as f:
+            if int(f.attrs["schema_version"][0]) != 2:
+                continue
+        assert validate_file(path) == [], path
+    old = tmp_path / "old.h5"
+    shutil.copy(result_files["column"], old)
+    with h5py.File(old, "r+") as f:
+        as_schema_2(f, 22)
+        assert "eigen/checksum" in f and "eigen/integrity" not in f
+    assert validate_file(old) == []
+    with open_results(result_files["column"]) as new, open_results(old) as res:
+        np.testing.assert_array_equal(res.eigen.frequency, new.eigen.frequency)
+        assert res.static.reaction_component == new.static.reaction_component
+    with h5py.File(old, "r+") as f:
+        f["eigen/frequency"][1, 0] += 1e-9
+    assert any("/eigen/frequency is damaged at step 1" in p for p in validate_file(old))
+    with pytest.raises(ResultsFormatError, match="frequency"), open_results(old) as res:
+        assert res.eigen.frequency is None
