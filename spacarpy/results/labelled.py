@@ -31,8 +31,9 @@ __all__ = ["LabelledView", "MissingExtraError"]
 
 _XYZ = ["x", "y", "z"]
 _EULER = ["lambda0", "lambda1", "lambda2", "lambda3"]
-#: The mass-normalized eigen shapes' units (kg^-1/2 written so that pint parses it).
-_EIGEN_SHAPE_UNITS = {"position": "m / kg**0.5", "euler": "1 / kg**0.5"}
+#: The mass-normalized eigen shapes' units, as the file stores them (schema 3.0: scaled so
+#: that phi^T M phi = 1 kg m^2, so positions are in m and Euler parameters in 1).
+_EIGEN_SHAPE_UNITS = {"position": "m", "euler": "1"}
 
 
 class MissingExtraError(SpacarError, ImportError):
@@ -216,11 +217,11 @@ def _linearized_vars(view) -> tuple[dict, dict]:
         data.update(
             frequency=_var(("linearized_step", "mode"), view.frequency, "Hz",
                            "natural frequency"),
-            eigenvalue_real=_var(("linearized_step", "mode"), ev.real, "s-2",
+            eigenvalue_real=_var(("linearized_step", "mode"), ev.real, "s^-2",
                                  "eigenvalue omega^2, real part"),
-            eigenvalue_imag=_var(("linearized_step", "mode"), ev.imag, "s-2",
+            eigenvalue_imag=_var(("linearized_step", "mode"), ev.imag, "s^-2",
                                  "eigenvalue omega^2, imaginary part"))
-        units, what = _EIGEN_SHAPE_UNITS, "mass-normalized mode shape"
+        units, what = _EIGEN_SHAPE_UNITS, "mode shape, mass-normalized: phi^T M phi = 1 kg m^2"
     else:
         data.update(
             load_multiplier=_var(("linearized_step", "mode"), view.load_multiplier, "1",
@@ -418,7 +419,7 @@ def _dataframe(view, pd, what, kind):
             ev = view.eigenvalue
             cols.update(frequency=view.frequency.ravel(), eigenvalue_real=ev.real.ravel(),
                         eigenvalue_imag=ev.imag.ravel())
-            units.update(frequency="Hz", eigenvalue_real="s-2", eigenvalue_imag="s-2")
+            units.update(frequency="Hz", eigenvalue_real="s^-2", eigenvalue_imag="s^-2")
         else:
             cols["load_multiplier"] = view.load_multiplier.ravel()
             units["load_multiplier"] = "1"

@@ -381,7 +381,7 @@ def _x_shape(group):
         m = res.model
         ids = m.position_nodes if node is None else np.atleast_1d(node)
         rows = m.position_row(ids)
-        units = "m kg-1/2" if group == "eigen" else "1"
+        units = "m" if group == "eigen" else "1"   # eigen: phi^T M phi = 1 kg m^2
         label = "eigenmode" if group == "eigen" else "buckling mode"
         t = _long(f"{label} {mode} at static step {int(view.step[r])}",
                   np.array([view.step[r]]), np.array([view.load_factor[r]]), "node", ids,
