@@ -66,9 +66,14 @@ from spacarpy.bench.decks import (
     CASES,
     DECK_CASES,
     DEFAULT_SIZES,
+    LATTICE,
     SHEAR,
     arclength_deck,
     eigen_cantilever_deck,
+    lattice_deck,
+    lattice_elements,
+    lattice_grid,
+    lattice_node,
     transient_cantilever_deck,
 )
 from spacarpy.bench.tables import _text_table, _title, machine_summary, write_markdown
@@ -85,9 +90,14 @@ def _peak_mb() -> float:
 def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
     from spacarpy.bench.cases import bend_deck, cantilever_deck
     from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
-    text = (cantilever_deck(n, n_steps=n_steps, tol=1e-8, compact=True, shear=SHEAR)
-            if case == "cantilever"
-            else bend_deck(n, n_steps=n_steps, tol=1e-8))
+    grid = None
+    if case == "lattice":                       # n: the target number of beams
+        grid = lattice_grid(n)
+        text, n_steps = lattice_deck(*grid), LATTICE["steps"]
+    elif case == "cantilever":
+        text = cantilever_deck(n, n_steps=n_steps, tol=1e-8, compact=True, shear=SHEAR)
+    else:
+        text = bend_deck(n, n_steps=n_steps, tol=1e-8)
     t0 = time.perf_counter()
     model, settings = job_from_text(text, f"<{case} {n}>")
     parse = time.perf_counter() - t0
@@ -103,13 +113,27 @@ def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
     best = timings[totals.index(min(totals))]
     its = max(best.iterations, 1)
     tip = res.steps[-1].x[prob.num.pos_idx[-1]]
-    return dict(case=case, n=n, unknowns=prob.pattern.n, setup=parse + min(setups),
+    if grid is not None:                        # the mean u_x of the top nodes
+        top = [lattice_node(grid[0], grid[1], i, j, grid[2] - 1)
+               for j in range(grid[1]) for i in range(grid[0])]
+        ux = lattice_top_ux(model, prob, res.steps[-1].x, top)
+        tip = np.array([0.0, ux, 0.0])
+        n = lattice_elements(*grid)
+    return dict(case=case, n=n, unknowns=prob.pattern.n,
+                grid=grid and "x".join(map(str, grid)), setup=parse + min(setups),
                 total=min(totals), median=statistics.median(totals),
                 iterations=best.iterations, factorizations=best.factorizations,
                 per_iter=best.total / its, kernels=best.kernels / its,
                 assembly=best.assembly / its, solve=best.solve / its,
                 other=(best.total - best.kernels - best.assembly - best.solve) / its,
                 result=float(tip[1]), peak_mb=_peak_mb())
+
+
+def lattice_top_ux(model, prob, x, top_nodes) -> float:
+    """Mean displacement along x of the lattice's position nodes ``top_nodes`` at ``x``."""
+    where = {int(p): k for k, p in enumerate(model.position_ids)}
+    idx = prob.num.pos_idx[[where[p] for p in top_nodes], 0]
+    return float(np.mean(x[idx] - prob.num.x0[idx]))
 
 
 def _eigen_row(n: int, repeat: int) -> dict:
@@ -200,7 +224,11 @@ def _arclength_row(n: int) -> dict:
 
 def _peer_row(case: str, n: int, n_steps: int, transient_steps: int) -> dict:
     from spacarpy.bench.peers import exudyn_cantilever as exu
-    if case == "cantilever":
+    if case == "lattice":
+        from spacarpy.bench.peers.exudyn_lattice import extrapolated
+        r = extrapolated(*lattice_grid(n))
+        value = r["top_ux"]
+    elif case == "cantilever":
         r = exu.cantilever(n, n_steps=n_steps)
         value = r["tip"][1] if r["ok"] else np.nan
     elif case == "bend":
@@ -233,7 +261,7 @@ def _spinup_peer_row(n: int, t_end: float) -> dict:
 def _run_row(case: str, n: int, repeat: int, n_steps: int, transient_steps: int) -> dict:
     from spacarpy.memory import keep_freed_memory
     keep_freed_memory()                 # as `spacarpy run` does (spacarpy.memory)
-    if case in ("cantilever", "bend"):
+    if case in ("cantilever", "bend", "lattice"):
         return _static_row(case, n, repeat, n_steps)
     if case == "eigen":
         return _eigen_row(n, repeat)

@@ -36,17 +36,19 @@ def _columns(case: str, peer: bool):
                        ("Exudyn peak (m)", 15, lambda r: _peer_get(r, "result", ".4f")),
                        ("Exudyn t peak (s)", 17, lambda r: _peer_get(r, "t_peak", ".2f")),
                        ("ratio", 6, _ratio)]
-    cols = [("elements", 9, f("n", "d")), ("unknowns", 9, f("unknowns", "d")),
+    cols = [("grid", 9, lambda r: r.get("grid") or "-")] if case == "lattice" else []
+    cols += [("elements", 9, f("n", "d")), ("unknowns", 9, f("unknowns", "d")),
             ("setup s", 8, f("setup", ".2f")), ("solve min s", 11, f("total", ".3f")),
             ("median s", 9, f("median", ".3f"))]
-    if case in ("cantilever", "bend"):
+    if case in ("cantilever", "bend", "lattice"):
         cols += [("iters", 6, f("iterations", "d")), ("LU", 5, f("factorizations", "d")),
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
                  ("kernels", 8, f("kernels", ".2f", 1e3)),
                  ("assembly", 9, f("assembly", ".2f", 1e3)),
                  ("solve", 7, f("solve", ".2f", 1e3)), ("other", 7, f("other", ".2f", 1e3)),
-                 ("tip y (m)" if case == "cantilever" else "tip y (m)", 11,
-                  f("result", ".6f" if case == "cantilever" else ".4f"))]
+                 ({"lattice": "top u_x (m)"}.get(case, "tip y (m)"), 11,
+                  f("result", ".4f" if case == "bend" else ".6e" if case == "lattice"
+                    else ".6f"))]
     elif case == "eigen":
         cols += [("f1 (Hz)", 9, f("f1", ".4f")), ("f10 (Hz)", 9, f("f10", ".3f"))]
     elif case == "arclength":
@@ -65,11 +67,13 @@ def _columns(case: str, peer: bool):
     if case == "cantilever":
         cols += [("whole s", 8, f("whole", ".3f"))]
     if peer:
-        unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)"}.get(case, "tip u_y (m)")
+        unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)", "lattice": "top u_x (m)"}.get(
+            case, "tip u_y (m)")
         cols += [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
                  ("Exudyn its", 10, lambda r: _peer_get(r, "iterations", "d")),
                  (f"Exudyn {unit}", 16, lambda r: _peer_get(
-                     r, "result", ".4f" if case in ("eigen", "bend") else ".6f")),
+                     r, "result", ".4f" if case in ("eigen", "bend")
+                     else ".6e" if case == "lattice" else ".6f")),
                  ("ratio", 6, _ratio)]
         if case == "cantilever":
             cols += [("Exudyn whole s", 14, lambda r: _peer_get(r, "whole", ".3f")),

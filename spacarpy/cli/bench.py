@@ -6,8 +6,8 @@ from spacarpy.cli.common import UsageError, _positive_float, _verbosity
 from spacarpy.errors import EXIT_OK, EXIT_SOLVER
 
 #: spacarpy.bench.decks.CASES and its DECK_CASES (spelled out: the parser does not import bench).
-_BENCH_CASES = ("cantilever", "bend", "eigen", "transient", "arclength", "spinup", "pendulum",
-                "sweep")
+_BENCH_CASES = ("cantilever", "bend", "eigen", "transient", "arclength", "spinup", "lattice",
+                "pendulum", "sweep")
 
 
 def add_parser(sub) -> None:
@@ -15,7 +15,7 @@ def add_parser(sub) -> None:
     bench = sub.add_parser("bench", help="time the solvers on cantilevers and a bend of "
                                          "growing size (optionally beside Exudyn)")
     bench.add_argument("--cases", nargs="+", choices=_BENCH_CASES, default=list(_BENCH_CASES),
-                       help="which cases (default: all eight; pendulum and sweep time whole "
+                       help="which cases (default: all nine; pendulum and sweep time whole "
                             "processes on shipped decks)")
     bench.add_argument("--sizes", type=int, nargs="+", default=None,
                        help="numbers of elements for every case (default: 10 100 1000 10000; "

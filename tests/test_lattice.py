@@ -1,0 +1,145 @@
+"""The 3D beam lattice of ``spacarpy bench --cases lattice`` (spacarpy.bench.decks) and its
+shipped deck decks/lattice.dat: the generator's counts and grid choice, a column of the
+lattice against Timoshenko beam theory, and the equilibrium of the whole lattice."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spacarpy.bench.decks import (
+    LATTICE,
+    lattice_deck,
+    lattice_elements,
+    lattice_grid,
+    lattice_node,
+)
+from spacarpy.bench.runner import lattice_top_ux
+from spacarpy.deck import job_from_text
+from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
+
+DECKS = Path(__file__).resolve().parents[1] / "decks"
+
+
+def _solve(kx, ky, m, tol=1e-10):
+    model, settings = job_from_text(lattice_deck(kx, ky, m), f"<lattice {kx}x{ky}x{m}>")
+    prob = StaticProblem(model, deformations=settings.deformations)
+    res = solve_static(model, problem=prob,
+                       options=StaticOptions(max_iter=20, tol=tol, n_steps=LATTICE["steps"]))
+    return model, prob, res
+
+
+@pytest.mark.parametrize("grid", [(1, 1, 2), (2, 3, 2), (3, 2, 4), (5, 5, 8)])
+def test_generator_counts(grid):
+    kx, ky, m = grid
+    text = lattice_deck(kx, ky, m)
+    beams = re.findall(r"^BEAM (\d+) (\d+) (\d+) (\d+) (\d+)", text, re.M)
+    assert len(beams) == lattice_elements(kx, ky, m)
+    # every beam joins grid neighbours 0.1 m apart, each pair once
+    xyz = {int(n): np.array(v, dtype=float) for n, *v in
+           re.findall(r"^X (\d+) (\S+) (\S+) (\S+)$", text, re.M)}
+    assert len(xyz) == kx * ky * m
+    pairs = {(int(p), int(q)) for _, p, _, q, _ in beams}
+    assert len(pairs) == len(beams)
+    for _, p, r, q, s in beams:
+        assert int(r) == int(p) + 1 and int(s) == int(q) + 1
+        assert np.linalg.norm(xyz[int(q)] - xyz[int(p)]) == pytest.approx(LATTICE["l"])
+    fixed = {int(n) for n in re.findall(r"^FIX (\d+)$", text, re.M)}
+    bottom = {lattice_node(kx, ky, i, j, 0) for i in range(kx) for j in range(ky)}
+    assert fixed == bottom | {n + 1 for n in bottom}
+    loaded = [int(n) for n in re.findall(r"^DELXF (\d+) \{F\} 0 0$", text, re.M)]
+    assert sorted(loaded) == sorted(lattice_node(kx, ky, i, j, m - 1)
+                                    for i in range(kx) for j in range(ky))
+    assert all(xyz[n][2] == pytest.approx((m - 1) * LATTICE["l"]) for n in loaded)
+
+
+@pytest.mark.parametrize("target", [1000, 10000, 30000, 100000])
+def test_grid_for_a_target_size(target):
+    kx, ky, m = lattice_grid(target)
+    assert kx == ky and abs(m - 2 * kx) <= 0.25 * m
+    assert abs(lattice_elements(kx, ky, m) - target) <= 0.02 * target
+
+
+def test_shipped_deck_is_the_generators():
+    assert (DECKS / "lattice.dat").read_text() == lattice_deck(5, 5, 8)
+
+
+@pytest.mark.parametrize("m, rel", [(2, 2e-5), (3, 2e-4)])
+def test_column_against_timoshenko(m, rel):
+    """A 1 x 1 x m lattice is a cantilever column of m - 1 members under 50 N along x: its
+    top moves F L^3 / 3EI + F L / kGA (linear Timoshenko; the spacarpy beam is exact for it
+    with one element per member). The shear term is 0.77 % of the deflection at m = 2 and
+    0.2 % at m = 3, so the tolerances catch a shear flexibility that is 0.3 % or 10 % off;
+    what is left is the geometric nonlinearity (end rotation 1.4e-3 and 5.8e-3 rad)."""
+    c = LATTICE
+    area, inertia = c["a"] ** 2, c["a"] ** 4 / 12
+    g = c["E"] / (2 * (1 + c["nu"]))
+    length = (m - 1) * c["l"]
+    theory = (c["F"] * length**3 / (3 * c["E"] * inertia)
+              + c["F"] * length / (c["kappa"] * g * area))
+    model, prob, res = _solve(1, 1, m)
+    ux = lattice_top_ux(model, prob, res.steps[-1].x, [lattice_node(1, 1, 0, 0, m - 1)])
+    assert ux == pytest.approx(theory, rel=rel)
+
+
+def test_lattice_in_equilibrium():
+    """The clamps' reactions balance the 9 top forces: the force sum to 1e-10 of the load,
+    and the moment about the origin (deformed positions) to 1e-10 of the load's moment."""
+    kx, ky, m = 3, 3, 3
+    model, prob, res = _solve(kx, ky, m)
+    step = res.steps[-1]
+    x = step.x
+    where = {int(p): k for k, p in enumerate(model.position_ids)}
+    pos = lambda n: x[prob.num.pos_idx[where[n]]]              # noqa: E731
+    force, moment = np.zeros(3), np.zeros(3)
+    for n, name, value in zip(prob.reaction_node, prob.reaction_component, step.reaction):
+        axis = "xyz".index(name[1])
+        if name[0] == "F":
+            f = np.zeros(3)
+            f[axis] = value
+            force += f
+            moment += np.cross(pos(int(n)), f)
+        else:
+            moment[axis] += value
+    total = LATTICE["F"] * kx * ky
+    load = np.array([LATTICE["F"], 0.0, 0.0])
+    top = [lattice_node(kx, ky, i, j, m - 1) for i in range(kx) for j in range(ky)]
+    load_moment = sum(np.cross(pos(n), load) for n in top)
+    np.testing.assert_allclose(force, [-total, 0.0, 0.0], rtol=0, atol=1e-10 * total)
+    np.testing.assert_allclose(moment, -load_moment, rtol=0,
+                               atol=1e-10 * np.linalg.norm(load_moment))
+
+
+def test_lattice_against_exudyn():
+    """The bench's peer: Exudyn's geometrically exact beam, 4 and 8 elements per member,
+    extrapolated in the mesh (spacarpy.bench.peers.exudyn_lattice), reaches spacarpy's mean
+    top displacement to 1e-4 (measured 1.1e-5 at 4 x 4 x 13; with one Exudyn element per
+    member it is 6 times too stiff)."""
+    pytest.importorskip("exudyn")
+    from spacarpy.bench.peers.exudyn_lattice import extrapolated
+    kx, ky, m = 2, 2, 3
+    model, prob, res = _solve(kx, ky, m)
+    top = [lattice_node(kx, ky, i, j, m - 1) for i in range(kx) for j in range(ky)]
+    ours = lattice_top_ux(model, prob, res.steps[-1].x, top)
+    peer = extrapolated(kx, ky, m)
+    assert peer["ok"], peer["reason"]
+    assert peer["top_ux"] == pytest.approx(ours, rel=1e-4)
+    assert abs(peer["coarse"]["top_ux"] / ours - 1) > 1e-3     # the mesh matters
+
+
+def test_bench_row_and_table():
+    """The bench's lattice row: the grid it picks for a target, the deck's numbers and its
+    top displacement, shown in the text table (no timing is checked)."""
+    from spacarpy.bench.runner import _static_row
+    from spacarpy.bench.tables import _text_table
+    row = _static_row("lattice", 100, 1, 10)
+    kx, ky, m = lattice_grid(100)
+    assert row["grid"] == f"{kx}x{ky}x{m}" and row["n"] == lattice_elements(kx, ky, m)
+    model, prob, res = _solve(kx, ky, m, tol=1e-8)
+    top = [lattice_node(kx, ky, i, j, m - 1) for i in range(kx) for j in range(ky)]
+    assert row["result"] == pytest.approx(lattice_top_ux(model, prob, res.steps[-1].x, top),
+                                          rel=1e-6)
+    line = _text_table("lattice", [row], False)[2]
+    assert row["grid"] in line and f"{row['result']:.6e}" in line
