@@ -370,9 +370,14 @@ def test_edamp_on_a_hinge_damps_the_pendulum_spring(tmp_path):
 def test_adaptive_time_steps_meet_the_error_tolerance(tmp_path):
     """ERROR abs rel: the step size adapts to the local error. The 90-degree pendulum over
     one exact period (4 stored steps): tightening the tolerance by 100 cuts the error at the
-    end of the period by more than 20 (a local error of order h^3 controlled to tol gives a
-    global error of order tol^(2/3)); measured 1.2e-2, 3.7e-4, 6.4e-6 rad with 26, 103, 464
-    integration steps."""
+    end of the period by about 100^(2/3) = 21.5 (a local error of order h^3 controlled to tol
+    gives a global error of order tol^(2/3)), by (10^4)^(2/3) = 464 over 10^4; measured 2.6e-3,
+    1.4e-4, 3.1e-6 rad with 26, 96, 422 integration steps (ratios 19.5, 44, 860 over 10^4).
+    The rod's rotation is measured by the angle of its local error (docs/transient.md,
+    "Rotations on their group"; with the former estimate of its four Euler parameters:
+    1.2e-2, 3.7e-4, 6.4e-6 rad with 26, 103, 464 steps), and the loosest tolerance (14 of
+    its 40 tries rejected) lies just outside the asymptotic range: its ratio to the next is
+    asked to exceed 15, the others 20 and 400 as before."""
     text = (DECKS / "pendulum_rigid_90deg.dat").read_text()
     period = float(4 * np.sqrt(2 / (3 * G)) * ellipk(0.5))
     results = []
@@ -387,8 +392,9 @@ def test_adaptive_time_steps_meet_the_error_tolerance(tmp_path):
         results.append((abs(angle[-1]), abs(angle[2] + np.pi)))
         assert steps == 5
     errors = np.array(results)
-    assert errors[0, 0] > 20 * errors[1, 0] > 400 * errors[2, 0]
-    assert errors[2].max() < 1e-5
+    assert errors[0, 0] > 15 * errors[1, 0]
+    assert errors[1, 0] > 20 * errors[2, 0] and errors[0, 0] > 400 * errors[2, 0]
+    assert errors[0].max() < 5e-3 and errors[2].max() < 5e-6
 
 
 @pytest.mark.slow

@@ -111,6 +111,9 @@ class LieNodes:
     #: (q, global-axis and body-axis angular accelerations, the axes chosen) at the last
     #: step's start (choose_axes)
     history: tuple | None = None
+    #: the last step's update (a LieStep; None where it was taken in the turning frame,
+    #: whose steps update linearly): the error control reads its pseudo-accelerations
+    last: LieStep | None = None
 
     @classmethod
     def of(cls, num, free: np.ndarray) -> LieNodes:
@@ -173,6 +176,13 @@ SWITCH_FACTOR = 2.0
 #: itself instead of evaluating them anew (LieStep.update): its square is round-off.
 SMALL_TURN = 1e-8
 
+#: The largest turn (rad) of a node in one step (LieStep.check_turn): the exponential map
+#: is one to one up to half a turn, and a step beyond it is cut. Past pi the new Euler
+#: parameters lie nearer the other way round (q1 . q0 < 0): the hinge angles, read from
+#: the orientations, lost a turn (a spin of 10 rad/s at two steps a second ended at
+#: 10 - 2 pi rad), and the exponential map's tangent operator is singular at 2 pi.
+MAX_TURN = np.pi
+
 
 def _skew(w: np.ndarray) -> np.ndarray:
     """[w~] (n, 3, 3) of rows w (n, 3)."""
@@ -220,9 +230,38 @@ class LieStep:
         self.gamma_p = gamma / (h * beta)
         self.beta_p = (1 - am) / (h * h * beta * (1 - af))
         self.at1 = None
+        nodes.last = self
         self.length = np.ones((len(q0), 1))      # of the Euler parameters (update)
         self.radial = np.zeros_like(q0)          # the increments' radial parts (update)
         self._state = None
+
+    def turn(self) -> np.ndarray:
+        """The nodes' turns |theta| (rad) over the step, at the current iterate."""
+        theta = self.theta0 + np.einsum("nij,nj->ni", self.k, self.at1)
+        return np.sqrt((theta * theta).sum(axis=1))
+
+    def check_turn(self, start: bool = False) -> str | None:
+        """Why the step must be cut, or None: a node turns by more than ``MAX_TURN``;
+        ``start``: already at its initial angular velocity (``h |w0|``, before Newton: the
+        predictor's extrapolated accelerations may overshoot where the converged step
+        does not)."""
+        turn = (self.h * np.sqrt((self.w0 * self.w0).sum(axis=1)) if start
+                else self.turn())
+        k = int(np.argmax(turn)) if len(turn) else 0
+        if not len(turn) or turn[k] <= MAX_TURN:
+            return None
+        return (f"the step turns an orientation node by {turn[k]:.3g} rad, more than pi "
+                f"(the rotation update's limit: half a turn a step)")
+
+    def angular_error(self, c: float) -> np.ndarray:
+        """The local error of each node's rotation (rad), ``c |A1 - A0|`` with ``c = h^2
+        |beta - 1/6|`` and A the pseudo-accelerations in the step's axes (those of the
+        Newmark part of the update, :func:`~spacarpy.solvers.dynamics.transient_step.
+        _error_norm`'s estimate for the positions): 0 for a constant angular velocity, where
+        the four Euler parameters' pseudo-accelerations (``-|w|^2/4 q`` turning with q)
+        change at every step."""
+        d = self.at1 - self.at0
+        return c * np.sqrt((d * d).sum(axis=1))
 
     def _rt(self, q, u):
         """``u q`` for the nodes in global axes, ``q u`` for those in body axes."""
@@ -353,4 +392,5 @@ def lie_terms(tp, mass_blocks, velocity_blocks, E_v, E_a):
     return out
 
 
-__all__ = ["LieNodes", "LieStep", "exp_q", "lie_terms", "log_q", "qmul", "tangent_operator"]
+__all__ = ["LieNodes", "LieStep", "MAX_TURN", "exp_q", "lie_terms", "log_q", "qmul",
+           "tangent_operator"]

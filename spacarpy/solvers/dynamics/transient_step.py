@@ -30,13 +30,29 @@ def _error_norm(tp, h, beta, a_tilde_old, a_tilde_new, x, tol) -> float:
     Coordinates without mass (a rod's massless end node, the length of an Euler-parameter
     vector) are algebraic: their accelerations follow the constraints, not the dynamics,
     and the integrator's recurrences let them oscillate from step to step whatever the step
-    size, so they say nothing about the local error and are left out."""
-    free = tp.free
+    size, so they say nothing about the local error and are left out.
+
+    The orientation nodes of a step updated on the rotation group (lie.py) are measured by
+    the angle of their rotation's local error, ``h^2 |beta - 1/6| |A1 - A0|`` with A the
+    pseudo-accelerations of the update in the step's axes (:meth:`LieStep.angular_error`),
+    as the Euler parameters' distance it makes, half the angle, against ``abs + rel`` (unit
+    Euler parameters): a constant spin has no error there, where its four Euler
+    parameters' pseudo-accelerations (``-|w|^2/4 q``) turn with q at every step
+    (docs/transient.md, "Rotations on their group")."""
+    c = h * h * abs(beta - 1.0 / 6.0)
     d = tp.inertia.physical(x, a_tilde_new - a_tilde_old)        # no radial Euler part
-    e = h * h * abs(beta - 1.0 / 6.0) * d[free]
-    massive = tp.mass_diagonal[free] > 1e-12 * max(float(tp.mass_diagonal.max()), 1e-300)
-    scale = tol[0] + tol[1] * np.abs(x[free])
-    return float(np.abs(e / scale)[massive].max(initial=0.0))
+    e = c * d
+    scale = tol[0] + tol[1] * np.abs(x)
+    massive = tp.mass_diagonal > 1e-12 * max(float(tp.mass_diagonal.max()), 1e-300)
+    keep = tp.free & massive
+    worst = 0.0
+    lie = tp.lie.last if tp.lie else None
+    if lie is not None:
+        idx = lie.nodes.idx
+        keep[idx] = False
+        turn = 0.5 * lie.angular_error(c)[massive[idx].any(axis=1)]
+        worst = float(turn.max(initial=0.0)) / (tol[0] + tol[1])
+    return max(worst, float(np.abs(e / scale)[keep].max(initial=0.0)))
 
 
 def _gauge(num, x, v, a, a_tilde):
@@ -371,14 +387,19 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
     x1 = x + h * yd + h * h * (0.5 - beta) * aty + h * h * beta * at_pred
     v1 = yd + h * (1 - gamma) * aty + h * gamma * at_pred
     W = lie = None
+    if tp.lie is not None:
+        tp.lie.last = None           # (the error control's: set by a LieStep)
     if motion is not None:
         x1, v1, a1 = tp.frame.from_frame(motion, h, x1, v1, a1)
         W = tp.frame.matrix(motion.omega, free)
     elif tp.lie:
         # the orientations on their group (solvers/dynamics/lie.py): exact for a constant
-        # angular velocity, where the linear update above moves q along a chord
+        # angular velocity, where the linear update above moves q along a chord; a step
+        # that would turn a node by more than half a turn is cut (lie.MAX_TURN)
         lie = LieStep(tp.lie, x, v, a, a_tilde, params, h)
         lie.predict(x1, v1, a1)
+        if (why := lie.check_turn(start=True)) is not None:
+            raise StepFailed(why)
     idx, xp, vp, ap = tp.prescribed(t1)
     if idx.size:
         x1[idx], v1[idx], a1[idx] = xp, vp, ap
@@ -445,6 +466,8 @@ def _step(tp, t, h, x, v, a, a_tilde, mu, params, opts):
                 a_tilde_new = tp.frame.from_frame(
                     motion, h, y1, yd1, at_new + (1 - af) / (1 - am) * ydd1)[2]
             if lie is not None:
+                if (why := lie.check_turn()) is not None:
+                    raise StepFailed(why, history)
                 lie.a_tilde(a_tilde_new)
             _gauge(num, x1, v1, a1, a_tilde_new)
             tp.step_nu = nu1
