@@ -45,13 +45,24 @@ def test_every_shipped_deck_has_a_baseline_and_they_are_small():
 
 @pytest.mark.slow
 def test_batch_over_shipped_decks_passes_against_committed_baselines(tmp_path, capsys):
-    report = tmp_path / "r.json"
+    """Every shipped deck against its baseline; and every deck's new result file opens in
+    the netCDF world (issue 35): each group with both xarray engines, every unit parsed by
+    pint into the schema's dimension."""
+    from test_netcdf import check_units, open_headers
+
+    report, kept = tmp_path / "r.json", tmp_path / "results"
     assert main(["batch", str(DECKS), "--baseline", str(BASELINE), "-j", "2", "-q",
-                 "--report", str(report)]) == 0
+                 "--report", str(report), "--output-dir", str(kept)]) == 0
     out = capsys.readouterr().out
     doc = json.loads(report.read_text())
     assert doc["summary"]["pass"] == doc["summary"]["total"] >= 32, out
     assert re.search(r"\d+ decks: \d+ pass, 0 changed, 0 failed, 0 new", out)
+    files = sorted(kept.rglob("*.h5"))
+    # the mode-0 decks write no file
+    assert len(files) >= doc["summary"]["total"] - 2, [p.name for p in files]
+    for path in files:
+        open_headers(path)
+        check_units(path)
 
 
 @pytest.mark.slow

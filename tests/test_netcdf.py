@@ -85,6 +85,26 @@ def _open_everywhere(path) -> None:
             walk(nc)
 
 
+def open_headers(path) -> None:
+    """Every group of ``path`` with both xarray engines, without loading the data: no error,
+    no warning, every axis named (what the batch test checks on every shipped deck's
+    result, where :func:`_open_everywhere` on all of them would take minutes)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for group in _groups(path):
+            for engine in ("h5netcdf", "netcdf4"):
+                with xr.open_dataset(path, group=group, engine=engine) as ds:
+                    for name, var in ds.variables.items():
+                        assert not any(d.startswith("phony_dim") for d in var.dims), \
+                            (path, group, name, var.dims)
+
+
+def check_units(path) -> None:
+    """Every ``units`` (and ``units_per_index`` entry) of ``path`` parses with pint into the
+    dimension of the schema's unit (public name of :func:`_check_units`)."""
+    _check_units(path)
+
+
 def _units(path) -> dict:
     """{dataset: (units, units_per_index or None, dims of the index)}."""
     out = {}
