@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import signal
 import subprocess
 import sys
@@ -24,6 +25,8 @@ from spacarpy.results import ResultsFormatError, open_results
 from spacarpy.results.h5file import read_superblock
 
 from helpers import run_and_kill
+
+ROOT = Path(__file__).resolve().parents[1]
 
 DECKS = Path(__file__).resolve().parents[1] / "decks"
 _LIMIT = 20          # seconds any one command may take on any file
@@ -270,3 +273,23 @@ def test_damaged_file_of_a_killed_writer_ends_in_time(tmp_path, monkeypatch):
         for argv in (["validate", str(path)], ["show", str(path)]):
             code, text = _cli(argv, path)
             assert code in (0, 2) and "Traceback" not in text, (argv, text)
+
+
+def test_the_bounded_swmr_open_uses_h5pys_own_hdf5_library():
+    """netCDF4's wheel brings a second HDF5 library into the process (the xarray tests load
+    it): the one-attempt SWMR-read setting must go to the library h5py uses, or a damaged
+    file of a killed writer is retried for minutes (it hung CI once)."""
+    pytest.importorskip("netCDF4")
+    code = ("import netCDF4, h5py, os\n"
+            "netCDF4.Dataset\n"
+            "from spacarpy.results.h5file import h5py_hdf5_library\n"
+            "path, _ = h5py_hdf5_library()\n"
+            "maps = [l.split()[-1] for l in open('/proc/self/maps') if '/libhdf5-' in l]\n"
+            "assert len(set(maps)) >= 2, maps\n"
+            "own = os.path.dirname(os.path.abspath(h5py.__file__))\n"
+            "assert path.startswith(own), (path, sorted(set(maps)))\n")
+    if not os.path.exists("/proc/self/maps"):
+        pytest.skip("no /proc/self/maps on this system")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-3000:]
