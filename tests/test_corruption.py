@@ -282,7 +282,7 @@ def test_the_bounded_swmr_open_uses_h5pys_own_hdf5_library():
     pytest.importorskip("netCDF4")
     code = ("import netCDF4, h5py, os\n"
             "netCDF4.Dataset\n"
-            "from spacarpy.results.h5file import h5py_hdf5_library\n"
+            "from spacarpy.results.hdf5_library import h5py_hdf5_library\n"
             "path, _ = h5py_hdf5_library()\n"
             "maps = [l.split()[-1] for l in open('/proc/self/maps') if '/libhdf5-' in l]\n"
             "assert len(set(maps)) >= 2, maps\n"

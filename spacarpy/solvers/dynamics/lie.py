@@ -236,7 +236,7 @@ class LieStep:
         self._state = None
 
     def turn(self) -> np.ndarray:
-        """The nodes' turns |theta| (rad) over the step, at the current iterate."""
+        """The nodes' turns ``|theta|`` (rad) over the step, at the current iterate."""
         theta = self.theta0 + np.einsum("nij,nj->ni", self.k, self.at1)
         return np.sqrt((theta * theta).sum(axis=1))
 
