@@ -40,6 +40,7 @@ import h5py
 import numpy as np
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
+from spacarpy.results.hdf5_library import h5py_hdf5_library
 from spacarpy.results.header_crc import header_problems
 from spacarpy.results.schema import DATASETS, KIND_NAMES, legacy_name
 
@@ -277,7 +278,6 @@ def _open_swmr_read(path: str) -> h5py.File:
 def _metadata_read_attempts():
     """``H5Pset_metadata_read_attempts`` of the HDF5 library h5py uses (None if not found):
     h5py does not expose it (:func:`spacarpy.results.hdf5_library.h5py_hdf5_library`)."""
-    from spacarpy.results.hdf5_library import h5py_hdf5_library
     found = h5py_hdf5_library()
     return None if found is None else found[1]
 
