@@ -20,11 +20,14 @@ was measured and not taken: factorization and three solves of the reduced tangen
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from spacarpy.assembly import csc_with_data
+from spacarpy.solvers.linalg import pardiso
 
 try:                                         # optional at import, a core dependency
     import qdldl as _qdldl
@@ -53,6 +56,9 @@ class SPDFactorization:
         self._pattern = None            # (indptr, indices) of the last matrix
         self._col = self._diag = None
         self._factored = False
+        self._pardiso = None            # (Pardiso, CSR order of the data) when chosen
+        #: "qdldl" or "pardiso" once the first matrix is factorized (:func:`choose`)
+        self.backend = None
 
     def _scaling(self, upper: sp.csc_matrix) -> np.ndarray:
         if self._pattern is None or self._pattern[0] is not upper.indptr:
@@ -69,7 +75,11 @@ class SPDFactorization:
         """The number of negative pivots of the last LDL^T factorization: by Sylvester's law
         of inertia (the scaling is a congruence) the number of negative eigenvalues of the
         matrix. None without qdldl or before a factorization."""
-        if _qdldl is None or self._solver is None or not self._factored:
+        if not self._factored:
+            return None
+        if self._pardiso is not None:
+            return self._pardiso[0].negative_pivots
+        if _qdldl is None or self._solver is None:
             return None
         return int(np.sum(self._solver.factors()[1] < 0))
 
@@ -77,6 +87,10 @@ class SPDFactorization:
         self._factored = False
         s = self._scaling(upper)
         scaled = csc_with_data(upper, upper.data * s[upper.indices] * s[self._col])
+        if self.backend is None:
+            self.backend = choose(scaled)
+        if self.backend == "pardiso":
+            return self._factorize_pardiso(scaled, s)
         if _qdldl is None:
             full = (scaled + sp.triu(scaled, k=1).T).tocsc()
             try:
@@ -101,3 +115,112 @@ class SPDFactorization:
                 raise FactorizationError("zero pivot in the LDL^T factorization")
             return x
         return solve
+
+    def _factorize_pardiso(self, scaled: sp.csc_matrix, s: np.ndarray):
+        if self._pardiso is None or self._pardiso[2] is not scaled.indptr:
+            ia, ja, order = pardiso.upper_csr_order(scaled.indptr, scaled.indices,
+                                                    scaled.shape[0])
+            self._pardiso = (pardiso.Pardiso(ia, ja), order, scaled.indptr)
+        solver, order, _ = self._pardiso
+        try:
+            solver.factorize(scaled.data[order])
+        except pardiso.PardisoError as exc:
+            raise FactorizationError(str(exc)) from None
+        self._factored = True
+
+        def solve(rhs):
+            rhs = np.asarray(rhs, dtype=float)
+            w = s if rhs.ndim == 1 else s[:, None]
+            x = w * solver.solve(w * rhs)
+            if not np.all(np.isfinite(x)):
+                raise FactorizationError("zero pivot in the LDL^T factorization")
+            return x
+        return solve
+
+
+#: Below this many unknowns QDLDL is always used (PARDISO's start-up and threads do not pay).
+SUPERNODAL_MIN_UNKNOWNS = 2000
+#: Breadth-first levels explored from unknown 0 to judge the width of the graph.
+WIDTH_LEVELS = 30
+#: Widest of those levels (unknowns) above which the graph is not chain-like: a chain of
+#: beams stays at 6-12 whatever its length, a 3D lattice reaches 200 within 10 levels.
+WIDE_GRAPH = 60
+
+
+def graph_width(upper: sp.csc_matrix, levels: int = WIDTH_LEVELS) -> int:
+    """The widest breadth-first level (in unknowns) among the first ``levels`` levels of the
+    matrix graph from unknown 0: a cheap measure of the fronts a factorization meets (only
+    those levels are explored)."""
+    n = upper.shape[0]
+    down = (upper.indptr, upper.indices)              # column j: rows i <= j
+    lower = sp.csr_matrix((np.ones(upper.nnz, dtype=np.int8), upper.indices, upper.indptr),
+                          shape=(n, n)).T.tocsr()   # noqa: the transpose's rows: i >= j
+    up = (lower.indptr, lower.indices)
+    seen = np.zeros(n, dtype=bool)
+    frontier = np.array([0])
+    seen[0] = True
+    widest = 1
+    for _ in range(levels):
+        found = [_neighbours(ptr, idx, frontier) for ptr, idx in (down, up)]
+        nxt = np.unique(np.concatenate(found))
+        nxt = nxt[~seen[nxt]]
+        if not nxt.size:
+            break
+        seen[nxt] = True
+        widest, frontier = max(widest, nxt.size), nxt
+    return widest
+
+
+def _neighbours(indptr, indices, nodes):
+    """The entries of the compressed rows/columns ``nodes``, concatenated."""
+    start, stop = indptr[nodes], indptr[nodes + 1]
+    counts = stop - start
+    if not counts.sum():
+        return np.zeros(0, dtype=indices.dtype)
+    offs = np.repeat(start - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+    return indices[np.arange(counts.sum()) + offs]
+
+
+def choose(upper: sp.csc_matrix) -> str:
+    """The factorization for a pattern: "qdldl" or "pardiso" (docs/solver.md, "Which
+    factorization when"). ``SPACARPY_FACTORIZATION=qdldl|pardiso`` forces one (PARDISO only
+    where MKL is installed)."""
+    forced = os.environ.get("SPACARPY_FACTORIZATION", "auto")
+    if forced in ("qdldl", "pardiso"):
+        return forced if (forced == "qdldl" or pardiso.available()) else "qdldl"
+    if _qdldl is not None and (upper.shape[0] < SUPERNODAL_MIN_UNKNOWNS
+                               or graph_width(upper) < WIDE_GRAPH):
+        return "qdldl"
+    return "pardiso" if pardiso.available() else "qdldl"
+
+
+class SupernodalLU:
+    """PARDISO's LU (nested dissection, supernodal, threaded) of a general square matrix,
+    with SuperLU's ``solve`` interface; for wide (3D) bordered matrices, where SuperLU's
+    COLAMD fills to about 1 800 entries per row (docs/solver.md). ``perturbed`` counts the
+    pivots PARDISO had to perturb: a matrix that is singular to round-off has some."""
+
+    def __init__(self, A: sp.spmatrix):
+        csr = sp.csr_matrix(A)
+        csr.sort_indices()
+        self._p = pardiso.Pardiso(csr.indptr, csr.indices, mtype=pardiso.UNSYMMETRIC)
+        self._p.factorize(csr.data)
+        self.perturbed = self._p.perturbed_pivots
+        self.shape = csr.shape
+
+    def solve(self, rhs):
+        return self._p.solve(np.asarray(rhs, dtype=float))
+
+
+def supernodal_lu(A: sp.spmatrix) -> SupernodalLU | None:
+    """:class:`SupernodalLU` of ``A`` where :func:`choose` picks PARDISO for its pattern (a
+    wide graph of at least :data:`SUPERNODAL_MIN_UNKNOWNS` rows) and no pivot had to be
+    perturbed; None otherwise (the caller keeps SuperLU)."""
+    A = sp.csc_matrix(A)
+    if choose(A) != "pardiso":
+        return None
+    try:
+        lu = SupernodalLU(A)
+    except pardiso.PardisoError:
+        return None
+    return lu if lu.perturbed == 0 else None

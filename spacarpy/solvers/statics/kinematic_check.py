@@ -14,6 +14,7 @@ import numpy as np
 
 from spacarpy.errors import ModelError
 from spacarpy.model import RIGID
+from spacarpy.solvers.linalg.sparse import supernodal_lu
 from spacarpy.solvers.statics.diagnose import (
     NONZERO,
     Rank,
@@ -71,7 +72,13 @@ def _check_singular(prob) -> None:
     if not prob.pattern.n or determinate(prob, ev.states, x):
         return None
     A = prob.matrix(ev, mu)
-    _, lu = bordered_solve(prob, A, np.ones(A.shape[0]))    # (with the slip rows)
+    # a wide (3D) model: PARDISO's LU, where SuperLU's COLAMD fills badly; a matrix it had
+    # to perturb (singular to round-off) goes to SuperLU, whose exact singularity names it
+    lu = supernodal_lu(A)
+    if lu is not None:
+        prob.timings.factorizations += 1
+    else:
+        _, lu = bordered_solve(prob, A, np.ones(A.shape[0]))    # (with the slip rows)
     from spacarpy.solvers.statics.diagnose import mechanism_error, singular_matrix_error
     # The LU may exist, but round-off can hide an exact singularity behind tiny pivots:
     # look for deformation-free motions among the smallest modes (robust against the
