@@ -143,3 +143,39 @@ def test_bench_row_and_table():
                                           rel=1e-6)
     line = _text_table("lattice", [row], False)[2]
     assert row["grid"] in line and f"{row['result']:.6e}" in line
+
+
+def _top_ux(kx, ky, m, monkeypatch, backend):
+    monkeypatch.setenv("SPACARPY_FACTORIZATION", backend)
+    model, prob, res = _solve(kx, ky, m)
+    top = [lattice_node(kx, ky, i, j, m - 1) for j in range(ky) for i in range(kx)]
+    return lattice_top_ux(model, prob, res.steps[-1].x, top), prob.timings
+
+
+def test_the_supernodal_path_gives_qdldls_answer_with_fewer_factorizations(monkeypatch):
+    """The 6 x 6 x 11 lattice (2 160 reduced unknowns) goes to PARDISO by the rule; its
+    answer is QDLDL's, and the Newton iterations reuse the factorization."""
+    from spacarpy.solvers.linalg import pardiso
+    if not pardiso.available():
+        pytest.skip("MKL PARDISO not installed (pip install 'spacarpy[pardiso]'; x86-64)")
+    ux_q, t_q = _top_ux(6, 6, 11, monkeypatch, "qdldl")
+    ux_p, t_p = _top_ux(6, 6, 11, monkeypatch, "auto")
+    assert abs(ux_p - ux_q) <= 1e-9 * abs(ux_q)      # Newton to 1e-10 on both paths
+    assert t_q.reuses == 0 and t_p.reuses >= 1
+    assert t_p.factorizations < t_q.factorizations
+
+
+@pytest.mark.parametrize("backend", ["qdldl", "auto"])
+def test_a_floating_lattice_is_a_mechanism_on_either_path(monkeypatch, backend):
+    """Without its clamps the lattice floats: six free motions. The supernodal LDL^T
+    perturbs pivots on that singular matrix and hands it to SuperLU, whose diagnosis
+    names the mechanism, as on the QDLDL path."""
+    from spacarpy.errors import ModelError
+    monkeypatch.setenv("SPACARPY_FACTORIZATION", backend)
+    text = "\n".join(line for line in lattice_deck(6, 6, 11).splitlines()
+                     if not line.startswith("FIX"))
+    model, settings = job_from_text(text, "<floating lattice>")
+    prob = StaticProblem(model, deformations=settings.deformations)
+    with pytest.raises(ModelError, match="mechanism"):
+        solve_static(model, problem=prob, options=StaticOptions(max_iter=20, tol=1e-10,
+                                                                n_steps=1))

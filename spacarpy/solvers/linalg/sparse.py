@@ -83,6 +83,13 @@ class SPDFactorization:
             return None
         return int(np.sum(self._solver.factors()[1] < 0))
 
+    def perturbed_pivots(self) -> int | None:
+        """Pivots the last PARDISO factorization had to perturb (a matrix singular to
+        round-off has some); None on the QDLDL path or before a factorization."""
+        if not self._factored or self._pardiso is None:
+            return None
+        return self._pardiso[0].perturbed_pivots
+
     def factorize(self, upper: sp.csc_matrix):
         self._factored = False
         s = self._scaling(upper)
@@ -202,10 +209,25 @@ class SupernodalLU:
 
     def __init__(self, A: sp.spmatrix):
         csr = sp.csr_matrix(A)
-        csr.sort_indices()
-        self._p = pardiso.Pardiso(csr.indptr, csr.indices, mtype=pardiso.UNSYMMETRIC)
-        self._p.factorize(csr.data)
+        sym = 0.5 * (csr + csr.T)
+        scale = float(np.abs(csr.data).max()) if csr.nnz else 0.0
+        if abs(csr - sym).max() <= 1e-12 * scale:
+            # symmetric to round-off (the bordered matrix): LDL^T with Bunch-Kaufman pivots
+            # and symmetric matching, 3 times faster than the LU and with the inertia
+            n = csr.shape[0]
+            upper = (sp.triu(sym, format="csr")
+                     + sp.csr_matrix((np.zeros(n), (np.arange(n), np.arange(n))),
+                                     shape=csr.shape)).tocsr()
+            upper.sort_indices()
+            self._p = pardiso.Pardiso(upper.indptr, upper.indices, matching=True)
+            self._p.factorize(upper.data)
+        else:
+            csr.sort_indices()
+            self._p = pardiso.Pardiso(csr.indptr, csr.indices, mtype=pardiso.UNSYMMETRIC)
+            self._p.factorize(csr.data)
         self.perturbed = self._p.perturbed_pivots
+        #: negative eigenvalues (symmetric matrices only, else None)
+        self.negative = self._p.negative_pivots
         self.shape = csr.shape
 
     def solve(self, rhs):

@@ -72,6 +72,7 @@ class Timings:
     solve: float = 0.0
     iterations: int = 0
     factorizations: int = 0     # sparse LU factorizations (Newton and kinematic correction)
+    reuses: int = 0             # Newton solves with an earlier (supernodal) factorization
     total: float = 0.0
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from spacarpy.errors import ModelError
 from spacarpy.model import RIGID
-from spacarpy.solvers.linalg.sparse import supernodal_lu
+from spacarpy.solvers.linalg.sparse import choose, supernodal_lu
 from spacarpy.solvers.statics.diagnose import (
     NONZERO,
     Rank,
@@ -72,9 +72,13 @@ def _check_singular(prob) -> None:
     if not prob.pattern.n or determinate(prob, ev.states, x):
         return None
     A = prob.matrix(ev, mu)
-    # a wide (3D) model: PARDISO's LU, where SuperLU's COLAMD fills badly; a matrix it had
-    # to perturb (singular to round-off) goes to SuperLU, whose exact singularity names it
-    lu = supernodal_lu(A)
+    wide = choose(A) == "pardiso"
+    if wide and _reduced_definite(prob, ev, x, mu):
+        return None
+    # a wide (3D) model: PARDISO's LDL^T, where SuperLU's COLAMD fills badly; a matrix it
+    # had to perturb (singular to round-off) goes to SuperLU, whose exact singularity
+    # names it
+    lu = supernodal_lu(A) if wide else None
     if lu is not None:
         prob.timings.factorizations += 1
     else:
@@ -90,6 +94,25 @@ def _check_singular(prob) -> None:
     if A.shape[0] <= KINEMATIC_LIMIT:   # name exactly what the rank analysis finds
         err = analysis_error(prob, kinematic_analysis(prob)) or err
     raise err
+
+
+def _reduced_definite(prob, ev, x, mu) -> bool:
+    """Whether the reduced tangent of a model whose only constraints are the Euler
+    normalizations (:mod:`spacarpy.solvers.statics.reduced`) is positive definite in the
+    initial configuration, by its supernodal LDL^T: no negative and no perturbed pivot.
+    Then the bordered matrix is regular (the normalizations are independent), so there is
+    neither mechanism nor redundant constraint, and the factorization is the one the first
+    Newton iteration uses (its reuse, :meth:`ReducedNewton.step`): the check costs no
+    factorization of its own. False (the bordered check follows) in every other case."""
+    reduced = prob.reduced
+    if reduced is None:
+        return False
+    k_el, euler_diag, _ = prob.element_blocks(ev, mu)
+    if reduced.step(ev, x, mu, k_el, euler_diag) is None:
+        return False
+    fac = reduced.factor
+    return (fac.backend == "pardiso" and fac.negative_pivots() == 0
+            and fac.perturbed_pivots() == 0)
 
 
 def analysis_error(prob, ka: KinematicAnalysis) -> ModelError | None:

@@ -108,6 +108,10 @@ def _quaternion_slots(num):
     return out
 
 
+#: Conjugate-gradient iterations tried with an earlier supernodal (PARDISO) factorization
+#: as the preconditioner before a new one is made (docs/solver.md, "Fewer factorizations").
+REUSE_ITERATIONS = 12
+
 class ReducedNewton:
     """Newton steps of a :class:`~spacarpy.solvers.statics.equilibrium.StaticProblem` without
     its Euler constraints (see the module docstring); build only where :func:`applies`."""
@@ -138,6 +142,7 @@ class ReducedNewton:
         self.factor = SPDFactorization()
         self._quick_misses = 0                  # see _refine
         self._last = None                       # see last and chord
+        self._reusable = None                   # a supernodal factorization (see step)
         self.negative_pivots = None             # see step
 
     def basis(self, q: np.ndarray, nq: np.ndarray | None = None) -> np.ndarray:
@@ -212,7 +217,8 @@ class ReducedNewton:
         return self._k_times(k_rot, euler_diag, z, all_slots=True,
                              invariant=invariant)[self.keep]
 
-    def _refine(self, solve, matvec, rhs, max_iter: int = 30, quick_matvec=None):
+    def _refine(self, solve, matvec, rhs, max_iter: int = 30, quick_matvec=None,
+                accept: float = 1e-3):
         """Solve ``A y = rhs`` by conjugate gradients preconditioned with the LDL^T
         ``solve``, with the element-by-element product ``matvec`` (see :meth:`_k_times`).
 
@@ -270,7 +276,7 @@ class ReducedNewton:
             p = z + (rz / rz_old) * p
         final = _norm(r) / b_norm          # (CG's updated residual, or GMRES's)
         log.debug("%s: %d iterations, relative residual %.2e", method, it, final)
-        if not final <= 1e-3:
+        if not final <= accept:
             return None
         return y
 
@@ -350,17 +356,32 @@ class ReducedNewton:
         timings.assembly += t2 - t1
         self.negative_pivots = None
         radial = self.eu[:, 0]
+
+        def matvec(v):
+            return self._reduced_times(k_rot, euler_diag, v, invariant)
         try:
-            solve = self.factor.factorize(a)
-            timings.factorizations += 1
+            # an earlier supernodal factorization as the preconditioner of this matrix:
+            # taken where conjugate gradients reach the full tolerance in a few iterations
+            # (about a solve each, where a factorization of a 3D model costs 30-100 solves)
+            y = solve = None
+            if self._reusable is not None and load is None:
+                y = self._refine(self._reusable, matvec, rhs, max_iter=REUSE_ITERATIONS,
+                                 accept=1e-10)
+                if y is not None:
+                    solve = self._reusable
+                    timings.reuses += 1
+            if y is None:
+                solve = self.factor.factorize(a)
+                timings.factorizations += 1
+                self._reusable = solve if self.factor.backend == "pardiso" else None
             if load is not None:
                 self.negative_pivots = self.factor.negative_pivots()
 
             def refined(right):
-                return self._refine(solve, lambda v: self._reduced_times(
-                    k_rot, euler_diag, v, invariant), right,
-                    quick_matvec=partial(self.pattern.symmetric_matvec, a.data))
-            y = refined(rhs)
+                return self._refine(solve, matvec, right,
+                                    quick_matvec=partial(self.pattern.symmetric_matvec, a.data))
+            if y is None:
+                y = refined(rhs)
             if y is None:
                 return None
             self._last = (k_rot, euler_diag, invariant, solve)
