@@ -1,7 +1,9 @@
 """Memory of large models: the allocator setting (glibc only) and the estimate before a run.
 
 :func:`estimate_run_bytes` and :func:`available_bytes` let ``spacarpy run`` stop a model that
-would not fit before it starts (the estimate is also printed by ``spacarpy check``).
+would not fit before it starts (the estimate is also printed by ``spacarpy check``), and
+:func:`check_factor_memory` stops a supernodal factorization whose ordering (its fill, from
+the analysis that precedes the numerical work) needs more memory than is available.
 
 Every kernel call at 10^5 elements allocates arrays of tens to hundreds of megabytes. glibc
 serves allocations above 32 MB with fresh ``mmap`` pages and hands them back to the system
@@ -18,6 +20,7 @@ from __future__ import annotations
 import ctypes
 import logging
 import os
+from contextvars import ContextVar
 
 from spacarpy.errors import EXIT_INPUT, SpacarError
 
@@ -129,6 +132,36 @@ def check_memory(n_elem: int, ignore: bool = False) -> None:
     text = (f"the model of {n_elem} elements needs about {format_bytes(need)} of memory, "
             f"more than the {format_bytes(have)} available")
     if ignore:
+        log.warning("%s; running anyway (--ignore-memory-limit)", text)
+        return
+    raise MemoryLimitError(f"error: {text}. Reduce the model, free memory, or run anyway "
+                           f"with --ignore-memory-limit")
+
+
+#: ``spacarpy run --ignore-memory-limit``: :func:`check_factor_memory` then only warns.
+IGNORE_LIMIT: ContextVar[bool] = ContextVar("spacarpy_ignore_memory_limit", default=False)
+
+
+def check_factor_memory(factor_bytes: int, unknowns: int) -> None:
+    """Stop before a factorization whose analysis says it needs ``factor_bytes`` (factors
+    and work space) where less memory is available. The message gives the size of a model
+    that would fit: a 3D model's factor grows as the 4/3 power of its size (nested
+    dissection), so a model of ``(available / needed)^(3/4)`` of this one would.
+
+    Raises
+    ------
+    MemoryLimitError
+        Unless :data:`IGNORE_LIMIT` is set (then a warning).
+    """
+    have = available_bytes()
+    if have is None or factor_bytes <= have:
+        return
+    fit = (have / factor_bytes) ** 0.75
+    text = (f"the factorization of {unknowns} unknowns needs about "
+            f"{format_bytes(factor_bytes)} (from its ordering's fill), more than the "
+            f"{format_bytes(have)} available; a model of about {fit:.0%} of this size "
+            f"(in elements) would fit")
+    if IGNORE_LIMIT.get():
         log.warning("%s; running anyway (--ignore-memory-limit)", text)
         return
     raise MemoryLimitError(f"error: {text}. Reduce the model, free memory, or run anyway "

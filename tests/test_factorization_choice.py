@@ -162,3 +162,31 @@ def test_without_mkl_everything_stays_on_qdldl(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)
     assert out.stdout.split() == ["False", "qdldl"]
+
+
+@needs_pardiso
+def test_a_factorization_that_does_not_fit_is_refused_before_it_runs(monkeypatch, caplog):
+    """PARDISO's analysis gives the factor's memory before the numerical work; where less
+    is available the run stops with the size of a model that would fit (3D fill grows as
+    the 4/3 power of the size), or only warns with --ignore-memory-limit."""
+    from spacarpy import memory
+    upper = grid_laplacian(14, 28)
+    ia, ja, order = pardiso.upper_csr_order(upper.indptr, upper.indices, upper.shape[0])
+    p = pardiso.Pardiso(ia, ja)
+    p.analyse(upper.data[order])
+    need = p.peak_bytes
+    assert need > 8 * upper.nnz                       # at least the factor's values
+    p.release()
+    monkeypatch.setattr(memory, "available_bytes", lambda: need // 4)
+    monkeypatch.setenv("SPACARPY_FACTORIZATION", "pardiso")
+    with pytest.raises(memory.MemoryLimitError, match=r"5488 unknowns .* about 35% of this"):
+        SPDFactorization().factorize(upper)           # 0.25^0.75 = 0.354
+    token = memory.IGNORE_LIMIT.set(True)
+    try:
+        solve = SPDFactorization().factorize(upper)
+    finally:
+        memory.IGNORE_LIMIT.reset(token)
+    assert "running anyway" in caplog.text
+    full = upper + sp.triu(upper, k=1).T
+    rhs = np.ones(upper.shape[0])
+    assert np.linalg.norm(full @ solve(rhs) - rhs) < 1e-12 * np.linalg.norm(rhs) * 20

@@ -53,6 +53,7 @@ The case names, sizes and decks are in :mod:`spacarpy.bench.decks`, the tables i
 """
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import resource
 import statistics
@@ -78,6 +79,8 @@ from spacarpy.bench.decks import (
 )
 from spacarpy.bench.tables import _text_table, _title, machine_summary, write_markdown
 from spacarpy.deck import job_from_text
+from spacarpy.memory import estimate_run_bytes
+from spacarpy.solvers.linalg.pardiso import factor_high_water
 
 
 # ----------------------------------------------------------------------------------------
@@ -101,8 +104,11 @@ def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
     t0 = time.perf_counter()
     model, settings = job_from_text(text, f"<{case} {n}>")
     parse = time.perf_counter() - t0
-    totals, timings, setups = [], [], []
+    totals, timings, setups, factor_bytes = [], [], [], []
     for _ in range(max(repeat, 1)):
+        prob = None
+        gc.collect()                            # the last repetition's factorizations
+        factor_high_water(reset=True)
         t1 = time.perf_counter()
         prob = StaticProblem(model, deformations=settings.deformations)
         setups.append(time.perf_counter() - t1)
@@ -110,6 +116,7 @@ def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
                            options=StaticOptions(max_iter=20, tol=1e-8, n_steps=n_steps))
         totals.append(prob.timings.total)
         timings.append(prob.timings)
+        factor_bytes.append(factor_high_water())
     best = timings[totals.index(min(totals))]
     its = max(best.iterations, 1)
     tip = res.steps[-1].x[prob.num.pos_idx[-1]]
@@ -123,10 +130,14 @@ def _static_row(case: str, n: int, repeat: int, n_steps: int) -> dict:
                 grid=grid and "x".join(map(str, grid)), setup=parse + min(setups),
                 total=min(totals), median=statistics.median(totals),
                 iterations=best.iterations, factorizations=best.factorizations,
+                reuses=best.reuses,
                 per_iter=best.total / its, kernels=best.kernels / its,
                 assembly=best.assembly / its, solve=best.solve / its,
                 other=(best.total - best.kernels - best.assembly - best.solve) / its,
-                result=float(tip[1]), peak_mb=_peak_mb())
+                result=float(tip[1]), peak_mb=_peak_mb(),
+                # the run's estimate: the per-element one plus the supernodal factors'
+                # memory that their analyses reported (the largest sum alive at once)
+                estimate_mb=(estimate_run_bytes(n) + max(factor_bytes)) / 2**20)
 
 
 def lattice_top_ux(model, prob, x, top_nodes) -> float:

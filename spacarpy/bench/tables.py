@@ -42,6 +42,7 @@ def _columns(case: str, peer: bool):
             ("median s", 9, f("median", ".3f"))]
     if case in ("cantilever", "bend", "lattice"):
         cols += [("iters", 6, f("iterations", "d")), ("LU", 5, f("factorizations", "d")),
+                 ("reused", 6, f("reuses", "d")),
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
                  ("kernels", 8, f("kernels", ".2f", 1e3)),
                  ("assembly", 9, f("assembly", ".2f", 1e3)),
@@ -64,6 +65,8 @@ def _columns(case: str, peer: bool):
                  ("ms/iter", 8, f("per_iter", ".2f", 1e3)),
                  ("tip u_y (m)", 11, f("result", ".6f"))]
     cols += [("peak MB", 8, f("peak_mb", ".0f"))]
+    if case in ("cantilever", "bend", "lattice"):
+        cols += [("est. MB", 8, f("estimate_mb", ".0f"))]
     if case == "cantilever":
         cols += [("whole s", 8, f("whole", ".3f"))]
     if peer:

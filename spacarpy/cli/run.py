@@ -110,7 +110,8 @@ def _run_locked(args, out) -> int:
     t0 = time.perf_counter()
     inputs = []
     from spacarpy.deck.semantics.build import BEFORE_BUILD
-    from spacarpy.memory import check_memory
+    from spacarpy.memory import IGNORE_LIMIT, check_memory
+    IGNORE_LIMIT.set(bool(args.ignore_memory_limit))      # for the factorizations' check
     # the memory estimate from the deck's element count, before the elements are made
     token = BEFORE_BUILD.set(lambda n: check_memory(n, ignore=args.ignore_memory_limit))
     try:

@@ -36,6 +36,21 @@ _ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering pr
            -11: "read/write error with out-of-core files", -12: "wrong license / version"}
 
 
+#: PARDISO's own peak memory (bytes) of every handle not yet released, and the largest sum
+#: seen (:func:`factor_high_water`): the factor memory of a run (``spacarpy bench``).
+_LIVE: dict[int, int] = {}
+_HIGH_WATER = [0]
+
+
+def factor_high_water(reset: bool = False) -> int:
+    """The largest memory (bytes) that the PARDISO handles alive at one time reported from
+    their analyses since the last reset; ``reset`` starts a new count from those alive."""
+    peak = _HIGH_WATER[0]
+    if reset:
+        _HIGH_WATER[0] = sum(_LIVE.values())
+    return peak
+
+
 class PardisoError(RuntimeError):
     """PARDISO returned an error code."""
 
@@ -144,17 +159,22 @@ class Pardiso:
                                f"{_ERRORS.get(err.value, 'unknown error')}")
 
     def analyse(self, data: np.ndarray) -> None:
-        """Ordering and symbolic factorization (phase 11); ``data`` in the CSR order."""
+        """Ordering and symbolic factorization (phase 11); ``data`` in the CSR order. Then
+        the memory it will need is checked against the available memory
+        (:func:`spacarpy.memory.check_factor_memory`) before any numerical work."""
+        from spacarpy.memory import check_factor_memory
         self._data = np.ascontiguousarray(data, dtype=float)
         self._call(11)
         self._analysed = True
+        _LIVE[id(self)] = self.peak_bytes
+        _HIGH_WATER[0] = max(_HIGH_WATER[0], sum(_LIVE.values()))
+        check_factor_memory(self.peak_bytes, self.n)
 
     def factorize(self, data: np.ndarray) -> None:
         """The numerical factorization (phase 22) of new values on the same pattern."""
-        self._data = np.ascontiguousarray(data, dtype=float)
         if not self._analysed:
-            self._call(11)
-            self._analysed = True
+            self.analyse(data)
+        self._data = np.ascontiguousarray(data, dtype=float)
         self._factored = False
         self._call(22)
         self._factored = True
@@ -199,6 +219,7 @@ class Pardiso:
             except PardisoError:            # pragma: no cover - nothing left to free
                 pass
             self._analysed = self._factored = False
+            _LIVE.pop(id(self), None)
 
     def __del__(self):
         try:
