@@ -61,14 +61,15 @@ def _libc():
 
 # -- memory estimate before a run ------------------------------------------------------------
 
-#: Peak resident memory of ``spacarpy run`` ~ BASE + PER_ELEMENT * elements, fitted to the
-#: static cantilever of ``spacarpy bench`` (docs/performance.md, 2026-11-23: 623 MB at 10^4
-#: elements, 3342 MB at 10^5; the estimate gives 603 MB and 3327 MB). The 10-mode eigen runs
-#: measured 489 MB at 10^4 and 4080 MB at 10^5 (their ARPACK vectors). The constant term
-#: covers Python, numpy/scipy and h5py and glibc's 256 MB heap steps
-#: (:func:`keep_freed_memory`).
-BASE_BYTES = 300 * 2**20
-PER_ELEMENT_BYTES = 31 * 2**10
+#: Peak resident memory of ``spacarpy run`` ~ BASE + PER_ELEMENT * elements, on the static
+#: cantilever of ``spacarpy bench`` (docs/performance.md, "Memory estimate before a run"):
+#: measured 75 MB at 10 elements, 120 MB at 10^3, 541-623 MB at 10^4 and 3342 MB at 10^5
+#: (estimates 110, 141, 422 and 3235 MB: within a factor 1.5 at every size). The 10-mode
+#: eigen runs measured 489 MB at 10^4 and 4080 MB at 10^5 (their ARPACK vectors). A 3D model
+#: factorized by PARDISO adds its factors, which the analysis of each factorization reports
+#: and :func:`check_factor_memory` checks before the numerical work.
+BASE_BYTES = 110 * 2**20
+PER_ELEMENT_BYTES = 32 * 2**10
 
 
 def estimate_run_bytes(n_elem: int) -> int:
