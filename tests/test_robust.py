@@ -268,7 +268,7 @@ def test_run_stops_when_the_estimate_exceeds_the_available_memory(tmp_path, caps
     deck = copy_deck(tmp_path)
     assert main(["run", str(deck), "-q"]) == 2
     err = capsys.readouterr().err
-    assert "needs about 300 MB of memory, more than the 100 MB available" in err
+    assert "needs about 110 MB of memory, more than the 100 MB available" in err
     assert "--ignore-memory-limit" in err and not deck.with_suffix(".h5").exists()
     assert main(["run", str(deck), "-q", "--ignore-memory-limit"]) == 0
     assert "running anyway" in capsys.readouterr().err
