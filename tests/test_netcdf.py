@@ -20,6 +20,11 @@ xr = pytest.importorskip("xarray")
 pytest.importorskip("h5netcdf")
 netCDF4 = pytest.importorskip("netCDF4")
 pint = pytest.importorskip("pint")
+try:                        # UDUNITS2 (bundled in cf-units' wheels, where the platform has one)
+    import cf_units
+except ImportError:         # pragma: no cover - platforms without a cf-units wheel
+    cf_units = None
+UDUNITS2_MISSING = "cf_units (UDUNITS2) not importable: no cf-units wheel for this platform"
 
 from spacarpy.results.schema import DATASETS  # noqa: E402
 
@@ -101,8 +106,9 @@ def open_headers(path) -> None:
 
 def check_units(path) -> None:
     """Every ``units`` (and ``units_per_index`` entry) of ``path`` parses with pint into the
-    dimension of the schema's unit (public name of :func:`_check_units`)."""
-    _check_units(path)
+    dimension of the schema's unit, and with UDUNITS2 into the same one where cf_units
+    imports (public name of :func:`_check_units`)."""
+    _check_units(path, udunits2=cf_units is not None)
 
 
 def _units(path) -> dict:
@@ -124,7 +130,37 @@ def _parse(unit: str):
     return UREG("1").units if unit == "1" else UREG.parse_units(unit)
 
 
-def _check_units(path) -> None:
+#: SI base unit of each pint base dimension: a pint dimensionality as a UDUNITS2 string.
+_SI_BASE = {"[length]": "m", "[mass]": "kg", "[time]": "s", "[current]": "A",
+            "[temperature]": "K", "[substance]": "mol", "[luminosity]": "cd"}
+
+
+def _si_string(dimensionality) -> str:
+    """``{'[length]': 1, '[time]': -2}`` -> ``"m^1 s^-2"`` (``"1"`` when dimensionless).
+    UDUNITS2 has no fractional powers (it reads ``kg^0.5`` as ``kg^0`` times 5, silently):
+    a dimension with one fails here."""
+    assert all(float(p).is_integer() for p in dict(dimensionality).values()), \
+        f"UDUNITS2 has no half powers: {dict(dimensionality)}"
+    parts = [f"{_SI_BASE[d]}^{p:g}" for d, p in sorted(dict(dimensionality).items())]
+    return " ".join(parts) or "1"
+
+
+def _check_udunits2(name: str, unit: str, dimensionality) -> None:
+    """``unit`` parses with UDUNITS2 (cf_units) and has the dimension ``dimensionality``
+    (pint's, already compared with the documented one): both SI base strings are
+    convertible into each other, and a unit of another dimension is not."""
+    try:
+        parsed = cf_units.Unit(unit)
+    except ValueError as exc:
+        raise AssertionError(f"{name}: UDUNITS2 cannot parse {unit!r}: {exc}") from None
+    want = cf_units.Unit(_si_string(dimensionality))
+    assert parsed.is_convertible(want), (name, unit, str(want))
+    assert not parsed.is_convertible(want * cf_units.Unit("m")), (name, unit)
+
+
+def _check_units(path, udunits2: bool = False) -> None:
+    """pint: every string parses into the documented dimension; with ``udunits2``,
+    UDUNITS2 (cf_units) parses every string into that same dimension."""
     with h5py.File(path, "r") as f:
         for name, (units, per, dims) in _units(path).items():
             assert isinstance(units, str), (name, units)
@@ -132,6 +168,11 @@ def _check_units(path) -> None:
             spec = DATASETS.get(name)
             if spec is not None:
                 assert parsed.dimensionality == _parse(spec.units).dimensionality, name
+            if udunits2:
+                _check_udunits2(name, units, parsed.dimensionality)
+                if spec is not None:
+                    assert cf_units.Unit(units).is_convertible(cf_units.Unit(spec.units)), \
+                        (name, units, spec.units)
             if name in EXPECTED:
                 assert parsed.dimensionality == EXPECTED[name], (name, units)
             if per is not None:
@@ -139,6 +180,9 @@ def _check_units(path) -> None:
                 n = int(np.prod([_dim_length(f[name], d) for d in str(dims).split()]))
                 assert len(per) == n, (name, per, dims)
                 parsed_per = [_parse(u).dimensionality for u in per]
+                if udunits2:
+                    for unit, dim in zip(per, parsed_per):
+                        _check_udunits2(name, unit, dim)
                 if name in EXPECTED_PER_INDEX:
                     want = EXPECTED_PER_INDEX[name]
                     assert parsed_per[:len(want)] == want, (name, per)
@@ -169,6 +213,29 @@ def test_every_units_attribute_parses_into_its_dimension(result_files, key):
     _check_units(result_files[key])
 
 
+@pytest.mark.skipif(cf_units is None, reason=UDUNITS2_MISSING)
+@pytest.mark.parametrize("key", KEYS)
+def test_every_units_attribute_parses_with_udunits2(result_files, key):
+    """The same strings through UDUNITS2 (cf-units' bundled library): the same dimension."""
+    _check_units(result_files[key], udunits2=True)
+
+
+@pytest.mark.skipif(cf_units is None, reason=UDUNITS2_MISSING)
+def test_the_udunits2_check_rejects_a_wrong_dimension():
+    """The check itself: a unit of another dimension, or one UDUNITS2 cannot parse (a half
+    power), fails it."""
+    _check_udunits2("x", "N m^2", _parse("N m^2").dimensionality)
+    _check_udunits2("x", "1/s", _parse("Hz").dimensionality)
+    with pytest.raises(AssertionError):
+        _check_udunits2("x", "N m", _parse("N m^2").dimensionality)
+    with pytest.raises(AssertionError):
+        _check_udunits2("x", "m", _parse("1").dimensionality)
+    with pytest.raises(AssertionError, match="cannot parse"):
+        _check_udunits2("x", "zorkmid m", _parse("m").dimensionality)
+    with pytest.raises(AssertionError, match="no half powers"):
+        _check_udunits2("x", "kg^0.5 m", _parse("kg^0.5 m").dimensionality)
+
+
 def test_the_coordinates_are_the_deck_numbers(result_files):
     """The node axes of /static carry the deck node numbers, the element axis the element
     numbers, the first axis the load factor: xarray selects by them."""
@@ -196,7 +263,7 @@ def test_mode_shapes_and_state_space_document_their_units(result_files):
 
 def test_sweep_file_opens_with_units(column_sweep):
     _open_everywhere(column_sweep)
-    _check_units(column_sweep)
+    check_units(column_sweep)
     with xr.open_dataset(column_sweep, group="eigen", engine="h5netcdf") as ds:
         assert ds.frequency.attrs["units"] == "Hz"
         assert ds.frequency.dims[-1] == "mode" and ds.frequency.dims[0] in ds.coords
@@ -220,9 +287,11 @@ def test_udunits2_parses_every_unit(result_files, key):
         units.add(unit)
         units.update(per or ())
     for unit in sorted(units):
-        done = subprocess.run(["udunits2", "-H", unit, "-W", ""], capture_output=True,
+        # the program reads a leading number as the amount ("1/N" would be 1 of "/N"): the
+        # amount is given, so the whole string is read as the unit, as the library does
+        done = subprocess.run(["udunits2", "-H", f"1 {unit}", "-W", ""], capture_output=True,
                               text=True, timeout=30)
-        assert done.returncode == 0 and "not recognized" not in done.stdout + done.stderr, \
+        assert done.returncode == 0 and "recognize" not in done.stdout + done.stderr, \
             (unit, done.stdout, done.stderr)
 
 
