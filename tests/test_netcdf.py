@@ -8,6 +8,7 @@ into the dimension the schema documents, and with UDUNITS2 where it is installed
 """
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import warnings
@@ -269,13 +270,121 @@ def test_sweep_file_opens_with_units(column_sweep):
         assert ds.frequency.dims[-1] == "mode" and ds.frequency.dims[0] in ds.coords
 
 
-@pytest.mark.skipif(shutil.which("ncdump") is None, reason="ncdump (netcdf-bin) not installed")
-@pytest.mark.parametrize("key", ("bend", "column", "transient", "state_space", "arclength"))
-def test_ncdump_reads_the_header(result_files, key):
-    done = subprocess.run(["ncdump", "-h", str(result_files[key])], capture_output=True,
-                          text=True, timeout=60)
+#: One shipped deck's result of each analysis kind (the sweep file is docs/batch.md's sweep),
+#: with the groups that make it that kind.
+KINDS = {"bend": ("static",), "transient": ("transient",),
+         "column": ("eigen", "buckling", "compliance"), "state_space": ("state_space",),
+         "arclength": ("critical",), "sweep": ("eigen", "buckling")}
+
+
+def _kind_file(request, key):
+    return request.getfixturevalue("column_sweep") if key == "sweep" else \
+        request.getfixturevalue("result_files")[key]
+
+
+def _netcdf4_walk(path) -> dict:
+    """What ``ncdump -h`` shows, by netCDF4-python's calls into the same libnetcdf: {group
+    path: {"dims": {name: length}, "vars": {name: dims}}}; every attribute of every group
+    and variable is read, and every variable's data."""
+    out = {}
+
+    def walk(g, where):
+        out[where] = {"dims": {n: len(d) for n, d in g.dimensions.items()}, "vars": {}}
+        for att in g.ncattrs():
+            g.getncattr(att)
+        for name, var in g.variables.items():
+            var.set_auto_mask(False)
+            for att in var.ncattrs():
+                var.getncattr(att)
+            data = var[...]
+            assert np.shape(data) == var.shape, (where, name)
+            out[where]["vars"][name] = tuple(var.dimensions)
+            if isinstance(var.datatype, netCDF4.CompoundType):
+                COMPOUND.add(f"{where}/{name}".lstrip("/"))
+        for name, child in g.groups.items():
+            walk(child, f"{where}/{name}".lstrip("/"))
+    with netCDF4.Dataset(path) as nc:
+        walk(nc, "")
+    return out
+
+
+#: Variables of an unnamed HDF5 compound type (numpy complex): netCDF4-python reads them,
+#: but ``ncdump -h`` (4.9) leaves them out of its listing, as it did the unnamed enum of an
+#: HDF5 bool before schema 3.1. Writing them with a committed (named) datatype would show
+#: them; until then the ncdump test names them and checks that nothing else is hidden.
+NCDUMP_HIDES = {"state_space/pole"}
+COMPOUND: set = set()
+_CDL_VAR = re.compile(r"^\s*(?:string|char|u?byte|u?short|u?int|u?int64|float|double)\s+"
+                      r"([^\s(:]+)\s*(?:\(([^)]*)\))?\s*;$")
+_CDL_DIM = re.compile(r"^\s*([^\s=]+) = (\d+|UNLIMITED) ;(?: // \((\d+) currently\))?$")
+
+
+def _parse_cdl_header(text: str) -> dict:
+    """``ncdump -h`` output as :func:`_netcdf4_walk`'s dict."""
+    out, stack, section = {"": {"dims": {}, "vars": {}}}, [], None
+    for line in text.splitlines():
+        if m := re.match(r"^\s*group: (\S+) \{$", line):
+            stack.append(m[1])
+            out["/".join(stack)] = {"dims": {}, "vars": {}}
+            section = None
+        elif re.match(r"^\s*\} // group ", line):
+            stack.pop()
+        elif line.strip() in ("dimensions:", "variables:"):
+            section = line.strip()[:-1]
+        elif section == "dimensions" and (m := _CDL_DIM.match(line)):
+            out["/".join(stack)]["dims"][m[1]] = int(m[3] if m[2] == "UNLIMITED" else m[2])
+        elif section == "variables" and (m := _CDL_VAR.match(line)):
+            dims = tuple(d.strip() for d in m[2].split(",")) if m[2] else ()
+            out["/".join(stack)]["vars"][m[1]] = dims
+    return out
+
+
+@pytest.mark.parametrize("key", KINDS)
+def test_netcdf4_reads_every_group_variable_dimension_and_attribute(request, key):
+    """The libnetcdf calls of ``ncdump -h`` (and the data), on one file of each kind."""
+    tree = _netcdf4_walk(_kind_file(request, key))
+    for group in KINDS[key]:
+        assert tree[group]["vars"], (key, group)
+    walked = {f"{g}/{v}".lstrip("/") for g, node in tree.items() for v in node["vars"]}
+    assert walked == _hdf5_variables(_kind_file(request, key))
+
+
+def _hdf5_variables(path) -> set:
+    """Every HDF5 dataset but the dimension-only scales that netCDF hides."""
+    out = set()
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and not str(obj.attrs.get("NAME", b"")).startswith(
+                ("This is a netCDF dimension but not", "b'This is a netCDF dimension but not")):
+            out.add(name)
+    with h5py.File(path, "r") as f:
+        f.visititems(visit)
+    return out
+
+
+@pytest.mark.skipif(shutil.which("ncdump") is None, reason="ncdump not installed")
+@pytest.mark.parametrize("key", KINDS)
+def test_ncdump_shows_every_group_and_variable(request, key):
+    """``ncdump -h`` on the whole file exits 0 and shows every group, dimension (with its
+    length) and variable (with its dimensions) that netCDF4-python finds; ``-g`` on each
+    top-level group shows that group (ncdump 4.9 prints /model with it)."""
+    path = _kind_file(request, key)
+    done = subprocess.run(["ncdump", "-h", str(path)], capture_output=True, text=True,
+                          timeout=60)
     assert done.returncode == 0, done.stderr
-    assert "load_factor" in done.stdout or "time" in done.stdout
+    tree = _netcdf4_walk(path)
+    hidden = {name for name in COMPOUND if name.split("/")[0] in tree}
+    assert hidden <= NCDUMP_HIDES, hidden
+    for name in hidden:
+        group, var = name.rsplit("/", 1)
+        if var in tree.get(group, {}).get("vars", {}):
+            del tree[group]["vars"][var]
+    assert _parse_cdl_header(done.stdout) == tree
+    for group in KINDS[key]:
+        done = subprocess.run(["ncdump", "-h", "-g", group, str(path)], capture_output=True,
+                              text=True, timeout=60)
+        assert done.returncode == 0, done.stderr
+        assert _parse_cdl_header(done.stdout)[group] == tree[group]
 
 
 @pytest.mark.skipif(shutil.which("udunits2") is None,
@@ -312,6 +421,18 @@ def test_older_files_still_read_and_validate(result_files, tmp_path):
             if int(f.attrs["schema_version"][0]) != 2:
                 continue
         assert validate_file(path) == [], path
+    v30 = tmp_path / "v30.h5"                  # 3.0 stored coordinate_fixed as an HDF5 bool
+    shutil.copy(result_files["column"], v30)
+    with h5py.File(v30, "r+") as f:
+        _as_bool_coordinate_fixed(f, (3, 0))
+    assert validate_file(v30) == []
+    with open_results(v30) as res, open_results(result_files["column"]) as new:
+        assert res.model.coordinate_fixed.dtype == new.model.coordinate_fixed.dtype == bool
+        np.testing.assert_array_equal(res.model.coordinate_fixed, new.model.coordinate_fixed)
+        assert res.model.coordinate_fixed.sum() > 0
+    with h5py.File(v30, "r+") as f:             # a 3.1 file must not hold the bool
+        _as_bool_coordinate_fixed(f, (3, 1))
+    assert any("/model/coordinate_fixed has dtype bool" in p for p in validate_file(v30))
     old = tmp_path / "old.h5"
     shutil.copy(result_files["column"], old)
     with h5py.File(old, "r+") as f:
@@ -326,3 +447,19 @@ def test_older_files_still_read_and_validate(result_files, tmp_path):
     assert any("/eigen/frequency is damaged at step 1" in p for p in validate_file(old))
     with pytest.raises(ResultsFormatError, match="frequency"), open_results(old) as res:
         assert res.eigen.frequency is None
+
+
+def _as_bool_coordinate_fixed(f, version) -> None:
+    """/model/coordinate_fixed as 3.0 wrote it (an HDF5 bool, same CRC-32: one byte 0/1)."""
+    from spacarpy.results.header_crc import HEADER_CRC_ATTR, header_crc
+
+    ds = f["model/coordinate_fixed"]
+    values, attrs = ds[...].astype(bool), dict(ds.attrs)
+    attrs.pop("DIMENSION_LIST", None)
+    del f["model/coordinate_fixed"]
+    new = f["model"].create_dataset("coordinate_fixed", data=values)
+    for key, value in attrs.items():
+        new.attrs[key] = value
+    new.dims[0].attach_scale(f["model/global_coordinate"])
+    f.attrs["schema_version"] = np.array(version, dtype=np.int32)
+    f.attrs[HEADER_CRC_ATTR] = header_crc(f.attrs)

@@ -159,7 +159,8 @@ class ModelView:
     coordinate_node.__doc__ = "(n_coord,) int64 or None: node owning each global coordinate."
     coordinate_index = cached_property(lambda self: self._get("coordinate_index"))
     coordinate_index.__doc__ = "(n_coord,) int8 or None: 1..3 (x y z) or 1..4 (lambda0..3)."
-    coordinate_fixed = cached_property(lambda self: self._get("coordinate_fixed"))
+    coordinate_fixed = cached_property(lambda self: None if self._get("coordinate_fixed") is None
+                                       else self._get("coordinate_fixed").astype(bool))
     coordinate_fixed.__doc__ = "(n_coord,) bool or None: fixed coordinates."
 
     @cached_property
