@@ -286,6 +286,9 @@ def test_reprs_name_the_group_sizes_and_units(guidance):
     assert "critical load multiplier" in res.buckling._repr_html_()
     assert repr(res.model) == ("<ModelView /model: 23 position nodes, 22 orientation nodes; "
                                "elements BEAM 20, HINGE 1, RBEAM 2>")
+    assert res.model._repr_html_() == ("<div><code>&lt;ModelView /model: 23 position nodes, "
+                                       "22 orientation nodes; elements BEAM 20, HINGE 1, "
+                                       "RBEAM 2&gt;</code></div>")
 
 
 def test_to_xarray_and_to_dataframe_of_static_and_buckling(guidance):

@@ -100,6 +100,10 @@ class ModelView:
         return (f"<ModelView /model: {self.n_pos} position nodes, {self.n_rot} orientation "
                 f"nodes; elements {kinds or 'none'}>")
 
+    def _repr_html_(self) -> str:
+        import html
+        return f"<div><code>{html.escape(repr(self))}</code></div>"
+
     def _get(self, name):
         path = name if name.startswith("model/") else f"model/{name}"
         if not self._res._has(path):
