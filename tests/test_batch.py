@@ -47,8 +47,9 @@ def test_every_shipped_deck_has_a_baseline_and_they_are_small():
 def test_batch_over_shipped_decks_passes_against_committed_baselines(tmp_path, capsys):
     """Every shipped deck against its baseline; and every deck's new result file opens in
     the netCDF world (issue 35): each group with both xarray engines, every unit parsed by
-    pint into the schema's dimension."""
-    from test_netcdf import check_units, open_headers
+    pint (and UDUNITS2 where cf-units imports) into the schema's dimension, every group,
+    variable and attribute read by netCDF4-python and listed by ncdump -h where installed."""
+    from test_netcdf import check_ncdump, check_units, open_headers
 
     report, kept = tmp_path / "r.json", tmp_path / "results"
     assert main(["batch", str(DECKS), "--baseline", str(BASELINE), "-j", "2", "-q",
@@ -63,6 +64,7 @@ def test_batch_over_shipped_decks_passes_against_committed_baselines(tmp_path, c
     for path in files:
         open_headers(path)
         check_units(path)
+        check_ncdump(path)
 
 
 @pytest.mark.slow

@@ -323,7 +323,7 @@ def test_export_command_every_and_step(pendulum, tmp_path, capsys):
     assert main(["export", str(pendulum), "-o", str(out), "--step", "-1"]) == 0
     assert meshio.read(out).points.shape == (2, 3)
     assert main(["export", str(pendulum), "-o", str(out), "--every", "0"]) == 2
-    assert "must be a whole number >= 1" in capsys.readouterr().err
+    assert "expected a positive whole number, got '0'" in capsys.readouterr().err
 
 
 def test_cli_cap_matches_the_writer():

@@ -13,6 +13,7 @@ import pytest
 from spacarpy.cli import main
 from spacarpy.results import ResultsFormatError, open_results, read_results
 from spacarpy.results.header_crc import HEADER_ATTRS, HEADER_CRC_ATTR, header_crc
+from spacarpy.results.schema import SCHEMA_VERSION
 from spacarpy.results.validate import validate_file
 
 
@@ -36,7 +37,10 @@ def test_a_new_file_carries_the_checksum_of_its_root_attributes(copy):
 @pytest.mark.parametrize("name, value", [("program_version", "9.9.9"),
                                          ("created", "2020-01-01T00:00:00+00:00"),
                                          ("deck_path", "/elsewhere/deck.dat"),
-                                         ("schema_version", np.array([3, 1], np.int32))])
+                                         # another minor version than the one written
+                                         ("schema_version", np.array(
+                                             [SCHEMA_VERSION[0], SCHEMA_VERSION[1] + 1],
+                                             np.int32))])
 def test_a_changed_root_attribute_is_damage(copy, capsys, name, value):
     with h5py.File(copy, "r+") as f:
         f.attrs[name] = value

@@ -286,6 +286,9 @@ def test_reprs_name_the_group_sizes_and_units(guidance):
     assert "critical load multiplier" in res.buckling._repr_html_()
     assert repr(res.model) == ("<ModelView /model: 23 position nodes, 22 orientation nodes; "
                                "elements BEAM 20, HINGE 1, RBEAM 2>")
+    assert res.model._repr_html_() == ("<div><code>&lt;ModelView /model: 23 position nodes, "
+                                       "22 orientation nodes; elements BEAM 20, HINGE 1, "
+                                       "RBEAM 2&gt;</code></div>")
 
 
 def test_to_xarray_and_to_dataframe_of_static_and_buckling(guidance):
@@ -362,3 +365,92 @@ def test_labelled_data_without_the_extra_says_how_to_install_it(guidance, monkey
     monkeypatch.setitem(sys.modules, "xarray", None)
     with pytest.raises(MissingExtraError, match=r"pip install 'spacarpy\[xarray\]'"):
         guidance["res"].static.to_xarray()
+
+
+def test_compliance_view_is_labelled_and_equals_the_file(result_files):
+    """/compliance: repr, notebook repr, to_xarray() and to_dataframe() labelled by response
+    and load component, the values those of the HDF5 datasets."""
+    from spacarpy.results import open_results
+
+    path = result_files["column"]
+    with h5py.File(path, "r") as f, open_results(path) as res:
+        comp = res.compliance
+        text = repr(comp)
+        assert text.startswith("<ComplianceView /compliance of ")
+        assert "node            position 3, orientation 4" in text
+        assert "m/N, 1/N, rad/N, rad/(N m)" in text
+        assert "<table>" in comp._repr_html_() and "rad/(N m)" in comp._repr_html_()
+        ds = comp.to_xarray()
+        for name in ("global", "local"):
+            np.testing.assert_array_equal(ds[name].values, f[f"compliance/{name}"][...])
+        assert ds["response"].values.tolist() == [
+            s.decode() for s in f["compliance/response"][...]]
+        assert ds["load_component"].values.tolist() == [
+            s.decode() for s in f["compliance/load_component"][...]]
+        assert ds["compliance_units"].values.ravel().tolist() == [
+            str(u) for u in f["compliance/global"].attrs["units_per_index"]]
+        assert float(ds["global"].sel(response="uy", load_component="Tz").isel(
+            linearized_step=2)) == f["compliance/global"][2, 1, 5]
+        np.testing.assert_array_equal(ds["step"].values, f["compliance/step"][...])
+        df = comp.to_dataframe("local")
+        assert df.loc[(3, "phiz"), "Tz"] == f["compliance/local"][3, 5, 5]
+        assert list(df.columns) == ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"]
+        assert df.attrs["units"][("ux", "Tx")] == "1/N"
+        assert df.attrs["units"][("phix", "Tx")] == "rad/(N m)"
+        with pytest.raises(ValueError, match="global, local"):
+            comp.to_dataframe("modes")
+
+
+def test_state_space_view_is_labelled_and_equals_the_file(result_files):
+    """/state_space: A, B, C, D and the poles labelled by the state, input and output
+    names, equal to the HDF5 datasets."""
+    from spacarpy.results import open_results
+
+    path = result_files["state_space"]
+    with h5py.File(path, "r") as f, open_results(path) as res:
+        ss = res.state_space
+        text = repr(ss)
+        assert text.startswith("<StateSpaceView /state_space of ")
+        assert "inputs          2: INPUTF 1 9 2, INPUTF 2 9 3" in text
+        assert re.search(r"states +48: BEAM 1 mode 1, ", text)
+        assert "poles           1/s; last linearization: " in text
+        assert "OUTE 4 1 3" in ss._repr_html_()
+        ds = ss.to_xarray()
+        for name in ("A", "B", "C", "D", "pole"):
+            np.testing.assert_array_equal(ds[name].values, f[f"state_space/{name}"][...])
+        states = [s.decode() if isinstance(s, bytes) else s
+                  for s in f["state_space/state_name"][...]]
+        assert ds["state"].values.tolist() == states == ds["state_column"].values.tolist()
+        assert ds["system_input"].values.tolist() == ss.input_name
+        assert ds["system_output"].values.tolist() == ss.output_name
+        k = states.index("rate of BEAM 2 mode 3")
+        assert float(ds.A.sel(state=states[3], state_column=states[k]).isel(
+            linearized_step=-1)) == f["state_space/A"][-1, 3, k]
+        assert ds.pole.attrs["units"] == f["state_space/pole"].attrs["units"] == "s^-1"
+        df = ss.to_dataframe("C")
+        assert df.loc[(2, "OUTE 4 1 3"), states[5]] == f["state_space/C"][2, 3, 5]
+        assert df.shape == (3 * 5, 48) and df.attrs["units"] == "1"
+        with pytest.raises(ValueError, match="A, B, C, D"):
+            ss.to_dataframe("E")
+
+
+def test_labelled_units_are_the_schema_units(result_files):
+    """The units of the eigen and buckling variables in to_xarray() and to_dataframe() are
+    those the file stores (labelled.py reads them from the schema: they cannot drift)."""
+    from spacarpy.results import open_results
+    from spacarpy.results.schema import DATASETS
+
+    path = result_files["column"]
+    with h5py.File(path, "r") as f, open_results(path) as res:
+        for group, names in (("eigen", ("frequency", "eigenvalue_real", "eigenvalue_imag",
+                                        "shape_position", "shape_euler")),
+                             ("buckling", ("load_multiplier", "critical_load_multiplier",
+                                           "shape_position", "shape_euler"))):
+            ds = getattr(res, group).to_xarray()
+            units = getattr(res, group).to_dataframe().attrs["units"]
+            for name in names:
+                stored = f[f"{group}/{name}"].attrs["units"]
+                assert ds[name].attrs["units"] == stored == DATASETS[f"{group}/{name}"].units
+                if name in units:
+                    assert units[name] == stored, (group, name)
+        assert "positions: m, Euler parameters: 1" in repr(res.eigen)

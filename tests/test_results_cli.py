@@ -30,7 +30,7 @@ def files(result_files):
 
 def test_validate(files, capsys, tmp_path):
     assert main(["validate", str(files["bend"])]) == 0
-    assert "valid spacarpy results file, schema 3.0, completed run" in capsys.readouterr().out
+    assert "valid spacarpy results file, schema 3.1, completed run" in capsys.readouterr().out
     assert main(["validate", str(files["failed"])]) == 0
     assert "incomplete run: spurious" in capsys.readouterr().out
     assert main(["validate", str(files["failed"]), "--require-complete"]) == 2
@@ -56,7 +56,7 @@ def test_newer_major_version_exits_2_with_a_clear_message(files, tmp_path, capsy
         argv = [command[0], str(path)] + command[2:]
         assert main(argv) == 2
         text = capsys.readouterr()
-        assert "schema version 4.2 is newer than schema version 3.0" in text.out + text.err
+        assert "schema version 4.2 is newer than schema version 3.1" in text.out + text.err
 
 
 # --- show ----------------------------------------------------------------------------------------

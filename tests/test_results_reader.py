@@ -41,7 +41,7 @@ def test_every_written_file_is_valid(files):
 def test_open_results_is_exported_at_the_top(files):
     assert spacarpy.open_results is open_results
     res = spacarpy.open_results(files["bend"])
-    assert res.completed and res.analysis == "static" and res.schema_version == (3, 0)
+    assert res.completed and res.analysis == "static" and res.schema_version == (3, 1)
     assert "static analysis, completed" in repr(res)
 
 
@@ -148,7 +148,7 @@ def test_newer_major_version_is_refused_with_both_versions(files, tmp_path):
     with h5py.File(path, "r+") as f:
         f.attrs["schema_version"] = np.array([4, 0], dtype=np.int32)
     with pytest.raises(ResultsFormatError, match=r"schema version 4\.0 is newer than schema "
-                                                 r"version 3\.0"):
+                                                 r"version 3\.1"):
         open_results(path)
 
 

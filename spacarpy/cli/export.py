@@ -4,24 +4,12 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from spacarpy.cli.common import _output_path, _verbosity
+from spacarpy.cli.common import _output_path, _positive_int, _verbosity
 from spacarpy.errors import EXIT_INPUT, EXIT_OK
 
 #: Kept equal to :data:`spacarpy.results.export.MAX_FRAMES` (a test checks), not imported:
 #: the parser is built without importing the results layer.
 MAX_FRAMES = 500
-
-
-def _positive(text: str) -> int:
-    """An argparse type: a whole number >= 1."""
-    import argparse
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
-    return value
 
 
 def add_parser(sub) -> None:
@@ -33,7 +21,7 @@ def add_parser(sub) -> None:
                      help="write <file>.xdmf and its data <file>.xdmf.h5 (the default)")
     exp.add_argument("--vtk", action="store_true",
                      help="write <file>.pvd and one .vtu per exported step")
-    exp.add_argument("--every", type=_positive, default=None, metavar="N",
+    exp.add_argument("--every", type=_positive_int, default=None, metavar="N",
                      help="export every N-th step and the last (default: all, or every k-th "
                           f"so that a long run has at most {MAX_FRAMES} intervals)")
     exp.add_argument("-o", "--output", type=_output_path, default=None,

@@ -26,14 +26,23 @@ import numpy as np
 
 from spacarpy.elements.registry import KINDS
 from spacarpy.errors import SpacarError
+from spacarpy.results.schema import DATASETS
 
 __all__ = ["LabelledView", "MissingExtraError"]
 
 _XYZ = ["x", "y", "z"]
 _EULER = ["lambda0", "lambda1", "lambda2", "lambda3"]
-#: The mass-normalized eigen shapes' units, as the file stores them (schema 3.0: scaled so
-#: that phi^T M phi = 1 kg m^2, so positions are in m and Euler parameters in 1).
-_EIGEN_SHAPE_UNITS = {"position": "m", "euler": "1"}
+
+
+def _unit(path: str) -> str:
+    """The ``units`` the schema gives the dataset ``path`` (so that these cannot drift)."""
+    return DATASETS[path].units
+
+
+def _shape_units(group: str) -> dict:
+    """Units of the mode shapes of ``group`` as the file stores them (eigen, schema 3.0:
+    scaled so that phi^T M phi = 1 kg m^2: positions in m, Euler parameters in 1)."""
+    return {"position": _unit(f"{group}/shape_position"), "euler": _unit(f"{group}/shape_euler")}
 
 
 class MissingExtraError(SpacarError, ImportError):
@@ -215,21 +224,23 @@ def _linearized_vars(view) -> tuple[dict, dict]:
     if view._group == "eigen":
         ev = view.eigenvalue
         data.update(
-            frequency=_var(("linearized_step", "mode"), view.frequency, "Hz",
-                           "natural frequency"),
-            eigenvalue_real=_var(("linearized_step", "mode"), ev.real, "s^-2",
-                                 "eigenvalue omega^2, real part"),
-            eigenvalue_imag=_var(("linearized_step", "mode"), ev.imag, "s^-2",
+            frequency=_var(("linearized_step", "mode"), view.frequency,
+                           _unit("eigen/frequency"), "natural frequency"),
+            eigenvalue_real=_var(("linearized_step", "mode"), ev.real,
+                                 _unit("eigen/eigenvalue_real"), "eigenvalue omega^2, real part"),
+            eigenvalue_imag=_var(("linearized_step", "mode"), ev.imag,
+                                 _unit("eigen/eigenvalue_imag"),
                                  "eigenvalue omega^2, imaginary part"))
-        units, what = _EIGEN_SHAPE_UNITS, "mode shape, mass-normalized: phi^T M phi = 1 kg m^2"
+        units, what = _shape_units("eigen"), "mode shape, mass-normalized: phi^T M phi = 1 kg m^2"
     else:
         data.update(
-            load_multiplier=_var(("linearized_step", "mode"), view.load_multiplier, "1",
-                                 "buckling load multiplier"),
+            load_multiplier=_var(("linearized_step", "mode"), view.load_multiplier,
+                                 _unit("buckling/load_multiplier"), "buckling load multiplier"),
             critical_load_multiplier=_var(("linearized_step",),
-                                          view.critical_load_multiplier, "1",
+                                          view.critical_load_multiplier,
+                                          _unit("buckling/critical_load_multiplier"),
                                           "smallest positive multiplier"))
-        units, what = {"position": "1", "euler": "1"}, "buckling shape"
+        units, what = _shape_units("buckling"), "buckling shape"
     pos = np.full((n_lin, n_mode, model.n_pos, 3), np.nan)
     rot = np.full((n_lin, n_mode, model.n_rot, 4), np.nan)
     for r, s in enumerate(steps):
@@ -253,6 +264,9 @@ def _linearized_vars(view) -> tuple[dict, dict]:
 
 def _rows(view) -> list[tuple[str, str]]:
     """(what, value) lines describing the view."""
+    if view._group in ("compliance", "state_space"):
+        from spacarpy.results import labelled_linear
+        return labelled_linear.rows(view)
     res = view._res
     model = res.model
     if view._group in ("static", "transient"):
@@ -291,7 +305,9 @@ def _rows(view) -> list[tuple[str, str]]:
         shown = ", ".join(f"{v:.6g}" for v in f[:6])
         out.append(("frequency", f"Hz; last linearization: {shown}"
                     + (", ..." if f.size > 6 else "")))
-        out.append(("shapes", "mass-normalized (m/kg^0.5, 1/kg^0.5)"))
+        units = _shape_units("eigen")
+        out.append(("shapes", f"mass-normalized, phi^T M phi = 1 kg m^2 (positions: "
+                    f"{units['position']}, Euler parameters: {units['euler']})"))
     elif view._group == "buckling" and view.n_lin:
         out.append(("critical load multiplier",
                     f"{view.critical_load_multiplier[-1]:.6g} (last linearization; "
@@ -347,7 +363,10 @@ class LabelledView:
         (/transient), ``position_node``, ``orientation_node`` (deck numbers), ``component``
         (x y z), ``euler_parameter``, ``<KIND>_element`` (deck numbers) and ``<KIND>_mode``
         (1..n, names in its ``mode_names`` attribute), ``mode`` and ``linearized_step``
-        (/eigen, /buckling). Every variable has ``units`` (pint-parseable; left out where the
+        (/eigen, /buckling); ``response`` and ``load_component`` (/compliance, whose entries'
+        units are the coordinate ``compliance_units``); ``state``, ``state_column``,
+        ``system_input`` and ``system_output`` (/state_space: A, B, C, D, pole, labelled by
+        the names). Every variable has ``units`` (pint-parseable; left out where the
         columns differ: then ``<KIND>_mode_units``, ``<KIND>_stress_units`` or
         ``reaction_units`` give each column's) and ``long_name``.
 
@@ -360,6 +379,9 @@ class LabelledView:
         with _keep_open(self._res):
             if self._group in ("static", "transient"):
                 coords, data = _step_dataset_vars(self)
+            elif self._group in ("compliance", "state_space"):
+                from spacarpy.results import labelled_linear
+                coords, data = labelled_linear.dataset_vars(self)
             else:
                 coords, data = _linearized_vars(self)
         attrs = {"group": self._group, "source": str(getattr(self._res, "path", "")),
@@ -377,7 +399,10 @@ class LabelledView:
             (one row per step: load factor or time, iterations, residual, energies) or
             ``"elements"`` (one row per step and element of ``kind``: the deformations
             ``e1..`` and stress resultants ``s1..``). /eigen, /buckling: ``"modes"`` (the
-            default: one row per linearization and mode).
+            default: one row per linearization and mode). /compliance: ``"global"`` (the
+            default) or ``"local"``, /state_space: ``"A"`` (the default), ``"B"``, ``"C"``
+            or ``"D"``: one row per linearization and matrix row (response or state or
+            output name), one column per load component, state or input.
         kind : str
             The element kind of ``what="elements"``.
 
@@ -396,6 +421,9 @@ class LabelledView:
         """
         pd = _import("pandas")
         with _keep_open(self._res):
+            if self._group in ("compliance", "state_space"):
+                from spacarpy.results import labelled_linear
+                return labelled_linear.dataframe(self, pd, what)
             return _dataframe(self, pd, what, kind)
 
 
@@ -419,10 +447,11 @@ def _dataframe(view, pd, what, kind):
             ev = view.eigenvalue
             cols.update(frequency=view.frequency.ravel(), eigenvalue_real=ev.real.ravel(),
                         eigenvalue_imag=ev.imag.ravel())
-            units.update(frequency="Hz", eigenvalue_real="s^-2", eigenvalue_imag="s^-2")
+            units.update({name: _unit(f"eigen/{name}") for name in
+                          ("frequency", "eigenvalue_real", "eigenvalue_imag")})
         else:
             cols["load_multiplier"] = view.load_multiplier.ravel()
-            units["load_multiplier"] = "1"
+            units["load_multiplier"] = _unit("buckling/load_multiplier")
         df = pd.DataFrame(cols, index=index)
         df.attrs["units"] = units
         return df

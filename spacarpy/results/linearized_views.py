@@ -138,7 +138,7 @@ class BucklingView(LabelledView, _LinearizedView):
     kind_names = MODE_KIND_NAMES
 
 
-class ComplianceView(_LinearizedView):
+class ComplianceView(LabelledView, _LinearizedView):
     """``/compliance``: 6x6 compliance of one node at each linearized step."""
 
     @property
@@ -159,7 +159,7 @@ class ComplianceView(_LinearizedView):
             return int(a["position_node"]), int(a["orientation_node"])
 
 
-class StateSpaceView(_LinearizedView):
+class StateSpaceView(LabelledView, _LinearizedView):
     """``/state_space``: the linearized equations in the degrees of freedom and the
     first-order system ``dz/dt = A z + B u, y = C z + D u`` at each linearized step
     (SPACAR mode 9, docs/linearized.md)."""

@@ -105,5 +105,5 @@ def model_datasets(model: Model, num=None) -> dict:
     index[num.warp_idx] = 1
     out["model/coordinate_node"] = num.node_of_coord(model)
     out["model/coordinate_index"] = index
-    out["model/coordinate_fixed"] = num.fixed_mask.astype(bool)
+    out["model/coordinate_fixed"] = num.fixed_mask.astype(np.int8)   # bool before 3.1
     return out

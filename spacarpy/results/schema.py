@@ -48,7 +48,7 @@ __all__ = ["ACCELERATIONS", "SCHEMA_VERSION", "FILETYPE", "PROGRAM", "DatasetSpe
 #: (major, minor) version of the schema written by this spacarpy. MAJOR changes are
 #: incompatible (paths moved); MINOR ones only add optional content. Files of major
 #: version 1 are read through :data:`LEGACY_NAMES`.
-SCHEMA_VERSION = (3, 0)
+SCHEMA_VERSION = (3, 1)
 #: Value of the root attribute ``filetype``.
 FILETYPE = "spacarpy-results"
 #: Value of the root attribute ``program``.
@@ -218,8 +218,9 @@ def _spec_list() -> list[DatasetSpec]:
         S("model/coordinate_index", "i1", ("global_coordinate",), "1",
           "index of the coordinate in its node: 1..3 = x y z, 1..4 = lambda0..lambda3, 1 = "
           "the rate of twist of a warping node", v11),
-        S("model/coordinate_fixed", "?", ("global_coordinate",), "1",
-          "whether the coordinate is fixed (FIX)", v11),
+        S("model/coordinate_fixed", "i1", ("global_coordinate",), "1",
+          "1 where the coordinate is fixed (FIX), else 0 (an HDF5 boolean before 3.1: "
+          "ncdump does not show that type)", v11),
         # static
         S("static/load_factor", "f8", ("step",), "1",
           "load factor on DELXF (load = XF + load_factor * DELXF)"),

@@ -261,7 +261,8 @@ def _check_dataset(sf, spec, sizes, problems) -> h5py.Dataset | None:
           "complex": np.issubdtype(dt, np.complexfloating),
           "ascii": dt.kind == "S", "bool": dt.kind == "b",
           "str": h5py.check_string_dtype(dt) is not None
-          or (sf.major < 3 and spec.path != "deck" and dt.kind == "S")}[spec.kind_class]
+          or (sf.major < 3 and spec.path != "deck" and dt.kind == "S")}[spec.kind_class] \
+        or (spec.path == "model/coordinate_fixed" and dt.kind == "b" and _before_3_1(sf))
     if not ok:
         problems.append(f"/{name} has dtype {dt}, expected {spec.kind_class}")
     shape = tuple(_dim(d, spec, sizes, sf) for d in spec.shape)
@@ -270,6 +271,12 @@ def _check_dataset(sf, spec, sizes, problems) -> h5py.Dataset | None:
         want = tuple("*" if s is None else s for s in shape)
         problems.append(f"/{name} has shape {obj.shape}, expected {want}")
     return obj
+
+
+def _before_3_1(sf) -> bool:
+    """Whether the file's schema is older than 3.1 (``coordinate_fixed`` was an HDF5 bool)."""
+    version = tuple(int(x) for x in np.asarray(sf.attrs["schema_version"]).reshape(-1)[:2])
+    return version < (3, 1)
 
 
 def _check_steps(sf, found, completed, problems) -> None:

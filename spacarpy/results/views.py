@@ -100,6 +100,10 @@ class ModelView:
         return (f"<ModelView /model: {self.n_pos} position nodes, {self.n_rot} orientation "
                 f"nodes; elements {kinds or 'none'}>")
 
+    def _repr_html_(self) -> str:
+        import html
+        return f"<div><code>{html.escape(repr(self))}</code></div>"
+
     def _get(self, name):
         path = name if name.startswith("model/") else f"model/{name}"
         if not self._res._has(path):
@@ -159,7 +163,8 @@ class ModelView:
     coordinate_node.__doc__ = "(n_coord,) int64 or None: node owning each global coordinate."
     coordinate_index = cached_property(lambda self: self._get("coordinate_index"))
     coordinate_index.__doc__ = "(n_coord,) int8 or None: 1..3 (x y z) or 1..4 (lambda0..3)."
-    coordinate_fixed = cached_property(lambda self: self._get("coordinate_fixed"))
+    coordinate_fixed = cached_property(lambda self: None if self._get("coordinate_fixed") is None
+                                       else self._get("coordinate_fixed").astype(bool))
     coordinate_fixed.__doc__ = "(n_coord,) bool or None: fixed coordinates."
 
     @cached_property
