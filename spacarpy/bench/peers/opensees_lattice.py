@@ -24,7 +24,8 @@ OpenSees model:
   time series applies ``F`` along +x on every top node (dead load); ``LoadControl`` in
   ``steps`` equal increments, ``Newton`` (tangent every iteration), the ``NormDispIncr``
   test at ``tol`` (m and rad, the increment test of the Exudyn peer), ``RCM`` numbering and
-  a sparse direct system (:data:`SYSTEM`, the fastest measured here).
+  a sparse direct system (UmfPack, or Mumps on large lattices: :data:`MUMPS_FROM`, the
+  fastest measured here).
 
 openseespy is imported lazily; without it (or when its binary does not load) :func:`lattice`
 returns ``ok=False`` and the reason.
@@ -45,9 +46,17 @@ from spacarpy.bench.decks import LATTICE
 #: OpenSees elements per member: one, as the force-based element with shear is exact for
 #: the member's linear basic system (1 x 1 x 3 column: within 1e-6 of spacarpy)
 MESH = 1
-#: OpenSees' linear system: UmfPack (measured 5 x 5 x 9, 2 160 unknowns: UmfPack 0.09 s,
-#: SparseSYM 0.10 s, Mumps 0.16 s per solve; BandGeneral 0.6 s)
-SYSTEM = "UmfPack"
+#: OpenSees' sparse systems, measured on the loaded 2-core machine (solve s, 2 load steps,
+#: 6 Newton iterations): 6 x 6 x 11 (1 020 beams) UmfPack 0.62-1.13, SparseSYM 0.56-0.79,
+#: Mumps 0.75-1.14; 9 x 9 x 18 (4 131) UmfPack 4.3-5.6, Mumps 5.5-6.9; 12 x 12 x 25
+#: (10 512) UmfPack 25-31, Mumps 20.4-20.6, SparseSYM 51. UmfPack below MUMPS_FROM beams,
+#: Mumps from there (the crossover lies between the last two sizes; not measured closer)
+MUMPS_FROM = 8000
+
+
+def _system(kx: int, ky: int, m: int) -> str:
+    from spacarpy.bench.decks import lattice_elements
+    return "Mumps" if lattice_elements(kx, ky, m) >= MUMPS_FROM else "UmfPack"
 
 
 def _peak_mb() -> float:
@@ -151,13 +160,14 @@ def _analysis(ops, tol: float, system: str) -> None:
 
 
 def lattice(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-10,
-            system: str = SYSTEM) -> dict:
+            system: str | None = None) -> dict:
     """The lattice with ``mesh`` OpenSees elements per member: ``top_ux`` (m), ``total``
     (solve s), ``setup`` (model s), ``iterations`` (Newton, all steps), ``ok``, ``reason``,
-    ``peak_mb``."""
+    ``peak_mb``, ``system`` (OpenSees' linear system; None: by the lattice's size)."""
     ok, why = available()
     if not ok:
         return _result(reason=why)
+    system = system or _system(kx, ky, m)
     ops = _load()
     with tempfile.TemporaryDirectory(prefix="opensees_peer_") as tmp:
         ops.logFile(os.path.join(tmp, "opensees.log"), "-noEcho")   # keep it off stderr
@@ -184,4 +194,4 @@ def lattice(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-10,
         top_ux = float(np.mean([ops.nodeDisp(n, 1) for n in top]))
         ops.wipe()
     return _result(total=total, setup=setup, iterations=iterations, top_ux=top_ux, ok=True,
-                   mesh=mesh)
+                   mesh=mesh, system=system)
