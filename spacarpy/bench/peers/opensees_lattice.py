@@ -32,10 +32,12 @@ returns ``ok=False`` and the reason.
 """
 from __future__ import annotations
 
+import atexit
 import ctypes
 import importlib.util
 import os
 import resource
+import sys
 import tempfile
 import time
 
@@ -80,7 +82,26 @@ def _load():
         if os.path.exists(blas):
             ctypes.CDLL(blas, mode=ctypes.RTLD_GLOBAL)
     import openseespy.opensees as ops
+    if not _SILENCED:
+        _SILENCED.append(True)
+        atexit.register(_silence_stderr)
     return ops
+
+
+_SILENCED: list = []
+
+
+def _silence_stderr() -> None:
+    """At exit, silence the C stderr: OpenSees' library writes "Process 0 Terminating" there
+    when it is unloaded, which would land in the bench's table (atexit handlers registered
+    before openseespy was loaded run after this one, silenced too)."""
+    try:
+        sys.stderr.flush()
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, 2)
+        os.close(null)
+    except (OSError, ValueError):
+        pass
 
 
 def available() -> tuple[bool, str]:
