@@ -166,6 +166,23 @@ def test_opensees_peer_is_named_in_the_table():
         run_bench(cases=("lattice",), peer="abaqus")
 
 
+def test_bench_with_the_opensees_peer(capsys):
+    """``spacarpy bench --cases lattice --peer opensees``: the row carries OpenSees' answer,
+    spacarpy's to 1e-6, and its columns are headed OpenSees."""
+    from spacarpy.bench.peers.opensees_lattice import available
+    from spacarpy.bench.runner import run_bench
+    ok, why = available()
+    if not ok:
+        pytest.skip(why)
+    rows = run_bench(cases=("lattice",), sizes={"lattice": (30,)}, peer="opensees",
+                     repeat=1)["lattice"]
+    row = rows[0]
+    assert row["peer"]["ok"], row["peer"]["reason"]
+    assert row["peer"]["result"] == pytest.approx(row["result"], rel=1e-6)
+    text = capsys.readouterr().out
+    assert "OpenSees s" in text and "Exudyn" not in text
+
+
 def test_bench_row_and_table():
     """The bench's lattice row: the grid it picks for a target, the deck's numbers and its
     top displacement, shown in the text table (no timing is checked)."""
