@@ -129,6 +129,60 @@ def test_lattice_against_exudyn():
     assert abs(peer["coarse"]["top_ux"] / ours - 1) > 1e-3     # the mesh matters
 
 
+def test_lattice_against_opensees():
+    """The bench's other peer: OpenSees' force-based beam (elastic section with shear, three
+    Lobatto points, Corotational transformation), one element per member
+    (spacarpy.bench.peers.opensees_lattice), reaches spacarpy's mean top displacement at
+    4 x 4 x 5 to 1e-6 (measured 3e-8: both are exact for the member's linear basic system and
+    take its large rotations corotationally; on a 1 x 1 x 3 column, rotations 6e-3 rad, they
+    differ by 2e-6). Without shear flexibility OpenSees' answer moves by 2.9 %, with
+    two Lobatto points (the trapezoid rule) by 180 %: both would fail."""
+    from spacarpy.bench.peers.opensees_lattice import available, lattice
+    ok, why = available()
+    if not ok:
+        pytest.skip(why)
+    kx, ky, m = 4, 4, 5
+    model, prob, res = _solve(kx, ky, m)
+    top = [lattice_node(kx, ky, i, j, m - 1) for j in range(ky) for i in range(kx)]
+    ours = lattice_top_ux(model, prob, res.steps[-1].x, top)
+    peer = lattice(kx, ky, m)
+    assert peer["ok"], peer["reason"]
+    assert peer["top_ux"] == pytest.approx(ours, rel=1e-6)
+    assert peer["iterations"] >= LATTICE["steps"] and peer["total"] > 0
+
+
+def test_opensees_peer_is_named_in_the_table():
+    """``--peer opensees`` heads the lattice's peer columns with OpenSees (Exudyn stays the
+    name of ``--peer exudyn`` and of the old boolean), and an unknown peer is refused."""
+    from spacarpy.bench.runner import run_bench
+    from spacarpy.bench.tables import _text_table
+    row = dict(n=10, grid="2x2x3", result=1e-4,
+               peer=dict(ok=True, total=0.5, iterations=6, result=1.0e-4))
+    assert "OpenSees s" in _text_table("lattice", [row], "opensees")[0]
+    for peer in ("exudyn", True):
+        head = _text_table("lattice", [row], peer)[0]
+        assert "Exudyn s" in head and "OpenSees" not in head
+    with pytest.raises(ValueError, match="opensees"):
+        run_bench(cases=("lattice",), peer="abaqus")
+
+
+def test_bench_with_the_opensees_peer(capsys):
+    """``spacarpy bench --cases lattice --peer opensees``: the row carries OpenSees' answer,
+    spacarpy's to 1e-6, and its columns are headed OpenSees."""
+    from spacarpy.bench.peers.opensees_lattice import available
+    from spacarpy.bench.runner import run_bench
+    ok, why = available()
+    if not ok:
+        pytest.skip(why)
+    rows = run_bench(cases=("lattice",), sizes={"lattice": (30,)}, peer="opensees",
+                     repeat=1)["lattice"]
+    row = rows[0]
+    assert row["peer"]["ok"], row["peer"]["reason"]
+    assert row["peer"]["result"] == pytest.approx(row["result"], rel=1e-6)
+    text = capsys.readouterr().out
+    assert "OpenSees s" in text and "Exudyn" not in text
+
+
 def test_bench_row_and_table():
     """The bench's lattice row: the grid it picks for a target, the deck's numbers and its
     top displacement, shown in the text table (no timing is checked)."""

@@ -19,7 +19,8 @@ DECK = ROOT / "decks" / "table1_cantilever_8el_modified.dat"
 
 #: Modules a static ``spacarpy run`` must not import (plotting, Dask, the batch machinery, the
 #: peers, scipy submodules a static solve does not use).
-NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "meshio", "scipy.signal",
+NOT_FOR_RUN = ("matplotlib", "dask", "distributed", "exudyn", "openseespy", "meshio",
+               "scipy.signal",
                "scipy.io", "scipy.optimize", "scipy.integrate", "scipy.interpolate",
                "spacarpy.batch", "spacarpy.bench",
                "spacarpy.results.plot", "spacarpy.results.plot_base",

@@ -11,6 +11,9 @@ DECK_CASES = {
     "sweep": ("sweep", "{deck}/leafspring_guidance_sweep.dat", "--set", "phi=0:0.002:21",
               "-j", "2"),
 }
+#: ``--peer`` choices and the cases each solves (Exudyn has no arc length; OpenSees the
+#: lattice alone: spacarpy.bench.peers)
+PEERS = {"exudyn": tuple(c for c in CASES if c != "arclength"), "opensees": ("lattice",)}
 #: shear stiffness GA / EA of the benchmark cantilever (Exudyn's SHEAR_FACTOR)
 SHEAR = 10.0
 DEFAULT_SIZES = {"cantilever": (10, 100, 1000, 10000), "bend": (10, 100, 1000, 10000),

@@ -41,10 +41,12 @@ shown. Set-up (deck parsing, numbering, sparsity pattern) is timed apart from th
 static tables split the time per Newton iteration into element kernels, assembly, sparse
 factorizations and solves, and the rest (norms, bookkeeping). With ``--peer exudyn`` the same
 problems are solved by Exudyn (:mod:`spacarpy.bench.peers.exudyn_cantilever`) in the same run,
-and the ratio of the solve times (spacarpy / Exudyn) is shown with the result each code reaches. The
-cantilever rows up to :data:`WHOLE_PROCESS_MAX` elements also time the whole process
-(:func:`whole_process`): ``spacarpy run`` as a subprocess against the Exudyn script as a
-subprocess, best of ``repeat``.
+and the ratio of the solve times (spacarpy / Exudyn) is shown with the result each code reaches;
+``--peer opensees`` does the same for the lattice with OpenSees
+(:mod:`spacarpy.bench.peers.opensees_lattice`). The cantilever rows up to
+:data:`WHOLE_PROCESS_MAX` elements also time the whole process (:func:`whole_process`):
+``spacarpy run`` as a subprocess against the Exudyn script as a subprocess, best of
+``repeat``.
 ``--markdown FILE`` writes the tables as docs/performance.md is made. Nothing else is written;
 numbers are never asserted in tests.
 
@@ -68,6 +70,7 @@ from spacarpy.bench.decks import (
     DECK_CASES,
     DEFAULT_SIZES,
     LATTICE,
+    PEERS,
     SHEAR,
     arclength_deck,
     eigen_cantilever_deck,
@@ -77,7 +80,13 @@ from spacarpy.bench.decks import (
     lattice_node,
     transient_cantilever_deck,
 )
-from spacarpy.bench.tables import _text_table, _title, machine_summary, write_markdown
+from spacarpy.bench.tables import (
+    _text_table,
+    _title,
+    machine_summary,
+    peer_name,
+    write_markdown,
+)
 from spacarpy.deck import job_from_text
 from spacarpy.memory import estimate_run_bytes
 from spacarpy.solvers.linalg.pardiso import factor_high_water
@@ -233,9 +242,14 @@ def _arclength_row(n: int) -> dict:
                 peak_mb=_peak_mb())
 
 
-def _peer_row(case: str, n: int, n_steps: int, transient_steps: int) -> dict:
+def _peer_row(case: str, n: int, n_steps: int, transient_steps: int,
+              peer: str = "exudyn") -> dict:
     from spacarpy.bench.peers import exudyn_cantilever as exu
-    if case == "lattice":
+    if peer == "opensees":          # the lattice only (PEER_CASES)
+        from spacarpy.bench.peers.opensees_lattice import lattice
+        r = lattice(*lattice_grid(n))
+        value = r["top_ux"]
+    elif case == "lattice":
         from spacarpy.bench.peers.exudyn_lattice import extrapolated
         r = extrapolated(*lattice_grid(n))
         value = r["top_ux"]
@@ -402,17 +416,20 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
     """Run the benchmark; print one table per case to ``out`` (default: the current
     sys.stdout) and write them as Markdown. ``spinup_t_end``: the spin-up's end time (s)."""
     out = sys.stdout if out is None else out
-    if peer not in (None, "exudyn"):
-        raise ValueError(f"unknown peer {peer!r} (known: exudyn)")
+    if peer not in (None, *PEERS):
+        raise ValueError(f"unknown peer {peer!r} (known: {', '.join(PEERS)})")
     if peer:
-        from spacarpy.bench.peers.exudyn_cantilever import available
+        if peer == "opensees":
+            from spacarpy.bench.peers.opensees_lattice import available
+        else:
+            from spacarpy.bench.peers.exudyn_cantilever import available
         ok, version = available()
         if not ok:
-            print(f"peer exudyn not available ({version}); install it with "
+            print(f"peer {peer} not available ({version}); install it with "
                   "pip install 'spacarpy[bench]'", file=out)
             peer = None
         else:
-            print(f"peer: Exudyn {version}", file=out)
+            print(f"peer: {peer_name(peer)} {version}", file=out)
     print(machine_summary(), file=out)
     results = {}
     for case in cases:
@@ -427,11 +444,13 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
             else (sizes or DEFAULT_SIZES[case])
         rows = []
         head_printed = False
+        # the case's peer: Exudyn has every case but arclength, OpenSees the lattice
+        case_peer = peer if peer and case in PEERS[peer] else None
         for n in case_sizes:
             if case == "spinup":                    # one run: it takes seconds
                 from spacarpy.bench import spinup
                 row = _in_child(spinup.bench_row, n, spinup_t_end)
-                if peer:
+                if case_peer:
                     row["peer"] = _in_child(_spinup_peer_row, n, spinup_t_end)
             else:
                 # one repetition from 10^5 elements on, where a static solve takes a
@@ -442,18 +461,19 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
                 row = _in_child(_run_row, case, n, reps, n_steps, transient_steps)
             row.setdefault("n", n)
             row.setdefault("case", case)
-            # arclength: no Exudyn counterpart; spinup: its peer row above
-            if peer and case not in ("arclength", "spinup"):
-                row["peer"] = _in_child(_peer_row, case, n, n_steps, transient_steps)
+            # spinup: its peer row above
+            if case_peer and case != "spinup":
+                row["peer"] = _in_child(_peer_row, case, n, n_steps, transient_steps,
+                                        case_peer)
             if "error" in row.get("peer", {}):
                 row["peer"] = dict(ok=False, reason=row["peer"]["error"])
             if case == "cantilever" and n <= WHOLE_PROCESS_MAX:
-                whole = whole_process(n, n_steps, repeat, bool(peer))
+                whole = whole_process(n, n_steps, repeat, bool(case_peer))
                 row["whole"] = whole["spacarpy"]
-                if peer:
+                if case_peer:
                     row["peer"]["whole"] = whole["peer"]
             rows.append(row)
-            lines = _text_table(case, [row], bool(peer))
+            lines = _text_table(case, [row], case_peer or False)
             if not head_printed:
                 print("\n".join(lines[:2]), file=out)
                 head_printed = True
@@ -464,7 +484,8 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
     if markdown and failed:         # a failed row is never written into the page
         print(f"\n{markdown} not written: {len(failed)} case(s) failed", file=out)
     elif markdown:
-        write_markdown(markdown, results, bool(peer), n_steps, transient_steps, spinup_t_end)
+        write_markdown(markdown, results, peer or False, n_steps, transient_steps,
+                       spinup_t_end)
         print(f"\nwrote {markdown}", file=out)
     return results
 

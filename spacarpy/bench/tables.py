@@ -7,11 +7,21 @@ import platform
 
 import numpy as np
 
-from spacarpy.bench.decks import DECK_CASES, TITLES
+from spacarpy.bench.decks import DECK_CASES, PEERS, TITLES
+
+#: the peers' names in the column headers (``--peer``; True means Exudyn, as before)
+PEER_NAMES = {"exudyn": "Exudyn", "opensees": "OpenSees"}
 
 
-def _columns(case: str, peer: bool):
-    """(header, width, format function) per column."""
+def peer_name(peer) -> str:
+    """The column-header name of ``peer`` (a ``--peer`` choice, or True for Exudyn)."""
+    return PEER_NAMES.get(peer, "Exudyn") if isinstance(peer, str) else "Exudyn"
+
+
+def _columns(case: str, peer):
+    """(header, width, format function) per column; ``peer``: False, True (Exudyn) or a
+    ``--peer`` choice, whose name heads the peer's columns."""
+    name = peer_name(peer)
     def f(key, fmt, scale=1.0):
         def get(r):
             v = r.get(key)
@@ -72,9 +82,9 @@ def _columns(case: str, peer: bool):
     if peer:
         unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)", "lattice": "top u_x (m)"}.get(
             case, "tip u_y (m)")
-        cols += [("Exudyn s", 9, lambda r: _peer_get(r, "total", ".3f")),
-                 ("Exudyn its", 10, lambda r: _peer_get(r, "iterations", "d")),
-                 (f"Exudyn {unit}", 16, lambda r: _peer_get(
+        cols += [(f"{name} s", 9, lambda r: _peer_get(r, "total", ".3f")),
+                 (f"{name} its", 10, lambda r: _peer_get(r, "iterations", "d")),
+                 (f"{name} {unit}", 16, lambda r: _peer_get(
                      r, "result", ".4f" if case in ("eigen", "bend")
                      else ".6e" if case == "lattice" else ".6f")),
                  ("ratio", 6, _ratio)]
@@ -109,7 +119,7 @@ def _ratio(row):
     return f"{row['total'] / p['total']:.2f}"
 
 
-def _text_table(case: str, rows: list[dict], peer: bool) -> list[str]:
+def _text_table(case: str, rows: list[dict], peer) -> list[str]:
     cols = _columns(case, peer)
     header = " ".join(f"{h:>{w}}" for h, w, _ in cols)
     lines = [header, "-" * len(header)]
@@ -121,7 +131,7 @@ def _text_table(case: str, rows: list[dict], peer: bool) -> list[str]:
     return lines
 
 
-def _markdown_table(case: str, rows: list[dict], peer: bool) -> list[str]:
+def _markdown_table(case: str, rows: list[dict], peer) -> list[str]:
     cols = _columns(case, peer)
     lines = ["| " + " | ".join(h for h, _, _ in cols) + " |",
              "|" + "|".join("---:" for _ in cols) + "|"]
@@ -131,7 +141,7 @@ def _markdown_table(case: str, rows: list[dict], peer: bool) -> list[str]:
                          + " |" * (len(cols) - 2))
             continue
         lines.append("| " + " | ".join(get(r) for _, _, get in cols) + " |")
-    notes = [f"- {r['n']} elements, Exudyn: {r['peer']['reason']}" for r in rows
+    notes = [f"- {r['n']} elements, {peer_name(peer)}: {r['peer']['reason']}" for r in rows
              if r.get("peer") and not r["peer"].get("ok") and r["peer"].get("reason")]
     return lines + ([""] + notes if notes else [])
 
@@ -166,7 +176,7 @@ MARKDOWN_BEGIN = "<!-- spacarpy bench: generated tables begin -->"
 MARKDOWN_END = "<!-- spacarpy bench: generated tables end -->"
 
 
-def write_markdown(path: str, results: dict, peer: bool, n_steps: int, transient_steps: int,
+def write_markdown(path: str, results: dict, peer, n_steps: int, transient_steps: int,
                    spinup_t_end: float = 30.0):
     """Write the tables into the Markdown page ``path`` (docs/performance.md): between
     :data:`MARKDOWN_BEGIN` and :data:`MARKDOWN_END` where the page has them (the page's
@@ -178,7 +188,8 @@ def write_markdown(path: str, results: dict, peer: bool, n_steps: int, transient
              f"again.\n"]
     for case, rows in results.items():
         parts.append(f"## {_title(case, transient_steps, spinup_t_end)}\n")
-        parts.append("\n".join(_markdown_table(case, rows, peer)) + "\n")
+        case_peer = peer if peer and case in PEERS.get(peer, PEERS["exudyn"]) else False
+        parts.append("\n".join(_markdown_table(case, rows, case_peer)) + "\n")
     block = "\n".join([MARKDOWN_BEGIN, *parts, MARKDOWN_END])
     page = Path(path)
     old = page.read_text() if page.exists() else ""

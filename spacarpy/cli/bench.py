@@ -30,8 +30,9 @@ def add_parser(sub) -> None:
                        help="end time of the spinup case (default 30 s)")
     bench.add_argument("--repeat", type=int, default=3,
                        help="repetitions per size; min and median are shown (default 3)")
-    bench.add_argument("--peer", choices=["exudyn"], default=None,
-                       help="solve the same problems with a peer code in the same run "
+    bench.add_argument("--peer", choices=["exudyn", "opensees"], default=None,
+                       help="solve the same problems with a peer code in the same run: "
+                            "exudyn (every case but arclength) or opensees (the lattice) "
                             "(pip install 'spacarpy[bench]')")
     bench.add_argument("--markdown", metavar="FILE", default=None,
                        help="also write the tables as Markdown (docs/performance.md)")
