@@ -167,9 +167,10 @@ def graph_width(upper: sp.csc_matrix, levels: int = WIDTH_LEVELS) -> int:
     those levels are explored)."""
     n = upper.shape[0]
     down = (upper.indptr, upper.indices)              # column j: rows i <= j
-    lower = sp.csr_matrix((np.ones(upper.nnz, dtype=np.int8), upper.indices, upper.indptr),
-                          shape=(n, n)).T.tocsr()   # noqa: the transpose's rows: i >= j
-    up = (lower.indptr, lower.indices)
+    # the same triangle by rows: row i holds the columns j >= i
+    rows = sp.csr_matrix((np.ones(upper.nnz, dtype=np.int8), upper.indices, upper.indptr),
+                         shape=(n, n)).T.tocsr()
+    up = (rows.indptr, rows.indices)
     seen = np.zeros(n, dtype=bool)
     frontier = np.array([0])
     seen[0] = True
