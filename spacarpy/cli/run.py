@@ -92,6 +92,7 @@ def add_parser(sub) -> None:
 
 
 def cmd_run(args) -> int:
+    from spacarpy.memory import IGNORE_LIMIT
     from spacarpy.outputs import OutputLock, check_output_path, discarding
 
     out = args.output if args.output is not None else args.deck.with_suffix(".h5")
@@ -99,7 +100,12 @@ def cmd_run(args) -> int:
                             inputs=[args.deck])
     # -o /dev/null: the run writes a private temporary file, removed at the end
     with discarding(out, ".h5") as target, OutputLock(target):
-        return _run_locked(args, target)   # a second run on one file stops at the lock
+        # with --ignore-memory-limit the factorizations' memory check only warns (this run)
+        token = IGNORE_LIMIT.set(bool(args.ignore_memory_limit))
+        try:
+            return _run_locked(args, target)   # a second run on one file stops at the lock
+        finally:
+            IGNORE_LIMIT.reset(token)
 
 
 def _run_locked(args, out) -> int:
@@ -110,8 +116,7 @@ def _run_locked(args, out) -> int:
     t0 = time.perf_counter()
     inputs = []
     from spacarpy.deck.semantics.build import BEFORE_BUILD
-    from spacarpy.memory import IGNORE_LIMIT, check_memory
-    IGNORE_LIMIT.set(bool(args.ignore_memory_limit))      # for the factorizations' check
+    from spacarpy.memory import check_memory
     # the memory estimate from the deck's element count, before the elements are made
     token = BEFORE_BUILD.set(lambda n: check_memory(n, ignore=args.ignore_memory_limit))
     try:
