@@ -23,6 +23,7 @@ import os
 import sys
 
 import numpy as np
+import scipy.sparse as sp
 
 #: Matrix types of PARDISO used here.
 SYMMETRIC_INDEFINITE = -2
@@ -96,14 +97,8 @@ def upper_csr_order(indptr: np.ndarray, indices: np.ndarray, n: int):
     """For an upper triangle stored as CSC (``indptr`` over columns, ``indices`` rows), the
     CSR arrays of the same triangle and the order of the CSC data in them:
     ``csr_data = csc_data[order]``. Zero-based int32."""
-    nnz = len(indices)
-    col = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
-    order = np.lexsort((col, indices))                  # by row, then by column
-    rows = np.asarray(indices)[order]
-    row_ptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=n), out=row_ptr[1:])
-    assert row_ptr[-1] == nnz
-    return row_ptr.astype(np.int32), col[order].astype(np.int32), order
+    pos = sp.csc_matrix((np.arange(len(indices)), indices, indptr), shape=(n, n)).tocsr()
+    return pos.indptr.astype(np.int32), pos.indices.astype(np.int32), pos.data
 
 
 class Pardiso:
@@ -141,11 +136,11 @@ class Pardiso:
         self._analysed = False
         self._factored = False
 
-    def _call(self, phase: int, data=None, b=None, x=None, nrhs: int = 1) -> None:
+    def _call(self, phase: int, b=None, x=None, nrhs: int = 1) -> None:
         err = ctypes.c_int32(0)
         i32 = ctypes.POINTER(ctypes.c_int32)
         one = ctypes.c_int32(1)
-        a = data if data is not None else self._data
+        a = self._data
         self._fn(self.pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(one),
                  ctypes.byref(one), ctypes.byref(ctypes.c_int32(self.mtype)),
                  ctypes.byref(ctypes.c_int32(phase)), ctypes.byref(ctypes.c_int32(self.n)),
@@ -172,9 +167,10 @@ class Pardiso:
 
     def factorize(self, data: np.ndarray) -> None:
         """The numerical factorization (phase 22) of new values on the same pattern."""
-        if not self._analysed:
+        if self._analysed:
+            self._data = np.ascontiguousarray(data, dtype=float)
+        else:
             self.analyse(data)
-        self._data = np.ascontiguousarray(data, dtype=float)
         self._factored = False
         self._call(22)
         self._factored = True

@@ -63,7 +63,7 @@ class SPDFactorization:
         self._pattern = None            # (indptr, indices) of the last matrix
         self._col = self._diag = None
         self._factored = False
-        self._pardiso = None            # (Pardiso, CSR order of the data) when chosen
+        self._pardiso = None            # (Pardiso, CSR order of the data, CSC indptr)
         #: "qdldl" or "pardiso" once the first matrix is factorized (:func:`choose`)
         self.backend = None
 
@@ -222,11 +222,15 @@ class SupernodalLU:
         if abs(csr - sym).max() <= 1e-12 * scale:
             # symmetric to round-off (the bordered matrix): LDL^T with Bunch-Kaufman pivots
             # and symmetric matching, 3 times faster than the LU and with the inertia
+            # with every diagonal entry stored, zero ones too, as PARDISO's symmetric types
+            # require (a sum of sparse matrices would drop the constraint rows' zeros)
             n = csr.shape[0]
-            upper = (sp.triu(sym, format="csr")
-                     + sp.csr_matrix((np.zeros(n), (np.arange(n), np.arange(n))),
-                                     shape=csr.shape)).tocsr()
-            upper.sort_indices()
+            t = sp.triu(sym, format="coo")
+            diag = np.arange(n)
+            upper = sp.coo_matrix((np.concatenate([t.data, np.zeros(n)]),
+                                   (np.concatenate([t.row, diag]),
+                                    np.concatenate([t.col, diag]))), shape=csr.shape).tocsr()
+            upper.sum_duplicates()
             self._p = pardiso.Pardiso(upper.indptr, upper.indices, matching=True)
             self._p.factorize(upper.data)
         else:
@@ -243,12 +247,8 @@ class SupernodalLU:
 
 
 def supernodal_lu(A: sp.spmatrix) -> SupernodalLU | None:
-    """:class:`SupernodalLU` of ``A`` where :func:`choose` picks PARDISO for its pattern (a
-    wide graph of at least :data:`SUPERNODAL_MIN_UNKNOWNS` rows) and no pivot had to be
-    perturbed; None otherwise (the caller keeps SuperLU)."""
-    A = sp.csc_matrix(A)
-    if choose(A) != "pardiso":
-        return None
+    """:class:`SupernodalLU` of ``A``, for a pattern :func:`choose` sent to PARDISO, where no
+    pivot had to be perturbed; None otherwise (the caller keeps SuperLU)."""
     try:
         lu = SupernodalLU(A)
     except pardiso.PardisoError:

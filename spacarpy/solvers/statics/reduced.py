@@ -112,6 +112,7 @@ def _quaternion_slots(num):
 #: as the preconditioner before a new one is made (docs/solver.md, "Fewer factorizations").
 REUSE_ITERATIONS = 12
 
+
 class ReducedNewton:
     """Newton steps of a :class:`~spacarpy.solvers.statics.equilibrium.StaticProblem` without
     its Euler constraints (see the module docstring); build only where :func:`applies`."""
