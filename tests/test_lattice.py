@@ -31,6 +31,13 @@ def _solve(kx, ky, m, tol=1e-10):
     return model, prob, res
 
 
+def _mean_top_ux(kx, ky, m, tol=1e-10):
+    """spacarpy's mean displacement along x of the lattice's top nodes, and the timings."""
+    model, prob, res = _solve(kx, ky, m, tol)
+    top = [lattice_node(kx, ky, i, j, m - 1) for j in range(ky) for i in range(kx)]
+    return lattice_top_ux(model, prob, res.steps[-1].x, top), prob.timings
+
+
 @pytest.mark.parametrize("grid", [(1, 1, 2), (2, 3, 2), (3, 2, 4), (5, 5, 8)])
 def test_generator_counts(grid):
     kx, ky, m = grid
@@ -120,9 +127,7 @@ def test_lattice_against_exudyn():
     pytest.importorskip("exudyn")
     from spacarpy.bench.peers.exudyn_lattice import extrapolated
     kx, ky, m = 2, 2, 3
-    model, prob, res = _solve(kx, ky, m)
-    top = [lattice_node(kx, ky, i, j, m - 1) for i in range(kx) for j in range(ky)]
-    ours = lattice_top_ux(model, prob, res.steps[-1].x, top)
+    ours, _ = _mean_top_ux(kx, ky, m)
     peer = extrapolated(kx, ky, m)
     assert peer["ok"], peer["reason"]
     assert peer["top_ux"] == pytest.approx(ours, rel=1e-4)
@@ -142,9 +147,7 @@ def test_lattice_against_opensees():
     if not ok:
         pytest.skip(why)
     kx, ky, m = 4, 4, 5
-    model, prob, res = _solve(kx, ky, m)
-    top = [lattice_node(kx, ky, i, j, m - 1) for j in range(ky) for i in range(kx)]
-    ours = lattice_top_ux(model, prob, res.steps[-1].x, top)
+    ours, _ = _mean_top_ux(kx, ky, m)
     peer = lattice(kx, ky, m)
     assert peer["ok"], peer["reason"]
     assert peer["top_ux"] == pytest.approx(ours, rel=1e-6)
@@ -191,19 +194,14 @@ def test_bench_row_and_table():
     row = _static_row("lattice", 100, 1, 10)
     kx, ky, m = lattice_grid(100)
     assert row["grid"] == f"{kx}x{ky}x{m}" and row["n"] == lattice_elements(kx, ky, m)
-    model, prob, res = _solve(kx, ky, m, tol=1e-8)
-    top = [lattice_node(kx, ky, i, j, m - 1) for i in range(kx) for j in range(ky)]
-    assert row["result"] == pytest.approx(lattice_top_ux(model, prob, res.steps[-1].x, top),
-                                          rel=1e-6)
+    assert row["result"] == pytest.approx(_mean_top_ux(kx, ky, m, tol=1e-8)[0], rel=1e-6)
     line = _text_table("lattice", [row], False)[2]
     assert row["grid"] in line and f"{row['result']:.6e}" in line
 
 
 def _top_ux(kx, ky, m, monkeypatch, backend):
     monkeypatch.setenv("SPACARPY_FACTORIZATION", backend)
-    model, prob, res = _solve(kx, ky, m)
-    top = [lattice_node(kx, ky, i, j, m - 1) for j in range(ky) for i in range(kx)]
-    return lattice_top_ux(model, prob, res.steps[-1].x, top), prob.timings
+    return _mean_top_ux(kx, ky, m)
 
 
 def test_the_supernodal_path_gives_qdldls_answer_with_fewer_factorizations(monkeypatch):
