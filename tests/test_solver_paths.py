@@ -16,7 +16,11 @@ from spacarpy.bench.cases import cantilever_deck
 from spacarpy.deck import job_from_text, model_from_text
 from spacarpy.solvers.linalg.triangular import DENSE_MAX, BlockTriangular
 from spacarpy.solvers.statics import kinematic_check
-from spacarpy.solvers.statics.kinematic_correction import NormalEquations, SquareJacobian
+from spacarpy.solvers.statics.kinematic_correction import (
+    NormalEquations,
+    ReducedNormalEquations,
+    SquareJacobian,
+)
 from spacarpy.solvers.statics.static import StaticOptions, StaticProblem, solve_static
 
 
@@ -302,6 +306,50 @@ def test_square_kinematic_correction_agrees_with_the_normal_equations():
     assert np.abs(results[0] - results[1]).max() < 1e-12      # the same linear system
     assert np.abs(results[0] - results[2]).max() < 1e-8       # both stop at their floor
     assert np.abs(results[0] - x_lin).max() > 1e-4          # it did correct something
+
+
+def test_reduced_normal_equations_solve_the_constrained_least_squares():
+    """Where Newton's steps are reduced and W is not square (a closed loop of 3D beams), the
+    kinematic correction's Gauss-Newton step fits the element rows in least squares while
+    it meets every Euler row exactly: the same step as the KKT system
+    ``[W^T W, C^T; C, 0] [dx; l] = [W^T g_e; g_q]`` solved densely (C: the rows 2 q^T)."""
+    from spacarpy.bench.decks import lattice_deck
+    model, _ = job_from_text(lattice_deck(2, 2, 3), "<lattice>")
+    prob = StaticProblem(model)
+    kin = prob.corrector
+    assert prob.reduced is not None
+    assert isinstance(kin.system, ReducedNormalEquations)
+    num = prob.num
+    x, mu, load = off_equilibrium_state(prob, seed=2)
+    states = prob.evaluate(x, mu, load).states
+    w_e, wq = kin.jacobian_blocks(states, x)
+    rng = np.random.default_rng(7)
+    g_e = [rng.standard_normal(w.shape[:2]) for w in w_e]
+    g_q = 0.1 * rng.standard_normal(wq.shape[0])
+    step = kin.system.factorize(w_e, wq, prob.timings)(g_e, g_q, w_e, wq)
+
+    free_of = np.full(num.n_coord, -1)
+    free_of[prob.free] = np.arange(prob.free.sum())
+    n = int(prob.free.sum())
+    rows = []
+    for g, w in zip(num.groups, w_e):
+        for e in range(w.shape[0]):
+            block = np.zeros((w.shape[1], n))
+            cols = free_of[g.idx[e]]
+            block[:, cols[cols >= 0]] = w[e][:, cols >= 0]
+            rows.append(block)
+    W = np.vstack(rows)
+    C = np.zeros((wq.shape[0], n))
+    C[np.arange(wq.shape[0])[:, None], free_of[num.euler_coords]] = wq
+    kkt = np.block([[W.T @ W, C.T], [C, np.zeros((C.shape[0], C.shape[0]))]])
+    exact = np.linalg.solve(kkt, np.concatenate([W.T @ np.concatenate(
+        [v.ravel() for v in g_e]), g_q]))[:n]
+    assert np.abs(step - exact).max() < 1e-9 * np.abs(exact).max()
+    assert np.abs(C @ step - g_q).max() < 1e-12        # the Euler rows exactly
+    # and not the unconstrained least squares of all rows together
+    plain = np.linalg.lstsq(np.vstack([W, C]), np.concatenate(
+        [np.concatenate([v.ravel() for v in g_e]), g_q]), rcond=None)[0]
+    assert np.abs(plain - exact).max() > 1e-4 * np.abs(exact).max()
 
 
 def test_a_model_far_from_the_origin_converges_like_one_at_the_origin():

@@ -120,6 +120,8 @@ class StaticProblem:
         # the tangent-space steps know holonomic constraints only)
         self.reduced = (ReducedNewton(self) if reduced_applies(self) and not self.slips
                         else None)
+        if self.reduced is not None:
+            self.corrector.use_reduced(self.reduced)
         self.has_commit = any(g.kind.commit is not None for g in num.groups)
         self._states_at = None                  # (x, kernel states at x), see evaluate()
         self.free = ~num.fixed_mask

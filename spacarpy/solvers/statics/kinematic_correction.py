@@ -156,6 +156,73 @@ class NormalEquations:
         return step
 
 
+class ReducedNormalEquations:
+    """The normal equations in the tangent space of the Euler normalizations: the reduced
+    coordinates of :class:`~spacarpy.solvers.statics.reduced.ReducedNewton` (each orientation
+    node's four parameter increments in the orthonormal basis ``B(q) = [q/|q|, T(q)]``).
+
+    The Euler row ``2 q.dq = g_q`` fixes a node's radial component exactly,
+    ``dz_0 = g_q / (2 |q|)``; the element rows are then fitted in least squares over the
+    positions and the three tangent components, ``W_t^T W_t dz_t = W_t^T (g_e - W_0 dz_0)``
+    (W_t, W_0 the tangent and radial columns of ``W B``). A null-space elimination of the
+    Euler rows, as Newton's own step does: 6 unknowns per orientation node instead of 7,
+    the pattern of the reduced tangent. On the 3D lattice of 10^5 beams the factor has
+    178 instead of 242 million entries (docs/solver.md, "Kinematic correction"). Used where
+    ReducedNewton applies and W is not square; same interface as :class:`NormalEquations`.
+    """
+
+    stale_after = 1e-3
+    jacobian_each_step = True
+
+    def __init__(self, num, reduced):
+        self.num, self.rn = num, reduced
+        self.free = ~num.fixed_mask
+        self.eu = num.euler_coords
+        self.pattern = BlockPattern(reduced.n, [reduced.unknown_of[g.idx] for g in num.groups],
+                                    upper=True)
+        self.factor = SPDFactorization()
+
+    def _rotated(self, w_e, q, nq):
+        """W's element blocks in the rotated coordinates, ``W_e B_e`` (new arrays), and the
+        bases (n_eu, 4, 4)."""
+        b = self.rn.basis(q, nq)
+        out = []
+        for w, starts, nodes in zip(w_e, self.rn.slots, self.rn.slot_nodes):
+            w = w.copy()
+            for s, nd in zip(starts, nodes):
+                # a fixed orientation node (-1) has no unknowns: its columns are dropped
+                w[:, :, s:s + 4] = w[:, :, s:s + 4] @ b[nd]
+            out.append(w)
+        return b, out
+
+    def factorize(self, w_e, wq, timings):
+        t0 = time.perf_counter()
+        q = 0.5 * wq
+        _, wr = self._rotated(w_e, q, np.linalg.norm(q, axis=1))
+        m = self.pattern.assemble([w.transpose(0, 2, 1) @ w for w in wr], diag_shift=1e-12)
+        timings.assembly += time.perf_counter() - t0
+        solve = self.factor.factorize(m)
+        num, rn, eu = self.num, self.rn, self.eu
+
+        def step(g_e, g_q, w_e, wq):
+            q = 0.5 * wq
+            nq = np.linalg.norm(q, axis=1)
+            b, wr = self._rotated(w_e, q, nq)
+            z0 = np.append(g_q / (2.0 * nq), 0.0)        # radial parts; 0 for a fixed node
+            rhs = np.zeros(num.n_coord)
+            for g, w, ge, starts, nodes in zip(num.groups, wr, g_e, rn.slots, rn.slot_nodes):
+                r = ge.copy()
+                for s, nd in zip(starts, nodes):
+                    r -= w[:, :, s] * z0[nd][:, None]
+                rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), r))
+            z = np.zeros(num.n_coord)
+            z[rn.keep] = solve(rhs[rn.keep])
+            z[eu[:, 0]] = z0[:-1]
+            z[eu] = batch_matvec(b, z[eu])                 # back to Euler parameters
+            return z[self.free]
+        return step
+
+
 class KinematicCorrector:
     """The kinematic correction of one model: its Gauss-Newton system (:attr:`system`, a
     :class:`SquareJacobian` where W is square, else :class:`NormalEquations`) and the
@@ -179,6 +246,14 @@ class KinematicCorrector:
                         + [np.inf])
         self.kin_floor = 64 * np.finfo(float).eps * num.length_scale / (
             min_scale if np.isfinite(min_scale) and min_scale > 0 else 1.0)
+
+    def use_reduced(self, reduced) -> None:
+        """Fit the normal equations in the tangent space of the Euler normalizations
+        (:class:`ReducedNormalEquations`) where W is not square and Newton's steps are
+        reduced: fewer unknowns, the same least-squares fit of the element rows."""
+        if isinstance(self.system, NormalEquations):
+            self.system = ReducedNormalEquations(self.num, reduced)
+            self._solve = None
 
     def _stationary(self, states, x, g_e, g_q, w_e=None) -> bool:
         """Whether x is a least-squares solution of the targets to round-off: the
@@ -347,4 +422,5 @@ class KinematicCorrector:
         return (x, done) if return_states else x
 
 
-__all__ = ["KinematicCorrector", "NormalEquations", "SparseLU", "SquareJacobian"]
+__all__ = ["KinematicCorrector", "NormalEquations", "ReducedNormalEquations", "SparseLU",
+           "SquareJacobian"]
