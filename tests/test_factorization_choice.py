@@ -190,3 +190,47 @@ def test_a_factorization_that_does_not_fit_is_refused_before_it_runs(monkeypatch
     full = upper + sp.triu(upper, k=1).T
     rhs = np.ones(upper.shape[0])
     assert np.linalg.norm(full @ solve(rhs) - rhs) < 1e-12 * np.linalg.norm(rhs) * 20
+
+
+_THREADS = """
+import sys
+from spacarpy.cli.process import _single_blas_thread
+_single_blas_thread()
+from spacarpy.solvers.linalg import pardiso
+print(pardiso.threads())
+"""
+
+
+def _pardiso_threads(**env) -> int:
+    clean = {k: v for k, v in os.environ.items()
+             if k not in ("MKL_NUM_THREADS", "OMP_NUM_THREADS", "SPACARPY_PARDISO_THREADS")}
+    out = subprocess.run([sys.executable, "-c", _THREADS], env={**clean, **env},
+                         capture_output=True, text=True, timeout=120, check=True)
+    return int(out.stdout.split()[-1])
+
+
+@needs_pardiso
+def test_pardiso_uses_the_cores_the_command_line_keeps_blas_at_one():
+    """The command line sets one BLAS thread (OMP_NUM_THREADS=1, which MKL would apply to
+    PARDISO too); PARDISO still gets every core the process may use, unless the user sets
+    MKL_NUM_THREADS, or batch and sweep give each worker its share."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert _pardiso_threads() == cores
+    assert _pardiso_threads(OMP_NUM_THREADS="1") == cores
+    assert _pardiso_threads(MKL_NUM_THREADS="1") == 1
+    assert _pardiso_threads(SPACARPY_PARDISO_THREADS="1") == 1
+
+
+def test_batch_workers_share_the_cores(monkeypatch):
+    from types import SimpleNamespace
+
+    from spacarpy.cli.common import _jobs
+    monkeypatch.delenv("MKL_NUM_THREADS", raising=False)
+    monkeypatch.delenv("SPACARPY_PARDISO_THREADS", raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 16)
+    assert _jobs(SimpleNamespace(jobs=4)) == 4
+    assert os.environ["SPACARPY_PARDISO_THREADS"] == "4"
+    monkeypatch.delenv("SPACARPY_PARDISO_THREADS")
+    monkeypatch.setenv("MKL_NUM_THREADS", "2")          # the user's setting stands
+    assert _jobs(SimpleNamespace(jobs=4)) == 4
+    assert "SPACARPY_PARDISO_THREADS" not in os.environ

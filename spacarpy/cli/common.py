@@ -145,8 +145,15 @@ class _Progress:
 
 
 def _jobs(args) -> int:
+    """The number of worker processes (``-j``, else one per core). With several, each
+    worker's PARDISO gets its share of the cores (``SPACARPY_PARDISO_THREADS``, unless the
+    user set it or ``MKL_NUM_THREADS``), not all of them each."""
     import os
-    return args.jobs or os.cpu_count() or 1
+    jobs = args.jobs or os.cpu_count() or 1
+    if jobs > 1 and "MKL_NUM_THREADS" not in os.environ:
+        os.environ.setdefault("SPACARPY_PARDISO_THREADS",
+                              str(max(1, (os.cpu_count() or 1) // jobs)))
+    return jobs
 
 
 #: Options whose value is itself a string of options: ``--run-args '--modes-per-step'``

@@ -57,8 +57,8 @@ class PardisoError(RuntimeError):
 
 
 @functools.lru_cache(maxsize=1)
-def _pardiso_function():
-    """The ``pardiso`` entry point of mkl_rt with its argument types, or None."""
+def _library():
+    """The mkl_rt library, its PARDISO threads set (:func:`_wanted_threads`), or None."""
     if os.environ.get("SPACARPY_NO_PARDISO"):
         return None
     lib = None
@@ -79,12 +79,66 @@ def _pardiso_function():
             lib = pypardiso.PyPardisoSolver().libmkl
         except (ImportError, OSError):
             return None
+    _set_threads(lib)
+    return lib
+
+
+@functools.lru_cache(maxsize=1)
+def _pardiso_function():
+    """The ``pardiso`` entry point of mkl_rt with its argument types, or None."""
+    lib = _library()
+    if lib is None:
+        return None
     fn = lib.pardiso
     i32 = ctypes.POINTER(ctypes.c_int32)
     fn.argtypes = [ctypes.POINTER(ctypes.c_int64), i32, i32, i32, i32, i32, ctypes.c_void_p,
                    i32, i32, i32, i32, i32, i32, ctypes.c_void_p, ctypes.c_void_p, i32]
     fn.restype = None
     return fn
+
+
+#: MKL's function domain of PARDISO (``mkl_domain_set_num_threads``).
+_DOMAIN_PARDISO = 4
+
+
+def _wanted_threads() -> int | None:
+    """PARDISO's threads: ``SPACARPY_PARDISO_THREADS`` where set (``batch`` and ``sweep``
+    give each worker its share), else None where the user set ``MKL_NUM_THREADS`` (MKL reads
+    it itself), else every core this process may run on. The command line sets
+    ``OMP_NUM_THREADS=1`` for numpy's BLAS (:mod:`spacarpy.cli.process`), which MKL would
+    otherwise apply to PARDISO too."""
+    value = os.environ.get("SPACARPY_PARDISO_THREADS")
+    if value:
+        try:
+            return max(1, int(value))
+        except ValueError:
+            return None
+    if "MKL_NUM_THREADS" in os.environ:
+        return None
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:                  # pragma: no cover - macOS, Windows
+        return os.cpu_count() or 1
+
+
+def _set_threads(lib) -> None:
+    n = _wanted_threads()
+    if n is not None:
+        try:
+            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(n), ctypes.c_int(_DOMAIN_PARDISO))
+        except AttributeError:              # pragma: no cover - an MKL without the call
+            pass
+
+
+def threads() -> int | None:
+    """The threads PARDISO factorizes with (MKL's count for its PARDISO domain); None
+    without MKL."""
+    lib = _library()
+    if lib is None:
+        return None
+    get = lib.MKL_Domain_Get_Max_Threads
+    get.restype = ctypes.c_int
+    return int(get(ctypes.c_int(_DOMAIN_PARDISO)))
 
 
 def available() -> bool:
