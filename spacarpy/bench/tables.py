@@ -161,8 +161,13 @@ def machine_summary() -> str:
     import os
 
     from spacarpy import __version__
+    from spacarpy.solvers.linalg import pardiso
+    threads = pardiso.threads()
+    solver = ("no PARDISO" if threads is None
+              else f"PARDISO {threads} thread{'' if threads == 1 else 's'}")
     return (f"spacarpy {__version__}, Python {platform.python_version()}, numpy "
-            f"{numpy.__version__}, scipy {scipy.__version__}; {cpu}, {os.cpu_count()} cores")
+            f"{numpy.__version__}, scipy {scipy.__version__}; {cpu}, {os.cpu_count()} cores, "
+            f"{solver}")
 
 
 
