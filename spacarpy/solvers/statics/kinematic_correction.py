@@ -4,8 +4,10 @@ deformations (and the Euler normalizations), and the linear algebra of its Jacob
 The Jacobian is ``W = [D / scale; 2 q^T]`` (the deformation Jacobians of the elements, each
 row scaled by the element's length, and the Euler rows). Square W (trees of elements) is
 solved directly, :class:`SquareJacobian`, block triangular where it can be; other models by
-the normal equations, :class:`NormalEquations`. :class:`KinematicCorrector` owns the kept
-factorization between Newton iterations. See docs/solver.md, "Kinematic correction".
+the normal equations, :class:`NormalEquations`, or :class:`ReducedNormalEquations` in the
+tangent space of the Euler normalizations where Newton's steps are taken there.
+:class:`KinematicCorrector` owns the kept factorization between Newton iterations. See
+docs/solver.md, "Kinematic correction".
 """
 from __future__ import annotations
 
@@ -225,8 +227,9 @@ class ReducedNormalEquations:
 
 class KinematicCorrector:
     """The kinematic correction of one model: its Gauss-Newton system (:attr:`system`, a
-    :class:`SquareJacobian` where W is square, else :class:`NormalEquations`) and the
-    factorization kept from one call to the next (a chord iteration).
+    :class:`SquareJacobian` where W is square, else :class:`NormalEquations`, or
+    :class:`ReducedNormalEquations` after :meth:`use_reduced`) and the factorization kept
+    from one call to the next (a chord iteration).
 
     ``timings`` (a :class:`~spacarpy.solvers.statics.equilibrium.Timings`) books the kernel,
     assembly and solve time of the correction."""
