@@ -192,6 +192,9 @@ def test_a_factorization_that_does_not_fit_is_refused_before_it_runs(monkeypatch
     assert np.linalg.norm(full @ solve(rhs) - rhs) < 1e-12 * np.linalg.norm(rhs) * 20
 
 
+#: the variable as the test session found it (the share test must leave it so)
+_SHARE_AT_IMPORT = os.environ.get("SPACARPY_PARDISO_THREADS")
+
 _THREADS = """
 import sys
 from spacarpy.cli.process import _single_blas_thread
@@ -226,7 +229,10 @@ def test_batch_workers_share_the_cores(monkeypatch):
 
     from spacarpy.cli.common import _jobs
     monkeypatch.delenv("MKL_NUM_THREADS", raising=False)
-    monkeypatch.delenv("SPACARPY_PARDISO_THREADS", raising=False)
+    # set first so that monkeypatch restores the variable's absence after the test
+    # (_jobs sets it: delenv of an absent variable records nothing to undo)
+    monkeypatch.setenv("SPACARPY_PARDISO_THREADS", "")
+    monkeypatch.delenv("SPACARPY_PARDISO_THREADS")
     monkeypatch.setattr(os, "cpu_count", lambda: 16)
     assert _jobs(SimpleNamespace(jobs=4)) == 4
     assert os.environ["SPACARPY_PARDISO_THREADS"] == "4"
@@ -234,3 +240,7 @@ def test_batch_workers_share_the_cores(monkeypatch):
     monkeypatch.setenv("MKL_NUM_THREADS", "2")          # the user's setting stands
     assert _jobs(SimpleNamespace(jobs=4)) == 4
     assert "SPACARPY_PARDISO_THREADS" not in os.environ
+
+
+def test_the_share_does_not_outlive_its_test():
+    assert os.environ.get("SPACARPY_PARDISO_THREADS") == _SHARE_AT_IMPORT
