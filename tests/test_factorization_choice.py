@@ -196,7 +196,6 @@ def test_a_factorization_that_does_not_fit_is_refused_before_it_runs(monkeypatch
 _SHARE_AT_IMPORT = os.environ.get("SPACARPY_PARDISO_THREADS")
 
 _THREADS = """
-import sys
 from spacarpy.cli.process import _single_blas_thread
 _single_blas_thread()
 from spacarpy.solvers.linalg import pardiso

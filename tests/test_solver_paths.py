@@ -237,7 +237,7 @@ def test_element_wise_product_equals_the_assembled_matrix_and_ignores_translatio
     x, mu, load = off_equilibrium_state(prob)
     ev = prob.evaluate(x, mu, load)
     k_el, euler_diag, _ = prob.element_blocks(ev, mu)
-    k_rot = red._rotate(k_el, red.basis(x[red.eu]))
+    k_rot = red.rotate(k_el, red.basis(x[red.eu]))
     diag = np.broadcast_to(euler_diag[:, None, None] * np.eye(4), (red.nodes.size, 4, 4))
     upper = red.pattern.assemble([k.copy() for k in k_rot] + [diag]).toarray()
     a = upper + np.triu(upper, 1).T

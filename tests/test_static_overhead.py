@@ -26,7 +26,7 @@ def _blocks(prob, seed=0):
     mu = 1e3 * rng.standard_normal(num.n_constraint)
     ev = prob.evaluate(x, mu, prob.loads.at(1.0, 0.7))
     k_el, euler_diag, _ = prob.element_blocks(ev, mu)
-    return red._rotate(k_el, red.basis(x[red.eu])), euler_diag, rng
+    return red.rotate(k_el, red.basis(x[red.eu])), euler_diag, rng
 
 
 @pytest.mark.parametrize("invariant", [True, False])

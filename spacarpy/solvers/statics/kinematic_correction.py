@@ -184,24 +184,12 @@ class ReducedNormalEquations:
                                     upper=True)
         self.factor = SPDFactorization()
 
-    def _rotated(self, w_e, q, nq):
-        """W's element blocks in the rotated coordinates, ``W_e B_e`` (new arrays), and the
-        bases (n_eu, 4, 4)."""
-        b = self.rn.basis(q, nq)
-        out = []
-        for w, starts, nodes in zip(w_e, self.rn.slots, self.rn.slot_nodes):
-            w = w.copy()
-            for s, nd in zip(starts, nodes):
-                # a fixed orientation node (-1) has no unknowns: its columns are dropped
-                w[:, :, s:s + 4] = w[:, :, s:s + 4] @ b[nd]
-            out.append(w)
-        return b, out
-
     def factorize(self, w_e, wq, timings):
         t0 = time.perf_counter()
-        q = 0.5 * wq
-        _, wr = self._rotated(w_e, q, np.linalg.norm(q, axis=1))
-        m = self.pattern.assemble([w.transpose(0, 2, 1) @ w for w in wr], diag_shift=1e-12)
+        b = self.rn.basis(0.5 * wq)
+        # (W B)^T (W B) = B^T (W^T W) B per element: ReducedNewton's rotation of blocks
+        wtw = self.rn.rotate([w.transpose(0, 2, 1) @ w for w in w_e], b)
+        m = self.pattern.assemble(wtw, diag_shift=1e-12)
         timings.assembly += time.perf_counter() - t0
         solve = self.factor.factorize(m)
         num, rn, eu = self.num, self.rn, self.eu
@@ -209,17 +197,19 @@ class ReducedNormalEquations:
         def step(g_e, g_q, w_e, wq):
             q = 0.5 * wq
             nq = np.linalg.norm(q, axis=1)
-            b, wr = self._rotated(w_e, q, nq)
-            z0 = np.append(g_q / (2.0 * nq), 0.0)        # radial parts; 0 for a fixed node
+            b = rn.basis(q, nq)
+            z0 = g_q / (2.0 * nq)                          # the radial components
+            dq0 = np.zeros(num.n_coord)
+            dq0[eu] = q * (z0 / nq)[:, None]               # as Euler-parameter increments
+            # (W B)^T (g_e - W dq0): W^T per element, then B^T on each orientation node
             rhs = np.zeros(num.n_coord)
-            for g, w, ge, starts, nodes in zip(num.groups, wr, g_e, rn.slots, rn.slot_nodes):
-                r = ge.copy()
-                for s, nd in zip(starts, nodes):
-                    r -= w[:, :, s] * z0[nd][:, None]
+            for g, w, ge in zip(num.groups, w_e, g_e):
+                r = ge - batch_matvec(w, dq0[g.idx])
                 rhs += scatter_add(num.n_coord, g.idx, batch_matvec(w.transpose(0, 2, 1), r))
+            rhs[eu] = batch_matvec(b.transpose(0, 2, 1), rhs[eu])
             z = np.zeros(num.n_coord)
             z[rn.keep] = solve(rhs[rn.keep])
-            z[eu[:, 0]] = z0[:-1]
+            z[eu[:, 0]] = z0
             z[eu] = batch_matvec(b, z[eu])                 # back to Euler parameters
             return z[self.free]
         return step

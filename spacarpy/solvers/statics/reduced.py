@@ -157,7 +157,7 @@ class ReducedNewton:
         b /= nq[:, None, None]
         return b
 
-    def _rotate(self, k_el, b):
+    def rotate(self, k_el, b):
         """Element blocks in the rotated coordinates: ``B_e^T k B_e`` per element (in place:
         the caller's blocks are its own and not used afterwards)."""
         out = []
@@ -346,7 +346,7 @@ class ReducedNewton:
         q = x[self.eu]
         nq = np.linalg.norm(q, axis=1)
         b = self.basis(q, nq)
-        k_rot = self._rotate(k_el, b)
+        k_rot = self.rotate(k_el, b)
         r_full, z, rhs = self._right_side(ev, nq, b, residual, k_rot, euler_diag, invariant)
         self._last = None
         diag = np.broadcast_to(euler_diag[:, None, None] * _EYE4, (self.nodes.size, 4, 4))
