@@ -134,6 +134,50 @@ def test_lattice_against_exudyn():
     assert abs(peer["coarse"]["top_ux"] / ours - 1) > 1e-3     # the mesh matters
 
 
+@pytest.mark.parametrize("mesh", [1, 2])
+def test_exudyn_equations_solved_with_pardiso(mesh):
+    """lattice_newton solves Exudyn's own lattice equations (its residual and its items'
+    Jacobians) with PARDISO's LU: the root is Exudyn's SolveStatic answer to 1e-10 (measured
+    5e-14; at 6 x 6 x 11 1.5e-13, at 12 x 12 x 25 with one beam per member 12 digits), in
+    Newton iterations of the exact Newton matrix (at most Exudyn's own count). With one beam
+    per member PARDISO perturbs pivots of the constraints' zero block: without iterative
+    refinement Newton stalled near 1e-8 m and did not converge."""
+    pytest.importorskip("exudyn")
+    from spacarpy.bench.peers.exudyn_lattice import lattice, lattice_newton
+    from spacarpy.solvers.linalg.pardiso import available
+    if not available():
+        pytest.skip("MKL PARDISO is not installed")
+    own = lattice(2, 2, 3, mesh=mesh)
+    ours = lattice_newton(2, 2, 3, mesh=mesh)
+    assert own["ok"] and ours["ok"], ours["reason"]
+    assert ours["top_ux"] == pytest.approx(own["top_ux"], rel=1e-10)
+    assert LATTICE["steps"] <= ours["iterations"] <= own["iterations"]
+    assert ours["unknowns"] > 0 and ours["factor_entries"] > 0
+
+
+def test_exudyn_own_solve_process():
+    """own_solve runs Exudyn's SolveStatic in a fresh process: its answer is lattice()'s,
+    its whole-process time exceeds the solve's; a limit stops it (a lower bound, shown as
+    ">T" with a ratio "<x"), it does not hang the bench."""
+    pytest.importorskip("exudyn")
+    from spacarpy.bench.peers.exudyn_lattice import lattice, own_solve
+    from spacarpy.bench.tables import _text_table
+    run = own_solve(2, 2, 3, mesh=1, limit=300)
+    assert run["ok"] and run["stopped"] is None, run["reason"]
+    assert run["top_ux"] == pytest.approx(lattice(2, 2, 3, mesh=1)["top_ux"], rel=1e-12)
+    assert run["whole"] > run["total"] > 0
+    cut = own_solve(2, 2, 3, mesh=1, limit=0.05)
+    assert not cut["ok"] and cut["stopped"] == "time" and "stopped after" in cut["reason"]
+    row = dict(n=20, grid="2x2x3", total=2.0, whole=3.0, result=1.0e-4,
+               peer=dict(ok=True, result=1.0e-4 * (1 + 3e-5), iterations=None,
+                         total=None, whole=None, stopped="time", limit=900.0,
+                         reason=cut["reason"]))
+    head, _, line = _text_table("lattice", [row], "exudyn")
+    assert "rel. diff" in head and "Exudyn whole s" in head
+    assert ">900" in line and "<0.002" in line and "<0.003" in line     # time, ratios
+    assert " 3.0e-05 " in line                                             # the difference
+
+
 def test_lattice_against_opensees():
     """The bench's other peer: OpenSees' force-based beam (elastic section with shear, three
     Lobatto points, Corotational transformation), one element per member

@@ -242,17 +242,40 @@ def _arclength_row(n: int) -> dict:
                 peak_mb=_peak_mb())
 
 
+def _exudyn_lattice_row(n: int, limit: float) -> dict:
+    """The lattice's Exudyn row: the converged answer from Exudyn's equations with 4 and 8
+    beams per member, extrapolated in the mesh
+    (:func:`spacarpy.bench.peers.exudyn_lattice.extrapolated`), and the time of Exudyn's own
+    ``SolveStatic`` with 4 beams per member as a user runs it, a fresh process stopped after
+    ``limit`` seconds (:func:`~spacarpy.bench.peers.exudyn_lattice.own_solve`): ``total``
+    (solve alone) and ``whole`` (the process), or ``stopped`` and ``limit``. ``own_diff``:
+    the relative difference of that solve's answer from the answer's 4-beam solve (the
+    check that both solve the same equations)."""
+    from spacarpy.bench.peers.exudyn_lattice import MESH, extrapolated, own_solve
+    grid = lattice_grid(n)
+    answer = extrapolated(*grid)
+    own = own_solve(*grid, mesh=MESH, limit=limit)
+    coarse = (answer.get("coarse") or {}).get("top_ux", float("nan"))
+    own_diff = (abs(own["top_ux"] / coarse - 1)
+                if own.get("ok") and np.isfinite(coarse) else None)
+    reason = answer.get("reason", "") if not answer["ok"] else own.get("reason", "")
+    return dict(ok=bool(answer["ok"]), result=float(answer["top_ux"]), reason=reason,
+                total=own.get("total") if own.get("ok") else None,
+                whole=own.get("whole") if own.get("ok") else None,
+                iterations=own.get("iterations"), stopped=own.get("stopped"),
+                limit=own.get("limit"), peak_mb=own.get("peak_mb"), own_diff=own_diff,
+                answer_s=answer.get("total"), meshes=answer.get("meshes"))
+
+
 def _peer_row(case: str, n: int, n_steps: int, transient_steps: int,
-              peer: str = "exudyn") -> dict:
+              peer: str = "exudyn", peer_limit: float = 900.0) -> dict:
     from spacarpy.bench.peers import exudyn_cantilever as exu
     if peer == "opensees":          # the lattice only (PEER_CASES)
         from spacarpy.bench.peers.opensees_lattice import lattice
         r = lattice(*lattice_grid(n))
         value = r["top_ux"]
     elif case == "lattice":
-        from spacarpy.bench.peers.exudyn_lattice import extrapolated
-        r = extrapolated(*lattice_grid(n))
-        value = r["top_ux"]
+        return _exudyn_lattice_row(n, peer_limit)
     elif case == "cantilever":
         r = exu.cantilever(n, n_steps=n_steps)
         value = r["tip"][1] if r["ok"] else np.nan
@@ -304,7 +327,26 @@ _PEER_SCRIPT = ("import sys\n"
                 "sys.exit(0 if r['ok'] else 1)\n")
 
 
-def _best_wall(cmd, repeat: int, cwd: str) -> float | None:
+def whole_lattice(n: int, repeat: int = 3) -> float | None:
+    """Whole-process wall time of ``spacarpy run`` on the lattice deck of about ``n`` beams
+    (:func:`~spacarpy.bench.decks.lattice_deck`, its results file included), best of
+    ``repeat``; None if the run failed. From :data:`LATTICE_WARM_MAX` beams on the run is
+    not preceded by an untimed one (a minute or more; the file cache is warm by then)."""
+    import tempfile
+    from pathlib import Path
+    with tempfile.TemporaryDirectory(prefix="spacarpy-bench-") as tmp:
+        deck = Path(tmp) / f"lattice_{n}.dat"
+        deck.write_text(lattice_deck(*lattice_grid(n)))
+        return _best_wall([sys.executable, "-m", "spacarpy", "run", str(deck), "-q", "-o",
+                           str(Path(tmp) / "out.h5")], repeat, tmp,
+                          warm=n < LATTICE_WARM_MAX)
+
+
+#: the largest lattice whose whole-process runs follow an untimed one (:func:`whole_lattice`)
+LATTICE_WARM_MAX = 30000
+
+
+def _best_wall(cmd, repeat: int, cwd: str, warm: bool = True) -> float | None:
     """Best wall seconds of ``repeat`` runs of ``cmd`` (each a fresh process, after one
     untimed run); None if one fails.
 
@@ -316,7 +358,7 @@ def _best_wall(cmd, repeat: int, cwd: str) -> float | None:
     import subprocess
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     best = None
-    for i in range(max(repeat, 1) + 1):
+    for i in range(0 if warm else 1, max(repeat, 1) + 1):
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, cwd=cwd, stdin=subprocess.DEVNULL, env=env,
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -412,9 +454,12 @@ def _in_child(fn, *args):
 
 def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
               repeat: int = 3, transient_steps: int = 1000, peer: str | None = None,
-              markdown: str | None = None, out=None, spinup_t_end: float = 30.0) -> dict:
+              markdown: str | None = None, out=None, spinup_t_end: float = 30.0,
+              peer_limit: float = 900.0) -> dict:
     """Run the benchmark; print one table per case to ``out`` (default: the current
-    sys.stdout) and write them as Markdown. ``spinup_t_end``: the spin-up's end time (s)."""
+    sys.stdout) and write them as Markdown. ``spinup_t_end``: the spin-up's end time (s);
+    ``peer_limit``: the wall seconds after which Exudyn's own lattice solve is stopped (its
+    time is then shown as a lower bound)."""
     out = sys.stdout if out is None else out
     if peer not in (None, *PEERS):
         raise ValueError(f"unknown peer {peer!r} (known: {', '.join(PEERS)})")
@@ -464,9 +509,11 @@ def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
             # spinup: its peer row above
             if case_peer and case != "spinup":
                 row["peer"] = _in_child(_peer_row, case, n, n_steps, transient_steps,
-                                        case_peer)
+                                        case_peer, peer_limit)
             if "error" in row.get("peer", {}):
                 row["peer"] = dict(ok=False, reason=row["peer"]["error"])
+            if case == "lattice" and case_peer:
+                row["whole"] = whole_lattice(n, reps)
             if case == "cantilever" and n <= WHOLE_PROCESS_MAX:
                 whole = whole_process(n, n_steps, repeat, bool(case_peer))
                 row["whole"] = whole["spacarpy"]

@@ -77,19 +77,21 @@ def _columns(case: str, peer):
     cols += [("peak MB", 8, f("peak_mb", ".0f"))]
     if case in ("cantilever", "bend", "lattice"):
         cols += [("est. MB", 8, f("estimate_mb", ".0f"))]
-    if case == "cantilever":
+    if case == "cantilever" or (case == "lattice" and peer):
         cols += [("whole s", 8, f("whole", ".3f"))]
     if peer:
         unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)", "lattice": "top u_x (m)"}.get(
             case, "tip u_y (m)")
-        cols += [(f"{name} s", 9, lambda r: _peer_get(r, "total", ".3f")),
+        cols += [(f"{name} s", 9, _peer_time),
                  (f"{name} its", 10, lambda r: _peer_get(r, "iterations", "d")),
                  (f"{name} {unit}", 16, lambda r: _peer_get(
                      r, "result", ".4f" if case in ("eigen", "bend")
                      else ".6e" if case == "lattice" else ".6f")),
                  ("ratio", 6, _ratio)]
-        if case == "cantilever":
-            cols += [("Exudyn whole s", 14, lambda r: _peer_get(r, "whole", ".3f")),
+        if case == "lattice":
+            cols += [("rel. diff", 9, _relative_difference)]
+        if case == "cantilever" or (case == "lattice" and name == "Exudyn"):
+            cols += [("Exudyn whole s", 14, _peer_whole),
                      ("whole ratio", 11, _whole_ratio)]
     return cols
 
@@ -104,19 +106,54 @@ def _peer_get(row, key, fmt):
     return "-" if v is None or (isinstance(v, float) and np.isnan(v)) else format(v, fmt)
 
 
-def _whole_ratio(row):
-    """spacarpy's whole-process time over the peer's."""
+def _stopped(row) -> float | None:
+    """The time limit at which the peer's own solve was stopped (a lower bound of its
+    time), or None."""
     p = row.get("peer") or {}
+    return p.get("limit") if p.get("stopped") else None
+
+
+def _peer_time(row):
+    """The peer's solve time; ">T" where its solve was stopped at T seconds."""
+    limit = _stopped(row)
+    return f">{limit:.0f}" if limit else _peer_get(row, "total", ".3f")
+
+
+def _peer_whole(row):
+    limit = _stopped(row)
+    return f">{limit:.0f}" if limit else _peer_get(row, "whole", ".3f")
+
+
+def _whole_ratio(row):
+    """spacarpy's whole-process time over the peer's ("<x" against a stopped peer)."""
+    p = row.get("peer") or {}
+    limit = _stopped(row)
+    if row.get("whole") is not None and limit:
+        return f"<{row['whole'] / limit:.3f}"
     if row.get("whole") is None or not p.get("whole"):
         return "-"
     return f"{row['whole'] / p['whole']:.2f}"
 
 
 def _ratio(row):
+    """spacarpy's solve time over the peer's ("<x" against a stopped peer)."""
     p = row.get("peer")
+    limit = _stopped(row)
+    if limit and row.get("total") is not None:
+        return f"<{row['total'] / limit:.3f}"
     if not p or not p.get("ok") or not p.get("total") or row.get("total") is None:
         return "-"
     return f"{row['total'] / p['total']:.2f}"
+
+
+def _relative_difference(row):
+    """|spacarpy's answer / the peer's - 1|."""
+    p = row.get("peer") or {}
+    ours, theirs = row.get("result"), p.get("result")
+    if not p.get("ok") or ours is None or theirs is None or not np.isfinite(theirs) \
+            or theirs == 0:
+        return "-"
+    return f"{abs(ours / theirs - 1):.1e}"
 
 
 def _text_table(case: str, rows: list[dict], peer) -> list[str]:
@@ -142,7 +179,8 @@ def _markdown_table(case: str, rows: list[dict], peer) -> list[str]:
             continue
         lines.append("| " + " | ".join(get(r) for _, _, get in cols) + " |")
     notes = [f"- {r['n']} elements, {peer_name(peer)}: {r['peer']['reason']}" for r in rows
-             if r.get("peer") and not r["peer"].get("ok") and r["peer"].get("reason")]
+             if r.get("peer") and r["peer"].get("reason")
+             and (not r["peer"].get("ok") or r["peer"].get("stopped"))]
     return lines + ([""] + notes if notes else [])
 
 
