@@ -137,11 +137,9 @@ def test_lattice_against_exudyn():
 @pytest.mark.parametrize("mesh", [1, 2])
 def test_exudyn_equations_solved_with_pardiso(mesh):
     """lattice_newton solves Exudyn's own lattice equations (its residual and its items'
-    Jacobians) with PARDISO's LU: the root is Exudyn's SolveStatic answer to 1e-10 (measured
-    5e-14; at 6 x 6 x 11 1.5e-13, at 12 x 12 x 25 with one beam per member 12 digits), in
-    Newton iterations of the exact Newton matrix (at most Exudyn's own count). With one beam
-    per member PARDISO perturbs pivots of the constraints' zero block: without iterative
-    refinement Newton stalled near 1e-8 m and did not converge."""
+    Jacobians) with PARDISO: the root is Exudyn's SolveStatic answer to 1e-10 (measured
+    1e-13; at 6 x 6 x 11 4e-13, at 12 x 12 x 25 with one beam per member 2e-12), in no more
+    Newton iterations than Exudyn's own."""
     pytest.importorskip("exudyn")
     from spacarpy.bench.peers.exudyn_lattice import lattice, lattice_newton
     from spacarpy.solvers.linalg.pardiso import available
