@@ -134,6 +134,42 @@ def test_lattice_against_exudyn():
     assert abs(peer["coarse"]["top_ux"] / ours - 1) > 1e-3     # the mesh matters
 
 
+def test_exudyn_newton_matrix_is_exudyns():
+    """The Newton matrix that lattice_newton assembles from Exudyn's items equals Exudyn's
+    own (GetSystemJacobian, dense) at a perturbed state."""
+    pytest.importorskip("exudyn")
+    import tempfile
+
+    import exudyn as exu
+
+    from spacarpy.bench.peers.exudyn_cantilever import _settings
+    from spacarpy.bench.peers.exudyn_lattice import _ExudynJacobian, _model
+    SC, mbs, top = _model(exu, 2, 2, 3, 2)
+    sd = mbs.systemData
+    n2, nae = sd.ODE2Size(), sd.AEsize()
+    kinds = {}
+    for i in range(sd.NumberOfObjects()):
+        kinds.setdefault(mbs.GetObject(i)["objectType"], []).append(i)
+    rng = np.random.default_rng(2)
+    cur = exu.ConfigurationType.Current
+    q, lam = rng.normal(scale=1e-3, size=n2), rng.normal(size=nae)
+    sd.SetODE2Coordinates(q, configuration=cur)
+    sd.SetAECoordinates(lam, configuration=cur)
+    with tempfile.TemporaryDirectory() as tmp:
+        settings = _settings(exu, tmp)
+        solver = exu.MainSolverStatic()
+        solver.InitializeSolver(mbs, settings)
+        sd.SetODE2Coordinates(q, configuration=cur)
+        sd.SetAECoordinates(lam, configuration=cur)
+        solver.it.currentTime = 1.0
+        solver.ComputeNewtonJacobian(mbs, settings)
+        theirs = np.array(solver.GetSystemJacobian())
+    ours = _ExudynJacobian(exu, mbs, kinds, n2)().toarray()
+    assert np.abs(theirs).max() > 1e8
+    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())
+    assert np.abs(ours - ours.T).max() > 0          # the constraint blocks' signs differ
+
+
 @pytest.mark.parametrize("mesh", [1, 2])
 def test_exudyn_equations_solved_with_pardiso(mesh):
     """lattice_newton solves Exudyn's own lattice equations (its residual and its items'

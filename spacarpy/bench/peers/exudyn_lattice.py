@@ -170,42 +170,66 @@ def lattice(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-10) -> d
     return res
 
 
-def _exudyn_jacobian(exu, mbs, beams, joints, n2: int, pattern) -> sp.csr_matrix:
+class _ExudynJacobian:
     """Exudyn's Newton matrix ``[[-K, C^T], [C, 0]]`` at the current state (its own sign
-    convention, checked against ``GetSystemJacobian``): the beams' ``JacobianODE2`` and the
-    joints' ``ConstraintJacobian`` from ``ComputeItem``, scattered on ``pattern``."""
-    jac, cons = exu.ComputeItemType.JacobianODE2, exu.ComputeItemType.ConstraintJacobian
-    vals = [-np.asarray(mbs.ComputeItem(exu.ObjectIndex(i), jac)).ravel() for i in beams[0]]
-    for i in joints[0]:
-        c = np.asarray(mbs.ComputeItem(exu.ObjectIndex(i), cons))
-        vals.append(c.T.ravel())
-        vals.append(c.ravel())
-    rows, cols, perm, shape = pattern
-    data = np.bincount(perm, weights=np.concatenate(vals), minlength=len(cols))
-    return sp.csr_matrix((data, cols, rows), shape=shape)
+    convention; equal to its ``GetSystemJacobian``, tests/test_lattice.py): the beams'
+    ``JacobianODE2`` and the joints' ``ConstraintJacobian`` from ``ComputeItem``, written
+    into one preallocated array of item blocks whose row and column indices are fixed
+    (int32), summed by scipy's COO to CSR conversion. The CSR pattern is the same at every
+    state (explicit zeros are kept)."""
 
+    def __init__(self, exu, mbs, objects: dict, n2: int):
+        sd = mbs.systemData
+        self.exu, self.mbs, self.n = exu, mbs, n2 + sd.AEsize()
+        self.beams = objects.get("BeamGeometricallyExact3D", [])
+        by_size: dict[int, list[int]] = {}
+        for i in objects.get("JointGeneric", []):
+            by_size.setdefault(len(sd.GetObjectLTGODE2(i)), []).append(i)
+        self.joints = list(by_size.items())
+        rows, cols, blocks = [], [], []
+        ltg = np.array([sd.GetObjectLTGODE2(i) for i in self.beams], dtype=np.int32)
+        ltg = ltg.reshape(len(self.beams), -1)
+        rows.append(np.repeat(ltg, ltg.shape[1], axis=1).ravel())
+        cols.append(np.tile(ltg, (1, ltg.shape[1])).ravel())
+        blocks.append(ltg.shape[1] ** 2 * len(self.beams))
+        for size, items in self.joints:
+            q = np.array([sd.GetObjectLTGODE2(i) for i in items], dtype=np.int32)
+            a = np.array([sd.GetObjectLTGAE(i) for i in items], dtype=np.int32) + n2
+            na = a.shape[1]
+            rows += [np.repeat(q, na, axis=1).ravel(), np.repeat(a, size, axis=1).ravel()]
+            cols += [np.tile(a, (1, size)).ravel(), np.tile(q, (1, na)).ravel()]
+            blocks += [size * na * len(items)] * 2
+        self.rows, self.cols = np.concatenate(rows), np.concatenate(cols)
+        self.vals = np.empty(len(self.rows))
+        self.offsets = np.concatenate([[0], np.cumsum(blocks)])
+        self.pattern = None
 
-def _newton_pattern(sd, beams, joints, n2: int):
-    """CSR pattern of the Newton matrix and the map of the per-item values onto it."""
-    r, c = [], []
-    for i in beams[0]:
-        ltg = np.asarray(sd.GetObjectLTGODE2(i))
-        r.append(np.repeat(ltg, len(ltg)))
-        c.append(np.tile(ltg, len(ltg)))
-    for i in joints[0]:
-        q = np.asarray(sd.GetObjectLTGODE2(i))
-        a = np.asarray(sd.GetObjectLTGAE(i)) + n2
-        r.append(np.repeat(q, len(a)))          # C^T: rows q, columns a
-        c.append(np.tile(a, len(q)))
-        r.append(np.repeat(a, len(q)))          # C: rows a, columns q
-        c.append(np.tile(q, len(a)))
-    n = n2 + sd.AEsize()
-    r, c = np.concatenate(r), np.concatenate(c)
-    key = r.astype(np.int64) * n + c
-    uniq, perm = np.unique(key, return_inverse=True)
-    ur, uc = np.divmod(uniq, n)
-    rows = np.searchsorted(ur, np.arange(n + 1))
-    return rows, uc, perm, (n, n)
+    def __call__(self) -> sp.csr_matrix:
+        exu, mbs = self.exu, self.mbs
+        jac, cons = exu.ComputeItemType.JacobianODE2, exu.ComputeItemType.ConstraintJacobian
+        nb = len(self.beams)
+        beam = self.vals[:self.offsets[1]].reshape(nb, -1) if nb else None
+        for k, i in enumerate(self.beams):
+            beam[k] = np.asarray(mbs.ComputeItem(exu.ObjectIndex(i), jac)).ravel()
+        if nb:
+            beam *= -1.0
+        for g, (_size, items) in enumerate(self.joints):
+            ct = self.vals[self.offsets[1 + 2 * g]:self.offsets[2 + 2 * g]]
+            c = self.vals[self.offsets[2 + 2 * g]:self.offsets[3 + 2 * g]]
+            ct, c = ct.reshape(len(items), -1), c.reshape(len(items), -1)
+            for k, i in enumerate(items):
+                block = np.asarray(mbs.ComputeItem(exu.ObjectIndex(i), cons))
+                ct[k] = block.T.ravel()
+                c[k] = block.ravel()
+        out = sp.coo_matrix((self.vals, (self.rows, self.cols)),
+                            shape=(self.n, self.n)).tocsr()
+        out.sort_indices()
+        if self.pattern is None:
+            self.pattern = (out.indptr.copy(), out.indices.copy())
+        elif not (np.array_equal(out.indptr, self.pattern[0])
+                  and np.array_equal(out.indices, self.pattern[1])):
+            raise RuntimeError("the Newton matrix's pattern changed")
+        return out
 
 
 class _SymmetricPart:
@@ -229,20 +253,22 @@ class _SymmetricPart:
         r = np.repeat(np.arange(n), np.diff(rows))
         self.d = np.where(np.arange(n) < n2, -1.0, 1.0)
         self.e = -self.d
-        self.sign = self.d[r] * self.e[cols]
+        self.sign = (self.d[r] * self.e[cols]).astype(np.int8)
         index = sp.csr_matrix((np.arange(1, len(cols) + 1, dtype=float), cols, rows),
                               shape=(n, n)).T.tocsr()
         index.sort_indices()
         if not (np.array_equal(index.indices, cols) and np.array_equal(index.indptr, rows)):
             raise ValueError("the Newton matrix's pattern is not symmetric")
-        self.mirror = index.data.astype(np.int64) - 1          # J's entry (j, i) of (i, j)
+        self.mirror = (index.data - 1).astype(np.int32)         # J's entry (j, i) of (i, j)
+        del index
         upper = r <= cols
         missing = np.setdiff1d(np.arange(n), r[r == cols])      # zero diagonal entries
-        ur = np.concatenate([r[upper], missing])
-        uc = np.concatenate([cols[upper], missing])
+        ur = np.concatenate([r[upper], missing]).astype(np.int32)
+        uc = np.concatenate([cols[upper], missing]).astype(np.int32)
         take = np.concatenate([np.flatnonzero(upper), np.full(len(missing), -1)])
+        del r, upper
         order = np.lexsort((uc, ur))
-        self.take = take[order]
+        self.take = take[order].astype(np.int32)
         self.lu = Pardiso(np.searchsorted(ur[order], np.arange(n + 1)), uc[order],
                           mtype=SYMMETRIC_INDEFINITE, matching=False)
 
@@ -305,7 +331,7 @@ def lattice_newton(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-1
     than the 2-core machine has at 10^5. Here the equations are Exudyn's own: the residual
     is Exudyn's ``ComputeNewtonResidual`` at the load factor, the Newton matrix is Exudyn's,
     assembled from its items' ``JacobianODE2`` and ``ConstraintJacobian``
-    (:func:`_exudyn_jacobian`, equal to its ``GetSystemJacobian``); only the linear solve
+    (:class:`_ExudynJacobian`, equal to its ``GetSystemJacobian``); only the linear solve
     differs: iterative refinement on that matrix (:func:`_refined`) with PARDISO's LDL^T of
     its symmetric part (:class:`_SymmetricPart`). The same 2 load steps, full Newton, until
     the largest increment is below ``tol`` (m, rad). The root is therefore Exudyn's discrete
@@ -334,16 +360,14 @@ def lattice_newton(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-1
         kinds: dict[str, list[int]] = {}
         for i in range(sd.NumberOfObjects()):
             kinds.setdefault(mbs.GetObject(i)["objectType"], []).append(i)
-        beams, joints = (kinds.get("BeamGeometricallyExact3D", []),), \
-            (kinds.get("JointGeneric", []),)
-        pattern = _newton_pattern(sd, beams, joints, n2)
+        jacobian = _ExudynJacobian(exu, mbs, kinds, n2)
         s = _settings(exu, tmp)
         solver = exu.MainSolverStatic()
         solver.InitializeSolver(mbs, s)
         cur = exu.ConfigurationType.Current
         x = np.concatenate([sd.GetODE2Coordinates(configuration=cur),
                             sd.GetAECoordinates(configuration=cur)])
-        pre = _SymmetricPart(pattern[0], pattern[1], n2)
+        pre = None
         iterations, ok, reason = 0, True, ""
         n_steps = LATTICE["steps"]
         try:
@@ -354,7 +378,9 @@ def lattice_newton(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-1
                     sd.SetAECoordinates(x[n2:], configuration=cur)
                     solver.ComputeNewtonResidual(mbs, s)
                     res = np.asarray(solver.GetSystemResidual())
-                    jac = _exudyn_jacobian(exu, mbs, beams, joints, n2, pattern)
+                    jac = jacobian()
+                    if pre is None:
+                        pre = _SymmetricPart(jac.indptr, jac.indices, n2)
                     pre.factorize(jac.data)
                     dx = _refined(pre.solve, jac, res)
                     x -= dx
@@ -366,15 +392,16 @@ def lattice_newton(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-1
                     break
             sd.SetODE2Coordinates(x[:n2], configuration=cur)
             sd.SetAECoordinates(x[n2:], configuration=cur)
-            entries = pre.lu.factor_entries
+            entries, factor_mb = pre.lu.factor_entries, pre.lu.peak_bytes / 2**20
         finally:
-            pre.lu.release()
+            if pre is not None:
+                pre.lu.release()
         total = time.perf_counter() - t0
     out = _result(total=total, setup=setup, iterations=iterations, tip=None, ok=ok,
                   reason=reason)
     ux = [sd.GetNodeLTGODE2(n)[0] for n in top]
     out.update(top_ux=float(np.mean(x[ux])) if ok else float("nan"), mesh=mesh,
-               unknowns=n2 + nae, factor_entries=entries)
+               unknowns=n2 + nae, factor_entries=entries, factor_mb=factor_mb)
     del SC
     return out
 
