@@ -201,7 +201,12 @@ def test_exudyn_own_solve_process():
     assert run["top_ux"] == pytest.approx(lattice(2, 2, 3, mesh=1)["top_ux"], rel=1e-12)
     assert run["whole"] > run["total"] > 0
     cut = own_solve(2, 2, 3, mesh=1, limit=0.05)
-    assert not cut["ok"] and cut["stopped"] == "time" and "stopped after" in cut["reason"]
+    assert not cut["ok"] and cut["stopped"] == "time" and "time limit" in cut["reason"]
+    assert cut["limit"] == 0.05
+    full = own_solve(2, 2, 3, mesh=1, limit=300, memory=1)       # any process is too big
+    if full["stopped"] is not None:                               # Linux: /proc is read
+        assert full["stopped"] == "memory" and "resident" in full["reason"]
+        assert full["limit"] < 300                                # the seconds it ran
     row = dict(n=20, grid="2x2x3", total=2.0, whole=3.0, result=1.0e-4,
                peer=dict(ok=True, result=1.0e-4 * (1 + 3e-5), iterations=None,
                          total=None, whole=None, stopped="time", limit=900.0,

@@ -25,6 +25,16 @@ Exudyn model (the set-up of :mod:`spacarpy.bench.peers.exudyn_cantilever`):
   Newton, the increment test at ``tol`` (m and rad), sparse LU, one thread: the settings of
   the cantilever peer.
 
+Three ways to run it:
+
+* :func:`lattice`: Exudyn's own ``SolveStatic`` in this process;
+* :func:`own_solve`: the same as a user runs it, a fresh Python process under a time and a
+  memory limit (the bench's ``Exudyn s`` and ``Exudyn whole s``; Eigen's sparse LU of the 3D
+  graph takes hours at 3x10^4 beams and more memory than 23 GB at 10^5);
+* :func:`lattice_newton`: Exudyn's own equations (its residual and its items' Jacobians)
+  solved by Newton with PARDISO, the same root in seconds to minutes (the bench's converged
+  answer, :func:`extrapolated`).
+
 Exudyn is imported lazily; without it :func:`lattice` returns ``ok=False`` and the reason.
 """
 from __future__ import annotations
@@ -418,7 +428,8 @@ def own_solve(kx: int, ky: int, m: int, mesh: int = MESH, limit: float = OWN_LIM
     of the memory available at the start; Linux only), so that a size where Eigen's LU of
     the 3D graph takes hours or more memory than the machine has is a lower bound, not a
     hung or swapping machine. Returns :func:`lattice`'s keys and ``whole`` (the process's
-    wall seconds), ``stopped`` ("time", "memory" or None) and ``limit``."""
+    wall seconds), ``stopped`` ("time", "memory" or None) and ``limit`` (a lower bound of
+    the time of a stopped run: ``limit``, or the seconds before the memory stop)."""
     import json
     import subprocess
     import sys
@@ -451,11 +462,16 @@ def own_solve(kx: int, ky: int, m: int, mesh: int = MESH, limit: float = OWN_LIM
     whole = time.perf_counter() - t0
     out = proc.stdout.read() if proc.stdout else ""
     if stopped:
-        what = (f"{limit:.0f} s" if stopped == "time"
-                else f"{rss_max / 2**30:.1f} GB resident (80 % of the available memory)")
-        return dict(ok=False, stopped=stopped, limit=limit, whole=None, total=None,
+        # the lower bound of its time: the limit, or the seconds it ran before its memory
+        # passed the bound (it would not have fitted at all)
+        if stopped == "time":
+            bound, why = limit, f"at the time limit, {limit:.0f} s (--peer-limit)"
+        else:
+            bound, why = whole, (f"after {whole:.0f} s at {rss_max / 2**30:.1f} GB resident "
+                                 f"(80 % of the available memory)")
+        return dict(ok=False, stopped=stopped, limit=bound, whole=None, total=None,
                     iterations=None, top_ux=float("nan"), peak_mb=rss_max / 2**20,
-                    reason=f"Exudyn's own solve stopped after {whole:.0f} s at {what}")
+                    reason=f"Exudyn's own solve ({mesh} beams per member) stopped {why}")
     try:
         res = json.loads(out.strip().splitlines()[-1])
     except (ValueError, IndexError):
