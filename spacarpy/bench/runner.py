@@ -242,15 +242,16 @@ def _arclength_row(n: int) -> dict:
                 peak_mb=_peak_mb())
 
 
-def _exudyn_lattice_row(n: int, limit: float) -> dict:
+def _exudyn_lattice_row(n: int, limit: float | None) -> dict:
     """The lattice's Exudyn row: the converged answer from Exudyn's equations with 4 and 8
     beams per member, extrapolated in the mesh
     (:func:`spacarpy.bench.peers.exudyn_lattice.extrapolated`), and the time of Exudyn's own
     ``SolveStatic`` with 4 beams per member as a user runs it, a fresh process stopped after
     ``limit`` seconds (:func:`~spacarpy.bench.peers.exudyn_lattice.own_solve`): ``total``
-    (solve alone) and ``whole`` (the process), or ``stopped`` and ``limit``. ``own_diff``:
-    the relative difference of that solve's answer from the answer's 4-beam solve (the
-    check that both solve the same equations)."""
+    (solve alone) and ``whole`` (the process), or ``stopped`` and ``limit``. ``own_diff``
+    (kept in the results, not shown in the table): the relative difference of that
+    solve's answer from the answer's 4-beam solve (the comparison tests/test_lattice.py bounds by
+    1e-10 on small lattices)."""
     from spacarpy.bench.peers.exudyn_lattice import MESH, extrapolated, own_solve
     grid = lattice_grid(n)
     answer = extrapolated(*grid)
@@ -268,7 +269,7 @@ def _exudyn_lattice_row(n: int, limit: float) -> dict:
 
 
 def _peer_row(case: str, n: int, n_steps: int, transient_steps: int,
-              peer: str = "exudyn", peer_limit: float = 900.0) -> dict:
+              peer: str = "exudyn", peer_limit: float | None = None) -> dict:
     from spacarpy.bench.peers import exudyn_cantilever as exu
     if peer == "opensees":          # the lattice only (PEER_CASES)
         from spacarpy.bench.peers.opensees_lattice import lattice
@@ -348,7 +349,7 @@ LATTICE_WARM_MAX = 30000
 
 def _best_wall(cmd, repeat: int, cwd: str, warm: bool = True) -> float | None:
     """Best wall seconds of ``repeat`` runs of ``cmd`` (each a fresh process, after one
-    untimed run); None if one fails.
+    untimed run if ``warm``); None if one fails.
 
     The processes may write Python's byte-code caches (``PYTHONDONTWRITEBYTECODE`` is
     dropped from their environment): an installed program has them, and without them every
@@ -455,11 +456,11 @@ def _in_child(fn, *args):
 def run_bench(cases=CASES + tuple(DECK_CASES), sizes=None, n_steps: int = 10,
               repeat: int = 3, transient_steps: int = 1000, peer: str | None = None,
               markdown: str | None = None, out=None, spinup_t_end: float = 30.0,
-              peer_limit: float = 900.0) -> dict:
+              peer_limit: float | None = None) -> dict:
     """Run the benchmark; print one table per case to ``out`` (default: the current
     sys.stdout) and write them as Markdown. ``spinup_t_end``: the spin-up's end time (s);
     ``peer_limit``: the wall seconds after which Exudyn's own lattice solve is stopped (its
-    time is then shown as a lower bound)."""
+    time is then shown as a lower bound; None: ``exudyn_lattice.OWN_LIMIT``)."""
     out = sys.stdout if out is None else out
     if peer not in (None, *PEERS):
         raise ValueError(f"unknown peer {peer!r} (known: {', '.join(PEERS)})")

@@ -82,7 +82,7 @@ def _columns(case: str, peer):
     if peer:
         unit = {"eigen": "f1 (Hz)", "bend": "tip y (m)", "lattice": "top u_x (m)"}.get(
             case, "tip u_y (m)")
-        cols += [(f"{name} s", 9, _peer_time),
+        cols += [(f"{name} s", 9, _peer_seconds("total")),
                  (f"{name} its", 10, lambda r: _peer_get(r, "iterations", "d")),
                  (f"{name} {unit}", 16, lambda r: _peer_get(
                      r, "result", ".4f" if case in ("eigen", "bend")
@@ -91,7 +91,7 @@ def _columns(case: str, peer):
         if case == "lattice":
             cols += [("rel. diff", 9, _relative_difference)]
         if case == "cantilever" or (case == "lattice" and name == "Exudyn"):
-            cols += [("Exudyn whole s", 14, _peer_whole),
+            cols += [("Exudyn whole s", 14, _peer_seconds("whole")),
                      ("whole ratio", 11, _whole_ratio)]
     return cols
 
@@ -113,15 +113,15 @@ def _stopped(row) -> float | None:
     return p.get("limit") if p.get("stopped") else None
 
 
-def _peer_time(row):
-    """The peer's solve time; ">T" where its solve was stopped at T seconds."""
-    limit = _stopped(row)
-    return f">{limit:.0f}" if limit else _peer_get(row, "total", ".3f")
-
-
-def _peer_whole(row):
-    limit = _stopped(row)
-    return f">{limit:.0f}" if limit else _peer_get(row, "whole", ".3f")
+def _peer_seconds(key: str):
+    """The column of the peer's ``key`` time (``total``: the solve, ``whole``: the process);
+    ">T" where its solve was stopped at T seconds."""
+    def get(row):
+        limit = _stopped(row)
+        if not limit:
+            return _peer_get(row, key, ".3f")
+        return f">{limit:.0f}" if limit >= 1 else f">{limit:.2g}"      # not ">0"
+    return get
 
 
 def _whole_ratio(row):

@@ -34,7 +34,7 @@ def add_parser(sub) -> None:
                        help="solve the same problems with a peer code in the same run: "
                             "exudyn (every case but arclength) or opensees (the lattice) "
                             "(pip install 'spacarpy[bench]')")
-    bench.add_argument("--peer-limit", type=_positive_float, default=900.0, metavar="SECONDS",
+    bench.add_argument("--peer-limit", type=_positive_float, default=None, metavar="SECONDS",
                        help="stop Exudyn's own lattice solve after this many seconds and "
                             "show its time as a lower bound (default 900; the answer comes "
                             "from Exudyn's equations solved with PARDISO either way)")

@@ -420,11 +420,12 @@ def lattice_newton(kx: int, ky: int, m: int, mesh: int = MESH, tol: float = 1e-1
 OWN_LIMIT = 900.0
 
 
-def own_solve(kx: int, ky: int, m: int, mesh: int = MESH, limit: float = OWN_LIMIT,
+def own_solve(kx: int, ky: int, m: int, mesh: int = MESH, limit: float | None = None,
               memory: int | None = None) -> dict:
     """Exudyn's own ``SolveStatic`` (:func:`lattice`) as a user runs it: a fresh Python
     process (``python -m spacarpy.bench.peers.exudyn_lattice KX KY M MESH``), stopped when it
-    has run ``limit`` seconds or its resident memory passes ``memory`` bytes (default: 80 %
+    has run ``limit`` seconds (default :data:`OWN_LIMIT`) or its resident memory passes
+    ``memory`` bytes (default: 80 %
     of the memory available at the start; Linux only), so that a size where Eigen's LU of
     the 3D graph takes hours or more memory than the machine has is a lower bound, not a
     hung or swapping machine. Returns :func:`lattice`'s keys and ``whole`` (the process's
@@ -435,6 +436,7 @@ def own_solve(kx: int, ky: int, m: int, mesh: int = MESH, limit: float = OWN_LIM
     import sys
 
     from spacarpy.memory import available_bytes
+    limit = OWN_LIMIT if limit is None else limit
     if memory is None:
         avail = available_bytes()
         memory = int(0.8 * avail) if avail else None
